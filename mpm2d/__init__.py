@@ -1,0 +1,1 @@
+"""mpm2d tier (in progress)."""

@@ -1,0 +1,42 @@
+"""Fluid-phase relations of Table 8: Beetstra drag, fluid viscosity and pore pressure."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import laws
+from .checks import check_nonnegative, check_positive, check_range
+from .materials import Material
+
+
+def beetstra_F(phi, Re) -> np.ndarray:
+    """Beetstra et al. (2007) normalised drag F(phi, Re) [-]; Re = rho_f |v_s - v_f| d / eta0."""
+    return laws.beetstra_F(check_range("phi", phi, 0.0, 1.0, hi_closed=False),
+                           check_nonnegative("Re", Re))
+
+
+def drag_coefficient(phi, m: Material, Re=0.0) -> np.ndarray:
+    """Darcy drag coefficient C = 18 phi (1 - phi) eta0 F(phi, Re)/d^2 [Pa s/m^2].
+
+    The inter-phase force per volume is f_d = C (v_s - v_f) [N/m^3]. Needs d > 0.
+    """
+    check_positive("d", m.d, note=f"material {m.name}: drag needs a grain diameter")
+    phi = check_range("phi", phi, 0.0, 1.0, hi_closed=False)
+    return 18.0 * phi * (1.0 - phi) * m.eta0 * laws.beetstra_F(phi, check_nonnegative("Re", Re)) / m.d ** 2
+
+
+def reynolds_number(relative_speed, m: Material) -> np.ndarray:
+    """Particle Reynolds number rho_f |v_s - v_f| d / eta0 [-]."""
+    m.require("rho_f")
+    return m.rho_f * np.abs(np.asarray(relative_speed, dtype=float)) * m.d / m.eta0
+
+
+def fluid_viscosity(phi, m: Material) -> np.ndarray:
+    """Einstein-corrected fluid-phase viscosity eta0 (1 + 5/2 phi) [Pa s]."""
+    return m.eta0 * (1.0 + 2.5 * check_range("phi", phi, 0.0, 1.0, hi_closed=False))
+
+
+def pore_pressure(rho_f, m: Material) -> np.ndarray:
+    """Pore pressure p_f = kappa ln(rho_f/rho_0f) [Pa], rho_f the true fluid density [kg/m^3]."""
+    m.require("kappa", "rho_f")
+    return m.kappa * np.log(check_positive("rho_f", rho_f) / m.rho_f)

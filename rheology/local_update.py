@@ -1,0 +1,353 @@
+"""The Table 8 granular law as an implicit local update over arrays of material points.
+
+One time step dt at each point, given the stress sigma_n (3x3), the granular velocity gradient
+L = grad v_s (3x3, so plane strain and axisymmetry both fit: L_zz = 0 or L_thth = v_r/r), phi and
+f_n:
+
+1. Elastic trial (Jaumann): sigma* = sigma_n + dt [2G D' + K tr(D) 1 + W sigma_n - sigma_n W].
+   tau* = sqrt(s*:s*/2), p* = -tr(sigma*)/3.
+2. The plastic correction is radial in the deviator and volumetric in the pressure:
+   taubar = tau* - G dt gdot_p,  p = p* + K dt (beta gdot_p + xi_1 + xi_2),
+   with gdot_p >= 0, xi_1 >= 0, xi_2 <= 0 chosen by the yield rules f_1, f_2, f_3 of Table 8.
+   The cases, tried in this order:
+
+   - separation (p* <= 0): the skeleton is stress free, f_2 = 0 (xi_1 = -p*/(K dt)); without
+     contacts there is no dilatancy (beta = 0), so a point sheared at exactly zero pressure stays
+     separated: a 0-D test must start with some contact pressure.
+   - shear flow + compaction (phi < phi_m): f_1 = f_3 = 0. With K4 = 0, f_3 = 0 is exactly
+     phi = phi_eq (beta = 0) and p = P3(gdot_p), so f_1 = 0 is a quadratic in gdot_p
+     (closed form); valid when P3 <= p* (xi_2 <= 0).
+   - elastic (phi >= phi_m and f_1(sigma*) <= 0): gdot_p = 0.
+   - dilatant shear flow (f_1 = 0, xi_2 = 0): for a given beta, I_m follows from
+     phi_eq = phi - beta/K3, then p I_m^2 = rho_s d^2 gdot^2 + 2 eta0 gdot with p = p* + K dt beta gdot
+     is a quadratic with one positive root gdot(beta); the remaining scalar equation
+     R(beta) = tau* - G dt gdot - (mu_p + beta) p = 0 is bracketed on [beta_lo, K3 phi)
+     (R(beta_lo) > 0 whenever this case applies, R -> -inf as I_m -> inf) and solved by Brent's
+     method, so it cannot fail to converge near jamming.
+
+3. The structure takes a backward-Euler step with the new (taubar, gdot_p) (staggered, first order):
+   f_{n+1} = (f_n + dt K0 H gdot f_m)/(1 + dt K0 (H gdot + gdot + taubar/eta_B + xi_eps)),
+   whose fixed point is Eq. (13) exactly. phi_m and a use f_n.
+
+The point kernel :func:`update_point` is numba-compiled and calls the laws of :mod:`rheology.laws`
+(written once); :func:`update_points` is its parallel loop, the entry point for ``shear1d`` and
+``mpm2d`` kernels; :func:`local_update` is the validated numpy front end.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from . import laws
+from .checks import check_range
+from .materials import KERNEL_FIELDS, Material
+
+_jit = nb.njit(cache=True, error_model="numpy")
+
+#: Columns of the ``out`` array written by :func:`update_point`.
+OUT_FIELDS = ("f", "shear_rate_p", "xi1", "xi2", "mu_p", "I", "I_v", "I_m", "beta", "phi_eq",
+              "taubar", "pressure", "case", "iterations")
+NOUT = len(OUT_FIELDS)
+#: Case codes (column ``case``).
+ELASTIC, SEPARATED, SHEAR_FLOW, COMPACTION, FAILED = 0, 1, 2, 3, -1
+CASE_NAMES = {ELASTIC: "elastic", SEPARATED: "separated", SHEAR_FLOW: "shear flow",
+              COMPACTION: "shear flow + compaction", FAILED: "failed"}
+_P = {name: i for i, name in enumerate(KERNEL_FIELDS)}
+_MAXIT = 200
+
+
+@_jit
+def _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3):
+    """gdot_p(beta), p(beta), I_m(beta) on the dilatant branch (see module docstring)."""
+    x = phi - beta / K3                       # phi_eq
+    Im = (phim - x) / (a * x)
+    Im2 = Im * Im
+    bq = 2.0 * eta0 - Kdt * beta * Im2
+    cq = p_tr * Im2
+    if bq > 0.0:
+        g = 2.0 * cq / (bq + np.sqrt(bq * bq + 4.0 * rd2 * cq))
+    elif rd2 > 0.0:
+        g = (-bq + np.sqrt(bq * bq + 4.0 * rd2 * cq)) / (2.0 * rd2)
+    else:
+        g = np.inf
+    return g, p_tr + Kdt * beta * g, Im
+
+
+@_jit
+def _dilatant_residual(beta, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b):
+    g, p, Im = _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
+    if not np.isfinite(g):
+        return -np.inf
+    Iv = eta0 * g / p
+    return tau_tr - Gdt * g - (laws.friction(Iv, Im, phi, a, mu1, mu2, b) + beta) * p
+
+
+@_jit
+def _brent(lo, hi, rlo, rhi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
+           rtol_abs):
+    """Brent's method for R(beta) = 0 on [lo, hi] with R(lo) > 0 > R(hi); returns (beta, iters)."""
+    xa, xb, fa, fb = lo, hi, rlo, rhi
+    xc, fc = xa, fa
+    d = e = xb - xa
+    for it in range(_MAXIT):
+        if (fb > 0.0) == (fc > 0.0):
+            xc, fc = xa, fa
+            d = e = xb - xa
+        if abs(fc) < abs(fb):
+            xa, xb, xc = xb, xc, xb
+            fa, fb, fc = fb, fc, fb
+        tol = 4.0e-16 * abs(xb) + 1e-300
+        xm = 0.5 * (xc - xb)
+        if abs(xm) <= tol or fb == 0.0 or abs(fb) <= rtol_abs:
+            return xb, it
+        if abs(e) >= tol and abs(fa) > abs(fb) and np.isfinite(fa) and np.isfinite(fc):
+            s = fb / fa
+            if xa == xc:
+                pp = 2.0 * xm * s
+                q = 1.0 - s
+            else:
+                q = fa / fc
+                r = fb / fc
+                pp = s * (2.0 * xm * q * (q - r) - (xb - xa) * (r - 1.0))
+                q = (q - 1.0) * (r - 1.0) * (s - 1.0)
+            if pp > 0.0:
+                q = -q
+            pp = abs(pp)
+            if 2.0 * pp < min(3.0 * xm * q - abs(tol * q), abs(e * q)):
+                e = d
+                d = pp / q
+            else:
+                d = xm
+                e = d
+        else:
+            d = xm
+            e = d
+        xa, fa = xb, fb
+        xb = xb + d if abs(d) > tol else xb + (tol if xm > 0 else -tol)
+        fb = _dilatant_residual(xb, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b)
+    return xb, -1
+
+
+@_jit
+def elastic_trial(sig, L, dt, G, K, out):
+    """Jaumann elastic predictor sigma + dt [2G D' + K tr(D) 1 + W sigma - sigma W] into ``out``."""
+    trD = L[0, 0] + L[1, 1] + L[2, 2]
+    for i in range(3):
+        for j in range(3):
+            Dij = 0.5 * (L[i, j] + L[j, i])
+            acc = 2.0 * G * Dij
+            if i == j:
+                acc += (K - 2.0 * G / 3.0) * trD
+            for k in range(3):
+                Wik = 0.5 * (L[i, k] - L[k, i])
+                Wkj = 0.5 * (L[k, j] - L[j, k])
+                acc += Wik * sig[k, j] - sig[i, k] * Wkj
+            out[i, j] = sig[i, j] + dt * acc
+
+
+@_jit
+def update_point(sig, L, phi, f, dt, P, sig_out, out):
+    """Advance one material point by dt [s] (see module docstring); writes sig_out and out[:NOUT]."""
+    phi_c, phi_j, a0, ainf = P[0], P[1], P[2], P[3]
+    mu1, mu2, b, tau_star, eta0 = P[4], P[5], P[6], P[7], P[8]
+    v1, al1, v2, al2, Delta, xi_eps, K0 = P[9], P[10], P[11], P[12], P[13], P[14], P[15]
+    G, K, rho_s, d, K3 = P[16], P[17], P[18], P[19], P[20]
+    phim = laws.phi_m(f, phi_c, phi_j)
+    a = laws.dilatancy_a(f, a0, ainf)
+    Gdt, Kdt, rd2 = G * dt, K * dt, rho_s * d * d
+
+    elastic_trial(sig, L, dt, G, K, sig_out)
+    p_tr = -(sig_out[0, 0] + sig_out[1, 1] + sig_out[2, 2]) / 3.0
+    ss = 0.0
+    for i in range(3):
+        for j in range(3):
+            sij = sig_out[i, j] + (p_tr if i == j else 0.0)
+            ss += sij * sij
+    tau_tr = np.sqrt(0.5 * ss)
+
+    case, iters = ELASTIC, 0
+    g, xi1, xi2 = 0.0, 0.0, 0.0
+    p, Im, beta = p_tr, 0.0, 0.0
+    y = phim - phi
+    if p_tr <= 0.0:                                           # separation: stress free
+        case = SEPARATED
+        g = tau_tr / Gdt
+        xi1 = -p_tr / Kdt
+        p, Im, beta = 0.0, np.inf, 0.0                      # no contacts: no dilatancy
+    else:
+        if y > 0.0:                                           # try shear flow + compaction
+            ap2 = (a * phi) ** 2
+            mus = laws.critical_friction(phi, phim, a, mu1, mu2, b)
+            A = mus * ap2 * rd2
+            B = eta0 * (2.0 * mus * ap2 + 2.5 * phi * phi * y) + Gdt * y * y
+            c = tau_tr * y * y
+            gc = 2.0 * c / (B + np.sqrt(B * B + 4.0 * A * c))
+            pc = laws.critical_pressure(gc, phi, phim, a, eta0, d, rho_s)
+            if pc <= p_tr:
+                case = COMPACTION
+                g, p, Im, beta = gc, pc, y / (a * phi), 0.0
+                xi2 = (pc - p_tr) / Kdt
+        if case == ELASTIC:
+            beta_lo = max(0.0, K3 * (phi - phim))
+            r_lo = _dilatant_residual(beta_lo, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
+                                      mu1, mu2, b)
+            if y <= 0.0 and r_lo <= 0.0:                      # jammed and below yield: elastic
+                beta = beta_lo
+            else:
+                case = SHEAR_FLOW
+                beta_max = K3 * phi
+                step = max(1e-14 * beta_max, 1e-8 * beta_lo)
+                lo, hi, r_hi = beta_lo, beta_lo + step, 0.0
+                while True:
+                    hi = min(hi, beta_lo + (beta_max - beta_lo) * (1.0 - 1e-15))
+                    r_hi = _dilatant_residual(hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
+                                              K3, mu1, mu2, b)
+                    if r_hi < 0.0 or hi >= beta_max * (1.0 - 1e-14):
+                        break
+                    lo, r_lo = hi, r_hi
+                    step *= 10.0
+                    hi = beta_lo + step
+                if not r_hi < 0.0:
+                    case = FAILED
+                else:
+                    rtol_abs = 1e-14 * (tau_tr + mu1 * p_tr)
+                    beta, iters = _brent(lo, hi, r_lo, r_hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
+                                         eta0, rd2, K3, mu1, mu2, b, rtol_abs)
+                    if iters < 0:
+                        case = FAILED
+                    g, p, Im = _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
+
+    taubar = tau_tr - Gdt * g
+    if case == SEPARATED or taubar < 0.0:
+        taubar = 0.0
+    scale = taubar / tau_tr if tau_tr > 0.0 else 0.0
+    for i in range(3):
+        for j in range(3):
+            dev = sig_out[i, j] + (p_tr if i == j else 0.0)
+            sig_out[i, j] = scale * dev - (p if i == j else 0.0)
+
+    if p > 0.0:
+        Iv = eta0 * g / p
+        I = g * d * np.sqrt(rho_s / p)
+        mu = laws.friction(Iv, Im, phi, a, mu1, mu2, b)
+    else:
+        Iv, I, mu = np.inf, np.inf, np.inf
+    phieq = phim / (1.0 + a * Im) if np.isfinite(Im) else phi
+    fm = laws.f_max(phi, phi_c, phi_j, Delta)
+    invB = laws.inv_eta_B(phi, phi_j, v1, al1, v2, al2)
+    out[0] = laws.structure_step(f, taubar, g, fm, tau_star, invB, K0, xi_eps, dt)
+    out[1], out[2], out[3], out[4] = g, xi1, xi2, mu
+    out[5], out[6], out[7], out[8], out[9] = I, Iv, Im, beta, phieq
+    out[10], out[11], out[12], out[13] = taubar, p, case, iters
+
+
+@nb.njit(cache=True, parallel=True, error_model="numpy")
+def update_points(sig, L, phi, f, dt, P, sig_out, out):
+    """Parallel loop of :func:`update_point` over N points (arrays (N,3,3), (N,), out (N, NOUT))."""
+    for n in nb.prange(phi.shape[0]):
+        update_point(sig[n], L[n], phi[n], f[n], dt, P, sig_out[n], out[n])
+
+
+@dataclass(frozen=True)
+class LocalUpdate:
+    """Result of :func:`local_update` (arrays shaped like the input points).
+
+    Attributes
+    ----------
+    stress : (..., 3, 3) granular effective stress at the end of the step [Pa]
+    f : structure at the end of the step [-]
+    shear_rate_p : plastic shear rate gdot_p [1/s]
+    xi1, xi2 : separation (>= 0) and compaction (<= 0) plastic volume rates [1/s]
+    mu_p, I, I_v, I_m, beta, phi_eq : friction, inertial numbers, dilation angle, critical packing
+    taubar, pressure : equivalent shear stress and pressure at the end of the step [Pa]
+    case : 0 elastic, 1 separated, 2 shear flow, 3 shear flow + compaction
+    """
+
+    stress: np.ndarray
+    f: np.ndarray
+    shear_rate_p: np.ndarray
+    xi1: np.ndarray
+    xi2: np.ndarray
+    mu_p: np.ndarray
+    I: np.ndarray
+    I_v: np.ndarray
+    I_m: np.ndarray
+    beta: np.ndarray
+    phi_eq: np.ndarray
+    taubar: np.ndarray
+    pressure: np.ndarray
+    case: np.ndarray
+
+
+def kernel_parameters(m: Material) -> np.ndarray:
+    """Validated parameter vector for :func:`update_points` (needs G, K and K0 set)."""
+    m.require("G", "K", "K0")
+    return m.kernel_array()
+
+
+def local_update(stress, velocity_gradient, phi, f, dt: float, m: Material) -> LocalUpdate:
+    """Advance the Table 8 granular law by one implicit step at every material point.
+
+    Parameters
+    ----------
+    stress : array_like, shape (..., 3, 3)
+        Granular effective stress sigma_n [Pa] (tension positive), symmetric.
+    velocity_gradient : array_like, shape (..., 3, 3)
+        Granular velocity gradient L_ij = d v_i / d x_j over the step [1/s].
+    phi : array_like, shape (...)
+        Volume fraction, 0 <= phi < 1 (phi >= phi_m is the jammed solid).
+    f : array_like, shape (...)
+        Structure at the start of the step, 0 <= f <= 1.
+    dt : float
+        Time step [s] > 0. The update is implicit (unconditionally stable in the plastic
+        correction and the structure); the explicit Jaumann spin limits dt |W| << 1.
+    m : Material
+        Needs G, K and K0.
+
+    Returns
+    -------
+    LocalUpdate
+
+    Raises
+    ------
+    ValueError
+        Bad shapes, non-finite or out-of-range inputs.
+    RuntimeError
+        If the bracketed solve fails at any point (with the point's state).
+    """
+    P = kernel_parameters(m)
+    sig = np.asarray(stress, dtype=float)
+    L = np.asarray(velocity_gradient, dtype=float)
+    if sig.shape[-2:] != (3, 3) or L.shape[-2:] != (3, 3):
+        raise ValueError(f"stress and velocity_gradient must have shape (..., 3, 3), got "
+                         f"{sig.shape} and {L.shape}")
+    check_range("stress", sig)
+    check_range("velocity_gradient", L)
+    if not np.allclose(sig, np.swapaxes(sig, -1, -2), rtol=1e-12, atol=1e-12 * (1 + np.abs(sig).max())):
+        raise ValueError("stress must be symmetric (sigma_ij = sigma_ji)")
+    check_range("dt", dt, 0.0, None, lo_closed=False)
+    shape = np.broadcast_shapes(sig.shape[:-2], L.shape[:-2], np.shape(phi), np.shape(f))
+    phi = check_range("phi", np.broadcast_to(phi, shape), 0.0, 1.0, hi_closed=False)
+    f = check_range("f", np.broadcast_to(f, shape), 0.0, 1.0)
+    n = int(np.prod(shape))
+    sig_in = np.ascontiguousarray(np.broadcast_to(sig, shape + (3, 3)).reshape(n, 3, 3))
+    L_in = np.ascontiguousarray(np.broadcast_to(L, shape + (3, 3)).reshape(n, 3, 3))
+    sig_out = np.empty_like(sig_in)
+    out = np.empty((n, NOUT))
+    update_points(sig_in, L_in, np.ascontiguousarray(phi.reshape(n)),
+                  np.ascontiguousarray(f.reshape(n)), float(dt), P, sig_out, out)
+    failed = np.flatnonzero(out[:, 12] == FAILED)
+    if failed.size:
+        k = failed[0]
+        raise RuntimeError(f"local update failed at {failed.size} point(s); first: index {k}, "
+                           f"phi = {phi.reshape(n)[k]:.6g}, f = {f.reshape(n)[k]:.6g}, "
+                           f"stress = {sig_in[k].tolist()}, dt = {dt:g}")
+    col = {name: out[:, i].reshape(shape) for i, name in enumerate(OUT_FIELDS)}
+    return LocalUpdate(stress=sig_out.reshape(shape + (3, 3)), f=col["f"],
+                       shear_rate_p=col["shear_rate_p"], xi1=col["xi1"], xi2=col["xi2"],
+                       mu_p=col["mu_p"], I=col["I"], I_v=col["I_v"], I_m=col["I_m"],
+                       beta=col["beta"], phi_eq=col["phi_eq"], taubar=col["taubar"],
+                       pressure=col["pressure"], case=col["case"].astype(int))

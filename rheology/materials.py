@@ -1,0 +1,365 @@
+"""Every parameter set of Baumgarten & Kamrin, as named, frozen, validated objects.
+
+Each set is returned fresh by :func:`get_material` (``get_material("hermes2016", eta0=0.01)``)
+and validated on construction: a bad value raises ``ValueError`` naming the field and its range.
+:func:`list_materials` gives the names with their sources.
+
+Units are SI (Pa, Pa s, kg/m^3, m) except the two Table 1 sets, which are in the paper's normalised
+units (eta0 = gdot_0 = 1, stresses in eta0 gdot_0).
+
+Sources (paper = Baumgarten & Kamrin, "A general constitutive model for dense, fine particle
+suspensions validated in many geometries"):
+
+============== ============================================================================
+name            source
+============== ============================================================================
+singh2018_a     paper Table 1(a): fit to Singh et al. 2018 simulations, eta0/eta_B = 0
+singh2018_b     paper Table 1(b): same, eta0/eta_B = 0.254 (phi_j - phi)
+dhaene1993      paper Tables 2-3, ref. (12) d'Haene, Mewis & Fuller 1993 (PMMA)
+frith1996       paper Tables 2-3, ref. (17) Frith, d'Haene, Buscall & Mewis 1996 (PMMA)
+guy2015_a       paper Tables 2-3, ref. (20)(a) Guy, Hermes & Poon 2015 (PMMA)
+guy2015_b       paper Tables 2-3, ref. (20)(b) Guy, Hermes & Poon 2015 (PMMA)
+fall2015        paper Tables 2-3, ref. (16) Fall et al. 2015 (cornstarch)
+hermes2016      paper Tables 2-3, ref. (22) Hermes et al. 2016 (cornstarch)
+annular_shear   paper Table 4 on hermes2016 (Fig. 3; Peters, Majumdar & Jaeger 2016)
+rod_impact      paper Table 5 on hermes2016, eta0 = 7 mPa s (Fig. 4; Waitukaitis & Jaeger 2012)
+rod_impact_1cp  paper Table 5 on hermes2016, eta0 = 1 mPa s (Fig. 5)
+intruder        paper Table 6 on hermes2016 (Figs. 6-7; Han, Peters & Jaeger 2016)
+wheel           paper Table 7 on hermes2016 (Figs. 8-9, 'running on oobleck')
+============== ============================================================================
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .checks import check_range
+
+#: Units of every numeric field (SI sets; Table 1 sets use eta0 = gdot_0 = 1 instead).
+FIELD_UNITS: dict[str, str] = {
+    "phi_c": "-", "phi_j": "-", "a0": "-", "a_inf": "-", "mu_c": "-", "mu_2": "-", "b": "-",
+    "tau_star": "Pa", "eta0": "Pa s", "varphi1": "1/(Pa s)", "alpha1": "-", "varphi2": "1/(Pa s)",
+    "alpha2": "-", "Delta": "-", "xi_eps": "1/s", "K0": "-", "G": "Pa", "K": "Pa",
+    "rho_s": "kg/m^3", "rho_f": "kg/m^3", "d": "m", "K3": "-", "K4": "-", "kappa": "Pa", "phi0": "-",
+}
+
+#: Order of the numeric fields in :meth:`Material.kernel_array` (read by the numba kernels).
+KERNEL_FIELDS: tuple[str, ...] = (
+    "phi_c", "phi_j", "a0", "a_inf", "mu_c", "mu_2", "b", "tau_star", "eta0", "varphi1", "alpha1",
+    "varphi2", "alpha2", "Delta", "xi_eps", "K0", "G", "K", "rho_s", "d", "K3",
+)
+
+
+@dataclass(frozen=True)
+class Material:
+    """A complete parameter set of the model (Table 8 with Eqs. 3, 4, 8, 9).
+
+    Attributes
+    ----------
+    name, citation : str
+        Registry name and the source of every number.
+    units : str
+        ``"SI"`` or ``"normalised"`` (eta0 = gdot_0 = 1; Table 1).
+    phi_c, phi_j : float
+        Frictional and frictionless jamming fractions, ``0 < phi_c < phi_j < 1`` (Eq. 3).
+    a0, a_inf : float
+        Dilatancy parameter at f = 0 and f = 1, ``0 < a0 <= a_inf`` (Eq. 4).
+    mu_c : float
+        Contact friction ``mu_1`` of Table 8 (``mu_c`` of Eq. 1), > 0.
+    mu_2, b : float or None, float
+        Table 8's ``mu_2`` and ``b``; ``mu_2 = None`` means ``mu_2 = mu_c`` (no b term), as in
+        Baumgarten's code for this model.
+    tau_star : float
+        Repulsive stress scale tau* [Pa] (Eq. 6).
+    eta0 : float
+        Suspending-fluid viscosity [Pa s].
+    varphi1, alpha1, varphi2, alpha2 : float
+        Eq. 9 buckling resistance ``1/eta_B = sum_i varphi_i (phi_j - phi)^alpha_i``; varphi_i in
+        1/(Pa s). All zero means eta_B = infinity.
+    Delta : float
+        Skeleton-compliance parameter of Eq. 8, in [0, 1]; 0 for the rheo-chaotic experiments,
+        1 gives f_m = 1 (Table 1).
+    xi_eps : float
+        Brownian/electrostatic structure decay rate [1/s] (Eq. 7); 0 in every set of the paper.
+    K0 : float or None
+        Structure-rate scale (Eq. 5), >= 0; None where the paper gives none (steady fits).
+    G, K : float or None
+        Granular shear and bulk moduli [Pa], > 0; None where the paper gives none.
+    rho_s, rho_f : float or None
+        Grain and fluid true densities [kg/m^3].
+    d : float
+        Grain diameter [m]; 0 means the viscous limit (no grain inertia, no drag).
+    K3, K4 : float
+        Dilatancy and compaction-rate constants of Table 8 (4.715 and 0, from ref. 4).
+    kappa : float or None
+        Fluid bulk modulus [Pa] (pore pressure kappa ln(rho_f/rho_0f)); not given by the paper.
+    phi0 : float or None
+        Initial volume fraction of a scene.
+    notes : str
+        Choices we made where the paper is silent.
+    """
+
+    name: str
+    citation: str
+    phi_c: float
+    phi_j: float
+    a0: float
+    a_inf: float
+    mu_c: float
+    tau_star: float
+    eta0: float
+    varphi1: float = 0.0
+    alpha1: float = 0.0
+    varphi2: float = 0.0
+    alpha2: float = 0.0
+    Delta: float = 0.0
+    xi_eps: float = 0.0
+    mu_2: float | None = None
+    b: float = 0.0
+    K0: float | None = None
+    G: float | None = None
+    K: float | None = None
+    rho_s: float | None = None
+    rho_f: float | None = None
+    d: float = 0.0
+    K3: float = 4.715
+    K4: float = 0.0
+    kappa: float | None = None
+    phi0: float | None = None
+    units: str = "SI"
+    notes: str = field(default="", compare=False)
+
+    def __post_init__(self) -> None:
+        n = f"material {self.name}"
+        if self.units not in ("SI", "normalised"):
+            raise ValueError(f"units = {self.units!r} must be 'SI' or 'normalised' ({n})")
+        check_range("phi_c", self.phi_c, 0.0, 1.0, lo_closed=False, hi_closed=False, note=n)
+        check_range("phi_j", self.phi_j, self.phi_c, 1.0, lo_closed=False, hi_closed=False,
+                    note=f"{n}; phi_j must exceed phi_c = {self.phi_c}")
+        check_range("a0", self.a0, 0.0, None, lo_closed=False, note=n)
+        check_range("a_inf", self.a_inf, self.a0, None,
+                    note=f"{n}; a_inf >= a0 makes the stress-controlled steady state unique")
+        check_range("mu_c", self.mu_c, 0.0, None, lo_closed=False, note=n)
+        if self.mu_2 is not None:
+            check_range("mu_2", self.mu_2, self.mu_c, None, note=f"{n}; mu_2 >= mu_c")
+        check_range("b", self.b, 0.0, None, note=n)
+        check_range("tau_star", self.tau_star, 0.0, None, lo_closed=False, note=n)
+        check_range("eta0", self.eta0, 0.0, None, lo_closed=False, note=n)
+        for k in ("varphi1", "alpha1", "varphi2", "alpha2", "xi_eps", "d", "K3"):
+            check_range(k, getattr(self, k), 0.0, None, note=n)
+        check_range("Delta", self.Delta, 0.0, 1.0, note=n)
+        check_range("K4", self.K4, 0.0, 0.0,
+                    note=f"{n}; only K4 = 0, the value of every scene of the paper, is implemented")
+        for k in ("K0",):
+            if getattr(self, k) is not None:
+                check_range(k, getattr(self, k), 0.0, None, note=n)
+        for k in ("G", "K", "rho_s", "rho_f", "kappa"):
+            if getattr(self, k) is not None:
+                check_range(k, getattr(self, k), 0.0, None, lo_closed=False, note=n)
+        if self.phi0 is not None:
+            check_range("phi0", self.phi0, 0.0, self.phi_j, lo_closed=False, hi_closed=False,
+                        note=f"{n}; below phi_j = {self.phi_j}")
+        if self.d > 0 and self.rho_s is None:
+            raise ValueError(f"rho_s must be set (> 0 kg/m^3) when d = {self.d:g} m > 0 ({n})")
+
+    # ------------------------------------------------------------------ derived parameters
+    @property
+    def mu2(self) -> float:
+        """Table 8's mu_2 (equal to mu_c unless set)."""
+        return self.mu_c if self.mu_2 is None else self.mu_2
+
+    @property
+    def phi_star(self) -> float:
+        """phi* = phi_j + (phi_c - phi_j) Delta (Eq. 8): DST possible for phi_c <= phi <= phi*."""
+        return self.phi_j + (self.phi_c - self.phi_j) * self.Delta
+
+    def replace(self, **overrides) -> "Material":
+        """Return a validated copy with fields overridden (unknown names raise ValueError)."""
+        names = {f.name for f in dataclasses.fields(self)}
+        unknown = sorted(set(overrides) - names)
+        if unknown:
+            raise ValueError(f"unknown material parameter(s) {unknown}; valid: {sorted(names)}")
+        return dataclasses.replace(self, **overrides)
+
+    def require(self, *names: str) -> None:
+        """Raise ValueError if any of ``names`` is unset (None) for this material."""
+        for k in names:
+            if getattr(self, k) is None:
+                raise ValueError(f"{k} [{FIELD_UNITS.get(k, '-')}] is not set for material "
+                                 f"{self.name} (the paper gives none): set it, e.g. {k}=...")
+
+    def kernel_array(self) -> np.ndarray:
+        """Numeric fields in :data:`KERNEL_FIELDS` order for the numba kernels (None -> NaN)."""
+        vals = [self.mu2 if k == "mu_2" else getattr(self, k) for k in KERNEL_FIELDS]
+        arr = np.array([np.nan if v is None else float(v) for v in vals])
+        if self.rho_s is None:
+            arr[KERNEL_FIELDS.index("rho_s")] = 0.0
+        return arr
+
+    def summary(self) -> str:
+        """One line per numeric field with its unit."""
+        lines = [f"{self.name}: {self.citation}"]
+        for f in dataclasses.fields(self):
+            if f.name in FIELD_UNITS:
+                v = getattr(self, f.name)
+                if v is not None:
+                    lines.append(f"  {f.name:9s} = {v:<12.6g} [{FIELD_UNITS[f.name]}]")
+        if self.notes:
+            lines.append(f"  notes: {self.notes}")
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------- the paper's sets
+_PAPER = "Baumgarten & Kamrin, A general constitutive model for dense, fine particle suspensions"
+_STEADY_NOTE = ("d not given for the steady fits: d = 0 is the viscous limit of Eq. (1)-(2); "
+                "G, K, K0 not given (set them for transient tests)")
+
+
+def _singh(fit: str) -> Material:
+    common = dict(phi_c=0.585, phi_j=0.65, a0=0.455, a_inf=0.841, mu_c=1.0, eta0=1.0, Delta=1.0,
+                  units="normalised", notes="normalised units eta0 = gdot_0 = 1; " + _STEADY_NOTE)
+    ref = ("Singh, Mari, Denn & Morris, J. Rheol. 62, 457 (2018) simulations; "
+           f"fit of {_PAPER}, Table 1({fit})")
+    if fit == "a":
+        return Material(name="singh2018_a", citation=ref, tau_star=1.74, **common)
+    return Material(name="singh2018_b", citation=ref, tau_star=1.44, varphi1=0.254, alpha1=1.0,
+                    **common)
+
+
+def _table2(name, ref, phi_c, phi_j, a0, a_inf, tau_star, eta0_mPas, mu_c, v1, a1, v2, a2):
+    return Material(name=name, citation=f"{ref}; fit of {_PAPER}, Tables 2-3", phi_c=phi_c,
+                    phi_j=phi_j, a0=a0, a_inf=a_inf, mu_c=mu_c, tau_star=tau_star,
+                    eta0=eta0_mPas * 1e-3, varphi1=v1, alpha1=a1, varphi2=v2, alpha2=a2,
+                    Delta=0.0, notes=_STEADY_NOTE)
+
+
+def _dhaene1993():
+    return _table2("dhaene1993", "d'Haene, Mewis & Fuller, J. Colloid Interface Sci. 156, 350 "
+                   "(1993), PMMA", 0.57, 0.65, 1.08, 1.08, 5.21, 56, 0.3, 8.83e6, 6, 0, 0)
+
+
+def _frith1996():
+    return _table2("frith1996", "Frith, d'Haene, Buscall & Mewis, J. Rheol. 40, 531 (1996), PMMA",
+                   0.548, 0.642, 1.08, 1.08, 17.93, 130, 0.3, 1.79e11, 12, 4.5, 0.1)
+
+
+def _guy2015_a():
+    return _table2("guy2015_a", "Guy, Hermes & Poon, PRL 115, 088304 (2015), PMMA, fit (a)",
+                   0.56, 0.617, 1.577, 1.577, 423.0, 2.4, 0.3, 3e6, 5, 9e-2, 0.1)
+
+
+def _guy2015_b():
+    return _table2("guy2015_b", "Guy, Hermes & Poon, PRL 115, 088304 (2015), PMMA, fit (b)",
+                   0.563, 0.610, 1.09, 1.538, 3.5, 2.4, 0.3, 1.0e6, 6, 0, 0)
+
+
+def _fall2015():
+    return _table2("fall2015", "Fall et al., PRL 114, 098301 (2015), cornstarch",
+                   0.38, 0.454, 1.00, 1.00, 0.116, 0.89, 1.19, 4.0e4, 3, 0, 0)
+
+
+def _hermes2016():
+    return _table2("hermes2016", "Hermes et al., J. Rheol. 60, 905 (2016), cornstarch",
+                   0.436, 0.535, 0.8, 0.8, 5.35, 6, 1.19, 1.86e4, 4, 9.3e-3, 0.1)
+
+
+_SCENE_NOTE = ("d = 5.85 um, K3 = 4.715, K4 = 0 from the text; kappa (fluid bulk modulus) is not "
+               "given by the paper: our choice kappa = K keeps the fluid and skeleton wave speeds "
+               "alike and elastic strains small")
+
+
+def _scene(name, table, ref, eta0, rho_s, rho_f, G, K, K0, phi0=None, extra_note=""):
+    base = _hermes2016()
+    return base.replace(
+        name=name, citation=f"{ref}; {_PAPER}, Table {table} with the Hermes 2016 steady fit",
+        eta0=eta0, rho_s=rho_s, rho_f=rho_f, G=G, K=K, K0=K0, d=5.85e-6, K3=4.715, K4=0.0,
+        kappa=K, phi0=phi0, notes=_SCENE_NOTE + extra_note)
+
+
+def _annular_shear():
+    return _scene("annular_shear", 4, "Peters, Majumdar & Jaeger, Nature 532, 214 (2016)",
+                  10e-3, 1620.0, 1620.0, 3.8e5, 8.3e5, 0.06, phi0=0.505,
+                  extra_note="; density matched: rho_s = rho_f = rho = 1620 kg/m^3")
+
+
+def _rod_impact():
+    return _scene("rod_impact", 5, "Waitukaitis & Jaeger, Nature 487, 205 (2012), Fig. 4",
+                  7e-3, 1620.0, 1000.0, 3.8e7, 8.3e7, 1.0,
+                  extra_note="; phi0 not given by the paper (set it per run)")
+
+
+def _rod_impact_1cp():
+    return _scene("rod_impact_1cp", 5, "Waitukaitis & Jaeger, Nature 487, 205 (2012), Fig. 5",
+                  1e-3, 1620.0, 1000.0, 3.8e7, 8.3e7, 1.0,
+                  extra_note="; phi0 not given by the paper (set it per run)")
+
+
+def _intruder():
+    return _scene("intruder", 6, "Han, Peters & Jaeger, Nat. Commun. 7, 12243 (2016)",
+                  4.6e-3, 1620.0, 1620.0, 3.8e7, 8.3e7, 0.2, phi0=0.47,
+                  extra_note="; phi0 = 0.47 as in Fig. 6(a)-(e); Fig. 7 varies 0.46-0.50")
+
+
+def _wheel():
+    return _scene("wheel", 7, "running on oobleck, Figs. 8-9", 1e-3, 1620.0, 1620.0, 3.8e5, 8.3e5,
+                  1.0, extra_note="; phi0 not given by the paper (set it per run)")
+
+
+_REGISTRY: dict[str, Callable[[], Material]] = {
+    "singh2018_a": lambda: _singh("a"),
+    "singh2018_b": lambda: _singh("b"),
+    "dhaene1993": _dhaene1993,
+    "frith1996": _frith1996,
+    "guy2015_a": _guy2015_a,
+    "guy2015_b": _guy2015_b,
+    "fall2015": _fall2015,
+    "hermes2016": _hermes2016,
+    "annular_shear": _annular_shear,
+    "rod_impact": _rod_impact,
+    "rod_impact_1cp": _rod_impact_1cp,
+    "intruder": _intruder,
+    "wheel": _wheel,
+}
+
+#: The six experimental steady fits of Fig. 2, in the paper's panel order (a)-(f).
+FIG2_MATERIALS: tuple[str, ...] = ("dhaene1993", "frith1996", "guy2015_a", "guy2015_b",
+                                   "fall2015", "hermes2016")
+
+
+def material_names() -> list[str]:
+    """Names of every registered parameter set."""
+    return list(_REGISTRY)
+
+
+def get_material(name: str | Material, **overrides) -> Material:
+    """Return a fresh, validated parameter set, optionally with fields overridden.
+
+    Parameters
+    ----------
+    name : str or Material
+        A registry name (see :func:`material_names`) or a Material to copy.
+    **overrides
+        Field values to replace, e.g. ``eta0=0.01`` [Pa s]; the result is validated.
+
+    Raises
+    ------
+    ValueError
+        Unknown name or field, or an override outside its valid range.
+    """
+    if isinstance(name, Material):
+        base = name
+    else:
+        key = str(name).strip().lower()
+        if key not in _REGISTRY:
+            raise ValueError(f"unknown material {name!r}; valid: {', '.join(_REGISTRY)}")
+        base = _REGISTRY[key]()
+    return base.replace(**overrides) if overrides else base
+
+
+def list_materials() -> list[tuple[str, str]]:
+    """``(name, citation)`` for every registered parameter set."""
+    return [(n, f().citation) for n, f in _REGISTRY.items()]

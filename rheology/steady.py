@@ -1,0 +1,341 @@
+"""Steady simple shear: Eqs. (1)-(2), (13), (20), (24)-(25), (33), for a Material.
+
+The steady state (df/dt = 0 in Table 8, phi = phi_eq) is parametrised by the granular shear stress
+``taubar``, for which it is unique: with gdot = gdot_cs(taubar, f) the critical-state rate,
+``g(f) = f (H + S(f)) - H f_m`` is strictly increasing on [0, min(f_m, f_jam)) with g(0) <= 0
+(H depends on taubar only; S = 1 + (taubar/eta_B + xi_eps)/gdot grows with f because the granular
+viscosity does, given a_inf >= a0). One bracketed root per stress, solved for all stresses at once.
+
+Under an imposed shear rate or mixture stress there may be 0, 1 or 2+ steady states (S-shaped
+curves, DST). :func:`steady_states_rate` and :func:`steady_states_mixture_stress` trace the unique
+stress-parametrised curve, bracket every crossing of the target and refine it, and mark each branch
+stable when the control variable increases with taubar there (the rigid-rheometer limit G -> inf:
+``d(df/dt)/df = (Phi_f / Gamma_tau) d(gdot)/d(taubar)`` with Phi_f < 0, Gamma_tau > 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+from scipy.optimize import elementwise
+
+from . import laws
+from .checks import check_nonnegative, check_positive, check_range
+from .materials import Material
+
+_TOL = dict(xatol=1e-300, xrtol=4e-16, fatol=0.0, frtol=0.0)
+
+
+def _phi_below_jamming(phi, m: Material) -> np.ndarray:
+    return check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
+                       note=f"steady flow needs phi below phi_j = {m.phi_j} of {m.name}")
+
+
+# ------------------------------------------------------------------ Eqs. (1), (2), (24), (25)
+def granular_viscosity(phi, f, m: Material) -> np.ndarray:
+    """Granular part of Eq. (1): taubar/(eta0 gdot) = 2 mu (a phi/y)^2 + 5/2 phi^2/y [-].
+
+    y = phi_m(f) - phi; ``inf`` where phi >= phi_m(f) (jammed). mu is the critical-state friction
+    (mu_c unless mu_2 != mu_c).
+    """
+    phi = _phi_below_jamming(phi, m)
+    f = check_range("f", f, 0.0, 1.0)
+    phim = laws.phi_m(f, m.phi_c, m.phi_j)
+    a = laws.dilatancy_a(f, m.a0, m.a_inf)
+    mu = laws.critical_friction(phi, phim, a, m.mu_c, m.mu2, m.b)
+    y = phim - phi
+    with np.errstate(divide="ignore"):
+        ys = np.where(y > 0, y, 1.0)
+        return np.where(y > 0, 2 * mu * (a * phi / ys) ** 2 + 2.5 * phi ** 2 / ys, np.inf)
+
+
+def relative_viscosity(phi, f, m: Material) -> np.ndarray:
+    """Eq. (1): eta_r = tau/(eta0 gdot) = 1 + 5/2 phi phi_m/(phi_m - phi) + 2 mu_c (a phi/(phi_m - phi))^2."""
+    return 1.0 + 2.5 * np.asarray(phi, dtype=float) + granular_viscosity(phi, f, m)
+
+
+def normal_viscosity(phi, f, m: Material) -> np.ndarray:
+    """Eq. (2): eta_n = p/(eta0 gdot) = 2 (a phi/(phi_m - phi))^2 [-]; ``inf`` when jammed."""
+    phi = _phi_below_jamming(phi, m)
+    f = check_range("f", f, 0.0, 1.0)
+    y = laws.phi_m(f, m.phi_c, m.phi_j) - phi
+    a = laws.dilatancy_a(f, m.a0, m.a_inf)
+    with np.errstate(divide="ignore"):
+        return np.where(y > 0, 2 * (a * phi / np.where(y > 0, y, 1.0)) ** 2, np.inf)
+
+
+def viscosity_low_limit(phi, m: Material) -> np.ndarray:
+    """Eq. (24): eta_r as f -> 0 (phi_m = phi_j, a = a0), the low-stress Newtonian plateau [-]."""
+    return relative_viscosity(phi, 0.0, m)
+
+
+def viscosity_high_limit(phi, m: Material) -> np.ndarray:
+    """Eq. (25): eta_r as f -> 1 (phi_m = phi_c, a = a_inf) [-]; ``inf`` for phi >= phi_c."""
+    return relative_viscosity(phi, 1.0, m)
+
+
+def critical_shear_rate(taubar, phi, f, m: Material) -> np.ndarray:
+    """Plastic shear rate at the critical state for granular stress taubar [1/s] (Eq. 35 with inertia).
+
+    Multiplied through by (phi_m - phi)^2 it is continuous through jamming and 0 for
+    phi >= phi_m(f). This is the algebraic relation of the 0-D (rheometer) model.
+    """
+    taubar = check_nonnegative("taubar", taubar)
+    phi = check_range("phi", phi, 0.0, 1.0, lo_closed=False, hi_closed=False)
+    f = check_range("f", f, 0.0, 1.0)
+    return laws.critical_shear_rate(taubar, phi, laws.phi_m(f, m.phi_c, m.phi_j),
+                                    laws.dilatancy_a(f, m.a0, m.a_inf), m.mu_c, m.mu2, m.b,
+                                    m.eta0, m.d, m.rho_s or 0.0)
+
+
+# ------------------------------------------------------------------ steady states
+@dataclass(frozen=True)
+class SteadyFlow:
+    """Steady simple-shear states, one entry per point (numpy arrays of equal shape).
+
+    Attributes
+    ----------
+    phi : volume fraction [-]
+    taubar : granular shear stress [Pa]
+    shear_stress : mixture shear stress tau = taubar + eta0 (1 + 5/2 phi) gdot [Pa]
+    shear_rate : shear rate gdot [1/s] (0 when jammed)
+    f : structure [-]
+    pressure : granular pressure [Pa] (Eq. 2; taubar/mu_c in the jammed limit)
+    viscosity : mixture viscosity tau/gdot [Pa s] (inf when jammed)
+    jammed : True where no flowing steady state exists at this stress (only if eta_B = inf)
+    index : position of the imposed value in the (flattened, broadcast) input, branches only
+    branch : 0, 1, ... in order of increasing taubar among the states of one input, branches only
+    stable : stable under the imposed control in the rigid-rheometer limit, branches only
+    """
+
+    phi: np.ndarray
+    taubar: np.ndarray
+    shear_stress: np.ndarray
+    shear_rate: np.ndarray
+    f: np.ndarray
+    pressure: np.ndarray
+    viscosity: np.ndarray
+    jammed: np.ndarray
+    index: np.ndarray | None = None
+    branch: np.ndarray | None = None
+    stable: np.ndarray | None = None
+
+    def to_frame(self):
+        """A pandas DataFrame with unit-suffixed columns."""
+        import pandas as pd
+
+        names = {"phi": "phi", "taubar": "granular_shear_stress_Pa", "shear_stress":
+                 "shear_stress_Pa", "shear_rate": "shear_rate_per_s", "f": "f",
+                 "pressure": "granular_pressure_Pa", "viscosity": "viscosity_Pa_s",
+                 "jammed": "jammed", "index": "index", "branch": "branch", "stable": "stable"}
+        return pd.DataFrame({names[k.name]: np.ravel(getattr(self, k.name)) for k in fields(self)
+                             if getattr(self, k.name) is not None})
+
+
+def _y_residual(y, taubar, phi, H, fm, k, m: Material):
+    """y^2 [f (H + S) - H f_m] in the jamming gap y = phi_m(f) - phi: smooth, root unique."""
+    f = (m.phi_j - phi - y) / (m.phi_j - m.phi_c)
+    a = laws.dilatancy_a(f, m.a0, m.a_inf)
+    mu = laws.critical_friction(phi, y + phi, a, m.mu_c, m.mu2, m.b)
+    ap2 = (a * phi) ** 2
+    A = mu * ap2 * m.d ** 2 * (m.rho_s or 0.0)
+    B = m.eta0 * (2.0 * mu * ap2 + 2.5 * phi * phi * y)
+    y2_over_gdot = (B + np.sqrt(B * B + 4.0 * A * taubar * y * y)) / (2.0 * taubar)
+    return (f * (H + 1.0) - H * fm) * y * y + f * k * y2_over_gdot
+
+
+def _state_from_f(taubar, phi, f, jammed, m: Material, **extra) -> SteadyFlow:
+    phim = laws.phi_m(f, m.phi_c, m.phi_j)
+    a = laws.dilatancy_a(f, m.a0, m.a_inf)
+    rho_s = m.rho_s or 0.0
+    gdot = np.where(jammed, 0.0, laws.critical_shear_rate(taubar, phi, phim, a, m.mu_c, m.mu2, m.b,
+                                                          m.eta0, m.d, rho_s))
+    p = np.where(jammed | (gdot <= 0), taubar / laws.critical_friction(phi, phim, a, m.mu_c, m.mu2,
+                                                                       m.b),
+                 laws.critical_pressure(gdot, phi, phim, a, m.eta0, m.d, rho_s))
+    tau = taubar + m.eta0 * (1.0 + 2.5 * phi) * gdot
+    with np.errstate(divide="ignore", invalid="ignore"):
+        visc = np.where(gdot > 0, tau / np.where(gdot > 0, gdot, 1.0), np.inf)
+    zero_shear = m.eta0 * (1.0 + 2.5 * phi + _eta_g_closed(phi, phim, a, m))
+    visc = np.where(taubar <= 0, zero_shear, visc)
+    return SteadyFlow(phi=phi, taubar=taubar, shear_stress=tau, shear_rate=gdot, f=f, pressure=p,
+                      viscosity=visc, jammed=jammed, **extra)
+
+
+def _eta_g_closed(phi, phim, a, m: Material):
+    y = np.maximum(phim - phi, laws.TINY)
+    mu = laws.critical_friction(phi, phim, a, m.mu_c, m.mu2, m.b)
+    return 2 * mu * (a * phi / y) ** 2 + 2.5 * phi ** 2 / y
+
+
+def steady_state_stress(taubar, phi, m: Material) -> SteadyFlow:
+    """The unique steady state at imposed granular shear stress, for any number of points.
+
+    Parameters
+    ----------
+    taubar : array_like
+        Granular shear stress [Pa], >= 0 (broadcast against ``phi``).
+    phi : array_like
+        Volume fraction, 0 < phi < phi_j.
+    m : Material
+
+    Returns
+    -------
+    SteadyFlow
+        Satisfies Eq. (13) to ~1e-14 relative. ``jammed`` is True (gdot = 0, f = f_jam) only when
+        eta_B = inf and xi_eps = 0 and H f_m/(H + 1) >= f_jam: the flowing branch has ended.
+    """
+    taubar = check_nonnegative("taubar", taubar)
+    phi = _phi_below_jamming(phi, m)
+    taubar, phi = np.broadcast_arrays(taubar, phi)
+    taubar, phi = taubar.astype(float).copy(), phi.astype(float).copy()
+    fm = laws.f_max(phi, m.phi_c, m.phi_j, m.Delta)
+    fjam = (m.phi_j - phi) / (m.phi_j - m.phi_c)
+    H = laws.hardening(taubar, m.tau_star)
+    k = taubar * laws.inv_eta_B(phi, m.phi_j, m.varphi1, m.alpha1, m.varphi2, m.alpha2) + m.xi_eps
+    f = np.zeros_like(taubar)
+    jammed = np.zeros(taubar.shape, dtype=bool)
+
+    no_decay = (k <= 0) & (taubar > 0)                       # S = 1: closed form f = H f_m/(H + 1)
+    f_closed = H * fm / (H + 1.0)
+    jammed |= no_decay & (f_closed >= fjam)
+    f = np.where(no_decay, np.minimum(f_closed, fjam), f)
+
+    solve = (k > 0) & (taubar > 0) & (fm > 0)
+    if np.any(solve):
+        t, ph, h, fms, ks = (x[solve] for x in (taubar, phi, H, fm, k))
+        fhi = np.minimum(fms, (m.phi_j - ph) / (m.phi_j - m.phi_c))
+        y_hi = m.phi_j - ph                                  # f = 0
+        y_lo = np.maximum(y_hi - fhi * (m.phi_j - m.phi_c), 0.0)   # f = f_hi
+        res = elementwise.find_root(lambda y, *a: _y_residual(y, *a, m), (y_lo, y_hi),
+                                    args=(t, ph, h, fms, ks), tolerances=_TOL)
+        y = res.x
+        if not np.all(res.success):
+            bad = np.flatnonzero(~res.success)[0]
+            raise RuntimeError(f"steady stress-controlled solve failed at taubar = {t[bad]:.6g} Pa, "
+                               f"phi = {ph[bad]:.6g} (status {res.status[bad]})")
+        f[solve] = (m.phi_j - ph - y) / (m.phi_j - m.phi_c)
+    return _state_from_f(taubar, phi, f, jammed, m)
+
+
+def _trace(phi, lo, hi, n, m: Material):
+    """The stress-parametrised steady curve on a log grid of taubar between lo and hi (per phi)."""
+    s = np.linspace(0.0, 1.0, n)
+    taus = np.exp(np.log(lo)[:, None] + (np.log(hi) - np.log(lo))[:, None] * s[None, :])
+    return taus, steady_state_stress(taus, np.broadcast_to(phi[:, None], taus.shape), m)
+
+
+def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi_factor: float):
+    target = check_positive(control, target)
+    phi = _phi_below_jamming(phi, m)
+    target, phi = (np.ravel(x).astype(float) for x in np.broadcast_arrays(target, phi))
+    eta_f = m.eta0 * (1.0 + 2.5 * phi)
+    eta_lo = m.eta0 * _eta_g_closed(phi, laws.phi_m(0.0, m.phi_c, m.phi_j), m.a0, m)
+    if control == "shear_rate":
+        lo = 0.5 * eta_lo * target                       # gdot(taubar) <= taubar/eta_lo
+        hi = np.maximum(hi_factor * m.tau_star, 1e3 * lo)
+        value = lambda st: st.shear_rate
+    else:
+        lo = 0.5 * target / (1.0 + eta_f / eta_lo)       # tau <= taubar (1 + eta_f/eta_lo)
+        hi = target                                       # tau > taubar
+        value = lambda st: st.shear_stress
+    decades = np.log10(hi / lo).max()
+    n = int(max(64, points_per_decade * decades))
+    taus, st = _trace(phi, lo, hi, n, m)
+    r = value(st) - target[:, None]
+    up = r > 0
+    i, j = np.nonzero(up[:, 1:] != up[:, :-1])
+    if i.size == 0:
+        empty = np.zeros(0)
+        return SteadyFlow(*(empty,) * 7, jammed=np.zeros(0, bool), index=np.zeros(0, int),
+                          branch=np.zeros(0, int), stable=np.zeros(0, bool))
+    tg, ph = target[i], phi[i]
+
+    def resid(logt, tg, ph):
+        return value(steady_state_stress(np.exp(logt), ph, m)) - tg
+
+    res = elementwise.find_root(resid, (np.log(taus[i, j]), np.log(taus[i, j + 1])),
+                                args=(tg, ph), tolerances=dict(xatol=1e-15, xrtol=0.0))
+    st_root = steady_state_stress(np.exp(res.x), ph, m)
+    stable = ~up[i, j]                                   # crossing upwards: d(control)/d(taubar) > 0
+    branch = np.zeros(i.size, dtype=int)
+    for q in range(1, i.size):
+        branch[q] = branch[q - 1] + 1 if i[q] == i[q - 1] else 0
+    return SteadyFlow(**{k.name: getattr(st_root, k.name) for k in fields(st_root)
+                         if k.name not in ("index", "branch", "stable")},
+                      index=i, branch=branch, stable=stable)
+
+
+def steady_states_rate(gdot, phi, m: Material, *, points_per_decade: int = 40,
+                       taubar_max_factor: float = 1e8) -> SteadyFlow:
+    """Every steady state at an imposed shear rate, each marked stable or unstable.
+
+    Parameters
+    ----------
+    gdot : array_like
+        Imposed shear rate(s) [1/s], > 0 (broadcast against ``phi``).
+    phi : array_like
+        Volume fraction(s), 0 < phi < phi_j.
+    points_per_decade : int
+        Resolution of the taubar grid used to bracket the states.
+    taubar_max_factor : float
+        The search covers taubar up to this many tau* (beyond, gdot has converged to its
+        high-stress limit to ~1e-4).
+
+    Returns
+    -------
+    SteadyFlow
+        One entry per state, with ``index`` (which input), ``branch`` and ``stable``.
+    """
+    return _branches("shear_rate", gdot, phi, m, points_per_decade, taubar_max_factor)
+
+
+def steady_states_mixture_stress(tau, phi, m: Material, *,
+                                 points_per_decade: int = 400) -> SteadyFlow:
+    """Every steady state at an imposed mixture shear stress tau [Pa], marked stable or unstable.
+
+    The mixture stress tau = taubar + eta0 (1 + 5/2 phi) gdot lies within a narrow band above
+    taubar, searched on a fine grid; usually a single state.
+    """
+    return _branches("shear_stress", tau, phi, m, points_per_decade, 1.0)
+
+
+# ------------------------------------------------------------------ DST and conversions
+def gdot_dst(phi, m: Material) -> np.ndarray:
+    """Eq. (33): shear rate of DST, the high-stress limit of the steady curve [1/s].
+
+    gdot_DST = (tau*/eta0) (2 mu_c (eta_B/eta0 a(f_m) phi/(phi_j - phi))^2)^(-1/3), valid for
+    phi_c <= phi <= phi* (0 if eta_B = inf).
+    """
+    phi = check_range("phi", phi, m.phi_c, min(m.phi_star, m.phi_j), hi_closed=m.phi_star < m.phi_j,
+                      note=f"DST exists only for phi_c <= phi <= phi* in {m.name}")
+    fm = laws.f_max(phi, m.phi_c, m.phi_j, m.Delta)
+    a = laws.dilatancy_a(fm, m.a0, m.a_inf)
+    inv = laws.inv_eta_B(phi, m.phi_j, m.varphi1, m.alpha1, m.varphi2, m.alpha2)
+    with np.errstate(divide="ignore"):
+        etaB = np.where(inv > 0, 1.0 / np.where(inv > 0, inv, 1.0), np.inf)
+        return (m.tau_star / m.eta0) * (2.0 * m.mu_c * (etaB / m.eta0 * a * phi / (m.phi_j - phi))
+                                        ** 2) ** (-1.0 / 3.0)
+
+
+def phi_from_mass_fraction(phi_w, rho_cs: float, rho_l: float, rho_w: float = 1000.0,
+                           lam: float = 0.3, beta: float = 0.1) -> np.ndarray:
+    """Eq. (20): volume fraction of swollen starch from the mass fraction phi_W [-].
+
+    Parameters
+    ----------
+    phi_w : array_like
+        Mass fraction m_cs/(m_cs + m_l), in (0, 1).
+    rho_cs, rho_l, rho_w : float
+        Densities of cornstarch grains, suspending liquid and water [kg/m^3].
+    lam, beta : float
+        Swelling and pore-space parameters (lambda ~ 0.3, beta ~ 0.1 after Peters et al. 2016).
+    """
+    phi_w = check_range("phi_w", phi_w, 0.0, 1.0, lo_closed=False, hi_closed=False)
+    for name, v in (("rho_cs", rho_cs), ("rho_l", rho_l), ("rho_w", rho_w)):
+        check_positive(name, v)
+    check_range("beta", beta, 0.0, 1.0, hi_closed=False)
+    check_nonnegative("lam", lam)
+    return ((1 + lam) * (1 - beta)
+            / ((1 - beta) + (1 - phi_w) / phi_w * rho_cs / rho_l + beta * rho_cs / rho_w))

@@ -1,0 +1,1 @@
+"""rheometer tier (in progress)."""

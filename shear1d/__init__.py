@@ -1,0 +1,1 @@
+"""shear1d tier (in progress)."""
