@@ -17,7 +17,8 @@ from .io import atomic_savefig, atomic_write_csv, atomic_write_text, load_checkp
 from .fluid import beetstra_F, drag_coefficient, fluid_viscosity, pore_pressure, reynolds_number
 from .flow_rule import (dilation_angle, friction, inertial_numbers, invariants, phi_equilibrium,
                         plastic_dissipation, plastic_flow_rate, yield_functions)
-from .local_update import LocalUpdate, elastic_trial, kernel_parameters, local_update, update_points
+from .local_update import (LocalUpdate, elastic_trial, kernel_parameters, local_update, update_points,
+                           update_points_serial)
 from .materials import (FIG2_MATERIALS, Material, get_material, list_materials, material_names)
 from .steady import (SteadyFlow, critical_shear_rate, gdot_dst, granular_viscosity,
                      normal_viscosity, phi_from_mass_fraction, relative_viscosity,

@@ -81,11 +81,12 @@ def yield_functions(stress, gdot_p, phi, f, m: Material, xi2=0.0):
     phim = laws.phi_m(f, m.phi_c, m.phi_j)
     a = laws.dilatancy_a(f, m.a0, m.a_inf)
     rho_s = m.rho_s or 0.0
-    ps = np.maximum(p, laws.TINY)
-    I, I_v, I_m = laws.inertial_numbers(g, ps, m.eta0, m.d, rho_s)
+    flowing = (p > 0) & (g > 0)
+    ps, gs = np.where(flowing, p, 1.0), np.where(flowing, g, 0.0)   # rest or no contact: I = 0
+    I, I_v, I_m = laws.inertial_numbers(gs, ps, m.eta0, m.d, rho_s)
     beta = laws.dilation_angle(phi, laws.phi_equilibrium(phim, a, I_m), m.K3)
     mu = laws.friction(I_v, I_m, phi, a, m.mu_c, m.mu2, m.b)
-    f1 = taubar - np.maximum((mu + beta) * p, 0.0)
+    f1 = taubar - np.maximum((mu + beta) * np.maximum(p, 0.0), 0.0)
     zeta = g - m.K4 * np.asarray(xi2)
     gphi = np.where(phi < phim, (phim - phi) ** 2, 0.0)
     f3 = gphi * p - (a * phi) ** 2 * (zeta ** 2 * m.d ** 2 * rho_s + 2.0 * m.eta0 * zeta)

@@ -104,28 +104,26 @@ def dilation_angle(phi, phieq, K3):
 
 
 @register_jitable
-def critical_friction(phi, phim, a, mu1, mu2, b):
+def critical_friction(phi, y, a, mu1, mu2, b):
     """Rate-independent friction at the critical state (phi = phi_eq) [-].
 
-    There I_m = (phi_m - phi)/(a phi), so the mu_2 term of Table 8 is a constant:
-    mu* = mu_1 + (mu_2 - mu_1) y/(y + b a phi), y = phi_m - phi.
+    There I_m = y/(a phi) with y = phi_m - phi >= 0 the jamming gap, so the mu_2 term of Table 8 is
+    a constant: mu* = mu_1 + (mu_2 - mu_1) y/(y + b a phi).
     """
-    y = np.maximum(phim - phi, 0.0)
     return mu1 + (mu2 - mu1) * y / np.maximum(y + b * a * phi, TINY)
 
 
 @register_jitable
-def critical_shear_rate(taubar, phi, phim, a, mu1, mu2, b, eta0, d, rho_s):
+def critical_shear_rate(taubar, phi, y, a, mu1, mu2, b, eta0, d, rho_s):
     """Plastic shear rate at the critical state (phi = phi_eq) under granular shear stress taubar.
 
     This is Eq. (35) (the viscous law of Eq. 1, consistent with Table 8) with grain inertia kept.
-    At phi = phi_eq, f_1 = 0 and f_3 = 0 give, with y = max(phi_m - phi, 0),
-    ``A gdot^2 + B gdot = taubar y^2``, ``A = mu* (a phi)^2 d^2 rho_s``,
-    ``B = eta0 [2 mu* (a phi)^2 + 5/2 phi^2 y]``; written multiplied through by y^2 it stays
-    finite through jamming and gives gdot = 0 for phi >= phi_m [1/s].
+    At phi = phi_eq, f_1 = 0 and f_3 = 0 give, with the jamming gap y = max(phi_m - phi, 0) (pass
+    it computed without cancellation where it is tiny), ``A gdot^2 + B gdot = taubar y^2``,
+    ``A = mu* (a phi)^2 d^2 rho_s``, ``B = eta0 [2 mu* (a phi)^2 + 5/2 phi^2 y]``; multiplied through
+    by y^2 it stays finite through jamming and gives gdot = 0 for y = 0 [1/s].
     """
-    y = np.maximum(phim - phi, 0.0)
-    mu = critical_friction(phi, phim, a, mu1, mu2, b)
+    mu = critical_friction(phi, y, a, mu1, mu2, b)
     ap2 = (a * phi) ** 2
     A = mu * ap2 * d * d * rho_s
     B = eta0 * (2.0 * mu * ap2 + 2.5 * phi * phi * y)
@@ -134,13 +132,14 @@ def critical_shear_rate(taubar, phi, phim, a, mu1, mu2, b, eta0, d, rho_s):
 
 
 @register_jitable
-def critical_pressure(gdot_p, phi, phim, a, eta0, d, rho_s):
-    """Granular pressure at the critical state, f_3 = 0 with K4 = 0 [Pa] (phi < phi_m).
+def critical_pressure(gdot_p, phi, y, a, eta0, d, rho_s):
+    """Granular pressure at the critical state, f_3 = 0 with K4 = 0 [Pa], for a gap y > 0.
 
-    p = (a phi)^2 (gdot^2 d^2 rho_s + 2 eta0 gdot) / (phi_m - phi)^2; Eq. (2) in the viscous limit.
+    p = (a phi)^2 (gdot^2 d^2 rho_s + 2 eta0 gdot) / y^2, y = phi_m - phi; Eq. (2) in the viscous
+    limit.
     """
-    y = np.maximum(phim - phi, TINY)
-    return (a * phi) ** 2 * (gdot_p * gdot_p * d * d * rho_s + 2.0 * eta0 * gdot_p) / (y * y)
+    return (a * phi) ** 2 * (gdot_p * gdot_p * d * d * rho_s + 2.0 * eta0 * gdot_p) / np.maximum(
+        y * y, TINY)
 
 
 # ------------------------------------------------------------------ fluid phase (Table 8)

@@ -170,6 +170,7 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out):
 
     case, iters = ELASTIC, 0
     g, xi1, xi2 = 0.0, 0.0, 0.0
+    beta_guess = 0.0
     p, Im, beta = p_tr, 0.0, 0.0
     y = phim - phi
     if p_tr <= 0.0:                                           # separation: stress free
@@ -180,16 +181,18 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out):
     else:
         if y > 0.0:                                           # try shear flow + compaction
             ap2 = (a * phi) ** 2
-            mus = laws.critical_friction(phi, phim, a, mu1, mu2, b)
+            mus = laws.critical_friction(phi, y, a, mu1, mu2, b)
             A = mus * ap2 * rd2
             B = eta0 * (2.0 * mus * ap2 + 2.5 * phi * phi * y) + Gdt * y * y
             c = tau_tr * y * y
             gc = 2.0 * c / (B + np.sqrt(B * B + 4.0 * A * c))
-            pc = laws.critical_pressure(gc, phi, phim, a, eta0, d, rho_s)
+            pc = laws.critical_pressure(gc, phi, y, a, eta0, d, rho_s)
             if pc <= p_tr:
                 case = COMPACTION
                 g, p, Im, beta = gc, pc, y / (a * phi), 0.0
                 xi2 = (pc - p_tr) / Kdt
+            else:                     # dilatant: K dt beta gdot ~ p - p*, with gdot ~ gc, p ~ pc
+                beta_guess = (pc - p_tr) / (Kdt * gc) if gc > 0.0 else 0.0
         if case == ELASTIC:
             beta_lo = max(0.0, K3 * (phi - phim))
             r_lo = _dilatant_residual(beta_lo, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
@@ -199,7 +202,7 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out):
             else:
                 case = SHEAR_FLOW
                 beta_max = K3 * phi
-                step = max(1e-14 * beta_max, 1e-8 * beta_lo)
+                step = max(1e-14 * beta_max, 1e-8 * beta_lo, 2.0 * beta_guess)
                 lo, hi, r_hi = beta_lo, beta_lo + step, 0.0
                 while True:
                     hi = min(hi, beta_lo + (beta_max - beta_lo) * (1.0 - 1e-15))
@@ -244,11 +247,16 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out):
     out[10], out[11], out[12], out[13] = taubar, p, case, iters
 
 
-@nb.njit(cache=True, parallel=True, error_model="numpy")
-def update_points(sig, L, phi, f, dt, P, sig_out, out):
-    """Parallel loop of :func:`update_point` over N points (arrays (N,3,3), (N,), out (N, NOUT))."""
+def _update_loop(sig, L, phi, f, dt, P, sig_out, out):
+    """Loop of :func:`update_point` over N points (arrays (N,3,3), (N,), out (N, NOUT))."""
     for n in nb.prange(phi.shape[0]):
         update_point(sig[n], L[n], phi[n], f[n], dt, P, sig_out[n], out[n])
+
+
+#: Parallel (prange) loop over points: the entry point for large batches (MPM, 1-D grids).
+update_points = nb.njit(cache=True, parallel=True, error_model="numpy")(_update_loop)
+#: The same loop compiled serially: no thread start-up per call, for a few points stepped often.
+update_points_serial = nb.njit(cache=True, error_model="numpy")(_update_loop)
 
 
 @dataclass(frozen=True)
@@ -337,8 +345,9 @@ def local_update(stress, velocity_gradient, phi, f, dt: float, m: Material) -> L
     L_in = np.ascontiguousarray(np.broadcast_to(L, shape + (3, 3)).reshape(n, 3, 3))
     sig_out = np.empty_like(sig_in)
     out = np.empty((n, NOUT))
-    update_points(sig_in, L_in, np.ascontiguousarray(phi.reshape(n)),
-                  np.ascontiguousarray(f.reshape(n)), float(dt), P, sig_out, out)
+    loop = update_points if n >= 256 else update_points_serial
+    loop(sig_in, L_in, np.ascontiguousarray(phi.reshape(n)), np.ascontiguousarray(f.reshape(n)),
+         float(dt), P, sig_out, out)
     failed = np.flatnonzero(out[:, 12] == FAILED)
     if failed.size:
         k = failed[0]

@@ -137,9 +137,9 @@ class Material:
         n = f"material {self.name}"
         if self.units not in ("SI", "normalised"):
             raise ValueError(f"units = {self.units!r} must be 'SI' or 'normalised' ({n})")
-        check_range("phi_c", self.phi_c, 0.0, 1.0, lo_closed=False, hi_closed=False, note=n)
-        check_range("phi_j", self.phi_j, self.phi_c, 1.0, lo_closed=False, hi_closed=False,
-                    note=f"{n}; phi_j must exceed phi_c = {self.phi_c}")
+        check_range("phi_j", self.phi_j, 0.0, 1.0, lo_closed=False, hi_closed=False, note=n)
+        check_range("phi_c", self.phi_c, 0.0, self.phi_j, lo_closed=False, hi_closed=False,
+                    note=f"{n}; phi_c must be below phi_j = {self.phi_j}")
         check_range("a0", self.a0, 0.0, None, lo_closed=False, note=n)
         check_range("a_inf", self.a_inf, self.a0, None,
                     note=f"{n}; a_inf >= a0 makes the stress-controlled steady state unique")

@@ -43,8 +43,8 @@ def granular_viscosity(phi, f, m: Material) -> np.ndarray:
     f = check_range("f", f, 0.0, 1.0)
     phim = laws.phi_m(f, m.phi_c, m.phi_j)
     a = laws.dilatancy_a(f, m.a0, m.a_inf)
-    mu = laws.critical_friction(phi, phim, a, m.mu_c, m.mu2, m.b)
     y = phim - phi
+    mu = laws.critical_friction(phi, np.maximum(y, 0.0), a, m.mu_c, m.mu2, m.b)
     with np.errstate(divide="ignore"):
         ys = np.where(y > 0, y, 1.0)
         return np.where(y > 0, 2 * mu * (a * phi / ys) ** 2 + 2.5 * phi ** 2 / ys, np.inf)
@@ -84,9 +84,9 @@ def critical_shear_rate(taubar, phi, f, m: Material) -> np.ndarray:
     taubar = check_nonnegative("taubar", taubar)
     phi = check_range("phi", phi, 0.0, 1.0, lo_closed=False, hi_closed=False)
     f = check_range("f", f, 0.0, 1.0)
-    return laws.critical_shear_rate(taubar, phi, laws.phi_m(f, m.phi_c, m.phi_j),
-                                    laws.dilatancy_a(f, m.a0, m.a_inf), m.mu_c, m.mu2, m.b,
-                                    m.eta0, m.d, m.rho_s or 0.0)
+    y = np.maximum(laws.phi_m(f, m.phi_c, m.phi_j) - phi, 0.0)
+    return laws.critical_shear_rate(taubar, phi, y, laws.dilatancy_a(f, m.a0, m.a_inf), m.mu_c,
+                                    m.mu2, m.b, m.eta0, m.d, m.rho_s or 0.0)
 
 
 # ------------------------------------------------------------------ steady states
@@ -133,39 +133,44 @@ class SteadyFlow:
                              if getattr(self, k.name) is not None})
 
 
-def _y_residual(y, taubar, phi, H, fm, k, m: Material):
-    """y^2 [f (H + S) - H f_m] in the jamming gap y = phi_m(f) - phi: smooth, root unique."""
-    f = (m.phi_j - phi - y) / (m.phi_j - m.phi_c)
+def _residual(f, y, df, taubar, phi, H, k, m: Material):
+    """y^2 [f (H + S) - H f_m] for structure f, gap y = phi_m(f) - phi and df = f - f_m.
+
+    Smooth through jamming and increasing in f, so its root is unique. f, y and df are all passed
+    because each must be formed without cancellation by the caller (see steady_state_stress):
+    with H up to ~1e30 at extreme stress, H df needs df exact, not f - f_m of two close numbers.
+    """
     a = laws.dilatancy_a(f, m.a0, m.a_inf)
-    mu = laws.critical_friction(phi, y + phi, a, m.mu_c, m.mu2, m.b)
+    mu = laws.critical_friction(phi, y, a, m.mu_c, m.mu2, m.b)
     ap2 = (a * phi) ** 2
     A = mu * ap2 * m.d ** 2 * (m.rho_s or 0.0)
     B = m.eta0 * (2.0 * mu * ap2 + 2.5 * phi * phi * y)
     y2_over_gdot = (B + np.sqrt(B * B + 4.0 * A * taubar * y * y)) / (2.0 * taubar)
-    return (f * (H + 1.0) - H * fm) * y * y + f * k * y2_over_gdot
+    return (H * df + f) * y * y + f * k * y2_over_gdot
 
 
-def _state_from_f(taubar, phi, f, jammed, m: Material, **extra) -> SteadyFlow:
-    phim = laws.phi_m(f, m.phi_c, m.phi_j)
+def _state(taubar, phi, f, y, jammed, m: Material) -> SteadyFlow:
+    """Steady state from the structure f and its jamming gap y = phi_m(f) - phi >= 0 (both exact)."""
     a = laws.dilatancy_a(f, m.a0, m.a_inf)
     rho_s = m.rho_s or 0.0
-    gdot = np.where(jammed, 0.0, laws.critical_shear_rate(taubar, phi, phim, a, m.mu_c, m.mu2, m.b,
+    gdot = np.where(jammed, 0.0, laws.critical_shear_rate(taubar, phi, y, a, m.mu_c, m.mu2, m.b,
                                                           m.eta0, m.d, rho_s))
-    p = np.where(jammed | (gdot <= 0), taubar / laws.critical_friction(phi, phim, a, m.mu_c, m.mu2,
-                                                                       m.b),
-                 laws.critical_pressure(gdot, phi, phim, a, m.eta0, m.d, rho_s))
+    p = np.where(jammed | (gdot <= 0),
+                 taubar / laws.critical_friction(phi, y, a, m.mu_c, m.mu2, m.b),
+                 laws.critical_pressure(gdot, phi, y, a, m.eta0, m.d, rho_s))
     tau = taubar + m.eta0 * (1.0 + 2.5 * phi) * gdot
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         visc = np.where(gdot > 0, tau / np.where(gdot > 0, gdot, 1.0), np.inf)
-    zero_shear = m.eta0 * (1.0 + 2.5 * phi + _eta_g_closed(phi, phim, a, m))
+        zero_shear = m.eta0 * (1.0 + 2.5 * phi + _eta_g(phi, y, a, m))
     visc = np.where(taubar <= 0, zero_shear, visc)
     return SteadyFlow(phi=phi, taubar=taubar, shear_stress=tau, shear_rate=gdot, f=f, pressure=p,
-                      viscosity=visc, jammed=jammed, **extra)
+                      viscosity=visc, jammed=jammed)
 
 
-def _eta_g_closed(phi, phim, a, m: Material):
-    y = np.maximum(phim - phi, laws.TINY)
-    mu = laws.critical_friction(phi, phim, a, m.mu_c, m.mu2, m.b)
+def _eta_g(phi, y, a, m: Material):
+    """Granular part of Eq. (1) at gap y > 0."""
+    y = np.maximum(y, laws.TINY)
+    mu = laws.critical_friction(phi, y, a, m.mu_c, m.mu2, m.b)
     return 2 * mu * (a * phi / y) ** 2 + 2.5 * phi ** 2 / y
 
 
@@ -183,40 +188,63 @@ def steady_state_stress(taubar, phi, m: Material) -> SteadyFlow:
     Returns
     -------
     SteadyFlow
-        Satisfies Eq. (13) to ~1e-14 relative. ``jammed`` is True (gdot = 0, f = f_jam) only when
+        Satisfies Eq. (13) to ~1e-13 relative. ``jammed`` is True (gdot = 0, f = f_jam) only when
         eta_B = inf and xi_eps = 0 and H f_m/(H + 1) >= f_jam: the flowing branch has ended.
     """
     taubar = check_nonnegative("taubar", taubar)
     phi = _phi_below_jamming(phi, m)
-    taubar, phi = np.broadcast_arrays(taubar, phi)
-    taubar, phi = taubar.astype(float).copy(), phi.astype(float).copy()
+    taubar, phi = (x.astype(float).copy() for x in np.broadcast_arrays(taubar, phi))
+    dphi = m.phi_j - m.phi_c
     fm = laws.f_max(phi, m.phi_c, m.phi_j, m.Delta)
-    fjam = (m.phi_j - phi) / (m.phi_j - m.phi_c)
+    fjam = (m.phi_j - phi) / dphi
     H = laws.hardening(taubar, m.tau_star)
     k = taubar * laws.inv_eta_B(phi, m.phi_j, m.varphi1, m.alpha1, m.varphi2, m.alpha2) + m.xi_eps
-    f = np.zeros_like(taubar)
-    jammed = np.zeros(taubar.shape, dtype=bool)
+    f, y = np.zeros_like(taubar), m.phi_j - phi              # f = 0 (taubar = 0 or f_m = 0)
 
     no_decay = (k <= 0) & (taubar > 0)                       # S = 1: closed form f = H f_m/(H + 1)
-    f_closed = H * fm / (H + 1.0)
-    jammed |= no_decay & (f_closed >= fjam)
-    f = np.where(no_decay, np.minimum(f_closed, fjam), f)
+    f_closed = np.minimum(H * fm / (H + 1.0), fjam)
+    jammed = no_decay & (f_closed >= fjam)
+    f = np.where(no_decay, f_closed, f)
+    y = np.where(no_decay, dphi * (fjam - f_closed), y)
 
     solve = (k > 0) & (taubar > 0) & (fm > 0)
     if np.any(solve):
-        t, ph, h, fms, ks = (x[solve] for x in (taubar, phi, H, fm, k))
-        fhi = np.minimum(fms, (m.phi_j - ph) / (m.phi_j - m.phi_c))
-        y_hi = m.phi_j - ph                                  # f = 0
-        y_lo = np.maximum(y_hi - fhi * (m.phi_j - m.phi_c), 0.0)   # f = f_hi
-        res = elementwise.find_root(lambda y, *a: _y_residual(y, *a, m), (y_lo, y_hi),
-                                    args=(t, ph, h, fms, ks), tolerances=_TOL)
-        y = res.x
-        if not np.all(res.success):
-            bad = np.flatnonzero(~res.success)[0]
-            raise RuntimeError(f"steady stress-controlled solve failed at taubar = {t[bad]:.6g} Pa, "
-                               f"phi = {ph[bad]:.6g} (status {res.status[bad]})")
-        f[solve] = (m.phi_j - ph - y) / (m.phi_j - m.phi_c)
-    return _state_from_f(taubar, phi, f, jammed, m)
+        idx = np.flatnonzero(solve.ravel())
+        t, ph, h, fms, ks, fj = (x.ravel()[idx] for x in (taubar, phi, H, fm, k, fjam))
+        y0 = m.phi_j - ph                                    # gap at f = 0
+        fhi = np.minimum(fms, fj)                            # the root lies in [0, f_hi)
+        yhi = np.where(fms < fj, dphi * (fj - fms), 0.0)     # gap at f_hi (exactly 0 if jammed)
+        fhalf = 0.5 * fhi
+        # Lower half: solve in f (y = y0 - f dphi, f - f_m = f - f_m, no cancellation). Upper
+        # half: solve in w = f_hi - f (f - f_m = (f_hi - f_m) - w, y = y_hi + w dphi: sums of
+        # like-signed terms). f, y and f - f_m then keep full relative precision everywhere, at
+        # low stress and 1e-12 from jamming alike.
+        lower = _residual(fhalf, y0 - fhalf * dphi, fhalf - fms, t, ph, h, ks, m) > 0
+        fs, ys = np.empty_like(t), np.empty_like(t)
+        for sel in (lower, ~lower):
+            if not np.any(sel):
+                continue
+            args = tuple(x[sel] for x in (fhi, yhi, fms, t, ph, h, ks))
+            if sel is lower:
+                fun = lambda x, fhi_, yhi_, fm_, t_, p_, *rest: _residual(
+                    x, m.phi_j - p_ - x * dphi, x - fm_, t_, p_, *rest, m)
+                bracket = (np.zeros_like(args[0]), fhalf[sel])
+            else:
+                fun = lambda x, fhi_, yhi_, fm_, t_, p_, *rest: -_residual(
+                    fhi_ - x, yhi_ + x * dphi, (fhi_ - fm_) - x, t_, p_, *rest, m)
+                bracket = (np.zeros_like(args[0]), fhi[sel] - fhalf[sel])
+            res = elementwise.find_root(fun, bracket, args=args, tolerances=_TOL)
+            if not np.all(res.success):
+                bad = np.flatnonzero(~res.success)[0]
+                raise RuntimeError(f"steady stress-controlled solve failed at taubar = "
+                                   f"{args[3][bad]:.6g} Pa, phi = {args[4][bad]:.6g} "
+                                   f"(status {res.status[bad]})")
+            if sel is lower:
+                fs[sel], ys[sel] = res.x, y0[sel] - res.x * dphi
+            else:
+                fs[sel], ys[sel] = fhi[sel] - res.x, yhi[sel] + res.x * dphi
+        f.ravel()[idx], y.ravel()[idx] = fs, ys
+    return _state(taubar, phi, f, y, jammed, m)
 
 
 def _trace(phi, lo, hi, n, m: Material):
@@ -231,7 +259,7 @@ def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi
     phi = _phi_below_jamming(phi, m)
     target, phi = (np.ravel(x).astype(float) for x in np.broadcast_arrays(target, phi))
     eta_f = m.eta0 * (1.0 + 2.5 * phi)
-    eta_lo = m.eta0 * _eta_g_closed(phi, laws.phi_m(0.0, m.phi_c, m.phi_j), m.a0, m)
+    eta_lo = m.eta0 * _eta_g(phi, m.phi_j - phi, m.a0, m)
     if control == "shear_rate":
         lo = 0.5 * eta_lo * target                       # gdot(taubar) <= taubar/eta_lo
         hi = np.maximum(hi_factor * m.tau_star, 1e3 * lo)

@@ -1,0 +1,169 @@
+"""The Table 8 local update: consistency, bounds, dissipation, objectivity, steady simple shear."""
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+import rheology as r
+from rheology.local_update import (COMPACTION, ELASTIC, NOUT, SEPARATED, SHEAR_FLOW,
+                                   kernel_parameters, update_points_serial)
+from rheology_strategies import materials
+
+SET = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+def random_states(m, seed, n=400):
+    """Random symmetric stresses, velocity gradients, phi (a third within 1e-12..1e-3 of phi_m), f."""
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(n, 3, 3))
+    scale = 10.0 ** rng.uniform(-3, 5, n)[:, None, None] * m.tau_star
+    sig = 0.3 * (A + A.transpose(0, 2, 1)) * scale - np.eye(3) * scale * rng.uniform(-0.2, 2, n)[:, None, None]
+    L = rng.normal(size=(n, 3, 3)) * 10.0 ** rng.uniform(-3, 3, n)[:, None, None]
+    f = rng.uniform(0, 1, n)
+    phi = rng.uniform(0.3, 0.98, n) * m.phi_j
+    k = n // 3
+    phi[:k] = np.clip(r.phi_m(f[:k], m) * (1 + rng.choice([-1, 1], k) * 10.0 ** rng.uniform(-12, -3, k)), 0, 0.99)
+    dt = 10.0 ** rng.uniform(-7, -1)
+    return sig, L, phi, f, dt
+
+
+@SET
+@given(materials(), st.integers(0, 2 ** 32 - 1))
+def test_yield_conditions_bounds_and_dissipation(m, seed):
+    sig, L, phi, f, dt = random_states(m, seed)
+    u = r.local_update(sig, L, phi, f, dt, m)
+    taubar, p = r.invariants(u.stress)
+    scale = np.abs(r.invariants(sig)[0]) + np.abs(r.invariants(sig)[1]) + m.G * dt * np.abs(L).max(axis=(1, 2)) + 1e-300
+    f1, f2, f3 = r.yield_functions(u.stress, u.shear_rate_p, phi, f, m, u.xi2)
+    flowing = (u.case == SHEAR_FLOW) | (u.case == COMPACTION)
+    assert np.all(np.abs(f1[flowing]) <= 1e-9 * scale[flowing])          # on the yield surface
+    assert np.all(f1[u.case == ELASTIC] <= 1e-9 * scale[u.case == ELASTIC])
+    assert np.all(np.abs(f3[u.case == COMPACTION]) <= 1e-9 * scale[u.case == COMPACTION])
+    assert np.all(u.xi2 <= 0) and np.all(u.xi1 >= 0) and np.all(u.shear_rate_p >= 0)
+    assert np.all(p >= -1e-12 * scale) and np.all(taubar[u.case == SEPARATED] == 0)
+    np.testing.assert_allclose(taubar, u.taubar, rtol=1e-9, atol=1e-12 * scale.max())
+    # plastic power sigma : D^p = gdot mu_p p - p xi2 >= 0
+    diss = r.plastic_dissipation(u.stress, u.shear_rate_p, u.beta, u.xi1, u.xi2)
+    assert np.all(diss >= -1e-9 * scale * (u.shear_rate_p + np.abs(u.xi2) + 1e-300))
+    # structure stays in [0, max(f_n, f_m)]
+    assert np.all(u.f >= 0) and np.all(u.f <= np.maximum(f, r.f_max(phi, m)) + 1e-14)
+
+
+def _rotation(rng):
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    return q * np.sign(np.linalg.det(q))
+
+
+@SET
+@given(materials(), st.integers(0, 2 ** 32 - 1))
+def test_frame_indifference(m, seed):
+    """Rotating stress and velocity gradient rotates the updated stress; scalars are unchanged."""
+    sig, L, phi, f, dt = random_states(m, seed, n=200)
+    Q = _rotation(np.random.default_rng(seed + 1))
+    a = r.local_update(sig, L, phi, f, dt, m)
+    rot = lambda T: Q @ T @ Q.T
+    b = r.local_update(rot(sig), rot(L), phi, f, dt, m)
+    scale = np.abs(sig).max() + m.G * dt * np.abs(L).max() + 1e-300
+    np.testing.assert_allclose(b.stress, rot(a.stress), atol=1e-8 * scale)
+    np.testing.assert_array_equal(a.case, b.case)
+    for k in ("f", "shear_rate_p", "taubar", "pressure"):
+        np.testing.assert_allclose(getattr(b, k), getattr(a, k), rtol=1e-7,
+                                   atol=1e-12 * np.abs(getattr(a, k)).max() + 1e-300)
+
+
+def drive_simple_shear(m, phi, gdot, nstep, strain_per_step, p0):
+    """Homogeneous isochoric simple shear v_x = gdot y through the local update kernel."""
+    P = kernel_parameters(m)
+    sig = -p0 * np.eye(3)[None].copy()
+    L = np.zeros((1, 3, 3))
+    L[0, 0, 1] = gdot
+    ph, f = np.array([phi]), np.array([0.0])
+    so, out = np.empty_like(sig), np.empty((1, NOUT))
+    dt = strain_per_step / gdot
+    for _ in range(nstep):
+        update_points_serial(sig, L, ph, f, dt, P, so, out)
+        sig, f = so.copy(), out[:, 0].copy()
+    return sig[0], out[0]
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(materials(buckling="always"), st.floats(0.3, 0.9), st.floats(-1.5, 1.5))
+def test_steady_simple_shear_recovers_eq1_and_eq2(m, s, logtau):
+    """The update driven to steady simple shear gives taubar = eta0 eta_g gdot (Eq. 1), p (Eq. 2), Eq. 13."""
+    assume(m.K0 >= 0.1)
+    phi = s * m.phi_c
+    target = r.steady_state_stress(10.0 ** logtau * m.tau_star, phi, m)
+    gdot = float(target.shear_rate)
+    branches = r.steady_states_rate(gdot, phi, m)
+    assume(branches.f.size == 1)                         # a unique (stable) rate-controlled state
+    assume(float(target.taubar) < 1e-3 * m.G)            # elastically stiff, as in the paper
+    nstep = int(30 / (m.K0 * 0.05))                     # 30 e-folds of the structure transient
+    sig, out = drive_simple_shear(m, phi, gdot, nstep, 0.05, p0=float(target.pressure))
+    taubar, p = r.invariants(sig)
+    np.testing.assert_allclose(sig[0, 1], target.taubar, rtol=2e-5)       # Eq. (1), granular part
+    np.testing.assert_allclose(p, target.pressure, rtol=2e-5)             # Eq. (2)
+    np.testing.assert_allclose(out[0], target.f, rtol=2e-5)               # Eq. (13)
+    np.testing.assert_allclose(out[1], gdot, rtol=2e-5)                   # all of it plastic
+
+
+def test_hermes_steady_shear_three_rates_tight():
+    m = r.get_material("hermes2016", G=1e6, K=2e6, K0=1.0)
+    for gdot in (0.01, 0.1, 1.0):
+        target = r.steady_states_rate(gdot, 0.48, m)
+        sig, out = drive_simple_shear(m, 0.48, gdot, 20000, 0.005, p0=1e-3)
+        np.testing.assert_allclose([sig[0, 1], r.invariants(sig)[1], out[0]],
+                                   [target.taubar[0], target.pressure[0], target.f[0]], rtol=1e-8)
+
+
+def test_elastic_jammed_solid_is_linear_elastic():
+    m = r.get_material("annular_shear")
+    sig0 = -1e3 * np.eye(3)
+    L = np.diag([-1.0, 0.0, 0.0]) * 1e-3                 # small uniaxial compression
+    dt = 1e-2
+    u = r.local_update(sig0, L, 0.54, 0.5, dt, m)        # phi > phi_m(0.5): jammed
+    assert u.case == ELASTIC and u.shear_rate_p == 0
+    D = L * dt
+    expect = sig0 + 2 * m.G * (D - np.trace(D) / 3 * np.eye(3)) + m.K * np.trace(D) * np.eye(3)
+    np.testing.assert_allclose(u.stress, expect, rtol=1e-14)
+
+
+def test_loose_skeleton_at_rest_carries_no_pressure_and_separates_in_tension():
+    m = r.get_material("annular_shear")
+    u = r.local_update(-50.0 * np.eye(3), np.zeros((3, 3)), 0.45, 0.0, 1e-4, m)   # phi < phi_m
+    assert u.case == COMPACTION and np.allclose(u.stress, 0) and u.xi2 < 0
+    u = r.local_update(np.zeros((3, 3)), 0.1 * np.eye(3), 0.55, 0.0, 1e-4, m)     # expansion
+    assert u.case == SEPARATED and np.allclose(u.stress, 0) and u.xi1 > 0
+
+
+def test_near_jamming_is_robust():
+    m = r.get_material("intruder")
+    n = 2000
+    rng = np.random.default_rng(3)
+    f = rng.uniform(0, 1, n)
+    phi = r.phi_m(f, m) + rng.choice([-1, 1], n) * 10.0 ** rng.uniform(-15, -6, n)
+    L = np.zeros((n, 3, 3))
+    L[:, 0, 1] = 10.0 ** rng.uniform(-2, 3, n)
+    sig = -np.eye(3) * 10.0 ** rng.uniform(0, 4, n)[:, None, None]
+    u = r.local_update(sig, L, phi, f, 1e-6, m)
+    assert np.all(np.isfinite(u.stress)) and np.all(np.isfinite(u.shear_rate_p))
+
+
+@pytest.mark.parametrize("kw, name", [
+    (dict(stress=np.zeros((3, 2))), "shape"), (dict(stress=np.full((3, 3), np.nan)), "stress"),
+    (dict(stress=np.array([[0, 1, 0], [0, 0, 0], [0, 0, 0.0]])), "symmetric"),
+    (dict(velocity_gradient=np.full((3, 3), np.inf)), "velocity_gradient"),
+    (dict(phi=1.0), "phi"), (dict(phi=-0.1), "phi"), (dict(f=1.5), "f"), (dict(dt=0.0), "dt"),
+    (dict(dt=float("nan")), "dt"),
+])
+def test_bad_input(kw, name):
+    args = dict(stress=-np.eye(3), velocity_gradient=np.zeros((3, 3)), phi=0.5, f=0.1, dt=1e-4,
+                m=r.get_material("annular_shear"))
+    args.update(kw)
+    with pytest.raises(ValueError, match=name):
+        r.local_update(**args)
+
+
+def test_missing_moduli_are_named():
+    with pytest.raises(ValueError, match="G .* is not set for material hermes2016"):
+        r.local_update(-np.eye(3), np.zeros((3, 3)), 0.5, 0.1, 1e-4, r.get_material("hermes2016"))
