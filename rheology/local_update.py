@@ -204,6 +204,7 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out):
                 beta_max = K3 * phi
                 step = max(1e-14 * beta_max, 1e-8 * beta_lo, 2.0 * beta_guess)
                 lo, hi, r_hi = beta_lo, beta_lo + step, 0.0
+                nexp = 1
                 while True:
                     hi = min(hi, beta_lo + (beta_max - beta_lo) * (1.0 - 1e-15))
                     r_hi = _dilatant_residual(hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
@@ -211,6 +212,7 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out):
                     if r_hi < 0.0 or hi >= beta_max * (1.0 - 1e-14):
                         break
                     lo, r_lo = hi, r_hi
+                    nexp += 1
                     step *= 10.0
                     hi = beta_lo + step
                 if not r_hi < 0.0:
@@ -221,6 +223,7 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out):
                                          eta0, rd2, K3, mu1, mu2, b, rtol_abs)
                     if iters < 0:
                         case = FAILED
+                    iters += nexp + 1                 # residual evaluations, bracketing included
                     g, p, Im = _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
 
     taubar = tau_tr - Gdt * g
