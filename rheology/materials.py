@@ -286,15 +286,9 @@ def _annular_shear():
                   extra_note="; density matched: rho_s = rho_f = rho = 1620 kg/m^3")
 
 
-def _rod_impact():
-    return _scene("rod_impact", 5, "Waitukaitis & Jaeger, Nature 487, 205 (2012), Fig. 4",
-                  7e-3, 1620.0, 1000.0, 3.8e7, 8.3e7, 1.0,
-                  extra_note="; phi0 not given by the paper (set it per run)")
-
-
-def _rod_impact_1cp():
-    return _scene("rod_impact_1cp", 5, "Waitukaitis & Jaeger, Nature 487, 205 (2012), Fig. 5",
-                  1e-3, 1620.0, 1000.0, 3.8e7, 8.3e7, 1.0,
+def _rod_impact(name: str, eta0: float, fig: int):
+    return _scene(name, 5, f"Waitukaitis & Jaeger, Nature 487, 205 (2012), Fig. {fig}",
+                  eta0, 1620.0, 1000.0, 3.8e7, 8.3e7, 1.0,
                   extra_note="; phi0 not given by the paper (set it per run)")
 
 
@@ -319,8 +313,8 @@ _REGISTRY: dict[str, Callable[[], Material]] = {
     "fall2015": _fall2015,
     "hermes2016": _hermes2016,
     "annular_shear": _annular_shear,
-    "rod_impact": _rod_impact,
-    "rod_impact_1cp": _rod_impact_1cp,
+    "rod_impact": lambda: _rod_impact("rod_impact", 7e-3, 4),
+    "rod_impact_1cp": lambda: _rod_impact("rod_impact_1cp", 1e-3, 5),
     "intruder": _intruder,
     "wheel": _wheel,
 }
