@@ -23,7 +23,11 @@ f_n:
      is a quadratic with one positive root gdot(beta); the remaining scalar equation
      R(beta) = tau* - G dt gdot - (mu_p + beta) p = 0 is bracketed on [beta_lo, K3 phi)
      (R(beta_lo) > 0 whenever this case applies, R -> -inf as I_m -> inf) and solved by Brent's
-     method, so it cannot fail to converge near jamming.
+     method, so it cannot fail to converge near jamming. When the trial pressure is a vanishing
+     part of the final one (dilatancy makes all of it), gdot(beta) is too steep to resolve in
+     double precision; the residual is then checked and, if not converged, the same equations are
+     solved with gdot as the bracketed variable (on [gdot(beta_lo), tau*/(G dt)]) and beta from a
+     monotone polynomial for each gdot. A point that still misses the yield surface is FAILED.
 
 3. The structure takes a backward-Euler step with the new (taubar, gdot_p) (staggered, first order):
    f_{n+1} = (f_n + dt K0 H gdot f_m)/(1 + dt K0 (H gdot + gdot + taubar/eta_B + xi_eps)),
@@ -44,7 +48,9 @@ import numpy as np
 from . import laws
 from .checks import check_range
 from .materials import KERNEL_FIELDS, Material
+from .numba_cache import guard
 
+guard(__file__)
 _jit = nb.njit(cache=True, error_model="numpy")
 
 #: Columns of the ``out`` array written by :func:`update_point`.
@@ -77,18 +83,52 @@ def _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3):
 
 
 @_jit
-def _dilatant_residual(beta, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b):
-    g, p, Im = _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
-    if not np.isfinite(g):
-        return -np.inf
+def _beta_of_rate(g, phi, phim, a, p_tr, Kdt, eta0, rd2, K3, lo, hi):
+    """beta on the dilatant branch for a given gdot_p: root of the decreasing polynomial
+    F(beta) = (rd2 g^2 + 2 eta0 g)(a x)^2 - (phi_m - x)^2 (p* + K dt beta g), x = phi - beta/K3,
+    on [lo, hi] with F(lo) >= 0 (safeguarded Newton)."""
+    Ag = rd2 * g * g + 2.0 * eta0 * g
+    beta = lo
+    for _ in range(200):
+        x = phi - beta / K3
+        w = phim - x
+        pb = p_tr + Kdt * beta * g
+        F = Ag * (a * x) ** 2 - w * w * pb
+        if F > 0.0:
+            lo = beta
+        else:
+            hi = beta
+        if F == 0.0 or hi - lo <= 4e-16 * hi:
+            break
+        dF = -2.0 * Ag * a * a * x / K3 - 2.0 * w * pb / K3 - w * w * Kdt * g
+        nb = beta - F / dF
+        beta = nb if lo < nb < hi else 0.5 * (lo + hi)
+    return beta
+
+
+@_jit
+def _residual(mode, x, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b, blo, bhi):
+    """R = tau* - G dt gdot - (mu_p + beta) p on the dilatant branch, parametrised by beta (mode 0,
+    closed form, fast) or by gdot (mode 1, inner solve for beta, well conditioned when p* << p)."""
+    if mode == 0:
+        beta = x
+        g, p, Im = _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
+        if not np.isfinite(g):
+            return -np.inf
+    else:
+        g = x
+        beta = _beta_of_rate(g, phi, phim, a, p_tr, Kdt, eta0, rd2, K3, blo, bhi)
+        p = p_tr + Kdt * beta * g
+        xe = phi - beta / K3
+        Im = (phim - xe) / (a * xe)
     Iv = eta0 * g / p
     return tau_tr - Gdt * g - (laws.friction(Iv, Im, phi, a, mu1, mu2, b) + beta) * p
 
 
 @_jit
-def _brent(lo, hi, rlo, rhi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
-           rtol_abs):
-    """Brent's method for R(beta) = 0 on [lo, hi] with R(lo) > 0 > R(hi); returns (beta, iters)."""
+def _brent(mode, lo, hi, rlo, rhi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2,
+           b, blo, bhi, rtol_abs):
+    """Brent's method for R = 0 on [lo, hi], R(lo) > 0 > R(hi); returns (root, R(root), iters)."""
     xa, xb, fa, fb = lo, hi, rlo, rhi
     xc, fc = xa, fa
     d = e = xb - xa
@@ -102,7 +142,7 @@ def _brent(lo, hi, rlo, rhi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3
         tol = 4.0e-16 * abs(xb) + 1e-300
         xm = 0.5 * (xc - xb)
         if abs(xm) <= tol or fb == 0.0 or abs(fb) <= rtol_abs:
-            return xb, it
+            return xb, fb, it
         if abs(e) >= tol and abs(fa) > abs(fb) and np.isfinite(fa) and np.isfinite(fc):
             s = fb / fa
             if xa == xc:
@@ -127,8 +167,61 @@ def _brent(lo, hi, rlo, rhi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3
             e = d
         xa, fa = xb, fb
         xb = xb + d if abs(d) > tol else xb + (tol if xm > 0 else -tol)
-        fb = _dilatant_residual(xb, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b)
-    return xb, -1
+        fb = _residual(mode, xb, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
+                       blo, bhi)
+    return xb, fb, -1
+
+
+@_jit
+def _dilatant_flow(beta_lo, r_lo, beta_guess, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
+                   mu1, mu2, b):
+    """Dilatant shear flow (f_1 = 0, xi_2 = 0): returns (beta, gdot_p, p, I_m, evaluations).
+
+    First in beta (closed-form gdot(beta), a few evaluations); if that leaves a residual (the
+    trial pressure is a vanishing part of the final one, so gdot(beta) is too steep to resolve),
+    again with gdot as the bracketed variable. evaluations < 0 means both failed.
+    """
+    beta_max = K3 * phi
+    beta_top = beta_lo + (beta_max - beta_lo) * (1.0 - 1e-15)
+    # converged: |R| small against the final stress, above the roundoff floor of tau* - G dt gdot
+    floor = 2e-15 * (tau_tr + mu1 * p_tr)
+    step = max(1e-14 * beta_max, 1e-8 * beta_lo, 2.0 * beta_guess)
+    lo, r_hi, n = beta_lo, 0.0, 1
+    hi = min(beta_lo + step, beta_top)
+    while True:
+        r_hi = _residual(0, hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
+                         0.0, 0.0)
+        if r_hi < 0.0 or hi >= beta_top:
+            break
+        lo, r_lo = hi, r_hi
+        n += 1
+        step *= 10.0
+        hi = min(beta_lo + step, beta_top)
+    if r_hi < 0.0:
+        beta, r, it = _brent(0, lo, hi, r_lo, r_hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
+                             K3, mu1, mu2, b, 0.0, 0.0, 0.1 * floor)
+        g, p, Im = _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
+        n += max(it, 0) + 1
+        if it >= 0 and abs(r) <= 1e-12 * (tau_tr - Gdt * g + mu1 * p) + floor:
+            return beta, g, p, Im, n
+    # fallback: gdot on [gdot(beta_lo), tau*/(G dt)], where R > 0 and R < 0
+    g_lo, _, _ = _dilatant_rate(beta_lo, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
+    g_hi = tau_tr / Gdt
+    r0 = _residual(1, g_lo, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
+                   beta_lo, beta_top)
+    r1 = _residual(1, g_hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
+                   beta_lo, beta_top)
+    if not (r0 > 0.0 and r1 < 0.0):
+        return beta_lo, 0.0, p_tr, 0.0, -1
+    g, r, it = _brent(1, g_lo, g_hi, r0, r1, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
+                      mu1, mu2, b, beta_lo, beta_top, 0.1 * floor)
+    beta = _beta_of_rate(g, phi, phim, a, p_tr, Kdt, eta0, rd2, K3, beta_lo, beta_top)
+    p = p_tr + Kdt * beta * g
+    xe = phi - beta / K3
+    n += max(it, 0) + 2
+    if it < 0 or abs(r) > 1e-10 * (tau_tr - Gdt * g + mu1 * p) + 10.0 * floor:
+        return beta, g, p, (phim - xe) / (a * xe), -1
+    return beta, g, p, (phim - xe) / (a * xe), n
 
 
 @_jit
@@ -195,36 +288,17 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out):
                 beta_guess = (pc - p_tr) / (Kdt * gc) if gc > 0.0 else 0.0
         if case == ELASTIC:
             beta_lo = max(0.0, K3 * (phi - phim))
-            r_lo = _dilatant_residual(beta_lo, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
-                                      mu1, mu2, b)
+            r_lo = _residual(0, beta_lo, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1,
+                             mu2, b, 0.0, 0.0)
             if y <= 0.0 and r_lo <= 0.0:                      # jammed and below yield: elastic
                 beta = beta_lo
             else:
                 case = SHEAR_FLOW
-                beta_max = K3 * phi
-                step = max(1e-14 * beta_max, 1e-8 * beta_lo, 2.0 * beta_guess)
-                lo, hi, r_hi = beta_lo, beta_lo + step, 0.0
-                nexp = 1
-                while True:
-                    hi = min(hi, beta_lo + (beta_max - beta_lo) * (1.0 - 1e-15))
-                    r_hi = _dilatant_residual(hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
-                                              K3, mu1, mu2, b)
-                    if r_hi < 0.0 or hi >= beta_max * (1.0 - 1e-14):
-                        break
-                    lo, r_lo = hi, r_hi
-                    nexp += 1
-                    step *= 10.0
-                    hi = beta_lo + step
-                if not r_hi < 0.0:
+                beta, g, p, Im, iters = _dilatant_flow(beta_lo, r_lo, beta_guess, phi, phim, a,
+                                                       p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1,
+                                                       mu2, b)
+                if iters < 0:
                     case = FAILED
-                else:
-                    rtol_abs = 1e-14 * (tau_tr + mu1 * p_tr)
-                    beta, iters = _brent(lo, hi, r_lo, r_hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
-                                         eta0, rd2, K3, mu1, mu2, b, rtol_abs)
-                    if iters < 0:
-                        case = FAILED
-                    iters += nexp + 1                 # residual evaluations, bracketing included
-                    g, p, Im = _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
 
     taubar = tau_tr - Gdt * g
     if case == SEPARATED or taubar < 0.0:

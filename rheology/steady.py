@@ -284,7 +284,7 @@ def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi
         return value(steady_state_stress(np.exp(logt), ph, m)) - tg
 
     res = elementwise.find_root(resid, (np.log(taus[i, j]), np.log(taus[i, j + 1])),
-                                args=(tg, ph), tolerances=dict(xatol=1e-15, xrtol=0.0))
+                                args=(tg, ph), tolerances=dict(xatol=1e-13, xrtol=4e-16))
     st_root = steady_state_stress(np.exp(res.x), ph, m)
     stable = ~up[i, j]                                   # crossing upwards: d(control)/d(taubar) > 0
     branch = np.zeros(i.size, dtype=int)

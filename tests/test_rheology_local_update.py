@@ -167,3 +167,29 @@ def test_bad_input(kw, name):
 def test_missing_moduli_are_named():
     with pytest.raises(ValueError, match="G .* is not set for material hermes2016"):
         r.local_update(-np.eye(3), np.zeros((3, 3)), 0.5, 0.1, 1e-4, r.get_material("hermes2016"))
+
+
+@SET
+@given(materials(), st.integers(0, 2 ** 32 - 1))
+def test_dilatancy_from_a_vanishing_trial_pressure(m, seed):
+    """Expansion leaves a trial pressure 1e-15..1e-2 of p_n: all of the final pressure is made by
+    dilatancy, where gdot(beta) is too steep to resolve; the update must still land on f_1 = 0."""
+    rng = np.random.default_rng(seed)
+    n = 200
+    p_n = 10.0 ** rng.uniform(-2, 3, n) * m.tau_star
+    sig = -p_n[:, None, None] * np.eye(3)
+    sig[:, 0, 1] = sig[:, 1, 0] = rng.uniform(0.1, 1.0, n) * p_n
+    dt = 10.0 ** rng.uniform(-5, -1)
+    frac = 10.0 ** rng.uniform(-15, -2, n)
+    L = np.zeros((n, 3, 3))
+    L[:, 0, 1] = 10.0 ** rng.uniform(-2, 2, n)
+    L[:, 1, 1] = p_n * (1 - frac) / (m.K * dt)        # p* = p_n - K dt tr(D) = frac p_n (+ spin)
+    f = rng.uniform(0, 0.5, n)
+    phi = rng.uniform(0.5, 0.99, n) * r.phi_m(f, m)
+    u = r.local_update(sig, L, phi, f, dt, m)
+    f1, _, _ = r.yield_functions(u.stress, u.shear_rate_p, phi, f, m, u.xi2)
+    flowing = u.case == SHEAR_FLOW
+    # tolerance: relative to the final stress, above the roundoff of tau* - G dt gdot
+    trial = np.array([r.invariants(sig[k] + dt * 2 * m.G * 0.5 * (L[k] + L[k].T))[0] for k in range(n)])
+    scale = 1e-9 * (u.taubar + m.mu_c * u.pressure) + 2e-14 * trial
+    assert np.all(np.abs(f1[flowing]) <= scale[flowing])

@@ -118,9 +118,9 @@ def test_gdot_dst_is_the_high_stress_limit(mp, s):
     gd = r.gdot_dst(phi, m)
     err = [abs(r.steady_state_stress(t * m.tau_star, phi, m).shear_rate / gd - 1)
            for t in (1e6, 1e12)]
-    # the approach is ~ tau^-1/2: six decades of stress cut the error ~1000-fold (a wrong Eq. 33
-    # would leave a constant error)
-    assert err[1] < 1e-3 and err[1] < 0.01 * err[0] + 1e-12
+    # the approach is ~ tau^-1/2: six decades of stress cut the error ~1000-fold unless it is
+    # already at the 1e-6 level; a wrong Eq. 33 would leave an O(1) constant error
+    assert err[1] < 1e-3 and (err[1] < 0.01 * err[0] or err[1] < 1e-6)
 
 
 def test_table1a_jams_above_phi_c_and_flows_below():
