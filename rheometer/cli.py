@@ -1,0 +1,326 @@
+"""``rheometer``: the 0-D virtual rheometer from the shell (CSV, units in the column names; PNG).
+
+Every subcommand runs on a default material (hermes2016, the cornstarch fit of Hermes et al. 2016)
+with no options and writes a CSV and a PNG named after it (flow_curve.csv, flow_curve.png, ...)
+in the current folder.
+
+Examples::
+
+    rheometer flow-curve
+    rheometer flow-curve --material hermes2016 --phi 0.48 0.50 0.52 --stress-range 1e-3 1e4 \\
+        --points 200 --out fc.csv
+    rheometer flow-curve --control rate --rate-range 1e-3 1e2      # every branch, stable or not
+    rheometer relax --material hermes2016 --phi 0.52 --stress 10 --G 1e4 --K0 1 --t-end 50 \\
+        --out relax.csv
+    rheometer startup --rate 0.5 --t-end 60
+    rheometer creep --stress 10 --t-end 60
+    rheometer program steps.txt         # e.g. lines 'shear at 10 1/s for 60 s', 'rest for 100 s'
+    rheometer material-point --rate 1 --dt 1e-3 --control pressure --pressure 2
+    rheometer materials
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+DEFAULT_MATERIAL = "hermes2016"
+_EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
+           "skeleton; 'mixture shear stress' = granular + eta0 (1 + 5/2 phi) gdot is what a "
+           "rheometer measures. G [Pa] and K0 default to the material's values, else G = 1e4 Pa "
+           "(Fig. 15: relaxation times of tens of seconds) and K0 = 1 (Tables 5, 7).")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage block)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _set_value(text: str):
+    if "=" not in text:
+        raise argparse.ArgumentTypeError(f"--set expects NAME=VALUE, got {text!r}")
+    name, value = (s.strip() for s in text.split("=", 1))
+    if value.lower() in ("none", "null"):
+        return name, None
+    try:
+        return name, float(value)
+    except ValueError:
+        return name, value
+
+
+def _material(args):
+    import rheology
+
+    overrides = dict(args.set or [])
+    return rheology.get_material(args.material, **overrides)
+
+
+def _common(p, phi_default, out_default):
+    p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
+                   help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
+    p.add_argument("--phi", type=float, nargs="+", default=phi_default, metavar="PHI",
+                   help=f"volume fraction(s) (default {' '.join(map(str, phi_default))})")
+    p.add_argument("--set", action="append", type=_set_value, metavar="NAME=VALUE",
+                   help="override any material parameter, e.g. --set eta0=0.01 (repeatable)")
+    p.add_argument("--out", default=f"{out_default}.csv", metavar="FILE.csv",
+                   help=f"CSV output (default {out_default}.csv)")
+    p.add_argument("--plot", default=None, metavar="FILE.png",
+                   help=f"figure (default: the --out name with .png, {out_default}.png; 'none' "
+                        f"for no figure)")
+
+
+def _transient_options(p, t_end=None):
+    p.add_argument("--G", type=float, default=None, help="granular shear modulus [Pa]")
+    p.add_argument("--K0", type=float, default=None, help="structure-rate scale K0 [-]")
+    if t_end is not None:
+        p.add_argument("--t-end", type=float, default=t_end,
+                       help=f"duration [s] (default {t_end:g})")
+    p.add_argument("--rtol", type=float, default=1e-7, help="IDA relative tolerance (1e-7)")
+    p.add_argument("--points", type=int, default=300, help="output rows per step (300)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = _Parser(prog="rheometer", description=__doc__.replace("``", "").replace("::", ":"),
+                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_EPILOG)
+    sub = ap.add_subparsers(dest="cmd", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    p = sub.add_parser("materials", help="list the parameter sets and their sources")
+    p.add_argument("--material", default=None, metavar="NAME", help="show every parameter of one")
+    p.add_argument("--set", action="append", type=_set_value, metavar="NAME=VALUE",
+                   help="override parameters of --material")
+    p.add_argument("--out", default=None, metavar="FILE.csv", help="also write the table as CSV")
+
+    p = sub.add_parser(
+        "flow-curve", help="steady flow curves (stress, mixture-stress or rate control)",
+        description="Steady flow curves. --control stress (default) imposes the GRANULAR shear "
+                    "stress: one steady state each, the whole S-shaped DST curve. "
+                    "--control mixture-stress imposes the MIXTURE shear stress and --control rate "
+                    "the shear rate: every steady state, with columns branch and stable.",
+        epilog=_EPILOG)
+    _common(p, [0.48, 0.50, 0.52], "flow_curve")
+    p.add_argument("--control", choices=("stress", "mixture-stress", "rate"), default="stress")
+    p.add_argument("--stress-range", type=float, nargs=2, default=[1e-3, 1e4], metavar=("LO", "HI"),
+                   help="stress range [Pa] (granular or mixture per --control; 1e-3 1e4)")
+    p.add_argument("--rate-range", type=float, nargs=2, default=[1e-4, 1e3], metavar=("LO", "HI"),
+                   help="shear-rate range [1/s] for --control rate (1e-4 1e3)")
+    p.add_argument("--points", type=int, default=200, help="values, log-spaced (200)")
+
+    transients = (
+        ("startup", "start-up of shear at an imposed rate, from rest", 0.50, 60.0,
+         ("--rate", 0.5, "imposed shear rate [1/s] (0.5)")),
+        ("creep", "creep at an imposed mixture shear stress, from rest", 0.50, 60.0,
+         ("--stress", 10.0, "imposed MIXTURE shear stress [Pa] (10)")),
+        ("relax", "stress relaxation after cessation of steady shear (Fig. 15)", 0.52, 50.0,
+         ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
+                              "[Pa] (1000)")))
+    for name, text, phi, t_end, (flag, value, flag_help) in transients:
+        p = sub.add_parser(name, help=text, epilog=_EPILOG)
+        _common(p, [phi], name)
+        p.add_argument(flag, type=float, default=value, help=flag_help)
+        _transient_options(p, t_end)
+
+    p = sub.add_parser("program", help="a test program from a text file (steps and ramps)",
+                       epilog="Lines: 'shear at 10 1/s for 60 s', 'shear at 1 1/s until strain 5', "
+                              "'stress 5 Pa for 60 s', 'stress 5 Pa until strain 10', "
+                              "'rest for 100 s', 'ramp rate from 0.1 to 100 1/s over 60 s [log|"
+                              "linear]', 'ramp stress from 1 to 100 Pa over 60 s', 'start from "
+                              "steady stress 10 Pa'; '#' comments. Without FILE: a rate sweep "
+                              "up and down (hysteresis).")
+    p.add_argument("file", nargs="?", default=None, help="program file ('-' for stdin)")
+    _common(p, [0.46], "program")
+    _transient_options(p)
+
+    p = sub.add_parser("material-point",
+                       help="the Table 8 tensor law at one point in simple shear (time-stepped)",
+                       epilog="Volume control keeps phi; pressure control imposes the granular "
+                              "pressure and lets phi evolve. Start from the steady state at "
+                              "--stress0 or from rest under --pressure0.")
+    _common(p, [0.50], "material_point")
+    p.add_argument("--rate", type=float, default=0.5, help="shear rate [1/s] (0.5)")
+    p.add_argument("--t-end", type=float, default=10.0, help="duration [s] (10)")
+    p.add_argument("--dt", type=float, default=1e-3, help="time step [s] (1e-3)")
+    p.add_argument("--control", choices=("volume", "pressure"), default="volume")
+    p.add_argument("--pressure", type=float, default=None,
+                   help="imposed granular pressure [Pa] (pressure control)")
+    p.add_argument("--stress0", type=float, default=None,
+                   help="start from the steady state at this granular shear stress [Pa]")
+    p.add_argument("--pressure0", type=float, default=None,
+                   help="contact pressure at rest [Pa] (default 1e-3 tau*)")
+    p.add_argument("--f0", type=float, default=None, help="initial structure f")
+    p.add_argument("--G", type=float, default=None, help="shear modulus [Pa] (default 1e4)")
+    p.add_argument("--K", type=float, default=None, help="bulk modulus [Pa] (default 2.18 G)")
+    p.add_argument("--K0", type=float, default=None, help="structure-rate scale (default 1)")
+    p.add_argument("--points", type=int, default=400, help="output rows (400)")
+    return ap
+
+
+# ------------------------------------------------------------------ commands
+def _write(args, df: pd.DataFrame, fig_maker) -> str:
+    from rheology.io import atomic_savefig, atomic_write_csv
+
+    plot = args.plot if args.plot is not None else str(Path(args.out).with_suffix(".png"))
+    if Path(args.out).suffix.lower() != ".csv":
+        raise ValueError(f"--out {args.out!r} must name a .csv file")
+    atomic_write_csv(args.out, df)
+    msg = f"wrote {args.out} ({len(df)} rows)"
+    if plot.lower() != "none":
+        import matplotlib.pyplot as plt
+
+        fig = fig_maker()
+        atomic_savefig(fig, plot)
+        plt.close(fig)
+        msg += f" and {plot}"
+    events = df.attrs.get("events") or []
+    if events:
+        shown = "; ".join(f"t = {t:.6g} s (step {k}): {what}" for t, k, what in events[:5])
+        msg += f"\nevents: {shown}" + (f"; ... ({len(events)} in all)" if len(events) > 5 else "")
+    return msg
+
+
+def _per_phi(args, run) -> pd.DataFrame:
+    frames = []
+    for ph in args.phi:
+        df = run(ph)
+        df.insert(0, "phi0" if "phi" in df.columns else "phi", ph)
+        frames.append(df)
+    out = pd.concat(frames, ignore_index=True)
+    out.attrs.update(frames[0].attrs)
+    return out
+
+
+def _cmd_materials(args) -> str:
+    import rheology
+
+    if args.material is not None:
+        print(_material(args).summary())
+        return ""
+    rows = rheology.list_materials()
+    width = max(len(n) for n, _ in rows)
+    for name, cite in rows:
+        print(f"{name:{width}s}  {cite}")
+    if args.out:
+        from rheology.io import atomic_write_csv
+
+        table = pd.DataFrame([{"name": n, "citation": c, **{
+            k: getattr(rheology.get_material(n), k) for k in rheology.materials.FIELD_UNITS}}
+            for n, c in rows])
+        atomic_write_csv(args.out, table)
+        return f"wrote {args.out} ({len(table)} rows)"
+    return ""
+
+
+def _cmd_flow_curve(args) -> str:
+    from . import plots
+    from .protocols import flow_curve
+
+    m = _material(args)
+    n = int(args.points)
+    if n < 2:
+        raise ValueError(f"--points = {n} must be at least 2")
+    lo, hi = args.rate_range if args.control == "rate" else args.stress_range
+    if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
+        which = "--rate-range" if args.control == "rate" else "--stress-range"
+        raise ValueError(f"{which} {lo:g} {hi:g} must satisfy 0 < LO < HI")
+    values = np.logspace(np.log10(lo), np.log10(hi), n)
+    df = (flow_curve(m, args.phi, rate=values, control="rate") if args.control == "rate" else
+          flow_curve(m, args.phi, stress=values, control=args.control))
+    return _write(args, df, lambda: plots.flow_curve_figure(df, m))
+
+
+def _transient(args, kind: str) -> str:
+    from . import plots
+    from .protocols import creep, relax, startup
+
+    m = _material(args)
+    opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points)
+    if kind == "startup":
+        df = _per_phi(args, lambda ph: startup(m, ph, args.rate, args.t_end, **opts))
+        what = f"start-up at {args.rate:g} 1/s"
+    elif kind == "creep":
+        df = _per_phi(args, lambda ph: creep(m, ph, args.stress, args.t_end, **opts))
+        what = f"creep at mixture stress {args.stress:g} Pa"
+    else:
+        df = _per_phi(args, lambda ph: relax(m, ph, args.stress, args.t_end, **opts))
+        what = f"relaxation from steady granular stress {args.stress:g} Pa"
+    title = f"{m.name}: {what} (G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})"
+    frames = {f"phi = {ph:g}": d for ph, d in df.groupby("phi", sort=False)}
+    return _write(args, df, lambda: plots.transient_figure(frames, title, log_time=True))
+
+
+def _cmd_program(args) -> str:
+    from . import plots
+    from .program import HYSTERESIS_PROGRAM
+    from .protocols import run_program
+
+    if args.file is None:
+        text, name = HYSTERESIS_PROGRAM, "built-in rate sweep up and down"
+    elif args.file == "-":
+        text, name = sys.stdin.read(), "stdin"
+    else:
+        path = Path(args.file)
+        if not path.is_file():
+            raise ValueError(f"program file {args.file!r} not found")
+        text, name = path.read_text(encoding="utf-8"), path.name
+    m = _material(args)
+    df = _per_phi(args, lambda ph: run_program(m, ph, text, G=args.G, K0=args.K0, rtol=args.rtol,
+                                               points=args.points))
+    title = (f"{m.name}: program '{name}', phi = {', '.join(f'{p:g}' for p in args.phi)} "
+             f"(G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})")
+    first = df[df["phi"] == args.phi[0]]
+    first.attrs.update(df.attrs)
+    return _write(args, df, lambda: plots.program_figure(first, title))
+
+
+def _cmd_material_point(args) -> str:
+    from . import plots
+    from .material_point import simple_shear_point
+
+    m = _material(args)
+    df = _per_phi(args, lambda ph: simple_shear_point(
+        m, ph, args.rate, args.t_end, args.dt, control=args.control, pressure=args.pressure,
+        f0=args.f0, stress0=args.stress0, pressure0=args.pressure0, G=args.G, K=args.K,
+        K0=args.K0, points=args.points))
+    first = df[df["phi"] == args.phi[0]]
+    title = (f"{m.name}: material point, {args.control} control, rate {args.rate:g} 1/s, "
+             f"dt = {args.dt:g} s, phi0 = {args.phi[0]:g}")
+    return _write(args, df, lambda: plots.material_point_figure(first, title))
+
+
+_COMMANDS = {"materials": _cmd_materials, "flow-curve": _cmd_flow_curve,
+             "startup": lambda a: _transient(a, "startup"),
+             "creep": lambda a: _transient(a, "creep"), "relax": lambda a: _transient(a, "relax"),
+             "program": _cmd_program, "material-point": _cmd_material_point}
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``rheometer`` console script; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        msg = _COMMANDS[args.cmd](args)
+    except ValueError as exc:
+        print(f"rheometer {args.cmd}: error: {_one_line(exc)}", file=sys.stderr)
+        return 2
+    except (RuntimeError, OSError) as exc:
+        print(f"rheometer {args.cmd}: failed: {_one_line(exc)}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"rheometer {args.cmd}: interrupted", file=sys.stderr)
+        return 130
+    if msg:
+        print(msg)
+    return 0
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,324 @@
+"""Material-point mode: the full Table 8 local update driven through homogeneous simple shear.
+
+This is where the tensor law that ``shear1d`` and ``mpm2d`` use is verified in 0-D. Each time step
+calls :func:`rheology.local_update.update_point` (the shared numba kernel; nothing of the law is
+re-implemented here) with the velocity gradient of simple shear in the x-y plane::
+
+    L = [[0, gdot, 0],
+         [0, e,    0],
+         [0, 0,    0]]
+
+- volume-controlled: ``e = 0``, phi fixed;
+- pressure-controlled: the dilation rate ``e`` is found every step (bracketed secant/bisection on
+  the step's end pressure) so that the granular pressure equals the imposed one, and the volume
+  fraction follows mass conservation implicitly, ``phi_{n+1} = phi_n / (1 + e dt)``, the value
+  the step is computed with.
+
+The scheme is first order in dt (backward-Euler plastic correction, explicit Jaumann spin,
+structure staggered after the stress). Its steady state is Eq. (1)-(2) up to the normal-stress
+terms O((taubar/G)^2) of the Jaumann rate.
+
+Start from a steady state (``stress0``) or from rest with a small isotropic contact pressure
+(``pressure0``): a point at exactly zero pressure sheared isochorically stays separated.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+import pandas as pd
+
+import rheology
+from rheology.checks import check_nonnegative, check_positive, check_range
+from rheology.local_update import (CASE_NAMES, COMPACTION, FAILED, NOUT, OUT_FIELDS, SHEAR_FLOW,
+                                   update_point)
+from rheology.materials import Material
+from rheology.numba_cache import guard
+
+from .transient import DEFAULT_G, DEFAULT_K0
+
+guard(__file__)                          # drop cached kernels if rheology's laws changed
+_jit = nb.njit(cache=True, error_model="numpy")
+
+#: Default bulk modulus relative to G where the material has none: K/G of Tables 4-7 (8.3/3.8).
+K_OVER_G = 8.3 / 3.8
+#: Recorded per output row: time, 3x3 stress (xx, yy, zz, xy), phi, dilation rate, then OUT_FIELDS.
+_REC = 7
+_OF = {name: _REC + i for i, name in enumerate(OUT_FIELDS)}
+#: Return codes of the stepping kernel.
+OK, UPDATE_FAILED, PRESSURE_FAILED, NOT_FINITE, YIELD_VIOLATED = 0, 1, 2, 3, 4
+_MAXIT = 200
+#: Largest accepted yield-function residual |f_1|/(taubar + mu_p p) of a flowing step, and
+#: pressure mismatch |p - p_target|/p_target of a pressure-controlled step.
+YIELD_TOL = 1e-6
+PRESSURE_TOL = 1e-9
+
+
+@_jit
+def yield_residual(out):
+    """|f_1|/(taubar + mu_p p) of a flowing local update (0 for the other cases).
+
+    A flowing step must end on the yield surface, f_1 = taubar - (mu_p + beta) p = 0; the driver
+    checks it so that an inaccurate solve of the shared kernel is reported, not propagated.
+    """
+    case = out[12]
+    if case != SHEAR_FLOW and case != COMPACTION:
+        return 0.0
+    taubar, p, mu, beta = out[10], out[11], out[4], out[8]
+    return abs(taubar - (mu + beta) * p) / max(taubar + mu * p, 1e-300)
+
+
+@_jit
+def _step(sig, phi, f, gdot, e, dt, P, sig_out, out):
+    """One local update of simple shear with dilation rate e; returns phi at the end of the step."""
+    L = np.zeros((3, 3))
+    L[0, 1] = gdot
+    L[1, 1] = e
+    phi_new = phi / (1.0 + e * dt)
+    update_point(sig, L, phi_new, f, dt, P, sig_out, out)
+    return phi_new
+
+
+@_jit
+def _pressure_residual(e, sig, phi, f, gdot, dt, p_target, P, sig_out, out):
+    """p_{n+1}(e) - p_target after the step with dilation rate e; NaN if the update failed."""
+    _step(sig, phi, f, gdot, e, dt, P, sig_out, out)
+    return np.nan if out[12] == FAILED else out[11] - p_target
+
+
+@_jit
+def _pressure_step(sig, phi, f, gdot, e_guess, dt, p_target, K, P, sig_out, out):
+    """Step with the dilation rate e that gives end pressure p_target; returns (e, ok).
+
+    r(e) = p_{n+1}(e) - p_target decreases with e (dilating lowers both the trial pressure and,
+    through phi_{n+1}, the critical-state pressure); it is bracketed by stepping out from the
+    previous rate and solved by the Illinois variant of regula falsi. r(e) jumps where the trial
+    pressure crosses zero (separation): a bracket that closes on such a jump is a failure.
+    (sig_out, out) always hold the step at the returned e.
+    """
+    p_n = -(sig[0, 0] + sig[1, 1] + sig[2, 2]) / 3.0
+    tol = 1e-13 * p_target
+    e_min = (phi - 0.999) / (0.999 * dt)           # keeps phi_{n+1} below 0.999
+    h = max(abs(e_guess), abs(p_n - p_target) / (K * dt), 1e-9 / dt)
+    args = (sig, phi, f, gdot, dt, p_target, P, sig_out, out)
+    a = e_guess
+    ra = _pressure_residual(a, *args)
+    if not np.isfinite(ra) or abs(ra) <= tol:
+        return a, np.isfinite(ra)
+    b, rb = a, ra
+    for _ in range(_MAXIT):                         # bracket
+        if ra > 0.0:
+            b = a + h                               # dilate more: lower pressure
+        else:
+            b = a - h if a - h > e_min else 0.5 * (a + e_min)
+        rb = _pressure_residual(b, *args)
+        if not np.isfinite(rb) or (rb > 0.0) != (ra > 0.0) or abs(rb) <= tol:
+            break
+        a, ra = b, rb
+        h *= 4.0
+    if not np.isfinite(rb) or (rb > 0.0) == (ra > 0.0) or abs(rb) <= tol:
+        return b, bool(np.isfinite(rb) and abs(rb) <= tol)
+    side = 0
+    c = b
+    for _ in range(_MAXIT):                         # Illinois regula falsi
+        c = b - rb * (b - a) / (rb - ra)
+        if not (min(a, b) < c < max(a, b)):
+            c = 0.5 * (a + b)
+        rc = _pressure_residual(c, *args)
+        if not np.isfinite(rc) or abs(rc) <= tol:
+            return c, np.isfinite(rc)
+        if abs(b - a) <= 4e-16 * max(abs(a), abs(b)):       # converged onto a jump of p(e)
+            return c, abs(rc) <= PRESSURE_TOL * p_target
+        if (rc > 0.0) == (rb > 0.0):
+            b, rb = c, rc
+            if side == -1:
+                ra *= 0.5
+            side = -1
+        else:
+            a, ra = b, rb
+            b, rb = c, rc
+            if side == 1:
+                ra *= 0.5
+            side = 1
+    return c, False
+
+
+@_jit
+def _run(sig0, phi0, f0, gdot, dt, nsteps, every, mode, p_target, K, P, rec):
+    """March nsteps of dt; write every ``every``-th state into rec. Returns (code, step, rows)."""
+    sig = sig0.copy()
+    sig_out = np.empty((3, 3))
+    out = np.zeros(NOUT)
+    phi, f, e = phi0, f0, 0.0
+    row = 0
+    for n in range(nsteps):
+        if mode == 0:
+            phi_new = _step(sig, phi, f, gdot, 0.0, dt, P, sig_out, out)
+            ok = out[12] != FAILED
+            code = UPDATE_FAILED
+        else:
+            e, ok = _pressure_step(sig, phi, f, gdot, e, dt, p_target, K, P, sig_out, out)
+            phi_new = phi / (1.0 + e * dt)
+            code = PRESSURE_FAILED
+        if not ok:
+            return code, n, row
+        if yield_residual(out) > YIELD_TOL:
+            return YIELD_VIOLATED, n, row
+        finite = np.isfinite(out[0]) and np.isfinite(phi_new)
+        for i in range(3):
+            for j in range(3):
+                finite = finite and np.isfinite(sig_out[i, j])
+        if not finite:
+            return NOT_FINITE, n, row
+        sig[:, :] = sig_out
+        phi, f = phi_new, out[0]
+        if (n + 1) % every == 0 or n == nsteps - 1:
+            rec[row, 0] = (n + 1) * dt
+            rec[row, 1], rec[row, 2], rec[row, 3], rec[row, 4] = sig[0, 0], sig[1, 1], sig[2, 2], \
+                sig[0, 1]
+            rec[row, 5], rec[row, 6] = phi, e
+            for k in range(NOUT):
+                rec[row, _REC + k] = out[k]
+            row += 1
+    return OK, nsteps, row
+
+
+def point_parameters(m: Material, G=None, K=None, K0=None) -> tuple[Material, np.ndarray]:
+    """The material with G, K, K0 filled in (given, the material's, or the defaults) and its
+    kernel parameter vector. Defaults: G = 1e4 Pa, K = (8.3/3.8) G, K0 = 1."""
+    G = float(check_positive("G [Pa]", G if G is not None else (m.G or DEFAULT_G)))
+    K = float(check_positive("K [Pa]", K if K is not None else (m.K or K_OVER_G * G)))
+    K0 = float(check_nonnegative("K0", K0 if K0 is not None else
+                                 (m.K0 if m.K0 is not None else DEFAULT_K0)))
+    m = m.replace(G=G, K=K, K0=K0)
+    return m, rheology.kernel_parameters(m)
+
+
+def initial_point(m: Material, phi: float, *, stress0=None, f0=None, pressure0=None):
+    """Initial (stress 3x3, f): the steady state at granular shear stress ``stress0`` [Pa], or
+    rest under isotropic contact pressure ``pressure0`` [Pa] (default 1e-3 tau*) with f0 (0)."""
+    sig = np.zeros((3, 3))
+    if stress0 is not None:
+        st = rheology.steady_state_stress(float(check_positive("stress0 [Pa]", stress0)), phi, m)
+        f = float(st.f) if f0 is None else float(check_range("f0", f0, 0.0, 1.0))
+        p = float(st.pressure)
+        sig[0, 1] = sig[1, 0] = float(stress0)
+    else:
+        f = 0.0 if f0 is None else float(check_range("f0", f0, 0.0, 1.0))
+        p = float(check_positive("pressure0 [Pa]", pressure0 if pressure0 is not None
+                                 else 1e-3 * m.tau_star))
+    sig[0, 0] = sig[1, 1] = sig[2, 2] = -p
+    return sig, f
+
+
+def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: float, *,
+                       control: str = "volume", pressure: float | None = None,
+                       f0: float | None = None, stress0: float | None = None,
+                       pressure0: float | None = None, G: float | None = None,
+                       K: float | None = None, K0: float | None = None,
+                       points: int = 400) -> pd.DataFrame:
+    """Drive one material point of the Table 8 law through homogeneous simple shear.
+
+    Parameters
+    ----------
+    material : str or Material
+    phi : float
+        (Initial) volume fraction, 0 < phi < 1.
+    rate : float
+        Imposed shear rate gdot = L_xy [1/s], >= 0.
+    t_end, dt : float
+        Duration and time step [s].
+    control : {"volume", "pressure"}
+        Fixed phi (L_yy = 0), or imposed granular pressure ``pressure`` [Pa] (L_yy solved).
+    stress0 : float, optional
+        Start from the steady state at this granular shear stress [Pa] (sigma_xy = stress0,
+        isotropic pressure and f of Eq. 13); otherwise from rest.
+    f0 : float, optional
+        Initial structure (default: steady f, or 0 from rest).
+    pressure0 : float, optional
+        Contact pressure at rest [Pa] (default 1e-3 tau*, or ``pressure`` under pressure control).
+    G, K, K0 : float, optional
+        Moduli [Pa] and structure rate; default the material's, else 1e4 Pa, (8.3/3.8) G, 1.
+    points : int
+        Approximate number of output rows.
+
+    Returns
+    -------
+    DataFrame
+        ``time_s, shear_rate_per_s, shear_stress_Pa`` (granular sigma_xy),
+        ``granular_shear_stress_Pa`` (taubar), ``granular_pressure_Pa, normal_stress_xx_Pa,
+        normal_stress_yy_Pa, normal_stress_zz_Pa, N1_Pa, N2_Pa, f, plastic_shear_rate_per_s,
+        phi, dilation_rate_per_s, beta, xi2_per_s, case, iterations``.
+
+    Raises
+    ------
+    ValueError
+        Bad input (including a time step so large that the run would have fewer than one step).
+    RuntimeError
+        The local update or the pressure solve failed, or the state became non-finite (with the
+        step, time and state).
+    """
+    m0 = rheology.get_material(material)
+    phi = float(check_range("phi", phi, 0.0, 1.0, lo_closed=False, hi_closed=False))
+    rate = float(check_nonnegative("rate [1/s]", rate))
+    t_end = float(check_positive("t_end [s]", t_end))
+    dt = float(check_range("dt [s]", dt, 0.0, t_end, lo_closed=False,
+                           note="the time step must not exceed t_end"))
+    if control not in ("volume", "pressure"):
+        raise ValueError(f"control = {control!r} must be 'volume' or 'pressure'")
+    if control == "pressure":
+        if pressure is None:
+            raise ValueError("pressure control needs the imposed granular pressure [Pa]")
+        pressure = float(check_positive("pressure [Pa]", pressure))
+        if pressure0 is None and stress0 is None:
+            pressure0 = pressure
+    if control == "volume":
+        check_range("phi", phi, 0.0, m0.phi_j, lo_closed=False, hi_closed=False,
+                    note=f"volume-controlled shear needs phi below phi_j = {m0.phi_j}")
+    m, P = point_parameters(m0, G, K, K0)
+    sig0, f_init = initial_point(m, phi, stress0=stress0, f0=f0, pressure0=pressure0)
+    nsteps = int(round(t_end / dt))
+    every = max(1, nsteps // int(check_range("points", points, 1, 10 ** 7)))
+    rec = np.empty((nsteps // every + 2, _REC + NOUT))
+    code, n, rows = _run(sig0, phi, f_init, rate, dt, nsteps, every,
+                         0 if control == "volume" else 1, pressure or 0.0, m.K, P, rec)
+    if code != OK:
+        what = {UPDATE_FAILED: "the local update's bracketed solve failed",
+                PRESSURE_FAILED: "no dilation rate gives the imposed pressure (p(e) jumps over "
+                                 "it, e.g. to separation)",
+                NOT_FINITE: "the state became non-finite",
+                YIELD_VIOLATED: f"the local update ended off the yield surface (|f_1| > "
+                                f"{YIELD_TOL:g} relative)"}[code]
+        last = rec[rows - 1] if rows else None
+        state = (f"last recorded t = {last[0]:.6g} s: sigma_xy = {last[4]:.6g} Pa, "
+                 f"p = {last[_OF['pressure']]:.6g} Pa, f = {last[_OF['f']]:.6g}, "
+                 f"phi = {last[5]:.6g}" if last is not None else "before the first output row")
+        raise RuntimeError(f"material point ({control} control, phi0 = {phi:g}, rate = {rate:g} "
+                           f"1/s, dt = {dt:g} s): {what} at step {n + 1} (t = {(n + 1) * dt:.6g} "
+                           f"s); {state}; reduce dt")
+    return _frame(np.vstack([_initial_row(sig0, phi, f_init), rec[:rows]]), rate)
+
+
+def _initial_row(sig0, phi, f):
+    row = np.full(_REC + NOUT, np.nan)
+    row[:7] = [0.0, sig0[0, 0], sig0[1, 1], sig0[2, 2], sig0[0, 1], phi, 0.0]
+    taubar, p = rheology.invariants(sig0)
+    row[_OF["f"]], row[_OF["taubar"]], row[_OF["pressure"]] = f, float(taubar), float(p)
+    return row
+
+
+def _frame(rec: np.ndarray, rate: float) -> pd.DataFrame:
+    sxx, syy, szz, sxy = rec[:, 1], rec[:, 2], rec[:, 3], rec[:, 4]
+    case = rec[:, _OF["case"]]
+    return pd.DataFrame({
+        "time_s": rec[:, 0], "shear_rate_per_s": np.full(rec.shape[0], rate),
+        "shear_stress_Pa": sxy, "granular_shear_stress_Pa": rec[:, _OF["taubar"]],
+        "granular_pressure_Pa": rec[:, _OF["pressure"]], "normal_stress_xx_Pa": sxx,
+        "normal_stress_yy_Pa": syy, "normal_stress_zz_Pa": szz, "N1_Pa": sxx - syy,
+        "N2_Pa": syy - szz, "f": rec[:, _OF["f"]],
+        "plastic_shear_rate_per_s": rec[:, _OF["shear_rate_p"]], "phi": rec[:, 5],
+        "dilation_rate_per_s": rec[:, 6], "beta": rec[:, _OF["beta"]],
+        "xi2_per_s": rec[:, _OF["xi2"]],
+        "case": [CASE_NAMES.get(int(c), "initial") if np.isfinite(c) else "initial"
+                 for c in case],
+        "iterations": rec[:, _OF["iterations"]]})

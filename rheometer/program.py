@@ -1,0 +1,183 @@
+"""Test programs written the way rheologists say them, one step per line.
+
+::
+
+    # a rate sweep up and down (hysteresis)
+    start at rest
+    ramp rate from 0.01 to 1 1/s over 120 s log
+    ramp rate from 1 to 0.01 1/s over 120 s log
+    rest for 60 s
+
+Lines (case-insensitive; ``#`` starts a comment; blank lines are ignored):
+
+=============================================================  ==================================
+``shear at <rate> 1/s for <time> s``                            constant shear rate
+``shear at <rate> 1/s until strain <x>``                        ... until the strain grew by x
+``stress <tau> Pa for <time> s``                                constant mixture shear stress
+``stress <tau> Pa until strain <x> [within <time> s]``          creep until a strain (time limit)
+``rest for <time> s``                                           zero shear rate (relaxation)
+``ramp rate from <a> to <b> 1/s over <time> s [log|linear]``    rate ramp (default log)
+``ramp stress from <a> to <b> Pa over <time> s [log|linear]``   mixture-stress ramp (default log)
+``start at rest``                                               initial state (default), first
+``start from steady stress <tau> Pa``                           steady state at granular stress
+``start from steady rate <rate> 1/s``                           lowest stable steady state
+=============================================================  ==================================
+
+Units: rates ``1/s``, ``/s``, ``s^-1``; times ``ms``, ``s``, ``min``, ``h``; stresses ``mPa``,
+``Pa``, ``kPa``, ``MPa``; strains plain or in ``%``. A line that cannot be read raises
+``ValueError("program line N: ...")`` naming what was expected.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from .transient import DEFAULT_MAX_TIME, Step
+
+_NUM = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
+_RATE_U = r"(1/s|/s|s\^-1|s-1)"
+_TIME_U = r"(ms|s|sec|secs|seconds?|min|mins|minutes?|h|hours?)"
+_STRESS_U = r"(mPa|Pa|kPa|MPa)"
+_TIME = {"ms": 1e-3, "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds": 1.0,
+         "min": 60.0, "mins": 60.0, "minute": 60.0, "minutes": 60.0, "h": 3600.0,
+         "hour": 3600.0, "hours": 3600.0}
+_STRESS = {"mPa": 1e-3, "Pa": 1.0, "kPa": 1e3, "MPa": 1e6}
+_END = (rf"(?:for\s+{_NUM}\s*{_TIME_U}"
+        rf"|until\s+strain\s+{_NUM}\s*(%?)(?:\s+within\s+{_NUM}\s*{_TIME_U})?)")
+
+_FORMS = {
+    "shear": (rf"shear\s+(?:at\s+)?{_NUM}\s*{_RATE_U}\s+{_END}",
+              "'shear at <rate> 1/s for <time> s' or 'shear at <rate> 1/s until strain <x>'"),
+    "stress": (rf"stress\s+(?:at\s+)?{_NUM}\s*{_STRESS_U}\s+{_END}",
+               "'stress <tau> Pa for <time> s' or 'stress <tau> Pa until strain <x>'"),
+    "rest": (rf"rest\s+for\s+{_NUM}\s*{_TIME_U}", "'rest for <time> s'"),
+    "ramp": (rf"ramp\s+(rate|stress)\s+from\s+{_NUM}\s+to\s+{_NUM}\s*"
+             rf"(1/s|/s|s\^-1|s-1|mPa|Pa|kPa|MPa)\s+over\s+{_NUM}\s*{_TIME_U}"
+             r"(?:\s+(log|logarithmic|linear|lin))?",
+             "'ramp rate from <a> to <b> 1/s over <time> s [log|linear]' or "
+             "'ramp stress from <a> to <b> Pa over <time> s [log|linear]'"),
+    "start": (rf"start\s+(?:at\s+rest|from\s+steady\s+(stress|rate)\s+{_NUM}\s*"
+              rf"(1/s|/s|s\^-1|s-1|mPa|Pa|kPa|MPa))",
+              "'start at rest', 'start from steady stress <tau> Pa' or "
+              "'start from steady rate <rate> 1/s'"),
+}
+
+
+@dataclass(frozen=True)
+class Start:
+    """Initial state of a program: ``kind`` is "rest", "stress" (granular, Pa) or "rate" (1/s)."""
+
+    kind: str = "rest"
+    value: float = 0.0
+
+
+@dataclass(frozen=True)
+class Program:
+    """A parsed test program: its initial state and steps."""
+
+    start: Start
+    steps: tuple[Step, ...]
+
+
+def _stress_unit(unit: str, lineno: int) -> float:
+    if unit in _STRESS:
+        return _STRESS[unit]
+    low = {k.lower(): v for k, v in _STRESS.items() if k.lower() != "mpa"}
+    if unit.lower() in low:
+        return low[unit.lower()]
+    raise ValueError(f"program line {lineno}: stress unit {unit!r} is ambiguous or unknown; "
+                     f"write mPa, Pa, kPa or MPa")
+
+
+def _is_rate_unit(unit: str) -> bool:
+    return unit.lower() in ("1/s", "/s", "s^-1", "s-1")
+
+
+def _end(groups, lineno: int, text: str) -> dict:
+    """Duration or strain clause from the 5 groups of _END."""
+    t, tu, strain, pct, within, wu = groups
+    if t is not None:
+        return dict(duration=float(t) * _TIME[tu.lower()])
+    x = float(strain) / (100.0 if pct else 1.0)
+    limit = float(within) * _TIME[wu.lower()] if within is not None else DEFAULT_MAX_TIME
+    return dict(strain=x, max_time=limit)
+
+
+def parse_program(text: str) -> Program:
+    """Parse a test program (see module docstring) into a :class:`Program`.
+
+    Raises
+    ------
+    ValueError
+        ``program line N: ...`` naming the line and what was expected; or an empty program.
+    """
+    start, steps = Start(), []
+    for lineno, raw in enumerate(str(text).splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        word = line.split()[0].lower()
+        if word not in _FORMS:
+            raise ValueError(f"program line {lineno}: unknown step {line.split()[0]!r}; a line "
+                             f"starts with shear, stress, rest, ramp or start "
+                             f"(e.g. 'shear at 10 1/s for 60 s')")
+        pattern, expected = _FORMS[word]
+        mt = re.fullmatch(pattern, line, flags=re.IGNORECASE)
+        if mt is None:
+            raise ValueError(f"program line {lineno}: cannot read {line!r}; expected {expected}")
+        g = mt.groups()
+        try:
+            if word == "start":
+                if steps:
+                    raise ValueError(f"program line {lineno}: 'start' must come before the first "
+                                     f"step")
+                if g[0] is None:
+                    start = Start()
+                elif g[0].lower() == "stress":
+                    if _is_rate_unit(g[2]):
+                        raise ValueError(f"program line {lineno}: a stress needs Pa, got {g[2]}")
+                    start = Start("stress", float(g[1]) * _stress_unit(g[2], lineno))
+                else:
+                    if not _is_rate_unit(g[2]):
+                        raise ValueError(f"program line {lineno}: a rate needs 1/s, got {g[2]}")
+                    start = Start("rate", float(g[1]))
+                if start.value < 0:
+                    raise ValueError(f"program line {lineno}: the starting value must be >= 0")
+                continue
+            if word == "shear":
+                step = Step("rate", float(g[0]), label=line, **_end(g[2:8], lineno, line))
+            elif word == "stress":
+                scale = _stress_unit(g[1], lineno)
+                step = Step("stress", float(g[0]) * scale, label=line, **_end(g[2:8], lineno, line))
+            elif word == "rest":
+                step = Step("rate", 0.0, duration=float(g[0]) * _TIME[g[1].lower()], label=line)
+            else:
+                what, a, b, unit, T, tu, kind = g
+                what = what.lower()
+                if (what == "rate") != _is_rate_unit(unit):
+                    raise ValueError(f"program line {lineno}: a {what} ramp needs "
+                                     f"{'1/s' if what == 'rate' else 'Pa'}, got {unit}")
+                scale = 1.0 if what == "rate" else _stress_unit(unit, lineno)
+                ramp = "linear" if (kind or "log").lower() in ("linear", "lin") else "log"
+                step = Step("rate" if what == "rate" else "stress", float(a) * scale,
+                            float(b) * scale, ramp=ramp, duration=float(T) * _TIME[tu.lower()],
+                            label=line)
+        except ValueError as exc:
+            msg = str(exc)
+            raise ValueError(msg if msg.startswith("program line") else
+                             f"program line {lineno}: {msg}") from None
+        steps.append(step)
+    if not steps:
+        raise ValueError("the program has no steps (e.g. 'shear at 10 1/s for 60 s')")
+    return Program(start, tuple(steps))
+
+
+#: The built-in program of ``rheometer program``: a rate sweep up and down, then rest.
+HYSTERESIS_PROGRAM = """\
+# rate sweep up then down: the stress on the way down differs (structure lags): hysteresis
+start at rest
+ramp rate from 0.01 to 10 1/s over 60 s log
+ramp rate from 10 to 0.01 1/s over 60 s log
+rest for 30 s
+"""

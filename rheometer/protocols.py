@@ -1,0 +1,154 @@
+"""The rheometer's tests as functions returning DataFrames (units in the column names).
+
+Every transient is a :class:`~rheometer.transient.Rheometer` run (SUNDIALS IDA on the 0-D DAE);
+the steady flow curves come from :mod:`rheology.steady` (exact steady states, no time stepping).
+
+Transient columns: ``time_s, step, strain, shear_rate_per_s, shear_stress_Pa`` (mixture:
+granular + eta0 (1 + 5/2 phi) gdot), ``granular_shear_stress_Pa, plastic_shear_rate_per_s, f,
+granular_pressure_Pa, viscosity_Pa_s, jamming_gap`` (phi_m(f) - phi; <= 0 when jammed).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+import rheology
+from rheology.checks import check_positive, check_range
+
+from .program import Program, Start, parse_program
+from .transient import Rheometer, State, Step
+
+#: Columns of a flow curve (``branch``, ``stable``, ``index`` added for rate or mixture-stress
+#: control, ``jammed`` for granular-stress control).
+FLOW_COLUMNS = ("phi", "shear_stress_Pa", "granular_shear_stress_Pa", "shear_rate_per_s",
+                "viscosity_Pa_s", "relative_viscosity", "f", "granular_pressure_Pa")
+CONTROLS = ("stress", "mixture-stress", "rate")
+
+
+def flow_curve(material, phi, *, stress=None, rate=None, control: str = "stress") -> pd.DataFrame:
+    """Steady flow curves at one or several volume fractions.
+
+    Parameters
+    ----------
+    material : str or Material
+    phi : float or sequence of float
+        Volume fractions, each 0 < phi < phi_j.
+    stress : array_like, optional
+        Imposed stresses [Pa] (default 200 values log-spaced over 1e-3..1e4 Pa). Granular shear
+        stress for ``control="stress"``, mixture shear stress for ``control="mixture-stress"``.
+    rate : array_like, optional
+        Imposed shear rates [1/s] for ``control="rate"`` (default 200 values over 1e-4..1e3).
+    control : {"stress", "mixture-stress", "rate"}
+        "stress": imposed granular shear stress taubar, one steady state each (the curve is unique
+        in this parametrisation, including the S-shaped DST part); "mixture-stress": imposed
+        mixture stress tau = taubar + eta0 (1 + 5/2 phi) gdot, every steady state; "rate": imposed
+        shear rate, every steady state (0, 1 or several: DST), each with ``branch`` (0, 1, ... by
+        increasing stress) and ``stable`` (stable under that control, rigid-rheometer limit).
+
+    Returns
+    -------
+    DataFrame
+        :data:`FLOW_COLUMNS` (+ ``jammed`` or ``index, branch, stable``), sorted by phi.
+    """
+    m = rheology.get_material(material)
+    phis = np.atleast_1d(np.asarray(phi, dtype=float)).ravel()
+    if phis.size == 0:
+        raise ValueError("give at least one volume fraction phi")
+    check_range("phi", phis, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
+                note=f"steady flow needs phi below phi_j = {m.phi_j} of {m.name}")
+    if control not in CONTROLS:
+        raise ValueError(f"control = {control!r} must be one of {', '.join(CONTROLS)}")
+    if (rate is not None and control != "rate") or (stress is not None and control == "rate"):
+        raise ValueError(f"control = {control!r} takes "
+                         f"{'rate' if control == 'rate' else 'stress'} values, not "
+                         f"{'stress' if control == 'rate' else 'rate'}")
+    if control == "rate":
+        values = np.logspace(-4, 3, 200) if rate is None else np.asarray(rate, dtype=float)
+        check_positive("shear rate [1/s]", values)
+    else:
+        values = np.logspace(-3, 4, 200) if stress is None else np.asarray(stress, dtype=float)
+        check_positive("shear stress [Pa]", values)
+    values = np.atleast_1d(values).ravel()
+    if control == "stress":
+        T, Ph = np.meshgrid(values, phis)
+        df = rheology.steady_state_stress(T, Ph, m).to_frame()
+    else:
+        solve = (rheology.steady_states_rate if control == "rate"
+                 else rheology.steady_states_mixture_stress)
+        df = pd.concat([solve(values, ph, m).to_frame() for ph in phis], ignore_index=True)
+    df["relative_viscosity"] = df["viscosity_Pa_s"] / m.eta0
+    extra = [c for c in ("jammed", "index", "branch", "stable") if c in df.columns]
+    df = df[list(FLOW_COLUMNS) + extra]
+    df.attrs.update(material=m.name, control=control)
+    return df
+
+
+# ------------------------------------------------------------------ transients
+def _rheometer(material, phi, G, K0, options) -> Rheometer:
+    return Rheometer(material, phi, G=G, K0=K0, **options)
+
+
+def startup(material, phi: float, rate: float, t_end: float, *, G=None, K0=None, f0: float = 0.0,
+            points: int = 300, **options) -> pd.DataFrame:
+    """Start-up of steady shear: rate ``rate`` [1/s] imposed from rest (structure ``f0``) for
+    ``t_end`` [s]. ``options`` go to :class:`Rheometer` (rtol, atol, form, jacobian)."""
+    r = _rheometer(material, phi, G, K0, options)
+    check_positive("t_end [s]", t_end)
+    return r.run([Step("rate", float(rate), duration=float(t_end), label=f"shear at {rate:g} 1/s")],
+                 r.rest(f0), points=points)
+
+
+def creep(material, phi: float, stress: float, t_end: float, *, G=None, K0=None, f0: float = 0.0,
+          points: int = 300, **options) -> pd.DataFrame:
+    """Creep: mixture shear stress ``stress`` [Pa] imposed from rest for ``t_end`` [s]; the
+    fluid carries it at once (gdot(0) = stress/(eta0 (1 + 5/2 phi))), the skeleton loads up."""
+    r = _rheometer(material, phi, G, K0, options)
+    check_positive("t_end [s]", t_end)
+    return r.run([Step("stress", float(stress), duration=float(t_end),
+                       label=f"stress {stress:g} Pa")], r.rest(f0), points=points)
+
+
+def relax(material, phi: float, stress: float, t_end: float, *, G=None, K0=None,
+          points: int = 300, **options) -> pd.DataFrame:
+    """Stress relaxation after cessation of steady shear (Eqs. 35-37, Fig. 15).
+
+    Starts from the steady state at granular shear stress ``stress`` [Pa] (its f from Eq. 13),
+    stops the flow (gdot = 0) and follows taubar(t), f(t) for ``t_end`` [s]. With gdot = 0 the
+    mixture stress equals the granular one (column ``shear_stress_Pa``).
+    """
+    r = _rheometer(material, phi, G, K0, options)
+    check_positive("stress [Pa]", stress)
+    check_positive("t_end [s]", t_end)
+    return r.run([Step("rate", 0.0, duration=float(t_end), label="rest")], r.steady(stress),
+                 points=points)
+
+
+def initial_state(r: Rheometer, start: Start) -> State:
+    """The state a program starts from (rest, steady at a granular stress, or at a rate)."""
+    if start.kind == "rest":
+        return r.rest()
+    if start.kind == "stress":
+        return r.steady(start.value)
+    branches = rheology.steady_states_rate(check_positive("starting rate [1/s]", start.value),
+                                           r.phi, r.material)
+    stable = np.flatnonzero(branches.stable)
+    if stable.size == 0:
+        raise ValueError(f"no stable steady state at shear rate {start.value:g} 1/s and phi = "
+                         f"{r.phi:g} ({r.material.name}): above the DST rate the flow jams; "
+                         f"start from a steady stress instead")
+    return r.steady(float(branches.taubar[stable[0]]))
+
+
+def run_program(material, phi: float, program, *, G=None, K0=None, points: int = 200,
+                **options) -> pd.DataFrame:
+    """Run a test program: text (see :mod:`rheometer.program`), a :class:`Program`, or a list
+    of :class:`Step` (started at rest). Column ``step`` numbers the steps from 1."""
+    if isinstance(program, str):
+        program = parse_program(program)
+    elif not isinstance(program, Program):
+        program = Program(Start(), tuple(program))
+    r = _rheometer(material, phi, G, K0, options)
+    df = r.run(program.steps, initial_state(r, program.start), points=points)
+    df.attrs["start"] = f"{program.start.kind} {program.start.value:g}"
+    return df

@@ -1,0 +1,419 @@
+"""Transient tests of the 0-D model on SUNDIALS IDA: a :class:`Rheometer` runs a list of steps.
+
+Each step imposes a shear rate or a mixture shear stress, constant or ramped (linear or
+logarithmic), for a duration or until a strain is reached; "rest" is a zero rate. A step is one
+IDA solve of the DAE of :mod:`rheometer.model`, started from a consistent state (the algebraic
+unknowns solved, every derivative exact), and restarted at each event (jamming/unjamming, which
+changes the smoothness of the law) so that the BDF order is rebuilt from a clean point. After every
+solve the state is checked (finite, ``0 <= f <= max(f0, f_m)``, ``taubar >= 0``, ``gdot_p >= 0``)
+and a violation raises ``RuntimeError`` with the time, state and IDA statistics: a loose tolerance
+can return "success" with a blown-up state.
+
+Defaults where the material has none (the steady fits of the paper): ``G = 1e4 Pa`` (Fig. 15: the
+relaxation times of tens of seconds reported by the experiments the paper cites need G ~ 10 kPa)
+and ``K0 = 1`` (Tables 5 and 7).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from sksundae.ida import IDA
+
+import rheology
+from rheology import laws
+from rheology.checks import check_nonnegative, check_positive, check_range
+from rheology.materials import Material
+
+from . import model
+from .model import GAP, GD, GP, NEVENTS, NVAR, STRAIN, TAU
+
+#: Defaults for materials without G or K0 (see module docstring).
+DEFAULT_G = 1.0e4
+DEFAULT_K0 = 1.0
+#: Longest time a step "until strain ..." may run when it gives no limit [s].
+DEFAULT_MAX_TIME = 1.0e4
+
+#: Output columns of every transient (units in the names).
+COLUMNS = ("time_s", "step", "strain", "shear_rate_per_s", "shear_stress_Pa",
+           "granular_shear_stress_Pa", "plastic_shear_rate_per_s", "f", "granular_pressure_Pa",
+           "viscosity_Pa_s", "jamming_gap")
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step of a test.
+
+    Attributes
+    ----------
+    control : {"rate", "stress"}
+        Imposed shear rate [1/s] or imposed mixture shear stress [Pa]; rest is rate 0.
+    start, end : float
+        Imposed value at the start and end of the step (equal for a constant step).
+    ramp : {"const", "linear", "log"}
+        How the value goes from start to end over ``duration``.
+    duration : float or None
+        Length of the step [s] (None: until ``strain`` is reached, at most ``max_time``).
+    strain : float or None
+        Strain increment [-] at which the step ends (None: runs for ``duration``).
+    max_time : float
+        Longest time a step ending on strain may run [s].
+    label : str
+        Text shown in plots and tables (e.g. the program line).
+    """
+
+    control: str
+    start: float
+    end: float | None = None
+    ramp: str = "const"
+    duration: float | None = None
+    strain: float | None = None
+    max_time: float = DEFAULT_MAX_TIME
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        if self.control not in ("rate", "stress"):
+            raise ValueError(f"step control = {self.control!r} must be 'rate' or 'stress'")
+        if self.ramp not in ("const", "linear", "log"):
+            raise ValueError(f"step ramp = {self.ramp!r} must be 'const', 'linear' or 'log'")
+        unit = "1/s" if self.control == "rate" else "Pa"
+        check_nonnegative(f"imposed {self.control} [{unit}]", self.start)
+        if self.end is None:
+            object.__setattr__(self, "end", self.start)
+        check_nonnegative(f"imposed {self.control} at the end of the ramp [{unit}]", self.end)
+        if self.ramp == "log" and (self.start <= 0 or self.end <= 0):
+            raise ValueError(f"a log ramp needs positive values, got {self.start:g} to "
+                             f"{self.end:g} {unit} (use a linear ramp to or from 0)")
+        if self.ramp != "const" and self.duration is None:
+            raise ValueError("a ramp needs a duration ('over T s')")
+        if self.duration is None and self.strain is None:
+            raise ValueError("a step needs a duration ('for T s') or a strain ('until strain X')")
+        if self.duration is not None:
+            check_positive("step duration [s]", self.duration)
+        if self.strain is not None:
+            check_positive("step strain [-]", self.strain)
+        check_positive("step max_time [s]", self.max_time)
+
+    @property
+    def t_max(self) -> float:
+        """Longest time the step may last [s]."""
+        return self.duration if self.duration is not None else self.max_time
+
+
+@dataclass
+class State:
+    """State of the sample between steps.
+
+    Attributes
+    ----------
+    t : time [s]
+    taubar : granular shear stress [Pa]
+    gap : jamming gap phi_m(f) - phi [-] (<= 0 when jammed); it carries the structure exactly
+    strain : accumulated shear strain [-]
+    f : structure [-] (derived from the gap; informative)
+    """
+
+    t: float
+    taubar: float
+    gap: float
+    strain: float = 0.0
+    f: float = float("nan")
+
+
+@dataclass
+class _Piece:
+    t: np.ndarray
+    y: np.ndarray
+    step: int
+
+
+@dataclass
+class RunStats:
+    """Solver statistics of a run (summed over every IDA solve)."""
+
+    solves: int = 0
+    nfev: int = 0
+    njev: int = 0
+    seconds: float = 0.0
+    events: list = field(default_factory=list)
+
+
+class Rheometer:
+    """A virtual rheometer loaded with one material at one volume fraction.
+
+    Parameters
+    ----------
+    material : str or Material
+        Parameter set (see ``rheometer materials``).
+    phi : float
+        Volume fraction, 0 < phi < phi_j.
+    G : float, optional
+        Granular shear modulus [Pa]; default the material's, else 1e4 Pa.
+    K0 : float, optional
+        Structure-rate scale [-]; default the material's, else 1. K0 = 0 freezes f.
+    rtol : float
+        IDA relative tolerance (1e-13 .. 1e-2).
+    atol : float, optional
+        Absolute tolerance relative to each unknown's scale; default ``1e-3 rtol``.
+    form : {"dae", "ode"}
+        "dae": taubar, jamming gap, strain differential, gdot_p and gdot algebraic (default);
+        "ode": gdot_p and gdot eliminated (three unknowns).
+    jacobian : bool
+        Give IDA the exact Jacobian (True) or let it difference the residuals.
+    max_restarts : int
+        Jamming/unjamming events after which a step stops restarting at events (and only records
+        them), against chatter.
+    """
+
+    def __init__(self, material, phi: float, *, G: float | None = None, K0: float | None = None,
+                 rtol: float = 1e-7, atol: float | None = None, form: str = "dae",
+                 jacobian: bool = True, max_restarts: int = 50):
+        self.material: Material = rheology.get_material(material)
+        m = self.material
+        self.phi = float(check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
+                                     note=f"below phi_j = {m.phi_j} of {m.name}"))
+        self.G = float(check_positive("G [Pa]", G if G is not None else (m.G or DEFAULT_G)))
+        self.K0 = float(check_nonnegative(
+            "K0", K0 if K0 is not None else (m.K0 if m.K0 is not None else DEFAULT_K0)))
+        self.rtol = float(check_range("rtol", rtol, 1e-13, 1e-2))
+        self.atol = float(check_positive("atol", atol)) if atol is not None else 1e-3 * self.rtol
+        if form not in ("dae", "ode"):
+            raise ValueError(f"form = {form!r} must be 'dae' or 'ode'")
+        self.form, self.jacobian, self.max_restarts = form, bool(jacobian), int(max_restarts)
+        self.P = model.parameters(m, self.phi, self.G, self.K0)
+        self.f_m = float(laws.f_max(self.phi, m.phi_c, m.phi_j, m.Delta))
+        self.f_jam = (m.phi_j - self.phi) / (m.phi_j - m.phi_c)
+        self.eta_fluid = float(self.P[-1])
+        self.eta_low = m.eta0 * float(rheology.granular_viscosity(self.phi, 0.0, m))
+
+    # ------------------------------------------------------------------ initial states
+    def state(self, taubar: float, f: float, t: float = 0.0, strain: float = 0.0) -> State:
+        """A state from the granular shear stress [Pa] and the structure f."""
+        check_nonnegative("granular shear stress [Pa]", taubar)
+        f = float(check_range("f", f, 0.0, 1.0))
+        gap = float(model.gap_of_structure(f, self.P))
+        return State(float(t), float(taubar), gap, float(strain), f)
+
+    def rest(self, f0: float = 0.0) -> State:
+        """The sample at rest: no stress, structure ``f0`` (default 0, the state at rest)."""
+        return self.state(0.0, f0)
+
+    def steady(self, taubar: float) -> State:
+        """The steady state at granular shear stress ``taubar`` [Pa] (unique; Eq. 13)."""
+        st = rheology.steady_state_stress(float(taubar), self.phi, self.material)
+        return self.state(float(taubar), float(st.f))
+
+    # ------------------------------------------------------------------ running
+    def run(self, steps, state: State | None = None, points: int = 300) -> pd.DataFrame:
+        """Run ``steps`` (a list of :class:`Step`) from ``state`` (default: at rest).
+
+        Returns a DataFrame with :data:`COLUMNS`; ``attrs`` holds the events, the solver
+        statistics and the parameters.
+        """
+        steps = list(steps)
+        if not steps:
+            raise ValueError("a test needs at least one step")
+        points = int(check_range("points", points, 3, 10 ** 6))
+        st = state or self.rest()
+        if not (np.isfinite(st.gap) and np.isfinite(st.taubar) and st.taubar >= 0):
+            raise ValueError(f"initial state {st} must be finite with taubar >= 0")
+        stats = RunStats()
+        t0 = time.perf_counter()
+        pieces: list[_Piece] = []
+        for k, step in enumerate(steps):
+            st = self._run_step(k, step, st, points, pieces, stats)
+        stats.seconds = time.perf_counter() - t0
+        return self._frame(pieces, stats, steps)
+
+    def scales(self, step: Step, st: State) -> np.ndarray:
+        """Scale of each DAE unknown for the absolute tolerances: stress [Pa], gap (tiny, so that
+        the gap is controlled relatively down to ~1e-8), rates [1/s], strain."""
+        rate_max = max(step.start, step.end) if step.control == "rate" else 0.0
+        stress_max = max(step.start, step.end) if step.control == "stress" else 0.0
+        tau = max(st.taubar, stress_max, self.eta_low * rate_max, 1e-6 * self.material.tau_star)
+        g = max(rate_max, tau / self.eta_low)
+        return np.array([tau, 1e-8, g, g, 1.0])
+
+    def output_times(self, step: Step, t_end: float, points: int) -> np.ndarray:
+        """Output times from the step start: even for ramps; for constant steps half even and
+        half log-spaced from a tenth of the fastest elastic time, eta/G (fluid viscosity under
+        imposed stress, low-stress granular viscosity under imposed rate), so that the fast
+        loading is resolved."""
+        if step.ramp != "const":
+            return np.linspace(0.0, t_end, points)
+        eta = self.eta_fluid if step.control == "stress" else self.eta_low
+        t_first = min(1e-6 * t_end, 0.1 * eta / self.G)
+        n_log = points // 2
+        return np.unique(np.concatenate([[0.0], np.geomspace(t_first, t_end, n_log),
+                                         np.linspace(0.0, t_end, points - n_log)]))
+
+    def _run_step(self, k: int, step: Step, st: State, points: int, pieces: list,
+                  stats: RunStats) -> State:
+        mode = model.RATE if step.control == "rate" else model.STRESS
+        kind = {"const": model.CONST, "linear": model.LINEAR, "log": model.LOG}[step.ramp]
+        target = st.strain + step.strain if step.strain is not None else np.inf
+        C = model.control(mode, kind, step.start, step.end, st.t, step.duration or 0.0, target)
+        t_stop = st.t + step.t_max
+        grid = st.t + self.output_times(step, step.t_max, points)
+        grid[-1] = t_stop
+        scale = self.scales(step, st)
+        restarts = 0
+        while True:
+            sol = self.integrate(grid, st, C, scale, jam_events=self._may_jam(st),
+                                 terminal_jam=restarts < self.max_restarts)
+            stats.solves += 1
+            stats.nfev += int(sol.nfev)
+            stats.njev += int(sol.njev)
+            y = self._full(sol.t, sol.y, C)
+            self._check_solution(sol, y, step, k, st)
+            first = 1 if restarts else 0                 # a restart repeats the event point
+            pieces.append(_Piece(sol.t[first:], y[first:], k))
+            st = State(float(sol.t[-1]), float(y[-1, TAU]), float(y[-1, GAP]),
+                       float(y[-1, STRAIN]), float(model.structure_of_gap(y[-1, GAP], self.P)))
+            for t_ev, i_ev in zip(sol.t_events if sol.t_events is not None else (),
+                                  sol.i_events if sol.i_events is not None else ()):
+                what = ("strain reached" if i_ev[1] else
+                        "jammed" if i_ev[0] < 0 else "unjammed")
+                stats.events.append((float(t_ev), k + 1, what))
+            stopped = (sol.t_events is not None and sol.t_events[-1] == sol.t[-1]
+                       and st.t < t_stop)
+            if not stopped:
+                if st.t < t_stop * (1 - 1e-12) - 1e-300:
+                    raise RuntimeError(f"step {k + 1} ({step.label or step.control}): IDA stopped "
+                                       f"at t = {st.t:.6g} s before t = {t_stop:.6g} s: "
+                                       f"{sol.message}")
+                if step.strain is not None:
+                    stats.events.append((st.t, k + 1, f"strain {step.strain:g} not reached "
+                                                      f"within {step.t_max:g} s"))
+                return st
+            if sol.i_events[-1][1]:                            # strain target reached
+                return st
+            restarts += 1                                      # jamming or unjamming
+            grid = np.concatenate([[st.t], grid[grid > st.t * (1 + 1e-14) + 1e-300]])
+            if grid.size < 2:
+                return st
+
+    def _may_jam(self, st: State) -> bool:
+        """Whether the gap can cross zero in this run: jammed now, or f can exceed f_jam.
+
+        f stays below max(f0, f_m); at f = f_m = f_jam (Delta = 0, phi_c <= phi <= phi*) df/dt <= 0,
+        so the gap cannot close there either; no root function is then needed (cheaper steps).
+        """
+        return st.gap <= 0.0 or self.f_m > self.f_jam * (1.0 + 1e-12)
+
+    def integrate(self, grid, st: State, C, scale, jam_events: bool = False,
+                  terminal_jam: bool = True):
+        """One IDA solve of the model from state ``st`` over the output times ``grid`` [s].
+
+        ``C`` is the control vector (:func:`rheometer.model.control`), ``scale`` the scale of
+        each unknown (atol = self.atol * scale). Returns the raw ``IDAResult`` (unknowns in the
+        order of the chosen form); :meth:`run` is the checked, user-level path.
+        """
+        P, ode = self.P, self.form == "ode"
+        y = np.empty(NVAR)
+        yp = np.empty(NVAR)
+        model.consistent_state(grid[0], st.taubar, st.gap, st.strain, P, C, y, yp)
+        if ode:
+            res_k, jac_k, ev_k = model.ode_residual, model.ode_residual_jacobian, model.ode_events
+            y, yp, atol = y[[TAU, GAP, STRAIN]], yp[[TAU, GAP, STRAIN]], scale[[0, 1, 4]]
+        else:
+            res_k, jac_k, ev_k = model.residual, model.jacobian, model.events
+            atol = scale
+
+        def resfn(t, yy, yyp, res):
+            res_k(t, yy, yyp, res, P, C)
+
+        def jacfn(t, yy, yyp, res, cj, JJ):
+            jac_k(t, yy, yyp, cj, JJ, P, C)
+
+        def eventsfn(t, yy, yyp, ev):
+            ev_k(t, yy, ev, P, C)
+
+        events = {}
+        if jam_events or np.isfinite(C[6]):
+            # a switched-off root function is held at -1 (never crosses); see model.events
+            eventsfn.terminal = [bool(terminal_jam), True]
+            eventsfn.direction = [1 if st.gap <= 0.0 else -1, 1]
+            if not jam_events:
+                eventsfn.terminal[0], eventsfn.direction[0] = False, 0
+            events = dict(eventsfn=eventsfn, num_events=NEVENTS)
+        solver = IDA(resfn, rtol=self.rtol, atol=self.atol * atol,
+                     algebraic_idx=None if ode else [GP, GD],
+                     jacfn=jacfn if self.jacobian else None, max_num_steps=200_000, **events)
+        tspan = grid if grid.size > 2 else np.array([grid[0], 0.5 * (grid[0] + grid[-1]),
+                                                      grid[-1]])
+        return solver.solve(tspan, y, yp)
+
+    def _full(self, t, y, C) -> np.ndarray:
+        """All five unknowns at the output times (fills gdot_p, gdot for the ODE form)."""
+        if self.form == "dae":
+            return y
+        out = np.empty((t.size, NVAR))
+        yp = np.empty(NVAR)
+        for i in range(t.size):
+            model.consistent_state(t[i], y[i, 0], y[i, 1], y[i, 2], self.P, C, out[i], yp)
+        return out
+
+    # ------------------------------------------------------------------ checks and output
+    def _check_solution(self, sol, y, step: Step, k: int, st0: State) -> None:
+        where = (f"step {k + 1} ({step.label or step.control}) at phi = {self.phi:g}, "
+                 f"G = {self.G:g} Pa, K0 = {self.K0:g}, rtol = {self.rtol:g}")
+        f = model.structure_of_gap(y[:, GAP], self.P)
+        if not sol.success:
+            i = len(sol.t) - 1
+            raise RuntimeError(f"IDA failed in {where} at t = {sol.t[i]:.6g} s: {sol.message} "
+                               f"(state taubar = {y[i, TAU]:.6g} Pa, f = {f[i]:.6g}; "
+                               f"{sol.nfev} residuals)")
+        f_hi = max(float(model.structure_of_gap(st0.gap, self.P)), self.f_m)
+        tol_f = 10 * self.rtol
+        tol_tau = 10 * self.rtol * max(1.0, float(np.max(np.abs(y[:, TAU]))))
+        bad = (~np.all(np.isfinite(y), axis=1) | (f < -tol_f) | (f > f_hi + tol_f)
+               | (y[:, TAU] < -tol_tau) | (y[:, GP] < -tol_tau))
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise RuntimeError(
+                f"unphysical state in {where} at t = {sol.t[i]:.6g} s: taubar = {y[i, TAU]:.6g} "
+                f"Pa, f = {f[i]:.6g} (valid [0, {f_hi:.6g}]), gdot_p = {y[i, GP]:.6g} 1/s; "
+                f"IDA reported '{sol.message}' after {sol.nfev} residuals: tighten rtol")
+
+    def _frame(self, pieces: list[_Piece], stats: RunStats, steps) -> pd.DataFrame:
+        t = np.concatenate([p.t for p in pieces])
+        y = np.concatenate([p.y for p in pieces])
+        k = np.concatenate([np.full(p.t.size, p.step) for p in pieces])
+        m, phi = self.material, self.phi
+        tau_g = np.maximum(y[:, TAU], 0.0)
+        gap = y[:, GAP]
+        f = np.clip(model.structure_of_gap(gap, self.P), 0.0, 1.0)
+        gp = np.maximum(y[:, GP], 0.0)
+        g = y[:, GD]
+        tau = tau_g + self.eta_fluid * g
+        with np.errstate(divide="ignore", invalid="ignore"):
+            visc = np.where(g > 0, tau / np.where(g > 0, g, 1.0), np.nan)
+        df = pd.DataFrame({
+            "time_s": t, "step": k + 1, "strain": y[:, STRAIN], "shear_rate_per_s": g,
+            "shear_stress_Pa": tau, "granular_shear_stress_Pa": tau_g,
+            "plastic_shear_rate_per_s": gp, "f": f,
+            "granular_pressure_Pa": critical_state_pressure(tau_g, gp, phi, f, gap, m),
+            "viscosity_Pa_s": visc, "jamming_gap": gap})
+        df.attrs.update(material=m.name, phi=phi, G_Pa=self.G, K0=self.K0, rtol=self.rtol,
+                        form=self.form, events=stats.events, solves=stats.solves,
+                        nfev=stats.nfev, njev=stats.njev, seconds=stats.seconds,
+                        steps=[s.label or s.control for s in steps])
+        return df
+
+
+def critical_state_pressure(taubar, gdot_p, phi, f, gap, m: Material) -> np.ndarray:
+    """Granular pressure slaved to the critical state [Pa] (the 0-D model's pressure).
+
+    Table 8's f_3 = 0 (Eq. 2 in the viscous limit) while flowing; ``taubar/mu*`` (the critical
+    friction) when the plastic rate is zero (at rest or jammed). ``gap`` = phi_m(f) - phi.
+    """
+    y = np.maximum(gap, 0.0)
+    a = laws.dilatancy_a(f, m.a0, m.a_inf)
+    flowing = (gdot_p > 0) & (y > 0)
+    p_flow = laws.critical_pressure(gdot_p, phi, y, a, m.eta0, m.d, m.rho_s or 0.0)
+    p_yield = taubar / laws.critical_friction(phi, y, a, m.mu_c, m.mu2, m.b)
+    return np.where(flowing, p_flow, p_yield)

@@ -1,0 +1,134 @@
+"""The ``rheometer`` command line end to end: CSV columns and numbers, figures, bad input."""
+
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import rheology
+from rheometer.cli import main
+
+HERMES = rheology.get_material("hermes2016")
+
+
+def _script():
+    exe = shutil.which("rheometer", path=os.path.dirname(sys.executable))
+    return [exe] if exe else [sys.executable, "-m", "rheometer.cli"]
+
+
+def test_flow_curve_default_writes_csv_and_png(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["flow-curve"]) == 0
+    assert "flow_curve.csv" in capsys.readouterr().out
+    df = pd.read_csv(tmp_path / "flow_curve.csv")
+    assert (tmp_path / "flow_curve.png").stat().st_size > 10_000
+    assert sorted(df["phi"].unique()) == [0.48, 0.50, 0.52] and len(df) == 600
+
+
+def test_flow_curve_issue_command_numbers(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["flow-curve", "--material", "hermes2016", "--phi", "0.48", "0.50", "0.52",
+                 "--stress-range", "1e-3", "1e4", "--points", "200", "--out", "fc.csv"]) == 0
+    df = pd.read_csv("fc.csv")
+    for col in ("phi", "shear_stress_Pa", "granular_shear_stress_Pa", "shear_rate_per_s",
+                "viscosity_Pa_s", "f", "granular_pressure_Pa"):
+        assert col in df.columns
+    assert (tmp_path / "fc.png").exists()
+    d = df[df["phi"] == 0.52]
+    ref = rheology.steady_state_stress(np.logspace(-3, 4, 200), 0.52, HERMES)
+    assert np.allclose(d["granular_shear_stress_Pa"], ref.taubar, rtol=1e-12)
+    assert np.allclose(d["shear_rate_per_s"], ref.shear_rate, rtol=1e-12)
+    assert np.allclose(d["shear_stress_Pa"], ref.taubar + HERMES.eta0 * (1 + 2.5 * 0.52)
+                       * ref.shear_rate, rtol=1e-12)
+    assert np.allclose(d["viscosity_Pa_s"], d["shear_stress_Pa"] / d["shear_rate_per_s"])
+
+
+def test_flow_curve_rate_control_lists_branches(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["flow-curve", "--phi", "0.52", "--control", "rate", "--rate-range", "0.05",
+                 "0.12", "--points", "3", "--plot", "none"]) == 0
+    df = pd.read_csv("flow_curve.csv")
+    assert {"branch", "stable"} <= set(df.columns)
+    at = df[np.isclose(df["shear_rate_per_s"], 0.12)]          # rising and falling branches
+    assert list(at["branch"]) == [0, 1] and list(at["stable"]) == [True, False]
+    assert not (tmp_path / "flow_curve.png").exists()
+
+
+def test_relax_issue_command(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["relax", "--material", "hermes2016", "--phi", "0.52", "--stress", "10", "--G",
+                 "1e4", "--K0", "1", "--t-end", "50", "--out", "relax.csv"]) == 0
+    df = pd.read_csv("relax.csv")
+    for col in ("time_s", "shear_stress_Pa", "f", "plastic_shear_rate_per_s"):
+        assert col in df.columns
+    st = rheology.steady_state_stress(10.0, 0.52, HERMES)
+    assert df["shear_stress_Pa"].iloc[0] == pytest.approx(10.0)
+    assert df["f"].iloc[0] == pytest.approx(float(st.f), rel=1e-12)
+    assert df["plastic_shear_rate_per_s"].iloc[0] == pytest.approx(float(st.shear_rate), rel=1e-9)
+    assert df["time_s"].iloc[-1] == pytest.approx(50.0)
+    assert np.all(np.diff(df["shear_stress_Pa"]) <= 0)
+    assert (tmp_path / "relax.png").exists()
+
+
+def test_startup_and_creep_end_on_steady_states(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["startup", "--phi", "0.45", "--rate", "1", "--t-end", "60", "--rtol", "1e-9"]) == 0
+    df = pd.read_csv("startup.csv")
+    ss = rheology.steady_state_stress(df["granular_shear_stress_Pa"].iloc[-1], 0.45, HERMES)
+    assert float(ss.shear_rate) == pytest.approx(1.0, rel=1e-6)
+    assert main(["creep", "--phi", "0.52", "--stress", "10", "--t-end", "600", "--rtol",
+                 "1e-9"]) == 0
+    df = pd.read_csv("creep.csv")
+    ss = rheology.steady_states_mixture_stress(10.0, 0.52, HERMES)
+    assert df["shear_rate_per_s"].iloc[-1] == pytest.approx(float(ss.shear_rate[0]), rel=1e-6)
+    assert set(df.columns) >= {"time_s", "shear_rate_per_s", "shear_stress_Pa", "f"}
+
+
+def test_program_and_material_point_and_materials(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "steps.txt").write_text("shear at 1 1/s for 5 s\nrest for 5 s\n")
+    assert main(["program", "steps.txt", "--phi", "0.48", "0.50"]) == 0
+    df = pd.read_csv("program.csv")
+    assert set(df["phi"]) == {0.48, 0.50} and set(df["step"]) == {1, 2}
+    assert main(["material-point", "--t-end", "1", "--dt", "1e-3"]) == 0
+    mp = pd.read_csv("material_point.csv")
+    assert {"shear_stress_Pa", "granular_pressure_Pa", "N1_Pa", "phi0"} <= set(mp.columns)
+    assert main(["materials"]) == 0
+    out = capsys.readouterr().out
+    assert "hermes2016" in out and "Hermes et al." in out
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["flow-curve", "--phi", "0.7"], "phi = 0.7 is outside the valid range"),
+    (["flow-curve", "--material", "cornflour"], "unknown material 'cornflour'"),
+    (["flow-curve", "--set", "eta0=-1"], "eta0 = -1 is outside"),
+    (["flow-curve", "--set", "colour=3"], "unknown material parameter"),
+    (["flow-curve", "--stress-range", "10", "1"], "--stress-range 10 1 must satisfy"),
+    (["relax", "--G", "-5"], "G [Pa] = -5 is outside"),
+    (["relax", "--phi", "nan"], "phi must be finite"),
+    (["startup", "--rate", "-1"], "imposed rate"),
+    (["program", "missing.txt"], "program file 'missing.txt' not found"),
+    (["material-point", "--dt", "5", "--t-end", "1"], "dt [s] = 5 is outside"),
+    (["flow-curve", "--out", "table.txt"], "must name a .csv file"),
+])
+def test_bad_input_gives_one_line_and_status_2(argv, match, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and match in err and "Traceback" not in err
+
+
+def test_console_script_bad_input_and_parse_error(tmp_path):
+    (tmp_path / "bad.txt").write_text("shear at 1 1/s for 5 s\nwobble for 3 s\n")
+    for argv, match in ((["relax", "--phi", "0.6"], "phi = 0.6"),
+                        (["program", "bad.txt"], "program line 2: unknown step 'wobble'"),
+                        (["flow-curve", "--phi"], "expected at least one argument")):
+        r = subprocess.run(_script() + argv, cwd=tmp_path, capture_output=True, text=True,
+                           timeout=120)
+        assert r.returncode == 2, r.stderr
+        assert r.stderr.count("\n") == 1 and match in r.stderr and "Traceback" not in r.stderr
+        assert r.stdout == ""
