@@ -22,7 +22,7 @@ def drag_coefficient(phi, m: Material, Re=0.0) -> np.ndarray:
     """
     check_positive("d", m.d, note=f"material {m.name}: drag needs a grain diameter")
     phi = check_range("phi", phi, 0.0, 1.0, hi_closed=False)
-    return 18.0 * phi * (1.0 - phi) * m.eta0 * laws.beetstra_F(phi, check_nonnegative("Re", Re)) / m.d ** 2
+    return laws.drag_coefficient(phi, check_nonnegative("Re", Re), m.eta0, m.d)
 
 
 def reynolds_number(relative_speed, m: Material) -> np.ndarray:
@@ -33,10 +33,10 @@ def reynolds_number(relative_speed, m: Material) -> np.ndarray:
 
 def fluid_viscosity(phi, m: Material) -> np.ndarray:
     """Einstein-corrected fluid-phase viscosity eta0 (1 + 5/2 phi) [Pa s]."""
-    return m.eta0 * (1.0 + 2.5 * check_range("phi", phi, 0.0, 1.0, hi_closed=False))
+    return laws.fluid_viscosity(check_range("phi", phi, 0.0, 1.0, hi_closed=False), m.eta0)
 
 
 def pore_pressure(rho_f, m: Material) -> np.ndarray:
     """Pore pressure p_f = kappa ln(rho_f/rho_0f) [Pa], rho_f the true fluid density [kg/m^3]."""
     m.require("kappa", "rho_f")
-    return m.kappa * np.log(check_positive("rho_f", rho_f) / m.rho_f)
+    return laws.pore_pressure(check_positive("rho_f", rho_f), m.rho_f, m.kappa)

@@ -157,3 +157,24 @@ def beetstra_F(phi, Re):
     F1 = (0.413 * Res / (24.0 * n * n) * (1.0 / n + 3.0 * phi * n + 8.4 * Res ** -0.343)
           / (1.0 + 10.0 ** (3.0 * phi) * Res ** (-(1.0 + 4.0 * phi) / 2.0)))
     return F0 + F1
+
+
+@register_jitable
+def drag_coefficient(phi, Re, eta0, d):
+    """Table 8 Darcy drag coefficient C = 18 phi (1 - phi) eta0 F(phi, Re)/d^2 [Pa s/m^2].
+
+    The inter-phase force per volume is f_d = C (v_s - v_f); Re = rho_f |v_s - v_f| d / eta0.
+    """
+    return 18.0 * phi * (1.0 - phi) * eta0 * beetstra_F(phi, Re) / (d * d)
+
+
+@register_jitable
+def fluid_viscosity(phi, eta0):
+    """Table 8 fluid-phase viscosity eta0 (1 + 5/2 phi) [Pa s] (Einstein's correction)."""
+    return eta0 * (1.0 + 2.5 * phi)
+
+
+@register_jitable
+def pore_pressure(rho_f, rho_0f, kappa):
+    """Table 8 pore pressure kappa ln(rho_f/rho_0f) [Pa] from the true fluid density [kg/m^3]."""
+    return kappa * np.log(rho_f / rho_0f)

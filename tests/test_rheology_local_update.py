@@ -193,3 +193,18 @@ def test_dilatancy_from_a_vanishing_trial_pressure(m, seed):
     trial = np.array([r.invariants(sig[k] + dt * 2 * m.G * 0.5 * (L[k] + L[k].T))[0] for k in range(n)])
     scale = 1e-9 * (u.taubar + m.mu_c * u.pressure) + 2e-14 * trial
     assert np.all(np.abs(f1[flowing]) <= scale[flowing])
+
+
+def test_elastic_trial_is_the_jaumann_predictor():
+    """The unrolled kernel equals sigma + dt [2G D' + K tr(D) 1 + W sigma - sigma W] term by term."""
+    from rheology.local_update import elastic_trial
+    rng = np.random.default_rng(11)
+    G, K, dt = 2.0, 3.0, 0.1
+    for _ in range(200):
+        sig, L = rng.normal(size=(3, 3)), rng.normal(size=(3, 3))
+        D, W = 0.5 * (L + L.T), 0.5 * (L - L.T)
+        expect = sig + dt * (2 * G * (D - np.trace(D) / 3 * np.eye(3)) + K * np.trace(D) * np.eye(3)
+                             + W @ sig - sig @ W)
+        out = np.empty((3, 3))
+        elastic_trial(sig, L, dt, G, K, out)
+        np.testing.assert_allclose(out, expect, rtol=1e-13, atol=1e-14)

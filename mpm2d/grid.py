@@ -1,0 +1,298 @@
+"""The background grid: geometry, per-phase node fields and the boundary conditions.
+
+Geometry: ``nx x ny`` square cells of size ``h`` [m] with the lower-left corner at ``origin``;
+node (i, j) sits at ``origin + (i, j) h``. Quadratic B-splines reach 1.5 cells beyond a particle,
+so the node arrays carry ``PAD = 2`` ghost layers on each side: padded index ``I = i + PAD``.
+In axisymmetric mode x is the radius r (origin[0] must be 0, the axis) and y is z.
+
+Node fields of one phase (one velocity field), last axis of an ``(NI, NJ, NF)`` array:
+``M`` mass [kg] (per radian in axisymmetry), ``MX, MY`` momentum, ``FX, FY`` force without the
+pore-pressure part, ``V`` mixture volume and ``VS`` true solid volume of the phase's points (used
+for the nodal volume fraction), ``FPX, FPY`` the pore-pressure force (fluid points only).
+
+Boundaries (per side ``xmin, xmax, ymin, ymax``), all exact for the B-spline basis because they are
+applied through mirror images across the wall node line (the image of a particle at distance s
+behind the wall is a particle at distance s in front of it):
+
+- ``noslip``: odd images of both velocity components about the wall velocity U (v = U on the wall;
+  U tangential, e.g. a moving lid);
+- ``slip`` (frictionless): odd normal component, even tangential component (v_n = 0 on the wall);
+- ``axis``: the symmetry axis r = 0 of an axisymmetric run, a slip wall (v_r = 0, v_r odd in r);
+- ``periodic``: both sides of an axis must be periodic; node nx is node 0;
+- ``free``: nothing; the ghost layers are ordinary nodes and particles may not leave them.
+
+Folding adds the images' contributions (mass, momentum, force) to the real nodes after the
+particle-to-grid transfer; unfolding writes the mirrored velocities into the ghost nodes before
+the grid-to-particle transfer. Linear fields near a wall are then reproduced exactly, which keeps
+second-order accuracy up to the wall (zeroing the wall-node velocity alone gives first order).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numba as nb
+import numpy as np
+
+from rheology.checks import check_positive
+
+PAD = 2
+#: node-field indices
+M, MX, MY, FX, FY, V, VS, FPX, FPY = range(9)
+NF_ONE, NF_TWO = 5, 9
+#: boundary kind codes
+FREE, NOSLIP, SLIP, PERIODIC = 0, 1, 2, 3
+KINDS = {"free": FREE, "noslip": NOSLIP, "slip": SLIP, "frictionless": SLIP, "axis": SLIP,
+         "periodic": PERIODIC}
+SIDES = ("xmin", "xmax", "ymin", "ymax")
+
+_jit = nb.njit(cache=True)
+
+
+@dataclass
+class Grid:
+    """Uniform background grid with its boundary conditions.
+
+    Parameters
+    ----------
+    nx, ny : int
+        Number of cells in x (r) and y (z).
+    h : float
+        Cell size [m].
+    origin : (float, float)
+        Position of node (0, 0) [m]; in axisymmetry origin[0] = 0 (the axis).
+    boundaries : dict
+        Kind per side (``xmin, xmax, ymin, ymax``): ``noslip``, ``slip``/``frictionless``,
+        ``periodic``, ``free``, or ``axis`` (xmin of an axisymmetric grid only). Default: noslip.
+    wall_velocity : dict
+        Tangential velocity [m/s] of a ``noslip`` wall, e.g. ``{"ymax": (0.1, 0.0)}``.
+    axisymmetric : bool
+        x is the radius r and y the axial coordinate z.
+    """
+
+    nx: int
+    ny: int
+    h: float
+    origin: tuple = (0.0, 0.0)
+    boundaries: dict = field(default_factory=dict)
+    wall_velocity: dict = field(default_factory=dict)
+    axisymmetric: bool = False
+
+    def __post_init__(self):
+        for name in ("nx", "ny"):
+            n = getattr(self, name)
+            if int(n) != n or n < 2:
+                raise ValueError(f"{name} = {n} must be an integer >= 2 (number of cells)")
+            setattr(self, name, int(n))
+        self.h = float(check_positive("h", self.h))
+        self.origin = tuple(float(o) for o in self.origin)
+        unknown = set(self.boundaries) - set(SIDES)
+        if unknown:
+            raise ValueError(f"unknown boundary side(s) {sorted(unknown)}; valid: {SIDES}")
+        b = {s: str(self.boundaries.get(s, "noslip")).lower() for s in SIDES}
+        for s, k in b.items():
+            if k not in KINDS:
+                raise ValueError(f"boundary {s} = {k!r} is not one of {sorted(KINDS)}")
+            if k == "axis" and (s != "xmin" or not self.axisymmetric):
+                raise ValueError(f"boundary {s} = 'axis' is only valid for xmin of an "
+                                 "axisymmetric grid")
+        for a, c in (("xmin", "xmax"), ("ymin", "ymax")):
+            if (b[a] == "periodic") != (b[c] == "periodic"):
+                raise ValueError(f"periodic boundaries come in pairs: {a} = {b[a]}, {c} = {b[c]}")
+        if self.axisymmetric:
+            if self.origin[0] != 0.0:
+                raise ValueError(f"origin[0] = {self.origin[0]} must be 0 (the axis r = 0) for an "
+                                 "axisymmetric grid")
+            if b["xmin"] not in ("axis", "slip", "frictionless"):
+                raise ValueError(f"boundary xmin = {b['xmin']!r} must be 'axis' for an "
+                                 "axisymmetric grid (r = 0 is the symmetry axis)")
+            b["xmin"] = "axis"
+        self.boundaries = b
+        self.kind = np.array([KINDS[b[s]] for s in SIDES], dtype=np.int64)
+        self.wall_u = np.zeros((4, 2))
+        for s, u in self.wall_velocity.items():
+            if s not in SIDES:
+                raise ValueError(f"unknown wall side {s!r}; valid: {SIDES}")
+            if b[s] != "noslip":
+                raise ValueError(f"wall_velocity[{s}] needs a noslip wall, {s} is {b[s]}")
+            u = np.asarray(u, dtype=float).reshape(2)
+            normal = 0 if s.startswith("x") else 1
+            if u[normal] != 0.0:
+                raise ValueError(f"wall_velocity[{s}] = {tuple(u)} must be tangential (the walls "
+                                 "do not move)")
+            self.wall_u[SIDES.index(s)] = u
+        self.shape = (self.nx + 1 + 2 * PAD, self.ny + 1 + 2 * PAD)
+
+    # ------------------------------------------------------------------ geometry
+    @property
+    def lower(self) -> np.ndarray:
+        return np.array(self.origin)
+
+    @property
+    def upper(self) -> np.ndarray:
+        return np.array(self.origin) + self.h * np.array([self.nx, self.ny])
+
+    @property
+    def periodic(self) -> tuple[bool, bool]:
+        return bool(self.kind[0] == PERIODIC), bool(self.kind[2] == PERIODIC)
+
+    def node_positions(self) -> tuple[np.ndarray, np.ndarray]:
+        """Coordinates [m] of the padded node columns and rows."""
+        i = np.arange(self.shape[0]) - PAD
+        j = np.arange(self.shape[1]) - PAD
+        return self.origin[0] + i * self.h, self.origin[1] + j * self.h
+
+    def geometry(self) -> np.ndarray:
+        """Numeric grid description for the kernels: (x0, y0, h, x1, y1)."""
+        lo, hi = self.lower, self.upper
+        return np.array([lo[0], lo[1], self.h, hi[0], hi[1]])
+
+    def describe(self) -> str:
+        kind = "axisymmetric (r, z)" if self.axisymmetric else "plane strain (x, y)"
+        sides = ", ".join(f"{s} {k}" for s, k in self.boundaries.items())
+        return f"{kind} grid {self.nx} x {self.ny} cells, h = {self.h:g} m; boundaries: {sides}"
+
+
+# ---------------------------------------------------------------------- fold / unfold kernels
+@_jit
+def _mirror_sign(kind, comp, normal):
+    """Image sign of vector component ``comp`` across a wall whose normal is axis ``normal``."""
+    if kind == NOSLIP or comp == normal:
+        return -1.0
+    return 1.0
+
+
+@_jit
+def _fold_node(G, si, sj, di, dj, kind, normal, ux, uy):
+    """Add the image of node (si, sj) into node (di, dj); the source may be the target.
+
+    Periodic: a plain copy. Walls: mass and volumes even, vectors mirrored, momentum mirrored
+    about the wall velocity (image momentum = S p + (1 - S) m U, S = -1 or +1 per component).
+    """
+    nf = G.shape[2]
+    if kind == PERIODIC:
+        for k in range(nf):
+            G[di, dj, k] += G[si, sj, k]
+        return
+    sx = _mirror_sign(kind, 0, normal)
+    sy = _mirror_sign(kind, 1, normal)
+    m = G[si, sj, M]
+    G[di, dj, M] += m
+    G[di, dj, MX] += sx * G[si, sj, MX] + (1.0 - sx) * m * ux
+    G[di, dj, MY] += sy * G[si, sj, MY] + (1.0 - sy) * m * uy
+    G[di, dj, FX] += sx * G[si, sj, FX]
+    G[di, dj, FY] += sy * G[si, sj, FY]
+    if nf > V:
+        G[di, dj, V] += G[si, sj, V]
+        G[di, dj, VS] += G[si, sj, VS]
+        G[di, dj, FPX] += sx * G[si, sj, FPX]
+        G[di, dj, FPY] += sy * G[si, sj, FPY]
+
+
+@_jit
+def _fold_line(G, axis, t, src, dst, kind, ux, uy, clear):
+    if axis == 0:
+        _fold_node(G, src, t, dst, t, kind, 0, ux, uy)
+        if clear:
+            G[src, t, :] = 0.0
+    else:
+        _fold_node(G, t, src, t, dst, kind, 1, ux, uy)
+        if clear:
+            G[t, src, :] = 0.0
+
+
+@_jit
+def fold(G, kind, wall_u, nx, ny):
+    """Add the ghost nodes' contributions (mirror images or periodic copies) into real nodes.
+
+    ``G``: one phase's node fields (NI, NJ, NF); ``kind``/``wall_u``: per side in the order
+    xmin, xmax, ymin, ymax. x sides first, then y sides (corners compose).
+    """
+    for axis in range(2):
+        n = nx if axis == 0 else ny
+        other = G.shape[1] if axis == 0 else G.shape[0]
+        for side in range(2):
+            s = 2 * axis + side
+            kd = kind[s]
+            if kd == FREE or (kd == PERIODIC and side == 1):
+                continue
+            ux, uy = wall_u[s, 0], wall_u[s, 1]
+            for t in range(other):
+                if kd == PERIODIC:
+                    for g in range(1, PAD + 1):               # i = -g  ->  n - g
+                        _fold_line(G, axis, t, PAD - g, PAD + n - g, kd, ux, uy, True)
+                    for g in range(0, PAD + 1):               # i = n + g  ->  g
+                        _fold_line(G, axis, t, PAD + n + g, PAD + g, kd, ux, uy, True)
+                else:
+                    w = PAD if side == 0 else PAD + n         # wall node, its own image
+                    d = 1 if side == 0 else -1                # into the domain
+                    _fold_line(G, axis, t, w, w, kd, ux, uy, False)
+                    for g in range(1, PAD + 1):
+                        _fold_line(G, axis, t, w - d * g, w + d * g, kd, ux, uy, True)
+
+
+@_jit
+def unfold(Vg, kind, wall_u, nx, ny, vector):
+    """Fill ghost nodes from their images; enforce the wall-node constraint.
+
+    ``Vg`` is (NI, NJ, nc). If ``vector`` (nc = 2) the values mirror like velocities: the wall
+    node is projected onto its constraint (v = U for noslip, v_n = 0 for slip) and the ghosts
+    get the odd/even images about it. Scalars are copied evenly. y sides first, then x sides.
+    """
+    NI, NJ, nc = Vg.shape
+    for axis in (1, 0):
+        n = nx if axis == 0 else ny
+        other = NJ if axis == 0 else NI
+        for side in range(2):
+            s = 2 * axis + side
+            kd = kind[s]
+            if kd == FREE or (kd == PERIODIC and side == 1):
+                continue
+            w = PAD if side == 0 else PAD + n
+            d = 1 if side == 0 else -1
+            for t in range(other):
+                for g in range(-PAD, PAD + 1):
+                    if kd == PERIODIC:
+                        src = PAD + n + g if g < 0 else PAD + g
+                        dst = PAD + g if g < 0 else PAD + n + g
+                    else:
+                        if g < 0:
+                            continue
+                        src, dst = w + d * g, w - d * g
+                    for c in range(nc):
+                        val = Vg[src, t, c] if axis == 0 else Vg[t, src, c]
+                        if vector and kd != PERIODIC:
+                            sg = _mirror_sign(kd, c, axis)
+                            img = sg * val + (1.0 - sg) * wall_u[s, c]
+                            val = 0.5 * (val + img) if g == 0 else img
+                        if axis == 0:
+                            Vg[dst, t, c] = val
+                        else:
+                            Vg[t, dst, c] = val
+
+
+@_jit
+def fold_scalar(S, kind, nx, ny):
+    """Fold a nodal scalar (NI, NJ): periodic copies added, even mirror images at walls."""
+    for axis in range(2):
+        n = nx if axis == 0 else ny
+        other = S.shape[1] if axis == 0 else S.shape[0]
+        for side in range(2):
+            kd = kind[2 * axis + side]
+            if kd == FREE or (kd == PERIODIC and side == 1):
+                continue
+            for t in range(other):
+                if kd == PERIODIC:
+                    pairs = [(PAD - g, PAD + n - g) for g in range(1, PAD + 1)]
+                    pairs += [(PAD + n + g, PAD + g) for g in range(0, PAD + 1)]
+                else:
+                    w = PAD if side == 0 else PAD + n
+                    d = 1 if side == 0 else -1
+                    pairs = [(w - d * g, w + d * g) for g in range(1, PAD + 1)]
+                for src, dst in pairs:
+                    if axis == 0:
+                        S[dst, t] += S[src, t]
+                        S[src, t] = 0.0
+                    else:
+                        S[t, dst] += S[t, src]
+                        S[t, src] = 0.0

@@ -1,0 +1,369 @@
+"""Materials of the material points and their constitutive update kernels.
+
+Each material knows its phase (``solid``: granular phase or a body; ``fluid``: the pore fluid of a
+two-phase run), sets the points' masses and state, and advances them over a step from the
+velocity gradient L gathered by the grid-to-particle transfer (USL: the stress is updated last,
+with the new grid velocities). The stress used by the next particle-to-grid transfer is written to
+``sp`` = (xx, xy, yy, thth/zz). The physics comes from :mod:`rheology`:
+
+- :class:`LinearElastic`: Jaumann-rate linear elasticity, ``rheology.local_update.elastic_trial``.
+- :class:`NewtonianFluid`: Table 8 fluid: p_f = kappa ln(rho_f/rho_0f), tau_f = eta0 (1 + 5/2 phi)
+  (L + L^T - 2/3 tr L 1); true density from Table 8's law (n/rho_f) D rho_f/Dt = -div q,
+  q = phi v_s + n v_f the mixture volume flux (q = v for a single fluid).
+- :class:`Suspension`: the Table 8 granular law through ``rheology.local_update.update_point``,
+  never re-implemented. ``locked=True`` is the locked mixture (one velocity field): the points
+  carry the mixture mass, and the stress sigma~ - p_f 1 + tau_f with the undrained pore pressure
+  of their fluid (rho_f = fluid mass / pore volume).
+
+Volumes follow V_{n+1} = V_n det(1 + dt L) (3 x 3, with L_thth = v_r/r in axisymmetry).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from rheology import laws
+from rheology.checks import check_positive, check_range
+from rheology.flow_rule import invariants
+from rheology.local_update import FAILED, NOUT, elastic_trial, kernel_parameters, update_point
+from rheology.materials import Material
+from rheology.numba_cache import guard
+
+from .kernels import dual
+
+guard(__file__)                          # drop cached kernels if rheology's laws changed
+
+_jit = nb.njit(cache=True, error_model="numpy")
+
+
+# ------------------------------------------------------------------ shared kernel pieces
+@_jit
+def _fill_L(L, p, Lm):
+    """3 x 3 velocity gradient of point p from its compact (xx, xy, yx, yy, thth) row."""
+    Lm[0, 0], Lm[0, 1], Lm[1, 0], Lm[1, 1], Lm[2, 2] = L[p, 0], L[p, 1], L[p, 2], L[p, 3], L[p, 4]
+
+
+@_jit
+def _jacobian(L, p, dt):
+    """det(1 + dt L) for the compact gradient row p."""
+    return (((1.0 + dt * L[p, 0]) * (1.0 + dt * L[p, 3]) - dt * dt * L[p, 1] * L[p, 2])
+            * (1.0 + dt * L[p, 4]))
+
+
+@_jit
+def _viscous(L, p, eta):
+    """tau = eta (L + L^T - 2/3 tr L 1) as (xx, xy, yy, thth)."""
+    tr = L[p, 0] + L[p, 3] + L[p, 4]
+    return (eta * (2.0 * L[p, 0] - 2.0 / 3.0 * tr), eta * (L[p, 1] + L[p, 2]),
+            eta * (2.0 * L[p, 3] - 2.0 / 3.0 * tr), eta * (2.0 * L[p, 4] - 2.0 / 3.0 * tr))
+
+
+# ------------------------------------------------------------------ kernels
+@dual
+def elastic_kernel(stress, L, vol, dt, G, K, chunks, sp):
+    """Jaumann linear-elastic update of every point; sp = (xx, xy, yy, zz)."""
+    for c in nb.prange(chunks.shape[0] - 1):
+        Lm = np.zeros((3, 3))
+        s = np.empty((3, 3))
+        for p in range(chunks[c], chunks[c + 1]):
+            _fill_L(L, p, Lm)
+            elastic_trial(stress[p], Lm, dt, G, K, s)
+            stress[p, :, :] = s
+            vol[p] *= _jacobian(L, p, dt)
+            sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = s[0, 0], s[0, 1], s[1, 1], s[2, 2]
+
+
+@dual
+def fluid_kernel(L, vol, m, rho, divq, n, dt, eta0, einstein, rho0, kappa, two_phase, sp, pf):
+    """Newtonian fluid points: density, pore pressure and viscous stress.
+
+    Two phases: rho_f *= exp(-dt div q / n) (Table 8 true-density law), sp = tau_f, pf = p_f.
+    One phase: rho = m/V exactly, sp = tau - p 1.
+    """
+    for p in nb.prange(vol.shape[0]):
+        vol[p] *= _jacobian(L, p, dt)
+        if two_phase:
+            rho[p] *= np.exp(-dt * divq[p] / n[p])
+            phi = 1.0 - n[p]
+        else:
+            rho[p] = m[p] / vol[p]
+            phi = 0.0
+        pr = laws.pore_pressure(rho[p], rho0, kappa)
+        pf[p] = pr
+        txx, txy, tyy, ttt = _viscous(L, p, laws.fluid_viscosity(phi, eta0) if einstein else eta0)
+        if two_phase:
+            pr = 0.0                       # the pore pressure goes through pf (buoyancy split)
+        sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = txx - pr, txy, tyy - pr, ttt - pr
+
+
+@dual
+def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, kappa, eta0,
+                      chunks, sp, pf, gdot, case, fail):
+    """The Table 8 granular law at every point (rheology.local_update.update_point).
+
+    phi = svol/V at the start of the step; f and stress advanced; V *= det(1 + dt L).
+    Locked mixture: pore pressure p_f = kappa ln(rho_f/rho_0f) with rho_f = (m - rho_s svol) /
+    (V - svol) (undrained), fluid stress eta0 (1 + 5/2 phi)(L + L^T - 2/3 tr L), and
+    sp = sigma~ - p_f 1 + tau_f. ``fail[0]`` = 1 + index of a failed point (0 if none).
+    """
+    for c in nb.prange(chunks.shape[0] - 1):
+        Lm = np.zeros((3, 3))
+        s = np.empty((3, 3))
+        out = np.empty(NOUT)
+        for p in range(chunks[c], chunks[c + 1]):
+            _fill_L(L, p, Lm)
+            phi = svol[p] / vol[p]
+            update_point(stress[p], Lm, phi, f[p], dt, P, s, out)
+            if out[12] == FAILED:
+                fail[0] = p + 1
+            stress[p, :, :] = s
+            f[p] = out[0]
+            gdot[p] = out[1]
+            case[p] = out[12]
+            vol[p] *= _jacobian(L, p, dt)
+            pr = txx = txy = tyy = ttt = 0.0
+            if locked:
+                phi = svol[p] / vol[p]
+                pr = laws.pore_pressure((m[p] - rho_s * svol[p]) / (vol[p] - svol[p]), rho_f0, kappa)
+                txx, txy, tyy, ttt = _viscous(L, p, laws.fluid_viscosity(phi, eta0))
+            pf[p] = pr
+            sp[p, 0] = s[0, 0] + txx - pr
+            sp[p, 1] = s[0, 1] + txy
+            sp[p, 2] = s[1, 1] + tyy - pr
+            sp[p, 3] = s[2, 2] + ttt - pr
+
+
+def elastic_energy(stress, vol, G, K) -> float:
+    """Stored linear-elastic energy sum V (s:s/(4G) + p^2/(2K)) of stresses (N, 3, 3) [J]."""
+    taubar, p = invariants(stress)
+    return float(np.sum(vol * (taubar ** 2 / (2.0 * G) + p * p / (2.0 * K))))
+
+
+# ------------------------------------------------------------------ material classes
+class LinearElastic:
+    """Linear isotropic elastic solid (Jaumann rate), e.g. disks, bars, a wheel, a skeleton.
+
+    Parameters
+    ----------
+    rho : float
+        True density [kg/m^3]; a point's mass is phi rho V (phi = 1 for a body).
+    K, G : float
+        Bulk and shear moduli [Pa]; or give ``E`` [Pa] and ``nu`` [-] instead.
+    """
+
+    phase = "solid"
+    name = "elastic"
+    default_phi = 1.0
+
+    def __init__(self, rho, K=None, G=None, *, E=None, nu=None):
+        self.rho = float(check_positive("rho", rho))
+        if E is not None or nu is not None:
+            if K is not None or G is not None:
+                raise ValueError("give either (K, G) or (E, nu), not both")
+            E = float(check_positive("E", E))
+            nu = float(check_range("nu", nu, -1.0, 0.5, lo_closed=False, hi_closed=False))
+            K, G = E / (3.0 * (1.0 - 2.0 * nu)), E / (2.0 * (1.0 + nu))
+        if K is None or G is None:
+            raise ValueError("LinearElastic needs K and G [Pa] (or E and nu)")
+        self.K = float(check_positive("K", K))
+        self.G = float(check_positive("G", G))
+
+    def describe(self) -> str:
+        return f"linear elastic (K = {self.K:g} Pa, G = {self.G:g} Pa, rho = {self.rho:g} kg/m^3)"
+
+    def initialise(self, ps, phi, **state):
+        if state:
+            raise ValueError(f"{ps.name}: unknown state {sorted(state)} for a linear elastic "
+                             "material")
+        check_range(f"{ps.name}: phi", phi, 0.0, 1.0, lo_closed=False)
+        ps.arrays["svol"] = phi * ps.V
+        ps.arrays["m"] = self.rho * ps.svol
+        s = ps.stress
+        ps.sp[:] = np.stack([s[:, 0, 0], s[:, 0, 1], s[:, 1, 1], s[:, 2, 2]], axis=1)
+
+    def update(self, ps, dt, chunks, parallel, **_):
+        elastic_kernel[parallel](ps.stress, ps.L, ps.V, dt, self.G, self.K, chunks, ps.sp)
+
+    def wave_modulus(self) -> float:
+        """Modulus S of the fastest wave, c^2 = S V/m [Pa] (P wave, K + 4G/3)."""
+        return self.K + 4.0 * self.G / 3.0
+
+    def viscosity_bound(self) -> float:
+        return 0.0
+
+    def strain_energy(self, ps) -> float:
+        """Stored elastic energy [J] (per unit thickness, or per radian)."""
+        return elastic_energy(ps.stress, ps.V, self.G, self.K)
+
+    def output_fields(self, ps) -> dict:
+        return {"pressure_Pa": -np.trace(ps.stress, axis1=1, axis2=2) / 3.0}
+
+
+class NewtonianFluid:
+    """Weakly compressible Newtonian fluid (Table 8 fluid phase, or a plain fluid).
+
+    Parameters
+    ----------
+    eta0 : float
+        Viscosity [Pa s]; with ``einstein`` the fluid phase of a mixture has eta0 (1 + 5/2 phi).
+    rho : float
+        Reference true density rho_0f [kg/m^3] (p_f = 0).
+    kappa : float
+        Bulk modulus [Pa], p_f = kappa ln(rho_f/rho_0f).
+    einstein : bool
+        Apply the Einstein correction with the local volume fraction of grains (two phases).
+    """
+
+    phase = "fluid"
+    name = "newtonian"
+    default_phi = 0.0
+
+    def __init__(self, eta0, rho, kappa, einstein=True):
+        self.eta0 = float(check_positive("eta0", eta0))
+        self.rho = float(check_positive("rho", rho))
+        self.kappa = float(check_positive("kappa", kappa))
+        self.einstein = bool(einstein)
+
+    @classmethod
+    def from_material(cls, m: Material) -> "NewtonianFluid":
+        """The fluid phase of a rheology parameter set (eta0, rho_f, kappa)."""
+        m.require("rho_f", "kappa")
+        return cls(m.eta0, m.rho_f, m.kappa)
+
+    def describe(self) -> str:
+        return (f"Newtonian fluid (eta0 = {self.eta0:g} Pa s, rho = {self.rho:g} kg/m^3, "
+                f"kappa = {self.kappa:g} Pa)")
+
+    def initialise(self, ps, phi, rho_f=None, **state):
+        if state:
+            raise ValueError(f"{ps.name}: unknown state {sorted(state)} for a Newtonian fluid")
+        check_range(f"{ps.name}: phi", phi, 0.0, 1.0, hi_closed=False,
+                    note="fraction of grains around the fluid points")
+        rho_f = np.full(len(ps), self.rho) if rho_f is None else np.array(
+            np.broadcast_to(check_positive(f"{ps.name}: rho_f", rho_f), (len(ps),)))
+        ps.arrays["n"] = 1.0 - phi
+        ps.arrays["rho_f"] = rho_f
+        ps.arrays["m"] = ps.n * rho_f * ps.V
+        ps.arrays["svol"] = np.zeros(len(ps))
+        ps.arrays["divq"] = np.zeros(len(ps))
+        pr = laws.pore_pressure(rho_f, self.rho, self.kappa)
+        ps.arrays["pf"] = pr
+        ps.stress[:] = -pr[:, None, None] * np.eye(3)
+        ps.sp[:] = np.stack([-pr, 0 * pr, -pr, -pr], axis=1)
+
+    def update(self, ps, dt, chunks, parallel, two_phase=False, **_):
+        fluid_kernel[parallel](ps.L, ps.V, ps.m, ps.rho_f, ps.divq, ps.n, dt, self.eta0,
+                     self.einstein, self.rho, self.kappa, two_phase, ps.sp, ps.pf)
+        self.two_phase = two_phase
+
+    def wave_modulus(self) -> float:
+        """c^2 = kappa V/m = kappa/(n rho_f) (the pore pressure acts on the fluid's n rho_f)."""
+        return self.kappa
+
+    def viscosity_bound(self) -> float:
+        return laws.fluid_viscosity(1.0 if self.einstein else 0.0, self.eta0)    # phi <= 1
+
+    def strain_energy(self, ps) -> float:
+        """Stored compression energy sum V kappa (rho ln(rho/rho0) - rho + rho0)/rho [J]."""
+        r = ps.rho_f / self.rho
+        return float(np.sum(ps.V * self.kappa * (np.log(r) - 1.0 + 1.0 / r)))
+
+    def output_fields(self, ps) -> dict:
+        """Pore pressure, density, grain fraction and the full stress tau_f - p_f 1."""
+        sp = ps.sp
+        pr = ps.pf if getattr(self, "two_phase", False) else np.zeros(len(ps))
+        s = np.zeros((len(ps), 3, 3))
+        s[:, 0, 0], s[:, 1, 1], s[:, 2, 2] = sp[:, 0] - pr, sp[:, 2] - pr, sp[:, 3] - pr
+        s[:, 0, 1] = s[:, 1, 0] = sp[:, 1]
+        return {"pore_pressure_Pa": ps.pf.copy(), "rho_f": ps.rho_f.copy(), "phi": 1.0 - ps.n,
+                "stress": s}
+
+
+class Suspension:
+    """The Table 8 dense-suspension law (granular phase, or the locked mixture).
+
+    Parameters
+    ----------
+    material : rheology.Material
+        Needs G, K, K0, rho_s (and rho_f, kappa when ``locked``).
+    locked : bool
+        Locked mixture: one velocity field, the points carry grains and fluid (mass
+        (phi rho_s + (1 - phi) rho_f) V, stress sigma~ - p_f 1 + tau_f). Otherwise the granular
+        phase of a two-phase run (mass phi rho_s V, stress sigma~).
+    """
+
+    phase = "solid"
+    default_phi = None
+
+    def __init__(self, material: Material, locked: bool = False):
+        self.m = material
+        self.P = kernel_parameters(material)
+        material.require("rho_s")
+        self.locked = bool(locked)
+        if self.locked:
+            material.require("rho_f", "kappa")
+        self.name = "suspension (locked mixture)" if locked else "suspension (granular phase)"
+
+    def describe(self) -> str:
+        return f"{self.name}: Table 8 law, parameter set {self.m.name}"
+
+    def initialise(self, ps, phi, f=0.0, pf=0.0, **state):
+        """Masses and state; ``f`` the initial structure, ``pf`` [Pa] the initial pore pressure
+        of a locked mixture (its fluid then starts at rho_f0 exp(pf/kappa))."""
+        if state:
+            raise ValueError(f"{ps.name}: unknown state {sorted(state)} for the suspension law")
+        m = self.m
+        check_range(f"{ps.name}: phi", phi, 0.0, 1.0, lo_closed=False, hi_closed=False)
+        ps.arrays["svol"] = phi * ps.V
+        pf = np.broadcast_to(check_range(f"{ps.name}: pf", pf), (len(ps),))
+        if np.any(pf != 0.0) and not self.locked:
+            raise ValueError(f"{ps.name}: pf is the pore pressure of a locked mixture; in "
+                             "two-phase runs give the fluid points rho_f")
+        rho_f = m.rho_f * np.exp(pf / m.kappa) if self.locked else 0.0
+        ps.arrays["m"] = (phi * m.rho_s + (1.0 - phi) * rho_f) * ps.V
+        ps.arrays["f"] = check_range(f"{ps.name}: f", np.broadcast_to(np.asarray(f, float),
+                                                                      (len(ps),)), 0.0, 1.0).copy()
+        for k in ("gdot_p", "case"):
+            ps.arrays[k] = np.zeros(len(ps))
+        ps.arrays["pf"] = np.array(pf, dtype=float)
+        s = ps.stress
+        ps.sp[:] = np.stack([s[:, 0, 0], s[:, 0, 1], s[:, 1, 1], s[:, 2, 2]], axis=1)
+        ps.sp[:, [0, 2, 3]] -= ps.pf[:, None]
+
+    def update(self, ps, dt, chunks, parallel, **_):
+        m = self.m
+        fail = np.zeros(1, dtype=np.int64)
+        suspension_kernel[parallel](ps.stress, ps.L, ps.V, ps.svol, ps.m, ps.f, dt, self.P, self.locked,
+                          m.rho_s, m.rho_f if self.locked else 1.0,
+                          m.kappa if self.locked else 0.0, m.eta0, chunks, ps.sp, ps.pf,
+                          ps.gdot_p, ps.case, fail)
+        if fail[0]:
+            k = fail[0] - 1
+            raise RuntimeError(f"{ps.name}: the Table 8 local update failed at point id "
+                               f"{ps.id[k]} (x = {ps.x[k].tolist()}, phi = "
+                               f"{ps.svol[k] / ps.V[k]:.6g}, f = {ps.f[k]:.6g}, stress = "
+                               f"{ps.stress[k].round(6).tolist()}, dt = {dt:g} s)")
+
+    def wave_modulus(self) -> float:
+        m = self.m
+        s = m.K + 4.0 * m.G / 3.0
+        if self.locked:
+            s += m.kappa / (1.0 - m.phi_j)
+        return s
+
+    def viscosity_bound(self) -> float:
+        return laws.fluid_viscosity(self.m.phi_j, self.m.eta0) if self.locked else 0.0
+
+    def strain_energy(self, ps) -> float:
+        """Elastic energy stored in the skeleton [J]."""
+        return elastic_energy(ps.stress, ps.V, self.m.G, self.m.K)
+
+    def output_fields(self, ps) -> dict:
+        taubar, p = invariants(ps.stress)
+        out = {"phi": ps.svol / ps.V, "f": ps.f.copy(), "granular_pressure_Pa": p,
+               "taubar_Pa": taubar,
+               "shear_rate_p_per_s": ps.gdot_p.copy(), "case": ps.case.copy()}
+        if self.locked:
+            out["pore_pressure_Pa"] = ps.pf.copy()
+        return out
