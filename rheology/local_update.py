@@ -139,7 +139,7 @@ def _brent(mode, lo, hi, rlo, rhi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, r
         if abs(fc) < abs(fb):
             xa, xb, xc = xb, xc, xb
             fa, fb, fc = fb, fc, fb
-        tol = 4.0e-16 * abs(xb) + 1e-300
+        tol = 1e-14 * abs(xb) + 1e-300
         xm = 0.5 * (xc - xb)
         if abs(xm) <= tol or fb == 0.0 or abs(fb) <= rtol_abs:
             return xb, fb, it
@@ -199,7 +199,7 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, phi, phim, a, p_tr, tau_tr, Gdt, K
         hi = min(beta_lo + step, beta_top)
     if r_hi < 0.0:
         beta, r, it = _brent(0, lo, hi, r_lo, r_hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
-                             K3, mu1, mu2, b, 0.0, 0.0, 0.1 * floor)
+                             K3, mu1, mu2, b, 0.0, 0.0, floor)
         g, p, Im = _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
         n += max(it, 0) + 1
         if it >= 0 and abs(r) <= 1e-12 * (tau_tr - Gdt * g + mu1 * p) + floor:
@@ -214,7 +214,7 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, phi, phim, a, p_tr, tau_tr, Gdt, K
     if not (r0 > 0.0 and r1 < 0.0):
         return beta_lo, 0.0, p_tr, 0.0, -1
     g, r, it = _brent(1, g_lo, g_hi, r0, r1, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
-                      mu1, mu2, b, beta_lo, beta_top, 0.1 * floor)
+                      mu1, mu2, b, beta_lo, beta_top, floor)
     beta = _beta_of_rate(g, phi, phim, a, p_tr, Kdt, eta0, rd2, K3, beta_lo, beta_top)
     p = p_tr + Kdt * beta * g
     xe = phi - beta / K3
