@@ -1,0 +1,124 @@
+"""Finite-volume grids across the gap of a plane or annular (wide-gap) Couette cell.
+
+The gap is cut into ``n`` equal cells. Material state (granular stress, structure f, volume
+fraction phi) lives at cell centres ``centres[j]``; the shear velocity lives on the ``n + 1``
+faces ``faces[k]``, the two walls being faces 0 (moving wall: the bob, or the moving plate) and
+``n`` (fixed wall). Every metric the kernels need is precomputed here, so the kernels are the same
+for both geometries:
+
+- shear rate in cell j: ``gdot_j = cg[j] (v[j+1] w[j+1] - v[j] w[j])``; annular
+  ``gdot = r d(v/r)/dr`` (cg = r_j/dr, w = 1/r_face), plane ``gdot = dv/dy`` (cg = 1/dy, w = 1);
+- momentum on face k (a dual cell from centre k-1 to centre k; half cells at the walls):
+  ``rho M[k] dv_k/dt = A[k] tau_k - A[k-1] tau_{k-1}`` with A = r^2 and ``M = int r^2 dr``
+  (angular momentum, exactly conserved) or A = 1, M = dy;
+- radial (cross-gap) fluxes for the two-phase mode: ``div_j(F) = (a[j+1] F[j+1] - a[j] F[j])/V[j]``
+  with face areas a = r (plane: 1) and cell volumes V = r_j dr (plane: dy), and the hoop factor
+  ``1/r`` (plane: 0) for ``v_r/r`` and ``(sigma_rr - sigma_thth)/r``.
+
+All lengths in metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rheology.checks import check_range
+
+KINDS = ("plane", "annular")
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Uniform finite-volume grid across a Couette gap.
+
+    Parameters
+    ----------
+    kind : {"plane", "annular"}
+        Plane Couette (coordinate y from the moving plate) or annular Couette (radius r; the inner
+        cylinder turns, the outer one is at rest).
+    inner, outer : float
+        Positions of the moving and the fixed wall [m]: the bob radius R_i and the cup radius R_o
+        (annular, 0 < R_i < R_o), or 0 and the gap H (plane).
+    n : int
+        Number of cells, >= 4.
+    """
+
+    kind: str
+    inner: float
+    outer: float
+    n: int
+    faces: np.ndarray = field(init=False, repr=False, compare=False)
+    centres: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"geometry kind = {self.kind!r} must be one of {KINDS}")
+        if isinstance(self.n, bool) or not isinstance(self.n, (int, np.integer)) or self.n < 4:
+            raise ValueError(f"n_cells = {self.n!r} must be an integer >= 4")
+        lo = 0.0 if self.kind == "annular" else None
+        check_range("inner wall position", self.inner, lo, None, lo_closed=self.kind != "annular")
+        check_range("outer wall position", self.outer, self.inner, None, lo_closed=False,
+                    note="the fixed wall must lie beyond the moving wall")
+        faces = np.linspace(self.inner, self.outer, self.n + 1)
+        object.__setattr__(self, "faces", faces)
+        object.__setattr__(self, "centres", 0.5 * (faces[1:] + faces[:-1]))
+
+    # ------------------------------------------------------------------ basic sizes
+    @property
+    def gap(self) -> float:
+        """Gap width [m]."""
+        return self.outer - self.inner
+
+    @property
+    def dx(self) -> float:
+        """Cell size [m]."""
+        return self.gap / self.n
+
+    @property
+    def annular(self) -> bool:
+        return self.kind == "annular"
+
+    # ------------------------------------------------------------------ kernel metrics
+    def shear_metric(self) -> tuple[np.ndarray, np.ndarray]:
+        """(cg, w): ``gdot_j = cg[j] (v[j+1] w[j+1] - v[j] w[j])`` [1/m, -]."""
+        if self.annular:
+            return self.centres / self.dx, 1.0 / self.faces
+        return np.full(self.n, 1.0 / self.dx), np.ones(self.n + 1)
+
+    def momentum_metric(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """(A, M, A_wall): cell lever factors A[j], face dual volumes M[k] and A at the moving wall.
+
+        ``rho M[k] dv_k/dt = A[k] tau_k - A[k-1] tau_{k-1}`` for interior faces; M[0] is the half
+        dual cell at the moving wall (used when that wall is stress-driven), M[n] at the fixed wall.
+        """
+        c, f = self.centres, self.faces
+        if self.annular:
+            A = c ** 2
+            pts = np.concatenate([[f[0]], c, [f[-1]]])
+            M = (pts[1:] ** 3 - pts[:-1] ** 3) / 3.0
+            return A, M, f[0] ** 2
+        pts = np.concatenate([[f[0]], c, [f[-1]]])
+        return np.ones(self.n), np.diff(pts), 1.0
+
+    def flux_metric(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(a, V, hoop_cell, hoop_face) for cross-gap fluxes (two-phase mode).
+
+        a: face areas per unit angle and height (r, or 1) [m or -]; V: cell volumes (r dr, or dy);
+        hoop: 1/r at cells and faces (0 for the plane cell) [1/m].
+        """
+        if self.annular:
+            return (self.faces.copy(), self.centres * self.dx, 1.0 / self.centres,
+                    1.0 / self.faces)
+        return (np.ones(self.n + 1), np.full(self.n, self.dx), np.zeros(self.n),
+                np.zeros(self.n + 1))
+
+    def cell_volumes(self) -> np.ndarray:
+        """Cell volumes per radian and unit height (annular, r dr) or per unit area (plane) [m^2 or m]."""
+        return self.flux_metric()[1]
+
+    def rigid_speed(self, u_wall: float, x: np.ndarray) -> np.ndarray:
+        """Speed of rigid motion with the moving wall at positions x [m/s]: omega r or U."""
+        x = np.asarray(x, dtype=float)
+        return u_wall * x / self.inner if self.annular else np.full_like(x, u_wall)
