@@ -10,8 +10,8 @@ Examples::
     mpm2d run column --out column --resume           # continue from column/checkpoint.npz
 
 Bad input (an unknown scene or parameter, a value out of range, a step beyond stability) exits
-with status 2 and one line ``error: ...`` on stderr. Ctrl-C or SIGTERM writes a checkpoint and
-exits with status 130; ``--resume`` continues bit-for-bit.
+with status 2 and one line ``mpm2d run: error: ...`` on stderr; a failed run with status 1. Ctrl-C
+or SIGTERM writes a checkpoint and exits with status 130; ``--resume`` continues bit-for-bit.
 """
 
 from __future__ import annotations
@@ -19,6 +19,8 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+
+from rheology.cli_common import OneLineParser, run_command
 
 
 def _parse_set(items):
@@ -36,9 +38,9 @@ def _interrupt(signum, frame):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="mpm2d", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = ap.add_subparsers(dest="cmd", required=True)
+    ap = OneLineParser(prog="mpm2d", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="cmd", required=True, parser_class=OneLineParser)
     sub.add_parser("list", help="list the scenes")
     show = sub.add_parser("show", help="a scene's equations, parameters and command")
     show.add_argument("scene")
@@ -55,41 +57,35 @@ def main(argv=None) -> int:
     run.add_argument("--checkpoint-every", type=float, default=60.0,
                      help="wall seconds between checkpoints (default 60)")
     args = ap.parse_args(argv)
-    try:
-        from .scenes import SCENES, get_setup, parameters
+    return run_command(f"mpm2d {args.cmd}", lambda: _command(args),
+                       on_interrupt="a checkpoint was written: rerun with --resume")
 
-        if args.cmd == "list":
-            for name, text in SCENES.items():
-                print(f"{name:10s} {text}")
-            return 0
-        if args.cmd == "show":
-            setup = get_setup(args.scene)
-            print(setup.__module__)
-            print(sys.modules[setup.__module__].__doc__)
-            print("parameters (defaults):")
-            for k, v in parameters(args.scene).items():
-                print(f"  {k} = {v!r}")
-            return 0
-        signal.signal(signal.SIGTERM, _interrupt)      # batch schedulers: checkpoint, stop
-        if args.threads:
-            import numba
 
-            numba.set_num_threads(args.threads)
-        from .run import run_scene
+def _command(args) -> None:
+    from .scenes import SCENES, get_setup, parameters
 
+    if args.cmd == "list":
+        for name, text in SCENES.items():
+            print(f"{name:10s} {text}")
+        return
+    if args.cmd == "show":
         setup = get_setup(args.scene)
-        run_scene(setup, args.out or args.scene, _parse_set(args.set), resume=args.resume,
-                  progress=not args.quiet, vtk=not args.no_vtk, frames=args.frames,
-                  checkpoint_every=args.checkpoint_every, scene_name=args.scene)
-        return 0
-    except (ValueError, RuntimeError, OSError) as exc:
-        msg = " ".join(str(exc).split())
-        print(f"error: {msg}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("error: interrupted (a checkpoint was written: rerun with --resume)",
-              file=sys.stderr)
-        return 130
+        print(setup.__module__)
+        print(sys.modules[setup.__module__].__doc__)
+        print("parameters (defaults):")
+        for k, v in parameters(args.scene).items():
+            print(f"  {k} = {v!r}")
+        return
+    signal.signal(signal.SIGTERM, _interrupt)      # batch schedulers: checkpoint, stop
+    if args.threads:
+        import numba
+
+        numba.set_num_threads(args.threads)
+    from .run import run_scene
+
+    run_scene(get_setup(args.scene), args.out or args.scene, _parse_set(args.set),
+              resume=args.resume, progress=not args.quiet, vtk=not args.no_vtk,
+              frames=args.frames, checkpoint_every=args.checkpoint_every, scene_name=args.scene)
 
 
 if __name__ == "__main__":

@@ -28,18 +28,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from rheology.cli_common import OneLineParser, run_command
+
 DEFAULT_MATERIAL = "hermes2016"
 _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
            "skeleton; 'mixture shear stress' = granular + eta0 (1 + 5/2 phi) gdot is what a "
            "rheometer measures. G [Pa] and K0 default to the material's values, else G = 1e4 Pa "
            "(Fig. 15: relaxation times of tens of seconds) and K0 = 1 (Tables 5, 7).")
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (no usage block)."""
-
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def _set_value(text: str):
@@ -86,9 +81,9 @@ def _transient_options(p, t_end=None):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = _Parser(prog="rheometer", description=__doc__.replace("``", "").replace("::", ":"),
+    ap = OneLineParser(prog="rheometer", description=__doc__.replace("``", "").replace("::", ":"),
                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_EPILOG)
-    sub = ap.add_subparsers(dest="cmd", metavar="COMMAND", parser_class=_Parser)
+    sub = ap.add_subparsers(dest="cmd", metavar="COMMAND", parser_class=OneLineParser)
     sub.required = True
 
     p = sub.add_parser("materials", help="list the parameter sets and their sources")
@@ -302,24 +297,13 @@ _COMMANDS = {"materials": _cmd_materials, "flow-curve": _cmd_flow_curve,
 def main(argv=None) -> int:
     """Entry point of the ``rheometer`` console script; returns the exit status."""
     args = build_parser().parse_args(argv)
-    try:
+
+    def body():
         msg = _COMMANDS[args.cmd](args)
-    except ValueError as exc:
-        print(f"rheometer {args.cmd}: error: {_one_line(exc)}", file=sys.stderr)
-        return 2
-    except (RuntimeError, OSError) as exc:
-        print(f"rheometer {args.cmd}: failed: {_one_line(exc)}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print(f"rheometer {args.cmd}: interrupted", file=sys.stderr)
-        return 130
-    if msg:
-        print(msg)
-    return 0
+        if msg:
+            print(msg)
 
-
-def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split()) or type(exc).__name__
+    return run_command(f"rheometer {args.cmd}", body)
 
 
 if __name__ == "__main__":

@@ -17,22 +17,15 @@ from pathlib import Path
 
 import numpy as np
 
-
-class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, no usage dump
-        raise _UsageError(message)
-
-
-class _UsageError(Exception):
-    pass
+from rheology.cli_common import OneLineParser, run_command
 
 
 def _parser() -> argparse.ArgumentParser:
     from .scenes import R_INNER, R_OUTER, ROTATION_END, SPEEDS
 
-    ap = _Parser(prog="shear1d", description=__doc__,
+    ap = OneLineParser(prog="shear1d", description=__doc__,
                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = ap.add_subparsers(dest="cmd", required=True, parser_class=_Parser)
+    sub = ap.add_subparsers(dest="cmd", required=True, parser_class=OneLineParser)
 
     def numerics(p, cells, outputs):
         p.add_argument("--cells", type=int, default=cells, help=f"cells across the gap "
@@ -130,23 +123,10 @@ def _couette(args) -> None:
 
 
 def main(argv=None) -> int:
-    try:
-        args = _parser().parse_args(argv)
-        if args.cmd == "annular":
-            _annular(args)
-        else:
-            _couette(args)
-    except (_UsageError, ValueError) as exc:
-        print(f"shear1d: error: {exc}", file=sys.stderr)
-        return 2
-    except RuntimeError as exc:
-        print(f"shear1d: solver failure: {exc}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print("shear1d: interrupted (rerun with --resume to continue from the checkpoint)",
-              file=sys.stderr)
-        return 130
-    return 0
+    args = _parser().parse_args(argv)
+    return run_command(f"shear1d {args.cmd}", lambda: (_annular if args.cmd == "annular"
+                                                      else _couette)(args),
+                       on_interrupt="rerun with --resume to continue from the checkpoint")
 
 
 if __name__ == "__main__":

@@ -116,7 +116,7 @@ def test_cli_bad_input_is_one_line(argv, message, capsys, tmp_path):
         argv = argv + ["--out", str(tmp_path / "o")]
     assert main(argv + ["--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("error: ") and message in err[0], err
+    assert len(err) == 1 and err[0].startswith("mpm2d run: error: ") and message in err[0], err
 
 
 def test_cli_list_and_run(tmp_path):
