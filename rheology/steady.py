@@ -18,7 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 import numpy as np
-from scipy.optimize import elementwise
+from scipy.optimize import elementwise, minimize_scalar
 
 from . import laws
 from .checks import check_nonnegative, check_positive, check_range
@@ -273,20 +273,49 @@ def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi
     taus, st = _trace(phi, lo, hi, n, m)
     r = value(st) - target[:, None]
     up = r > 0
-    i, j = np.nonzero(up[:, 1:] != up[:, :-1])
-    if i.size == 0:
-        empty = np.zeros(0)
-        return SteadyFlow(*(empty,) * 7, jammed=np.zeros(0, bool), index=np.zeros(0, int),
-                          branch=np.zeros(0, int), stable=np.zeros(0, bool))
-    tg, ph = target[i], phi[i]
 
     def resid(logt, tg, ph):
         return value(steady_state_stress(np.exp(logt), ph, m)) - tg
 
-    res = elementwise.find_root(resid, (np.log(taus[i, j]), np.log(taus[i, j + 1])),
-                                args=(tg, ph), tolerances=dict(xatol=1e-13, xrtol=4e-16))
-    st_root = steady_state_stress(np.exp(res.x), ph, m)
-    stable = ~up[i, j]                                   # crossing upwards: d(control)/d(taubar) > 0
+    # brackets (row, log taubar lo, hi, stable): the sign changes on the grid, plus pairs of
+    # states at a fold that falls between grid points (the target within a grid step of an
+    # extremum of the curve)
+    i, j = np.nonzero(up[:, 1:] != up[:, :-1])
+    lt = np.log(taus)
+    rows, a, b = list(i), list(lt[i, j]), list(lt[i, j + 1])
+    stab = list(~up[i, j])                               # crossing upwards: d(control)/d(taubar) > 0
+    d = np.diff(r, axis=1)
+    for q, k in zip(*np.nonzero((d[:, :-1] > 0) != (d[:, 1:] > 0))):
+        if up[q, k] != up[q, k + 1] or up[q, k + 1] != up[q, k + 2]:
+            continue                                     # the grid already brackets these
+        sgn = 1.0 if d[q, k] > 0 else -1.0               # a maximum or a minimum of r
+        if up[q, k + 1] == (sgn > 0):
+            continue                                     # a maximum above or a minimum below
+        ext = minimize_scalar(lambda x: -sgn * resid(x, target[q], phi[q]), method="bounded",
+                              bounds=(lt[q, k], lt[q, k + 2]), options=dict(xatol=1e-12))
+        r_ext = sgn * resid(ext.x, target[q], phi[q])
+        if r_ext < -1e-12 * abs(target[q]):
+            continue                                     # the fold does not reach the target
+        x_ext = ext.x if r_ext <= 0 else None            # touching: a double state at the fold
+        rows += [q, q]
+        a += [lt[q, k] if x_ext is None else x_ext, ext.x if x_ext is None else x_ext]
+        b += [ext.x if x_ext is None else x_ext, lt[q, k + 2] if x_ext is None else x_ext]
+        stab += [sgn > 0, sgn < 0]                       # rising then falling through a maximum
+    if not rows:
+        empty = np.zeros(0)
+        return SteadyFlow(*(empty,) * 7, jammed=np.zeros(0, bool), index=np.zeros(0, int),
+                          branch=np.zeros(0, int), stable=np.zeros(0, bool))
+    order = np.lexsort((np.array(a), np.array(rows)))
+    i = np.array(rows)[order]
+    a, b, stable = np.array(a)[order], np.array(b)[order], np.array(stab, dtype=bool)[order]
+    tg, ph = target[i], phi[i]
+    x = a.copy()
+    open_ = a < b
+    if open_.any():
+        res = elementwise.find_root(resid, (a[open_], b[open_]), args=(tg[open_], ph[open_]),
+                                    tolerances=dict(xatol=1e-13, xrtol=4e-16))
+        x[open_] = res.x
+    st_root = steady_state_stress(np.exp(x), ph, m)
     branch = np.zeros(i.size, dtype=int)
     for q in range(1, i.size):
         branch[q] = branch[q - 1] + 1 if i[q] == i[q - 1] else 0

@@ -67,8 +67,13 @@ def test_frame_indifference(m, seed):
     scale = np.abs(sig).max() + m.G * dt * np.abs(L).max() + 1e-300
     np.testing.assert_allclose(b.stress, rot(a.stress), atol=1e-8 * scale)
     np.testing.assert_array_equal(a.case, b.case)
-    for k in ("f", "shear_rate_p", "taubar", "pressure"):
-        np.testing.assert_allclose(getattr(b, k), getattr(a, k), rtol=1e-7,
+    # Rotating the inputs perturbs them by roundoff of `scale`; the return to a small taubar from a
+    # large trial stress (G dt gdot_p >> taubar) cancels, so stress-like outputs are compared to
+    # roundoff of `scale`, and f (which follows taubar) to 1e-6.
+    for k in ("taubar", "pressure"):
+        np.testing.assert_allclose(getattr(b, k), getattr(a, k), rtol=1e-7, atol=1e-13 * scale)
+    for k in ("f", "shear_rate_p"):
+        np.testing.assert_allclose(getattr(b, k), getattr(a, k), rtol=1e-6,
                                    atol=1e-12 * np.abs(getattr(a, k)).max() + 1e-300)
 
 
