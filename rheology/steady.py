@@ -289,17 +289,20 @@ def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi
         if up[q, k] != up[q, k + 1] or up[q, k + 1] != up[q, k + 2]:
             continue                                     # the grid already brackets these
         sgn = 1.0 if d[q, k] > 0 else -1.0               # a maximum or a minimum of r
-        if up[q, k + 1] == (sgn > 0):
-            continue                                     # a maximum above or a minimum below
+        if up[q, k + 1] == (sgn > 0) or abs(r[q, k + 1]) > abs(d[q, k]) + abs(d[q, k + 1]):
+            # a maximum above or a minimum below the target, or one out of its reach: a smooth
+            # extremum between the samples exceeds the middle one by at most ~1/8 of this sum
+            continue
         ext = minimize_scalar(lambda x: -sgn * resid(x, target[q], phi[q]), method="bounded",
                               bounds=(lt[q, k], lt[q, k + 2]), options=dict(xatol=1e-12))
         r_ext = sgn * resid(ext.x, target[q], phi[q])
         if r_ext < -1e-12 * abs(target[q]):
             continue                                     # the fold does not reach the target
-        x_ext = ext.x if r_ext <= 0 else None            # touching: a double state at the fold
+        # through the fold: one state on each side; touching it: a double state at the fold
+        edges = (lt[q, k], ext.x, lt[q, k + 2]) if r_ext > 0 else (ext.x,) * 3
         rows += [q, q]
-        a += [lt[q, k] if x_ext is None else x_ext, ext.x if x_ext is None else x_ext]
-        b += [ext.x if x_ext is None else x_ext, lt[q, k + 2] if x_ext is None else x_ext]
+        a += edges[:2]
+        b += edges[1:]
         stab += [sgn > 0, sgn < 0]                       # rising then falling through a maximum
     if not rows:
         empty = np.zeros(0)
