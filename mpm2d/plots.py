@@ -40,18 +40,6 @@ def particles(ax, sim, field: str = "speed", cmap="viridis", vmin=None, vmax=Non
     return sc
 
 
-def snapshot_figure(sim, path, field="speed", label="|v| [m/s]", title="", **kw):
-    """One panel of the particles coloured by ``field``, with a colour bar."""
-    fig, ax = plt.subplots(figsize=(6, 5))
-    sc = particles(ax, sim, field, **kw)
-    if sc is not None:
-        fig.colorbar(sc, ax=ax, label=label)
-    ax.set_title(title or f"t = {sim.t:.4g} s")
-    atomic_savefig(fig, path)
-    plt.close(fig)
-    return path
-
-
 def save(fig, path):
     """Save atomically and close."""
     atomic_savefig(fig, path)

@@ -161,7 +161,7 @@ def terzaghi_case(out: Path, quick: bool) -> Verdict:
         passed=ok, figures=figs, details=table.round(6).to_string())
 
 
-def _couette_vs_shear1d(run_dir: Path, cells: int) -> float:
+def _couette_vs_shear1d(run_dir: Path, params: dict) -> float:
     """Max |u_mpm - u_shear1d| / U over the profile times of an mpm2d Couette run.
 
     shear1d solves the same start-up as a suspension at phi = 1e-6 (its Newtonian limit; the
@@ -170,7 +170,6 @@ def _couette_vs_shear1d(run_dir: Path, cells: int) -> float:
     """
     from shear1d import plane_couette, solve
 
-    params = couette.setup(cells=cells).params
     prof = couette.profiles(run_dir)
     pb = plane_couette(params["U"], gap=params["gap"], n_cells=256, phi0=1e-6,
                        eta0=params["eta"], rho_f=params["rho"])
@@ -185,7 +184,7 @@ def couette_case(out: Path, quick: bool) -> Verdict:
     cells = (8, 16) if quick else (8, 16, 32, 64)
     frames = []
     for n in cells:
-        _run(couette.setup, out / f"cells_{n}", cells=n, t_end_T=0.5)
+        params = _run(couette.setup, out / f"cells_{n}", cells=n, t_end_T=0.5)["scene"].params
         df = pd.read_csv(out / f"cells_{n}" / "couette_result.csv")
         frames.append(df)
     table = pd.concat(frames, ignore_index=True)
@@ -204,7 +203,7 @@ def couette_case(out: Path, quick: bool) -> Verdict:
     fig_path = atomic_savefig(fig, out / "couette_convergence.png")
     plt.close(fig)
     tol = 0.05 if quick else 1e-3
-    tier_gap = _couette_vs_shear1d(out / f"cells_{cells[-1]}", cells[-1])
+    tier_gap = _couette_vs_shear1d(out / f"cells_{cells[-1]}", params)
     ok = bool(np.all(orders > 1.9) and err[-1].max() < tol and tier_gap < tol)
     return Verdict(
         criterion="velocity at the points vs the series at t nu/H^2 = 0.02...0.5: observed orders "
