@@ -78,3 +78,43 @@ def check_positive(name: str, value, note: str = "") -> np.ndarray:
 def check_nonnegative(name: str, value, note: str = "") -> np.ndarray:
     """Check ``value >= 0`` and finite (see :func:`check_range`)."""
     return check_range(name, value, 0.0, None, note=note)
+
+
+def available_memory() -> int:
+    """Memory the system can give without swapping [bytes] (``MemAvailable``, else physical)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    import os
+
+    return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+
+
+def check_memory(name: str, value, nbytes: float, fraction: float = 0.5) -> None:
+    """Refuse a size whose memory estimate exceeds ``fraction`` of the available memory.
+
+    Parameters
+    ----------
+    name : str
+        The size parameter, e.g. ``"--cells"``.
+    value : int
+        Its value.
+    nbytes : float
+        The run's memory estimate at that size [bytes].
+    fraction : float
+        Share of the available memory a run may take.
+
+    Raises
+    ------
+    ValueError
+        ``"--cells = 100000000 needs about 61 GB (estimate), more than half the 20 GB available"``.
+    """
+    avail = available_memory()
+    if nbytes > fraction * avail:
+        raise ValueError(f"{name} = {value} needs about {nbytes / 1e9:.3g} GB (estimate), more "
+                         f"than {fraction:.0%} of the {avail / 1e9:.3g} GB available; choose a "
+                         "smaller size")
