@@ -1,0 +1,233 @@
+"""Parameter sweeps of any scene on Dask: ``mpm2d sweep SCENE --set k=v1,v2 ... --out DIR``.
+
+The cases are the Cartesian product of the ``--set`` lists (``--set phi0=0.46,0.47 --set
+v0=0.2,0.5`` is four cases). They run on ``dask.distributed``: by default a ``LocalCluster`` on
+this machine (one worker process per core, one thread each, numba set to one thread per worker);
+``scheduler="tcp://host:8786"`` sends the same sweep to an existing Dask cluster (its workers
+need this package installed and ``DIR`` on a shared file system).
+
+Each case is a normal scene run (:func:`mpm2d.run.run_scene`) in ``DIR/<case>.partial/``, moved
+to ``DIR/<case>/`` by one ``os.replace`` when it completes, so a case folder without the suffix
+is always whole. On a rerun, complete cases are skipped, and a partial case continues from its
+checkpoint (written every ``checkpoint_every`` wall seconds; a worker stopped by Ctrl-C or
+SIGTERM of the sweep loses at most that much). A case that fails is reported with its error
+while the others finish. ``DIR/sweep.csv`` lists every case with its parameters, status
+(``done``, ``skipped``, ``failed``), wall time and error; a scene module may define
+``sweep_report(table, out) -> list of paths`` to add its own tables and figures (e.g. the
+intruder's fronts).
+
+Bad input (an unknown scene or parameter, a value out of range, an empty list) is refused before
+any case runs, exactly as ``mpm2d run`` refuses it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import os
+import re
+import shutil
+import time
+from pathlib import Path
+
+import pandas as pd
+
+from rheology.cli_common import one_line
+from rheology.io import atomic_write_csv
+
+#: parameter-name pattern of a case folder (stable across reruns)
+_SAFE = re.compile(r"[^A-Za-z0-9.+\-]+")
+
+
+def parse_grid(items) -> dict[str, list[str]]:
+    """``["phi0=0.46,0.47", "v0=0.2"]`` -> ``{"phi0": ["0.46", "0.47"], "v0": ["0.2"]}``.
+
+    Raises
+    ------
+    ValueError
+        An item without ``=``, an empty value list, or a key given twice.
+    """
+    grid: dict[str, list[str]] = {}
+    for item in items or []:
+        if "=" not in item:
+            raise ValueError(f"--set {item!r} must be key=value[,value...]")
+        key, values = (s.strip() for s in item.split("=", 1))
+        vals = [v.strip() for v in values.split(",")]
+        if not key or any(v == "" for v in vals):
+            raise ValueError(f"--set {item!r}: empty key or value")
+        if key in grid:
+            raise ValueError(f"--set {key} given twice; list its values once: {key}=a,b,c")
+        grid[key] = vals
+    return grid
+
+
+def expand(grid: dict[str, list[str]]) -> list[dict[str, str]]:
+    """The Cartesian product of the grid, in the order the keys were given."""
+    keys = list(grid)
+    return [dict(zip(keys, combo)) for combo in itertools.product(*(grid[k] for k in keys))]
+
+
+def case_name(params: dict) -> str:
+    """Folder name of a case, e.g. ``phi0=0.46_v0=0.2`` (``base`` for an empty grid)."""
+    if not params:
+        return "base"
+    return "_".join(f"{_SAFE.sub('-', str(k))}={_SAFE.sub('-', str(v))}"
+                    for k, v in params.items())
+
+
+def _complete(folder: Path) -> bool:
+    import json
+
+    try:
+        return json.loads((folder / "manifest.json").read_text())["status"] == "complete"
+    except (OSError, ValueError, KeyError):
+        return False
+
+
+def run_case(scene: str, out: str, params: dict, checkpoint_every: float = 60.0,
+             vtk: bool = False, threads: int = 1) -> dict:
+    """Run one case into ``out/<case>`` (through ``<case>.partial``); runs on a Dask worker.
+
+    Returns
+    -------
+    dict with ``case``, ``status`` (``done`` or ``skipped``), ``wall_s``. Errors propagate (the
+    sweep records them per case).
+    """
+    import numba
+
+    from .run import run_scene
+    from .scenes import get_setup
+
+    name = case_name(params)
+    final, partial = Path(out) / name, Path(out) / f"{name}.partial"
+    if _complete(final):
+        return {"case": name, "status": "skipped", "wall_s": 0.0}
+    numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    t0 = time.perf_counter()
+    resume = (partial / "checkpoint.npz").exists() and (partial / "manifest.json").exists()
+    run_scene(get_setup(scene), partial, dict(params), resume=resume, progress=False, vtk=vtk,
+              checkpoint_every=checkpoint_every, log=lambda msg: None, scene_name=scene)
+    if final.exists():                      # a stale, incomplete folder of an older sweep
+        shutil.rmtree(final)
+    os.replace(partial, final)
+    return {"case": name, "status": "done", "wall_s": time.perf_counter() - t0}
+
+
+def _client(scheduler: str | None, workers: int | None):
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        return Client(scheduler, timeout="20s"), None
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=50,
+                           env={"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"})
+    return Client(cluster), cluster
+
+
+def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | None = None,
+              workers: int | None = None, checkpoint_every: float = 60.0, vtk: bool = False,
+              progress: bool = True, log=print) -> pd.DataFrame:
+    """Run every case of ``grid`` for ``scene`` on Dask and write ``out/sweep.csv``.
+
+    Parameters
+    ----------
+    scene : str
+        A scene name (``mpm2d list``).
+    grid : dict of str -> list of str
+        Parameter values per key (:func:`parse_grid`); every case is validated before any runs.
+    out : path
+        The sweep folder (one sub-folder per case).
+    scheduler : str, optional
+        Address of an existing Dask scheduler; default: a LocalCluster.
+    workers : int, optional
+        Workers of the LocalCluster (default: one per core).
+
+    Returns
+    -------
+    pandas.DataFrame, one row per case (parameters, ``case``, ``status``, ``wall_s``, ``error``).
+
+    Raises
+    ------
+    ValueError
+        Bad input (unknown scene or key, a value out of range), before anything is written.
+    RuntimeError
+        Every case failed.
+    """
+    from .run import coerce
+    from .scenes import get_setup
+
+    setup = get_setup(scene)
+    cases = expand(grid)
+    for params in cases:                     # bad input: refused before any work
+        coerce(dict(params), setup)
+    names = [case_name(p) for p in cases]
+    if len(set(names)) != len(names):
+        raise ValueError("two cases map to the same folder name; give distinct values")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = {n: {**p, "case": n, "status": "pending", "wall_s": 0.0, "error": ""}
+            for n, p in zip(names, cases)}
+    todo = [(n, p) for n, p in zip(names, cases) if not _complete(out / n)]
+    for n in rows:
+        if n not in dict(todo):
+            rows[n]["status"] = "skipped"
+    log(f"sweep {scene}: {len(cases)} cases, {len(cases) - len(todo)} complete already, "
+        f"{len(todo)} to run; results in {out}")
+    if todo:
+        _run_on_dask(scene, out, todo, rows, scheduler, workers, checkpoint_every, vtk,
+                     progress, log)
+    table = pd.DataFrame(list(rows.values()))
+    atomic_write_csv(out / "sweep.csv", table)
+    failed = table[table["status"] == "failed"]
+    for _, r in failed.iterrows():
+        log(f"case {r['case']} failed: {r['error']}")
+    module = __import__(setup.__module__, fromlist=["sweep_report"])
+    report = getattr(module, "sweep_report", None)
+    done = table[table["status"].isin(["done", "skipped"])]
+    if report is not None and len(done):
+        for path in report(done, out):
+            log(f"wrote {path}")
+    if len(failed) == len(table):
+        raise RuntimeError(f"every case of the sweep failed (first: {failed['error'].iloc[0]}); "
+                           f"see {out / 'sweep.csv'}")
+    log(f"sweep {scene}: {len(done)} of {len(table)} cases complete, {len(failed)} failed; "
+        f"wrote {out / 'sweep.csv'}")
+    return table
+
+
+def _run_on_dask(scene, out, todo, rows, scheduler, workers, checkpoint_every, vtk, progress,
+                 log) -> None:
+    from dask.distributed import as_completed
+
+    client, cluster = _client(scheduler, workers)
+    bar = None
+    try:
+        log(f"dask: {client.scheduler.address if hasattr(client.scheduler, 'address') else ''}"
+            f" with {len(client.scheduler_info()['workers'])} worker(s)")
+        futures = {}
+        for name, params in todo:
+            fut = client.submit(run_case, scene, str(out), params, checkpoint_every, vtk, 1,
+                                key=f"{scene}-{name}", pure=False)
+            futures[fut] = name
+        if progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(futures), desc=f"sweep {scene}", unit="case")
+        for fut in as_completed(futures):
+            name = futures[fut]
+            try:
+                res = fut.result()
+                rows[name].update(status=res["status"], wall_s=res["wall_s"])
+            except Exception as exc:         # a failing case must not stop the others
+                rows[name].update(status="failed", error=f"{type(exc).__name__}: {one_line(exc)}")
+            if bar is not None:
+                running = sum(1 for f in futures if f.status == "pending")
+                bar.set_postfix(running=min(running, len(client.scheduler_info()["workers"])),
+                                failed=sum(r["status"] == "failed" for r in rows.values()))
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+        client.close()
+        if cluster is not None:
+            cluster.close()

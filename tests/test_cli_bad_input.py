@@ -1,0 +1,144 @@
+"""Every numeric option of every subcommand of every CLI refuses bad values the same way.
+
+The mechanism is ``rheology.cli_common.Number``: every option that takes a number declares it as
+its argparse ``type`` with the valid range. This test walks the parsers (so a new option is covered
+the day it is added), fails on any numeric option that bypasses ``Number``, and draws bad values
+(NaN, inf, out of range, not a number, huge) for each: the command must exit with status 2 and
+one line on stderr that names the option and the valid range, and write nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import math
+import os
+from unittest import mock
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from rheology.cli_common import Number
+
+#: console script -> module with ``main(argv)``
+CLIS = {"rheometer": "rheometer.cli", "shear1d": "shear1d.cli", "mpm2d": "mpm2d.cli"}
+#: arguments a subcommand needs besides the option under test
+REQUIRED = {("shear1d", "couette"): ["--speed", "0.01"], ("mpm2d", "run"): ["bar"],
+            ("mpm2d", "show"): ["bar"], ("mpm2d", "sweep"): ["bar"]}
+
+
+class _Grabbed(Exception):
+    pass
+
+
+def _parser(cli):
+    """The module and the top-level parser its ``main`` builds (caught at ``parse_args``)."""
+    mod = importlib.import_module(CLIS[cli])
+    grabbed = {}
+
+    def grab(self, *args, **kwargs):
+        grabbed["parser"] = self
+        raise _Grabbed
+
+    with mock.patch.object(argparse.ArgumentParser, "parse_args", grab):
+        try:
+            mod.main([])
+        except _Grabbed:
+            pass
+    return mod, grabbed["parser"]
+
+
+def _subcommands(parser):
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            yield from action.choices.items()
+
+
+def _options():
+    out = []
+    for cli in CLIS:
+        _, parser = _parser(cli)
+        for sub, sp in _subcommands(parser):
+            for action in sp._actions:
+                if not action.option_strings or action.nargs == 0:
+                    continue
+                out.append((cli, sub, action))
+    return out
+
+
+OPTIONS = _options()
+NUMERIC = [(cli, sub, a) for cli, sub, a in OPTIONS if isinstance(a.type, Number)]
+
+
+def test_every_numeric_option_uses_number():
+    """No option parses numbers with bare float/int (those accept nan and inf)."""
+    bare = [f"{cli} {sub} {a.option_strings[-1]}" for cli, sub, a in OPTIONS
+            if a.type in (float, int)]
+    assert not bare, f"options bypassing rheology.cli_common.Number: {bare}"
+    assert len(NUMERIC) >= 20          # the walk found the options (guards an empty walk)
+
+
+def _bad_values(number: Number):
+    cands = ["nan", "NaN", "inf", "-inf", "1e400", "abc", "", "0x", "-1", "0", "-1e300", "1e300"]
+    if number.lo is not None:
+        cands += [repr(number.lo - 1.0), repr(number.lo - abs(number.lo) * 0.5 - 1e-9)]
+        if not number.lo_closed:
+            cands.append(repr(float(number.lo)))
+    if number.hi is not None:
+        cands += [repr(number.hi * 2 + 1.0), repr(number.hi + 1.0)]
+        if not number.hi_closed:
+            cands.append(repr(float(number.hi)))
+    if number.integer:
+        cands += ["1.5", "2.25"]
+
+    def bad(text):
+        try:
+            x = float(text)
+        except ValueError:
+            return True
+        return not number.contains(x) or not math.isfinite(x)
+    return sorted({c for c in cands if bad(c)})
+
+
+CASES = [(cli, sub, a.option_strings[-1], v) for cli, sub, a in NUMERIC
+         for v in _bad_values(a.type)]
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(case=st.sampled_from(CASES))
+def test_bad_value_is_one_line_exit_2_nothing_written(case, tmp_path_factory, capsys):
+    cli, sub, option, value = case
+    mod, parser = _parser(cli)
+    action = next(a for a in dict(_subcommands(parser))[sub]._actions
+                  if option in a.option_strings)
+    nargs = action.nargs if isinstance(action.nargs, int) else 1
+    work = tmp_path_factory.mktemp("bad")
+    cwd = os.getcwd()
+    os.chdir(work)
+    try:
+        argv = [sub, *REQUIRED.get((cli, sub), []), f"{option}={value}" if nargs == 1 else option]
+        if nargs != 1:
+            argv += [value] * nargs
+        try:
+            status = mod.main(argv)
+        except SystemExit as exc:
+            status = exc.code
+    finally:
+        os.chdir(cwd)
+    err = capsys.readouterr().err.strip()
+    assert status == 2, (argv, status, err)
+    assert len(err.splitlines()) == 1, err
+    assert option in err, err
+    assert not any(work.iterdir()), f"{argv} wrote {list(work.iterdir())}"
+
+
+@pytest.mark.parametrize("cli", sorted(CLIS))
+def test_help_of_every_subcommand(cli, capsys):
+    """--help works for every subcommand (status 0) and names each numeric range nowhere wrongly."""
+    mod, parser = _parser(cli)
+    for sub, _ in _subcommands(parser):
+        with pytest.raises(SystemExit) as exc:
+            mod.main([sub, "--help"])
+        assert exc.value.code == 0
+    assert capsys.readouterr().out
