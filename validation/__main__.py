@@ -36,23 +36,10 @@ def main(argv=None) -> int:
         return 2
     failed = [o for o in outcomes if not o.passed]
     for o in failed:
-        print(f"FAIL {o.entry.name}: {failure_reason(o)}")
+        print(f"FAIL {o.entry.name}: {o.reason}")
     print(f"wrote {args.out}/report.html: {len(outcomes) - len(failed)}/{len(outcomes)} pass"
           + (f"; failing: {', '.join(o.entry.name for o in failed)}" if failed else ""))
     return 1 if failed else 0
-
-
-def failure_reason(outcome) -> str:
-    """One line: the criterion and the measured value of a failed case, the unmet targets of a
-    benchmark, or the last line of an error."""
-    from .framework import Verdict
-
-    if outcome.error:
-        return "error: " + outcome.error.strip().splitlines()[-1]
-    r = outcome.result
-    if isinstance(r, Verdict):
-        return f"criterion {r.criterion}; measured {r.measured}"
-    return "; ".join(f"target {t}: measured {m}" for t, m, met in r.targets if not met)
 
 
 if __name__ == "__main__":

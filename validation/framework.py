@@ -119,6 +119,17 @@ class Outcome:
             return bool(self.result.passed)
         return all(met for _, _, met in self.result.targets)
 
+    @property
+    def reason(self) -> str:
+        """One line: a failed case's criterion and measured value, a benchmark's unmet targets,
+        or the last line of an error."""
+        if self.error is not None:
+            return "error: " + self.error.strip().splitlines()[-1]
+        r = self.result
+        if isinstance(r, Verdict):
+            return f"criterion {r.criterion}; measured {r.measured}"
+        return "; ".join(f"target {t}: measured {m}" for t, m, met in r.targets if not met)
+
 
 def run_entry(entry: Entry, out: Path, quick: bool = False) -> Outcome:
     """Run one case or benchmark in its own folder ``out/<name>``, capturing errors."""

@@ -9,7 +9,7 @@ import platform
 import time
 from pathlib import Path
 
-from rheology.io import atomic_write_text
+from rheology.io import atomic_write_json, atomic_write_text
 
 from .framework import BenchResult, Outcome, Verdict, load_all, run_entry
 
@@ -121,7 +121,7 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
     for e in select(tiers, names, kinds):
         log(f"[{e.tier}] {e.kind} {e.name} ...", flush=True)
         o = run_entry(e, root, quick)
-        log(f"    {'PASS' if o.passed else 'FAIL'} in {o.seconds:.1f} s"
+        log(f"    {'PASS' if o.passed else 'FAIL (' + o.reason + ')'} in {o.seconds:.1f} s"
             + (f"\n{o.error}" if o.error else ""), flush=True)
         outcomes.append(o)
         # rewrite after every entry so a long run shows progress and survives interruption
@@ -132,5 +132,5 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
                 "measured": getattr(o.result, "measured", None),
                 "targets": getattr(o.result, "targets", None),
                 "rows": getattr(o.result, "rows", None)} for o in outcomes]
-    atomic_write_text(root / "results.json", json.dumps(results, indent=1, default=str))
+    atomic_write_json(root / "results.json", results, nullable=("measured",))
     return outcomes
