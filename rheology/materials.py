@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -324,6 +325,96 @@ FIG2_MATERIALS: tuple[str, ...] = ("dhaene1993", "frith1996", "guy2015_a", "guy2
                                    "fall2015", "hermes2016")
 
 
+# ---------------------------------------------------------------------------- material files
+#: ``format`` tag of a material file written by :func:`save_material`.
+MATERIAL_FILE_FORMAT = "suspension-toolkit material"
+
+
+def material_to_dict(m: Material) -> dict:
+    """Every field of ``m`` as plain JSON values (None for unset optional fields)."""
+    return {f.name: getattr(m, f.name) for f in dataclasses.fields(m)}
+
+
+def material_from_dict(data: dict, source: str = "material file") -> Material:
+    """A validated Material from a dict of fields (as written by :func:`material_to_dict`).
+
+    Raises
+    ------
+    ValueError
+        Not a dict, unknown or missing fields, a non-numeric value or a value outside its range
+        (the Material's own validation), each naming ``source``.
+    """
+    if not isinstance(data, dict):
+        raise ValueError(f"{source}: the material must be a JSON object of fields")
+    known = {f.name: f for f in dataclasses.fields(Material)}
+    unknown = sorted(set(data) - set(known))
+    if unknown:
+        raise ValueError(f"{source}: unknown material field(s) {unknown}; valid: {sorted(known)}")
+    required = [n for n, f in known.items() if f.default is dataclasses.MISSING
+                and f.default_factory is dataclasses.MISSING]
+    missing = [n for n in required if n not in data]
+    if missing:
+        raise ValueError(f"{source}: missing material field(s) {missing}")
+    values = {}
+    for k, v in data.items():
+        if k in ("name", "citation", "units", "notes"):
+            if not isinstance(v, str):
+                raise ValueError(f"{source}: {k} = {v!r} must be a string")
+        elif v is None:
+            if known[k].default is not None:
+                raise ValueError(f"{source}: {k} = null is not allowed (a number is required)")
+        elif isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise ValueError(f"{source}: {k} = {v!r} is not a number")
+        values[k] = float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v
+    try:
+        return Material(**values)
+    except ValueError as exc:
+        raise ValueError(f"{source}: {exc}") from None
+
+
+def save_material(path, m: Material, **extra) -> Path:
+    """Write ``m`` as a material file (strict JSON, atomically): ``{"format", "material":
+    {fields}, **extra}`` (e.g. ``provenance=...``, ``fit=...``). :func:`get_material` reads it."""
+    from .io import atomic_write_json
+
+    doc = {"format": MATERIAL_FILE_FORMAT, "version": 1, "material": material_to_dict(m), **extra}
+    return atomic_write_json(path, doc)
+
+
+def load_material(path) -> Material:
+    """Read a material file (:func:`save_material`'s layout, or a bare object of fields) and
+    validate it like a built-in set.
+
+    Raises
+    ------
+    ValueError
+        The file is missing, not JSON, or its material is invalid (named with the file).
+    """
+    import json
+
+    def no_nan(token):
+        raise ValueError(f"{token} is not a number in strict JSON")
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"material file {str(path)!r} not found")
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"),
+                         parse_constant=no_nan)
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise ValueError(f"material file {str(path)!r} is not valid JSON "
+                         f"({' '.join(str(exc).split())[:100]})") from None
+    data = doc.get("material", doc) if isinstance(doc, dict) else doc
+    if isinstance(data, dict):
+        data = {k: v for k, v in data.items() if k not in ("format", "version")}
+    return material_from_dict(data, f"material file {path.name}")
+
+
+def _is_material_file(name) -> bool:
+    text = str(name)
+    return text.lower().endswith(".json") or (("/" in text or "\\" in text) and Path(text).exists())
+
+
 def material_names() -> list[str]:
     """Names of every registered parameter set."""
     return list(_REGISTRY)
@@ -334,18 +425,23 @@ def get_material(name: str | Material, **overrides) -> Material:
 
     Parameters
     ----------
-    name : str or Material
-        A registry name (see :func:`material_names`) or a Material to copy.
+    name : str, path or Material
+        A registry name (see :func:`material_names`), a material file (``*.json``, written by
+        :func:`save_material`, e.g. ``fit/material.json`` from ``rheometer fit``) or a
+        Material to copy.
     **overrides
         Field values to replace, e.g. ``eta0=0.01`` [Pa s]; the result is validated.
 
     Raises
     ------
     ValueError
-        Unknown name or field, or an override outside its valid range.
+        Unknown name or field, an unreadable or invalid material file, or an override outside
+        its valid range.
     """
     if isinstance(name, Material):
         base = name
+    elif _is_material_file(name):
+        base = load_material(name)
     else:
         key = str(name).strip().lower()
         if key not in _REGISTRY:
