@@ -1,0 +1,973 @@
+"""The model fitted to measured steady flow curves: the Supplement's procedure, then a global fit.
+
+Stages (Baumgarten & Kamrin, Supplement, Figs. 11-13):
+
+1. (Fig. 11, Eq. 24) the low-stress viscosity plateau of each curve (its minimum, after a 3-point
+   running mean in log viscosity against noise) -> ``a0, phi_j``, with ``mu_c`` and ``eta0`` held.
+2. (Fig. 12, Eq. 25) the high-stress plateau of the curves that have one (the viscosity flattens
+   at the top of the ramp: local log-log slope < 0.3, and it has thickened) -> ``a_inf, phi_c``.
+3. (Fig. 13, Eqs. 33-34) the DST rates of the curves whose shear rate saturates at the top of the
+   ramp (log-log slope of the viscosity > 0.6: phi above phi_c) -> the eta_B(phi) form, one term
+   (``varphi1, alpha1``: linear least squares in log) or two (``varphi2`` with ``alpha2`` held).
+   Eq. (33) needs tau*: a first estimate is fitted just before (1-D, full model, on the non-DST
+   curves).
+4. every free parameter refined together on all curves: the model evaluated at each measured
+   MIXTURE stress through its stress-controlled steady state (:func:`mixture_steady_state`),
+   residuals in log10 viscosity, a robust loss (soft L1) against outliers (wall slip, artefacts);
+   then points beyond 4 robust standard deviations are flagged as outliers and the fit is polished
+   by plain least squares on the rest, which defines the confidence intervals.
+
+Uncertainty: the covariance from the Jacobian at the optimum (s^2 (J^T J)^-1, in the
+coordinates of :data:`SCALE`: log for scale parameters, linear for fractions and exponents),
+Student-t intervals; for phi_j and phi_c also the profile likelihood (refits at fixed values until
+the sum of squares has grown by s^2 t^2), which replaces the Jacobian interval when it is computed.
+A parameter is flagged unidentifiable when its interval is wider than a factor of 2 (scale
+parameters) or +-0.02 (fractions) or +-1 (exponents), when it is correlated with another beyond
+|r| = 0.995, or when it lies in a direction of (numerically) zero curvature.
+
+Everything is SI. The model is the viscous limit of Eq. (1) (grain inertia neglected, as in the
+paper's fits); the material's mu_2 and b are honoured.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+from scipy.optimize import elementwise, least_squares
+
+from . import laws
+from .checks import check_range
+from .materials import Material, get_material
+from .steady import gdot_dst
+
+#: Every parameter the fitter can vary, with its reporting coordinate: "log" (intervals and
+#: correlations in ln, always positive) or "lin".
+SCALE: dict[str, str] = {
+    "phi_j": "lin", "phi_c": "lin", "a0": "log", "a_inf": "log", "tau_star": "log",
+    "varphi1": "log", "alpha1": "lin", "varphi2": "log", "alpha2": "lin", "eta0": "log",
+    "mu_c": "log", "Delta": "lin",
+}
+
+#: Fitted by default (eta_B terms only as far as the data has DST curves).
+DEFAULT_FREE: tuple[str, ...] = ("phi_j", "phi_c", "a0", "a_inf", "tau_star", "varphi1", "alpha1")
+
+#: Held fixed by default; ``free=`` may add them.
+OPTIONAL_FREE: tuple[str, ...] = ("eta0", "mu_c", "Delta", "varphi2", "alpha2")
+
+STAGE_OF = {"phi_j": "1", "a0": "1", "phi_c": "2", "a_inf": "2", "varphi1": "3", "alpha1": "3",
+            "varphi2": "3", "alpha2": "3", "tau_star": "4", "eta0": "4", "mu_c": "4", "Delta": "4"}
+
+_ROOT_TOL = dict(xatol=1e-16, xrtol=4e-16, fatol=0.0, frtol=0.0)
+
+
+# ============================================================================ the model at data
+def mixture_steady_state(tau, phi, m: Material) -> dict[str, np.ndarray]:
+    """Steady simple shear at imposed MIXTURE shear stress, viscous limit (Eqs. 1, 3-9, 13).
+
+    Given tau, the structure f fixes the viscosity, hence gdot = tau/(eta0 (1 + 5/2 phi + eta_g))
+    and taubar = eta0 eta_g gdot; the steady structure solves
+    ``y^2 [f (H + S) - H f_m] = 0`` (y = phi_m(f) - phi), bracketed on f in [0, min(f_m, f_jam)]
+    (negative at 0, non-negative at the top), one vectorised Chandrupatla solve for all points.
+    It agrees with :func:`rheology.steady.steady_states_mixture_stress` (to ~1e-14 where that
+    finds one state) at a fraction of the cost, which the fitter needs.
+
+    Parameters
+    ----------
+    tau : array_like
+        Mixture shear stress [Pa], > 0.
+    phi : array_like
+        Volume fraction, 0 < phi < phi_j (broadcast with tau).
+    m : Material
+
+    Returns
+    -------
+    dict of arrays (broadcast shape)
+        ``f``, ``gap`` (phi_m - phi), ``shear_rate`` [1/s], ``viscosity`` [Pa s] (huge but
+        finite at jamming), ``taubar`` [Pa], ``log10_viscosity``.
+
+    Raises
+    ------
+    ValueError
+        tau <= 0 or non-finite, phi outside (0, phi_j).
+    RuntimeError
+        The bracketed solve fails (names the first failing point).
+    """
+    tau = check_range("tau", tau, 0.0, None, lo_closed=False)
+    phi = check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
+                      note=f"steady flow needs phi below phi_j = {m.phi_j:.6g}")
+    tau, phi = (np.ravel(x).astype(float) for x in np.broadcast_arrays(tau, phi))
+    shape = np.broadcast_shapes(np.shape(tau), np.shape(phi))
+    dphi = m.phi_j - m.phi_c
+    fm = laws.f_max(phi, m.phi_c, m.phi_j, m.Delta)
+    fjam = (m.phi_j - phi) / dphi
+    fhi = np.minimum(fm, fjam)
+    yhi = np.where(fm < fjam, (m.phi_j - phi) - dphi * fm, 0.0)
+    inv = laws.inv_eta_B(phi, m.phi_j, m.varphi1, m.alpha1, m.varphi2, m.alpha2)
+    ef = 1.0 + 2.5 * phi
+
+    def parts(u, tau, phi, fm, fhi, yhi, inv, ef):
+        f = u * fhi
+        y = yhi + dphi * fhi * (1.0 - u)
+        a = laws.dilatancy_a(f, m.a0, m.a_inf)
+        mu = laws.critical_friction(phi, y, a, m.mu_c, m.mu2, m.b)
+        E = 2.0 * mu * (a * phi) ** 2 + 2.5 * phi * phi * y
+        D = ef * y * y + E
+        H = laws.hardening(tau * E / D, m.tau_star)
+        return f, y, E, D, H
+
+    def resid(u, *args):
+        tau, phi, fm, fhi, yhi, inv, ef = args
+        f, y, E, D, H = parts(u, *args)
+        y2 = y * y
+        return f * ((H + 1.0) * y2 + m.eta0 * inv * E + m.xi_eps * m.eta0 * D / tau) - H * fm * y2
+
+    args = (tau, phi, fm, fhi, yhi, inv, ef)
+    res = elementwise.find_root(resid, (np.zeros_like(tau), np.ones_like(tau)), args=args,
+                                tolerances=_ROOT_TOL)
+    if not np.all(res.success):
+        k = int(np.flatnonzero(~res.success)[0])
+        raise RuntimeError(f"mixture-stress steady solve failed at tau = {tau[k]:.6g} Pa, phi = "
+                           f"{phi[k]:.6g} (status {res.status[k]})")
+    f, y, E, D, H = parts(res.x, *args)
+    ys = np.maximum(y, 1e-150)
+    rel = ef + E / (ys * ys)
+    out = {"f": f, "gap": y, "viscosity": m.eta0 * rel, "shear_rate": tau / (m.eta0 * rel),
+           "taubar": tau * E / np.maximum(D, 1e-300), "log10_viscosity": np.log10(m.eta0 * rel)}
+    return {k: v.reshape(shape) for k, v in out.items()}
+
+
+# ============================================================================ data
+@dataclass
+class FlowData:
+    """Measured steady flow curves, kept points only (SI).
+
+    Attributes
+    ----------
+    stress, rate, viscosity, phi : float arrays
+        Mixture shear stress [Pa], shear rate [1/s], viscosity [Pa s], volume fraction.
+    curve : int array
+        Curve index of each point (0 .. n_curves-1), in order of first appearance.
+    labels : list of str
+        One label per curve (file and interval).
+    """
+
+    stress: np.ndarray
+    rate: np.ndarray
+    viscosity: np.ndarray
+    phi: np.ndarray
+    curve: np.ndarray
+    labels: list[str] = field(default_factory=list)
+
+    @classmethod
+    def from_table(cls, table) -> "FlowData":
+        """From the tidy table of :func:`rheology.data.read_flow_curves` (kept rows only).
+
+        Raises ValueError if a kept row has no volume fraction or if no curve has 3 points.
+        """
+        t = table[table["kept"]]
+        if t["phi"].isna().any():
+            bad = t.loc[t["phi"].isna(), "source_file"].iloc[0]
+            raise ValueError(f"data file {bad!r} carries no volume fraction: give --phi")
+        keys = list(dict.fromkeys(zip(t["source_file"], t["interval"], t["phi"])))
+        idx = {k: i for i, k in enumerate(keys)}
+        curve = np.array([idx[k] for k in zip(t["source_file"], t["interval"], t["phi"])])
+        labels = [f"{s} [{i}] phi={p:.4g}" for s, i, p in keys]
+        return cls(t["shear_stress_Pa"].to_numpy(float), t["shear_rate_per_s"].to_numpy(float),
+                   t["viscosity_Pa_s"].to_numpy(float), t["phi"].to_numpy(float), curve, labels)
+
+    @classmethod
+    def from_arrays(cls, stress, viscosity, phi, curve=None) -> "FlowData":
+        stress, viscosity, phi = (np.asarray(x, float) for x in (stress, viscosity, phi))
+        if curve is None:
+            _, curve = np.unique(phi, return_inverse=True)
+        curve = np.asarray(curve, int)
+        labels = [f"phi={phi[curve == c][0]:.4g}" for c in range(curve.max() + 1)]
+        return cls(stress, stress / viscosity, viscosity, phi, curve, labels)
+
+    @property
+    def n_curves(self) -> int:
+        return int(self.curve.max()) + 1
+
+    def curve_phi(self) -> np.ndarray:
+        return np.array([self.phi[self.curve == c][0] for c in range(self.n_curves)])
+
+    def sorted_curve(self, c: int):
+        """(stress, viscosity, rate) of curve c, sorted by stress."""
+        sel = np.flatnonzero(self.curve == c)
+        o = sel[np.argsort(self.stress[sel])]
+        return self.stress[o], self.viscosity[o], self.rate[o]
+
+
+# ============================================================================ stages 1-3
+def _running_mean(x: np.ndarray, w: int = 3) -> np.ndarray:
+    if x.size < w:
+        return x.copy()
+    return np.convolve(x, np.ones(w) / w, mode="valid")
+
+
+@dataclass
+class CurveFeatures:
+    """What stages 1-3 read from one curve.
+
+    eta_min : low-stress plateau [Pa s] (minimum of the 3-point running mean in log)
+    eta_max : high-stress plateau [Pa s] (maximum of the same), meaningful if ``kind == 'plateau'``
+    top_slope : d log(viscosity)/d log(stress) over the top quarter of the ramp
+    kind : 'plateau' (stage 2), 'dst' (stage 3), 'jamming' (the rate falls: eta_B = inf) or
+        'neither'
+    gdot_dst : DST rate [1/s] (median rate of the top quarter), for kind 'dst'
+    stress_min, stress_dst : where the plateau minimum and the DST rates were read [Pa]
+    """
+
+    phi: float
+    eta_min: float
+    eta_max: float
+    top_slope: float
+    kind: str
+    gdot_dst: float
+    stress_min: float
+    stress_max: float
+    dst_stress: tuple[float, float]
+
+
+def curve_features(data: FlowData, *, plateau_slope: float = 0.3, dst_slope: float = 0.6,
+                   thickening: float = 1.2) -> list[CurveFeatures]:
+    """Classify every curve and read its plateaus and DST rate (stages 1-3 inputs).
+
+    A curve has a high-stress plateau when the log-log slope of viscosity against stress over the
+    top quarter of its stress range (at least 4 points) is below ``plateau_slope`` and its
+    maximum is ``thickening`` times its minimum; it is a DST curve when that slope exceeds
+    ``dst_slope`` (the shear rate saturates).
+    """
+    out = []
+    for c in range(data.n_curves):
+        s, v, r = data.sorted_curve(c)
+        ls, lv = np.log(s), np.log(v)
+        sm = _running_mean(lv)
+        ss = _running_mean(ls)
+        kmin, kmax = int(np.argmin(sm)), int(np.argmax(sm))
+        top = ls >= ls[-1] - 0.25 * (ls[-1] - ls[0])
+        if top.sum() < 4:
+            top = np.zeros_like(top)
+            top[-min(4, top.size):] = True
+        slope = float(np.polyfit(ls[top], lv[top], 1)[0]) if top.sum() >= 2 else 0.0
+        thick = np.exp(sm[kmax] - sm[kmin]) >= thickening
+        if slope < plateau_slope and thick and kmax > kmin:
+            kind = "plateau"
+        elif dst_slope < slope < 2.0 - dst_slope:
+            kind = "dst"                  # the rate saturates (slope 1), not falls (jamming)
+        elif slope >= 2.0 - dst_slope:
+            kind = "jamming"
+        else:
+            kind = "neither"
+        g = float(np.exp(np.median(np.log(r[top])))) if kind == "dst" else float("nan")
+        out.append(CurveFeatures(float(data.phi[data.curve == c][0]), float(np.exp(sm[kmin])),
+                                 float(np.exp(sm[kmax])), slope, kind, g, float(np.exp(ss[kmin])),
+                                 float(np.exp(ss[kmax])),
+                                 (float(s[top].min()), float(s[top].max()))))
+    return out
+
+
+def _plateau_fit(phi, eta_r, mu_c, p0, bounds, fixed_a=None):
+    """Least squares in log eta_r of eta_r = 1 + 5/2 phi pm/(pm - phi) + 2 mu_c (a phi/(pm - phi))^2
+    (Eq. 24 with pm = phi_j, a = a0; Eq. 25 with pm = phi_c, a = a_inf). Returns (pm, a)."""
+    phi, eta_r = np.asarray(phi, float), np.asarray(eta_r, float)
+
+    def model(pm, a):
+        y = pm - phi
+        return 1 + 2.5 * phi * pm / y + 2 * mu_c * (a * phi / y) ** 2
+
+    if fixed_a is not None:
+        res = least_squares(lambda x: np.log(model(x[0], fixed_a)) - np.log(eta_r), [p0[0]],
+                            bounds=([bounds[0][0]], [bounds[1][0]]), x_scale=[0.01])
+        return float(res.x[0]), float(fixed_a)
+    res = least_squares(lambda x: np.log(model(x[0], np.exp(x[1]))) - np.log(eta_r),
+                        [p0[0], np.log(p0[1])],
+                        bounds=([bounds[0][0], np.log(bounds[0][1])],
+                                [bounds[1][0], np.log(bounds[1][1])]), x_scale=[0.01, 0.1])
+    return float(res.x[0]), float(np.exp(res.x[1]))
+
+
+def _clip_inside(x, lo, hi):
+    span = hi - lo
+    return float(min(max(x, lo + 1e-3 * span), hi - 1e-3 * span))
+
+
+# ============================================================================ parametrisation
+class _Params:
+    """Maps the free natural parameters to the optimiser's box-bounded coordinates theta.
+
+    phi_j and phi_c: (phi_j, phi_j - phi_c) when both are free, so phi_c < phi_j is a box bound;
+    a0 and a_inf: (ln a0, ln(a_inf/a0) >= 0). Scale parameters in ln, exponents and Delta linear.
+    """
+
+    def __init__(self, base: Material, free: list[str], phi_max: float):
+        self.base, self.free, self.phi_max = base, list(free), phi_max
+        names, lo, hi = [], [], []
+        for p in self.free:
+            if p == "phi_j":
+                names.append("phi_j")
+                lo.append(max(phi_max, 0.0 if "phi_c" in self.free else base.phi_c) + 1e-5)
+                hi.append(0.9999)
+            elif p == "phi_c":
+                if "phi_j" in self.free:
+                    names.append("dphi")
+                    lo.append(1e-4)
+                    hi.append(phi_max)          # phi_c = phi_j - dphi > phi_j - phi_max > 0
+                else:
+                    names.append("phi_c")
+                    lo.append(1e-4)
+                    hi.append(base.phi_j - 1e-4)
+            elif p == "a_inf" and "a0" in self.free:
+                names.append("ln_ainf_over_a0")
+                lo.append(0.0)
+                hi.append(np.log(100.0))
+            elif p == "a0" and "a_inf" not in self.free:
+                names.append("ln_a0")
+                lo.append(np.log(1e-3))
+                hi.append(np.log(base.a_inf))
+            elif p == "a_inf":
+                names.append("ln_a_inf")
+                lo.append(np.log(base.a0))
+                hi.append(np.log(1e3))
+            elif SCALE[p] == "log":
+                names.append("ln_" + p)
+                lo.append({"tau_star": np.log(1e-8), "varphi1": -120.0, "varphi2": -120.0,
+                           "a0": np.log(1e-3), "eta0": np.log(1e-8), "mu_c": np.log(1e-3)}[p])
+                hi.append({"tau_star": np.log(1e9), "varphi1": 120.0, "varphi2": 120.0,
+                           "a0": np.log(1e2), "eta0": np.log(1e4), "mu_c": np.log(1e2)}[p])
+            elif p in ("alpha1", "alpha2"):
+                names.append(p)
+                lo.append(0.0)
+                hi.append(30.0)
+            elif p == "Delta":
+                names.append(p)
+                lo.append(0.0)
+                hi.append(1.0)
+            else:  # pragma: no cover
+                raise ValueError(f"cannot fit {p}")
+        self.names, self.lo, self.hi = names, np.array(lo), np.array(hi)
+
+    def values(self, theta) -> dict[str, float]:
+        v = {}
+        for p, x in zip(self.free, theta):
+            if p == "phi_c" and "phi_j" in self.free:
+                continue
+            if p == "a_inf" and "a0" in self.free:
+                continue
+            v[p] = float(np.exp(x)) if SCALE[p] == "log" else float(x)
+        if "phi_c" in self.free and "phi_j" in self.free:
+            v["phi_c"] = v["phi_j"] - float(theta[self.free.index("phi_c")])
+        if "a_inf" in self.free and "a0" in self.free:
+            v["a_inf"] = v["a0"] * float(np.exp(theta[self.free.index("a_inf")]))
+        return v
+
+    def theta(self, m: Material) -> np.ndarray:
+        out = []
+        for p in self.free:
+            if p == "phi_c" and "phi_j" in self.free:
+                out.append(m.phi_j - m.phi_c)
+            elif p == "a_inf" and "a0" in self.free:
+                out.append(np.log(m.a_inf / m.a0))
+            else:
+                x = getattr(m, p)
+                out.append(np.log(x) if SCALE[p] == "log" else x)
+        th = np.array(out, float)
+        span = self.hi - self.lo
+        return np.clip(th, self.lo + 1e-9 * span, self.hi - 1e-9 * span)
+
+    def material(self, theta) -> Material:
+        return dataclasses.replace(self.base, **self.values(theta))
+
+    def psi(self, theta) -> np.ndarray:
+        """Reporting coordinates (ln for log-scale parameters) of the free parameters."""
+        v = self.values(theta)
+        return np.array([np.log(v[p]) if SCALE[p] == "log" else v[p] for p in self.free])
+
+
+# ============================================================================ results
+@dataclass
+class ParameterEstimate:
+    name: str
+    value: float
+    lower: float
+    upper: float
+    std_error: float          # in the reporting coordinate (ln for log-scale parameters)
+    method: str               # "jacobian", "profile", "fixed", "start"
+    stage: str
+    status: str               # "fitted", "fixed", "at_bound", "unidentifiable"
+    note: str = ""
+
+
+@dataclass
+class FitResult:
+    """What :func:`fit_flow_curves` returns.
+
+    material : the fitted Material (validated)
+    parameters : ParameterEstimate per parameter (free first, then held)
+    correlation : (names, matrix) of the free parameters in reporting coordinates
+    stages : per stage, a dict of what was read and fitted (curve features, estimates)
+    residual_log10 : log10(measured/model viscosity) per data point
+    outlier : bool per point (excluded from the polish and the intervals)
+    model_viscosity, model_rate : at each measured stress
+    sigma_log10 : residual standard deviation of the inliers
+    n_evaluations : model evaluations (one = all points through mixture_steady_state)
+    seconds : wall time of the fit
+    messages : warnings for the user (unidentifiable parameters, stages skipped)
+    """
+
+    material: Material
+    parameters: list[ParameterEstimate]
+    correlation: tuple[list[str], np.ndarray]
+    stages: dict
+    residual_log10: np.ndarray
+    outlier: np.ndarray
+    model_viscosity: np.ndarray
+    model_rate: np.ndarray
+    sigma_log10: float
+    n_evaluations: int
+    seconds: float
+    messages: list[str]
+    confidence: float
+
+    def parameter(self, name: str) -> ParameterEstimate:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    def table(self):
+        """parameters.csv as a DataFrame."""
+        import pandas as pd
+        from .materials import FIELD_UNITS
+
+        return pd.DataFrame([{"parameter": p.name, "value": p.value,
+                              "unit": FIELD_UNITS.get(p.name, "-"), "lower": p.lower,
+                              "upper": p.upper, "std_error_reporting_coord": p.std_error,
+                              "reporting_coord": SCALE.get(p.name, "lin"), "interval": p.method,
+                              "stage": p.stage, "status": p.status, "note": p.note}
+                             for p in self.parameters])
+
+
+# ============================================================================ the fitter
+def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
+                    fixed: dict[str, float] | None = None, free: list[str] | None = None,
+                    etaB_terms: int | None = None, confidence: float = 0.95, profile: bool = True,
+                    f_scale: float | None = None, name: str = "fit",
+                    citation: str = "", stages_only: bool = False) -> FitResult:
+    """Fit the model to measured steady flow curves (stages 1-4; see the module docstring).
+
+    Parameters
+    ----------
+    data : FlowData
+        Kept points of the measured curves (at least 2 curves for stage 1).
+    start : Material or str
+        Starting point and source of the held parameters (mu_c, eta0, Delta, alpha2 by default).
+    fixed : dict, optional
+        Parameters fixed at the given values (``--set NAME=VALUE``), applied to ``start`` first.
+    free : list of str, optional
+        Parameters of :data:`OPTIONAL_FREE` also to fit (``--free``).
+    etaB_terms : int, optional
+        1 or 2 terms in Eq. (34) (two need at least 3 DST curves; alpha2 held unless freed);
+        default: as many as the start material has.
+    confidence : float
+        Level of the intervals, in (0.5, 1).
+    profile : bool
+        Profile-likelihood intervals for phi_j and phi_c (about 10 refits).
+    f_scale : float, optional
+        Soft-L1 scale in log10 viscosity; default 3 robust standard deviations of a first pass.
+    stages_only : bool
+        Stop after stage 3 (the Supplement's procedure alone; no intervals).
+
+    Returns
+    -------
+    FitResult
+
+    Raises
+    ------
+    ValueError
+        Fewer than two curves, a parameter name not fittable, fixed values out of range,
+        a volume fraction at or above the start's bounds that no fit can reach.
+    RuntimeError
+        The optimiser fails (its message).
+    """
+    t0 = time.perf_counter()
+    check_range("confidence", confidence, 0.5, 1.0, lo_closed=False, hi_closed=False)
+    base = get_material(start)
+    if etaB_terms is None:
+        etaB_terms = 2 if base.varphi2 > 0 else 1
+    if etaB_terms not in (1, 2):
+        raise ValueError(f"etaB_terms = {etaB_terms} must be 1 or 2")
+    fixed = dict(fixed or {})
+    if fixed:
+        base = base.replace(**fixed)
+    free_extra = list(free or [])
+    bad = [p for p in free_extra if p not in SCALE]
+    if bad:
+        raise ValueError(f"--free {' '.join(bad)}: cannot be fitted; fittable: "
+                         f"{', '.join(SCALE)}")
+    if data.n_curves < 2:
+        raise ValueError(f"{data.n_curves} flow curve(s): the fit needs at least 2 volume "
+                         "fractions (stage 1 fits two parameters to one plateau per curve)")
+    counts = np.bincount(data.curve)
+    if counts.min() < 3:
+        raise ValueError(f"curve {data.labels[int(np.argmin(counts))]} has {counts.min()} kept "
+                         "point(s): at least 3 are needed")
+    messages: list[str] = []
+    n_eval = [0]
+    phis = data.curve_phi()
+    phi_max = float(phis.max())
+    logeta = np.log10(data.viscosity)
+
+    def model(m: Material, sel=slice(None)):
+        n_eval[0] += 1
+        return mixture_steady_state(data.stress[sel], data.phi[sel], m)
+
+    # ---------------------------------------------------------------- stage 1 (Eq. 24)
+    feats = curve_features(data)
+    mu_c, eta0 = base.mu_c, base.eta0
+    eta_r_min = np.array([f.eta_min for f in feats]) / eta0
+    pj0 = base.phi_j if base.phi_j > phi_max else phi_max + 0.02
+    phi_j, a0 = base.phi_j, base.a0
+    if "phi_j" in fixed and "a0" in fixed:
+        messages.append("stage 1 skipped: phi_j and a0 both fixed")
+    elif "phi_j" in fixed:
+        a0 = _fit_a_only(phis, eta_r_min, mu_c, base.phi_j, base.a0)
+    else:
+        phi_j, a0 = _plateau_fit(phis, eta_r_min, mu_c, [_clip_inside(pj0, phi_max, 0.9999),
+                                                          base.a0],
+                                 ([phi_max + 1e-5, 1e-3], [0.9999, 100.0]),
+                                 fixed_a=base.a0 if "a0" in fixed else None)
+    stage1 = {"phi": phis, "eta_min": eta_r_min * eta0, "stress_min": [f.stress_min for f in feats],
+              "phi_j": phi_j, "a0": a0, "mu_c": mu_c, "eta0": eta0}
+
+    # ---------------------------------------------------------------- stage 2 (Eq. 25)
+    plat = [i for i, f in enumerate(feats) if f.kind == "plateau"]
+    dst = [i for i, f in enumerate(feats) if f.kind == "dst"]
+    ratio0 = base.a_inf / base.a0
+    phi_c_hi = min([phis[i] for i in dst], default=phi_j) if dst else phi_j
+    phi_c_hi = min(phi_c_hi, phi_j - 1e-4)
+    phi_c, a_inf = base.phi_c - base.phi_j + phi_j, max(a0, a0 * ratio0)
+    eta_r_max = np.array([feats[i].eta_max for i in plat]) / eta0
+    if "phi_c" in fixed:
+        phi_c = base.phi_c
+        if len(plat) >= 1 and "a_inf" not in fixed:
+            a_inf = max(a0, _fit_a_only(phis[plat], eta_r_max, mu_c, phi_c, a_inf))
+        if not plat:
+            messages.append("stage 2: phi_c fixed, no high-stress plateau to fit a_inf")
+    elif len(plat) >= 2 and "a_inf" not in fixed:
+        lo = float(max(phis[plat])) + 1e-5
+        hi = max(phi_c_hi, lo + 2e-5)
+        phi_c, a_inf = _plateau_fit(phis[plat], eta_r_max, mu_c, [_clip_inside(phi_c, lo, hi),
+                                                                   max(a_inf, a0 * 1.0001)],
+                                    ([lo, a0], [hi, 100.0]))
+    elif len(plat) >= 1:
+        lo = float(max(phis[plat])) + 1e-5
+        hi = max(phi_c_hi, lo + 2e-5)
+        if "a_inf" in fixed:
+            a_inf = base.a_inf
+        phi_c, _ = _plateau_fit(phis[plat], eta_r_max, mu_c, [_clip_inside(phi_c, lo, hi)],
+                                ([lo], [hi]), fixed_a=a_inf)
+        messages.append(f"stage 2: one high-stress plateau only: a_inf held at {a_inf:.4g} "
+                        "(the start's a_inf/a0), phi_c fitted")
+    else:
+        lo_c = 1e-3
+        phi_c = _clip_inside(phi_c, lo_c, phi_c_hi)
+        messages.append("stage 2: no curve with a high-stress plateau: phi_c and a_inf start "
+                        "from the start material's (phi_j - phi_c, a_inf/a0) and are left to "
+                        "stage 4")
+    phi_c = min(phi_c, phi_j - 1e-4)
+    a_inf = max(a_inf, a0)
+    stage2 = {"phi": phis[plat] if plat else np.zeros(0), "eta_max": eta_r_max * eta0,
+              "stress_max": [feats[i].stress_max for i in plat], "phi_c": phi_c, "a_inf": a_inf,
+              "curves": plat}
+    m = dataclasses.replace(base, phi_j=phi_j, phi_c=phi_c, a0=a0, a_inf=a_inf)
+
+    # ---------------------------------------------------------------- stage 3 (Eqs. 33-34)
+    tau_star = m.tau_star
+    if "tau_star" not in fixed:
+        sel = np.isin(data.curve, [i for i, f in enumerate(feats) if f.kind != "dst"])
+        if sel.sum() < 3:
+            sel = np.ones_like(data.curve, dtype=bool)
+        sel &= data.phi < m.phi_j
+        lt = least_squares(lambda x: logeta[sel] - model(
+            dataclasses.replace(m, tau_star=float(np.exp(x[0]))), sel)["log10_viscosity"],
+            [np.log(m.tau_star)], bounds=([np.log(1e-8)], [np.log(1e9)]), loss="soft_l1",
+            f_scale=0.05)
+        tau_star = float(np.exp(lt.x[0]))
+        m = dataclasses.replace(m, tau_star=tau_star)
+    dst_ok = [i for i in dst if m.phi_c <= phis[i] < m.phi_j]
+    if len(dst_ok) < len(dst):
+        messages.append(f"stage 3: {len(dst) - len(dst_ok)} DST curve(s) below the stage-2 "
+                        "phi_c left out of Eq. (33)")
+    g = np.array([feats[i].gdot_dst for i in dst_ok])
+    phd = phis[dst_ok] if dst_ok else np.zeros(0)
+    v1, al1, v2, al2 = m.varphi1, m.alpha1, m.varphi2, m.alpha2
+    if etaB_terms == 1:
+        v2 = 0.0
+    if dst_ok and not {"varphi1", "alpha1"} <= set(fixed):
+        x = m.phi_j - phd
+        fm = laws.f_max(phd, m.phi_c, m.phi_j, m.Delta)
+        a = laws.dilatancy_a(fm, m.a0, m.a_inf)
+        # Eq. (33) solved for 1/eta_B at each DST rate
+        inv_target = (2 * m.mu_c) ** 0.5 * (a * phd / x) / m.eta0 * (
+            m.tau_star / (m.eta0 * g)) ** -1.5
+        if etaB_terms == 2 and len(dst_ok) >= 3:
+            def r3(q):
+                return np.log(np.exp(q[0]) * x ** q[1] + np.exp(q[2]) * x ** al2) - np.log(inv_target)
+            q0 = [np.log(max(v1, 1e-30)), al1, np.log(max(v2, 1e-30) if v2 > 0 else 1e-3)]
+            q = least_squares(r3, q0, bounds=([-120, 0, -120], [120, 30, 120])).x
+            v1, al1, v2 = float(np.exp(q[0])), float(q[1]), float(np.exp(q[2]))
+        elif etaB_terms == 2 and len(dst_ok) == 2 and np.ptp(np.log(x)) > 0:
+            def r2(q):
+                return np.log(np.exp(q[0]) * x ** al1 + np.exp(q[1]) * x ** al2) - np.log(inv_target)
+            q0 = [np.log(max(v1, 1e-30)), np.log(v2 if v2 > 0 else 1e-3)]
+            q = least_squares(r2, q0, bounds=([-120, -120], [120, 120])).x
+            v1, v2 = float(np.exp(q[0])), float(np.exp(q[1]))
+            messages.append("stage 3: two DST curves for two eta_B terms: alpha1, alpha2 held "
+                            f"at {al1:.4g}, {al2:.4g}")
+        elif len(dst_ok) >= 2 and "alpha1" not in fixed and np.ptp(np.log(x)) > 0:
+            A = np.column_stack([np.ones_like(x), np.log(x)])
+            coef = np.linalg.lstsq(A, np.log(inv_target), rcond=None)[0]
+            v1, al1 = float(np.exp(coef[0])), float(np.clip(coef[1], 0.0, 30.0))
+        else:
+            v1 = float(np.exp(np.mean(np.log(inv_target) - al1 * np.log(x))))
+            messages.append("stage 3: one DST curve: alpha1 held at "
+                            f"{al1:.4g}, varphi1 fitted")
+    elif not dst_ok:
+        messages.append("stage 3: no DST curve (rate saturating at high stress): eta_B kept from "
+                        "the start material and held in stage 4")
+    m = dataclasses.replace(m, varphi1=v1, alpha1=al1, varphi2=v2,
+                            alpha2=al2 if v2 > 0 else m.alpha2)
+    stage3 = {"phi": phd, "gdot_dst": g, "stress_range": [feats[i].dst_stress for i in dst_ok],
+              "varphi1": v1, "alpha1": al1, "varphi2": v2, "alpha2": m.alpha2,
+              "tau_star_first": tau_star, "curves": dst_ok,
+              "kinds": [f.kind for f in feats], "top_slopes": [f.top_slope for f in feats]}
+    stages = {"1": stage1, "2": stage2, "3": stage3}
+    stage3_material = m
+
+    # ---------------------------------------------------------------- stage 4
+    free_list = [p for p in DEFAULT_FREE if p not in fixed]
+    if not dst_ok:
+        free_list = [p for p in free_list if p not in ("varphi1", "alpha1")]
+    elif len(dst_ok) < 2 or (etaB_terms == 2 and len(dst_ok) < 3):
+        free_list = [p for p in free_list if p != "alpha1"]
+    if etaB_terms == 2 and m.varphi2 > 0 and "varphi2" not in fixed and len(dst_ok) >= 2:
+        free_list.append("varphi2")
+    for p in free_extra:
+        if p not in free_list and p not in fixed:
+            free_list.append(p)
+    if m.a0 == m.a_inf and "a_inf" in free_list:
+        m = dataclasses.replace(m, a_inf=m.a0 * (1 + 1e-6))
+    if stages_only:
+        out = _finish(data, m, base, [], free_list, np.zeros(data.stress.size, bool), stages,
+                      messages, n_eval, t0, confidence, None, None, name, citation, model)
+        return out
+    P = _Params(m, free_list, phi_max)
+    th0 = P.theta(m)
+
+    def resid(theta, sel=slice(None)):
+        return logeta[sel] - model(P.material(theta), sel)["log10_viscosity"]
+
+    x_scale = np.where(np.char.startswith(np.array(P.names), "ln_"), 1.0, 0.01)
+    x_scale[np.isin(P.names, ["alpha1", "alpha2"])] = 1.0
+    try:
+        r1 = least_squares(resid, th0, bounds=(P.lo, P.hi), loss="soft_l1", f_scale=0.1,
+                           x_scale=x_scale, method="trf", xtol=1e-10, ftol=1e-10, max_nfev=400)
+        sig = 1.4826 * float(np.median(np.abs(r1.fun - np.median(r1.fun))))
+        fs = f_scale if f_scale is not None else max(3 * sig, 1e-3)
+        r2 = least_squares(resid, r1.x, bounds=(P.lo, P.hi), loss="soft_l1", f_scale=fs,
+                           x_scale=x_scale, method="trf", xtol=1e-12, ftol=1e-12, max_nfev=400)
+        sig = max(1.4826 * float(np.median(np.abs(r2.fun - np.median(r2.fun)))), 1e-12)
+        outlier = np.abs(r2.fun - np.median(r2.fun)) > 4 * sig
+        inl = ~outlier
+        r3 = least_squares(lambda th: resid(th, inl), r2.x, bounds=(P.lo, P.hi),
+                           x_scale=x_scale, method="trf", xtol=1e-13, ftol=1e-13, max_nfev=200)
+    except (ValueError, FloatingPointError) as exc:
+        raise RuntimeError(f"stage 4 failed: {exc}") from None
+    if r3.status <= 0:
+        raise RuntimeError(f"stage 4 did not converge: {r3.message}")
+    stages["4"] = {"soft_l1_f_scale": fs, "outliers": int(outlier.sum()),
+                   "nfev": int(r1.nfev + r2.nfev + r3.nfev), "message": r3.message}
+    return _finish(data, P.material(r3.x), base, P, free_list, outlier, stages, messages, n_eval,
+                   t0, confidence, r3, resid, name, citation, model, profile=profile,
+                   stage3_material=stage3_material)
+
+
+def _fit_a_only(phi, eta_r, mu_c, pm, a_start):
+    """Eq. (24)/(25) fitted for a alone at a fixed jamming fraction pm."""
+    phi, eta_r = np.asarray(phi, float), np.asarray(eta_r, float)
+    y = pm - phi
+
+    def r(x):
+        return np.log(1 + 2.5 * phi * pm / y + 2 * mu_c * (np.exp(x[0]) * phi / y) ** 2) - np.log(eta_r)
+
+    return float(np.exp(least_squares(r, [np.log(a_start)]).x[0]))
+
+
+def _central_jacobian(fun, theta, lo, hi, h=1e-6):
+    f0 = fun(theta)
+    J = np.empty((f0.size, theta.size))
+    for k in range(theta.size):
+        step = h * max(1.0, abs(theta[k]))
+        a, b = theta.copy(), theta.copy()
+        a[k] = max(theta[k] - step, lo[k])
+        b[k] = min(theta[k] + step, hi[k])
+        J[:, k] = (fun(b) - fun(a)) / (b[k] - a[k])
+    return J
+
+
+def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, confidence, res,
+            resid, name, citation, model, profile=False, stage3_material=None):
+    """Intervals, correlations, flags, the fitted Material."""
+    final = dataclasses.replace(m, name=name, citation=citation or
+                                f"fit of Baumgarten & Kamrin's model to {data.n_curves} measured "
+                                f"flow curves, starting from {base.name}",
+                                notes="fitted by rheology.fit (stages 1-4 of the Supplement); "
+                                      "eta0, mu_c held unless freed")
+    final = final.replace()       # validate
+    st = model(final)
+    r_all = np.log10(data.viscosity) - st["log10_viscosity"]
+    inl = ~outlier
+    n_in = int(inl.sum())
+    params: list[ParameterEstimate] = []
+    names_corr, corr = [], np.zeros((0, 0))
+    sigma = float(np.sqrt(np.sum(r_all[inl] ** 2) / max(n_in - len(free_list), 1)))
+    if P:
+        theta = res.x
+        J = _central_jacobian(lambda th: resid(th, inl), theta, P.lo, P.hi)
+        L = _central_jacobian(P.psi, theta, P.lo - 1, P.hi + 1, h=1e-7)
+        psi = P.psi(theta)
+        span = P.hi - P.lo
+        active = (theta - P.lo < 1e-7 * span) | (P.hi - theta < 1e-7 * span)
+        dof = max(n_in - len(theta), 1)
+        s2 = float(np.sum(res.fun ** 2)) / dof
+        tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
+        U, sv, Vt = np.linalg.svd(J[:, ~active] if (~active).any() else J, full_matrices=False)
+        keep = ~active
+        cov_t = np.zeros((theta.size, theta.size))
+        degenerate = set()
+        if keep.any():
+            Jk = J[:, keep]
+            U, sv, Vt = np.linalg.svd(Jk, full_matrices=False)
+            tiny = sv < 1e-9 * sv[0]
+            inv_s2 = np.where(tiny, 0.0, 1.0 / np.where(tiny, 1.0, sv) ** 2)
+            ck = s2 * (Vt.T * inv_s2) @ Vt
+            idx = np.flatnonzero(keep)
+            cov_t[np.ix_(idx, idx)] = ck
+            for row in Vt[tiny]:
+                for k in np.flatnonzero(np.abs(row) > 0.1):
+                    degenerate.add(free_list[idx[k]])
+        # parameters at a bound: their spread from the full (pseudo-inverse) covariance,
+        # one-sided intervals
+        Uf, svf, Vtf = np.linalg.svd(J, full_matrices=False)
+        okf = svf > 1e-9 * svf[0]
+        cov_full = s2 * (Vtf.T[:, okf] / svf[okf] ** 2) @ Vtf[okf]
+        for k in np.flatnonzero(active):
+            cov_t[k, k] = cov_full[k, k]
+        cov_p = L @ cov_t @ L.T
+        sd = np.sqrt(np.maximum(np.diag(cov_p), 0.0))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            corr = cov_p / np.outer(sd, sd)
+        corr = np.where(np.isfinite(corr), corr, 0.0)
+        np.fill_diagonal(corr, 1.0)
+        names_corr = list(free_list)
+        prof = {}
+        if profile:
+            for p in ("phi_j", "phi_c"):
+                if p in free_list:
+                    k = free_list.index(p)
+                    prof[p] = _profile(data, final, free_list, p, psi[k], sd[k], tq, s2,
+                                       float(np.sum(res.fun ** 2)), inl, P.phi_max, base, model)
+        for k, p in enumerate(free_list):
+            val = getattr(final, p)
+            lo_, hi_ = psi[k] - tq * sd[k], psi[k] + tq * sd[k]
+            method = "jacobian"
+            if p in prof and prof[p] is not None:
+                lo_, hi_ = prof[p]
+                method = "profile"
+            if SCALE[p] == "log":
+                lo_, hi_ = float(np.exp(lo_)), float(np.exp(hi_))
+            status, note = "fitted", ""
+            half = tq * sd[k]
+            wide = (half > np.log(2.0)) if SCALE[p] == "log" else (
+                half > (0.02 if p.startswith("phi") else 1.0 if p.startswith("alpha") else 0.2))
+            partners = [free_list[j] for j in range(len(free_list))
+                        if j != k and abs(corr[k, j]) > 0.995 and not active[j]]
+            if active[k]:
+                status, note = "at_bound", "at a bound of its physical range: one-sided interval"
+                at_low = theta[k] - P.lo[k] < 1e-7 * span[k]
+                if at_low:
+                    lo_ = np.log(val) if SCALE[p] == "log" else val
+                else:
+                    hi_ = np.log(val) if SCALE[p] == "log" else val
+                partners = []
+            if p in degenerate or wide or partners:
+                status = "unidentifiable"
+                why = []
+                if p in degenerate:
+                    why.append("no curvature of the misfit along it")
+                if wide:
+                    why.append("interval wider than " + ("a factor 2" if SCALE[p] == "log" else
+                                                         "the identifiability width"))
+                if partners:
+                    why.append("correlation > 0.995 with " + ", ".join(partners))
+                note = "; ".join(why)
+                messages.append(f"{p} is not identified by these data ({note})")
+            params.append(ParameterEstimate(p, float(val), float(lo_), float(hi_), float(sd[k]),
+                                            method, STAGE_OF[p], status, note))
+        stages.setdefault("4", {})["sigma_log10"] = sigma
+    else:
+        params += [ParameterEstimate(p, float(getattr(final, p)), float("nan"), float("nan"),
+                                     float("nan"), "none", STAGE_OF[p], "stages 1-3")
+                   for p in free_list]
+    held = [p for p in SCALE if p not in free_list]
+    for p in held:
+        reason = "held (not fitted by default)" if p in OPTIONAL_FREE else "held (fixed or no data)"
+        params.append(ParameterEstimate(p, float(getattr(final, p)), float(getattr(final, p)),
+                                        float(getattr(final, p)), 0.0, "fixed", "fixed", "fixed",
+                                        reason))
+    return FitResult(material=final, parameters=params, correlation=(names_corr, corr),
+                     stages=stages, residual_log10=r_all, outlier=outlier,
+                     model_viscosity=st["viscosity"], model_rate=st["shear_rate"],
+                     sigma_log10=sigma, n_evaluations=n_eval[0],
+                     seconds=time.perf_counter() - t0, messages=[x for x in messages if x],
+                     confidence=confidence)
+
+
+def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max, base, model):
+    """Profile-likelihood interval of phi_j or phi_c: refit the others at fixed values and find
+    where the inlier sum of squares reaches ssq_best + s2 tq^2 (secant on its square root)."""
+    others = [q for q in free_list if q != p]
+    logeta = np.log10(data.viscosity)
+    target = tq
+
+    def excess(v):
+        if p == "phi_j" and (v <= phi_max + 1e-6 or v <= (best.phi_c if "phi_c" not in
+                                                           free_list else 0)):
+            return np.inf
+        if p == "phi_c" and not (0 < v < best.phi_j - 1e-5):
+            return np.inf
+        try:
+            start = dataclasses.replace(best, **{p: v})
+            if p == "phi_j" and start.phi_c >= v:
+                start = dataclasses.replace(start, phi_c=v - (best.phi_j - best.phi_c))
+            Q = _Params(start, others, phi_max)
+            th = Q.theta(start)
+            r = least_squares(lambda t: logeta[inl] - model(Q.material(t), inl)["log10_viscosity"],
+                              th, bounds=(Q.lo, Q.hi), method="trf", xtol=1e-10, ftol=1e-10,
+                              max_nfev=60)
+        except (ValueError, RuntimeError):
+            return np.inf
+        return float(np.sqrt(max(np.sum(r.fun ** 2) - ssq_best, 0.0) / s2))
+
+    ends = []
+    for side in (-1.0, 1.0):
+        h = max(tq * sd, 1e-5)
+        e = excess(value + side * h)
+        k = 0
+        while np.isfinite(e) and e < target and k < 3:
+            h *= 2.0
+            e = excess(value + side * h)
+            k += 1
+        if not np.isfinite(e) or e < target:
+            if not np.isfinite(e):        # a bound: bisect towards it
+                lo_h, hi_h = 0.0, h
+                for _ in range(6):
+                    mid = 0.5 * (lo_h + hi_h)
+                    em = excess(value + side * mid)
+                    if np.isfinite(em) and em < target:
+                        lo_h = mid
+                    else:
+                        hi_h = mid
+                ends.append(value + side * hi_h)
+                continue
+            return None
+        h1 = h * target / max(e, 1e-12)            # sqrt(excess) ~ linear in the offset
+        e1 = excess(value + side * h1)
+        if np.isfinite(e1) and abs(e1 - e) > 1e-12:
+            h1 = h1 + (target - e1) * (h - h1) / (e - e1)
+        ends.append(value + side * h1)
+    return (min(ends), max(ends))
+
+
+# ============================================================================ synthetic data
+def synthetic_curves(m: Material, phis, *, stress_range=None, points: int = 30,
+                     noise: float = 0.03, seed: int = 0, artefacts: bool = True) -> dict:
+    """Synthetic measured flow curves from the model, as a rheometer would report them.
+
+    Points at log-spaced MIXTURE stresses (default ``1e-2 tau* .. 1e3 tau*``, as far as a real
+    instrument spans around the onset); the rate gets log-normal noise of standard deviation
+    ``noise``. Artefacts (``artefacts=True``): the first two points below the torque floor
+    (negative rate and viscosity), one repeated reading, a blank cell, and wall slip on the top
+    two points of the densest curve (apparent viscosity halved).
+
+    Returns
+    -------
+    dict with ``curves`` (list of dicts name/stress/rate/status for
+    :func:`rheology.data.write_rheocompass`) and ``phi`` (one per curve).
+    """
+    rng = np.random.default_rng(seed)
+    lo, hi = stress_range or (1e-2 * m.tau_star, 1e3 * m.tau_star)
+    s = np.logspace(np.log10(lo), np.log10(hi), points)
+    curves = []
+    phis = [float(p) for p in phis]
+    for i, ph in enumerate(phis):
+        st = mixture_steady_state(s, ph, m)
+        rate = st["shear_rate"] * np.exp(noise * rng.standard_normal(points))
+        stress = s.copy()
+        status = ["Dy_auto"] * points
+        if artefacts:
+            rate[:2] = -np.abs(rate[:2]) * 1.5
+            status[0] = status[1] = "Dy_auto,ME-,TruStrain"
+            k = points // 2
+            stress = np.insert(stress, k, stress[k])
+            rate = np.insert(rate, k, rate[k] * 1.01)
+            status.insert(k, "Dy_auto")
+            rate[k + 3] = np.nan
+            if i == int(np.argmax(phis)):
+                rate[-2:] *= 2.0
+        curves.append({"name": "Viscosity curve 1", "stress": stress, "rate": rate,
+                       "status": status})
+    return {"curves": curves, "phi": phis}
+
+
+def synthetic_table(m: Material, phis, **kw):
+    """:func:`synthetic_curves` as the tidy table of :func:`rheology.data.read_flow_curves`
+    (through the same cleaning as a file)."""
+    import pandas as pd
+
+    from .data import COLUMNS, Curve, clean
+
+    syn = synthetic_curves(m, phis, **kw)
+    frames = []
+    for c, ph in zip(syn["curves"], syn["phi"]):
+        s, r = c["stress"], c["rate"]
+        flagged = np.array(["ME-" in x for x in c["status"]])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            v = s / r
+        cur = Curve("synthetic", "Viscosity curve 1", np.arange(1.0, s.size + 1),
+                    np.arange(1.0, s.size + 1) * 6, r, s, v, None, flagged)
+        kept, why = clean(cur)
+        frames.append(pd.DataFrame({"source_file": f"synthetic_phi_{ph:.4f}", "interval":
+                                    cur.interval, "phi": ph, "point": cur.point,
+                                    "time_s": cur.time_s, "shear_rate_per_s": r,
+                                    "shear_stress_Pa": s, "viscosity_Pa_s": v, "kept": kept,
+                                    "dropped_reason": why}))
+    return pd.concat(frames, ignore_index=True)[list(COLUMNS)]
+
+
+def recovery_errors(fit: FitResult, truth: Material, phis) -> dict[str, float]:
+    """Errors of a fit against the true material: absolute for phi_j, phi_c; relative for a0,
+    a_inf, tau*; worst relative gdot_DST over the data's phi in [phi_c, phi_j) of both."""
+    m = fit.material
+    out = {"phi_j": abs(m.phi_j - truth.phi_j), "phi_c": abs(m.phi_c - truth.phi_c),
+           "a0": abs(m.a0 / truth.a0 - 1), "a_inf": abs(m.a_inf / truth.a_inf - 1),
+           "tau_star": abs(m.tau_star / truth.tau_star - 1)}
+    dst = [p for p in phis if max(truth.phi_c, m.phi_c) <= p < min(truth.phi_j, m.phi_j)]
+    out["gdot_dst"] = (max(abs(float(gdot_dst(p, m)) / float(gdot_dst(p, truth)) - 1) for p in dst)
+                       if dst else float("nan"))
+    return out
