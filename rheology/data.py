@@ -565,7 +565,7 @@ def drop_counts(table: pd.DataFrame) -> dict[str, int]:
 
 def describe(table: pd.DataFrame) -> str:
     """A short text: curves read, points kept, dropped per reason."""
-    groups = table.groupby(["source_file", "interval"], sort=False)
+    groups = table.groupby(["source_file", "interval", "phi"], sort=False, dropna=False)
     kept = int(table["kept"].sum())
     counts = drop_counts(table)
     text = (f"read {groups.ngroups} curve(s) from {table['source_file'].nunique()} file(s): "

@@ -801,9 +801,9 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
                 status, note = "at_bound", "at a bound of its physical range: one-sided interval"
                 at_low = theta[k] - P.lo[k] < 1e-7 * span[k]
                 if at_low:
-                    lo_ = np.log(val) if SCALE[p] == "log" else val
+                    lo_ = val
                 else:
-                    hi_ = np.log(val) if SCALE[p] == "log" else val
+                    hi_ = val
                 partners = []
             if p in degenerate or wide or partners:
                 status = "unidentifiable"
