@@ -99,8 +99,8 @@ def mixture_steady_state(tau, phi, m: Material) -> dict[str, np.ndarray]:
     tau = check_range("tau", tau, 0.0, None, lo_closed=False)
     phi = check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
                       note=f"steady flow needs phi below phi_j = {m.phi_j:.6g}")
-    tau, phi = (np.ravel(x).astype(float) for x in np.broadcast_arrays(tau, phi))
     shape = np.broadcast_shapes(np.shape(tau), np.shape(phi))
+    tau, phi = (np.ravel(x).astype(float) for x in np.broadcast_arrays(tau, phi))
     dphi = m.phi_j - m.phi_c
     fm = laws.f_max(phi, m.phi_c, m.phi_j, m.Delta)
     fjam = (m.phi_j - phi) / dphi
