@@ -28,9 +28,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from rheology.cli_common import OneLineParser, run_command
+from rheology.cli_common import Number, OneLineParser, run_command
 
 DEFAULT_MATERIAL = "hermes2016"
+#: Upper bounds of the numeric options (physical, and what the solvers are verified for):
+#: stresses and moduli <= 1e12 Pa (five times the shear modulus of diamond: no grain skeleton is
+#: stiffer and no suspension carries more), shear rates <= 1e9 1/s (well past impact and
+#: ultrasonic rheometry), times <= 1e9 s (30 years), K0 <= 1e6 (the paper's sets use 0.06-1).
+STRESS_MAX, RATE_MAX, TIME_MAX, K0_MAX = 1e12, 1e9, 1e9, 1e6
 _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
            "skeleton; 'mixture shear stress' = granular + eta0 (1 + 5/2 phi) gdot is what a "
            "rheometer measures. G [Pa] and K0 default to the material's values, else G = 1e4 Pa "
@@ -38,15 +43,20 @@ _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried
 
 
 def _set_value(text: str):
+    """``NAME=VALUE`` of ``--set``: a number (finite: the Material checks its range), none, or
+    text (for the name fields)."""
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"--set expects NAME=VALUE, got {text!r}")
     name, value = (s.strip() for s in text.split("=", 1))
     if value.lower() in ("none", "null"):
         return name, None
     try:
-        return name, float(value)
+        x = float(value)
     except ValueError:
         return name, value
+    if not np.isfinite(x):
+        raise argparse.ArgumentTypeError(f"--set {name} = {value}: must be finite")
+    return name, x
 
 
 def _material(args):
@@ -59,7 +69,8 @@ def _material(args):
 def _common(p, phi_default, out_default):
     p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
                    help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
-    p.add_argument("--phi", type=float, nargs="+", default=phi_default, metavar="PHI",
+    p.add_argument("--phi", type=Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False),
+                   nargs="+", default=phi_default, metavar="PHI",
                    help=f"volume fraction(s) (default {' '.join(map(str, phi_default))})")
     p.add_argument("--set", action="append", type=_set_value, metavar="NAME=VALUE",
                    help="override any material parameter, e.g. --set eta0=0.01 (repeatable)")
@@ -70,14 +81,28 @@ def _common(p, phi_default, out_default):
                         f"for no figure)")
 
 
+def _modulus(name):
+    return Number(name, 0.0, STRESS_MAX, lo_closed=False, unit="Pa")
+
+
+def _k0():
+    return Number("--K0", 0.0, K0_MAX)
+
+
+def _t_end():
+    return Number("--t-end", 0.0, TIME_MAX, lo_closed=False, unit="s")
+
+
 def _transient_options(p, t_end=None):
-    p.add_argument("--G", type=float, default=None, help="granular shear modulus [Pa]")
-    p.add_argument("--K0", type=float, default=None, help="structure-rate scale K0 [-]")
+    p.add_argument("--G", type=_modulus("--G"), default=None, help="granular shear modulus [Pa]")
+    p.add_argument("--K0", type=_k0(), default=None, help="structure-rate scale K0 [-]")
     if t_end is not None:
-        p.add_argument("--t-end", type=float, default=t_end,
+        p.add_argument("--t-end", type=_t_end(), default=t_end,
                        help=f"duration [s] (default {t_end:g})")
-    p.add_argument("--rtol", type=float, default=1e-7, help="IDA relative tolerance (1e-7)")
-    p.add_argument("--points", type=int, default=300, help="output rows per step (300)")
+    p.add_argument("--rtol", type=Number("--rtol", 1e-13, 1e-2), default=1e-7,
+                   help="IDA relative tolerance (1e-7)")
+    p.add_argument("--points", type=Number("--points", 3, 10 ** 6, integer=True), default=300,
+                   help="output rows per step (300)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -101,24 +126,32 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=_EPILOG)
     _common(p, [0.48, 0.50, 0.52], "flow_curve")
     p.add_argument("--control", choices=("stress", "mixture-stress", "rate"), default="stress")
-    p.add_argument("--stress-range", type=float, nargs=2, default=[1e-3, 1e4], metavar=("LO", "HI"),
+    p.add_argument("--stress-range", type=Number("--stress-range", 0.0, STRESS_MAX,
+                                                 lo_closed=False, unit="Pa"),
+                   nargs=2, default=[1e-3, 1e4], metavar=("LO", "HI"),
                    help="stress range [Pa] (granular or mixture per --control; 1e-3 1e4)")
-    p.add_argument("--rate-range", type=float, nargs=2, default=[1e-4, 1e3], metavar=("LO", "HI"),
+    p.add_argument("--rate-range", type=Number("--rate-range", 0.0, RATE_MAX, lo_closed=False,
+                                               unit="1/s"),
+                   nargs=2, default=[1e-4, 1e3], metavar=("LO", "HI"),
                    help="shear-rate range [1/s] for --control rate (1e-4 1e3)")
-    p.add_argument("--points", type=int, default=200, help="values, log-spaced (200)")
+    p.add_argument("--points", type=Number("--points", 2, 10 ** 6, integer=True), default=200,
+                   help="values, log-spaced (200)")
 
     transients = (
         ("startup", "start-up of shear at an imposed rate, from rest", 0.50, 60.0,
-         ("--rate", 0.5, "imposed shear rate [1/s] (0.5)")),
+         ("--rate", 0.5, "imposed shear rate [1/s] (0.5)",
+          Number("--rate", 0.0, RATE_MAX, unit="1/s"))),
         ("creep", "creep at an imposed mixture shear stress, from rest", 0.50, 60.0,
-         ("--stress", 10.0, "imposed MIXTURE shear stress [Pa] (10)")),
+         ("--stress", 10.0, "imposed MIXTURE shear stress [Pa] (10)",
+          Number("--stress", 0.0, STRESS_MAX, unit="Pa"))),
         ("relax", "stress relaxation after cessation of steady shear (Fig. 15)", 0.52, 50.0,
          ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
-                              "[Pa] (1000)")))
-    for name, text, phi, t_end, (flag, value, flag_help) in transients:
+                              "[Pa] (1000)",
+          Number("--stress", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"))))
+    for name, text, phi, t_end, (flag, value, flag_help, kind) in transients:
         p = sub.add_parser(name, help=text, epilog=_EPILOG)
         _common(p, [phi], name)
-        p.add_argument(flag, type=float, default=value, help=flag_help)
+        p.add_argument(flag, type=kind, default=value, help=flag_help)
         _transient_options(p, t_end)
 
     p = sub.add_parser("program", help="a test program from a text file (steps and ramps)",
@@ -131,6 +164,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", nargs="?", default=None, help="program file ('-' for stdin)")
     _common(p, [0.46], "program")
     _transient_options(p)
+    p.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0.0, TIME_MAX,
+                                                     lo_closed=False, unit="s"),
+                   default=60.0, metavar="SECONDS",
+                   help="write a checkpoint (the --out name with .checkpoint.npz) every SECONDS "
+                        "of computing (60), and always on Ctrl-C / SIGTERM")
+    p.add_argument("--resume", action="store_true",
+                   help="continue an interrupted run from its checkpoint (same file, options)")
 
     p = sub.add_parser("material-point",
                        help="the Table 8 tensor law at one point in simple shear (time-stepped)",
@@ -138,44 +178,73 @@ def build_parser() -> argparse.ArgumentParser:
                               "pressure and lets phi evolve. Start from the steady state at "
                               "--stress0 or from rest under --pressure0.")
     _common(p, [0.50], "material_point")
-    p.add_argument("--rate", type=float, default=0.5, help="shear rate [1/s] (0.5)")
-    p.add_argument("--t-end", type=float, default=10.0, help="duration [s] (10)")
-    p.add_argument("--dt", type=float, default=1e-3, help="time step [s] (1e-3)")
+    p.add_argument("--rate", type=Number("--rate", 0.0, RATE_MAX, unit="1/s"), default=0.5,
+                   help="shear rate [1/s] (0.5)")
+    p.add_argument("--t-end", type=_t_end(), default=10.0, help="duration [s] (10)")
+    p.add_argument("--dt", type=Number("--dt", 0.0, TIME_MAX, lo_closed=False, unit="s"),
+                   default=1e-3, help="largest time step [s] (1e-3; sub-stepped where the rate "
+                                      "needs it)")
     p.add_argument("--control", choices=("volume", "pressure"), default="volume")
-    p.add_argument("--pressure", type=float, default=None,
+    p.add_argument("--pressure", type=Number("--pressure", 0.0, STRESS_MAX, lo_closed=False,
+                                             unit="Pa"), default=None,
                    help="imposed granular pressure [Pa] (pressure control)")
-    p.add_argument("--stress0", type=float, default=None,
+    p.add_argument("--stress0", type=Number("--stress0", 0.0, STRESS_MAX, lo_closed=False,
+                                            unit="Pa"), default=None,
                    help="start from the steady state at this granular shear stress [Pa]")
-    p.add_argument("--pressure0", type=float, default=None,
+    p.add_argument("--pressure0", type=Number("--pressure0", 0.0, STRESS_MAX, lo_closed=False,
+                                              unit="Pa"), default=None,
                    help="contact pressure at rest [Pa] (default 1e-3 tau*)")
-    p.add_argument("--f0", type=float, default=None, help="initial structure f")
-    p.add_argument("--G", type=float, default=None, help="shear modulus [Pa] (default 1e4)")
-    p.add_argument("--K", type=float, default=None, help="bulk modulus [Pa] (default 2.18 G)")
-    p.add_argument("--K0", type=float, default=None, help="structure-rate scale (default 1)")
-    p.add_argument("--points", type=int, default=400, help="output rows (400)")
+    p.add_argument("--f0", type=Number("--f0", 0.0, 1.0), default=None,
+                   help="initial structure f")
+    p.add_argument("--G", type=_modulus("--G"), default=None,
+                   help="shear modulus [Pa] (default 1e4)")
+    p.add_argument("--K", type=_modulus("--K"), default=None,
+                   help="bulk modulus [Pa] (default 2.18 G)")
+    p.add_argument("--K0", type=_k0(), default=None, help="structure-rate scale (default 1)")
+    p.add_argument("--points", type=Number("--points", 1, 10 ** 7, integer=True), default=400,
+                   help="output rows (400)")
     return ap
 
 
 # ------------------------------------------------------------------ commands
+#: Columns left empty where undefined by construction (listed in the README): the viscosity
+#: tau/gdot where the shear rate is zero (at rest, at the start of a creep, a jammed steady state).
+EMPTY_OK = ("viscosity_Pa_s", "relative_viscosity")
+
+
+def _plot_path(args):
+    """The figure path (None for no figure), checked with --out BEFORE any work is done."""
+    from rheology.io import check_output_path
+
+    check_output_path("--out", args.out, ["csv"])
+    plot = args.plot if args.plot is not None else str(Path(args.out).with_suffix(".png"))
+    if plot.lower() == "none":
+        return None
+    check_output_path("--plot", plot, ["figure"])
+    return plot
+
+
 def _write(args, df: pd.DataFrame, fig_maker) -> str:
     from rheology.io import atomic_savefig, atomic_write_csv
 
-    plot = args.plot if args.plot is not None else str(Path(args.out).with_suffix(".png"))
-    if Path(args.out).suffix.lower() != ".csv":
-        raise ValueError(f"--out {args.out!r} must name a .csv file")
-    atomic_write_csv(args.out, df)
+    plot = _plot_path(args)
+    atomic_write_csv(args.out, df, empty_ok=EMPTY_OK)
     msg = f"wrote {args.out} ({len(df)} rows)"
-    if plot.lower() != "none":
+    if plot is not None:
         import matplotlib.pyplot as plt
 
         fig = fig_maker()
-        atomic_savefig(fig, plot)
-        plt.close(fig)
+        try:
+            atomic_savefig(fig, plot)
+        finally:
+            plt.close(fig)
         msg += f" and {plot}"
     events = df.attrs.get("events") or []
     if events:
         shown = "; ".join(f"t = {t:.6g} s (step {k}): {what}" for t, k, what in events[:5])
         msg += f"\nevents: {shown}" + (f"; ... ({len(events)} in all)" if len(events) > 5 else "")
+    if df.attrs.get("substeps_note"):
+        msg += f"\n{df.attrs['substeps_note']}"
     return msg
 
 
@@ -193,9 +262,15 @@ def _per_phi(args, run) -> pd.DataFrame:
 def _cmd_materials(args) -> str:
     import rheology
 
+    if args.out:
+        from rheology.io import check_output_path
+
+        check_output_path("--out", args.out, ["csv"])
     if args.material is not None:
         print(_material(args).summary())
         return ""
+    if args.set:
+        raise ValueError("--set needs --material NAME (the parameter set to change)")
     rows = rheology.list_materials()
     width = max(len(n) for n, _ in rows)
     for name, cite in rows:
@@ -206,8 +281,8 @@ def _cmd_materials(args) -> str:
         table = pd.DataFrame([{"name": n, "citation": c, **{
             k: getattr(rheology.get_material(n), k) for k in rheology.materials.FIELD_UNITS}}
             for n, c in rows])
-        atomic_write_csv(args.out, table)
-        return f"wrote {args.out} ({len(table)} rows)"
+        atomic_write_csv(args.out, table, empty_ok=tuple(rheology.materials.FIELD_UNITS))
+        return f"wrote {args.out} ({len(table)} rows; empty: parameter not given by the paper)"
     return ""
 
 
@@ -215,12 +290,11 @@ def _cmd_flow_curve(args) -> str:
     from . import plots
     from .protocols import flow_curve
 
+    _plot_path(args)
     m = _material(args)
     n = int(args.points)
-    if n < 2:
-        raise ValueError(f"--points = {n} must be at least 2")
     lo, hi = args.rate_range if args.control == "rate" else args.stress_range
-    if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo < hi):
+    if not lo < hi:
         which = "--rate-range" if args.control == "rate" else "--stress-range"
         raise ValueError(f"{which} {lo:g} {hi:g} must satisfy 0 < LO < HI")
     values = np.logspace(np.log10(lo), np.log10(hi), n)
@@ -233,6 +307,7 @@ def _transient(args, kind: str) -> str:
     from . import plots
     from .protocols import creep, relax, startup
 
+    _plot_path(args)
     m = _material(args)
     opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points)
     if kind == "startup":
@@ -249,34 +324,63 @@ def _transient(args, kind: str) -> str:
     return _write(args, df, lambda: plots.transient_figure(frames, title, log_time=True))
 
 
+def read_program_file(name: str) -> tuple[str, str]:
+    """(text, display name) of a program file, '-' for stdin; ValueError naming the file if it
+    is missing, a folder, or not UTF-8 text."""
+    if name == "-":
+        return sys.stdin.read(), "stdin"
+    path = Path(name)
+    if not path.exists():
+        raise ValueError(f"program file {name!r} not found")
+    if not path.is_file():
+        raise ValueError(f"program file {name!r} is not a file")
+    data = path.read_bytes()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"program file {name!r} is not a text program (byte "
+                         f"0x{data[exc.start]:02x} at offset {exc.start} is not UTF-8); lines "
+                         f"read like 'shear at 10 1/s for 60 s'") from None
+    if "\x00" in text:
+        raise ValueError(f"program file {name!r} is not a text program (it holds NUL bytes); "
+                         f"lines read like 'shear at 10 1/s for 60 s'")
+    return text, path.name
+
+
 def _cmd_program(args) -> str:
     from . import plots
-    from .program import HYSTERESIS_PROGRAM
-    from .protocols import run_program
+    from .checkpoint import ProgramCheckpoint
+    from .program import HYSTERESIS_PROGRAM, parse_program
 
+    _plot_path(args)
     if args.file is None:
         text, name = HYSTERESIS_PROGRAM, "built-in rate sweep up and down"
-    elif args.file == "-":
-        text, name = sys.stdin.read(), "stdin"
     else:
-        path = Path(args.file)
-        if not path.is_file():
-            raise ValueError(f"program file {args.file!r} not found")
-        text, name = path.read_text(encoding="utf-8"), path.name
+        text, name = read_program_file(args.file)
+    program = parse_program(text)
     m = _material(args)
-    df = _per_phi(args, lambda ph: run_program(m, ph, text, G=args.G, K0=args.K0, rtol=args.rtol,
-                                               points=args.points))
+    ck = ProgramCheckpoint(Path(args.out).with_suffix(".checkpoint.npz"), m, list(args.phi),
+                           text, dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points),
+                           every=args.checkpoint_every)
+    if args.resume:
+        ck.load(log=lambda msg: print(msg, file=sys.stderr))
+    df = ck.run(program)
     title = (f"{m.name}: program '{name}', phi = {', '.join(f'{p:g}' for p in args.phi)} "
              f"(G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})")
     first = df[df["phi"] == args.phi[0]]
     first.attrs.update(df.attrs)
-    return _write(args, df, lambda: plots.program_figure(first, title))
+    msg = _write(args, df, lambda: plots.program_figure(first, title))
+    ck.remove()
+    if args.resume:
+        msg += f"\nresumed from {ck.path}"
+    return msg
 
 
 def _cmd_material_point(args) -> str:
     from . import plots
     from .material_point import simple_shear_point
 
+    _plot_path(args)
     m = _material(args)
     df = _per_phi(args, lambda ph: simple_shear_point(
         m, ph, args.rate, args.t_end, args.dt, control=args.control, pressure=args.pressure,

@@ -296,14 +296,23 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
         raise RuntimeError(f"material point ({control} control, phi0 = {phi:g}, rate = {rate:g} "
                            f"1/s, dt = {dt:g} s): {what} at step {n + 1} (t = {(n + 1) * dt:.6g} "
                            f"s); {state}; reduce dt")
-    return _frame(np.vstack([_initial_row(sig0, phi, f_init), rec[:rows]]), rate)
+    return _frame(np.vstack([_initial_row(sig0, phi, f_init, m, stress0), rec[:rows]]), rate)
 
 
-def _initial_row(sig0, phi, f):
-    row = np.full(_REC + NOUT, np.nan)
+def _initial_row(sig0, phi, f, m: Material, stress0):
+    """The initial state as an output row: at rest (plastic rate 0, beta = K3 (phi - phi_m(f)),
+    the dilation angle at I_m = 0) or the steady state at ``stress0`` (its critical-state rate,
+    beta = 0); no plastic volume rates, no iterations."""
+    row = np.zeros(_REC + NOUT)
     row[:7] = [0.0, sig0[0, 0], sig0[1, 1], sig0[2, 2], sig0[0, 1], phi, 0.0]
     taubar, p = rheology.invariants(sig0)
     row[_OF["f"]], row[_OF["taubar"]], row[_OF["pressure"]] = f, float(taubar), float(p)
+    if stress0 is not None:
+        row[_OF["shear_rate_p"]] = float(rheology.steady_state_stress(float(stress0), phi,
+                                                                      m).shear_rate)
+    else:
+        row[_OF["beta"]] = m.K3 * (phi - float(rheology.phi_m(f, m)))
+    row[_OF["case"]] = np.nan                       # "initial"
     return row
 
 

@@ -141,14 +141,18 @@ def initial_state(r: Rheometer, start: Start) -> State:
 
 
 def run_program(material, phi: float, program, *, G=None, K0=None, points: int = 200,
-                **options) -> pd.DataFrame:
+                resume=None, on_step=None, **options) -> pd.DataFrame:
     """Run a test program: text (see :mod:`rheometer.program`), a :class:`Program`, or a list
-    of :class:`Step` (started at rest). Column ``step`` numbers the steps from 1."""
+    of :class:`Step` (started at rest). Column ``step`` numbers the steps from 1.
+
+    ``resume`` and ``on_step`` go to :meth:`Rheometer.run` (checkpoints between steps; see
+    :mod:`rheometer.checkpoint`)."""
     if isinstance(program, str):
         program = parse_program(program)
     elif not isinstance(program, Program):
         program = Program(Start(), tuple(program))
     r = _rheometer(material, phi, G, K0, options)
-    df = r.run(program.steps, initial_state(r, program.start), points=points)
+    start = None if resume is not None else initial_state(r, program.start)
+    df = r.run(program.steps, start, points=points, resume=resume, on_step=on_step)
     df.attrs["start"] = f"{program.start.kind} {program.start.value:g}"
     return df

@@ -131,6 +131,32 @@ class _Piece:
 
 
 @dataclass
+class Progress:
+    """A run between two steps: the rows so far (t, unknowns y, step index), the state at the
+    end of the last completed step and the index of the next step; what a checkpoint holds."""
+
+    t: np.ndarray
+    y: np.ndarray
+    step: np.ndarray
+    state: State
+    next_step: int
+    events: list = field(default_factory=list)
+    solves: int = 0
+    nfev: int = 0
+    njev: int = 0
+
+    @classmethod
+    def of(cls, pieces, st: State, next_step: int, stats: "RunStats") -> "Progress":
+        return cls(np.concatenate([p.t for p in pieces]), np.concatenate([p.y for p in pieces]),
+                   np.concatenate([np.full(p.t.size, p.step) for p in pieces]), st, next_step,
+                   list(stats.events), stats.solves, stats.nfev, stats.njev)
+
+    def pieces(self) -> list:
+        return [_Piece(self.t[self.step == k], self.y[self.step == k], int(k))
+                for k in np.unique(self.step)]
+
+
+@dataclass
 class RunStats:
     """Solver statistics of a run (summed over every IDA solve)."""
 
@@ -207,24 +233,42 @@ class Rheometer:
         return self.state(float(taubar), float(st.f))
 
     # ------------------------------------------------------------------ running
-    def run(self, steps, state: State | None = None, points: int = 300) -> pd.DataFrame:
+    def run(self, steps, state: State | None = None, points: int = 300, *,
+            resume: "Progress | None" = None, on_step=None) -> pd.DataFrame:
         """Run ``steps`` (a list of :class:`Step`) from ``state`` (default: at rest).
 
         Returns a DataFrame with :data:`COLUMNS`; ``attrs`` holds the events, the solver
         statistics and the parameters.
+
+        ``on_step(progress)`` is called after every completed step with a :class:`Progress`
+        (the rows so far, the state, the next step): what a checkpoint stores. ``resume`` (such
+        a Progress) continues from it: every step starts from the exact state at the end of the
+        previous one, so a resumed run's rows are identical to the uninterrupted run's.
         """
         steps = list(steps)
         if not steps:
             raise ValueError("a test needs at least one step")
         points = int(check_range("points", points, 3, 10 ** 6))
-        st = state or self.rest()
+        stats = RunStats()
+        pieces: list[_Piece] = []
+        first = 0
+        if resume is not None:
+            st, first = resume.state, int(resume.next_step)
+            if not 0 < first <= len(steps):
+                raise ValueError(f"resume: next step {first + 1} is not a step of this "
+                                 f"{len(steps)}-step test")
+            pieces = resume.pieces()
+            stats.events = list(resume.events)
+            stats.solves, stats.nfev, stats.njev = resume.solves, resume.nfev, resume.njev
+        else:
+            st = state or self.rest()
         if not (np.isfinite(st.gap) and np.isfinite(st.taubar) and st.taubar >= 0):
             raise ValueError(f"initial state {st} must be finite with taubar >= 0")
-        stats = RunStats()
         t0 = time.perf_counter()
-        pieces: list[_Piece] = []
-        for k, step in enumerate(steps):
-            st = self._run_step(k, step, st, points, pieces, stats)
+        for k in range(first, len(steps)):
+            st = self._run_step(k, steps[k], st, points, pieces, stats)
+            if on_step is not None:
+                on_step(Progress.of(pieces, st, k + 1, stats))
         stats.seconds = time.perf_counter() - t0
         return self._frame(pieces, stats, steps)
 

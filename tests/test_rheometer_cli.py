@@ -108,18 +108,38 @@ def test_program_and_material_point_and_materials(tmp_path, monkeypatch, capsys)
     (["flow-curve", "--set", "eta0=-1"], "eta0 = -1 is outside"),
     (["flow-curve", "--set", "colour=3"], "unknown material parameter"),
     (["flow-curve", "--stress-range", "10", "1"], "--stress-range 10 1 must satisfy"),
-    (["relax", "--G", "-5"], "G [Pa] = -5 is outside"),
-    (["relax", "--phi", "nan"], "phi must be finite"),
-    (["startup", "--rate", "-1"], "imposed rate"),
+    (["relax", "--G", "-5"], "--G = -5 is outside the valid range (0, 1e+12] Pa"),
+    (["startup", "--G", "1e300"], "--G = 1e300 is outside the valid range (0, 1e+12] Pa"),
+    (["relax", "--phi", "nan"], "--phi = nan: must be finite"),
+    (["startup", "--rate", "-1"], "--rate = -1 is outside"),
+    (["flow-curve", "--set", "eta0=inf"], "--set eta0 = inf: must be finite"),
+    (["flow-curve", "--plot", "fig.xyz"], "--plot = 'fig.xyz': format 'xyz' is not one of"),
+    (["program", "--resume"], "--resume: no checkpoint at program.checkpoint.npz"),
     (["program", "missing.txt"], "program file 'missing.txt' not found"),
     (["material-point", "--dt", "5", "--t-end", "1"], "dt [s] = 5 is outside"),
-    (["flow-curve", "--out", "table.txt"], "must name a .csv file"),
+    (["flow-curve", "--out", "table.txt"], "--out = 'table.txt': format 'txt' is not one of csv"),
 ])
 def test_bad_input_gives_one_line_and_status_2(argv, match, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    assert main(argv) == 2
+    try:
+        status = main(argv)
+    except SystemExit as exc:                  # argparse refuses an option's value
+        status = exc.code
+    assert status == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and match in err and "Traceback" not in err
+    assert not any(tmp_path.iterdir()), list(tmp_path.iterdir())
+
+
+def test_binary_program_file_is_named(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "garbage.bin").write_bytes(bytes(range(128, 256)) * 4)
+    (tmp_path / "nul.txt").write_bytes(b"shear at 1 1/s for 1 s\x00\n")
+    for name in ("garbage.bin", "nul.txt"):
+        assert main(["program", name]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"program file {name!r} is not a text program" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["garbage.bin", "nul.txt"]
 
 
 def test_console_script_bad_input_and_parse_error(tmp_path):

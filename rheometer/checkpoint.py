@@ -1,0 +1,175 @@
+"""Checkpoints of ``rheometer program``: an interrupted program resumes where it stopped.
+
+A program is run phi by phi and step by step (:meth:`rheometer.transient.Rheometer.run`). After
+every completed step, at most every ``every`` seconds of computing, and always on Ctrl-C or
+SIGTERM (which :func:`rheology.cli_common.run_command` turns into ``KeyboardInterrupt``), the
+checkpoint ``<out>.checkpoint.npz`` is written atomically (:func:`rheology.io.save_checkpoint`,
+which keeps the previous one): the rows of the finished volume fractions, the rows of the
+completed steps of the current one, the exact state (t, taubar, jamming gap, strain) at the end of
+the last completed step, the events and solver counts, and a fingerprint of the material, the
+volume fractions, the program text and the options.
+
+On ``--resume`` the fingerprint must match (else the resume is refused, naming what differs) and
+the run continues with the next step from the stored state. Every IDA solve of a step starts from
+a consistent state built from (taubar, gap, strain) alone, so the remaining steps are computed
+exactly as in the uninterrupted run: the resumed CSV is identical to it (tested value for value;
+the guarantee needed is only IDA's tolerance, rtol, and it holds to the last bit). A step
+interrupted half-way is computed again from its start; the work lost is at most one step.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import signal
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rheology.io import load_checkpoint, previous_checkpoint, save_checkpoint
+
+from .program import Program
+from .protocols import run_program
+from .transient import Progress, State
+
+_REQUIRED = ("fingerprint", "done_phi", "done_rows", "done_columns", "t", "y", "step", "state",
+             "next_step", "events", "counts")
+
+
+def fingerprint(material, phis, text: str, options: dict) -> str:
+    """A hash of everything that determines a program's output."""
+    fields = {f.name: getattr(material, f.name) for f in dataclasses.fields(material)
+              if f.name != "notes"}
+    blob = json.dumps([repr(sorted(fields.items())), [float(p) for p in phis], text,
+                       repr(sorted(options.items()))])
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+class ProgramCheckpoint:
+    """Runs a program over several volume fractions with checkpoints (see module docstring).
+
+    Parameters
+    ----------
+    path : Path
+        The checkpoint file (``<out>.checkpoint.npz``).
+    material : Material
+    phis : list of float
+    text : str
+        The program text (part of the fingerprint).
+    options : dict
+        G, K0, rtol, points (passed to :func:`rheometer.protocols.run_program`).
+    every : float
+        Least computing time between two checkpoints after completed steps [s] (> 0).
+    """
+
+    def __init__(self, path, material, phis, text: str, options: dict, every: float = 60.0):
+        self.path = Path(path)
+        self.material, self.phis, self.options = material, list(phis), dict(options)
+        self.key = fingerprint(material, phis, text, options)
+        self.every = float(every)
+        self.done: list[pd.DataFrame] = []
+        self.progress: Progress | None = None
+        self.attrs: dict = {}
+        self._last = time.monotonic()
+        self._stop = False
+
+    # ------------------------------------------------------------------ reading
+    def load(self, log=None) -> None:
+        """Read the checkpoint for ``--resume``; ValueError if there is none, it is corrupt
+        (naming the file) or it belongs to another run."""
+        data = load_checkpoint(self.path, required=_REQUIRED, log=log)
+        if str(data["fingerprint"]) != self.key:
+            raise ValueError(f"--resume: the checkpoint {self.path} belongs to a different run "
+                             f"(material, --phi, program file or options differ); rerun with the "
+                             f"same ones, or without --resume to start again")
+        columns = [str(c) for c in data["done_columns"]]
+        rows = data["done_rows"]
+        ndone = int(data["done_phi"])
+        if ndone:
+            table = pd.DataFrame(rows, columns=columns)
+            table["step"] = table["step"].astype(int)
+            self.done = [table[table["phi"] == ph].reset_index(drop=True)
+                         for ph in self.phis[:ndone]]
+        nxt = int(data["next_step"])
+        if nxt > 0:
+            s = data["state"]
+            counts = data["counts"]
+            self.progress = Progress(data["t"], data["y"], data["step"].astype(int),
+                                     State(float(s[0]), float(s[1]), float(s[2]), float(s[3]),
+                                           float(s[4])), nxt,
+                                     [tuple(e) for e in json.loads(str(data["events"]))],
+                                     int(counts[0]), int(counts[1]), int(counts[2]))
+
+    # ------------------------------------------------------------------ writing
+    def save(self) -> None:
+        """Write the checkpoint now (finished phis, and the current phi's completed steps)."""
+        done = pd.concat(self.done, ignore_index=True) if self.done else None
+        pr = self.progress
+        empty = np.zeros(0)
+        save_checkpoint(
+            self.path, fingerprint=np.array(self.key), done_phi=np.array(len(self.done)),
+            done_rows=(done.to_numpy(dtype=float) if done is not None else np.zeros((0, 0))),
+            done_columns=np.array(list(done.columns) if done is not None else [], dtype=str),
+            t=pr.t if pr else empty, y=pr.y if pr else np.zeros((0, 5)),
+            step=pr.step if pr else np.zeros(0, int),
+            state=(np.array([pr.state.t, pr.state.taubar, pr.state.gap, pr.state.strain,
+                             pr.state.f]) if pr else empty),
+            next_step=np.array(pr.next_step if pr else 0),
+            events=np.array(json.dumps([list(e) for e in pr.events] if pr else [])),
+            counts=np.array([pr.solves, pr.nfev, pr.njev] if pr else [0, 0, 0]))
+        self._last = time.monotonic()
+
+    def remove(self) -> None:
+        """Delete the checkpoint (and its predecessor) after the results are written."""
+        for p in (self.path, previous_checkpoint(self.path)):
+            if p.exists():
+                p.unlink()
+
+    # ------------------------------------------------------------------ running
+    def _on_step(self, progress: Progress) -> None:
+        self.progress = progress
+        if self._stop:                 # a signal whose KeyboardInterrupt was swallowed (it can
+            raise KeyboardInterrupt    # land in a ctypes callback, e.g. numba's compiler)
+        if time.monotonic() - self._last >= self.every:
+            self.save()
+
+    def _signal(self, signum, frame):
+        self._stop = True
+        raise KeyboardInterrupt
+
+    def run(self, program: Program) -> pd.DataFrame:
+        """Run (or continue) the program at every phi; the rows of all, column ``phi`` first.
+
+        Raises KeyboardInterrupt("checkpoint written to ...; rerun with --resume ...") after
+        saving, when interrupted.
+        """
+        self._stop = False
+        handlers = {}
+        if threading.current_thread() is threading.main_thread():
+            handlers = {sig: signal.signal(sig, self._signal)
+                        for sig in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            for ph in self.phis[len(self.done):]:
+                df = run_program(self.material, ph, program, resume=self.progress,
+                                 on_step=self._on_step, **self.options)
+                df.insert(0, "phi", ph)
+                self.attrs = dict(df.attrs)
+                self.done.append(df)
+                self.progress = None
+        except KeyboardInterrupt:
+            if not self.done and self.progress is None:
+                raise KeyboardInterrupt("no step was completed, nothing to save; rerun to start "
+                                        "again") from None
+            self.save()
+            raise KeyboardInterrupt(f"checkpoint written to {self.path}; rerun the same command "
+                                    f"with --resume to continue") from None
+        finally:
+            for sig, h in handlers.items():
+                signal.signal(sig, h)
+        out = pd.concat(self.done, ignore_index=True)
+        out.attrs.update(self.attrs or {})
+        return out
