@@ -2,31 +2,23 @@
 
 A rigid body is a set of body points (positions and in-plane areas) moving rigidly with its
 centre X, angle theta, velocity V and angular velocity omega (a single out-of-plane rotation in
-plane strain; in axisymmetry only the axial translation V_z exists). Each step:
+plane strain; in axisymmetry only the axial translation V_z exists). Each step the body meets
+every particle field through :mod:`mpm2d.contact`: contact only where the body's surface touches
+the material's (gap criterion from the points' extents), only while they approach along the
+normal, with Coulomb friction ``mu_w`` (0 frictionless, ``inf`` no-slip) and free separation
+(no tension). Fields listed in ``bonded_to`` (e.g. the elastic spokes of a wheel on its rigid
+hub) are glued instead: every node the body covers (sum_p N_ip A_p >= h^2/2) moves rigidly with
+it. The body's velocity and the contact impulses are solved together, implicitly in the body
+mass (no added-mass limit on dt), and momentum is exchanged exactly:
 
-1. the body points' area is scattered to the grid, and the nodes it covers (sum_p N_ip A_p >=
-   h^2/2, i.e. the nodes inside the body to within h/2) are the body nodes;
-2. the free degrees of freedom are found by projecting the body's momentum and the momentum of
-   the material on the body nodes onto one rigid motion u_i = V + omega e_z x (x_i - X)
-   (an implicit, momentum-conserving, perfectly inelastic no-slip contact):
+    M q^{n+1} = M (q^n + dt g) - sum_k J_k^T lambda_k,   F = -sum_k lambda_k / dt
 
-       [M_b + sum m_i] V - omega sum m_i (r_i)_perp = M_b (V^n + dt g) + sum m_i v_i*
-       [I_b + sum m_i |r_i|^2] omega + sum m_i r_i x V = I_b omega^n + sum m_i r_i x v_i*
+(prescribed components are held; their reaction is reported as ``force``/``torque``).
 
-   (prescribed components are held at their values and move to the right side); then every
-   phase's velocity at the body nodes is set to u_i. The material's reaction on the body is
-   F = -sum m_i (u_i - v_i*)/dt (reported as ``force``).
-
-Why projection rather than a penalty or a two-field contact algorithm: it is implicit in the
-body's mass, so a light body on a heavy material does not go unstable (no added-mass limit on
-dt), it conserves the total momentum exactly, and it costs one small linear solve per body.
-Its limits: contact is no-slip and cannot separate (the material sticks to the body), and the
-body surface is resolved to about h/2.
-
-Body kinds: everything prescribed (a rigid intruder at prescribed velocity); everything free (a
-falling rod under gravity); omega prescribed and V free (the hub of a wheel: elastic spokes
-and rim are ordinary elastic points attached through the grid, so the wheel is driven at a
-prescribed angular velocity while it falls, rolls and sinks freely).
+Body kinds: everything prescribed (a rigid intruder, a floor, an inclined plane); everything free
+(a falling rod under gravity); omega prescribed and V free (the hub of a wheel: elastic spokes and
+rim are ordinary elastic points bonded to it, so the wheel is driven at a prescribed angular
+velocity while it falls, rolls and sinks freely).
 """
 
 from __future__ import annotations
@@ -35,10 +27,19 @@ import numpy as np
 
 from rheology.checks import check_positive, check_range
 
-from .grid import M, fold_scalar
-from .transfer import scatter_area
 
 DOFS = ("vx", "vy", "omega")
+
+
+def check_mu(name, mu) -> float:
+    """A Coulomb coefficient: a number in [0, inf] (inf = no slip); ValueError otherwise."""
+    try:
+        mu = float(mu)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} = {mu!r} is not a number") from None
+    if not (mu >= 0.0):
+        raise ValueError(f"{name} = {mu} is outside the valid range [0, inf] (inf = no slip)")
+    return mu
 
 
 class RigidBody:
@@ -61,11 +62,20 @@ class RigidBody:
         Components held at their given values; the others are free.
     axisymmetric : bool
         Only the axial translation vy (= v_z) can be non-zero or free.
+    mu_w : float
+        Coulomb friction coefficient of the contact with the material [-], 0 (frictionless,
+        default) to ``inf`` (no slip).
+    bonded_to : iterable of str
+        Names of particle sets glued to the body (their field moves rigidly with it on every node
+        the body covers), e.g. the spokes of a wheel on its hub.
     """
 
     def __init__(self, name, x, area, density, velocity=(0.0, 0.0), omega=0.0,
-                 prescribed="all", axisymmetric=False):
+                 prescribed="all", axisymmetric=False, mu_w=0.0, bonded_to=()):
         self.name = name
+        self.mu_w = check_mu(f"{name}: mu_w", mu_w)
+        self.bonded_to = tuple(bonded_to)
+        self.contact_nodes = 0
         x = np.asarray(x, dtype=float).reshape(-1, 2)
         if x.shape[0] == 0:
             raise ValueError(f"body {name!r} has no points")
@@ -107,7 +117,8 @@ class RigidBody:
         free = [d for d, f in zip(DOFS, self.free) if f]
         fixed = [d for d, f in zip(DOFS, self.free) if not f]
         return (f"rigid body {self.name}: mass {self.mass:.4g} kg, free {free or 'none'}, "
-                f"prescribed {fixed or 'none'}")
+                f"prescribed {fixed or 'none'}; contact mu_w = {self.mu_w:g}"
+                + (f", bonded to {list(self.bonded_to)}" if self.bonded_to else ""))
 
     # -------------------------------------------------------------- state (checkpoints)
     STATE = ("center", "theta", "velocity", "omega", "force", "torque")
@@ -127,47 +138,10 @@ class RigidBody:
         self.x = self.center + self.offset @ R.T
 
     # -------------------------------------------------------------- coupling
-    def covered_nodes(self, grid, work):
-        """Indices (I, J) of the nodes the body covers (area field >= h^2/2)."""
-        work[:] = 0.0
-        scatter_area(self.x, self.area, grid.geometry(), work)
-        fold_scalar(work, grid.kind, grid.nx, grid.ny)
-        return np.nonzero(work >= (0.5 - 1e-9) * grid.h ** 2)
-
-    def constrain(self, fields, nodes, node_x, node_y, dt, gravity):
-        """Project the body and the material on its nodes onto one rigid motion (see module)."""
-        I, J = nodes
-        r = np.stack([node_x[I] - self.center[0], node_y[J] - self.center[1]], axis=1)
-        m = np.zeros(I.size)
-        p = np.zeros((I.size, 2))
-        for G, vg in fields:
-            mi = G[I, J, M]
-            m += mi
-            p += mi[:, None] * vg[I, J]
-        g = np.asarray(gravity, dtype=float)
-        Mb, Ib = self.mass, self.inertia
-        sm = m.sum()
-        smr = (m[:, None] * r).sum(axis=0)
-        A = np.array([[Mb + sm, 0.0, -smr[1]],
-                      [0.0, Mb + sm, smr[0]],
-                      [-smr[1], smr[0], Ib + np.sum(m * np.einsum("ij,ij->i", r, r))]])
-        rhs = np.array([Mb * (self.velocity[0] + dt * g[0]) + p[:, 0].sum(),
-                        Mb * (self.velocity[1] + dt * g[1]) + p[:, 1].sum(),
-                        Ib * self.omega + np.sum(r[:, 0] * p[:, 1] - r[:, 1] * p[:, 0])])
-        q = np.array([self.velocity[0], self.velocity[1], self.omega])
-        free = self.free
-        if free.any():
-            Af = A[np.ix_(free, free)]
-            bf = rhs[free] - A[np.ix_(free, ~free)] @ q[~free]
-            q[free] = np.linalg.solve(Af, bf)
-        u = np.stack([q[0] - q[2] * r[:, 1], q[1] + q[2] * r[:, 0]], axis=1)
-        impulse = (m[:, None] * u - p)                 # momentum given to the material
-        self.force = -impulse.sum(axis=0) / dt
-        self.torque = -float(np.sum(r[:, 0] * impulse[:, 1] - r[:, 1] * impulse[:, 0])) / dt
-        for _, vg in fields:
-            vg[I, J] = u
-        self.velocity = q[:2].copy()
-        self.omega = float(q[2])
+    @property
+    def side(self) -> np.ndarray:
+        """Side sqrt(A) of each body point [m] (its extent for the contact gap)."""
+        return np.sqrt(self.area)
 
     def advance(self, dt: float) -> None:
         """Move the body rigidly over dt with its (new) velocity."""

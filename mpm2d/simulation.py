@@ -40,11 +40,13 @@ from rheology.checks import check_positive, check_range
 
 from . import grid_update as gu
 from .kernels import PARALLEL_MIN_POINTS, dual
-from .grid import NF_ONE, NF_TWO, Grid, fold, unfold
+from .grid import FPX, FX, M, MX, NF_ONE, NF_TWO, NOSLIP, PAD, SLIP, Grid, fold, unfold
 from .materials import Suspension
 from .particles import ParticleSet
-from .transfer import (chunk_bounds, g2p, gather_scalar_vector, p2g, reduce_private,
-                       sort_order)
+from .bodies import check_mu
+from . import contact as ct
+from .transfer import (wall_moments, chunk_bounds, g2p, gather_scalar_vector, p2g,
+                       reduce_private, sort_order)
 
 MODES = ("single phase", "two-phase", "locked mixture")
 TRANSFERS = ("apic", "flip", "pic")
@@ -105,11 +107,15 @@ class Simulation:
     sort_every : re-sort points by base node every this many steps (cache locality, P2G runs).
     chunks : number of private P2G grids (default: numba's thread count); results are
         bit-identical for any thread count at a fixed ``chunks``.
+    contact_sets : dict, optional
+        ``{set name: mu_w}``: deformable bodies (e.g. an elastic wheel) on their own velocity
+        field, in contact with the material's fields with Coulomb friction mu_w (0 to ``inf``)
+        instead of sharing its velocity (see :mod:`mpm2d.contact`).
     """
 
     def __init__(self, grid: Grid, sets, bodies=(), *, mode=None, gravity=(0.0, 0.0),
                  transfer="apic", flip_alpha=0.99, dt=None, cfl=0.5, cfl_visc=0.25, drag=None,
-                 sort_every=20, chunks=None, name="mpm2d"):
+                 sort_every=20, chunks=None, name="mpm2d", contact_sets=None):
         self.grid, self.sets, self.bodies, self.name = grid, list(sets), list(bodies), name
         if not self.sets:
             raise ValueError("a simulation needs at least one particle set")
@@ -143,6 +149,12 @@ class Simulation:
             for s in self.sets:
                 if s.phase == "fluid":
                     s.material.two_phase = True
+                    # the pore pressure acts through pf (FPX, shared by buoyancy): keep it out
+                    # of the fluid's P2G stress at t = 0, as the fluid update does from step 1
+                    # (a checkpoint's sp replaces this on resume)
+                    s.sp[:, 0] = s.stress[:, 0, 0] + s.pf
+                    s.sp[:, 2] = s.stress[:, 1, 1] + s.pf
+                    s.sp[:, 3] = s.stress[:, 2, 2] + s.pf
         self.nc = int(chunks) if chunks else nb.get_num_threads()
         npts = sum(len(s) for s in self.sets)
         multi = nb.get_num_threads() > 1
@@ -151,20 +163,40 @@ class Simulation:
         nf = NF_TWO if self.two_phase else NF_ONE
         shape = grid.shape
         self.phases = ("solid", "fluid") if self.two_phase else ("solid",)
-        self.G = {ph: np.zeros(shape + (nf,)) for ph in self.phases}
-        self.priv = {ph: np.zeros((self.nc,) + shape + (nf,)) for ph in self.phases}
-        self.vg = {ph: np.zeros(shape + (2,)) for ph in self.phases}
-        self.vg_old = {ph: np.zeros(shape + (2,)) for ph in self.phases}
+        self.contact_sets = {}
+        set_names = {s.name: s for s in self.sets}
+        for k, mu in dict(contact_sets or {}).items():
+            if k not in set_names:
+                raise ValueError(f"contact_sets: no particle set named {k!r} (sets: "
+                                 f"{sorted(set_names)})")
+            if set_names[k].phase != "solid" or isinstance(set_names[k].material, Suspension):
+                raise ValueError(f"contact_sets: set {k!r} must be a solid body (elastic), not "
+                                 f"{set_names[k].material.name}")
+            self.contact_sets[k] = check_mu(f"contact_sets[{k}]", mu)
+        for b in self.bodies:
+            bad = set(b.bonded_to) - set(set_names)
+            if bad:
+                raise ValueError(f"body {b.name}: bonded_to {sorted(bad)} names no particle set")
+        #: every velocity field: the material's phases, then one per deformable body
+        self.fields = self.phases + tuple(f"set:{k}" for k in self.contact_sets)
+        nfs = {f: (nf if f in self.phases else NF_ONE) for f in self.fields}
+        self.G = {ph: np.zeros(shape + (nfs[ph],)) for ph in self.fields}
+        self.priv = {ph: np.zeros((self.nc,) + shape + (nfs[ph],)) for ph in self.fields}
+        self.vg = {ph: np.zeros(shape + (2,)) for ph in self.fields}
+        self.vg_old = {ph: np.zeros(shape + (2,)) for ph in self.fields}
+        self._geo_work = np.zeros(shape + (NF_ONE,))
+        self._wall_work = np.zeros(shape + (NF_ONE,))
         if self.two_phase:
             self.phi_nodes = np.zeros(shape)
             self.q_nodes = np.zeros(shape + (2,))
             self.drag_nodes = np.zeros(shape)
-        self._body_work = np.zeros(shape)
         self.node_x, self.node_y = grid.node_positions()
         self._geo = grid.geometry()
         self._flag = np.zeros(1, dtype=np.int64)
         self._chunks = {}
         self.t, self.step_count, self.last_dt = 0.0, 0, 0.0
+        #: force on each deformable contact body from the material in the last step [N]
+        self.contact_force = {k: np.zeros(2) for k in self.contact_sets}
         #: accumulated wall time per phase of the step [s] (see :meth:`step`)
         self.timings = dict.fromkeys(("step size", "P2G", "grid update", "G2P", "constitutive",
                                       "sort"), 0.0)
@@ -214,6 +246,8 @@ class Simulation:
         return "\n".join(lines)
 
     def _field(self, s: ParticleSet) -> str:
+        if s.name in self.contact_sets:
+            return f"set:{s.name}"
         return "fluid" if (self.two_phase and s.phase == "fluid") else "solid"
 
     def _sort(self):
@@ -297,35 +331,34 @@ class Simulation:
         axi = self.grid.axisymmetric
         for s in self.sets:
             ph = self._field(s)
-            svol = s.svol if self.two_phase else np.zeros(0)
+            svol = s.svol if (self.two_phase and ph in self.phases) else np.zeros(0)
             pf = s.pf if (self.two_phase and s.phase == "fluid") else np.zeros(0)
             p2g[self.par](s.x, s.v, s.C, s.m, s.V, s.sp, pf, s.fext, svol, self._geo, axi,
                 self._chunks[s.name], self.priv[ph])
-        for ph in self.phases:
+        for ph in self.fields:
             reduce_private[self.par_grid](self.priv[ph], self.G[ph])
 
     def _grid_update(self, dt):
         """Phase 2: forces, boundaries, velocities, drag, bodies, ghost nodes."""
         g, kind, wall_u = self.grid, self.grid.kind, self.grid.wall_u
         pg = self.par_grid
-        for ph in self.phases:
+        for ph in self.fields:
             gu.add_body_force[pg](self.G[ph], self.gravity[0], self.gravity[1])
             fold(self.G[ph], kind, wall_u, g.nx, g.ny)
+        if g.axisymmetric:
+            self._axis_correction()
         if self.two_phase:
             Gs, Gf = self.G["solid"], self.G["fluid"]
             gu.volume_fraction[pg](Gs, Gf, self.phi_nodes)
             gu.share_pore_pressure[pg](Gs, Gf, self.phi_nodes)
-        for ph in self.phases:
+        for ph in self.fields:
             gu.velocities[pg](self.G[ph], dt, self.vg[ph], self.vg_old[ph])
         if self.two_phase:
             d = self.drag
             gu.implicit_drag[pg](Gs, Gf, self.phi_nodes, self.vg["solid"], self.vg["fluid"], dt,
                              d.eta0, d.d, d.rho_f, self.drag_nodes)
-        fields = [(self.G[ph], self.vg[ph]) for ph in self.phases]
-        for b in self.bodies:
-            nodes = b.covered_nodes(g, self._body_work)
-            b.constrain(fields, nodes, self.node_x, self.node_y, dt, self.gravity)
-        for ph in self.phases:
+        self._contact(dt)
+        for ph in self.fields:
             unfold(self.vg[ph], kind, wall_u, g.nx, g.ny, True)
             if self.transfer != "apic":
                 unfold(self.vg_old[ph], kind, wall_u, g.nx, g.ny, True)
@@ -334,6 +367,124 @@ class Simulation:
                             self.q_nodes)
             unfold(self.q_nodes, kind, wall_u, g.nx, g.ny, True)
             unfold(self.phi_nodes[:, :, None], kind, wall_u, g.nx, g.ny, False)
+
+    # ------------------------------------------------------------------ axis
+    def _axis_correction(self):
+        """Make the radial nodal force of a radially uniform stress exactly zero at r-walls.
+
+        Why: with the axis (and a wall r = R) as a mirror (odd radial test functions) the
+        particle quadrature of int (r w_i)' dr = 0 is not exact at the nodes next to the mirror
+        (the r weight is not symmetric about it): at r = h a uniform stress sigma_rr =
+        sigma_thth = s leaves a radial force -s R with R = A_row/32 (two points per cell,
+        quadratic B-splines), at the outer wall a force growing with the stress. A bed at rest
+        (isotropic pore pressure and K_lat granular stress, uniform in r) is pushed off the
+        axis; a material without shear stiffness (the locked mixture with its skeleton relaxed,
+        a fluid) flows, and its pore pressure settled 4-10 % off in the axis cells. The
+        correction adds s_bar_i R_i at the two node columns next to each mirror r-wall, with R_i
+        the folded radial force of a unit uniform stress and s_bar_i the local mean of
+        (sigma_rr + sigma_thth)/2 (of the pore pressure for the fluid's FPX): zero-order
+        consistency of the discrete divergence (as in corrected SPH gradients); exact for
+        uniform stress, an O(h) change for smooth fields. Plane strain needs none (its mirror
+        quadrature is exact).
+        """
+        g = self.grid
+        kind = g.kind
+        band = 4.5 * g.h
+        lo = band if kind[0] in (NOSLIP, SLIP) else 0.0
+        hi = band if kind[1] in (NOSLIP, SLIP) else 0.0
+        if lo == 0.0 and hi == 0.0:
+            return
+        cols = ([PAD + 1, PAD + 2] if lo else []) + ([PAD + g.nx - 1, PAD + g.nx - 2] if hi else [])
+        zero_u = np.zeros((4, 2))
+        for ph in self.fields:
+            groups = [("sp", FX, 1.0)]
+            if self.two_phase and ph == "fluid":
+                groups.append(("pf", FPX, -1.0))
+            for what, slot, sign in groups:
+                mom = self._wall_work
+                mom[:] = 0.0
+                for s in self.sets:
+                    if self._field(s) != ph:
+                        continue
+                    val = 0.5 * (s.sp[:, 0] + s.sp[:, 3]) if what == "sp" else s.pf
+                    wall_moments(s.x, s.V, val, self._geo, lo, hi, mom)
+                fold(mom, kind, zero_u, g.nx, g.ny)
+                G = self.G[ph]
+                for I in cols:
+                    a = mom[I, :, M]
+                    sbar = np.divide(mom[I, :, MX], a, out=np.zeros_like(a), where=a > 0)
+                    G[I, :, slot] += sign * sbar * mom[I, :, FX]
+
+    # ------------------------------------------------------------------ contact
+    def _points(self, field):
+        """(x, side) of every set on a velocity field; side = sqrt(in-plane area) [m]."""
+        out = []
+        for s in self.sets:
+            if self._field(s) == field:
+                a = s.V / s.x[:, 0] if self.grid.axisymmetric else s.V
+                out.append((s.x, np.sqrt(a)))
+        return out
+
+    def _field_geometry(self, field, cache):
+        if field not in cache:
+            pts = self._points(field)
+            x = np.concatenate([p[0] for p in pts]) if pts else np.zeros((0, 2))
+            side = np.concatenate([p[1] for p in pts]) if pts else np.zeros(0)
+            cache[field] = ct.FieldGeometry(self.grid, x, side, self._geo_work)
+        return cache[field]
+
+    def _contact(self, dt):
+        """Deformable-body and rigid-body contact on the predicted nodal velocities."""
+        if not self.contact_sets and not self.bodies:
+            return
+        g = self.grid
+        tol = ct.GAP_TOL * g.h
+        cache = {}
+        for name, mu in self.contact_sets.items():
+            fa = f"set:{name}"
+            A = self._field_geometry(fa, cache)
+            force = np.zeros(2)
+            for ph in self.phases:
+                B = self._field_geometry(ph, cache)
+                both = (self.G[fa][:, :, M] > 0.0) & (self.G[ph][:, :, M] > 0.0)
+                if not both.any():
+                    continue
+                n = ct.unit(A.outward - B.outward, np.array([0.0, 1.0]))
+                ct.unfold_normal(g, n)
+                gap = ct.gap_field(g, n, both, [(A.x, A.side)], [(B.x, B.side)])
+                ct.pair_contact(self.G[fa], self.G[ph], self.vg[fa], self.vg[ph], n, gap, tol,
+                                mu, dt, force)
+            self.contact_force[name] = force
+        set_field = {s.name: self._field(s) for s in self.sets}
+        for b in self.bodies:
+            Bg = ct.FieldGeometry(g, b.x, b.side, self._geo_work)
+            rx = self.node_x[:, None] - b.center[0]
+            ry = self.node_y[None, :] - b.center[1]
+            radial = np.stack(np.broadcast_arrays(rx, ry), axis=2)
+            radial = ct.unit(radial, np.array([0.0, 1.0]))
+            n = ct.unit(Bg.outward, radial)
+            ct.unfold_normal(g, n)
+            bonded = {set_field[k] for k in b.bonded_to}
+            covered = Bg.area >= (0.5 - 1e-9) * g.h ** 2
+            entries = []
+            for ph in self.fields:
+                Gm = self.G[ph][:, :, M]
+                if ph in bonded:
+                    nodes = covered & (Gm > 0.0)
+                else:
+                    mask = (Bg.area > 0.0) & (Gm > 0.0)
+                    if not mask.any():
+                        continue
+                    gap = ct.gap_field(g, n, mask, [(Bg.x, Bg.side)],
+                                       [(p[0], p[1]) for p in self._points(ph)])
+                    nodes = mask & (gap <= tol)
+                I, J = np.nonzero(nodes)
+                if I.size == 0:
+                    continue
+                entries.append(dict(I=I, J=J, m=Gm[I, J], w=self.vg[ph][I, J].copy(),
+                                    n=n[I, J], r=np.stack([rx[I, 0], ry[0, J]], axis=1),
+                                    bonded=ph in bonded, vg=self.vg[ph]))
+            ct.rigid_solve(b, entries, dt, self.gravity, g.h)
 
     def _g2p(self, dt):
         """Phase 3: velocities, affine matrices, gradients and positions of every set."""

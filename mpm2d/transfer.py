@@ -312,3 +312,38 @@ def gather_scalar_vector(x, s_nodes, q_nodes, geo, axisym, s_out, div_out):
                 qr += w * q_nodes[I, J, 0]
         s_out[p] = s
         div_out[p] = dv + (qr / x[p, 0] if axisym else 0.0)
+
+
+
+@_jit
+def wall_moments(x, vol, s, geo, lo_band, hi_band, out):
+    """Radial-wall moments of a set's stress for the axisymmetric wall correction.
+
+    For the points within ``lo_band`` [m] of the grid's xmin side or ``hi_band`` of its xmax side
+    (0: none), scatters into the unfolded node fields ``out`` (NI, NJ, NF_ONE), to be folded like
+    the forces::
+
+        out[M]  += N_ip A_p          out[MX] += N_ip A_p s_p
+        out[FX] += A_p (r_p dN_ip/dr + N_ip)     (minus the radial force of a unit uniform
+                                                   stress sigma_rr = sigma_thth = 1)
+
+    with A_p = V_p/r_p the in-plane area and s_p the point's (sigma_rr + sigma_thth)/2.
+    """
+    x0, y0, h, x1 = geo[0], geo[1], geo[2], geo[3]
+    inv_h = 1.0 / h
+    for p in range(x.shape[0]):
+        r = x[p, 0]
+        if not ((lo_band > 0.0 and r < x0 + lo_band) or (hi_band > 0.0 and r > x1 - hi_band)):
+            continue
+        A = vol[p] / r
+        bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((r - x0) * inv_h)
+        by, fy, wy0, wy1, wy2, _, _, _ = weights((x[p, 1] - y0) * inv_h)
+        for a in range(3):
+            wa = wx0 if a == 0 else (wx1 if a == 1 else wx2)
+            da = dx0 if a == 0 else (dx1 if a == 1 else dx2)
+            for b in range(3):
+                wb = wy0 if b == 0 else (wy1 if b == 1 else wy2)
+                I, J = bx + a + PAD, by + b + PAD
+                out[I, J, M] += wa * wb * A
+                out[I, J, MX] += wa * wb * A * s[p]
+                out[I, J, FX] += A * (r * da * inv_h + wa) * wb
