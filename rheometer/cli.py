@@ -203,6 +203,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--K0", type=_k0(), default=None, help="structure-rate scale (default 1)")
     p.add_argument("--points", type=Number("--points", 1, 10 ** 7, integer=True), default=400,
                    help="output rows (400)")
+    from .fit_cli import add_subcommands          # 'read' and 'fit' (rheometer/fit_cli.py)
+    _COMMANDS.update(add_subcommands(sub))
     return ap
 
 

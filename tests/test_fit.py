@@ -1,0 +1,145 @@
+"""The fitter (rheology.fit), material files and `rheometer fit`."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import rheology as r
+from rheology.fit import (FlowData, fit_flow_curves, mixture_steady_state, recovery_errors,
+                          synthetic_table)
+
+FIX = Path("/work/shared/fixtures/rheocompass")
+FILES = sorted(FIX.glob("synthetic_phi_*.csv")) if FIX.is_dir() else []
+PHIS = [0.38, 0.41, 0.44, 0.47, 0.50]
+
+
+@pytest.mark.parametrize("name", ["hermes2016", "guy2015_b", "singh2018_b"])
+def test_mixture_steady_state_matches_steady_module(name):
+    m = r.get_material(name)
+    phis = np.array([m.phi_c - 0.03, m.phi_c + 0.3 * (m.phi_j - m.phi_c)])
+    tau = np.logspace(-2, 3, 15) * m.tau_star
+    T, P = np.meshgrid(tau, phis)
+    fast = mixture_steady_state(T, P, m)
+    ref = r.steady_states_mixture_stress(T.ravel(), P.ravel(), m)
+    assert np.bincount(ref.index).max() == 1                             # one state each
+    assert np.allclose(fast["viscosity"].ravel(), ref.viscosity, rtol=1e-9)
+    # the mixture stress is the granular stress plus the fluid's (Eq. 1)
+    g = fast["shear_rate"]
+    assert np.allclose(fast["taubar"] + m.eta0 * (1 + 2.5 * P) * g, T, rtol=1e-12)
+
+
+def test_stages_1_to_3_give_back_table_1a():
+    m = r.get_material("singh2018_a")
+    phis = [0.45, 0.50, 0.54, 0.56, 0.57, 0.58, 0.60, 0.62, 0.63, 0.64]   # Fig. 1
+    S, V, P = [], [], []
+    for ph in phis:
+        st = r.steady_state_stress(np.logspace(-4, 5, 60) * m.tau_star, ph, m)
+        ok = ~st.jammed & (st.shear_rate > 0)
+        S.append(st.shear_stress[ok]), V.append(st.viscosity[ok]), P.append(np.full(ok.sum(), ph))
+    d = FlowData.from_arrays(np.concatenate(S), np.concatenate(V), np.concatenate(P))
+    start = m.replace(phi_j=0.7, phi_c=0.5, a0=0.3, a_inf=1.2)
+    res = fit_flow_curves(d, start, stages_only=True)
+    f = res.material
+    assert (f.phi_j, f.a0, f.phi_c, f.a_inf) == pytest.approx((0.65, 0.455, 0.585, 0.841),
+                                                               rel=2e-3)
+
+
+def test_recovery_small_hermes():
+    m = r.get_material("hermes2016")
+    phis = m.phi_c + (m.phi_j - m.phi_c) * np.array([-0.6, -0.25, 0.15, 0.45, 0.75])
+    d = FlowData.from_table(synthetic_table(m, phis, points=20, seed=3))
+    start = m.replace(phi_j=0.55, phi_c=0.42, a0=1.0, a_inf=1.1, tau_star=15.0, varphi1=5e3)
+    res = fit_flow_curves(d, start, profile=False)
+    e = recovery_errors(res, m, phis)
+    assert e["phi_j"] < 0.005 and e["phi_c"] < 0.005
+    assert max(e["a0"], e["a_inf"], e["tau_star"], e["gdot_dst"]) < 0.10
+    assert res.outlier.sum() >= 1                                       # the wall-slip points
+    # intervals bracket the estimate; the residual sd is the noise (3% -> 0.013 in log10)
+    for p in res.parameters:
+        assert p.lower <= p.value <= p.upper
+    assert 0.007 < res.sigma_log10 < 0.02
+
+
+def test_unidentifiable_parameter_is_flagged():
+    m = r.get_material("fall2015")
+    phis = m.phi_c + (m.phi_j - m.phi_c) * np.array([-0.5, -0.2, 0.2, 0.5])
+    d = FlowData.from_table(synthetic_table(m, phis, points=15, seed=1, artefacts=False))
+    res = fit_flow_curves(d, m, free=["mu_c"], profile=False)
+    # Eq. (1) holds mu_c only through mu_c a^2: with a0 and a_inf free it cannot be identified
+    assert res.parameter("mu_c").status == "unidentifiable"
+    assert any("mu_c" in msg for msg in res.messages)
+
+
+def test_bad_fit_input():
+    m = r.get_material("hermes2016")
+    d = FlowData.from_table(synthetic_table(m, [0.40], points=10, artefacts=False))
+    with pytest.raises(ValueError, match="at least 2 volume fractions"):
+        fit_flow_curves(d, m)
+    d2 = FlowData.from_table(synthetic_table(m, [0.40, 0.45], points=10, artefacts=False))
+    with pytest.raises(ValueError, match="--free"):
+        fit_flow_curves(d2, m, free=["rho_s"])
+
+
+def test_material_file_roundtrip_and_validation(tmp_path):
+    from rheology.materials import save_material
+
+    m = r.get_material("guy2015_a")
+    p = save_material(tmp_path / "m.json", m, provenance={"source": "test"})
+    assert r.get_material(str(p)) == m
+    assert r.get_material(str(p), eta0=0.01).eta0 == 0.01
+    doc = json.loads(p.read_text())
+    doc["material"]["a_inf"] = 0.5                                       # below a0
+    (tmp_path / "bad.json").write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match="bad.json.*a_inf"):
+        r.get_material(str(tmp_path / "bad.json"))
+    (tmp_path / "nan.json").write_text(p.read_text().replace('"phi_c": 0.56', '"phi_c": NaN'))
+    with pytest.raises(ValueError, match="nan.json"):
+        r.get_material(str(tmp_path / "nan.json"))
+    with pytest.raises(ValueError, match="not found"):
+        r.get_material(str(tmp_path / "missing.json"))
+
+
+@pytest.mark.skipif(len(FILES) != 5, reason="shared fixtures not present")
+def test_cli_fit_writes_material_every_command_accepts(tmp_path, capsys):
+    from rheometer.cli import main
+
+    out = tmp_path / "fit"
+    files = [str(FILES[i]) for i in (0, 1, 2, 4)]
+    phis = [str(PHIS[i]) for i in (0, 1, 2, 4)]
+    assert main(["fit", *files, "--phi", *phis, "--out", str(out), "--no-plots",
+                 "--no-profile"]) == 0
+    for name in ("material.json", "fit.csv", "parameters.csv", "correlation.csv", "curves.csv"):
+        assert (out / name).is_file()
+    fit = pd.read_csv(out / "fit.csv")
+    assert "residual_log10" in fit and np.isfinite(fit["residual_log10"]).all()
+    assert np.allclose(fit["residual_log10"], np.log10(fit["viscosity_Pa_s"] /
+                                                       fit["model_viscosity_Pa_s"]))
+    m = r.get_material(str(out / "material.json"))
+    h = r.get_material("hermes2016")
+    assert abs(m.phi_j - h.phi_j) < 0.005 and abs(m.phi_c - h.phi_c) < 0.005
+    doc = json.loads((out / "material.json").read_text())
+    assert len(doc["provenance"]["files"]) == 4 and doc["provenance"]["dropped_by_reason"]
+    params = pd.read_csv(out / "parameters.csv")
+    assert {"parameter", "value", "lower", "upper", "stage"} <= set(params.columns)
+    # the fitted file drives another command
+    fc = tmp_path / "fc.csv"
+    assert main(["flow-curve", "--material", str(out / "material.json"), "--phi", "0.45",
+                 "--points", "20", "--out", str(fc), "--plot", "none"]) == 0
+    assert len(pd.read_csv(fc)) == 20
+
+
+def test_cli_fit_bad_input_writes_nothing(tmp_path, capsys):
+    from rheometer.cli import main
+
+    out = tmp_path / "nofit"
+    f = str(FILES[0]) if FILES else "missing.csv"
+    assert main(["fit", f, f, "--phi", "0.4", "0.45", "--set", "bogus=1", "--out", str(out)]) == 2
+    assert "--set bogus" in capsys.readouterr().err
+    assert main(["fit", f, "--phi", "0.4", "--out", str(out)]) == 2          # one curve
+    with pytest.raises(SystemExit) as exc:
+        main(["fit", f, f, "--phi", "0.4", "0.45", "--confidence", "1.5", "--out", str(out)])
+    assert exc.value.code == 2 and "--confidence = 1.5" in capsys.readouterr().err
+    assert not out.exists()
