@@ -173,35 +173,159 @@ def _brent(mode, lo, hi, rlo, rhi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, r
 
 
 @_jit
-def _dilatant_flow(beta_lo, r_lo, beta_guess, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
-                   mu1, mu2, b):
+def _residual_slope(beta, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b):
+    """R(beta) of mode 0 (the same arithmetic as :func:`_residual`) and dR/dbeta, for Newton.
+
+    Returns (R, dR/dbeta, gdot, p, I_m). With x = phi - beta/K3, I_m = (phi_m - x)/(a x),
+    dI_m/dbeta = phi_m/(a x^2 K3); gdot is the positive root of rd2 g^2 + bq g - p* I_m^2 = 0
+    (bq = 2 eta0 - K dt beta I_m^2), so dg/dbeta = (K dt I_m^2 g + 2 p I_m dI_m)/sqrt(disc);
+    p = p* + K dt beta g, I_v = eta0 g/p and mu_p(I_v, I_m) of Table 8 follow by the chain rule.
+    """
+    x = phi - beta / K3
+    Im = (phim - x) / (a * x)
+    Im2 = Im * Im
+    bq = 2.0 * eta0 - Kdt * beta * Im2
+    cq = p_tr * Im2
+    sq = np.sqrt(bq * bq + 4.0 * rd2 * cq)
+    if bq > 0.0:
+        g = 2.0 * cq / (bq + sq)
+    elif rd2 > 0.0:
+        g = (-bq + sq) / (2.0 * rd2)
+    else:
+        return -np.inf, 0.0, np.inf, np.inf, Im
+    p = p_tr + Kdt * beta * g
+    Iv = eta0 * g / p
+    mu = laws.friction(Iv, Im, phi, a, mu1, mu2, b)
+    R = tau_tr - Gdt * g - (mu + beta) * p
+    dIm = phim / (a * x * x * K3)
+    dg = (Kdt * Im2 * g + 2.0 * p * Im * dIm) / sq
+    dp = Kdt * (g + beta * dg)
+    Imc = max(Im, laws.TINY)
+    dIv = eta0 * (dg * p - g * dp) / (p * p)
+    dmu = ((mu2 - mu1) * b / ((Imc + b) * (Imc + b)) * dIm
+           + 2.5 * phi / a * (dIv / Imc - Iv * dIm / (Imc * Imc)))
+    return R, -Gdt * dg - (dmu + 1.0) * p - (mu + beta) * dp, g, p, Im
+
+
+@_jit
+def _newton_2d(beta, g, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
+               mu1, mu2, b):
+    """Starting point of the dilatant solve: Newton on the pair (beta, gdot_p) of smooth equations
+
+    F1 = p (phi_m - x)^2 - (rd2 g^2 + 2 eta0 g)(a x)^2 = 0   (I_m of phi_eq = x, times (a x)^2)
+    F2 = tau* - G dt g - (mu_1 + beta + (mu_2 - mu_1) I_m/(I_m + b)) p - 5/2 phi eta0 g/(a I_m) = 0
+         (the yield condition f_1 = 0: F2 = R when g = gdot(beta))
+
+    with x = phi - beta/K3, p = p* + K dt beta g. Unlike R(beta), which has a pole where
+    K dt beta I_m^2 -> 2 eta0 (the trial pressure a vanishing part of the final one), both are
+    polynomial-like, so a warm start in g (the previous step's rate) converges quadratically.
+    Returns beta, or a value <= beta_lo if an iterate leaves (beta_lo, beta_top) x (0, inf) or
+    does not settle (the caller then starts elsewhere; the result is only a starting point).
+    """
+    for _ in range(30):
+        x = phi - beta / K3
+        w = phim - x
+        ax = a * x
+        Im = w / ax
+        p = p_tr + Kdt * beta * g
+        Ag = rd2 * g * g + 2.0 * eta0 * g
+        F1 = p * w * w - Ag * ax * ax
+        F1b = Kdt * g * w * w + 2.0 * p * w / K3 + Ag * 2.0 * a * ax / K3
+        F1g = Kdt * beta * w * w - (2.0 * rd2 * g + 2.0 * eta0) * ax * ax
+        dIm = phim / (a * x * x * K3)
+        ib = 1.0 / (Im + b)
+        M = mu1 + beta + (mu2 - mu1) * Im * ib
+        V = 2.5 * phi * eta0 / (a * Im)
+        F2 = tau_tr - Gdt * g - M * p - V * g
+        F2b = -(1.0 + (mu2 - mu1) * b * ib * ib * dIm) * p - M * Kdt * g + V * g * dIm / Im
+        F2g = -Gdt - M * Kdt * beta - V
+        det = F1b * F2g - F1g * F2b
+        db = -(F1 * F2g - F1g * F2) / det
+        dg = -(F1b * F2 - F1 * F2b) / det
+        bn, gn = beta + db, g + dg
+        if not (beta_lo < bn < beta_top and gn > 0.0 and gn < np.inf):
+            return beta_lo
+        beta, g = bn, gn
+        if abs(db) <= 1e-8 * bn and abs(dg) <= 1e-8 * gn:     # quadratic: now at roundoff
+            return beta
+    return beta_lo
+
+
+#: Newton iterations tried before the bracket takes over.
+_NEWTON_MAX = 12
+
+
+@_jit
+def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
+                   eta0, rd2, K3, mu1, mu2, b, newton):
     """Dilatant shear flow (f_1 = 0, xi_2 = 0): returns (beta, gdot_p, p, I_m, evaluations).
 
-    First in beta (closed-form gdot(beta), a few evaluations); if that leaves a residual (the
-    trial pressure is a vanishing part of the final one, so gdot(beta) is too steep to resolve),
-    again with gdot as the bracketed variable. evaluations < 0 means both failed.
+    1. Safeguarded Newton in beta from ``beta_start`` (the warm start; skipped when it is outside
+       (beta_lo, beta_max) or ``newton`` is False): every iterate narrows the bracket
+       [lo, hi] (R(lo) > 0 > R(hi)); it stops at the same test as Brent's (|R| at the roundoff
+       floor, or a step below 1e-14 beta) and is accepted by the same convergence check.
+       A step that leaves the bracket, a non-negative slope or a non-finite value hands over to:
+    2. the bracket: expansion from lo (steps from ``beta_guess``) until R < 0, then Brent's method;
+    3. if that leaves a residual (the trial pressure is a vanishing part of the final one, so
+       gdot(beta) is too steep to resolve), again with gdot as the bracketed variable.
+    ``r_lo`` = R(beta_lo), or NaN if not evaluated yet. evaluations: residual evaluations made
+    here (a Newton iterate, R with its slope, counts one); < 0 means every stage failed.
     """
     beta_max = K3 * phi
     beta_top = beta_lo + (beta_max - beta_lo) * (1.0 - 1e-15)
     # converged: |R| small against the final stress, above the roundoff floor of tau* - G dt gdot
     floor = 2e-15 * (tau_tr + mu1 * p_tr)
-    step = max(1e-14 * beta_max, 1e-8 * beta_lo, 2.0 * beta_guess)
-    lo, r_hi, n = beta_lo, 0.0, 1
-    hi = min(beta_lo + step, beta_top)
-    while True:
-        r_hi = _residual(0, hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
-                         0.0, 0.0)
-        if r_hi < 0.0 or hi >= beta_top:
-            break
-        lo, r_lo = hi, r_hi
+    n = 0
+    lo, hi, r_hi = beta_lo, beta_top, 0.0
+    hi_known = False
+    if newton and beta_lo < beta_start < beta_top:
+        x = beta_start
+        for _ in range(_NEWTON_MAX):
+            R, dR, g, p, Im = _residual_slope(x, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
+                                              K3, mu1, mu2, b)
+            n += 1
+            if not np.isfinite(R):
+                if R < 0.0:                  # gdot(beta) = inf: beyond the root
+                    hi, r_hi, hi_known = x, R, True
+                break
+            if R > 0.0:
+                lo, r_lo = x, R
+            else:
+                hi, r_hi, hi_known = x, R, True
+            step = R / dR
+            if abs(R) <= floor or abs(step) <= 1e-14 * abs(x):
+                if abs(R) <= 1e-12 * (tau_tr - Gdt * g + mu1 * p) + floor:
+                    return x, g, p, Im, n
+                break
+            if not (dR < 0.0 and np.isfinite(dR)):
+                break
+            xn = x - step
+            if not (lo < xn < hi):
+                break
+            x = xn
+    if not (r_lo == r_lo):                                   # R(beta_lo) not evaluated yet
+        r_lo = _residual(0, beta_lo, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1,
+                         mu2, b, 0.0, 0.0)
         n += 1
-        step *= 10.0
-        hi = min(beta_lo + step, beta_top)
+    if hi_known and not np.isfinite(r_hi):
+        hi_known = False
+    if not hi_known:
+        step = max(1e-14 * beta_max, 1e-8 * lo, 2.0 * beta_guess)
+        hi = min(lo + step, beta_top)
+        while True:
+            r_hi = _residual(0, hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2,
+                             b, 0.0, 0.0)
+            n += 1
+            if r_hi < 0.0 or hi >= beta_top:
+                break
+            lo, r_lo = hi, r_hi
+            step *= 10.0
+            hi = min(lo + step, beta_top)
     if r_hi < 0.0:
         beta, r, it = _brent(0, lo, hi, r_lo, r_hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
                              K3, mu1, mu2, b, 0.0, 0.0, floor)
         g, p, Im = _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
-        n += max(it, 0) + 1
+        n += max(it, 0)
         if it >= 0 and abs(r) <= 1e-12 * (tau_tr - Gdt * g + mu1 * p) + floor:
             return beta, g, p, Im, n
     # fallback: gdot on [gdot(beta_lo), tau*/(G dt)], where R > 0 and R < 0
@@ -251,8 +375,14 @@ def elastic_trial(sig, L, dt, G, K, out):
 
 
 @_jit
-def update_point(sig, L, phi, f, dt, P, sig_out, out):
-    """Advance one material point by dt [s] (see module docstring); writes sig_out and out[:NOUT]."""
+def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
+    """Advance one material point by dt [s] (see module docstring); writes sig_out and out[:NOUT].
+
+    ``g_prev``: the point's plastic shear rate of the previous step [1/s] (out[1] of that step),
+    the warm start of the dilatant solve; a negative or non-finite value means none. It only
+    changes where the solve starts, not its tolerance: results agree with the cold start to the
+    solver's convergence test. ``newton=False`` solves by the bracket alone (the reference).
+    """
     phi_c, phi_j, a0, ainf = P[0], P[1], P[2], P[3]
     mu1, mu2, b, tau_star, eta0 = P[4], P[5], P[6], P[7], P[8]
     v1, al1, v2, al2, Delta, xi_eps, K0 = P[9], P[10], P[11], P[12], P[13], P[14], P[15]
@@ -297,15 +427,38 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out):
                 beta_guess = (pc - p_tr) / (Kdt * gc) if gc > 0.0 else 0.0
         if case == ELASTIC:
             beta_lo = max(0.0, K3 * (phi - phim))
-            r_lo = _residual(0, beta_lo, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1,
-                             mu2, b, 0.0, 0.0)
+            if y <= 0.0:
+                # R(beta_lo) at phi_eq = phi_m: I_m = 0, so gdot = 0, p = p*, mu_p = mu_1
+                r_lo = tau_tr - (mu1 + beta_lo) * p_tr
+            else:
+                r_lo = np.nan                                 # evaluated only if needed
             if y <= 0.0 and r_lo <= 0.0:                      # jammed and below yield: elastic
                 beta = beta_lo
             else:
                 case = SHEAR_FLOW
-                beta, g, p, Im, iters = _dilatant_flow(beta_lo, r_lo, beta_guess, phi, phim, a,
-                                                       p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1,
-                                                       mu2, b)
+                # start of the solve: (beta, gdot) from the compaction estimate (or 1e-3 of the
+                # range) and the rate that would return tau* to mu_1 p* alone (cold), or the
+                # previous rate with beta = (p_n - p*)/(K dt gdot): p = p* + K dt beta gdot at
+                # the solution and p ~ p_n, the pressure at the start of the step (warm)
+                beta_top = beta_lo + (K3 * phi - beta_lo) * (1.0 - 1e-15)
+                b0 = beta_lo + beta_guess if beta_guess > 0.0 else beta_lo + 1e-3 * (beta_top - beta_lo)
+                if g_prev > 0.0 and g_prev < np.inf:
+                    g0 = g_prev
+                    bw = -(sig[0, 0] + sig[1, 1] + sig[2, 2]) / 3.0 - p_tr
+                    bw /= Kdt * g_prev
+                    if beta_lo < bw < beta_top:
+                        b0 = bw
+                else:
+                    g0 = max(tau_tr - mu1 * p_tr, 0.0) / Gdt
+                beta_start = beta_lo
+                if newton and g0 > 0.0:
+                    beta_start = _newton_2d(b0, g0, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr,
+                                            Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b)
+                    if not beta_start > beta_lo:
+                        beta_start = b0
+                beta, g, p, Im, iters = _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi,
+                                                       phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
+                                                       K3, mu1, mu2, b, newton)
                 if iters < 0:
                     case = FAILED
 
@@ -333,10 +486,17 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out):
     out[10], out[11], out[12], out[13] = taubar, p, case, iters
 
 
-def _update_loop(sig, L, phi, f, dt, P, sig_out, out):
-    """Loop of :func:`update_point` over N points (arrays (N,3,3), (N,), out (N, NOUT))."""
+def _update_loop(sig, L, phi, f, dt, P, sig_out, out, g_prev=None, newton=True):
+    """Loop of :func:`update_point` over N points (arrays (N,3,3), (N,), out (N, NOUT)).
+
+    ``g_prev`` (N,), optional: each point's plastic shear rate of the previous step, the warm
+    start (negative: none); it is not written (out[:, 1] holds the new rates).
+    """
     for n in nb.prange(phi.shape[0]):
-        update_point(sig[n], L[n], phi[n], f[n], dt, P, sig_out[n], out[n])
+        if g_prev is None:
+            update_point(sig[n], L[n], phi[n], f[n], dt, P, sig_out[n], out[n], -1.0, newton)
+        else:
+            update_point(sig[n], L[n], phi[n], f[n], dt, P, sig_out[n], out[n], g_prev[n], newton)
 
 
 #: Parallel (prange) loop over points: the entry point for large batches (MPM, 1-D grids).
@@ -358,6 +518,7 @@ class LocalUpdate:
     mu_p, I, I_v, I_m, beta, phi_eq : friction, inertial numbers, dilation angle, critical packing
     taubar, pressure : equivalent shear stress and pressure at the end of the step [Pa]
     case : 0 elastic, 1 separated, 2 shear flow, 3 shear flow + compaction
+    evaluations : residual evaluations of the dilatant solve (0 for the closed-form cases)
     """
 
     stress: np.ndarray
@@ -374,6 +535,7 @@ class LocalUpdate:
     taubar: np.ndarray
     pressure: np.ndarray
     case: np.ndarray
+    evaluations: np.ndarray
 
 
 def kernel_parameters(m: Material) -> np.ndarray:
@@ -382,7 +544,8 @@ def kernel_parameters(m: Material) -> np.ndarray:
     return m.kernel_array()
 
 
-def local_update(stress, velocity_gradient, phi, f, dt: float, m: Material) -> LocalUpdate:
+def local_update(stress, velocity_gradient, phi, f, dt: float, m: Material,
+                 plastic_rate=None) -> LocalUpdate:
     """Advance the Table 8 granular law by one implicit step at every material point.
 
     Parameters
@@ -400,17 +563,24 @@ def local_update(stress, velocity_gradient, phi, f, dt: float, m: Material) -> L
         correction and the structure); the explicit Jaumann spin limits dt |W| << 1.
     m : Material
         Needs G, K and K0.
+    plastic_rate : numpy.ndarray of float, shape (...) like the points, optional
+        Warm start, read and written: on entry each point's plastic shear rate of the previous
+        step [1/s] (negative or NaN: none, e.g. ``np.full(shape, -1.0)`` before the first step),
+        on return the new one (``shear_rate_p``). It only moves the start of the dilatant
+        solve; the tolerance is the same, results agree with a cold start to it.
 
     Returns
     -------
     LocalUpdate
+        Arrays shaped like the points; with zero points, empty arrays of those shapes.
 
     Raises
     ------
     ValueError
-        Bad shapes, non-finite or out-of-range inputs.
+        Bad shapes, non-finite or out-of-range inputs (``plastic_rate`` not a writable float
+        array of the points' shape).
     RuntimeError
-        If the bracketed solve fails at any point (with the point's state).
+        If the solve fails at any point (with the point's state).
     """
     P = kernel_parameters(m)
     sig = np.asarray(stress, dtype=float)
@@ -420,29 +590,45 @@ def local_update(stress, velocity_gradient, phi, f, dt: float, m: Material) -> L
                          f"{sig.shape} and {L.shape}")
     check_range("stress", sig)
     check_range("velocity_gradient", L)
-    if not np.allclose(sig, np.swapaxes(sig, -1, -2), rtol=1e-12, atol=1e-12 * (1 + np.abs(sig).max())):
+    if sig.size and not np.allclose(sig, np.swapaxes(sig, -1, -2), rtol=1e-12,
+                                    atol=1e-12 * (1 + np.abs(sig).max())):
         raise ValueError("stress must be symmetric (sigma_ij = sigma_ji)")
     check_range("dt", dt, 0.0, None, lo_closed=False)
     shape = np.broadcast_shapes(sig.shape[:-2], L.shape[:-2], np.shape(phi), np.shape(f))
     phi = check_range("phi", np.broadcast_to(phi, shape), 0.0, 1.0, hi_closed=False)
     f = check_range("f", np.broadcast_to(f, shape), 0.0, 1.0)
     n = int(np.prod(shape))
+    g_prev = None
+    if plastic_rate is not None:
+        if (not isinstance(plastic_rate, np.ndarray) or plastic_rate.dtype != np.float64
+                or plastic_rate.shape != shape or not plastic_rate.flags.writeable):
+            raise ValueError(f"plastic_rate must be a writable float64 array of the points' shape "
+                             f"{shape}, got {type(plastic_rate).__name__} "
+                             f"{getattr(plastic_rate, 'shape', '')}")
+        if np.any(np.isposinf(plastic_rate)):
+            raise ValueError("plastic_rate must be finite or negative/NaN (no warm start), got inf")
+        g_prev = np.ascontiguousarray(plastic_rate.reshape(n))
     sig_in = np.ascontiguousarray(np.broadcast_to(sig, shape + (3, 3)).reshape(n, 3, 3))
     L_in = np.ascontiguousarray(np.broadcast_to(L, shape + (3, 3)).reshape(n, 3, 3))
     sig_out = np.empty_like(sig_in)
     out = np.empty((n, NOUT))
-    loop = update_points if n >= 256 else update_points_serial
-    loop(sig_in, L_in, np.ascontiguousarray(phi.reshape(n)), np.ascontiguousarray(f.reshape(n)),
-         float(dt), P, sig_out, out)
+    if n:
+        loop = update_points if n >= 256 else update_points_serial
+        args = (sig_in, L_in, np.ascontiguousarray(phi.reshape(n)),
+                np.ascontiguousarray(f.reshape(n)), float(dt), P, sig_out, out)
+        loop(*args) if g_prev is None else loop(*args, g_prev)
     failed = np.flatnonzero(out[:, 12] == FAILED)
     if failed.size:
         k = failed[0]
         raise RuntimeError(f"local update failed at {failed.size} point(s); first: index {k}, "
                            f"phi = {phi.reshape(n)[k]:.6g}, f = {f.reshape(n)[k]:.6g}, "
                            f"stress = {sig_in[k].tolist()}, dt = {dt:g}")
+    if plastic_rate is not None:
+        plastic_rate[...] = out[:, 1].reshape(shape)
     col = {name: out[:, i].reshape(shape) for i, name in enumerate(OUT_FIELDS)}
     return LocalUpdate(stress=sig_out.reshape(shape + (3, 3)), f=col["f"],
                        shear_rate_p=col["shear_rate_p"], xi1=col["xi1"], xi2=col["xi2"],
                        mu_p=col["mu_p"], I=col["I"], I_v=col["I_v"], I_m=col["I_m"],
                        beta=col["beta"], phi_eq=col["phi_eq"], taubar=col["taubar"],
-                       pressure=col["pressure"], case=col["case"].astype(int))
+                       pressure=col["pressure"], case=col["case"].astype(int),
+                       evaluations=col["iterations"].astype(int))

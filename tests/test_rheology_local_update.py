@@ -226,3 +226,89 @@ def test_elastic_trial_is_the_jaumann_predictor():
         out = np.empty((3, 3))
         elastic_trial(sig, L, dt, G, K, out)
         np.testing.assert_allclose(out, expect, rtol=1e-13, atol=1e-14)
+
+
+# ------------------------------------------------------------------ zero points, warm start, Newton
+def test_zero_points_give_empty_results():
+    m = r.get_material("annular_shear")
+    u = r.local_update(np.zeros((0, 3, 3)), np.zeros((0, 3, 3)), np.zeros(0), np.zeros(0), 1e-4, m,
+                       plastic_rate=np.zeros(0))
+    assert u.stress.shape == (0, 3, 3) and u.f.shape == (0,) and u.case.shape == (0,)
+    u = r.local_update(np.zeros((2, 0, 3, 3)), np.zeros((3, 3)), 0.5, 0.1, 1e-4, m)
+    assert u.stress.shape == (2, 0, 3, 3) and u.taubar.shape == (2, 0) and u.evaluations.size == 0
+
+
+def test_plastic_rate_must_be_a_writable_array_of_the_points_shape():
+    m = r.get_material("annular_shear")
+    args = (-np.eye(3)[None].repeat(3, 0), np.zeros((3, 3, 3)), 0.5, 0.1, 1e-4, m)
+    for bad in (np.zeros(2), [0.0, 0.0, 0.0], np.zeros(3, dtype=np.float32), np.full(3, np.inf)):
+        with pytest.raises(ValueError, match="plastic_rate"):
+            r.local_update(*args, plastic_rate=bad)
+
+
+def _sheared_batch(m, n, seed):
+    """Points in steady dilatant shear flow at random rates, then sheared 2% faster (MPM-like)."""
+    rng = np.random.default_rng(seed)
+    phi = rng.uniform(0.40, 0.50, n)
+    st = r.steady_state_stress(10.0 ** rng.uniform(-2, 3, n), phi, m)
+    sig = np.zeros((n, 3, 3))
+    sig[:, 0, 1] = sig[:, 1, 0] = st.taubar
+    sig -= st.pressure[:, None, None] * np.eye(3)
+    L = np.zeros((n, 3, 3))
+    L[:, 0, 1] = st.shear_rate * 1.02
+    L[:, 1, 1] = rng.normal(0, 1e-3, n) * st.shear_rate          # a little expansion/compression
+    return sig, L, phi, np.asarray(st.f, float), np.asarray(st.shear_rate, float)
+
+
+def test_warm_start_and_newton_agree_with_the_bracket_in_fewer_evaluations():
+    """Twenty steps of a sheared batch: the Newton solve (cold, and warm from the previous rate)
+    gives the bracket-only (Brent) answer to the solver's tolerance, in fewer residual evaluations,
+    and every flowing point sits on the yield surface f_1 = 0."""
+    m = r.get_material("annular_shear")
+    P = kernel_parameters(m)
+    sig, L, phi, f, g = _sheared_batch(m, 300, 5)
+    dt = 2e-3 / np.median(L[:, 0, 1])
+    states = {k: (sig.copy(), f.copy()) for k in ("bracket", "cold", "warm")}
+    g_warm = g.copy()
+    evals = {k: [] for k in states}
+    for _ in range(20):
+        res = {}
+        for k, (s, ff) in states.items():
+            so, o = np.empty_like(s), np.empty((len(phi), NOUT))
+            kw = dict(newton=False) if k == "bracket" else dict(g_prev=g_warm) if k == "warm" else {}
+            update_points_serial(s, L, phi, ff, dt, P, so, o, **kw)
+            res[k] = (so, o)
+            flow = o[:, 12] == SHEAR_FLOW
+            evals[k].append(o[flow, 13])
+            f1 = r.yield_functions(so, o[:, 1], phi, ff, m, o[:, 3])[0]
+            scale = np.abs(s).max(axis=(1, 2))
+            assert np.all(np.abs(f1[flow]) <= 1e-9 * scale[flow])
+        ref_s, ref_o = res["bracket"]
+        for k in ("cold", "warm"):
+            so, o = res[k]
+            np.testing.assert_array_equal(o[:, 12], ref_o[:, 12])
+            np.testing.assert_allclose(so, ref_s, rtol=0, atol=1e-9 * np.abs(ref_s).max())
+            np.testing.assert_allclose(o[:, 1], ref_o[:, 1], rtol=1e-9)
+        g_warm = res["warm"][1][:, 1].copy()
+        states = {k: (res[k][0], res[k][1][:, 0].copy()) for k in states}
+    mean = {k: np.concatenate(v).mean() for k, v in evals.items()}
+    assert mean["cold"] <= 0.5 * mean["bracket"] and mean["warm"] <= 0.5 * mean["bracket"], mean
+
+
+@SET
+@given(materials(), st.integers(0, 2 ** 32 - 1), st.sampled_from([0.0, -1.0, np.nan, 1e-300, 1e-12,
+                                                               1e-3, 1.0, 1e3, 1e12, 1e300]))
+def test_any_warm_start_gives_the_cold_answer(m, seed, g_prev):
+    """A wrong warm start (zero, tiny, huge, NaN) only moves the start of the safeguarded Newton:
+    the result equals the cold start's to the solver tolerance on random states of every case."""
+    sig, L, phi, f, dt = random_states(m, seed, n=200)
+    a = r.local_update(sig, L, phi, f, dt, m)
+    g = np.full(len(phi), g_prev)
+    b = r.local_update(sig, L, phi, f, dt, m, plastic_rate=g)
+    np.testing.assert_array_equal(a.case, b.case)
+    np.testing.assert_array_equal(g, b.shear_rate_p)                 # written back
+    scale = np.abs(sig).max(axis=(1, 2)) + m.G * dt * np.abs(L).max(axis=(1, 2)) + 1e-300
+    assert np.all(np.abs(b.stress - a.stress).max(axis=(1, 2)) <= 1e-8 * scale)
+    f1 = r.yield_functions(b.stress, b.shear_rate_p, phi, f, m, b.xi2)[0]
+    flowing = b.case == SHEAR_FLOW
+    assert np.all(np.abs(f1[flowing]) <= 1e-9 * scale[flowing])
