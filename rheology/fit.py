@@ -858,8 +858,8 @@ def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max
             Q = _Params(start, others, phi_max)
             th = Q.theta(start)
             r = least_squares(lambda t: logeta[inl] - model(Q.material(t), inl)["log10_viscosity"],
-                              th, bounds=(Q.lo, Q.hi), method="trf", xtol=1e-10, ftol=1e-10,
-                              max_nfev=60)
+                              th, bounds=(Q.lo, Q.hi), method="trf", xtol=1e-8, ftol=1e-9,
+                              max_nfev=40)
         except (ValueError, RuntimeError):
             return np.inf
         return float(np.sqrt(max(np.sum(r.fun ** 2) - ssq_best, 0.0) / s2))
@@ -887,9 +887,10 @@ def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max
                 continue
             return None
         h1 = h * target / max(e, 1e-12)            # sqrt(excess) ~ linear in the offset
-        e1 = excess(value + side * h1)
-        if np.isfinite(e1) and abs(e1 - e) > 1e-12:
-            h1 = h1 + (target - e1) * (h - h1) / (e - e1)
+        if abs(e / target - 1) > 0.15:             # far from the target: one secant step
+            e1 = excess(value + side * h1)
+            if np.isfinite(e1) and abs(e1 - e) > 1e-12:
+                h1 = h1 + (target - e1) * (h - h1) / (e - e1)
         ends.append(value + side * h1)
     return (min(ends), max(ends))
 

@@ -329,11 +329,12 @@ def write_figures(out: Path, data, res) -> list[str]:
     ax[0].set(xlabel="shear rate [1/s]", ylabel="shear stress [Pa]",
               title="curves; black: DST region and rate")
     ax[0].legend(fontsize=7)
-    if len(st3["phi"]):
+    top = min(m.phi_star, m.phi_j) - 1e-4 * m.phi_j
+    if len(st3["phi"]) and top > m.phi_c:
         from rheology.steady import gdot_dst
 
         ax[1].semilogy(st3["phi"], st3["gdot_dst"], "o", label="DST rates (stage 3)")
-        grid = np.linspace(max(m.phi_c, min(st3["phi"]) - 0.02), m.phi_j - 1e-4 * m.phi_j, 200)
+        grid = np.linspace(max(m.phi_c, min(st3["phi"]) - 0.02), top, 200)
         ax[1].semilogy(grid, gdot_dst(grid, m), "r-", label="Eq. (33), fitted material")
         ax[1].axvline(m.phi_j, color="k", ls="--", label=f"phi_j = {m.phi_j:.4g}")
         ax[1].legend(fontsize=8)

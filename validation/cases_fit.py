@@ -132,12 +132,14 @@ def fit_calibration(out: Path, quick: bool) -> Verdict:
     png = atomic_savefig(fig, out / "calibration.png")
     plt.close(fig)
     worst = min(cover[k] for k in identifiable) if identifiable else float("nan")
+    need = 0.6 if quick else 0.85          # 6 seeds (quick) only check the machinery
     return Verdict(
         criterion=f"over {n} seeds (3% noise, artefacts), the 95% interval of every identifiable "
-                  "parameter contains the true value in >= 85% of the fits",
+                  f"parameter contains the true value in >= {need:.0%} of the fits"
+                  + (" (quick run: 85% needs the full 50 seeds)" if quick else ""),
         measured=", ".join(f"{k} {cover[k]:.2f}" for k in cover)
                  + f"; median fit time {np.median(times):.2f} s (profile intervals on)",
-        passed=bool(identifiable) and worst >= 0.85, figures=[png])
+        passed=bool(identifiable) and worst >= need, figures=[png])
 
 
 @case("rheology", "fit_table1a_stages",
