@@ -1,0 +1,605 @@
+"""Oscillatory shear of the 0-D model: imposed strain gamma0 sin(omega t) or mixture stress
+sigma0 sin(omega t), run to the periodic steady state on SUNDIALS IDA, analysed by harmonics.
+
+The model is the reduced 0-D law of :mod:`rheometer.model` (paper Eqs. 35-37 with the Table 8
+structure law): the granular shear stress ``taubar`` and the jamming gap are differential, the
+plastic rate is the critical-state rate ``gdot_p = gdot_cs(taubar, gap)`` and the mixture stress is
+``sigma = taubar + eta_F gdot`` with ``eta_F = eta0 (1 + 5/2 phi)`` (Table 8's fluid viscosity).
+Under oscillation the shear rate is imposed (strain control, ``gdot = gamma0 omega cos(omega t)``)
+or follows from the imposed mixture stress (``gdot = (sigma(t) - taubar)/eta_F``); the unknowns
+``y = [taubar, gap, strain]`` obey::
+
+    taubar' = G (gdot - gdot_cs(taubar, gap))                      Eq. (36) with the imposed drive
+    gap'    = -(phi_j - phi_c) df/dt(f, taubar, gdot_p)             Table 8 structure law
+    strain' = gdot
+
+solved by IDA (residual ``yp - rhs``, exact Jacobian by the complex-step partials of
+:mod:`rheometer.model`). The laws are rheology's (through :mod:`rheometer.model`), not re-derived.
+
+Linear viscoelasticity (the small-amplitude limit), derived here. At rest ``taubar = 0`` and
+``f = 0``. For a small drive the structure equation gives ``df/dt = K0 gdot_p H (f_m - f) - ...``
+with ``H = (taubar/tau*)^(3/2)``: f grows only at order ``|taubar/tau*|^(3/2)`` and stays 0 to first
+order. With f = 0 the critical-state rate is linear in the stress to first order (the grain-inertia
+term ``A gdot^2`` of :func:`rheology.laws.critical_shear_rate` is second order),
+``gdot_p = taubar/eta_g``, with ``eta_g = eta0 [2 mu* (a0 phi/(phi_j - phi))^2 + 5/2 phi^2/(phi_j -
+phi)]`` the granular part of Eq. (24) (the low-stress plateau). So
+``taubar' = G (gdot - taubar/eta_g)``: a Maxwell element of modulus G and relaxation time
+``lambda = eta_g/G``, in parallel with the Newtonian fluid ``eta_F``. With ``gamma = Re[gamma*
+e^(i omega t)]`` and ``sigma = Re[G* gamma* e^(i omega t)]``::
+
+    G*(omega) = G i omega lambda/(1 + i omega lambda) + i omega eta_F
+    G'  = G (omega lambda)^2/(1 + (omega lambda)^2)
+    G'' = G omega lambda/(1 + (omega lambda)^2) + omega eta0 (1 + 5/2 phi)
+
+At low frequency the sample is the Newtonian plateau of Eq. (24) (``G'' -> omega (eta_g +
+eta_F)``); at high frequency the skeleton is elastic (``G' -> G``) and ``G'' -> omega eta0 (1 + 5/2
+phi)`` (the fluid dominates the loss) once ``omega >> G/sqrt(eta_g eta_F)``, with the relative
+excess ``G^2/(omega^2 eta_g eta_F)``.
+
+Analysis of a cycle (``N`` samples at uniform phase, period ``T = 2 pi/omega``, phase origin at
+t = 0): the complex harmonic ``c_n = (2/N) sum_k s_k e^(-i n omega t_k)`` of a signal s (exact
+for band-limited periodic signals). With ``gamma = gamma0 sin(omega t)`` (``c_gamma,1 = -i
+gamma0``), ``G* = G' + i G'' = c_sigma,1/c_gamma,1``; under stress control the same ratio with the
+strain's harmonic (a linear drift of the strain over the cycle removed first). ``I3/I1 =
+|c_3|/|c_1|`` of the response (the stress under strain control, the strain under stress control).
+``|eta*| = |G*|/omega``. The Lissajous-Bowditch projections are stress against strain (elastic)
+and against rate (viscous); Ewoldt's elastic and viscous stresses ``sigma'(t) = (sigma(t) -
+sigma(-t))/2`` and ``sigma''(t) = (sigma(t) + sigma(-t))/2`` (the points (-gamma, gdot) and (gamma,
+gdot) of the cycle) are written for strain control.
+
+Periodic steady state: cycles are run until the cycle-to-cycle change of ``c_1``, ``c_3`` and the
+mean stress (strain control) or the strain's drift over a cycle (stress control), relative to
+``|c_1|``, and of the cycle-mean structure f (absolute), is below ``tol`` and so is its geometric projection
+``change r/(1 - r)`` (``r`` the ratio of the last two changes; the remaining drift of a slowly
+converging structure). The number of cycles used is reported; a point that does not converge
+within ``max_cycles`` is returned with ``converged = False`` (never silently).
+
+Acceleration: the structure f relaxes at the rate K0 |gdot_p| (H + 1), so a cycle with little
+plastic strain (small amplitude, high frequency) moves f only a little, and the Maxwell mean
+stress decays over lambda/T cycles: the approach to the periodic state can take thousands of
+cycles. When the cycle-to-cycle change shrinks by less than a factor 2 per cycle, the state
+jumps: by Aitken extrapolation along the slow mode when the last cycle-start differences are
+parallel and shrink geometrically (r < 0.99), else by one Newton step on the cycle map Phi (state (taubar, gap) at a cycle start -> one period later;
+the periodic state solves Phi(x) = x), its 2 x 2 Jacobian by finite differences (three
+one-period IDA solves at 1e-2 rtol, steps of 1e-3 in taubar/taubar_scale and f); then cycles resume from the new state and the convergence test starts
+afresh, so the reported state is always an integrated cycle that repeats itself to ``tol``
+(column ``extrapolations``: the Newton steps taken).
+
+Where the paper is silent: G and K0 default to the material's, else G = 1e4 Pa and K0 = 1 (as in
+every transient of :mod:`rheometer.transient`). Each point starts from rest (f = 0) carrying the
+periodic stress of the linearised model (taubar(0) = Re[G_M* c_drive], G_M* the Maxwell part;
+under stress control also the strain's linear phase), so that the Maxwell transient
+exp(-t/lambda), which lasts lambda/T cycles, need not be waited out; or, with
+``start="previous"``, from the final state of the previous point of the sweep (as an instrument
+runs a sweep).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+import pandas as pd
+from sksundae.ida import IDA
+
+import rheology
+from rheology import laws
+from rheology.checks import check_positive, check_range
+from rheology.materials import Material
+
+from . import model
+from .transient import DEFAULT_G, DEFAULT_K0
+
+_jit = nb.njit(cache=True, error_model="numpy")
+
+#: Drive modes.
+STRAIN, STRESS = 0, 1
+#: Indices of the parameter vector of :func:`rheometer.model.parameters` used here.
+_G_I, _ETAF_I = model._G, model._ETAF
+#: Defaults.
+DEFAULT_SAMPLES = 128
+DEFAULT_TOL = 1e-5
+DEFAULT_MAX_CYCLES = 100
+DEFAULT_RTOL = 1e-7
+_GAP_SCALE = 1e-8
+#: Newton steps on the cycle map per point, at most.
+MAX_NEWTON = 12
+
+#: Columns of the per-point table (units in the names).
+POINT_COLUMNS = ("phi", "control", "frequency_Hz", "angular_frequency_rad_per_s",
+                 "strain_amplitude", "stress_amplitude_Pa", "peak_stress_Pa",
+                 "storage_modulus_Pa", "loss_modulus_Pa", "complex_viscosity_Pa_s", "tan_delta",
+                 "I3_over_I1", "linear_storage_modulus_Pa", "linear_loss_modulus_Pa",
+                 "mean_f", "max_f", "cycles", "extrapolations", "cycle_change", "converged")
+#: Columns of the waveform table (the last, periodic cycle of every point).
+WAVE_COLUMNS = ("point", "phi", "frequency_Hz", "strain_amplitude", "stress_amplitude_Pa",
+                "phase_rad", "time_s", "strain", "shear_rate_per_s", "shear_stress_Pa",
+                "granular_shear_stress_Pa", "f", "elastic_stress_Pa", "viscous_stress_Pa")
+
+
+# ------------------------------------------------------------------ the linear limit
+@dataclass(frozen=True)
+class Maxwell:
+    """Linearised model at rest: Maxwell element (G, eta_g) in parallel with the fluid eta_F.
+
+    Attributes
+    ----------
+    G : granular shear modulus [Pa]
+    eta_g : granular low-stress viscosity (Eq. 24, granular part) [Pa s]
+    eta_F : fluid-phase viscosity eta0 (1 + 5/2 phi) [Pa s]
+    relaxation_time : eta_g/G [s]
+    """
+
+    G: float
+    eta_g: float
+    eta_F: float
+
+    @property
+    def relaxation_time(self) -> float:
+        return self.eta_g / self.G
+
+    def modulus(self, omega) -> np.ndarray:
+        """G*(omega) = G i omega lambda/(1 + i omega lambda) + i omega eta_F [Pa] (complex)."""
+        w = np.asarray(omega, dtype=float)
+        iwl = 1j * w * self.relaxation_time
+        return self.G * iwl / (1.0 + iwl) + 1j * w * self.eta_F
+
+
+def _moduli(material, phi, G, K0):
+    m = rheology.get_material(material)
+    phi = float(check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
+                            note=f"below phi_j = {m.phi_j} of {m.name}"))
+    G = float(check_positive("G [Pa]", G if G is not None else (m.G or DEFAULT_G)))
+    K0 = K0 if K0 is not None else (m.K0 if m.K0 is not None else DEFAULT_K0)
+    check_range("K0", K0, 0.0, None)
+    return m, phi, G, float(K0)
+
+
+def maxwell(material, phi: float, G: float | None = None) -> Maxwell:
+    """The linearised (small-amplitude) model at rest of ``material`` at ``phi`` (see module doc).
+
+    ``G`` [Pa] defaults to the material's, else 1e4 Pa. Raises ValueError for phi outside
+    (0, phi_j) or G <= 0.
+    """
+    m, phi, G, _ = _moduli(material, phi, G, None)
+    eta_g = m.eta0 * float(rheology.granular_viscosity(phi, 0.0, m))
+    return Maxwell(G, eta_g, float(laws.fluid_viscosity(phi, m.eta0)))
+
+
+def linear_modulus(material, phi: float, frequency, G: float | None = None) -> np.ndarray:
+    """Small-amplitude complex modulus G* = G' + i G'' [Pa] at ``frequency`` [Hz] (any shape)."""
+    f = check_positive("frequency [Hz]", frequency)
+    return maxwell(material, phi, G).modulus(2.0 * np.pi * f)
+
+
+def dst_onset_stress(material, phi: float) -> float:
+    """Mixture shear stress [Pa] at the onset of DST: the first fold of the steady curve, where
+    the shear rate stops increasing with the stress (a maximum of gdot(taubar); Eq. 13 with
+    Eq. 1). Raises ValueError if the steady curve of ``phi`` has no fold (no DST)."""
+    from scipy.optimize import minimize_scalar
+
+    m = rheology.get_material(material)
+    taus = m.tau_star * np.logspace(-4, 8, 1201)
+    st = rheology.steady_state_stress(taus, phi, m)
+    g = np.where(st.jammed, 0.0, st.shear_rate)
+    k = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] > g[2:]))
+    if k.size == 0:
+        raise ValueError(f"phi = {phi:g}: the steady curve of {m.name} has no fold (no DST)")
+    i = k[0] + 1
+    res = minimize_scalar(lambda x: -float(rheology.steady_state_stress(np.exp(x), phi,
+                                                                         m).shear_rate),
+                          bounds=(np.log(taus[i - 1]), np.log(taus[i + 1])), method="bounded",
+                          options=dict(xatol=1e-10))
+    return float(rheology.steady_state_stress(np.exp(res.x), phi, m).shear_stress)
+
+
+# ------------------------------------------------------------------ the DAE (kernels)
+@_jit
+def _drive(t, taubar, P, O):
+    """(gdot, d gdot/d taubar) of the drive O = [mode, amplitude, omega]."""
+    s = O[2] * t
+    if O[0] == STRAIN:
+        return O[1] * O[2] * np.cos(s), 0.0
+    return (O[1] * np.sin(s) - taubar) / P[_ETAF_I], -1.0 / P[_ETAF_I]
+
+
+@_jit
+def _rhs(t, y, out, P, O):
+    g, _ = _drive(t, y[0], P, O)
+    a = abs(y[0])
+    sg = 1.0 if y[0] >= 0.0 else -1.0
+    gp = model.plastic_rate(a, y[1], P)
+    out[0] = P[_G_I] * (g - sg * gp)
+    out[1] = model.gap_rate(y[1], a, gp, P)
+    out[2] = g
+
+
+@_jit
+def _residual(t, y, yp, res, P, O):
+    _rhs(t, y, res, P, O)
+    for i in range(3):
+        res[i] = yp[i] - res[i]
+
+
+@_jit
+def _jacobian(t, y, yp, cj, JJ, P, O):
+    """JJ = cj I - d rhs/d y (exact: complex-step partials of the laws, odd extension)."""
+    g, gt = _drive(t, y[0], P, O)
+    a = abs(y[0])
+    sg = 1.0 if y[0] >= 0.0 else -1.0
+    gp, gpt, gpy = model._plastic_rate_d(a, y[1], P)
+    _, ry, rt, rg = model._gap_rate_d(y[1], a, gp, P)
+    JJ[:, :] = 0.0
+    JJ[0, 0] = cj - P[_G_I] * (gt - gpt)
+    JJ[0, 1] = P[_G_I] * sg * gpy
+    JJ[1, 0] = -sg * (rt + rg * gpt)
+    JJ[1, 1] = cj - (ry + rg * gpy)
+    JJ[2, 0] = -gt
+    JJ[2, 2] = cj
+
+
+# ------------------------------------------------------------------ harmonics
+def harmonics(samples, orders=(1, 3)) -> np.ndarray:
+    """Complex harmonics c_n = (2/N) sum_k s_k exp(-i n 2 pi k/N) of one period sampled at
+    uniform phase 2 pi k/N, k = 0..N-1 (last axis); returns shape (..., len(orders))."""
+    s = np.asarray(samples, dtype=float)
+    N = s.shape[-1]
+    k = np.arange(N)
+    E = np.exp(-1j * 2.0 * np.pi * np.outer(k, np.asarray(orders)) / N)
+    return (2.0 / N) * (s @ E)
+
+
+def elastic_viscous(stress) -> tuple[np.ndarray, np.ndarray]:
+    """Ewoldt's elastic and viscous stresses of a strain-controlled cycle sampled at uniform
+    phase from 0: sigma'(t) = (sigma(t) - sigma(-t))/2, sigma''(t) = (sigma(t) + sigma(-t))/2 [Pa]."""
+    s = np.asarray(stress, dtype=float)
+    mirror = s[(-np.arange(s.size)) % s.size]
+    return 0.5 * (s - mirror), 0.5 * (s + mirror)
+
+
+# ------------------------------------------------------------------ one point
+def _periodic(changes, tol: float) -> bool:
+    """Periodic steady state: the last cycle-to-cycle change and its geometric projection
+    ``d r/(1 - r)`` (r the ratio of the last two changes) are both below ``tol``."""
+    if len(changes) < 2:
+        return False
+    d, d0 = changes[-1], changes[-2]
+    r = d / d0 if d0 > 0 else 0.0
+    return d < tol and (r < 1.0 and d * r / (1.0 - r) < tol)
+
+
+def _extrapolate(starts, r_min: float = 0.3, r_max: float = 0.99, cos_min: float = 0.99):
+    """Aitken extrapolation along one slow mode of the cycle map, or None.
+
+    ``starts`` are the scaled states (taubar/taubar_scale, f units) at the starts of the last
+    three cycles. Near the periodic state x*, the differences d_k = x_(k+1) - x_k of a single
+    slow mode are parallel and shrink by a ratio r per cycle, so x* = x_last + d_last r/(1 - r).
+    Applied only when the last two differences are parallel (cosine > ``cos_min``) and
+    r_min < r < r_max (else two modes are slow: a Newton step is taken instead)."""
+    x = np.asarray(starts[-3:], dtype=float)
+    d0, d1 = x[1] - x[0], x[2] - x[1]
+    n0, n1 = float(np.dot(d0, d0)), float(np.dot(d1, d1))
+    if n0 <= 0.0 or n1 <= 0.0:
+        return None
+    cos = float(np.dot(d0, d1)) / np.sqrt(n0 * n1)
+    r = float(np.dot(d0, d1)) / n0
+    if cos < cos_min or not (r_min < r < r_max):
+        return None
+    return x[2] + d1 * (r / (1.0 - r))
+
+
+@dataclass
+class _Start:
+    taubar: float
+    gap: float
+    strain: float
+
+
+def _newton_step(x, fx, jac_cols, lo, hi):
+    """One Newton step on the cycle map x -> Phi(x) (periodic state: Phi(x) = x).
+
+    ``fx = Phi(x)``; ``jac_cols`` the finite-difference columns of d Phi/d x. Returns the new
+    state, components clipped to [lo, hi], or None if I - J is singular."""
+    J = np.column_stack(jac_cols)
+    A = J - np.eye(x.size)
+    if not np.all(np.isfinite(A)) or abs(np.linalg.det(A)) < 1e-14 * max(1.0, np.abs(A).max()) ** 2:
+        return None
+    new = x - np.linalg.solve(A, fx - x)
+    return np.minimum(np.maximum(new, lo), hi)
+
+
+def oscillate(material, phi: float, frequency: float, amplitude: float, *,
+              control: str = "strain", G: float | None = None, K0: float | None = None,
+              max_cycles: int = DEFAULT_MAX_CYCLES, min_cycles: int = 2, tol: float = DEFAULT_TOL,
+              samples: int = DEFAULT_SAMPLES, rtol: float = DEFAULT_RTOL, state=None,
+              fixed_cycles: bool = False, extrapolate: bool = True):
+    """One oscillatory test run to the periodic steady state.
+
+    Parameters
+    ----------
+    material : str or Material
+    phi : float
+        Volume fraction, 0 < phi < phi_j.
+    frequency : float
+        Frequency [Hz] (omega = 2 pi frequency).
+    amplitude : float
+        Strain amplitude gamma0 [-] (``control="strain"``) or mixture-stress amplitude sigma0 [Pa]
+        (``control="stress"``), > 0.
+    control : {"strain", "stress"}
+    G, K0 : float, optional
+        Granular shear modulus [Pa] and structure-rate scale [-] (material's, else 1e4 Pa, 1).
+    max_cycles, min_cycles : int
+        Cycle limits (1 <= min_cycles <= max_cycles <= 10^5).
+    tol : float
+        Periodic-steady-state tolerance on the cycle-to-cycle change (module docstring).
+    samples : int
+        Samples per cycle (16 .. 8192; the harmonics are exact for signals band-limited below
+        samples/2).
+    rtol : float
+        IDA relative tolerance (1e-12 .. 1e-3).
+    state : (taubar [Pa], gap [-], strain [-]) or None
+        Initial state (default: rest, f = 0).
+    fixed_cycles : bool
+        Run exactly ``max_cycles`` cycles (a program step "for N cycles"); still reports the
+        last change.
+    extrapolate : bool
+        Accelerate a slow approach to the periodic state by Newton steps on the cycle map
+        (module docstring); the reported cycle is always an integrated one, compared with the
+        integrated cycle before it.
+
+    Returns
+    -------
+    (dict, DataFrame, tuple)
+        The point (keys of :data:`POINT_COLUMNS`), the last cycle's waveform (N rows) and the
+        final state (taubar, gap, strain) for a continuing sweep.
+
+    Raises
+    ------
+    ValueError
+        Bad input (naming the parameter and its range).
+    RuntimeError
+        IDA failed or returned an unphysical state (with time, state and solver counters).
+    """
+    m, phi, G, K0 = _moduli(material, phi, G, K0)
+    if control not in ("strain", "stress"):
+        raise ValueError(f"control = {control!r} must be 'strain' or 'stress'")
+    freq = float(check_positive("frequency [Hz]", frequency))
+    amp = float(check_positive("strain amplitude [-]" if control == "strain"
+                               else "stress amplitude [Pa]", amplitude))
+    max_cycles = int(check_range("max_cycles", max_cycles, 1, 10 ** 5))
+    min_cycles = int(check_range("min_cycles", min_cycles, 1, max_cycles,
+                                 note=f"at most max_cycles = {max_cycles}"))
+    tol = float(check_range("tol", tol, 1e-12, 1.0, lo_closed=True))
+    samples = int(check_range("samples", samples, 16, 8192))
+    rtol = float(check_range("rtol", rtol, 1e-12, 1e-3))
+
+    P = model.parameters(m, phi, G, K0)
+    lin = maxwell(m, phi, G)
+    omega = 2.0 * np.pi * freq
+    period = 1.0 / freq
+    Glin = complex(lin.modulus(omega))
+    mode = STRAIN if control == "strain" else STRESS
+    O = np.array([mode, amp, omega], dtype=float)
+    tau_scale = abs(Glin) * amp if mode == STRAIN else amp
+    strain_scale = amp if mode == STRAIN else amp / abs(Glin)
+    atol = 1e-3 * rtol * np.array([max(tau_scale, 1e-12 * m.tau_star), _GAP_SCALE, strain_scale])
+
+    if state is None:      # rest (f = 0) carrying the linear periodic stress (no Maxwell transient)
+        GM = Glin - 1j * omega * lin.eta_F
+        c_drive = -1j * amp                          # sin(omega t) = Re[-i e^(i omega t)]
+        if mode == STRAIN:
+            st = _Start(float((GM * c_drive).real), float(m.phi_j - phi), 0.0)
+        else:
+            st = _Start(float((GM / Glin * c_drive).real), float(m.phi_j - phi),
+                        float((c_drive / Glin).real))
+    else:
+        st = _Start(*map(float, state))
+    y0 = np.array([st.taubar, st.gap, st.strain])
+    yp0 = np.empty(3)
+    _rhs(0.0, y0, yp0, P, O)
+
+    def resfn(t, y, yp, res):
+        _residual(t, y, yp, res, P, O)
+
+    def jacfn(t, y, yp, res, cj, JJ):
+        _jacobian(t, y, yp, cj, JJ, P, O)
+
+    solver = IDA(resfn, rtol=rtol, atol=atol, jacfn=jacfn, max_step=period / 16,
+                 max_num_steps=100_000)
+    solver.init_step(0.0, y0, yp0)
+    f_m = float(laws.f_max(phi, m.phi_c, m.phi_j, m.Delta))
+    f_hi = max(f_m, float(model.structure_of_gap(st.gap, P)))
+    phase = 2.0 * np.pi * np.arange(samples) / samples
+    prev = None
+    changes: list[float] = []
+    t0 = time.perf_counter()
+    Y = np.empty((samples + 1, 3))
+    nfev = 0
+    # Newton shooting on the cycle map in scaled variables (taubar/tau_scale, f)
+    weights = np.array([max(tau_scale, 1e-300), m.phi_j - m.phi_c])
+    lo = np.array([-np.inf, float(model.gap_of_structure(f_hi, P))])
+    hi = np.array([np.inf, float(m.phi_j - phi)])
+    jumps = 0
+    starts = [y0[:2] / weights]           # scaled cycle-start states since the last jump
+    rtol_fd = max(1e-2 * rtol, 1e-12)        # the finite differences need tighter solves
+
+    def cycle_map(t_start, x):
+        """State (taubar, gap) one period after (t_start, x): a separate IDA solve."""
+        y = np.array([x[0], x[1], 0.0])
+        yp = np.empty(3)
+        _rhs(t_start, y, yp, P, O)
+        s2 = IDA(resfn, rtol=rtol_fd, atol=atol * (rtol_fd / rtol), jacfn=jacfn,
+                 max_step=period / 16, max_num_steps=100_000)
+        sol = s2.solve(np.array([t_start, t_start + 0.5 * period, t_start + period]), y, yp)
+        if not sol.success:
+            return np.full(2, np.nan)
+        return np.asarray(sol.y)[-1, :2]
+    for cycle in range(1, max_cycles + 1):
+        times = (cycle - 1 + np.arange(samples + 1) / samples) * period
+        Y[0] = y0 if cycle == 1 else Y[-1]
+        for k in range(1, samples + 1):
+            sol = solver.step(times[k], tstop=times[-1])
+            if not sol.success:
+                raise RuntimeError(
+                    f"IDA failed in oscillation at phi = {phi:g}, {freq:g} Hz, {control} "
+                    f"amplitude {amp:g}, cycle {cycle}, t = {float(sol.t):.6g} s: {sol.message} "
+                    f"(taubar = {Y[k - 1, 0]:.6g} Pa, G = {G:g} Pa, K0 = {K0:g}, rtol = {rtol:g})")
+            Y[k] = np.asarray(sol.y).ravel()
+            nfev = int(getattr(sol, "nfev", nfev) or nfev)
+        f = model.structure_of_gap(Y[:, 1], P)
+        bad = (~np.all(np.isfinite(Y), axis=1) | (f < -1e-6) | (f > f_hi + 1e-6))
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise RuntimeError(
+                f"unphysical state in oscillation at phi = {phi:g}, {freq:g} Hz, amplitude "
+                f"{amp:g}, cycle {cycle}, t = {times[i]:.6g} s: taubar = {Y[i, 0]:.6g} Pa, "
+                f"f = {f[i]:.6g} (valid [0, {f_hi:.6g}]): tighten rtol (now {rtol:g})")
+        taubar = Y[:samples, 0]
+        gdot = np.array([_drive(t, tb, P, O)[0] for t, tb in zip(times[:samples], taubar)])
+        sigma = taubar + P[_ETAF_I] * gdot
+        if mode == STRAIN:
+            strain = amp * np.sin(phase)
+            response = sigma
+        else:
+            drift = Y[samples, 2] - Y[0, 2]
+            strain = Y[:samples, 2]
+            response = strain - drift * np.arange(samples) / samples
+        c = harmonics(response)
+        mean = np.mean(sigma) if mode == STRAIN else Y[samples, 2] - Y[0, 2]
+        scale = abs(c[0])
+        c = np.concatenate([c, [mean]])
+        f_mean = float(np.mean(model.structure_of_gap(Y[:samples, 1], P)))
+        if prev is not None and scale > 0:
+            changes.append(max(float(np.max(np.abs(c - prev[0]))) / scale, abs(f_mean - prev[1])))
+        prev = (c, f_mean)
+        converged = _periodic(changes, tol)
+        if converged and not fixed_cycles and cycle >= min_cycles:
+            break
+        starts.append(Y[-1, :2] / weights)
+        slow = len(changes) >= 2 and changes[-2] > 0 and changes[-1] > 0.5 * changes[-2]
+        if (extrapolate and not fixed_cycles and slow and cycle < max_cycles - 3
+                and jumps < MAX_NEWTON):
+            x = Y[-1, :2] / weights
+            new = (_extrapolate(starts) if len(starts) >= 3 else None)
+            if new is not None:
+                new = np.minimum(np.maximum(new, lo / weights), hi / weights)
+            else:
+                fx = cycle_map(times[-1], x * weights) / weights
+                cols = []
+                for i in range(2):
+                    h = np.zeros(2)
+                    h[i] = 1e-3 if x[i] + 1e-3 <= hi[i] / weights[i] else -1e-3
+                    cols.append((cycle_map(times[-1], (x + h) * weights) / weights - fx) / h[i])
+                new = _newton_step(x, fx, cols, lo / weights, hi / weights)
+            if new is not None:
+                y_new = np.array([new[0] * weights[0], new[1] * weights[1], Y[-1, 2]])
+                yp_new = np.empty(3)
+                _rhs(times[-1], y_new, yp_new, P, O)
+                solver.init_step(times[-1], y_new, yp_new)
+                Y[-1] = y_new
+                prev, changes, starts = None, [], [y_new[:2] / weights]
+                jumps += 1
+    if mode == STRAIN:
+        c_gamma = -1j * amp
+        c_sigma = c[0]
+        i3 = abs(c[1]) / abs(c[0])
+        sigma_amp = abs(c_sigma)
+        gamma_amp = amp
+    else:
+        c_gamma = c[0]
+        c_sigma = -1j * amp
+        i3 = abs(c[1]) / abs(c[0])
+        sigma_amp = amp
+        gamma_amp = abs(c_gamma)
+    Gs = c_sigma / c_gamma
+    f_cycle = np.clip(f[:samples], 0.0, 1.0)
+    point = dict(phi=phi, control=control, frequency_Hz=freq, angular_frequency_rad_per_s=omega,
+                 strain_amplitude=gamma_amp, stress_amplitude_Pa=sigma_amp,
+                 peak_stress_Pa=float(np.max(np.abs(sigma))), storage_modulus_Pa=Gs.real,
+                 loss_modulus_Pa=Gs.imag, complex_viscosity_Pa_s=abs(Gs) / omega,
+                 tan_delta=Gs.imag / Gs.real if Gs.real != 0 else np.inf, I3_over_I1=i3,
+                 linear_storage_modulus_Pa=Glin.real, linear_loss_modulus_Pa=Glin.imag,
+                 mean_f=float(np.mean(f_cycle)), max_f=float(np.max(f_cycle)), cycles=cycle,
+                 cycle_change=changes[-1] if changes else np.nan, converged=converged,
+                 extrapolations=jumps,
+                 seconds=time.perf_counter() - t0)
+    if mode == STRAIN:
+        el, vi = elastic_viscous(sigma)
+    else:
+        el = vi = np.full(samples, np.nan)
+    wave = pd.DataFrame({
+        "phase_rad": phase, "time_s": times[:samples], "strain": strain if mode == STRAIN else
+        Y[:samples, 2], "shear_rate_per_s": gdot, "shear_stress_Pa": sigma,
+        "granular_shear_stress_Pa": taubar, "f": f_cycle, "elastic_stress_Pa": el,
+        "viscous_stress_Pa": vi})
+    end = (float(Y[-1, 0]), float(Y[-1, 1]), float(Y[-1, 2]))
+    return point, wave, end
+
+
+# ------------------------------------------------------------------ sweeps
+def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: str = "strain",
+                      start: str = "rest", **options) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Amplitude and/or frequency sweep: every (phi, frequency, amplitude) combination, in the
+    order given (phi outermost, then frequency, then amplitude).
+
+    Parameters
+    ----------
+    material : str or Material
+    phi : float or sequence of float
+    frequency : float or sequence of float
+        Frequencies [Hz].
+    amplitude : float or sequence of float
+        Strain amplitudes [-] (``control="strain"``) or mixture-stress amplitudes [Pa].
+    control : {"strain", "stress"}
+    start : {"rest", "previous"}
+        Each point from rest, or from the final state of the previous point at the same phi.
+    **options
+        Passed to :func:`oscillate` (G, K0, max_cycles, min_cycles, tol, samples, rtol).
+
+    Returns
+    -------
+    (points, waveforms) : DataFrames with :data:`POINT_COLUMNS` and :data:`WAVE_COLUMNS`;
+    ``points.attrs`` holds the material, G, K0, the tolerance, the run time and the number of
+    points that did not converge.
+    """
+    m = rheology.get_material(material)
+    if start not in ("rest", "previous"):
+        raise ValueError(f"start = {start!r} must be 'rest' or 'previous'")
+    phis = np.atleast_1d(np.asarray(phi, dtype=float)).ravel()
+    freqs = np.atleast_1d(np.asarray(frequency, dtype=float)).ravel()
+    amps = np.atleast_1d(np.asarray(amplitude, dtype=float)).ravel()
+    for name, v in (("phi", phis), ("frequency", freqs), ("amplitude", amps)):
+        if v.size == 0:
+            raise ValueError(f"give at least one {name}")
+    check_positive("frequency [Hz]", freqs)
+    check_positive("amplitude", amps)
+    rows, waves = [], []
+    t0 = time.perf_counter()
+    for ph in phis:
+        state = None
+        for fr in freqs:
+            for a in amps:
+                point, wave, end = oscillate(m, ph, fr, a, control=control, state=state,
+                                             **options)
+                state = end if start == "previous" else None
+                n = len(rows)
+                rows.append(point)
+                wave.insert(0, "point", n)
+                wave.insert(1, "phi", ph)
+                wave.insert(2, "frequency_Hz", fr)
+                wave.insert(3, "strain_amplitude", point["strain_amplitude"])
+                wave.insert(4, "stress_amplitude_Pa", point["stress_amplitude_Pa"])
+                waves.append(wave)
+    points = pd.DataFrame(rows)
+    seconds = points.pop("seconds")
+    points = points[list(POINT_COLUMNS)]
+    waveforms = pd.concat(waves, ignore_index=True)[list(WAVE_COLUMNS)]
+    _, _, G, K0 = _moduli(m, phis[0], options.get("G"), options.get("K0"))
+    points.attrs.update(material=m.name, control=control, G_Pa=G, K0=K0,
+                        tol=options.get("tol", DEFAULT_TOL), seconds=time.perf_counter() - t0,
+                        point_seconds=list(seconds), not_converged=int((~points["converged"]).sum()),
+                        start=start)
+    waveforms.attrs.update(points.attrs)
+    return points, waveforms
