@@ -14,11 +14,14 @@ improved frictional heating in the material point method", Comp. Part. Mech. 5):
   g_i = sum_p a_p grad N_i(x_p), which points out of a field (Bardenhagen et al.'s normal): for
   a rigid body its own (n = g_body/|g_body|; the body's geometry is exact there), for a
   deformable body against the material the symmetric n = (g_body - g_mat)/|..|;
-- contact is active at a node only if (i) both fields have mass there, (ii) the fields TOUCH: the
-  gap g_i = min_{p in mat} [(x_p - x_i).n - e_p(n)] - max_{q in body} [(x_q - x_i).n + e_q(n)]
-  over the points whose B-spline support covers node i is <= 0 (e(n) = s/2 (|n_x| + |n_y|) is
-  the half-extent along n of a point of side s = sqrt(in-plane area)), and (iii) the fields
-  approach along n ((v_mat - v_body).n < 0). Criterion (ii) removes the classic early contact of
+- contact is active at a node only if (i) both fields have mass there, (ii) the fields TOUCH, and
+  (iii) they approach along n ((v_mat - v_body).n < 0). Touching: against a rigid body, some
+  material point whose B-spline support covers the node has its square (side s = sqrt(in-plane
+  area)) touching or overlapping a body point's square (Chebyshev centre distance <= the sum of
+  the half sides; a k-d tree of the body points); between a deformable body and the material,
+  the gap along the normal g_i = min_{p in mat} [(x_p - x_i).n - e_p(n)] -
+  max_{q in body} [(x_q - x_i).n + e_q(n)] over the points covering node i is <= 0
+  (e(n) = s/2 (|n_x| + |n_y|) the half-extent along n). Criterion (ii) removes the classic early contact of
   the multi-field method, whose fields overlap as soon as the shape-function supports (1.5 h for
   quadratic B-splines) do: a body h/4 above a bed feels nothing until its surface reaches the
   bed's particle faces (geometrically exact for flat, grid-aligned faces);
@@ -230,6 +233,50 @@ def gap_field(grid, normal, mask, body_pts, mat_pts):
         g = em - eb
     g[~np.isfinite(g)] = np.inf
     return g
+
+
+@_jit
+def min_to_nodes(x, val, geo, mask, out):
+    """out[I, J] = min over the points whose B-spline support covers node (I, J) of val_p."""
+    x0, y0, h = geo[0], geo[1], geo[2]
+    inv_h = 1.0 / h
+    for p in range(x.shape[0]):
+        bx = int(math.floor((x[p, 0] - x0) * inv_h - 0.5))
+        by = int(math.floor((x[p, 1] - y0) * inv_h - 0.5))
+        for i in range(3):
+            I = bx + i + PAD
+            if I < 0 or I >= mask.shape[0]:
+                continue
+            for j in range(3):
+                J = by + j + PAD
+                if J < 0 or J >= mask.shape[1] or not mask[I, J]:
+                    continue
+                if val[p] < out[I, J]:
+                    out[I, J] = val[p]
+
+
+def box_gap_nodes(grid, mask, body_x, body_side, pts):
+    """Rigid-body gap at the nodes [m]: min over the field's points covering the node of the
+    gap between the point's square (side s_p) and the nearest body point's square, i.e. the
+    Chebyshev centre distance minus (s_p + s_b)/2 (+inf where no point is near the body)."""
+    from scipy.spatial import cKDTree
+
+    geo = grid.geometry()
+    out = np.full(mask.shape, np.inf)
+    tree = cKDTree(body_x)
+    sb = float(np.max(body_side))
+    lo = body_x.min(axis=0) - 3.0 * grid.h
+    hi = body_x.max(axis=0) + 3.0 * grid.h
+    for x, side in pts:
+        near = np.all((x >= lo) & (x <= hi), axis=1)
+        if not near.any():
+            continue
+        xn = np.ascontiguousarray(x[near])
+        d, _ = tree.query(xn, k=1, p=np.inf)
+        gap = d - 0.5 * (side[near] + sb)
+        min_to_nodes(xn, gap, geo, mask, out)
+    fold_extent(out, grid.kind, grid.nx, grid.ny, False)
+    return out
 
 
 def rigid_solve(body, entries, dt, gravity, h):

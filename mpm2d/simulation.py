@@ -475,8 +475,7 @@ class Simulation:
                     mask = (Bg.area > 0.0) & (Gm > 0.0)
                     if not mask.any():
                         continue
-                    gap = ct.gap_field(g, n, mask, [(Bg.x, Bg.side)],
-                                       [(p[0], p[1]) for p in self._points(ph)])
+                    gap = ct.box_gap_nodes(g, mask, Bg.x, Bg.side, self._points(ph))
                     nodes = mask & (gap <= tol)
                 I, J = np.nonzero(nodes)
                 if I.size == 0:

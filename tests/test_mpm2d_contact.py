@@ -1,0 +1,191 @@
+"""mpm2d contact (mpm2d.contact): touch only when touching, let go, Coulomb friction, weight.
+
+(a) an elastic block dropped on a rigid floor bounces off: no force while apart;
+(b) a block resting on a rigid floor carries its weight to 1%;
+(c) a block on an inclined plane (gravity tilted) slides at g (sin th - mu cos th) to 1% for
+    mu = 0 and 0.2 and sticks when tan th < mu;
+(d) onset: a rigid body h/4, h/2, 2h above a bed feels nothing before its surface reaches the
+    bed; the detected impact time is within one step of the exact one (first order in h);
+plus momentum conservation of a free body against a deformable body on its own field, and
+both phases of a two-phase bed meeting a body.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mpm2d import (Grid, LinearElastic, NewtonianFluid, ParticleSet, RigidBody, Simulation,
+                   Suspension, box)
+from rheology import get_material
+
+G0 = 9.81
+H = 0.01
+
+
+def _floor_block(gap=0.0, theta=0.0, mu=0.0, v0=0.0, E=1e5, nu=0.3, rho=1000.0,
+                 geostatic=False):
+    """A 10 x 10 cm elastic block on a 40 cm rigid floor slab, gravity tilted by theta."""
+    grid = Grid(40, 24, H, boundaries=dict(xmin="free", xmax="free", ymin="free", ymax="free"))
+    xf, af = box((0.0, 0.0), (0.4, 0.04), H / 2)
+    floor = RigidBody("floor", xf, af, density=1000.0, prescribed="all", mu_w=mu)
+    y0 = 0.04 + gap
+    x, a = box((0.1, y0), (0.2, y0 + 0.1), H / 2)
+    stress = None
+    if geostatic:        # free lateral faces: sigma_xx = 0, sigma_yy = -rho g_n depth, plane strain
+        sy = -rho * G0 * np.cos(theta) * (y0 + 0.1 - x[:, 1])
+        stress = np.zeros((len(x), 3, 3))
+        stress[:, 1, 1] = sy
+        stress[:, 2, 2] = nu * sy
+    blk = ParticleSet("block", LinearElastic(rho, E=E, nu=nu), x, a, v=(0.0, -v0), stress=stress)
+    sim = Simulation(grid, [blk], [floor], gravity=(G0 * np.sin(theta), -G0 * np.cos(theta)))
+    return sim, blk, floor
+
+
+def test_dropped_block_separates_and_feels_nothing_while_apart():
+    sim, blk, floor = _floor_block(gap=0.02, v0=0.5)
+    force, gap_before = [], []
+    while sim.t < 0.2:
+        gap_before.append(blk.x[:, 1].min() - H / 4 - 0.04)      # point faces vs floor top
+        sim.step()
+        force.append(-floor.force[1])
+    force, gap_before = np.array(force), np.array(gap_before)
+    apart = gap_before > 1e-12
+    assert np.all(force[apart] == 0.0)                            # exactly no force while apart
+    on = force != 0.0
+    switches = np.nonzero(np.diff(on.astype(int)))[0]
+    assert len(switches) >= 3, switches                           # contact, release, contact
+    assert not on[switches[1] + 1]                                # it really let go
+    assert np.all(force >= 0.0)                                   # never pulls (no tension)
+    # it left the floor: the lowest face rose above it again
+    assert gap_before[switches[1] + 5:].max() > 1e-4
+
+
+def test_resting_block_carries_its_weight():
+    sim, blk, floor = _floor_block(geostatic=True)
+    W = blk.m.sum() * G0
+    F = []
+    while sim.t < 0.2:
+        sim.step()
+        F.append(-floor.force[1])
+    F = np.array(F)
+    late = F[len(F) // 2:]
+    assert abs(late.mean() / W - 1.0) < 0.01, late.mean() / W
+    assert np.abs(late / W - 1.0).max() < 0.02
+
+
+@pytest.mark.parametrize("theta_deg, mu", [(30.0, 0.0), (30.0, 0.2)])
+def test_block_slides_down_incline_at_coulomb_rate(theta_deg, mu):
+    th = np.radians(theta_deg)
+    sim, blk, floor = _floor_block(theta=th, mu=mu, geostatic=True)
+    T, V = [], []
+    while sim.t < 0.12:
+        sim.step()
+        T.append(sim.t)
+        V.append(np.sum(blk.m * blk.v[:, 0]) / blk.m.sum())
+    T, V = np.array(T), np.array(V)
+    a = np.polyfit(T[T > 0.03], V[T > 0.03], 1)[0]
+    exact = G0 * (np.sin(th) - mu * np.cos(th))
+    assert abs(a / exact - 1.0) < 0.01, (a, exact)
+
+
+def test_block_sticks_when_tan_theta_below_mu():
+    """tan 10 deg = 0.176 < mu = 0.2: after the start-up transient (the initial stress has no
+    shear, the shear wave slips the base by ~0.8 mm in the first 0.1 s) the base stops: over
+    0.15-0.3 s it moves less than 1% of what a frictionless block slides in that time."""
+    th = np.radians(10.0)
+    sim, blk, floor = _floor_block(theta=th, mu=0.2, geostatic=True)
+    bottom = blk.x[:, 1] < 0.04 + H / 2
+    while sim.t < 0.15:
+        sim.step()
+    x0, t0 = blk.x[bottom, 0].mean(), sim.t
+    while sim.t < 0.3:
+        sim.step()
+    slip = blk.x[bottom, 0].mean() - x0
+    free_slide = 0.5 * G0 * np.sin(th) * (sim.t ** 2 - t0 ** 2)   # frictionless, same interval
+    assert abs(slip) < 0.01 * free_slide, (slip, free_slide)
+
+
+def _onset(gap, h, v0=0.5):
+    """A free rigid square 4h wide falls at v0 (no gravity) towards an elastic bed; returns the
+    time at the start of the first step with a force, the exact impact time and dt."""
+    n = 16
+    grid = Grid(n, 16, h, boundaries=dict(xmin="slip", xmax="slip", ymin="noslip", ymax="free"))
+    x, a = box((0.0, 0.0), (n * h, 6 * h), h / 2)
+    bed = ParticleSet("bed", LinearElastic(1000.0, 1e5, 1e5), x, a)
+    y0 = 6 * h + gap
+    xb, ab = box((6 * h, y0), (10 * h, y0 + 4 * h), h / 2)
+    body = RigidBody("body", xb, ab, density=1000.0, velocity=(0.0, -v0), prescribed="none")
+    sim = Simulation(grid, [bed], [body])
+    while True:
+        t_start = sim.t
+        sim.step()
+        if body.force[1] != 0.0:
+            return t_start, gap / v0, sim.last_dt
+        assert np.all(bed.v == 0.0)                               # untouched bed
+        assert sim.t < 3 * gap / v0 + 1.0, "never touched"
+
+
+@pytest.mark.parametrize("frac", [0.25, 0.5, 2.0])
+def test_no_force_before_the_surfaces_touch(frac):
+    h = 0.01
+    t_hit, exact, dt = _onset(frac * h, h)
+    assert t_hit >= exact * (1 - 1e-12)                           # nothing before touching
+    assert t_hit - exact <= dt * (1 + 1e-9)                       # within one step after
+
+
+def test_impact_time_converges_first_order():
+    gap, errs, dts = 0.013, [], []
+    for h in (0.004, 0.002, 0.001):
+        t_hit, exact, dt = _onset(gap, h)
+        errs.append(t_hit - exact)
+        dts.append(dt)
+    errs, dts = np.array(errs), np.array(dts)
+    assert np.all(errs >= 0) and np.all(errs <= dts * (1 + 1e-9)), (errs, dts)
+    assert dts[2] < 0.3 * dts[0]                                  # the bound itself halves
+
+
+def test_free_body_on_deformable_body_field_conserves_momentum():
+    """A free rigid ram hits an elastic block on its own field, which hits a second block:
+    rigid-deformable and deformable-deformable contact conserve the total momentum."""
+    h = 0.05
+    grid = Grid(50, 10, h, boundaries=dict(xmin="free", xmax="free", ymin="periodic",
+                                          ymax="periodic"))
+    x1, a1 = box((1.0, 0.0), (1.4, 0.5), h / 2)
+    x2, a2 = box((1.5, 0.0), (1.9, 0.5), h / 2)
+    b1 = ParticleSet("b1", LinearElastic(1000.0, 1e5, 1e5), x1, a1)
+    b2 = ParticleSet("b2", LinearElastic(1000.0, 1e5, 1e5), x2, a2)
+    xr, ar = box((0.6, 0.0), (0.95, 0.5), h / 2)
+    ram = RigidBody("ram", xr, ar, density=500.0, velocity=(2.0, 0.0), prescribed="none",
+                    mu_w=0.3)
+    sim = Simulation(grid, [b1, b2], [ram], contact_sets={"b1": 0.3})
+    p0 = sim.momentum()
+    for _ in range(300):
+        sim.step()
+    assert np.abs(sim.momentum() - p0).max() < 1e-12 * abs(p0[0])
+    assert b2.v[:, 0].mean() > 0.05                               # momentum reached b2
+    assert ram.velocity[0] < 2.0
+
+
+def test_two_phase_bed_both_phases_meet_a_prescribed_piston():
+    """A piston pushes into a two-phase bed: both phases are stopped from entering it (no
+    penetration of either phase's points into the piston) and the reaction is compressive."""
+    m = get_material("rod_impact", K=8.3e5, G=3.8e5, kappa=8.3e5)
+    h = 0.002
+    grid = Grid(20, 2, h, origin=(-6 * h, 0.0),
+                boundaries=dict(xmin="free", xmax="slip", ymin="periodic", ymax="periodic"))
+    x, a = box((0.0, 0.0), (14 * h, 2 * h), h / 2)
+    grains = ParticleSet("grains", Suspension(m), x, a, phi=0.55, f=0.0)
+    fluid = ParticleSet("fluid", NewtonianFluid.from_material(m), x, a, phi=0.55)
+    xb, ab = box((-4 * h, 0.0), (0.0, 2 * h), h / 2)
+    piston = RigidBody("piston", xb, ab, density=1000.0, velocity=(0.05, 0.0), prescribed="all")
+    sim = Simulation(grid, [grains, fluid], [piston])
+    forces = []
+    for _ in range(200):
+        sim.step()
+        forces.append(-piston.force[0])
+    face = piston.center[0] + 2 * h
+    for s in (grains, fluid):
+        assert s.x[:, 0].min() > face - 0.3 * h, s.name           # neither phase entered
+        assert s.v[:, 0].max() > 0.01, s.name                     # both phases pushed
+    assert np.mean(forces[100:]) > 0.0                            # compressive reaction
