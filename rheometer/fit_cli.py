@@ -28,6 +28,9 @@ from rheology.cli_common import Number
 
 _PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
 
+#: What steady flow curves cannot determine (copied by --transient-from).
+TRANSIENT_FIELDS = ("G", "K", "K0", "rho_s", "rho_f", "d", "K3", "kappa", "phi0")
+
 
 def _columns(text: str):
     if "=" not in text:
@@ -111,6 +114,10 @@ def add_subcommands(sub) -> dict:
                                       "standard deviations of a first pass)")
     p.add_argument("--no-profile", action="store_true",
                    help="skip the profile-likelihood intervals of phi_j and phi_c")
+    p.add_argument("--transient-from", default=None, metavar="NAME|FILE.json",
+                   help="copy the parameters steady flow curves cannot give (G, K, K0, rho_s, "
+                        "rho_f, d, K3, kappa, phi0) from this set into the fitted material, so "
+                        "that shear1d and mpm2d scenes accept it (e.g. annular_shear)")
     p.add_argument("--name", default=None, help="name of the fitted material (default: the "
                                                 "--out folder's name)")
     p.add_argument("--no-plots", action="store_true", help="no PNG figures")
@@ -166,6 +173,7 @@ def cmd_fit(args) -> str:
             raise ValueError(f"--set {k}: unknown parameter; valid: {', '.join(SCALE)}")
     if fixed:
         start.replace(**fixed)
+    donor = rheology.get_material(args.transient_from) if args.transient_from else None
     table = _read(args)
     print(describe(table))
     data = FlowData.from_table(table)
@@ -177,6 +185,8 @@ def cmd_fit(args) -> str:
                                    f"({', '.join(sorted(set(table['source_file'])))}) starting "
                                    f"from {start.name}")
     m = res.material
+    if args.transient_from:
+        m = m.replace(**{k: getattr(donor, k) for k in TRANSIENT_FIELDS})
     kept = table[table["kept"]].reset_index(drop=True)
     fit_df = pd.DataFrame({
         "source_file": kept["source_file"], "interval": kept["interval"], "phi": kept["phi"],
@@ -192,6 +202,7 @@ def cmd_fit(args) -> str:
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "command": "rheometer fit",
         "start_material": start.name, "fixed": fixed, "freed": args.free or [],
+        "transient_from": donor.name if donor else None,
         "files": [{"file": str(f), "sha256": _sha256(f),
                    "format": table.attrs.get("formats", {}).get(str(Path(f)), "?")}
                   for f in args.files],
