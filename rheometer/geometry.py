@@ -1,0 +1,383 @@
+"""The instrument around the 0-D sample: measuring geometries, mass fractions, per-material
+defaults and normalised column names.
+
+Measuring geometries (standard conversions, e.g. Macosko, *Rheology* (1994) ch. 5; ISO 3219):
+
+============== =============================================== ===================================
+geometry        torque M [N m] and rotation speed Omega [rad/s]  apparent stress and rate shown
+============== =============================================== ===================================
+cone-plate      M = 2 pi R^3 sigma/3, Omega = gdot tan(alpha)     sigma = 3 M/(2 pi R^3),
+                (cone angle alpha, radius R)                     gdot = Omega/tan(alpha)
+parallel-plate  M = 2 pi int_0^R sigma(gdot_R r/R) r^2 dr,       sigma_a = 2 M/(pi R^3) (Newtonian
+                Omega = gdot_R h/R (radius R, gap h)             assumption), gdot_R = Omega R/h
+couette         M = 2 pi R_i^2 L sigma_i,                        sigma_i = M/(2 pi R_i^2 L),
+                Omega = gdot_i (R_o^2 - R_i^2)/(2 R_o^2)         gdot_i = 2 Omega R_o^2/(R_o^2 -
+                (bob R_i, cup R_o, bob length L)                 R_i^2) (Newtonian, at the bob)
+============== =============================================== ===================================
+
+The cone-plate gap is homogeneous, so its apparent values are the sample's. The Couette
+conversion is the Newtonian one at the bob; the 0-D sample is taken as homogeneous in the gap
+(narrow-gap limit; the wide gap, where DST localises, is ``shear1d annular``'s job). The
+parallel plate is not homogeneous: the shear rate grows linearly with radius. For steady flow its
+torque integrates the model's local steady state over the plate (:func:`parallel_plate_flow_curve`);
+the displayed stress ``sigma_a`` is then not the rim stress, and the Weissenberg-Rabinowitsch
+correction ``sigma_R = sigma_a (3 + d ln M/d ln gdot_R)/4`` recovers it wherever each radius is on
+one branch of the curve (:func:`weissenberg_rabinowitsch`). For transient and oscillatory tests
+the parallel-plate columns use the homogeneous (rim) conversion and say so.
+
+Mass fractions: Eq. (20) of the paper's Supplement (after Peters et al. 2016),
+``phi = (1 + lambda)(1 - beta)/((1 - beta) + (1 - phi_W)/phi_W rho_cs/rho_l + beta rho_cs/rho_w)``
+with lambda = 0.3 (swelling) and beta = 0.1 (pore space) by default, rho_cs the grain, rho_l the
+liquid and rho_w the water density. Where the material gives none (the steady fits): rho_cs =
+1620 kg/m^3 (the cornstarch grain density of Tables 4-7), rho_l = rho_w = 1000 kg/m^3 (water).
+
+Defaults per material (:func:`default_fractions`), one rule for every command: a set with DST
+(finite eta_B: the Table 2-7 sets and Singh (b)) gets phi = phi_c + s (phi_j - phi_c) with
+s = 0.45, 0.65, 0.85 (all inside the DST window, phi_c <= phi < phi_j), a set without DST (eta_B
+infinite: Singh (a), which shear-jams above phi_c) gets s = -1.5, -0.75, -0.25 (below phi_c,
+where it flows at every stress); each rounded to the nearest 0.005. Commands with one fraction
+take the middle one (Hermes 2016: 0.48, 0.50, 0.52 and 0.50).
+
+Normalised materials (the Singh sets, Table 1: eta0 = gdot_0 = 1) write normalised column names:
+stresses in eta0 gdot_0 (``_Pa`` -> ``_eta0_gdot0``), rates in gdot_0 (``_per_s`` -> ``_gdot0``),
+times in 1/gdot_0 (``time_s`` -> ``time_per_gdot0``), viscosities in eta0 (``_Pa_s`` -> ``_eta0``),
+frequencies in gdot_0 (``_Hz`` -> ``_gdot0``) and torques in eta0 gdot_0 m^3
+(:func:`normalise_columns`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+import rheology
+from rheology.checks import check_positive, check_range
+from rheology.materials import Material
+
+GEOMETRIES = ("cone-plate", "parallel-plate", "couette")
+#: Default dimensions: a 50 mm 1 degree cone (CP50-1), a 25 mm plate at 1 mm gap (PP25), a
+#: concentric cylinder of 26.66/28.92 mm bob/cup diameter and 40 mm bob length (CC27).
+DEFAULTS = dict(cone_angle_deg=1.0, cone_radius=0.025, plate_radius=0.0125, gap=0.001,
+                bob_radius=0.01333, cup_radius=0.01446, bob_length=0.040)
+#: Eq. (20) defaults (Supplement: lambda ~ 0.3, beta ~ 0.1) and densities where the material has
+#: none [kg/m^3].
+LAMBDA, BETA = 0.3, 0.1
+RHO_GRAIN, RHO_LIQUID, RHO_WATER = 1620.0, 1000.0, 1000.0
+#: Default-fraction rule (see module docstring).
+DST_POSITIONS = (0.45, 0.65, 0.85)
+NO_DST_POSITIONS = (-1.5, -0.75, -0.25)
+#: Instrument columns.
+INSTRUMENT_COLUMNS = ("torque_N_m", "rotation_speed_rad_per_s", "apparent_shear_stress_Pa",
+                      "apparent_shear_rate_per_s")
+
+
+# ------------------------------------------------------------------ geometries
+@dataclass(frozen=True)
+class Geometry:
+    """A measuring geometry.
+
+    Attributes
+    ----------
+    kind : {"cone-plate", "parallel-plate", "couette"}
+    radius : cone or plate radius R [m] (couette: bob radius R_i)
+    cone_angle : cone angle alpha [rad] (cone-plate)
+    gap : plate gap h [m] (parallel-plate)
+    cup_radius : cup radius R_o [m] (couette), > R_i
+    length : immersed bob length L [m] (couette)
+    """
+
+    kind: str
+    radius: float
+    cone_angle: float = 0.0
+    gap: float = 0.0
+    cup_radius: float = 0.0
+    length: float = 0.0
+
+    def __post_init__(self):
+        if self.kind not in GEOMETRIES:
+            raise ValueError(f"geometry = {self.kind!r} must be one of {', '.join(GEOMETRIES)}")
+        check_positive("geometry radius [m]", self.radius)
+        if self.kind == "cone-plate":
+            check_range("cone angle [rad]", self.cone_angle, 0.0, math.radians(10.0),
+                        lo_closed=False, note="at most 10 degrees (the small-angle conversions)")
+        elif self.kind == "parallel-plate":
+            check_positive("plate gap [m]", self.gap)
+        else:
+            check_range("cup radius [m]", self.cup_radius, self.radius, None, lo_closed=False,
+                        note=f"larger than the bob radius {self.radius:g} m")
+            check_positive("bob length [m]", self.length)
+
+    @classmethod
+    def make(cls, kind: str, *, cone_angle_deg=None, radius=None, gap=None, bob_radius=None,
+             cup_radius=None, bob_length=None) -> "Geometry":
+        """A geometry from the instrument's words (cone angle in degrees), defaults from
+        :data:`DEFAULTS` for what is not given."""
+        d = DEFAULTS
+        if kind == "cone-plate":
+            return cls(kind, radius if radius is not None else d["cone_radius"],
+                       cone_angle=math.radians(cone_angle_deg if cone_angle_deg is not None
+                                               else d["cone_angle_deg"]))
+        if kind == "parallel-plate":
+            return cls(kind, radius if radius is not None else d["plate_radius"],
+                       gap=gap if gap is not None else d["gap"])
+        if kind == "couette":
+            return cls(kind, bob_radius if bob_radius is not None else d["bob_radius"],
+                       cup_radius=cup_radius if cup_radius is not None else d["cup_radius"],
+                       length=bob_length if bob_length is not None else d["bob_length"])
+        raise ValueError(f"geometry = {kind!r} must be one of {', '.join(GEOMETRIES)}")
+
+    def describe(self) -> str:
+        if self.kind == "cone-plate":
+            return (f"cone-plate R = {self.radius * 1e3:g} mm, angle "
+                    f"{math.degrees(self.cone_angle):g} deg")
+        if self.kind == "parallel-plate":
+            return f"parallel-plate R = {self.radius * 1e3:g} mm, gap {self.gap * 1e3:g} mm"
+        return (f"couette bob R_i = {self.radius * 1e3:g} mm, cup R_o = "
+                f"{self.cup_radius * 1e3:g} mm, L = {self.length * 1e3:g} mm")
+
+    # the standard conversions (homogeneous sample; parallel plate: Newtonian assumption)
+    def stress_factor(self) -> float:
+        """sigma = M * factor [1/m^3]: 3/(2 pi R^3), 2/(pi R^3), 1/(2 pi R_i^2 L)."""
+        R = self.radius
+        if self.kind == "cone-plate":
+            return 3.0 / (2.0 * math.pi * R ** 3)
+        if self.kind == "parallel-plate":
+            return 2.0 / (math.pi * R ** 3)
+        return 1.0 / (2.0 * math.pi * R ** 2 * self.length)
+
+    def rate_factor(self) -> float:
+        """gdot = Omega * factor [-]: 1/tan(alpha), R/h, 2 R_o^2/(R_o^2 - R_i^2)."""
+        if self.kind == "cone-plate":
+            return 1.0 / math.tan(self.cone_angle)
+        if self.kind == "parallel-plate":
+            return self.radius / self.gap
+        Ro2, Ri2 = self.cup_radius ** 2, self.radius ** 2
+        return 2.0 * Ro2 / (Ro2 - Ri2)
+
+    def torque(self, stress) -> np.ndarray:
+        """Torque [N m] of a homogeneous sample at shear stress ``stress`` [Pa]."""
+        return np.asarray(stress, dtype=float) / self.stress_factor()
+
+    def rotation_speed(self, rate) -> np.ndarray:
+        """Rotation speed [rad/s] for the (rim or bob) shear rate ``rate`` [1/s]."""
+        return np.asarray(rate, dtype=float) / self.rate_factor()
+
+    def apparent(self, torque, speed) -> tuple[np.ndarray, np.ndarray]:
+        """(stress [Pa], rate [1/s]) the instrument displays for ``torque`` [N m] and ``speed``
+        [rad/s] by the standard conversions."""
+        return (np.asarray(torque, dtype=float) * self.stress_factor(),
+                np.asarray(speed, dtype=float) * self.rate_factor())
+
+
+def instrument_columns(df: pd.DataFrame, geometry: Geometry, *, stress="shear_stress_Pa",
+                       rate="shear_rate_per_s") -> pd.DataFrame:
+    """Add :data:`INSTRUMENT_COLUMNS` to a homogeneous-sample table (transients, oscillation
+    waveforms, flow curves in cone-plate or couette): torque and speed from the sample's stress
+    and rate, then the displayed values from torque and speed. Returns a new DataFrame."""
+    out = df.copy()
+    M = geometry.torque(out[stress].to_numpy())
+    W = geometry.rotation_speed(out[rate].to_numpy())
+    s_a, g_a = geometry.apparent(M, W)
+    out["torque_N_m"], out["rotation_speed_rad_per_s"] = M, W
+    out["apparent_shear_stress_Pa"], out["apparent_shear_rate_per_s"] = s_a, g_a
+    out.attrs.update(df.attrs)
+    out.attrs["geometry"] = geometry.describe()
+    return out
+
+
+# ------------------------------------------------------------------ the parallel plate
+def rising_branch(material, phi: float, points: int = 2000, tau_range=None):
+    """The steady flow curve up to its first fold (where the shear rate stops rising with the
+    stress): the states a rate-controlled sample reaches from rest, on which the mixture stress
+    is a single-valued, increasing function of the shear rate.
+
+    Returns (SteadyFlow on a log grid of granular stress, fold_reached: bool). ``tau_range``
+    [Pa] defaults to 1e-6..1e6 tau*.
+    """
+    m = rheology.get_material(material)
+    lo, hi = tau_range if tau_range is not None else (1e-6 * m.tau_star, 1e6 * m.tau_star)
+    taus = np.geomspace(lo, hi, int(points))
+    st = rheology.steady_state_stress(taus, phi, m)
+    g = np.where(st.jammed, 0.0, st.shear_rate)
+    falls = np.flatnonzero(np.diff(g) <= 0)
+    n = falls[0] + 1 if falls.size else taus.size
+    cut = rheology.steady_state_stress(taus[:n], phi, m)
+    return cut, bool(falls.size)
+
+
+def parallel_plate_flow_curve(material, phi: float, geometry: Geometry | None = None,
+                              points: int = 2000) -> pd.DataFrame:
+    """Steady flow curve a parallel-plate rheometer measures, beside the true one.
+
+    The shear rate at radius r is gdot_R r/R; each radius carries the model's local steady
+    state at its rate, on the rising branch (the state reached from rest under rate control).
+    Parametrised by the rim granular stress taubar_R along that branch, the torque is
+    ``M = 2 pi R^3/gdot_R^3 I``, ``I = int_0^gdot_R sigma(g) g^2 dg = int sigma d(g^3/3)``,
+    computed in taubar (both sigma and g^3/3 are smooth there, also at the fold, where
+    sigma(g) has a vertical tangent) by cumulative Simpson on ``points`` log-spaced stresses.
+    The instrument displays ``sigma_a = 2 M/(pi R^3) = 4 I/gdot_R^3`` at ``gdot_R``.
+    Beyond the fold no steady state exists at the rim under rate control: the curve ends.
+
+    Returns
+    -------
+    DataFrame
+        ``phi, rim_shear_rate_per_s, shear_stress_Pa`` (true: the local curve at the rim rate),
+        ``apparent_shear_stress_Pa``, ``corrected_shear_stress_Pa`` (Weissenberg-Rabinowitsch
+        on the (M, Omega) data), ``torque_N_m``, ``rotation_speed_rad_per_s``,
+        ``granular_shear_stress_Pa`` (rim), ``f`` (rim); attrs: fold_reached, geometry.
+    """
+    from scipy.integrate import cumulative_simpson
+
+    geometry = geometry or Geometry.make("parallel-plate")
+    if geometry.kind != "parallel-plate":
+        raise ValueError(f"geometry = {geometry.kind!r}: the radial integration is for the "
+                         f"parallel plate")
+    m = rheology.get_material(material)
+    st, fold = rising_branch(m, phi, points)
+    g = st.shear_rate
+    sigma = st.shear_stress
+    keep = g > 0
+    g, sigma, taub, f = g[keep], sigma[keep], st.taubar[keep], st.f[keep]
+    u = g ** 3 / 3.0
+    I = u[0] * sigma[0] * 0.75 + cumulative_simpson(sigma, x=u, initial=0.0)
+    # (the first interval [0, g0]: sigma ~ eta g there, int eta g^3 dg = eta g0^4/4 = 3/4 u0 sigma0)
+    R = geometry.radius
+    M = 2.0 * math.pi * R ** 3 * I / g ** 3
+    W = geometry.rotation_speed(g)
+    s_a, g_a = geometry.apparent(M, W)
+    df = pd.DataFrame({"phi": phi, "rim_shear_rate_per_s": g_a, "shear_stress_Pa": sigma,
+                       "apparent_shear_stress_Pa": s_a,
+                       "corrected_shear_stress_Pa": weissenberg_rabinowitsch(g_a, M, geometry),
+                       "torque_N_m": M, "rotation_speed_rad_per_s": W,
+                       "granular_shear_stress_Pa": taub, "f": f})
+    df.attrs.update(material=m.name, fold_reached=fold, geometry=geometry.describe())
+    return df
+
+
+def weissenberg_rabinowitsch(rim_rate, torque, geometry: Geometry) -> np.ndarray:
+    """Rim shear stress [Pa] from parallel-plate data: sigma_R = M/(2 pi R^3) (3 + n),
+    n = d ln M/d ln gdot_R taken from the data (second-order finite differences in log-log, as
+    on measured points). Exact where every radius is on one branch of a single-valued curve."""
+    g = check_positive("rim shear rate [1/s]", rim_rate)
+    M = check_positive("torque [N m]", torque)
+    if g.size < 3:
+        raise ValueError("the Weissenberg-Rabinowitsch correction needs at least 3 points")
+    n = np.gradient(np.log(M), np.log(g))
+    return M / (2.0 * math.pi * geometry.radius ** 3) * (3.0 + n)
+
+
+# ------------------------------------------------------------------ mass fractions
+@dataclass(frozen=True)
+class Densities:
+    """Eq. (20) inputs: grain, liquid and water densities [kg/m^3], lambda, beta [-]."""
+
+    grain: float = RHO_GRAIN
+    liquid: float = RHO_LIQUID
+    water: float = RHO_WATER
+    lam: float = LAMBDA
+    beta: float = BETA
+
+    @classmethod
+    def for_material(cls, m: Material, grain=None, liquid=None, water=None, lam=None,
+                     beta=None) -> "Densities":
+        """The material's rho_s, rho_f where set, else the defaults; explicit values win."""
+        return cls(grain if grain is not None else (m.rho_s or RHO_GRAIN),
+                   liquid if liquid is not None else (m.rho_f or RHO_LIQUID),
+                   water if water is not None else RHO_WATER,
+                   lam if lam is not None else LAMBDA, beta if beta is not None else BETA)
+
+    def describe(self) -> str:
+        return (f"Eq. 20 with rho_grain = {self.grain:g}, rho_liquid = {self.liquid:g}, "
+                f"rho_water = {self.water:g} kg/m^3, lambda = {self.lam:g}, beta = {self.beta:g}")
+
+
+def volume_fraction(mass_fraction, dens: Densities = Densities()) -> np.ndarray:
+    """Eq. (20): volume fraction phi [-] of mass fraction phi_W = m_cs/(m_cs + m_l) in (0, 1)."""
+    return rheology.phi_from_mass_fraction(mass_fraction, dens.grain, dens.liquid, dens.water,
+                                           dens.lam, dens.beta)
+
+
+def mass_fraction(phi, dens: Densities = Densities()) -> np.ndarray:
+    """Inverse of Eq. (20): the mass fraction phi_W giving volume fraction ``phi`` (0 < phi <
+    (1 + lambda)(1 - beta)/((1 - beta) + beta rho_cs/rho_w), the value as phi_W -> 1)."""
+    phi = np.asarray(phi, dtype=float)
+    top = (1 + dens.lam) * (1 - dens.beta)
+    base = (1 - dens.beta) + dens.beta * dens.grain / dens.water
+    check_range("phi", phi, 0.0, top / base, lo_closed=False, hi_closed=False,
+                note=f"the largest volume fraction Eq. 20 gives ({dens.describe()})")
+    Q = (top / phi - base) * dens.liquid / dens.grain
+    return 1.0 / (1.0 + Q)
+
+
+def fractions_from_mass(mass_fractions, m: Material, dens: Densities) -> np.ndarray:
+    """Volume fractions of ``mass_fractions`` for material ``m``; ValueError naming
+    --mass-fraction and its valid range when one gives phi outside (0, phi_j)."""
+    w = np.atleast_1d(np.asarray(mass_fractions, dtype=float))
+    check_range("--mass-fraction", w, 0.0, 1.0, lo_closed=False, hi_closed=False)
+    phi = np.atleast_1d(volume_fraction(w, dens))
+    if np.any(phi >= m.phi_j):
+        w_max = float(mass_fraction(min(m.phi_j, 0.999999 * _phi_top(dens)), dens))
+        bad = float(w[np.argmax(phi >= m.phi_j)])
+        raise ValueError(f"--mass-fraction = {bad:g} gives phi = {float(volume_fraction(bad, dens)):.4g}"
+                         f" >= phi_j = {m.phi_j} of {m.name}; valid range (0, {w_max:.4g}) "
+                         f"({dens.describe()})")
+    return phi
+
+
+def _phi_top(dens: Densities) -> float:
+    return (1 + dens.lam) * (1 - dens.beta) / ((1 - dens.beta) + dens.beta * dens.grain
+                                               / dens.water)
+
+
+# ------------------------------------------------------------------ defaults per material
+def has_dst(m: Material) -> bool:
+    """Whether the set shows DST: a finite buckling resistance eta_B (Eq. 9)."""
+    return (m.varphi1 + m.varphi2) > 0
+
+
+def default_fractions(material) -> list[float]:
+    """The three default volume fractions of ``material`` (module docstring: one rule)."""
+    m = rheology.get_material(material)
+    s = DST_POSITIONS if has_dst(m) else NO_DST_POSITIONS
+    out = []
+    for x in s:
+        phi = round((m.phi_c + x * (m.phi_j - m.phi_c)) / 0.005) * 0.005
+        out.append(float(round(min(max(phi, 0.005), m.phi_j - 0.005), 6)))
+    return out
+
+
+def default_fraction(material) -> float:
+    """The single default volume fraction (the middle of :func:`default_fractions`)."""
+    return default_fractions(material)[1]
+
+
+DEFAULT_RULE = ("default phi: sets with DST (finite eta_B) phi_c + (0.45, 0.65, 0.85)(phi_j - "
+                "phi_c), sets without DST (Singh (a)) phi_c + (-1.5, -0.75, -0.25)(phi_j - phi_c), "
+                "rounded to 0.005; one-phi commands take the middle one")
+
+
+# ------------------------------------------------------------------ normalised columns
+_SUFFIXES = (("_Pa_s", "_eta0"), ("_N_m", "_eta0_gdot0_m3"), ("_rad_per_s", "_rad_gdot0"),
+             ("_per_s", "_gdot0"), ("_Pa", "_eta0_gdot0"), ("_Hz", "_gdot0"),
+             ("_s", "_per_gdot0"))
+
+
+def normalised_name(column: str) -> str:
+    """The column name in the normalised units of Table 1 (eta0 = gdot_0 = 1)."""
+    for old, new in _SUFFIXES:
+        if column.endswith(old):
+            return column[: -len(old)] + new
+    return column
+
+
+def normalise_columns(df: pd.DataFrame, material) -> pd.DataFrame:
+    """``df`` with normalised column names if ``material`` is in normalised units, else ``df``."""
+    m = rheology.get_material(material)
+    if m.units != "normalised":
+        return df
+    out = df.rename(columns={c: normalised_name(c) for c in df.columns})
+    out.attrs.update(df.attrs)
+    return out
