@@ -1,26 +1,30 @@
-"""Command line: ``mpm2d list``, ``mpm2d show SCENE``, ``mpm2d run SCENE --set key=value --out DIR``.
+"""Command line: ``mpm2d list``, ``mpm2d show SCENE``, ``mpm2d run SCENE --set key=value --out
+DIR``, ``mpm2d sweep SCENE --set key=v1,v2 --out DIR``.
 
 Examples::
 
     mpm2d list
-    mpm2d show bar
+    mpm2d show bar                                   # parameters with their valid ranges
     mpm2d run bar --out bar                          # elastic bar vs the exact mode
     mpm2d run disks --set transfer=flip --out disks  # two disks, FLIP transfer
     mpm2d run column --set t_end=2 --out column      # two-phase settling column
     mpm2d run column --out column --resume           # continue from column/checkpoint.npz
+    mpm2d sweep bar --set cells=16,32 --out bars     # a parameter sweep on Dask
 
-Bad input (an unknown scene or parameter, a value out of range, a step beyond stability) exits
-with status 2 and one line ``mpm2d run: error: ...`` on stderr; a failed run with status 1. Ctrl-C
-or SIGTERM writes a checkpoint and exits with status 130; ``--resume`` continues bit-for-bit.
+Bad input (an unknown scene or parameter, a value out of its range, a run too large for the
+memory, a step beyond stability, a resume of another scene or other parameters) exits with
+status 2 and one line ``mpm2d run: error: ...`` on stderr, before anything is written; a failed
+run with status 1. Ctrl-C or SIGTERM stops after the current step, writes a checkpoint and exits
+with status 130; ``--resume`` continues bit-for-bit.
 """
 
 from __future__ import annotations
 
 import argparse
-import signal
+import os
 import sys
 
-from rheology.cli_common import OneLineParser, run_command
+from rheology.cli_common import Number, OneLineParser, run_command
 
 
 def _parse_set(items):
@@ -29,12 +33,11 @@ def _parse_set(items):
         if "=" not in item:
             raise ValueError(f"--set {item!r} must be key=value")
         k, v = item.split("=", 1)
-        out[k.strip()] = v.strip()
+        k = k.strip()
+        if k in out:
+            raise ValueError(f"--set {k} given twice")
+        out[k] = v.strip()
     return out
-
-
-def _interrupt(signum, frame):
-    raise KeyboardInterrupt
 
 
 def main(argv=None) -> int:
@@ -42,27 +45,44 @@ def main(argv=None) -> int:
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True, parser_class=OneLineParser)
     sub.add_parser("list", help="list the scenes")
-    show = sub.add_parser("show", help="a scene's equations, parameters and command")
+    show = sub.add_parser("show", help="a scene's equations, parameters (valid ranges), command")
     show.add_argument("scene")
+    ncpu = os.cpu_count() or 1
     run = sub.add_parser("run", help="run a scene")
     run.add_argument("scene")
     run.add_argument("--set", action="append", metavar="KEY=VALUE", default=[],
-                     help="override a scene parameter (repeatable)")
+                     help="override a scene parameter (repeatable; see mpm2d show SCENE)")
     run.add_argument("--out", default=None, help="output folder (default: ./SCENE)")
     run.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.npz")
-    run.add_argument("--frames", type=int, default=None, help="number of snapshots")
-    run.add_argument("--no-vtk", action="store_true", help="skip the .vtu snapshots")
+    run.add_argument("--frames", type=Number("--frames", 1, 100000, integer=True), default=None,
+                     help="number of snapshots (default: the scene's)")
+    run.add_argument("--no-vtk", action="store_true", help="skip the VTK snapshots")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
-    run.add_argument("--threads", type=int, default=None, help="numba threads")
-    run.add_argument("--checkpoint-every", type=float, default=60.0,
-                     help="wall seconds between checkpoints (default 60)")
+    run.add_argument("--threads", type=Number("--threads", 1, ncpu, integer=True), default=None,
+                     help=f"numba threads (1..{ncpu}; a resume needs the same number)")
+    run.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0, 1e6,
+                                                       lo_closed=False, unit="s"),
+                     default=60.0, help="wall seconds between checkpoints (default 60)")
+    sw = sub.add_parser("sweep", help="run a scene over a grid of parameters (Dask)")
+    sw.add_argument("scene")
+    sw.add_argument("--set", action="append", metavar="KEY=V1[,V2...]", default=[],
+                    help="values of a parameter (repeatable): the cases are the product")
+    sw.add_argument("--out", default=None, help="sweep folder (default: ./sweep_SCENE)")
+    sw.add_argument("--scheduler", default=None, help="address of a Dask scheduler")
+    sw.add_argument("--workers", type=Number("--workers", 1, 4 * ncpu, integer=True),
+                    default=None, help="workers of the local cluster (default: one per core)")
+    sw.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0, 1e6,
+                                                      lo_closed=False, unit="s"),
+                    default=60.0, help="wall seconds between a case's checkpoints")
+    sw.add_argument("--vtk", action="store_true", help="write the VTK snapshots of every case")
+    sw.add_argument("--quiet", action="store_true", help="no progress bar")
     args = ap.parse_args(argv)
-    return run_command(f"mpm2d {args.cmd}", lambda: _command(args),
-                       on_interrupt="a checkpoint was written: rerun with --resume")
+    # a run stopped by a signal says where its checkpoint is (run_scene's KeyboardInterrupt)
+    return run_command(f"mpm2d {args.cmd}", lambda: _command(args))
 
 
 def _command(args) -> None:
-    from .scenes import SCENES, get_setup, parameters
+    from .scenes import SCENES, get_setup, get_spec
 
     if args.cmd == "list":
         for name, text in SCENES.items():
@@ -72,19 +92,26 @@ def _command(args) -> None:
         setup = get_setup(args.scene)
         print(setup.__module__)
         print(sys.modules[setup.__module__].__doc__)
-        print("parameters (defaults):")
-        for k, v in parameters(args.scene).items():
-            print(f"  {k} = {v!r}")
+        print("parameters (default, valid values):")
+        for line in get_spec(args.scene).describe():
+            print(line)
         return
-    signal.signal(signal.SIGTERM, _interrupt)      # batch schedulers: checkpoint, stop
+    if args.cmd == "sweep":
+        from .sweep import parse_grid, run_sweep
+
+        table = run_sweep(args.scene, parse_grid(args.set), args.out or f"sweep_{args.scene}",
+                          scheduler=args.scheduler, workers=args.workers,
+                          checkpoint_every=args.checkpoint_every, vtk=args.vtk,
+                          progress=not args.quiet)
+        return 0 if (table["status"] != "failed").all() else 1
     if args.threads:
         import numba
 
-        numba.set_num_threads(args.threads)
+        numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
     from .run import run_scene
 
     run_scene(get_setup(args.scene), args.out or args.scene, _parse_set(args.set),
-              resume=args.resume, progress=not args.quiet, vtk=not args.no_vtk,
+              resume=args.resume, progress=not args.quiet, vtk=False if args.no_vtk else None,
               frames=args.frames, checkpoint_every=args.checkpoint_every, scene_name=args.scene)
 
 

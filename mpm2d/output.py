@@ -1,18 +1,30 @@
-"""Run outputs: snapshots (npz + manifest), VTK XML unstructured grids, checkpoints.
+"""Run outputs: snapshots (npz + manifest), VTK files through meshio, checkpoints.
 
 Layout of a run folder ``DIR`` (every file written atomically through :mod:`rheology.io`)::
 
     DIR/manifest.json          scene, parameters, mode, grid, sets, fields with units, frames
-    DIR/history.csv            one row per record: time_s, step, dt_s, energies [J], momentum,
-                               scene columns (units in the names)
+                               (strict JSON; ``command`` is the canonical command of the run,
+                               without the output folder, so a resumed run writes the same file)
+    DIR/history.csv            one row per record: time_s, step (integer), dt_s, energies [J],
+                               momentum, scene columns (units in the names)
     DIR/frames/frame_NNNNN.npz snapshot N: ``time_s``, ``step``, ``dt_s`` and, per set S,
                                ``S.id, S.x, S.v, S.stress, S.V, S.m`` and the material's fields
                                (``S.phi``, ``S.f``, ``S.pressure_Pa``...); per rigid body B,
                                ``body.B.x`` (points), ``body.B.center``, ``body.B.velocity``
-    DIR/vtk/S_NNNNN.vtu        the same points and fields for ParaView (VTK XML UnstructuredGrid,
-                               one vertex cell per point, base64 binary, coordinates (x, y, 0) or
-                               (r, z, 0)); DIR/vtk/S.pvd is the time series (open it in ParaView)
-    DIR/checkpoint.npz         full state to resume bit-for-bit (``mpm2d run ... --resume``)
+                               (reproducible bytes: fixed zip timestamps)
+    DIR/vtk/S_NNNNN.vtu        the same points and fields for ParaView (VTK XML UnstructuredGrid
+                               of vertex cells, written by meshio; coordinates (x, y, 0) or
+                               (r, z, 0); vectors padded to 3 components, tensors as 9)
+    DIR/vtk/grid_NNNNN.vtu     the grid's nodal fields (the real nodes, quad cells): per velocity
+                               field P (``solid``, ``fluid`` in two-phase runs) ``P.velocity``
+                               [m/s] and ``P.mass`` [kg per m or per rad] of the last step's
+                               grid update, ``phi`` (two-phase nodal volume fraction), and each
+                               set's scalar fields projected to the nodes (mass-weighted B-spline
+                               average: ``S.pressure_Pa``, ``S.f``, ``S.phi``...)
+    DIR/vtk/NAME.pvd           the time series of each set, body and the grid (open in ParaView);
+                               one entry per timestep
+    DIR/checkpoint.npz         full state to resume bit-for-bit (``mpm2d run ... --resume``);
+                               ``checkpoint.prev.npz`` is the one before (the fallback)
     DIR/*.png, DIR/*.csv       the scene's figures and result tables
 
 Units: SI (m, s, kg, Pa, J); masses, volumes, energies and momenta are per unit thickness in
@@ -21,20 +33,22 @@ plane strain and per radian in axisymmetry.
 
 from __future__ import annotations
 
-import base64
+import io
 import json
+import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from rheology.io import atomic_write_text, save_checkpoint
+from rheology.io import _atomic, atomic_write_json, atomic_write_text
 
 UNITS = {"id": "-", "x": "m", "v": "m/s", "stress": "Pa", "V": "m^3 (per m or per rad)",
          "m": "kg (per m or per rad)", "phi": "-", "f": "-", "pressure_Pa": "Pa",
          "granular_pressure_Pa": "Pa", "pore_pressure_Pa": "Pa", "taubar_Pa": "Pa",
          "shear_rate_p_per_s": "1/s", "case": "0 elastic, 1 separated, 2 shear flow, "
          "3 shear flow + compaction", "rho_f": "kg/m^3"}
-_VTK_TYPES = {np.dtype(np.float64): "Float64", np.dtype(np.int64): "Int64"}
+#: the fixed timestamp of the npz members (zip needs one; the bytes must not depend on the clock)
+_ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 
 
 def snapshot_arrays(sim) -> dict[str, np.ndarray]:
@@ -54,75 +68,150 @@ def snapshot_arrays(sim) -> dict[str, np.ndarray]:
     return out
 
 
+def npz_bytes(arrays: dict) -> bytes:
+    """An uncompressed npz (``np.load`` reads it) whose bytes depend only on the arrays: members
+    in the given order with a fixed timestamp (``np.savez`` stamps the wall clock)."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
+        for k, a in arrays.items():
+            info = zipfile.ZipInfo(f"{k}.npy", date_time=_ZIP_TIME)
+            info.external_attr = 0o644 << 16
+            with zf.open(info, "w", force_zip64=True) as fh:
+                np.lib.format.write_array(fh, np.asanyarray(a), allow_pickle=False)
+    return buf.getvalue()
+
+
 def write_npz(path: Path, arrays: dict) -> Path:
-    """Atomic uncompressed npz."""
-    return save_checkpoint(path, **arrays)
+    """Atomic, reproducible npz (see :func:`npz_bytes`)."""
+    data = npz_bytes(arrays)
+    return _atomic(path, lambda tmp: Path(tmp).write_bytes(data), ".npz")
 
 
-def _b64(arr: np.ndarray) -> str:
-    data = np.ascontiguousarray(arr).tobytes()
-    return base64.b64encode(np.array([len(data)], dtype=np.uint64).tobytes() + data).decode()
-
-
-def vtu_text(points: np.ndarray, fields: dict[str, np.ndarray]) -> str:
-    """VTK XML UnstructuredGrid of vertex cells with point data (base64 binary, UInt64 header).
-
-    ``points`` (N, 2) or (N, 3); each field (N,), (N, k) or (N, 3, 3) (written as 9 components,
-    ParaView's tensor layout). Integer fields are written as Int64.
-    """
-    n = points.shape[0]
-    pts = np.zeros((n, 3))
-    pts[:, :points.shape[1]] = points
-    def arr_xml(name, a):
-        a = np.asarray(a)
-        if a.dtype not in _VTK_TYPES:
-            a = a.astype(np.float64)
-        comps = int(np.prod(a.shape[1:])) if a.ndim > 1 else 1
-        if comps == 2:                       # ParaView vectors need 3 components
-            a = np.concatenate([a.reshape(n, 2), np.zeros((n, 1))], axis=1)
-            comps = 3
-        return (f'<DataArray type="{_VTK_TYPES[a.dtype]}" Name="{name}" '
-                f'NumberOfComponents="{comps}" format="binary">{_b64(a.reshape(n, comps))}'
-                "</DataArray>")
-    pd = "".join(arr_xml(k, a) for k, a in fields.items())
-    conn = np.arange(n, dtype=np.int64)
-    return ('<?xml version="1.0"?>\n'
-            '<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" '
-            'header_type="UInt64">\n<UnstructuredGrid>\n'
-            f'<Piece NumberOfPoints="{n}" NumberOfCells="{n}">\n'
-            f'<PointData>{pd}</PointData>\n'
-            f'<Points>{arr_xml("Points", pts)}</Points>\n'
-            f'<Cells>{arr_xml("connectivity", conn)}{arr_xml("offsets", conn + 1)}'
-            f'<DataArray type="UInt8" Name="types" NumberOfComponents="1" format="binary">'
-            f'{_b64(np.ones(n, dtype=np.uint8))}</DataArray></Cells>\n'
-            '</Piece>\n</UnstructuredGrid>\n</VTKFile>\n')
-
-
-def read_vtu(path) -> dict[str, np.ndarray]:
-    """Read back a file written by :func:`vtu_text` (used by the tests)."""
-    import xml.etree.ElementTree as ET
-
-    root = ET.parse(path).getroot()
-    types = {"Float64": np.float64, "Int64": np.int64, "UInt8": np.uint8}
+def _point_data(n: int, fields: dict) -> dict:
     out = {}
-    for el in root.iter("DataArray"):
-        raw = base64.b64decode(el.text)
-        nbytes = int(np.frombuffer(raw[:8], dtype=np.uint64)[0])
-        a = np.frombuffer(raw[8:8 + nbytes], dtype=types[el.get("type")])
-        k = int(el.get("NumberOfComponents", 1))
-        out[el.get("Name")] = a.reshape(-1, k) if k > 1 else a
+    for k, a in fields.items():
+        a = np.asarray(a)
+        if a.dtype.kind not in "iuf":
+            a = a.astype(np.float64)
+        a = a.reshape(n, -1) if a.ndim > 1 else a.reshape(n)
+        if a.ndim == 2 and a.shape[1] == 2:          # ParaView vectors need 3 components
+            a = np.concatenate([a, np.zeros((n, 1), dtype=a.dtype)], axis=1)
+        out[k] = np.ascontiguousarray(a)
     return out
 
 
-def write_vtu(path: Path, points, fields) -> Path:
-    return atomic_write_text(path, vtu_text(points, fields))
+def _points3(points) -> np.ndarray:
+    points = np.asarray(points, dtype=float)
+    pts = np.zeros((points.shape[0], 3))
+    pts[:, :points.shape[1]] = points
+    return pts
+
+
+def write_vtu(path: Path, points, fields: dict, cells=None) -> Path:
+    """VTK XML UnstructuredGrid through meshio: ``points`` (N, 2) or (N, 3); ``fields`` point
+    data, each (N,), (N, k) or (N, 3, 3) (written as 9 components, ParaView's tensor layout);
+    ``cells`` a meshio cell list (default: one vertex cell per point)."""
+    import meshio
+
+    pts = _points3(points)
+    n = pts.shape[0]
+    if cells is None:
+        cells = [("vertex", np.arange(n, dtype=np.int64).reshape(-1, 1))]
+    mesh = meshio.Mesh(pts, cells, point_data=_point_data(n, fields))
+    return _atomic(path, lambda tmp: meshio.write(tmp, mesh, file_format="vtu", binary=True),
+                   ".vtu")
+
+
+def read_vtu(path) -> dict[str, np.ndarray]:
+    """Point coordinates (``Points``) and point data of a .vtu file, read by meshio."""
+    import meshio
+
+    mesh = meshio.read(path, file_format="vtu")
+    return {"Points": mesh.points, **{k: np.asarray(v) for k, v in mesh.point_data.items()}}
 
 
 def write_pvd(path: Path, entries: list[tuple[float, str]]) -> Path:
-    """ParaView collection (time series) of .vtu files: entries (time_s, relative path)."""
-    rows = "".join(f'<DataSet timestep="{t:.9g}" part="0" file="{f}"/>\n' for t, f in entries)
+    """ParaView collection (time series) of .vtu files: entries (time_s, relative path), one per
+    timestep (a repeated time keeps its last file)."""
+    unique: dict[str, str] = {}
+    for t, f in entries:
+        unique[f"{t:.17g}"] = f
+    rows = "".join(f'<DataSet timestep="{t}" part="0" file="{f}"/>\n' for t, f in unique.items())
     return atomic_write_text(path, '<?xml version="1.0"?>\n<VTKFile type="Collection" '
                              'version="0.1"><Collection>\n' + rows + "</Collection></VTKFile>\n")
+
+
+def _weights_1d(g):
+    """Quadratic B-spline base node and the three weights at cell coordinates g (vectorised;
+    the same formulas as :func:`mpm2d.shape.weights`)."""
+    b = np.floor(g - 0.5)
+    f = g - b
+    return b.astype(np.int64), (0.5 * (1.5 - f) ** 2, 0.75 - (f - 1.0) ** 2, 0.5 * (f - 0.5) ** 2)
+
+
+def project_to_nodes(grid, x, m, values: dict) -> dict:
+    """Mass-weighted B-spline average of point scalars at the real nodes, shape (nx+1, ny+1)
+    each: q_i = sum_p N_ip m_p q_p / sum_p N_ip m_p (NaN where no point reaches a node)."""
+    from .grid import PAD
+
+    shape = grid.shape
+    gx = (x[:, 0] - grid.origin[0]) / grid.h
+    gy = (x[:, 1] - grid.origin[1]) / grid.h
+    bx, wx = _weights_1d(gx)
+    by, wy = _weights_1d(gy)
+    mass = np.zeros(shape)
+    acc = {k: np.zeros(shape) for k in values}
+    for a in range(3):
+        for b in range(3):
+            i = np.clip(bx + a + PAD, 0, shape[0] - 1)
+            j = np.clip(by + b + PAD, 0, shape[1] - 1)
+            w = wx[a] * wy[b] * m
+            np.add.at(mass, (i, j), w)
+            for k, q in values.items():
+                np.add.at(acc[k], (i, j), w * q)
+    real = (slice(PAD, PAD + grid.nx + 1), slice(PAD, PAD + grid.ny + 1))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return {k: np.where(mass[real] > 0, a[real] / mass[real], np.nan) for k, a in acc.items()}
+
+
+def grid_fields(sim) -> dict[str, np.ndarray]:
+    """The nodal fields of the real nodes, each (nx+1, ny+1[, k]): per velocity field
+    ``P.velocity`` and ``P.mass``, ``phi`` (two-phase), and the sets' projected scalars."""
+    from .grid import M, PAD
+
+    g = sim.grid
+    real = (slice(PAD, PAD + g.nx + 1), slice(PAD, PAD + g.ny + 1))
+    out = {}
+    for ph, vg in getattr(sim, "vg", {}).items():
+        out[f"{ph}.velocity"] = np.asarray(vg)[real]
+        if ph in getattr(sim, "G", {}):
+            out[f"{ph}.mass"] = np.asarray(sim.G[ph])[real + (M,)]
+    if getattr(sim, "two_phase", False) and getattr(sim, "phi_nodes", None) is not None:
+        out["phi"] = np.asarray(sim.phi_nodes)[real]
+    for s in sim.sets:
+        scalars = {k: np.asarray(a, dtype=float) for k, a in s.material.output_fields(s).items()
+                   if np.ndim(a) == 1 and np.asarray(a).dtype.kind == "f"}
+        for k, a in project_to_nodes(g, s.x, s.m, scalars).items():
+            out[f"{s.name}.{k}"] = a
+    return out
+
+
+def write_grid_vtu(path: Path, sim) -> Path:
+    """The grid's real nodes as quad cells with :func:`grid_fields` as point data (meshio);
+    nodes no point reaches hold 0 in the projected fields (VTK has no NaN-free 'missing')."""
+    g = sim.grid
+    nxn, nyn = g.nx + 1, g.ny + 1
+    X, Y = np.meshgrid(g.origin[0] + g.h * np.arange(nxn), g.origin[1] + g.h * np.arange(nyn),
+                       indexing="ij")
+    pts = np.column_stack([X.ravel(), Y.ravel()])
+    idx = np.arange(nxn * nyn).reshape(nxn, nyn)
+    quads = np.column_stack([idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(),
+                             idx[:-1, 1:].ravel()]).astype(np.int64)
+    fields = {}
+    for k, a in grid_fields(sim).items():
+        a = np.nan_to_num(np.asarray(a, dtype=float), nan=0.0)
+        fields[k] = a.reshape(nxn * nyn, *a.shape[2:])
+    return write_vtu(path, pts, fields, cells=[("quad", quads)])
 
 
 def write_frame(out: Path, index: int, sim, vtk: bool = True, tag: str = "frame") -> dict:
@@ -146,6 +235,9 @@ def write_frame(out: Path, index: int, sim, vtk: bool = True, tag: str = "frame"
             vtu = Path("vtk") / f"{b.name}_{index:05d}.vtu"
             write_vtu(out / vtu, b.x, {"velocity": np.tile(b.velocity, (b.x.shape[0], 1))})
             entry["vtu"][b.name] = str(vtu)
+        vtu = Path("vtk") / f"grid_{index:05d}.vtu"
+        write_grid_vtu(out / vtu, sim)
+        entry["vtu"]["grid"] = str(vtu)
     return entry
 
 
@@ -171,16 +263,10 @@ def write_pvds(out: Path, frames: list[dict]) -> None:
 
 
 def write_manifest(out: Path, manifest: dict) -> Path:
-    return atomic_write_text(out / "manifest.json", json.dumps(manifest, indent=1, default=_jsonable))
+    """``out/manifest.json`` as strict JSON (a non-finite value is an error)."""
+    return atomic_write_json(out / "manifest.json", manifest)
 
 
-def _jsonable(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    return str(o)
-
-
-__all__ = ["snapshot_arrays", "write_frame", "write_pvds", "write_manifest", "vtu_text",
-           "read_vtu", "load_frames", "UNITS"]
+__all__ = ["snapshot_arrays", "write_frame", "write_pvds", "write_manifest", "write_vtu",
+           "read_vtu", "write_grid_vtu", "grid_fields", "project_to_nodes", "load_frames",
+           "npz_bytes", "UNITS"]

@@ -1,46 +1,52 @@
-"""A text progress bar on stderr with the wall time per step and the remaining time."""
+"""Progress of a run on stderr through tqdm: simulated time done, wall time per step, ETA."""
 
 from __future__ import annotations
 
 import sys
 import time
 
+from tqdm import tqdm
+
 
 class Progress:
-    """Progress of a run from ``t0`` to ``t_end`` [s] of simulated time.
+    """A tqdm bar over the simulated time ``t0 .. t_end`` [s] of a run.
 
-    Redraws at most every ``interval`` seconds of wall time: in place (carriage return) on a
-    terminal, as a new line every ``10 * interval`` seconds otherwise (logs stay short).
+    The bar counts simulated seconds (so tqdm's rate and ETA are in simulated time per wall
+    second); the postfix shows the step number and the wall time per step since the start (or
+    the resume). On a terminal the bar redraws in place; otherwise (a log file) tqdm writes a
+    line at most every ``interval * 20`` seconds.
     """
 
     def __init__(self, t0: float, t_end: float, step0: int = 0, stream=None, interval=0.5,
                  label=""):
-        self.t0, self.t_end, self.step0 = t0, t_end, step0
-        self.stream = stream or sys.stderr
-        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
-        self.interval = interval if self.tty else 10.0 * interval
-        self.start = self.last = time.perf_counter()
-        self.label = label
-        self.width = 30
+        self.t0, self.t_end, self.step0 = float(t0), float(t_end), int(step0)
+        stream = stream or sys.stderr
+        tty = hasattr(stream, "isatty") and stream.isatty()
+        self.start = time.perf_counter()
+        self.done = 0.0
+        self.bar = tqdm(total=max(self.t_end - self.t0, 0.0), initial=0.0, file=stream,
+                        desc=label or None, unit="s(sim)", unit_scale=False, dynamic_ncols=True,
+                        mininterval=interval if tty else 20 * interval, leave=True,
+                        bar_format="{desc}: {percentage:5.1f}%|{bar}| "
+                                   "[{elapsed}<{remaining}{postfix}]")
+        self.bar.set_postfix_str(self._postfix(self.t0, self.step0), refresh=False)
 
-    def line(self, t: float, step: int) -> str:
-        now = time.perf_counter()
-        frac = min(max((t - self.t0) / max(self.t_end - self.t0, 1e-300), 0.0), 1.0)
+    def _postfix(self, t: float, step: int) -> str:
         steps = max(step - self.step0, 1)
-        per = (now - self.start) / steps
-        eta = (now - self.start) * (1.0 - frac) / frac if frac > 0 else float("nan")
-        bar = "#" * int(self.width * frac) + "-" * (self.width - int(self.width * frac))
-        return (f"{self.label}[{bar}] {100 * frac:5.1f}%  t = {t:.4g}/{self.t_end:.4g} s  "
-                f"step {step}  {per * 1e3:.3g} ms/step  ETA {eta:.0f} s")
+        per = (time.perf_counter() - self.start) / steps
+        return f"t = {t:.4g}/{self.t_end:.4g} s, step {step}, {per * 1e3:.3g} ms/step"
 
     def update(self, t: float, step: int) -> None:
-        now = time.perf_counter()
-        if now - self.last < self.interval:
-            return
-        self.last = now
-        self.stream.write(("\r" if self.tty else "") + self.line(t, step) + ("" if self.tty else "\n"))
-        self.stream.flush()
+        """Advance to simulated time ``t`` [s] at step ``step``."""
+        target = min(max(t - self.t0, 0.0), self.bar.total)
+        delta = target - self.done
+        if delta > 0:
+            self.done = target
+            self.bar.set_postfix_str(self._postfix(t, step), refresh=False)
+            self.bar.update(delta)
 
     def close(self, t: float, step: int) -> None:
-        self.stream.write(("\r" if self.tty else "") + self.line(t, step) + "\n")
-        self.stream.flush()
+        self.bar.set_postfix_str(self._postfix(t, step), refresh=False)
+        self.update(t, step)
+        self.bar.refresh()
+        self.bar.close()

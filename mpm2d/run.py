@@ -1,19 +1,29 @@
 """Running a scene: history, snapshots, checkpoints, resume, figures.
 
-:func:`run_scene` is what ``mpm2d run SCENE --set key=value --out DIR`` calls. A scene's
-``setup(**params)`` returns a :class:`Scene`; the runner steps it to ``t_end``, records a history
-row every ``t_end/history_rows`` of simulated time, writes ``frames`` snapshots (npz + vtu), a
-checkpoint every ``checkpoint_every`` seconds of wall time and at the end, then the scene's
-report (CSV tables and PNG figures). ``resume=True`` continues from ``DIR/checkpoint.npz``
-bit-for-bit: the model is rebuilt from the parameters stored with the checkpoint and its state
-is loaded, so N steps equal k steps + restart + N - k steps exactly.
+:func:`run_scene` is what ``mpm2d run SCENE --set key=value --out DIR`` calls. The parameters
+are validated first (every key through the scene's declared ranges, :mod:`mpm2d.scenes.spec`,
+and the run's memory estimate): bad input raises ``ValueError`` before anything is written. A
+scene's ``setup(**params)`` returns a :class:`Scene`; the runner steps it to ``t_end``, records a
+history row every ``t_end/history_rows`` of simulated time, writes ``frames`` snapshots (npz +
+VTK), a checkpoint every ``checkpoint_every`` seconds of wall time and at the end, then the
+scene's report (CSV tables and PNG figures).
+
+Interruption: SIGINT and SIGTERM are deferred to the end of the current step (a signal inside a
+step would leave the state half-updated: positions moved, stresses not); the runner then
+writes a checkpoint and raises ``KeyboardInterrupt``. ``resume=True`` continues from
+``DIR/checkpoint.npz`` (or its kept predecessor if it is corrupt) bit-for-bit: the model is
+rebuilt from the parameters stored with the checkpoint, its state is loaded, and every file the
+resumed run writes (history, manifest, frames, VTK, result tables, figures) is byte-identical to
+an uninterrupted run's. A resume of another scene, with other parameters or other output options
+is refused by name.
 """
 
 from __future__ import annotations
 
-import inspect
 import json
-import sys
+import re
+import signal
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,6 +37,9 @@ from rheology.io import atomic_write_csv, load_checkpoint, save_checkpoint
 from .output import write_frame, write_manifest, write_pvds
 from .progress import Progress
 from .simulation import Simulation
+
+#: temporary files of an atomic write (``.NAME.XXXXXXXX.suffix``) left by a killed run
+_TEMP = re.compile(r"^\..+\.[a-z0-9_]{8}\.(npz|tmp|vtu|pvd|png|csv|json)$")
 
 
 @dataclass
@@ -54,6 +67,12 @@ class Scene:
         Extra snapshot times [s] (written at the first step reaching each, tagged ``event`` in
         the manifest), e.g. the profile times a report compares; reports read them back with
         :func:`mpm2d.output.load_frames`, so they survive ``--resume``.
+    notes : str
+        Written to the manifest.
+    undefined : tuple of str
+        History columns that may be undefined by construction at some rows (NaN, written as an
+        empty cell), e.g. a stress behind a front before the front has formed; every other
+        history value must be finite (else the run fails with diagnostics).
     """
 
     sim: Simulation
@@ -66,11 +85,12 @@ class Scene:
     before_step: Callable | None = None
     frame_times: tuple = ()
     notes: str = ""
+    undefined: tuple = ()
 
 
 def history_row(sim: Simulation, scene: Scene) -> dict:
     """The standard history columns plus the scene's."""
-    row = {"time_s": sim.t, "step": sim.step_count, "dt_s": sim.last_dt}
+    row = {"time_s": sim.t, "step": int(sim.step_count), "dt_s": sim.last_dt}
     row.update(sim.energies())
     p = sim.momentum()
     row["momentum_x_kg_m_per_s"], row["momentum_y_kg_m_per_s"] = float(p[0]), float(p[1])
@@ -79,186 +99,285 @@ def history_row(sim: Simulation, scene: Scene) -> dict:
     return row
 
 
+def spec_of(setup: Callable):
+    """The declared parameters (:class:`mpm2d.scenes.spec.SceneSpec`) of a scene's ``setup``."""
+    spec = getattr(setup, "spec", None)
+    if spec is None:
+        raise TypeError(f"{getattr(setup, '__module__', setup)}.setup declares no parameters "
+                        "(decorate it with mpm2d.scenes.spec.parameters_of)")
+    return spec
+
+
 def coerce(params: dict, setup: Callable) -> dict:
-    """Convert ``--set`` strings to the types of ``setup``'s defaults; reject unknown keys."""
-    sig = inspect.signature(setup)
-    known = {k: p.default for k, p in sig.parameters.items()
-             if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)}
-    out = {}
-    for k, v in params.items():
-        if k not in known:
-            raise ValueError(f"unknown parameter {k!r}; valid: {', '.join(sorted(known))}")
-        d = known[k]
-        if not isinstance(v, str):
-            out[k] = v
-            continue
-        try:
-            if isinstance(d, bool):
-                if v.lower() not in ("true", "false", "1", "0", "yes", "no"):
-                    raise ValueError
-                out[k] = v.lower() in ("true", "1", "yes")
-            elif isinstance(d, int):
-                out[k] = int(v)
-            elif isinstance(d, float):
-                out[k] = float(v)
-            elif d is None:
-                try:
-                    out[k] = float(v)
-                except ValueError:
-                    out[k] = v
-            else:
-                out[k] = v
-        except ValueError:
-            raise ValueError(f"{k} = {v!r} is not a valid {type(d).__name__}") from None
+    """Convert ``--set`` strings (or Python values) to the declared types and check every key
+    (type, finiteness, range, derived bounds, memory estimate) through the scene's declaration;
+    returns the overrides with their canonical types.
+
+    Raises
+    ------
+    ValueError
+        One line naming the parameter, its value and the valid range (or an unknown key).
+    """
+    return spec_of(setup).coerce(dict(params))
+
+
+class _DeferredSignals:
+    """SIGINT/SIGTERM recorded instead of raised while a step runs (main thread only)."""
+
+    def __init__(self):
+        self.pending = None
+        self._old = {}
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._old[sig] = signal.signal(sig, self._record)
+        return self
+
+    def _record(self, signum, frame):
+        self.pending = signal.Signals(signum).name
+
+    def __exit__(self, *exc):
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        return False
+
+
+def _remove_stale_temporaries(out: Path) -> list[str]:
+    """Delete the temporary files of atomic writes a killed run (SIGKILL, power loss) left."""
+    gone = []
+    for folder in (out, out / "frames", out / "vtk"):
+        if folder.is_dir():
+            for f in folder.iterdir():
+                if f.is_file() and _TEMP.match(f.name):
+                    f.unlink()
+                    gone.append(str(f.relative_to(out)))
+    return gone
+
+
+def _history_arrays(rows: list[dict]) -> dict[str, np.ndarray]:
+    """The history as one typed array per column (integer columns stay integer)."""
+    hist = pd.DataFrame(rows)
+    out = {"run.history_columns": np.array(list(hist.columns))}
+    for i, c in enumerate(hist.columns):
+        out[f"run.history.{i}"] = hist[c].to_numpy()
     return out
 
 
+def _history_rows(saved: dict) -> list[dict]:
+    cols = [str(c) for c in saved["run.history_columns"]]
+    if "run.history.0" not in saved:                 # a checkpoint of an older version
+        return [dict(zip(cols, r)) for r in saved["run.history"]]
+    arrays = [saved[f"run.history.{i}"] for i in range(len(cols))]
+    return [{c: a[k].item() for c, a in zip(cols, arrays)} for k in range(len(arrays[0]))]
+
+
+def command_line(name: str, params: dict, defaults: dict, frames, vtk: bool) -> str:
+    """The canonical command of a run (deterministic: no output folder, no --resume)."""
+    sets = " ".join(f"--set {k}={v}" for k, v in params.items()
+                    if k in defaults and v != defaults[k])
+    return " ".join(filter(None, [f"mpm2d run {name}", sets,
+                                  f"--frames {frames}" if frames is not None else "",
+                                  "" if vtk else "--no-vtk"]))
+
+
 def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool = False,
-              progress: bool = True, vtk: bool = True, frames: int | None = None,
+              progress: bool = True, vtk: bool | None = None, frames: int | None = None,
               checkpoint_every: float = 60.0, log=None, stop_after_steps: int | None = None,
               scene_name: str = "") -> dict:
     """Run a scene to its end time (or ``stop_after_steps`` steps, then checkpoint).
 
     Parameters
     ----------
-    setup : the scene's ``setup`` function
-    out : output folder (created)
+    setup : the scene's (declared) ``setup`` function
+    out : output folder (created once the input is valid)
     params : parameter overrides (strings from the CLI are converted)
     resume : continue from ``out/checkpoint.npz``
-    progress : progress bar on stderr
-    vtk : also write .vtu snapshots
-    frames : number of snapshots (default: the scene's)
-    checkpoint_every : wall-clock seconds between checkpoints
+    progress : progress bar on stderr (tqdm)
+    vtk : also write VTK snapshots (points and grid); default True, or the checkpoint's choice
+    frames : number of snapshots (default: the scene's, or the checkpoint's)
+    checkpoint_every : wall-clock seconds between checkpoints (> 0)
     log : callable(str) for the run log (default: print to stdout)
     stop_after_steps : stop (with a checkpoint) after this many steps in this call
 
     Returns
     -------
     dict with ``scene``, ``history`` (DataFrame), ``figures``, ``manifest``, ``complete``.
+
+    Raises
+    ------
+    ValueError
+        Bad input (a parameter, a resume that does not match the checkpoint), before anything
+        is written.
+    RuntimeError
+        The run diverged (non-finite energy); a checkpoint is written first.
+    KeyboardInterrupt
+        SIGINT/SIGTERM: after the current step, a checkpoint is written.
     """
     log = log or (lambda msg: print(msg, flush=True))
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     ckpt_path = out / "checkpoint.npz"
-    params = coerce(dict(params or {}), setup)
+    spec = spec_of(setup)
+    name = scene_name or spec.name
+    given = coerce(dict(params or {}), setup)
+    if not (isinstance(checkpoint_every, (int, float)) and checkpoint_every > 0):
+        raise ValueError(f"checkpoint_every = {checkpoint_every} must be > 0 s")
+    if frames is not None and (int(frames) != frames or frames < 1):
+        raise ValueError(f"frames = {frames} must be an integer >= 1")
     saved = None
+    options = {"frames": frames, "vtk": vtk}
     if resume:
-        if not ckpt_path.exists():
-            raise ValueError(f"--resume: no checkpoint at {ckpt_path}")
-        saved = load_checkpoint(ckpt_path)
+        if not ckpt_path.exists() and not ckpt_path.with_name("checkpoint.prev.npz").exists():
+            raise ValueError(f"--resume: no checkpoint at {ckpt_path}; run without --resume to "
+                             "start")
+        saved = load_checkpoint(ckpt_path, required=("run.params", "t", "step"), log=log)
+        stored_name = str(saved["run.scene"]) if "run.scene" in saved else None
         stored = json.loads(str(saved["run.params"]))
-        if params and any(stored.get(k) != v for k, v in params.items()):
-            raise ValueError(f"--resume: parameters {params} differ from the checkpoint's "
-                             f"{stored}; resume without --set or start a new folder")
-        params = stored
-    scene = setup(**params)
-    sim = scene.sim
-    nframes = scene.frames if frames is None else int(frames)
-    t_end = scene.t_end
-    rec_dt = t_end / max(scene.history_rows, 1)
-    frame_dt = t_end / max(nframes, 1)
-    manifest = {"scene": scene_name or setup.__module__.rsplit(".", 1)[-1],
-                "command": " ".join(sys.argv), "params": {**_defaults(setup), **params},
-                "mode": sim.mode, "transfer": sim.transfer, "description": sim.describe(),
-                "grid": {"nx": sim.grid.nx, "ny": sim.grid.ny, "h_m": sim.grid.h,
-                         "origin_m": list(sim.grid.origin), "axisymmetric": sim.grid.axisymmetric,
-                         "boundaries": sim.grid.boundaries},
-                "t_end_s": t_end, "notes": scene.notes, "frames": [], "status": "running"}
-    rows: list[dict] = []
-    if saved is not None:
-        sim.load_state({k: v for k, v in saved.items() if not k.startswith("run.")})
-        cols = [str(c) for c in saved["run.history_columns"]]
-        rows = [dict(zip(cols, r)) for r in saved["run.history"]]
-        manifest["frames"] = json.loads(str(saved["run.frames"]))
-        next_times = saved["run.next_times"]
-        log(f"resumed from {ckpt_path} at t = {sim.t:.6g} s, step {sim.step_count}")
-    log(sim.describe())
-    log(f"mode: {sim.mode}")
-    if not rows:
-        rows.append(history_row(sim, scene))
-    if not manifest["frames"]:
-        manifest["frames"].append(write_frame(out, 0, sim, vtk))
-    if saved is not None:
-        next_rec, next_frame = float(next_times[0]), float(next_times[1])
-    else:
-        next_rec, next_frame = sim.t + rec_dt, sim.t + frame_dt
-    events = sorted(t for t in scene.frame_times if t > sim.t * (1 + 1e-12))
-    bar = Progress(sim.t, t_end, sim.step_count, label=f"{manifest['scene']} ") if progress else None
-    last_ckpt = time.perf_counter()
-    steps_here = 0
+        if stored_name is not None and stored_name != name:
+            raise ValueError(f"--resume: the checkpoint in {out} is of scene {stored_name!r}, "
+                             f"not {name!r}; resume it with 'mpm2d run {stored_name} --resume' "
+                             "or start a new folder")
+        foreign = [k for k in stored if k not in spec.params]
+        if foreign:
+            raise ValueError(f"--resume: the checkpoint in {out} has parameters "
+                             f"{', '.join(foreign)} that scene {name} does not have: it was "
+                             "written by another scene; start a new folder")
+        stored = spec.coerce(stored)
+        full_stored = {**spec.defaults, **stored}
+        for k, v in given.items():
+            if full_stored[k] != v:
+                raise ValueError(f"--resume: {k} = {v} differs from the checkpoint's {k} = "
+                                 f"{full_stored[k]}; resume without --set {k} or start a new "
+                                 "folder")
+        given = stored
+        old = json.loads(str(saved["run.options"])) if "run.options" in saved else {}
+        for k, v in old.items():
+            if options.get(k) is not None and options[k] != v:
+                raise ValueError(f"--resume: {'--frames' if k == 'frames' else '--no-vtk'} "
+                                 f"differs from the interrupted run's ({k} = {v})")
+            options[k] = v if options.get(k) is None else options[k]
+    vtk = True if options["vtk"] is None else bool(options["vtk"])
+    options["vtk"] = vtk
+    params = spec.validate(given)
+    with _DeferredSignals() as stop:         # from here on, a signal stops between steps
+        out.mkdir(parents=True, exist_ok=True)
+        for f in _remove_stale_temporaries(out):
+            log(f"removed {f}, a temporary file of an interrupted write")
+        scene = setup(**params)
+        sim = scene.sim
+        nframes = scene.frames if options["frames"] is None else int(options["frames"])
+        t_end = scene.t_end
+        rec_dt = t_end / max(scene.history_rows, 1)
+        frame_dt = t_end / max(nframes, 1)
+        manifest = {"scene": name,
+                    "command": command_line(name, params, spec.defaults, options["frames"], vtk),
+                    "params": params, "mode": sim.mode, "transfer": sim.transfer,
+                    "description": sim.describe(),
+                    "grid": {"nx": sim.grid.nx, "ny": sim.grid.ny, "h_m": sim.grid.h,
+                             "origin_m": list(sim.grid.origin),
+                             "axisymmetric": sim.grid.axisymmetric,
+                             "boundaries": sim.grid.boundaries},
+                    "t_end_s": t_end, "notes": scene.notes, "frames": [], "status": "running"}
+        rows: list[dict] = []
+        if saved is not None:
+            sim.load_state({k: v for k, v in saved.items() if not k.startswith("run.")})
+            rows = _history_rows(saved)
+            manifest["frames"] = json.loads(str(saved["run.frames"]))
+            next_times = saved["run.next_times"]
+            log(f"resumed from {ckpt_path} at t = {sim.t:.6g} s, step {sim.step_count}")
+        log(sim.describe())
+        log(f"mode: {sim.mode}")
+        if not rows:
+            rows.append(history_row(sim, scene))
+        if not manifest["frames"]:
+            manifest["frames"].append(write_frame(out, 0, sim, vtk))
+        if saved is not None:
+            next_rec, next_frame = float(next_times[0]), float(next_times[1])
+        else:
+            next_rec, next_frame = sim.t + rec_dt, sim.t + frame_dt
+        events = sorted(t for t in scene.frame_times if t > sim.t * (1 + 1e-12))
+        last_ckpt = time.perf_counter()
+        steps_here = 0
 
-    def checkpoint():
-        hist = pd.DataFrame(rows)
-        state = sim.state()
-        state["run.params"] = np.array(json.dumps(params, default=str))
-        state["run.history"] = hist.to_numpy(dtype=float)
-        state["run.history_columns"] = np.array(list(hist.columns))
-        state["run.frames"] = np.array(json.dumps(manifest["frames"]))
-        state["run.next_times"] = np.array([next_rec, next_frame])
-        save_checkpoint(ckpt_path, **state)
-        atomic_write_csv(out / "history.csv", hist)
-        write_manifest(out, manifest)
+        def write_history(hist):
+            atomic_write_csv(out / "history.csv", hist, empty_ok=scene.undefined)
 
-    complete = True
-    try:
-        while sim.t < t_end * (1.0 - 1e-12):
-            if stop_after_steps is not None and steps_here >= stop_after_steps:
-                complete = False
-                break
-            if scene.before_step is not None:
-                scene.before_step(sim)
-            sim.step()
-            steps_here += 1
-            if sim.t >= next_rec * (1.0 - 1e-9) or sim.t >= t_end * (1.0 - 1e-12):
-                row = history_row(sim, scene)
-                if not np.isfinite(row["total_J"]):
-                    checkpoint()
-                    raise RuntimeError(f"non-finite energy at t = {sim.t:.6g} s (step "
-                                       f"{sim.step_count}): the run diverged; see {out}")
-                rows.append(row)
-                next_rec += rec_dt
-            if sim.t >= next_frame * (1.0 - 1e-9):
-                manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim, vtk))
-                next_frame += frame_dt
-            if events and sim.t >= events[0] * (1.0 - 1e-9):
+        def checkpoint():
+            state = sim.state()
+            state["run.scene"] = np.array(name)
+            state["run.params"] = np.array(json.dumps(given))
+            state["run.options"] = np.array(json.dumps(options))
+            state.update(_history_arrays(rows))
+            state["run.frames"] = np.array(json.dumps(manifest["frames"]))
+            state["run.next_times"] = np.array([next_rec, next_frame])
+            save_checkpoint(ckpt_path, **state)
+            write_history(pd.DataFrame(rows))        # a non-finite value fails here, after the save
+            write_manifest(out, manifest)
+
+        complete = True
+        bar = Progress(sim.t, t_end, sim.step_count, label=name) if progress else None
+        try:
+            while sim.t < t_end * (1.0 - 1e-12):
+                if stop.pending:
+                    raise KeyboardInterrupt
+                if stop_after_steps is not None and steps_here >= stop_after_steps:
+                    complete = False
+                    break
+                if scene.before_step is not None:
+                    scene.before_step(sim)
+                sim.step()
+                steps_here += 1
+                if sim.t >= next_rec * (1.0 - 1e-9) or sim.t >= t_end * (1.0 - 1e-12):
+                    row = history_row(sim, scene)
+                    if not np.isfinite(row["total_J"]):
+                        checkpoint()
+                        raise RuntimeError(f"non-finite energy at t = {sim.t:.6g} s (step "
+                                           f"{sim.step_count}): the run diverged; see {out}")
+                    rows.append(row)
+                    next_rec += rec_dt
+                regular = sim.t >= next_frame * (1.0 - 1e-9)
+                event = bool(events) and sim.t >= events[0] * (1.0 - 1e-9)
                 while events and sim.t >= events[0] * (1.0 - 1e-9):
                     events.pop(0)
-                manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim, vtk,
-                                                      tag="event"))
+                if regular or event:             # one snapshot per step, tagged event if asked
+                    manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim, vtk,
+                                                          tag="event" if event else "frame"))
+                if regular:
+                    next_frame += frame_dt
+                if bar is not None:
+                    bar.update(sim.t, sim.step_count)
+                if time.perf_counter() - last_ckpt > checkpoint_every:
+                    checkpoint()
+                    last_ckpt = time.perf_counter()
+        except KeyboardInterrupt:
             if bar is not None:
-                bar.update(sim.t, sim.step_count)
-            if time.perf_counter() - last_ckpt > checkpoint_every:
-                checkpoint()
-                last_ckpt = time.perf_counter()
-    except KeyboardInterrupt:
+                bar.close(sim.t, sim.step_count)
+            checkpoint()
+            log(f"interrupted ({stop.pending or 'KeyboardInterrupt'}) at t = {sim.t:.6g} s "
+                f"(step {sim.step_count}); checkpoint written to {ckpt_path}: continue with "
+                "--resume")
+            raise KeyboardInterrupt(f"checkpoint written to {ckpt_path}: rerun with --resume "
+                                    "to continue") from None
+        if bar is not None:
+            bar.close(sim.t, sim.step_count)
+        history = pd.DataFrame(rows)
+        figures = []
+        if complete:
+            if manifest["frames"][-1]["step"] != sim.step_count:
+                manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim, vtk))
+            if vtk:
+                write_pvds(out, manifest["frames"])
+            write_history(history)               # the report may read it
+            write_manifest(out, manifest)        # the report reads the frames from it
+            if scene.report is not None:
+                figures = [str(Path(f).relative_to(out)) if Path(f).is_relative_to(out)
+                           else str(f) for f in scene.report(sim, history, out)]
+            manifest["status"] = "complete"
+            manifest["figures"] = figures
+        manifest["history"] = "history.csv"
+        manifest["steps"] = sim.step_count
         checkpoint()
-        log(f"interrupted at t = {sim.t:.6g} s (step {sim.step_count}); checkpoint written: "
-            "continue with --resume")
-        raise
-    if bar is not None:
-        bar.close(sim.t, sim.step_count)
-    history = pd.DataFrame(rows)
-    figures = []
-    if complete:
-        if manifest["frames"][-1]["step"] != sim.step_count:
-            manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim, vtk))
-        if vtk:
-            write_pvds(out, manifest["frames"])
-        write_manifest(out, manifest)                  # the report reads the frames from it
-        if scene.report is not None:
-            figures = [str(Path(f).relative_to(out)) if Path(f).is_relative_to(out) else str(f)
-                       for f in scene.report(sim, history, out)]
-        manifest["status"] = "complete"
-        manifest["figures"] = figures
-    manifest["history"] = "history.csv"
-    manifest["steps"] = sim.step_count
-    checkpoint()
     log(f"{'finished' if complete else 'stopped'} at t = {sim.t:.6g} s after {sim.step_count} "
         f"steps; results in {out}")
     return {"scene": scene, "history": history, "figures": figures, "manifest": manifest,
             "complete": complete}
-
-
-def _defaults(setup) -> dict:
-    return {k: p.default for k, p in inspect.signature(setup).parameters.items()
-            if p.default is not inspect.Parameter.empty}

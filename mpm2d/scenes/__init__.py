@@ -1,13 +1,19 @@
 """Scenes: each a module with ``setup(**params) -> Scene`` whose docstring states the equations,
 the parameters (with units) and the command that runs it.
 
-``mpm2d list`` shows them; ``mpm2d run NAME --set key=value --out DIR`` runs one.
+``mpm2d list`` shows them; ``mpm2d show NAME`` prints a scene's parameters with their valid
+ranges; ``mpm2d run NAME --set key=value --out DIR`` runs one.
+
+Every scene declares the valid range of every ``setup`` parameter through the one mechanism of
+:mod:`mpm2d.scenes.spec` (``@spec.parameters_of(...)``): a new scene must too (``get_spec``
+refuses a scene without a declaration).
 """
 
 from __future__ import annotations
 
 import importlib
-import inspect
+
+from .spec import Param, SceneSpec, parameters_of
 
 #: scene name -> module (imported on demand)
 SCENES = {
@@ -24,15 +30,29 @@ SCENES = {
 }
 
 
+# ---------------------------------------------------------------- lookup
 def get_setup(name: str):
-    """The ``setup`` function of scene ``name`` (ValueError if unknown)."""
+    """The (validating) ``setup`` function of scene ``name`` (ValueError if unknown)."""
     key = str(name).strip().lower()
     if key not in SCENES:
         raise ValueError(f"unknown scene {name!r}; valid: {', '.join(SCENES)}")
     return importlib.import_module(f"mpm2d.scenes.{key}").setup
 
 
+def get_spec(name: str) -> SceneSpec:
+    """The declared parameters of scene ``name``."""
+    setup = get_setup(name)
+    spec = getattr(setup, "spec", None)
+    if spec is None:
+        raise TypeError(f"scene {name}: setup has no declared parameters (use "
+                        "mpm2d.scenes.spec.parameters_of)")
+    return spec
+
+
 def parameters(name: str) -> dict:
     """Default parameters of a scene."""
-    sig = inspect.signature(get_setup(name))
-    return {k: p.default for k, p in sig.parameters.items()}
+    return dict(get_spec(name).defaults)
+
+
+__all__ = ["SCENES", "Param", "SceneSpec", "parameters_of", "get_setup", "get_spec",
+           "parameters"]

@@ -31,10 +31,24 @@ from ..bodies import box
 from ..grid import Grid
 from ..materials import LinearElastic
 from ..particles import ParticleSet
+from . import spec
 from ..run import Scene
 from ..simulation import Simulation
 
 
+@spec.parameters_of(
+    length=spec.positive(1e3, "m", "bar length L"),
+    cells=spec.count(2, 100000, "cells along L"),
+    ppc=spec.count(1, 8, "points per cell and direction"),
+    E=spec.modulus("Young's modulus"),
+    rho=spec.density(),
+    v0=spec.Param(0.0, lambda p: 0.01 * (p["E"] / p["rho"]) ** 0.5, lo_closed=False, unit="m/s",
+                  doc="mode-1 velocity amplitude", note="1% strain: v0 <= 0.01 c, c = sqrt(E/rho)"),
+    periods=spec.positive(1000.0, "", "run length in periods"),
+    transfer=spec.transfer(), flip_alpha=spec.flip_alpha(), cfl=spec.cfl(),
+    dt=spec.Param(0.0, 1.0, lo_closed=False, optional=True, unit="s",
+                  doc="fixed step (none: adaptive)"),
+    size=lambda p: (4 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 8) * 7))
 def setup(length=1.0, cells=32, ppc=2, E=1.0e6, rho=1000.0, v0=1.0e-3, periods=2.0,
           transfer="apic", flip_alpha=0.99, cfl=0.5, dt=None):
     h = length / cells

@@ -45,10 +45,29 @@ from ..grid import Grid
 from ..materials import NewtonianFluid, Suspension
 from ..output import load_frames
 from ..particles import ParticleSet
+from . import spec
 from ..run import Scene
 from ..simulation import Drag, Simulation
 
 
+@spec.parameters_of(
+    height=spec.positive(10.0, "m", "height of the suspension"),
+    width_cells=spec.count(2, 1000, "cells across (periodic)"),
+    cells=spec.count(2, 100000, "cells over the height"),
+    ppc=spec.count(1, 8, "points per cell and direction"),
+    phi0=spec.phi_below_jamming(),
+    material=spec.Param(choices=spec.materials_where(
+        lambda m: m.rho_s and m.rho_f and m.rho_s > m.rho_f, "sets with grains denser than the fluid"),
+        doc="rheology parameter set (grains must be denser than the fluid)"),
+    d=spec.positive(0.01, "m", "grain diameter (sets the drag)"),
+    eta0=spec.positive(1e3, "Pa s", "fluid viscosity"),
+    K=spec.modulus("granular bulk modulus"), G=spec.modulus("granular shear modulus"),
+    kappa=spec.modulus("fluid bulk modulus"),
+    t_end=spec.positive(100.0, "s", "end time"),
+    gravity=spec.positive(1000.0, "m/s^2", "gravitational acceleration (downwards)"),
+    cfl=spec.cfl(),
+    size=lambda p: (2 * p["width_cells"] * p["cells"] * p["ppc"] ** 2,
+                    (p["width_cells"] + 5) * (p["cells"] + 9)))
 def setup(height=0.02, width_cells=4, cells=20, ppc=2, phi0=0.3, material="rod_impact", d=5e-4,
           eta0=1e-3, K=1e5, G=1e5, kappa=1e5, t_end=1.5, gravity=9.81, cfl=0.5):
     params = dict(height=height, width_cells=width_cells, cells=cells, ppc=ppc, phi0=phi0,
@@ -80,7 +99,8 @@ def setup(height=0.02, width_cells=4, cells=20, ppc=2, phi0=0.3, material="rod_i
     return Scene(sim, t_end, params, frames=10, history_rows=300, record=record,
                  report=lambda sim, hist, out: report(sim, hist, out, params),
                  frame_times=tuple(np.linspace(0, t_end, 6)[1:]),
-                 notes="mode two-phase: granular and fluid points, implicit Beetstra drag")
+                 notes="mode two-phase: granular and fluid points, implicit Beetstra drag",
+                 undefined=("suspended_grain_velocity_m_per_s",))
 
 
 def suspended_grains(g, phi0):

@@ -32,12 +32,24 @@ from ..grid import Grid
 from ..materials import NewtonianFluid
 from ..output import load_frames
 from ..particles import ParticleSet
+from . import spec
 from ..run import Scene
 from ..simulation import Simulation
 
 PROFILE_T = (0.02, 0.05, 0.1, 0.2, 0.5)
 
 
+@spec.parameters_of(
+    gap=spec.positive(10.0, "m", "gap H"),
+    cells=spec.count(2, 100000, "cells across the gap"),
+    ppc=spec.count(1, 8, "points per cell and direction"),
+    eta=spec.positive(1e6, "Pa s", "viscosity"),
+    rho=spec.density(),
+    kappa=spec.modulus("bulk modulus"),
+    U=spec.positive(1e3, "m/s", "velocity of the moving wall"),
+    t_end_T=spec.positive(100.0, "", "end time in units of H^2/nu"),
+    transfer=spec.transfer(), cfl=spec.cfl(),
+    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
 def setup(gap=0.01, cells=16, ppc=2, eta=0.1, rho=1000.0, kappa=1.0e4, U=0.01, t_end_T=0.5,
           transfer="apic", cfl=0.5):
     params = dict(gap=gap, cells=cells, ppc=ppc, eta=eta, rho=rho, kappa=kappa, U=U,

@@ -30,10 +30,23 @@ from ..bodies import box
 from ..grid import Grid
 from ..materials import LinearElastic
 from ..particles import ParticleSet
+from . import spec
 from ..run import Scene
 from ..simulation import Simulation
 
 
+@spec.parameters_of(
+    radius=spec.positive(1e3, "m", "cylinder radius R"),
+    cells=spec.count(2, 100000, "cells along R"),
+    ppc=spec.count(1, 8, "points per cell and direction"),
+    E=spec.modulus("Young's modulus"),
+    nu=spec.Param(-1.0, 0.5, lo_closed=False, hi_closed=False, doc="Poisson ratio"),
+    rho=spec.density(),
+    v0=spec.Param(0.0, lambda p: 0.01 * (p["E"] / p["rho"]) ** 0.5, lo_closed=False, unit="m/s",
+                  doc="J1-mode velocity amplitude", note="small strain: v0 <= 0.01 sqrt(E/rho)"),
+    periods=spec.positive(1000.0, "", "run length in periods"),
+    transfer=spec.transfer(), cfl=spec.cfl(),
+    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
 def setup(radius=1.0, cells=32, ppc=2, E=1.0e6, nu=0.25, rho=1000.0, v0=1.0e-3, periods=2.0,
           transfer="apic", cfl=0.5):
     h = radius / cells

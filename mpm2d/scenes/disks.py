@@ -33,11 +33,29 @@ from ..bodies import disk
 from ..grid import Grid
 from ..materials import LinearElastic
 from ..particles import ParticleSet
+from . import spec
 from ..run import Scene
 from ..simulation import Simulation
 from ..transfer import g2p
 
 
+@spec.parameters_of(
+    cells=spec.count(4, 4096, "cells per side of the unit square"),
+    ppc=spec.count(1, 8, "points per cell and direction"),
+    E=spec.modulus("Young's modulus"),
+    nu=spec.Param(-1.0, 0.5, lo_closed=False, hi_closed=False, doc="Poisson ratio"),
+    rho=spec.density(),
+    radius=spec.Param(0.0, 0.25, lo_closed=False, unit="m",
+                      doc="disk radius (the disks start apart)"),
+    speed=spec.Param(0.0, lambda p: 0.1 * (p["E"] / p["rho"]) ** 0.5, lo_closed=False, unit="m/s",
+                     doc="speed v0 of each velocity component",
+                     note="v0 <= 0.1 c, c = sqrt(E/rho): an elastic impact"),
+    offset=spec.Param(-0.2, 0.2, unit="m", doc="impact parameter (oblique collision)"),
+    walls=spec.Param(choices=("slip", "free"), doc="frictionless walls, or none"),
+    t_end=spec.positive(100.0, "s", "end time"),
+    transfer=spec.transfer(), flip_alpha=spec.flip_alpha(), cfl=spec.cfl(),
+    size=lambda p: (2 * 3.1416 * p["radius"] ** 2 * (p["cells"] * p["ppc"]) ** 2,
+                    (p["cells"] + 5) ** 2))
 def setup(cells=32, ppc=2, E=1000.0, nu=0.3, rho=1000.0, radius=0.2, speed=0.1, offset=0.0,
           walls="slip", t_end=3.0, transfer="apic", flip_alpha=0.99, cfl=0.5):
     h = 1.0 / cells

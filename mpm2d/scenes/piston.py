@@ -26,10 +26,22 @@ from ..bodies import RigidBody, box
 from ..grid import Grid
 from ..materials import LinearElastic
 from ..particles import ParticleSet
+from . import spec
 from ..run import Scene
 from ..simulation import Simulation
 
 
+@spec.parameters_of(
+    length=spec.positive(1e3, "m", "bar length L"),
+    cells=spec.count(2, 100000, "cells along L"),
+    ppc=spec.count(1, 8, "points per cell and direction"),
+    E=spec.modulus("Young's modulus of the bar"),
+    rho=spec.density("density of bar and piston"),
+    V=spec.Param(0.0, lambda p: 0.01 * (p["E"] / p["rho"]) ** 0.5, lo_closed=False, unit="m/s",
+                 doc="piston velocity", note="small strain: V <= 0.01 c, c = sqrt(E/rho)"),
+    t_end_fraction=spec.positive(1.0, "", "end time as a fraction of L/c (before the reflection)"),
+    cfl=spec.cfl(),
+    size=lambda p: (2 * (p["cells"] + 4) * p["ppc"] ** 2, (p["cells"] + 15) * 7))
 def setup(length=1.0, cells=64, ppc=2, E=1.0e6, rho=1000.0, V=0.01, t_end_fraction=0.6, cfl=0.5):
     params = dict(length=length, cells=cells, ppc=ppc, E=E, rho=rho, V=V,
                   t_end_fraction=t_end_fraction, cfl=cfl)
@@ -55,7 +67,8 @@ def setup(length=1.0, cells=64, ppc=2, E=1.0e6, rho=1000.0, V=0.01, t_end_fracti
                 "piston_x_m": float(sim.bodies[0].center[0])}
 
     return Scene(sim, t_end_fraction * length / c, params, frames=8, history_rows=400,
-                 record=record, report=lambda sim, hist, out: report(sim, hist, out, params))
+                 record=record, report=lambda sim, hist, out: report(sim, hist, out, params),
+                 undefined=("stress_behind_front_Pa", "velocity_behind_front_m_per_s"))
 
 
 def analyse(history, params) -> dict:

@@ -36,10 +36,33 @@ from ..geostatic import geostatic
 from ..grid import Grid
 from ..materials import Suspension
 from ..particles import ParticleSet
+from . import spec
 from ..run import Scene
 from ..simulation import Simulation
 
 
+@spec.parameters_of(
+    radius=spec.Param(lambda p: 2e-3 / p["cells_per_mm"], 1.0, unit="m", doc="container radius",
+                      note="at least 2 cells"),
+    depth=spec.Param(lambda p: 1e-3 / p["cells_per_mm"], 1.0, unit="m", doc="bed depth",
+                     note="at least 1 cell"),
+    cells_per_mm=spec.positive(100.0, "1/mm", "1/h in 1/mm"),
+    rod_radius=spec.Param(lambda p: 0.5e-3 / p["cells_per_mm"], lambda p: p["radius"],
+                          hi_closed=False,
+                          unit="m", doc="rod radius", note="at least h/2, inside the container"),
+    rod_length=spec.Param(lambda p: 0.5e-3 / p["cells_per_mm"], 1.0, unit="m", doc="rod length",
+                          note="at least h/2"),
+    rod_density=spec.density("rod density"),
+    v0=spec.Param(0.0, 100.0, unit="m/s", doc="impact speed (downwards)"),
+    phi0=spec.phi_below_jamming(fixed="rod_impact", doc="solid volume fraction of the bed"),
+    K=spec.modulus("granular bulk modulus"), G=spec.modulus("granular shear modulus"),
+    kappa=spec.modulus("fluid bulk modulus"),
+    t_end=spec.positive(10.0, "s", "end time"),
+    gravity=spec.gravity(), cfl=spec.cfl(),
+    size=lambda p: (4 * (p["radius"] * p["depth"] + p["rod_radius"] * p["rod_length"])
+                    * (p["cells_per_mm"] * 1e3) ** 2,
+                    (p["radius"] * p["cells_per_mm"] * 1e3 + 5)
+                    * ((p["depth"] + p["rod_length"]) * p["cells_per_mm"] * 1e3 + 11)))
 def setup(radius=0.03, depth=0.03, cells_per_mm=1.0, rod_radius=0.005, rod_length=0.02,
           rod_density=2700.0, v0=1.0, phi0=0.47, K=8.3e5, G=3.8e5, kappa=8.3e5, t_end=0.02,
           gravity=9.81, cfl=0.5):

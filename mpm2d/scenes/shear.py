@@ -16,8 +16,9 @@ stress, granular pressure and f with that point (rheology.local_update in a loop
 
 Parameters: material (rheology parameter set), phi, rate gdot [1/s], p0 [Pa] (initial granular
 pressure: a point sheared from exactly zero pressure stays separated), f0, height [m], cells
-(over the height), ppc, t_end [s], cfl, and any material field override as material_<field>
-is not offered: use rheology names via ``material``.
+(over the height), ppc, t_end [s], dt [s] (fixed step; default 0.9 x the stable step), cfl.
+Single material fields cannot be overridden here: choose a rheology parameter set by name with
+``material`` (``mpm2d show shear`` lists the valid ones).
 
 Run: ``mpm2d run shear --set rate=50 --out shear`` (mode: locked mixture)
 """
@@ -36,10 +37,27 @@ from ..bodies import box
 from ..grid import Grid
 from ..materials import Suspension
 from ..particles import ParticleSet
+from . import spec
 from ..run import Scene
 from ..simulation import Simulation
 
 
+@spec.parameters_of(
+    material=spec.Param(choices=spec.materials_where(
+        lambda m: m.rho_s and m.rho_f and m.K and m.kappa, "sets with densities and moduli"),
+        doc="rheology parameter set (with densities and moduli)"),
+    phi=spec.phi_below_jamming(doc="solid volume fraction"),
+    rate=spec.positive(1e5, "1/s", "shear rate gdot"),
+    p0=spec.Param(0.0, 1e9, unit="Pa", doc="initial granular pressure"),
+    f0=spec.Param(0.0, 1.0, doc="initial structure f"),
+    height=spec.positive(1.0, "m", "box height"),
+    cells=spec.count(2, 10000, "cells over the height"),
+    ppc=spec.count(1, 8, "points per cell and direction"),
+    t_end=spec.positive(100.0, "s", "end time"),
+    dt=spec.Param(0.0, 1.0, lo_closed=False, optional=True, unit="s",
+                  doc="fixed step (none: 0.9 x the stable step)"),
+    cfl=spec.cfl(),
+    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
 def setup(material="annular_shear", phi=0.40, rate=50.0, p0=1.0, f0=0.0, height=0.004, cells=4,
           ppc=2, t_end=0.5, dt=None, cfl=0.5):
     params = dict(material=material, phi=phi, rate=rate, p0=p0, f0=f0, height=height,

@@ -41,6 +41,7 @@ from ..grid import Grid
 from ..materials import LinearElastic, NewtonianFluid
 from ..output import load_frames
 from ..particles import ParticleSet
+from . import spec
 from ..run import Scene
 from ..simulation import Drag, Simulation
 
@@ -62,6 +63,23 @@ def constants(params: dict) -> dict:
             "transit_s": params["height"] / c_u, "drag_time_s": n * params["rho_f"] / C}
 
 
+@spec.parameters_of(
+    height=spec.positive(100.0, "m", "layer height H"),
+    cells=spec.count(2, 100000, "cells over H"),
+    width_cells=spec.count(2, 1000, "cells across (periodic)"),
+    ppc=spec.count(1, 8, "points per cell and direction"),
+    K=spec.modulus("skeleton bulk modulus"), G=spec.modulus("skeleton shear modulus"),
+    rho_s=spec.density("grain density"), rho_f=spec.density("fluid density"),
+    phi=spec.Param(0.0, 1.0, lo_closed=False, hi_closed=False, doc="solid volume fraction"),
+    eta0=spec.positive(1e6, "Pa s", "fluid viscosity"),
+    d=spec.positive(0.1, "m", "grain diameter (sets the drag)"),
+    kappa=spec.modulus("fluid bulk modulus"),
+    load=spec.positive(1e9, "Pa", "load q on the drained top"),
+    ramp=spec.positive(10.0, "", "load ramp T_r = cv t_r/H^2"),
+    t_end_T=spec.positive(100.0, "", "end time as T = cv t/H^2"),
+    cfl=spec.cfl(), transfer=spec.transfer(),
+    size=lambda p: (2 * p["width_cells"] * p["cells"] * p["ppc"] ** 2,
+                    (p["width_cells"] + 5) * (p["cells"] + 9)))
 def setup(height=1.0, cells=32, width_cells=2, ppc=2, K=5.0e5, G=3.75e5, rho_s=2650.0,
           rho_f=1000.0, phi=0.5, eta0=1.0e-3, d=3.3e-4, kappa=1.0e6, load=1.0e3, ramp=0.1,
           t_end_T=0.8, cfl=0.5, transfer="apic"):

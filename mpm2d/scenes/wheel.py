@@ -38,6 +38,7 @@ from ..geostatic import geostatic
 from ..grid import Grid
 from ..materials import LinearElastic, Suspension
 from ..particles import ParticleSet
+from . import spec
 from ..run import Scene
 from ..simulation import Simulation
 
@@ -63,6 +64,37 @@ def wheel_shape(center, radius, hub_radius, spoke_width, rim_width, spacing):
     return elastic, hub
 
 
+@spec.parameters_of(
+    omega=spec.positive(1000.0, "1/s", "prescribed angular velocity (driving to +x)"),
+    radius=spec.positive(10.0, "m", "wheel radius R"),
+    hub_radius=spec.Param(0.0, lambda p: p["radius"] - p["rim_width"], lo_closed=False,
+                          hi_closed=False, unit="m", doc="rigid hub radius",
+                          note="inside the rim: below radius - rim_width"),
+    spoke_width=spec.Param(0.0, lambda p: p["radius"], lo_closed=False, unit="m", doc="spoke width",
+                           note="at most the radius"),
+    rim_width=spec.Param(0.0, lambda p: p["radius"], lo_closed=False, hi_closed=False, unit="m",
+                         doc="rim width", note="below the radius"),
+    density=spec.density("wheel density"),
+    E=spec.modulus("wheel Young's modulus"),
+    nu=spec.Param(-1.0, 0.5, lo_closed=False, hi_closed=False, doc="wheel Poisson ratio"),
+    bed=spec.Param(choices=("suspension", "elastic"), doc="bed material"),
+    E_bed=spec.modulus("elastic bed: Young's modulus"),
+    nu_bed=spec.Param(-1.0, 0.5, lo_closed=False, hi_closed=False,
+                      doc="elastic bed: Poisson ratio"),
+    rho_bed=spec.density("elastic bed: density"),
+    phi0=spec.phi_below_jamming(fixed="wheel", doc="suspension bed: solid volume fraction"),
+    width=spec.Param(lambda p: 4 * p["radius"], 100.0, unit="m", doc="domain width (periodic)",
+                     note="at least 4 radii"),
+    height=spec.Param(lambda p: p["bed_depth"] + 2 * p["radius"] + 2 * p["h"], 100.0, unit="m",
+                      doc="domain height", note="bed + wheel + 2 cells"),
+    bed_depth=spec.Param(lambda p: p["h"], 100.0, unit="m", doc="bed depth",
+                         note="at least 1 cell"),
+    h=spec.Param(lambda p: p["radius"] / 100.0, lambda p: p["radius"] / 4.0, unit="m",
+                 doc="cell size", note="radius/100 to radius/4"),
+    t_end=spec.positive(100.0, "s", "end time"),
+    gravity=spec.gravity(), cfl=spec.cfl(),
+    size=lambda p: (4 * (p["width"] * p["bed_depth"] + 3.1416 * p["radius"] ** 2) / p["h"] ** 2,
+                    (p["width"] / p["h"] + 5) * (p["height"] / p["h"] + 5)))
 def setup(omega=10.0, radius=0.15, hub_radius=0.04, spoke_width=0.03, rim_width=0.03,
           density=3000.0, E=1.0e7, nu=0.3, bed="suspension", E_bed=1.0e6, nu_bed=0.3,
           rho_bed=1620.0, phi0=0.45, width=1.2, height=0.6, bed_depth=0.2, h=0.0133,

@@ -1,0 +1,181 @@
+"""mpm2d command line: every ``--set`` key of every scene refuses bad values (NaN, inf, negative,
+zero, huge, out of its declared or material-derived range, wrong type) with exit 2, one line on
+stderr naming the key, nothing written; the issue's instances; ``mpm2d show`` prints every
+parameter with its valid range; run options through ``Number``; the memory estimate."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import tempfile
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from mpm2d.cli import main
+from mpm2d.scenes import SCENES, get_spec
+
+KEYS = [(scene, key) for scene in SCENES for key in get_spec(scene).params]
+
+
+def _call(argv):
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        try:
+            rc = main(argv)
+        except SystemExit as exc:                  # argparse's usage errors (Number types)
+            rc = exc.code
+    return rc, err.getvalue().strip().splitlines()
+
+
+def _bounds(scene, key):
+    spec = get_spec(scene)
+    p = spec.params[key]
+    lo = p.lo(spec.defaults) if callable(p.lo) else p.lo
+    hi = p.hi(spec.defaults) if callable(p.hi) else p.hi
+    return p, lo, hi
+
+
+def _fmt(x) -> str:
+    return repr(x) if isinstance(x, float) else str(x)
+
+
+@st.composite
+def bad_value(draw, scene, key):
+    """A value outside the declared valid set of ``scene.key`` (others at their defaults)."""
+    p, lo, hi = _bounds(scene, key)
+    if p.kind == "choice":
+        opts = {str(o).lower() for o in p.options()}
+        return draw(st.text(alphabet="abcdefghijklmnopqrstuvwxyz_0123456789.-", min_size=1,
+                            max_size=12).filter(lambda s: s.lower() not in opts
+                                                and s.lower() != "none"))
+    if p.kind == "bool":
+        return draw(st.sampled_from(["maybe", "2", "-1", "nan", "tru"]))
+    cands = ["nan", "inf", "-inf", "NaN", "1e999", "abc", "1,5", "0x", "[]"]
+    cands += ["1e300", "-1e300"]                   # huge: every range is finite (see below)
+    if lo is not None:
+        cands += [_fmt(lo - max(1.0, abs(lo))), _fmt(-abs(lo) - 1.0)]
+        if not p.lo_closed:
+            cands.append(_fmt(lo))                 # e.g. zero for a positive parameter
+        elif lo != 0:
+            cands.append(_fmt(lo * (1 - 1e-6) if lo > 0 else lo * (1 + 1e-6)))
+    if hi is not None:
+        cands += [_fmt(hi + max(1.0, abs(hi))), _fmt(hi * 10 + 1)]
+        if not p.hi_closed:
+            cands.append(_fmt(hi))
+    if p.integer:
+        cands += [_fmt((lo or 0) + 0.5), "2.5", "true"]
+    return draw(st.sampled_from(cands))
+
+
+def _is_bad(scene, key, text) -> bool:
+    """Independent judgement: is ``text`` outside ``scene.key``'s valid set?"""
+    p, lo, hi = _bounds(scene, key)
+    if p.kind != "number":
+        return True                                # drawn outside the choices by construction
+    try:
+        x = float(text)
+    except ValueError:
+        return True
+    if not math.isfinite(x) or (p.integer and x != int(x)):
+        return True
+    if lo is not None and (x < lo or (x == lo and not p.lo_closed)):
+        return True
+    return hi is not None and (x > hi or (x == hi and not p.hi_closed))
+
+
+@pytest.mark.parametrize("scene, key", KEYS, ids=[f"{s}.{k}" for s, k in KEYS])
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_every_set_key_refuses_bad_values(scene, key, data):
+    value = data.draw(bad_value(scene, key), label="value")
+    assert _is_bad(scene, key, value)
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "out"
+        rc, err = _call(["run", scene, "--set", f"{key}={value}", "--out", str(out), "--quiet",
+                         "--no-vtk"])
+        assert rc == 2, (value, err)
+        assert len(err) == 1 and err[0].startswith("mpm2d run: error: "), err
+        assert f"{key} = " in err[0], err
+        assert any(w in err[0] for w in ("range", "one of", "true or false")), err
+        assert not out.exists()
+
+
+@pytest.mark.parametrize("scene, key", KEYS, ids=[f"{s}.{k}" for s, k in KEYS])
+def test_every_number_has_a_finite_range_and_the_default_inside(scene, key):
+    """'huge' is bad for every key (a finite upper bound), and every default is valid."""
+    p, lo, hi = _bounds(scene, key)
+    default = get_spec(scene).defaults[key]
+    if p.kind == "number":
+        assert lo is not None and hi is not None and math.isfinite(lo) and math.isfinite(hi)
+        assert default is None and p.optional or not _is_bad(scene, key, str(default))
+    else:
+        assert str(default).lower() in {str(o).lower() for o in
+                                        (p.options() if p.kind == "choice" else (True, False))}
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["run", "column", "--set", "phi0=0.7"], "phi0 = 0.7 is outside the valid range (0, 0.535) "
+                                             "(phi_j of material 'rod_impact')"),
+    (["run", "column", "--set", "t_end=-1"], "t_end = -1 is outside the valid range (0, 100] s"),
+    (["run", "column", "--set", "t_end=0"], "t_end = 0 is outside the valid range"),
+    (["run", "column", "--set", "cells=0"], "cells = 0 is outside the valid range [2, 100000]"),
+    (["run", "column", "--set", "ppc=0"], "ppc = 0 is outside the valid range [1, 8]"),
+    (["run", "column", "--set", "t_end=nan"], "t_end = nan: must be finite"),
+    (["run", "bar", "--set", "periods=nan"], "periods = nan: must be finite"),
+    (["run", "column", "--set", "gravity=inf"], "gravity = inf: must be finite"),
+    (["run", "shear", "--set", "phi=0.6"], "phi_j of material 'annular_shear'"),
+    (["run", "shear", "--set", "material=hermes2016"], "material = 'hermes2016' is not one of"),
+    (["run", "bar", "--set", "cellz=4"], "unknown parameter 'cellz' of scene bar"),
+    (["run", "bar", "--set", "cells=4.5"], "cells = 4.5 is not an integer"),
+    (["run", "bar", "--set", "transfer=mls"], "transfer = 'mls' is not one of apic, flip, pic"),
+    (["run", "wheel", "--set", "radius=5"], "with radius = 5"),
+    (["run", "disks", "--set", "cells=4096", "--set", "ppc=8"], "needs about"),
+    (["run", "bar", "--frames", "-1"], "--frames = -1 is outside the valid range"),
+    (["run", "bar", "--frames", "0"], "--frames = 0 is outside the valid range"),
+    (["run", "bar", "--checkpoint-every", "-1"], "--checkpoint-every = -1 is outside"),
+    (["run", "bar", "--checkpoint-every", "nan"], "--checkpoint-every = nan: must be finite"),
+    (["run", "bar", "--threads", "0"], "--threads = 0 is outside the valid range"),
+    (["run", "bar", "--threads", "100000"], "--threads = 100000 is outside the valid range"),
+    (["run", "bar", "--resume"], "no checkpoint"),
+])
+def test_issue_instances_are_refused_by_name(argv, words, tmp_path):
+    out = tmp_path / "o"
+    rc, err = _call(argv + ["--out", str(out), "--quiet"])
+    assert rc == 2 and len(err) == 1 and words in err[0], err
+    assert not out.exists()
+
+
+def test_show_prints_every_parameter_with_its_range():
+    for scene in SCENES:
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            assert main(["show", scene]) == 0
+        text = out.getvalue()
+        spec = get_spec(scene)
+        for key in spec.params:
+            line = next(ln for ln in text.splitlines() if ln.startswith(f"  {key} = "))
+            assert "valid: " in line, line
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        main(["show", "column"])
+    assert "phi0 = 0.3  (initial solid volume fraction; valid: (0, 0.535) (phi_j of material " \
+           "'rod_impact'))" in out.getvalue()
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        main(["show", "shear"])
+    assert "override as material_<field>" not in out.getvalue()
+
+
+def test_python_api_validates_too():
+    from mpm2d.scenes import bar, column
+
+    with pytest.raises(ValueError, match=r"phi0 = 0.6 is outside the valid range \(0, 0.535\)"):
+        column.setup(phi0=0.6)
+    with pytest.raises(ValueError, match="cells = True is not an integer"):
+        bar.setup(cells=True)
+    with pytest.raises(ValueError, match="unknown parameter 'lenght'"):
+        bar.setup(lenght=2.0)
