@@ -15,8 +15,28 @@ re-implemented here) with the velocity gradient of simple shear in the x-y plane
   the step is computed with.
 
 The scheme is first order in dt (backward-Euler plastic correction, explicit Jaumann spin,
-structure staggered after the stress). Its steady state is Eq. (1)-(2) up to the normal-stress
-terms O((taubar/G)^2) of the Jaumann rate.
+structure staggered after the stress). Its steady state is that of the continuous Jaumann law
+exactly: sin(theta) = taubar/G, sigma_xy = taubar cos(theta), N1 = 2 taubar^2/G, and Eqs. (1)-(2)
+hold at the plastic rate gdot_p = gdot cos(theta) (so up to O((taubar/G)^2)).
+
+Sub-stepping (safe at any rate). Each step dt is split into n equal local updates of h = dt/n:
+
+- explicit spin: the update rotates the stress with (1 + h W) instead of exp(h W); in the
+  (sigma_xx - sigma_yy, sigma_xy) plane that is the rotation by the shear strain x = gdot h times
+  sqrt(1 + x^2). A flowing update returns the stress radially to its yield value, so only the
+  direction error O(x) remains: x <= 0.01 (:data:`STRAIN_PER_SUBSTEP`). An unyielded (elastic)
+  update keeps the spurious growth, exp(gamma x/2) over a strain gamma: a step with an elastic
+  sub-step is redone with x <= 2 SPIN_GROWTH/(gdot t_end) (1% over the whole run). With dt
+  gdot ~ 1 (the issue's rate 1000 1/s at dt = 1e-3 s) the unsplit update had grown a jammed
+  point's stress to -3400 Pa and, at 1e4 1/s, -2e28 Pa.
+- cancellation: the update forms taubar = tau* - G h gdot_p, which keeps a relative precision of
+  eps G h gdot_p/taubar; a step where that ratio exceeds :data:`Q_MAX` = 1e6 (2e-10 relative) is
+  redone with proportionally more sub-steps;
+- a sub-step that fails (bracketed solve, pressure solve, yield check) is redone with twice as
+  many sub-steps.
+
+A run that would need more than :data:`MAX_SUBSTEPS` (2e7) updates is refused up front (the
+strain gdot t_end <= 2e5) or stops with a RuntimeError naming the step.
 
 Start from a steady state (``stress0``) or from rest with a small isotropic contact pressure
 (``pressure0``): a point at exactly zero pressure sheared isochorically stays separated.
@@ -30,8 +50,8 @@ import pandas as pd
 
 import rheology
 from rheology.checks import check_nonnegative, check_positive, check_range
-from rheology.local_update import (CASE_NAMES, COMPACTION, FAILED, NOUT, OUT_FIELDS, SHEAR_FLOW,
-                                   update_point)
+from rheology.local_update import (CASE_NAMES, COMPACTION, ELASTIC, FAILED, NOUT, OUT_FIELDS,
+                                   SHEAR_FLOW, update_point)
 from rheology.materials import Material
 from rheology.numba_cache import guard
 
@@ -46,7 +66,19 @@ K_OVER_G = 8.3 / 3.8
 _REC = 7
 _OF = {name: _REC + i for i, name in enumerate(OUT_FIELDS)}
 #: Return codes of the stepping kernel.
-OK, UPDATE_FAILED, PRESSURE_FAILED, NOT_FINITE, YIELD_VIOLATED = 0, 1, 2, 3, 4
+OK, UPDATE_FAILED, PRESSURE_FAILED, NOT_FINITE, YIELD_VIOLATED, CANCELLATION, TOO_MANY = range(7)
+#: Sub-stepping bounds (derived in :func:`simple_shear_point`): the shear strain of one
+#: sub-step (the explicit Jaumann spin) ...
+STRAIN_PER_SUBSTEP = 1e-2
+#: ... and the spurious growth of an unyielded (elastic) stress over the whole run, gdot t_end
+#: x/2 <= SPIN_GROWTH with x = gdot h the sub-step's strain.
+SPIN_GROWTH = 1e-2
+#: Largest G h gdot_p/taubar (the trial stress removed by the plastic correction, relative to
+#: what remains): taubar = tau* - G h gdot_p keeps ~eps Q_MAX relative precision (2e-10).
+Q_MAX = 1e6
+#: Most sub-steps of one run (about 10 s of computing) and of one output step.
+MAX_SUBSTEPS = 20_000_000
+MAX_SUBSTEPS_PER_STEP = 1e9
 _MAXIT = 200
 #: Largest accepted yield-function residual |f_1|/(taubar + mu_p p) of a flowing step, and
 #: pressure mismatch |p - p_target|/p_target of a pressure-controlled step.
@@ -144,34 +176,84 @@ def _pressure_step(sig, phi, f, gdot, e_guess, dt, p_target, K, P, sig_out, out)
 
 
 @_jit
-def _run(sig0, phi0, f0, gdot, dt, nsteps, every, mode, p_target, K, P, rec):
-    """March nsteps of dt; write every ``every``-th state into rec. Returns (code, step, rows)."""
-    sig = sig0.copy()
-    sig_out = np.empty((3, 3))
-    out = np.zeros(NOUT)
-    phi, f, e = phi0, f0, 0.0
-    row = 0
-    for n in range(nsteps):
+def _advance(sig, phi, f, e, gdot, h, nsub, mode, p_target, K, G, P, sig_out, out, sig_w):
+    """nsub sub-steps of length h from (sig, phi, f, e) into sig_out (and out, the last step's
+    fields). Returns (code, phi, f, e, q, elastic): q = max over the sub-steps of
+    G h gdot_p/taubar, the part of the trial stress the plastic correction removes relative to
+    what remains (the cancellation measure of the update); elastic: a sub-step ended unyielded."""
+    sig_w[:, :] = sig
+    q = 0.0
+    elastic = False
+    for _ in range(nsub):
         if mode == 0:
-            phi_new = _step(sig, phi, f, gdot, 0.0, dt, P, sig_out, out)
-            ok = out[12] != FAILED
-            code = UPDATE_FAILED
+            phi_new = _step(sig_w, phi, f, gdot, 0.0, h, P, sig_out, out)
+            if out[12] == FAILED:
+                return UPDATE_FAILED, phi, f, e, q, elastic
         else:
-            e, ok = _pressure_step(sig, phi, f, gdot, e, dt, p_target, K, P, sig_out, out)
-            phi_new = phi / (1.0 + e * dt)
-            code = PRESSURE_FAILED
-        if not ok:
-            return code, n, row
+            e, ok = _pressure_step(sig_w, phi, f, gdot, e, h, p_target, K, P, sig_out, out)
+            phi_new = phi / (1.0 + e * h)
+            if not ok:
+                return PRESSURE_FAILED, phi, f, e, q, elastic
         if yield_residual(out) > YIELD_TOL:
-            return YIELD_VIOLATED, n, row
+            return YIELD_VIOLATED, phi, f, e, q, elastic
         finite = np.isfinite(out[0]) and np.isfinite(phi_new)
         for i in range(3):
             for j in range(3):
                 finite = finite and np.isfinite(sig_out[i, j])
         if not finite:
-            return NOT_FINITE, n, row
-        sig[:, :] = sig_out
+            return NOT_FINITE, phi, f, e, q, elastic
+        if out[10] > 0.0 and out[1] > 0.0:
+            q = max(q, G * h * out[1] / out[10])
+        elastic = elastic or out[12] == ELASTIC
+        sig_w[:, :] = sig_out
         phi, f = phi_new, out[0]
+    return OK, phi, f, e, q, elastic
+
+
+@_jit
+def _run(sig0, phi0, f0, gdot, dt, nsteps, every, mode, p_target, K, G, P, rec, n_min,
+         x_elastic, max_total, stats):
+    """March nsteps of dt, each as n >= n_min equal sub-steps; write every ``every``-th state
+    into rec. A step whose sub-steps fail, leave the yield surface or exceed the cancellation
+    bound Q_MAX, or has an unyielded sub-step longer than the strain x_elastic, is recomputed from
+    its start with more sub-steps (the count adapts both ways, never below n_min). Returns
+    (code, step, rows); stats = [sub-steps, max n, retries]."""
+    sig = sig0.copy()
+    sig_out = np.empty((3, 3))
+    sig_w = np.empty((3, 3))
+    out = np.zeros(NOUT)
+    phi, f, e = phi0, f0, 0.0
+    row = 0
+    nsub = n_min
+    total = 0
+    for n in range(nsteps):
+        while True:
+            code, phi_new, f_new, e_new, q, el = _advance(sig, phi, f, e, gdot, dt / nsub, nsub,
+                                                          mode, p_target, K, G, P, sig_out, out,
+                                                          sig_w)
+            spin_ok = not el or dt / nsub * gdot <= x_elastic * (1.0 + 1e-12)
+            if code == OK and q <= Q_MAX and spin_ok:
+                break
+            if code == OK and not spin_ok:           # unyielded: the spin's growth bound
+                grow = max(2.0, np.ceil(dt * gdot / x_elastic) / nsub)
+            elif code == OK:                         # too much cancellation: shorter steps
+                grow = min(max(2.0, 1.5 * q / Q_MAX), 1e6)
+            else:
+                grow = 2.0
+            if nsub * grow > MAX_SUBSTEPS_PER_STEP or total > max_total:
+                stats[0], stats[2] = total, stats[2] + 1
+                return (code if code != OK else CANCELLATION), n, row
+            nsub = int(np.ceil(nsub * grow))
+            stats[2] += 1
+        total += nsub
+        stats[1] = max(stats[1], nsub)
+        if total > max_total:
+            stats[0] = total
+            return TOO_MANY, n, row
+        sig[:, :] = sig_out
+        phi, f, e = phi_new, f_new, e_new
+        if q < 0.25 * Q_MAX and nsub > n_min:       # room again: fewer sub-steps
+            nsub = max(n_min, nsub // 2)
         if (n + 1) % every == 0 or n == nsteps - 1:
             rec[row, 0] = (n + 1) * dt
             rec[row, 1], rec[row, 2], rec[row, 3], rec[row, 4] = sig[0, 0], sig[1, 1], sig[2, 2], \
@@ -180,6 +262,7 @@ def _run(sig0, phi0, f0, gdot, dt, nsteps, every, mode, p_target, K, P, rec):
             for k in range(NOUT):
                 rec[row, _REC + k] = out[k]
             row += 1
+    stats[0] = total
     return OK, nsteps, row
 
 
@@ -227,7 +310,9 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     rate : float
         Imposed shear rate gdot = L_xy [1/s], >= 0.
     t_end, dt : float
-        Duration and time step [s].
+        Duration and largest time step [s] (output and accuracy); each step is split into
+        sub-steps where the rate needs it (module docstring): at most 0.01 strain per local
+        update, less for an unyielded point, fewer where G h gdot_p/taubar > 1e6.
     control : {"volume", "pressure"}
         Fixed phi (L_yy = 0), or imposed granular pressure ``pressure`` [Pa] (L_yy solved).
     stress0 : float, optional
@@ -253,10 +338,13 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     Raises
     ------
     ValueError
-        Bad input (including a time step so large that the run would have fewer than one step).
+        Bad input (including a time step so large that the run would have fewer than one step,
+        or a strain gdot t_end needing more than 2e7 local updates, with the longest t_end).
     RuntimeError
-        The local update or the pressure solve failed, or the state became non-finite (with the
-        step, time and state).
+        The local update or the pressure solve failed even with 1e9 sub-steps per step, or the
+        state became non-finite (with the step, time and state).
+
+    ``attrs``: ``substeps`` (local updates in all), ``max_substeps_per_step``, ``retries``.
     """
     m0 = rheology.get_material(material)
     phi = float(check_range("phi", phi, 0.0, 1.0, lo_closed=False, hi_closed=False))
@@ -279,24 +367,61 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     sig0, f_init = initial_point(m, phi, stress0=stress0, f0=f0, pressure0=pressure0)
     nsteps = int(round(t_end / dt))
     every = max(1, nsteps // int(check_range("points", points, 1, 10 ** 7)))
+    n_min, x_max, x_el = substeps(rate, t_end, dt, control, phi)
     rec = np.empty((nsteps // every + 2, _REC + NOUT))
+    stats = np.zeros(3, dtype=np.int64)
     code, n, rows = _run(sig0, phi, f_init, rate, dt, nsteps, every,
-                         0 if control == "volume" else 1, pressure or 0.0, m.K, P, rec)
+                         0 if control == "volume" else 1, pressure or 0.0, m.K, m.G, P, rec,
+                         n_min, x_el, MAX_SUBSTEPS, stats)
     if code != OK:
         what = {UPDATE_FAILED: "the local update's bracketed solve failed",
                 PRESSURE_FAILED: "no dilation rate gives the imposed pressure (p(e) jumps over "
                                  "it, e.g. to separation)",
                 NOT_FINITE: "the state became non-finite",
                 YIELD_VIOLATED: f"the local update ended off the yield surface (|f_1| > "
-                                f"{YIELD_TOL:g} relative)"}[code]
+                                f"{YIELD_TOL:g} relative)",
+                CANCELLATION: f"the plastic correction cancels more than {Q_MAX:g} times the "
+                              f"remaining stress (G h gdot_p/taubar)",
+                TOO_MANY: f"more than {MAX_SUBSTEPS:.0e} sub-steps were needed"}[code]
         last = rec[rows - 1] if rows else None
         state = (f"last recorded t = {last[0]:.6g} s: sigma_xy = {last[4]:.6g} Pa, "
                  f"p = {last[_OF['pressure']]:.6g} Pa, f = {last[_OF['f']]:.6g}, "
                  f"phi = {last[5]:.6g}" if last is not None else "before the first output row")
         raise RuntimeError(f"material point ({control} control, phi0 = {phi:g}, rate = {rate:g} "
                            f"1/s, dt = {dt:g} s): {what} at step {n + 1} (t = {(n + 1) * dt:.6g} "
-                           f"s); {state}; reduce dt")
-    return _frame(np.vstack([_initial_row(sig0, phi, f_init, m, stress0), rec[:rows]]), rate)
+                           f"s) even with {int(stats[1])} sub-steps per step ({int(stats[0])} in "
+                           f"all); {state}")
+    df = _frame(np.vstack([_initial_row(sig0, phi, f_init, m, stress0), rec[:rows]]), rate)
+    df.attrs.update(substeps=int(stats[0]), max_substeps_per_step=int(stats[1]),
+                    retries=int(stats[2]), strain_per_substep_max=x_max)
+    if stats[1] > 1:
+        df.attrs["substeps_note"] = (
+            f"sub-stepped: {int(stats[0])} local updates for {nsteps} steps of {dt:g} s (at "
+            f"most {int(stats[1])} per step; strain per sub-step <= {x_max:.3g})")
+    return df
+
+
+def substeps(rate: float, t_end: float, dt: float, control: str = "volume",
+             phi: float = float("nan")) -> tuple[int, float, float]:
+    """(least sub-steps per step of dt, largest strain of a sub-step, largest strain of an
+    unyielded sub-step) at shear rate ``rate`` over ``t_end`` (see :func:`simple_shear_point`).
+
+    Raises ValueError if the run would need more than :data:`MAX_SUBSTEPS` local updates even
+    while flowing."""
+    strain = rate * t_end
+    x_max = STRAIN_PER_SUBSTEP
+    x_el = min(x_max, 2.0 * SPIN_GROWTH / strain) if strain > 0 else np.inf
+    n_min = max(1, int(np.ceil(dt * rate / x_max))) if rate > 0 else 1
+    nsteps = int(round(t_end / dt))
+    if n_min * nsteps > MAX_SUBSTEPS:
+        longest = MAX_SUBSTEPS * x_max
+        raise ValueError(
+            f"t_end = {t_end:g} s at rate = {rate:g} 1/s is a shear strain of {strain:.3g}: the "
+            f"material point needs {n_min * nsteps:.3g} local updates (strain per update <= "
+            f"{x_max:g}, the explicit Jaumann spin's bound), more than the limit "
+            f"{MAX_SUBSTEPS:.0e}; valid: strain up to {longest:.3g}, i.e. t_end <= "
+            f"{longest / rate:.3g} s at this rate ({control} control, phi = {phi:g})")
+    return n_min, x_max, x_el
 
 
 def _initial_row(sig0, phi, f, m: Material, stress0):

@@ -274,12 +274,20 @@ class Rheometer:
 
     def scales(self, step: Step, st: State) -> np.ndarray:
         """Scale of each DAE unknown for the absolute tolerances: stress [Pa], gap (tiny, so that
-        the gap is controlled relatively down to ~1e-8), rates [1/s], strain."""
+        the gap is controlled relatively down to ~1e-8), rates [1/s] (under stress control the
+        shear rate's is the stress scale over the fluid viscosity), strain."""
         rate_max = max(step.start, step.end) if step.control == "rate" else 0.0
         stress_max = max(step.start, step.end) if step.control == "stress" else 0.0
         tau = max(st.taubar, stress_max, self.eta_low * rate_max, 1e-6 * self.material.tau_star)
         g = max(rate_max, tau / self.eta_low)
-        return np.array([tau, 1e-8, g, g, 1.0])
+        # Under an imposed mixture stress the shear rate is slaved to the granular stress,
+        # gdot = (tau_imposed - taubar)/eta_f: an error atol_tau in taubar IS an error
+        # atol_tau/eta_f in gdot. A tighter gdot tolerance (the low-stress viscosity eta_low is
+        # ~1e3 eta_f near jamming) cannot be met by any step size on a curved (log) stress ramp:
+        # IDA then crawled at the fluid time eta_f/G (~1e-6 s; 1.5 million residuals, 12 s for a
+        # 0.23 s ramp). Consistent tolerances: 250 residuals, identical results to rtol.
+        gd = max(g, tau / self.eta_fluid) if step.control == "stress" else g
+        return np.array([tau, 1e-8, g, gd, 1.0])
 
     def output_times(self, step: Step, t_end: float, points: int) -> np.ndarray:
         """Output times from the step start: even for ramps; for constant steps half even and
