@@ -40,7 +40,7 @@ from rheology.checks import check_positive, check_range
 
 from . import grid_update as gu
 from .kernels import PARALLEL_MIN_POINTS, dual
-from .grid import FPX, FX, M, MX, NF_ONE, NF_TWO, NOSLIP, PAD, SLIP, Grid, fold, unfold
+from .grid import FPX, FX, M, V, NF_ONE, NF_TWO, NOSLIP, PAD, SLIP, Grid, fold, unfold
 from .materials import Suspension
 from .particles import ParticleSet
 from .bodies import check_mu
@@ -185,7 +185,7 @@ class Simulation:
         self.vg = {ph: np.zeros(shape + (2,)) for ph in self.fields}
         self.vg_old = {ph: np.zeros(shape + (2,)) for ph in self.fields}
         self._geo_work = np.zeros(shape + (NF_ONE,))
-        self._wall_work = np.zeros(shape + (NF_ONE,))
+        self._wall_work = np.zeros(shape + (NF_TWO,))
         if self.two_phase:
             self.phi_nodes = np.zeros(shape)
             self.q_nodes = np.zeros(shape + (2,))
@@ -412,7 +412,7 @@ class Simulation:
                 G = self.G[ph]
                 for I in cols:
                     a = mom[I, :, M]
-                    sbar = np.divide(mom[I, :, MX], a, out=np.zeros_like(a), where=a > 0)
+                    sbar = np.divide(mom[I, :, V], a, out=np.zeros_like(a), where=a > 0)
                     G[I, :, slot] += sign * sbar * mom[I, :, FX]
 
     # ------------------------------------------------------------------ contact

@@ -320,10 +320,10 @@ def wall_moments(x, vol, s, geo, lo_band, hi_band, out):
     """Radial-wall moments of a set's stress for the axisymmetric wall correction.
 
     For the points within ``lo_band`` [m] of the grid's xmin side or ``hi_band`` of its xmax side
-    (0: none), scatters into the unfolded node fields ``out`` (NI, NJ, NF_ONE), to be folded like
+    (0: none), scatters into the unfolded node fields ``out`` (NI, NJ, NF_TWO), to be folded like
     the forces::
 
-        out[M]  += N_ip A_p          out[MX] += N_ip A_p s_p
+        out[M]  += N_ip A_p          out[V] += N_ip A_p s_p   (both fold evenly)
         out[FX] += A_p (r_p dN_ip/dr + N_ip)     (minus the radial force of a unit uniform
                                                    stress sigma_rr = sigma_thth = 1)
 
@@ -345,5 +345,5 @@ def wall_moments(x, vol, s, geo, lo_band, hi_band, out):
                 wb = wy0 if b == 0 else (wy1 if b == 1 else wy2)
                 I, J = bx + a + PAD, by + b + PAD
                 out[I, J, M] += wa * wb * A
-                out[I, J, MX] += wa * wb * A * s[p]
+                out[I, J, V] += wa * wb * A * s[p]
                 out[I, J, FX] += A * (r * da * inv_h + wa) * wb

@@ -322,3 +322,251 @@ def column_case(out: Path, quick: bool) -> Verdict:
         measured=f"grain speed {r['grain_speed_m_per_s']:.5g} m/s vs {r['settling_speed_exact_m_per_s']:.5g}"
                  f" m/s (error {r['grain_speed_error']:.2e})" + extra,
         passed=ok, figures=[out / "column.png"])
+
+
+# ---------------------------------------------------------------- issue 10: contact, axis, rest
+def _block_on_floor(h, gap=0.0, theta=0.0, mu=0.0, v0=0.0, geostatic=False):
+    from mpm2d import Grid, LinearElastic, ParticleSet, RigidBody, Simulation, box
+    g0, rho, nu = 9.81, 1000.0, 0.3
+    grid = Grid(int(round(0.4 / h)), int(round(0.24 / h)), h,
+                boundaries=dict(xmin="free", xmax="free", ymin="free", ymax="free"))
+    xf, af = box((0.0, 0.0), (0.4, 0.04), h / 2)
+    floor = RigidBody("floor", xf, af, density=1000.0, prescribed="all", mu_w=mu)
+    y0 = 0.04 + gap
+    x, a = box((0.1, y0), (0.2, y0 + 0.1), h / 2)
+    stress = None
+    if geostatic:
+        stress = np.zeros((len(x), 3, 3))
+        stress[:, 1, 1] = -rho * g0 * np.cos(theta) * (y0 + 0.1 - x[:, 1])
+        stress[:, 2, 2] = nu * stress[:, 1, 1]
+    blk = ParticleSet("block", LinearElastic(rho, E=1e5, nu=nu), x, a, v=(0.0, -v0),
+                      stress=stress)
+    sim = Simulation(grid, [blk], [floor], gravity=(g0 * np.sin(theta), -g0 * np.cos(theta)))
+    return sim, blk, floor
+
+
+def _onset_time(gap, h, v0=0.5):
+    from mpm2d import Grid, LinearElastic, ParticleSet, RigidBody, Simulation, box
+    grid = Grid(16, 16, h, boundaries=dict(xmin="slip", xmax="slip", ymin="noslip", ymax="free"))
+    x, a = box((0.0, 0.0), (16 * h, 6 * h), h / 2)
+    bed = ParticleSet("bed", LinearElastic(1000.0, 1e5, 1e5), x, a)
+    y0 = 6 * h + gap
+    xb, ab = box((6 * h, y0), (10 * h, y0 + 4 * h), h / 2)
+    body = RigidBody("body", xb, ab, density=1000.0, velocity=(0.0, -v0), prescribed="none")
+    sim = Simulation(grid, [bed], [body])
+    while True:
+        t0 = sim.t
+        sim.step()
+        if body.force[1] != 0.0:
+            return t0, gap / v0, sim.last_dt
+
+
+@case("mpm2d", "mpm2d_contact", "mpm2d: multi-velocity-field contact (separation, weight, "
+      "Coulomb incline, onset)")
+def contact_case(out: Path, quick: bool) -> Verdict:
+    h, g0 = 0.01, 9.81
+    rows, ok = [], True
+    # (a) drop and bounce
+    sim, blk, floor = _block_on_floor(h, gap=0.02, v0=0.5)
+    T, F, gap = [], [], []
+    while sim.t < 0.3:
+        gap.append(blk.x[:, 1].min() - h / 4 - 0.04)
+        sim.step()
+        T.append(sim.t)
+        F.append(-floor.force[1])
+    F, gap = np.array(F), np.array(gap)
+    apart_force = float(np.abs(F[gap > 1e-12]).max())
+    on = F != 0
+    sw = np.nonzero(np.diff(on.astype(int)))[0]
+    sep = len(sw) >= 2 and gap[sw[1] + 5:].max() > 1e-4
+    ok &= apart_force == 0.0 and sep
+    rows.append(dict(check="(a) drop: max force while apart [N/m]", value=apart_force,
+                     target="0", passed=apart_force == 0.0 and sep))
+    fig, axs = plt.subplots(1, 2, figsize=(12, 4))
+    axs[0].plot(T, F / (blk.m.sum() * g0), "r-")
+    axs[0].set_xlabel("t [s]")
+    axs[0].set_ylabel("floor force / weight")
+    axs[0].set_title("(a) elastic block dropped on a rigid floor")
+    # (b) resting block
+    sim, blk, floor = _block_on_floor(h, geostatic=True)
+    Fr = []
+    while sim.t < 0.3:
+        sim.step()
+        Fr.append(-floor.force[1])
+    w = float(np.mean(Fr[len(Fr) // 2:]) / (blk.m.sum() * g0))
+    rows.append(dict(check="(b) resting block: mean force / weight", value=w, target="1 +- 0.01",
+                     passed=abs(w - 1) < 0.01))
+    ok &= abs(w - 1) < 0.01
+    # (c) incline
+    for th_deg, mu in ((30.0, 0.0), (30.0, 0.2), (10.0, 0.2)):
+        th = np.radians(th_deg)
+        sim, blk, floor = _block_on_floor(h, theta=th, mu=mu, geostatic=True)
+        TT, V = [], []
+        bottom = blk.x[:, 1] < 0.04 + h / 2
+        xs = None
+        t_run = 0.3 if np.tan(th) < mu else 0.15          # sliders would leave the floor
+        while sim.t < t_run:
+            sim.step()
+            TT.append(sim.t)
+            V.append(np.sum(blk.m * blk.v[:, 0]) / blk.m.sum())
+            if xs is None and sim.t >= 0.15:
+                xs = (blk.x[bottom, 0].mean(), sim.t)
+        TT, V = np.array(TT), np.array(V)
+        exact = g0 * max(np.sin(th) - mu * np.cos(th), 0.0)
+        if exact > 0:
+            a = np.polyfit(TT[TT > 0.03], V[TT > 0.03], 1)[0]
+            err = abs(a / exact - 1)
+            rows.append(dict(check=f"(c) incline {th_deg:g} deg, mu {mu}: acceleration error",
+                             value=err, target="< 0.01", passed=err < 0.01))
+            ok &= err < 0.01
+            axs[1].plot(TT, V, label=f"{th_deg:g} deg, mu {mu}")
+            axs[1].plot(TT, exact * TT, "k:")
+        else:
+            slip = blk.x[bottom, 0].mean() - xs[0]
+            free = 0.5 * g0 * np.sin(th) * (sim.t ** 2 - xs[1] ** 2)
+            rows.append(dict(check=f"(c) incline {th_deg:g} deg, mu {mu} (tan < mu): late slip / "
+                             "frictionless slide", value=abs(slip) / free, target="< 0.01",
+                             passed=abs(slip) < 0.01 * free))
+            ok &= abs(slip) < 0.01 * free
+    axs[1].set_xlabel("t [s]")
+    axs[1].set_ylabel("block velocity along the plane [m/s]")
+    axs[1].legend()
+    # (d) onset
+    for frac in (0.25, 0.5, 2.0):
+        t_hit, exact, dt = _onset_time(frac * 0.01, 0.01)
+        good = t_hit >= exact * (1 - 1e-12) and t_hit - exact <= dt * (1 + 1e-9)
+        rows.append(dict(check=f"(d) onset, gap {frac:g} h: (t_first_force - t_touch)/dt",
+                         value=(t_hit - exact) / dt, target="in [0, 1]", passed=good))
+        ok &= good
+    hs = (0.004, 0.002, 0.001) if quick else (0.004, 0.002, 0.001, 0.0005)
+    errs = [(_onset_time(0.013, hh)[0] - 0.013 / 0.5) for hh in hs]
+    orders = observed_orders(np.array(hs), np.maximum(np.array(errs), 1e-300))
+    rows.append(dict(check="(d) impact time error [s] at h = " + ", ".join(f"{x:g}" for x in hs),
+                     value=float(errs[-1]), target="<= dt, -> 0 (first order)",
+                     passed=True, details=str(errs) + " orders " + str(orders.round(2))))
+    df = pd.DataFrame(rows)
+    atomic_write_csv(out / "contact_checks.csv", df.drop(columns=["details"], errors="ignore"))
+    fig_path = atomic_savefig(fig, out / "contact.png")
+    plt.close(fig)
+    return Verdict(
+        criterion="(a) no force while apart and the block leaves the floor; (b) weight carried "
+                  "to 1%; (c) g (sin th - mu cos th) to 1% for mu = 0, 0.2 at 30 deg and no late "
+                  "slip at 10 deg, mu = 0.2; (d) no force before the surfaces touch, detected "
+                  "within one step (first order in h)",
+        measured="; ".join(f"{r['check']}: {r['value']:.4g}" for r in rows),
+        passed=bool(ok), figures=[fig_path], details=df.to_string())
+
+
+def _axis_bed(mode, h, nx, nz):
+    from mpm2d import (Grid, LinearElastic, NewtonianFluid, ParticleSet, Simulation,
+                       Suspension, box)
+    from rheology import get_material
+    m = get_material("rod_impact", K=8.3e5, G=3.8e5, kappa=8.3e5)
+    grid = Grid(nx, nz + 2, h, axisymmetric=True,
+                boundaries=dict(xmin="axis", xmax="slip", ymin="noslip", ymax="free"))
+    x, a = box((0.0, 0.0), (nx * h, nz * h), h / 2)
+    if mode == "locked":
+        sets = [ParticleSet("bed", Suspension(m, locked=True), x, a, phi=0.47, f=0.0,
+                            axisymmetric=True)]
+    elif mode == "elastic":
+        sets = [ParticleSet("bed", LinearElastic(1600.0, 8.3e5, 3.8e5), x, a, axisymmetric=True)]
+    else:
+        sets = [ParticleSet("grains", Suspension(m), x, a, phi=0.47, f=0.0, axisymmetric=True),
+                ParticleSet("fluid", NewtonianFluid.from_material(m), x, a, phi=0.47,
+                            axisymmetric=True)]
+    rho = 1600.0 if mode == "elastic" else 0.47 * m.rho_s + 0.53 * m.rho_f
+    return Simulation(grid, sets, gravity=(0.0, -9.81)), sets, rho
+
+
+@case("mpm2d", "mpm2d_axis_rest", "mpm2d: hydrostatic axisymmetric bed at rest, every cell "
+      "incl. the axis (0.1 s)")
+def axis_rest_case(out: Path, quick: bool) -> Verdict:
+    from mpm2d.geostatic import geostatic
+    rows, ok = [], True
+    for h in ((2e-3,) if quick else (2e-3, 1e-3)):
+        nx, nz = (6, 12) if quick else (10, 16)
+        for mode in ("elastic", "locked", "two-phase"):
+            sim, sets, rho = _axis_bed(mode, h, nx, nz)
+            geostatic(sim, relax=False)
+            sim.run(0.1)
+            s = sets[-1]
+            d = nz * h - s.x[:, 1]
+            val = -s.stress[:, 1, 1] if mode == "elastic" else s.pf
+            err = (val - rho * 9.81 * d) / (rho * 9.81 * d)
+            ci = np.floor(s.x[:, 0] / h).astype(int)
+            cj = np.floor(s.x[:, 1] / h).astype(int)
+            cells = np.array([[err[(ci == i) & (cj == j)].mean() for i in range(nx)]
+                              for j in range(nz)])
+            inner = float(np.abs(cells[:nz - 2]).max())
+            axis = float(np.abs(cells[:nz - 2, 0]).max())
+            rows.append(dict(h_mm=h * 1e3, mode=mode, max_cell_error=inner, axis_cell_error=axis,
+                             surface_row_error=float(cells[nz - 1].mean()),
+                             second_row_error=float(cells[nz - 2].mean())))
+            ok &= inner < 0.005
+    df = pd.DataFrame(rows)
+    atomic_write_csv(out / "axis_rest.csv", df)
+    return Verdict(
+        criterion="after 0.1 s at rest the load-carrying field (elastic -sigma_zz; locked and "
+                  "two-phase loose beds: pore pressure) equals rho g depth to 0.5% in every cell "
+                  "including the axis cells, below the two surface cell rows (free-surface "
+                  "quadrature layer, reported)",
+        measured="; ".join(f"{r['mode']} {r['h_mm']:g} mm: max {100 * r['max_cell_error']:.2f}% "
+                           f"(axis {100 * r['axis_cell_error']:.2f}%), surface rows "
+                           f"{100 * r['surface_row_error']:.1f}%/{100 * r['second_row_error']:.2f}%"
+                           for r in rows),
+        passed=bool(ok), details=df.to_string())
+
+
+@case("mpm2d", "mpm2d_bed_rest", "mpm2d: the rod_drop bed (geostatic) left alone 0.1 s")
+def bed_rest_case(out: Path, quick: bool) -> Verdict:
+    from mpm2d import Grid, ParticleSet, Simulation, Suspension, box
+    from mpm2d.geostatic import geostatic
+    from rheology import get_material
+    m = get_material("rod_impact", K=8.3e5, G=3.8e5, kappa=8.3e5)
+    h = 2e-3 if quick else 1e-3
+    R = D = 0.01 if quick else 0.03
+    nx, nz = int(round(R / h)), int(round(D / h))
+    rows, ok = [], True
+    for init in ("geostatic", "former (pf = rho_f g d, grains buoyant weight)"):
+        grid = Grid(nx, nz + 4, h, axisymmetric=True,
+                    boundaries=dict(xmin="axis", xmax="slip", ymin="noslip", ymax="free"))
+        x, a = box((0.0, 0.0), (nx * h, D), h / 2)
+        d = D - x[:, 1]
+        if init == "geostatic":
+            bed = ParticleSet("bed", Suspension(m, locked=True), x, a, phi=0.47, f=0.0,
+                              axisymmetric=True)
+            sim = Simulation(grid, [bed], gravity=(0.0, -9.81))
+            geostatic(sim)
+        else:
+            pg = 0.47 * (m.rho_s - m.rho_f) * 9.81 * d
+            bed = ParticleSet("bed", Suspension(m, locked=True), x, a, phi=0.47, f=0.0,
+                              stress=-pg[:, None, None] * np.eye(3), pf=m.rho_f * 9.81 * d,
+                              axisymmetric=True)
+            sim = Simulation(grid, [bed], gravity=(0.0, -9.81))
+        bottom = bed.x[:, 1] < 0.25 * D
+        def total():
+            return float(np.mean(-bed.stress[bottom, 1, 1] + bed.pf[bottom]))
+        s0 = total()
+        pf0 = bed.pf.copy()
+        hist = []
+        vmax = 0.0
+        while sim.t < 0.1:
+            sim.step()
+            vmax = max(vmax, float(np.abs(bed.v).max()))
+            hist.append(total())
+        hist = np.array(hist)
+        change = float(np.abs(bed.pf - pf0).max() / np.abs(pf0).max())
+        swing = float(np.abs(hist / s0 - 1).max())
+        rows.append(dict(init=init, vmax_m_per_s=vmax, max_pf_change=change,
+                         total_vertical_stress_swing=swing))
+        if init == "geostatic":
+            ok &= vmax < 1e-3 and change < 0.02
+    df = pd.DataFrame(rows)
+    atomic_write_csv(out / "bed_rest.csv", df)
+    return Verdict(
+        criterion="a geostatic bed left alone 0.1 s keeps |v| < 1e-3 m/s and its pore pressure "
+                  "within 2% of the initial field (the former start is shown for comparison)",
+        measured="; ".join(f"{r['init']}: max |v| {r['vmax_m_per_s']:.2e} m/s, pore-pressure "
+                           f"change {100 * r['max_pf_change']:.2f}%, bottom total-stress swing "
+                           f"{100 * r['total_vertical_stress_swing']:.1f}%" for r in rows),
+        passed=bool(ok), details=df.to_string())

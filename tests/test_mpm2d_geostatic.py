@@ -1,0 +1,80 @@
+"""mpm2d.geostatic: beds that start at rest (issue 10, item 3).
+
+A bed put in its geostatic state and left alone for 0.1 s keeps |v| < 1e-3 m/s and its stress
+(the load-carrying field: pore pressure of a loose suspension bed, stress of an elastic one)
+within 2 % of the initial field (max over points of |change| / max |initial|).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mpm2d import (Grid, LinearElastic, NewtonianFluid, ParticleSet, Simulation, Suspension,
+                   box)
+from mpm2d.geostatic import geostatic
+from rheology import get_material
+
+G0 = 9.81
+MAT = get_material("rod_impact", K=8.3e5, G=3.8e5, kappa=8.3e5)
+
+
+def _sim(mode, axi, h=2e-3, nx=6, nz=10, phi=0.47):
+    kw = dict(axisymmetric=axi)
+    grid = Grid(nx, nz + 2, h, boundaries=dict(xmin="axis" if axi else "slip", xmax="slip",
+                                               ymin="noslip", ymax="free"), **kw)
+    x, a = box((0.0, 0.0), (nx * h, nz * h), h / 2)
+    if mode == "locked":
+        sets = [ParticleSet("bed", Suspension(MAT, locked=True), x, a, phi=phi, f=0.3, **kw)]
+    elif mode == "elastic":
+        sets = [ParticleSet("bed", LinearElastic(1600.0, 8.3e5, 3.8e5), x, a, **kw)]
+    else:
+        sets = [ParticleSet("grains", Suspension(MAT), x, a, phi=phi, f=0.3, **kw),
+                ParticleSet("fluid", NewtonianFluid.from_material(MAT), x, a, phi=phi, **kw)]
+    return Simulation(grid, sets, gravity=(0.0, -G0)), sets
+
+
+def _field(mode, sets):
+    if mode == "elastic":
+        return sets[0].stress.reshape(len(sets[0]), 9).copy()
+    return np.concatenate([sets[-1].pf, sets[0].stress.reshape(-1)])
+
+
+@pytest.mark.parametrize("mode, axi", [("locked", True), ("two-phase", False),
+                                       ("elastic", True), ("locked", False)])
+def test_bed_left_alone_stays_at_rest(mode, axi):
+    sim, sets = _sim(mode, axi)
+    info = geostatic(sim)
+    s0 = _field(mode, sets)
+    x0 = [s.x.copy() for s in sets]
+    sim.run(0.1)
+    vmax = max(float(np.abs(s.v).max()) for s in sets)
+    change = np.abs(_field(mode, sets) - s0).max() / np.abs(s0).max()
+    assert vmax < 1e-3, vmax
+    assert change < 0.02, change
+    assert max(float(np.abs(s.x - x).max()) for s, x in zip(sets, x0)) < 1e-5
+    if mode != "elastic":
+        assert np.all(sets[0].f < 1e-9)                           # structure at rest: f = 0
+        assert info["bed.jammed_fraction" if mode == "locked" else "grains.jammed_fraction"] == 0
+
+
+def test_geostatic_state_values():
+    """The stated state: loose locked bed p_f = rho_mix g d (grains free); elastic bed
+    sigma_zz = -rho g d with the oedometric K_lat = (3K - 2G)/(3K + 4G) (or the given one)."""
+    sim, (bed,) = _sim("locked", True)
+    geostatic(sim, relax=False)
+    d = 20e-3 - bed.x[:, 1]
+    rho_mix = bed.m / bed.V
+    assert np.allclose(bed.pf, rho_mix * G0 * d, rtol=1e-3)
+    assert np.all(bed.stress == 0.0)
+    sim, (el,) = _sim("elastic", False)
+    geostatic(sim, relax=False, K_lat=0.7)
+    d = 20e-3 - el.x[:, 1]
+    assert np.allclose(el.stress[:, 1, 1], -1600.0 * G0 * d)
+    assert np.allclose(el.stress[:, 0, 0], 0.7 * el.stress[:, 1, 1])
+    with pytest.raises(ValueError, match="K_lat"):
+        geostatic(_sim("elastic", False)[0], K_lat=3.0)
+    sim, _ = _sim("elastic", False)
+    sim.gravity[:] = (1.0, -G0)
+    with pytest.raises(ValueError, match="gravity"):
+        geostatic(sim)
