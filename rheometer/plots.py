@@ -21,10 +21,45 @@ def _positive(x):
     return np.where(x > 0, x, np.nan)
 
 
+def _segments(stable):
+    """Index ranges [i, j) of runs of equal ``stable`` values."""
+    stable = np.asarray(stable, dtype=bool)
+    cuts = np.flatnonzero(stable[1:] != stable[:-1]) + 1
+    edges = np.concatenate([[0], cuts, [stable.size]])
+    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+
+
+def _branch_lines(ax1, ax2, d: pd.DataFrame, m, ph, c, label):
+    """The states of one phi under rate or mixture-stress control, drawn along the (unique)
+    stress-parametrised curve: consecutive states of equal stability as one line, stable solid,
+    unstable dashed; a lone state as a marker. The whole steady curve underneath, thin grey."""
+    d = d.sort_values("granular_shear_stress_Pa")
+    lo = max(float(d["granular_shear_stress_Pa"].min()) / 3.0, 1e-12)
+    hi = float(d["granular_shear_stress_Pa"].max()) * 3.0
+    full = rheology.steady_state_stress(np.geomspace(lo, hi, 400), ph, m)
+    ax1.loglog(_positive(full.shear_rate), full.shear_stress, "-", color="0.6", lw=0.8,
+               zorder=1)
+    seen = set()
+    for a, b in _segments(d["stable"].to_numpy()):
+        s = d.iloc[a:b]
+        stable = bool(s["stable"].iloc[0])
+        key = (ph, stable)
+        lab = None if key in seen else label + (" stable" if stable else " unstable")
+        seen.add(key)
+        style = dict(color=c, lw=2 if stable else 1.5, ls="-" if stable else "--", label=lab)
+        if len(s) == 1:
+            style.update(ls="none", marker="o" if stable else "x", ms=5,
+                         mfc=c if stable else "none")
+        ax1.loglog(s["shear_rate_per_s"], s["shear_stress_Pa"], **style)
+        ax2.loglog(s["shear_stress_Pa"], _positive(s["viscosity_Pa_s"]),
+                   **{k: v for k, v in style.items() if k != "label"})
+
+
 def flow_curve_figure(df: pd.DataFrame, material, title: str | None = None):
     """Two panels: shear stress vs shear rate and viscosity vs shear stress (log-log), one curve
-    per phi; for rate or mixture-stress control the states as markers (crosses: unstable) over
-    the whole steady curve (thin line); gdot_DST of Eq. (33) marked where DST exists."""
+    per phi. Under rate or mixture-stress control every steady state is drawn along the branch
+    it belongs to, stable branches solid and unstable ones dashed (legend), over the whole
+    stress-parametrised steady curve (thin grey); gdot_DST of Eq. (33) dotted where DST exists."""
     m = rheology.get_material(material)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.4))
     phis = np.unique(df["phi"])
@@ -32,17 +67,7 @@ def flow_curve_figure(df: pd.DataFrame, material, title: str | None = None):
         d = df[df["phi"] == ph]
         label = f"phi = {ph:g}"
         if "stable" in d.columns:
-            full = rheology.steady_state_stress(np.logspace(-3, 4, 300), ph, m)  # whole S-curve
-            ax1.loglog(_positive(full.shear_rate), full.shear_stress, "-", color=c, lw=0.8,
-                       alpha=0.5)
-            for stable, style in ((True, "o"), (False, "x")):
-                s = d[d["stable"] == stable]
-                if len(s):
-                    ax1.loglog(s["shear_rate_per_s"], s["shear_stress_Pa"], style, ms=3.5,
-                               color=c, mfc=c if stable else "none",
-                               label=label + ("" if stable else " (unstable)"))
-                    ax2.loglog(s["shear_stress_Pa"], s["viscosity_Pa_s"], style, ms=3.5,
-                               color=c, mfc=c if stable else "none")
+            _branch_lines(ax1, ax2, d, m, ph, c, label)
         else:
             d = d.sort_values("granular_shear_stress_Pa")
             ax1.loglog(_positive(d["shear_rate_per_s"]), d["shear_stress_Pa"], "-", color=c,
@@ -53,7 +78,9 @@ def flow_curve_figure(df: pd.DataFrame, material, title: str | None = None):
             ax1.axvline(g, color=c, ls=":", lw=1)
     ax1.set_xlabel("shear rate [1/s]")
     ax1.set_ylabel("mixture shear stress [Pa]")
-    ax1.set_title("flow curve (dotted: Eq. 33 DST rate)", fontsize=10)
+    ax1.set_title("flow curve (dotted: Eq. 33 DST rate; grey: whole steady curve)"
+                  if "stable" in df.columns else "flow curve (dotted: Eq. 33 DST rate)",
+                  fontsize=10)
     ax1.legend(fontsize=8)
     ax2.set_xlabel("mixture shear stress [Pa]")
     ax2.set_ylabel("viscosity [Pa s]")
@@ -66,91 +93,290 @@ def flow_curve_figure(df: pd.DataFrame, material, title: str | None = None):
     return fig
 
 
+def _f_axis(ax, values):
+    """A structure axis that cannot make a tiny change look like a collapse: from 0 to at least
+    1.15 max f (f is a fraction in [0, 1]); the relative change is given in the label."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    top = float(v.max()) if v.size else 1.0
+    ax.set_ylim(0.0, max(1.15 * top, 0.05))
+    if v.size and top > 0:
+        return f" (changes by {100 * (top - float(v.min())) / top:.3g}%)"
+    return ""
+
+
+def _log_floor(ax, values, decades: float = 8.0):
+    """Log y axis over the positive data, floored ``decades`` below the maximum (a relaxation to
+    1e-12 does not stretch the axis over 14 decades)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v) & (v > 0)]
+    if v.size == 0:
+        return
+    ax.set_yscale("log")
+    top = float(v.max())
+    ax.set_ylim(max(float(v.min()), top * 10.0 ** -decades) / 1.5, top * 1.5)
+
+
 def transient_figure(frames: dict, title: str, log_time: bool = False):
     """Mixture (solid) and granular (dashed) shear stress, shear rate and plastic rate, and the
-    structure f against time; one colour per entry of ``frames`` (label -> DataFrame)."""
+    structure f against time; one colour per entry of ``frames`` (label -> DataFrame). The f axis
+    starts at 0 (a 0.1% change stays a 0.1% change) and states the relative change."""
     fig, axs = plt.subplots(1, 3, figsize=(13, 3.9))
+    f_all = []
     for c, (label, df) in zip(_colors(len(frames)), frames.items()):
         t = df["time_s"].to_numpy()
         if log_time:
             t = np.where(t > 0, t, np.nan)
-        axs[0].plot(t, df["shear_stress_Pa"], "-", color=c, lw=2, label=label)
-        axs[0].plot(t, df["granular_shear_stress_Pa"], "--", color=c, lw=1)
-        axs[1].plot(t, df["shear_rate_per_s"], "-", color=c, lw=2, label=label)
-        axs[1].plot(t, df["plastic_shear_rate_per_s"], "--", color=c, lw=1)
+        axs[0].plot(t, df["shear_stress_Pa"], "-", color=c, lw=2, label=label + " mixture")
+        axs[0].plot(t, df["granular_shear_stress_Pa"], "--", color=c, lw=1,
+                    label=label + " granular")
+        axs[1].plot(t, df["shear_rate_per_s"], "-", color=c, lw=2, label=label + " shear rate")
+        axs[1].plot(t, df["plastic_shear_rate_per_s"], "--", color=c, lw=1,
+                    label=label + " plastic rate")
         axs[2].plot(t, df["f"], "-", color=c, lw=2, label=label)
+        f_all.append(df["f"].to_numpy()[np.isfinite(t)])
     for ax, col in ((axs[0], "shear_stress_Pa"), (axs[1], "shear_rate_per_s")):
         v = np.concatenate([d[col].to_numpy()[d["time_s"].to_numpy() > 0] for d in frames.values()])
         if v.size and np.all(v > 0) and v.max() > 100 * v.min():
-            ax.set_yscale("log")
-    axs[0].set_ylabel("shear stress [Pa] (dashed: granular)")
-    axs[1].set_ylabel("shear rate [1/s] (dashed: plastic)")
-    axs[2].set_ylabel("structure f [-]")
+            _log_floor(ax, v)
+    axs[0].set_ylabel("shear stress [Pa]")
+    axs[1].set_ylabel("shear rate [1/s]")
+    note = _f_axis(axs[2], np.concatenate(f_all) if f_all else [])
+    axs[2].set_ylabel("structure f [-]" + note, fontsize=9)
     for ax in axs:
         ax.set_xlabel("time [s]")
         if log_time:
             ax.set_xscale("log")
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=11)
     fig.tight_layout()
     return fig
 
 
+def _step_marks(ax, df):
+    """Dotted vertical lines at the step boundaries, numbered at the top."""
+    starts = df.groupby("step")["time_s"].min()
+    for k, tb in starts.items():
+        if tb > float(df["time_s"].min()):
+            ax.axvline(tb, color="0.5", lw=0.8, ls=":")
+        ax.annotate(f"{k}", (tb, 1.0), xycoords=("data", "axes fraction"), fontsize=7,
+                    color="0.35", ha="left", va="top", xytext=(2, -2),
+                    textcoords="offset points")
+
+
 def program_figure(df: pd.DataFrame, title: str):
-    """Stress against rate (hysteresis loop, coloured by step) and the time series."""
-    fig, axs = plt.subplots(1, 3, figsize=(14, 4.2))
+    """Four panels: stress against rate (coloured by step, legend = program lines), then
+    against time the mixture shear stress [Pa], the shear rate [1/s] (each on its own axis, log
+    when it spans more than two decades, symlog when it also reaches zero: a rest step's zero
+    rate and relaxed stress stay visible) and the structure f; step boundaries dotted and
+    numbered."""
+    fig, axs = plt.subplots(1, 4, figsize=(17, 4.2))
     steps = np.unique(df["step"])
     labels = df.attrs.get("steps", [])
     ax = axs[0]
     for c, k in zip(_colors(len(steps)), steps):
         d = df[df["step"] == k]
-        lab = labels[k - 1] if k - 1 < len(labels) else f"step {k}"
+        lab = f"{k}: " + (labels[k - 1] if k - 1 < len(labels) else f"step {k}")
         g = _positive(d["shear_rate_per_s"])
         if np.any(np.isfinite(g)):
             ax.loglog(g, _positive(d["shear_stress_Pa"]), "-", color=c, lw=2, label=lab)
     ax.set_xlabel("shear rate [1/s]")
     ax.set_ylabel("mixture shear stress [Pa]")
-    ax.set_title("stress vs rate (arrows of time: legend order)", fontsize=9)
-    ax.legend(fontsize=7)
+    ax.set_title("stress vs rate (steps in legend order)", fontsize=9)
+    ax.legend(fontsize=6)
     ax.grid(True, which="both", alpha=0.25)
     t = df["time_s"]
-    axs[1].semilogy(t, _positive(df["shear_stress_Pa"]), "-", lw=2, label="mixture stress")
-    axs[1].semilogy(t, _positive(df["shear_rate_per_s"]), "-", lw=1.5, label="shear rate [1/s]")
-    axs[1].set_ylabel("stress [Pa] / rate [1/s]")
-    axs[1].legend(fontsize=8)
-    axs[2].plot(t, df["f"], "-", lw=2, color="C2")
-    axs[2].set_ylabel("structure f [-]")
+    for ax, col, unit, colour in ((axs[1], "shear_stress_Pa", "mixture shear stress [Pa]", "C0"),
+                                  (axs[2], "shear_rate_per_s", "shear rate [1/s]", "C1")):
+        v = df[col].to_numpy()
+        ax.plot(t, v, "-", lw=1.8, color=colour)
+        pos = v[np.isfinite(v) & (v > 0)]
+        if pos.size and pos.max() > 100 * pos.min():
+            if np.any(np.isfinite(v) & (v <= 0)):      # a zero (rest, relaxed): symlog shows it
+                thresh = max(float(pos.min()), 1e-6 * float(pos.max()))
+                ax.set_yscale("symlog", linthresh=thresh)
+                unit += f" (linear below {thresh:.2g})"
+            else:
+                ax.set_yscale("log")
+        ax.set_ylabel(unit)
+    axs[3].plot(t, df["f"], "-", lw=2, color="C2")
+    axs[3].set_ylabel("structure f [-]" + _f_axis(axs[3], df["f"]), fontsize=9)
     for ax in axs[1:]:
         ax.set_xlabel("time [s]")
         ax.grid(True, alpha=0.3)
-        for tb in df.groupby("step")["time_s"].min().to_numpy()[1:]:
-            ax.axvline(tb, color="0.6", lw=0.8, ls=":")
+        _step_marks(ax, df)
     fig.suptitle(title, fontsize=11)
     fig.tight_layout()
     return fig
 
 
 def material_point_figure(df: pd.DataFrame, title: str):
-    """Granular shear stress and pressure, normal-stress differences, f and phi against time."""
+    """Granular shear stress and pressure, normal-stress differences, f and phi against time,
+    one colour per run (column ``phi0`` when several initial fractions were run; the column
+    ``phi`` evolves under pressure control and is plotted, never used to select rows)."""
     fig, axs = plt.subplots(1, 3, figsize=(13, 3.9))
-    t = df["time_s"]
-    axs[0].plot(t, df["shear_stress_Pa"], "-", lw=2, label="sigma_xy")
-    axs[0].plot(t, df["granular_pressure_Pa"], "--", lw=1.5, label="pressure p")
+    runs = ([(f"phi0 = {p:g}", d) for p, d in df.groupby("phi0", sort=False)]
+            if "phi0" in df.columns else [("", df)])
+    ax_phi = axs[2].twinx()
+    for c, (lab, d) in zip(_colors(len(runs)), runs):
+        t = d["time_s"]
+        pre = lab + " " if lab else ""
+        axs[0].plot(t, d["shear_stress_Pa"], "-", lw=2, color=c, label=pre + "sigma_xy")
+        axs[0].plot(t, d["granular_pressure_Pa"], "--", lw=1.5, color=c, label=pre + "pressure p")
+        axs[1].plot(t, d["N1_Pa"], "-", lw=1.5, color=c, label=pre + "N1 = s_xx - s_yy")
+        axs[1].plot(t, d["N2_Pa"], "--", lw=1.5, color=c, label=pre + "N2 = s_yy - s_zz")
+        axs[2].plot(t, d["f"], "-", lw=2, color=c, label=pre + "f")
+        ax_phi.plot(t, d["phi"], ":", lw=1.5, color=c, label=pre + "phi (right axis)")
     axs[0].set_ylabel("granular stress [Pa]")
-    axs[0].legend(fontsize=8)
-    axs[1].plot(t, df["N1_Pa"], "-", lw=1.5, label="N1 = s_xx - s_yy")
-    axs[1].plot(t, df["N2_Pa"], "--", lw=1.5, label="N2 = s_yy - s_zz")
     axs[1].set_ylabel("normal-stress differences [Pa]")
-    axs[1].legend(fontsize=8)
-    axs[2].plot(t, df["f"], "-", lw=2, color="C2", label="f")
-    axs[2].set_ylabel("structure f [-]")
-    ax2 = axs[2].twinx()
-    ax2.plot(t, df["phi"], ":", lw=1.5, color="C3", label="phi")
-    ax2.set_ylabel("volume fraction phi [-]", color="C3")
+    axs[2].set_ylabel("structure f [-]" + _f_axis(axs[2], df["f"]), fontsize=9)
+    ax_phi.set_ylabel("volume fraction phi [-] (dotted)")
+    h1, l1 = axs[2].get_legend_handles_labels()
+    h2, l2 = ax_phi.get_legend_handles_labels()
+    axs[2].legend(h1 + h2, l1 + l2, fontsize=7)
     for ax in axs:
         ax.set_xlabel("time [s]")
         ax.grid(True, alpha=0.3)
+    for ax in axs[:2]:
+        ax.legend(fontsize=7)
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    return fig
+
+
+# ------------------------------------------------------------------ oscillation
+def oscillation_figure(points: pd.DataFrame, title: str, dst_stress: float | None = None):
+    """Sweep results: G' and G'' (symbols) with the linearised model's (lines), |eta*|, and the
+    third-harmonic ratio I3/I1, against the strain amplitude (amplitude sweep) or the frequency
+    (frequency sweep); one colour per phi (and per frequency in an amplitude sweep). Where
+    ``dst_stress`` [Pa] is given, the amplitude where the peak stress first exceeds it is marked."""
+    fig, axs = plt.subplots(1, 3, figsize=(15, 4.3))
+    amp_sweep = points.groupby(["phi", "frequency_Hz"]).size().max() > 1
+    keys = ["phi", "frequency_Hz"] if amp_sweep else ["phi", "strain_amplitude"]
+    if not amp_sweep and points["control"].iloc[0] == "stress":
+        keys = ["phi", "stress_amplitude_Pa"]
+    groups = list(points.groupby(keys, sort=False))
+    xcol = "strain_amplitude" if amp_sweep else "frequency_Hz"
+    xlabel = "strain amplitude gamma0 [-]" if amp_sweep else "frequency [Hz]"
+    for c, (key, d) in zip(_colors(len(groups)), groups):
+        d = d.sort_values(xcol)
+        lab = f"phi = {key[0]:g}, " + (f"{key[1]:g} Hz" if amp_sweep else
+                                       (f"gamma0 = {key[1]:g}" if keys[1] == "strain_amplitude"
+                                        else f"sigma0 = {key[1]:g} Pa"))
+        x = d[xcol]
+        axs[0].loglog(x, _positive(d["storage_modulus_Pa"]), "o-", color=c, ms=4, lw=1.5,
+                      label=lab + ": G'")
+        axs[0].loglog(x, _positive(d["loss_modulus_Pa"]), "s--", color=c, ms=4, lw=1.5,
+                      mfc="none", label=lab + ": G''")
+        axs[0].loglog(x, _positive(d["linear_storage_modulus_Pa"]), ":", color=c, lw=1)
+        axs[0].loglog(x, _positive(d["linear_loss_modulus_Pa"]), ":", color=c, lw=1)
+        axs[1].loglog(x, _positive(d["complex_viscosity_Pa_s"]), "o-", color=c, ms=4, label=lab)
+        axs[2].loglog(x, _positive(d["I3_over_I1"]), "o-", color=c, ms=4, label=lab)
+        bad = d[~d["converged"].astype(bool)]
+        if len(bad):
+            axs[2].loglog(bad[xcol], _positive(bad["I3_over_I1"]), "kx", ms=8,
+                          label="not periodic within the cycle limit")
+        if amp_sweep and dst_stress is not None:
+            over = d[d["peak_stress_Pa"] >= dst_stress]
+            if len(over):
+                g_c = float(over[xcol].iloc[0])
+                for ax in axs:
+                    ax.axvline(g_c, color=c, ls="-.", lw=1)
+                axs[2].annotate(f"peak stress >= DST stress {dst_stress:.3g} Pa", (g_c, 0.05),
+                                xycoords=("data", "axes fraction"), rotation=90, fontsize=7,
+                                ha="right", va="bottom")
+    axs[0].set_ylabel("G' (o), G'' (s) [Pa]; dotted: linear G*(omega)")
+    axs[1].set_ylabel("|eta*| = |G*|/omega [Pa s]")
+    axs[2].set_ylabel("I3/I1 [-]")
+    for ax in axs:
+        ax.set_xlabel(xlabel)
+        ax.grid(True, which="both", alpha=0.25)
+        ax.legend(fontsize=6)
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    return fig
+
+
+def lissajous_figure(waves: pd.DataFrame, title: str, max_curves: int = 8):
+    """Lissajous-Bowditch curves of the periodic cycle: the elastic projection (stress against
+    strain) and the viscous projection (stress against shear rate), each normalised by its
+    maximum, for up to ``max_curves`` points spread over the sweep; Ewoldt's elastic and viscous
+    stresses dashed (strain control)."""
+    fig, axs = plt.subplots(1, 2, figsize=(11, 4.6))
+    pts = np.unique(waves["point"])
+    if pts.size > max_curves:
+        pts = pts[np.unique(np.round(np.linspace(0, pts.size - 1, max_curves)).astype(int))]
+    for c, k in zip(_colors(len(pts)), pts):
+        w = waves[waves["point"] == k]
+        close = np.r_[np.arange(len(w)), 0]
+        s = w["shear_stress_Pa"].to_numpy()[close]
+        smax = np.max(np.abs(s)) or 1.0
+        g = w["strain"].to_numpy()[close]
+        gd = w["shear_rate_per_s"].to_numpy()[close]
+        gmax = np.max(np.abs(g)) or 1.0
+        gdmax = np.max(np.abs(gd)) or 1.0
+        lab = (f"phi = {w['phi'].iloc[0]:g}, {w['frequency_Hz'].iloc[0]:g} Hz, gamma0 = "
+               f"{w['strain_amplitude'].iloc[0]:.3g} (sigma_max = {smax:.3g} Pa)")
+        axs[0].plot(g / gmax, s / smax, "-", color=c, lw=1.8, label=lab)
+        axs[1].plot(gd / gdmax, s / smax, "-", color=c, lw=1.8, label=lab)
+        el = w["elastic_stress_Pa"].to_numpy()[close]
+        vi = w["viscous_stress_Pa"].to_numpy()[close]
+        if np.all(np.isfinite(el)):
+            axs[0].plot(g / gmax, el / smax, "--", color=c, lw=0.9)
+            axs[1].plot(gd / gdmax, vi / smax, "--", color=c, lw=0.9)
+    axs[0].set_xlabel("strain / strain amplitude [-]")
+    axs[0].set_title("elastic projection (dashed: elastic stress sigma')", fontsize=10)
+    axs[1].set_xlabel("shear rate / max shear rate [-]")
+    axs[1].set_title("viscous projection (dashed: viscous stress sigma'')", fontsize=10)
+    for ax in axs:
+        ax.set_ylabel("shear stress / max shear stress [-]")
+        ax.set_xlim(-1.1, 1.1)
+        ax.set_ylim(-1.1, 1.1)
+        ax.axhline(0, color="0.7", lw=0.6)
+        ax.axvline(0, color="0.7", lw=0.6)
+        ax.grid(True, alpha=0.25)
+    axs[0].legend(fontsize=6, loc="upper left")
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    return fig
+
+
+def parallel_plate_figure(df: pd.DataFrame, true_curve: pd.DataFrame | None, title: str):
+    """The parallel plate: the true flow curve (the model's local steady curve, whole S-shape
+    when ``true_curve`` is given), the apparent curve the instrument displays (sigma_a = 2 M/(pi
+    R^3) against the rim rate) and the Weissenberg-Rabinowitsch-corrected points; right panel:
+    the relative difference apparent/true - 1 and corrected/true - 1."""
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    phis = np.unique(df["phi"])
+    for c, ph in zip(_colors(len(phis)), phis):
+        d = df[df["phi"] == ph]
+        if true_curve is not None:
+            t = true_curve[true_curve["phi"] == ph].sort_values("granular_shear_stress_Pa")
+            ax1.loglog(_positive(t["shear_rate_per_s"]), t["shear_stress_Pa"], "-", color="0.6",
+                       lw=1, label=f"phi = {ph:g}: whole steady curve" if c is not None else None)
+        ax1.loglog(d["rim_shear_rate_per_s"], d["shear_stress_Pa"], "-", color=c, lw=2.5,
+                   label=f"phi = {ph:g}: true (rim)")
+        ax1.loglog(d["rim_shear_rate_per_s"], d["apparent_shear_stress_Pa"], "--", color=c, lw=1.5,
+                   label=f"phi = {ph:g}: apparent 2M/(pi R^3)")
+        step = max(1, len(d) // 40)
+        ax1.loglog(d["rim_shear_rate_per_s"].iloc[::step],
+                   _positive(d["corrected_shear_stress_Pa"].iloc[::step]), "o", color=c, ms=3.5,
+                   mfc="none", label=f"phi = {ph:g}: Weissenberg-Rabinowitsch")
+        x = d["rim_shear_rate_per_s"]
+        ax2.semilogx(x, d["apparent_shear_stress_Pa"] / d["shear_stress_Pa"] - 1, "--", color=c,
+                     lw=1.5, label=f"phi = {ph:g}: apparent/true - 1")
+        ax2.semilogx(x, d["corrected_shear_stress_Pa"] / d["shear_stress_Pa"] - 1, "-", color=c,
+                     lw=1, label=f"phi = {ph:g}: corrected/true - 1")
+    ax1.set_xlabel("rim shear rate [1/s]")
+    ax1.set_ylabel("shear stress [Pa]")
+    ax1.set_title("parallel plate: true, apparent, corrected", fontsize=10)
+    ax2.set_xlabel("rim shear rate [1/s]")
+    ax2.set_ylabel("relative difference [-]")
+    ax2.set_title("apparent and corrected against true", fontsize=10)
+    for ax in (ax1, ax2):
+        ax.grid(True, which="both", alpha=0.25)
+        ax.legend(fontsize=6)
     fig.suptitle(title, fontsize=11)
     fig.tight_layout()
     return fig
