@@ -183,12 +183,9 @@ def _brent(mode, lo, hi, rlo, rhi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, r
 
 @_jit
 def _residual_slope(beta, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b):
-    """R(beta) of mode 0 (the same arithmetic as :func:`_residual`) and dR/dbeta, for Newton.
+    """R(beta) of mode 0 (the same arithmetic as :func:`_residual`) with what its slope needs.
 
-    Returns (R, dR/dbeta, gdot, p, I_m). With x = phi - beta/K3, I_m = (phi_m - x)/(a x),
-    dI_m/dbeta = phi_m/(a x^2 K3); gdot is the positive root of rd2 g^2 + bq g - p* I_m^2 = 0
-    (bq = 2 eta0 - K dt beta I_m^2), so dg/dbeta = (K dt I_m^2 g + 2 p I_m dI_m)/sqrt(disc);
-    p = p* + K dt beta g, I_v = eta0 g/p and mu_p(I_v, I_m) of Table 8 follow by the chain rule.
+    Returns (R, gdot, p, I_m, x, sqrt(disc), I_v, mu_p); :func:`_slope` gives dR/dbeta from them.
     """
     x = phi - beta / K3
     Im = (phim - x) / (a * x)
@@ -201,19 +198,27 @@ def _residual_slope(beta, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, m
     elif rd2 > 0.0:
         g = (-bq + sq) / (2.0 * rd2)
     else:
-        return -np.inf, 0.0, np.inf, np.inf, Im
+        return -np.inf, np.inf, np.inf, Im, x, sq, np.inf, np.inf
     p = p_tr + Kdt * beta * g
     Iv = eta0 * g / p
     mu = laws.friction(Iv, Im, phi, a, mu1, mu2, b)
-    R = tau_tr - Gdt * g - (mu + beta) * p
+    return tau_tr - Gdt * g - (mu + beta) * p, g, p, Im, x, sq, Iv, mu
+
+
+@_jit
+def _slope(beta, g, p, Im, x, sq, Iv, mu, phi, phim, a, Gdt, Kdt, eta0, K3, mu1, mu2, b):
+    """dR/dbeta for Newton. With x = phi - beta/K3, I_m = (phi_m - x)/(a x),
+    dI_m/dbeta = phi_m/(a x^2 K3); gdot is the positive root of rd2 g^2 + bq g - p* I_m^2 = 0
+    (bq = 2 eta0 - K dt beta I_m^2), so dg/dbeta = (K dt I_m^2 g + 2 p I_m dI_m)/sqrt(disc);
+    p = p* + K dt beta g, I_v = eta0 g/p and mu_p(I_v, I_m) of Table 8 follow by the chain rule."""
     dIm = phim / (a * x * x * K3)
-    dg = (Kdt * Im2 * g + 2.0 * p * Im * dIm) / sq
+    dg = (Kdt * Im * Im * g + 2.0 * p * Im * dIm) / sq
     dp = Kdt * (g + beta * dg)
     Imc = max(Im, laws.TINY)
     dIv = eta0 * (dg * p - g * dp) / (p * p)
     dmu = ((mu2 - mu1) * b / ((Imc + b) * (Imc + b)) * dIm
            + 2.5 * phi / a * (dIv / Imc - Iv * dIm / (Imc * Imc)))
-    return R, -Gdt * dg - (dmu + 1.0) * p - (mu + beta) * dp, g, p, Im
+    return -Gdt * dg - (dmu + 1.0) * p - (mu + beta) * dp
 
 
 @_jit
@@ -231,26 +236,30 @@ def _newton_2d(beta, g, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
     Returns beta, or a value <= beta_lo if an iterate leaves (beta_lo, beta_top) x (0, inf) or
     does not settle (the caller then starts elsewhere; the result is only a starting point).
     """
+    iK3 = 1.0 / K3
+    cV = 2.5 * phi * eta0 / a
     for _ in range(30):
-        x = phi - beta / K3
+        x = phi - beta * iK3
         w = phim - x
         ax = a * x
-        Im = w / ax
+        iax = 1.0 / ax
+        Im = w * iax
+        iIm = ax / w
         p = p_tr + Kdt * beta * g
         Ag = rd2 * g * g + 2.0 * eta0 * g
         F1 = p * w * w - Ag * ax * ax
-        F1b = Kdt * g * w * w + 2.0 * p * w / K3 + Ag * 2.0 * a * ax / K3
+        F1b = Kdt * g * w * w + 2.0 * (p * w + Ag * a * ax) * iK3
         F1g = Kdt * beta * w * w - (2.0 * rd2 * g + 2.0 * eta0) * ax * ax
-        dIm = phim / (a * x * x * K3)
+        dIm = phim * a * iax * iax * iK3
         ib = 1.0 / (Im + b)
         M = mu1 + beta + (mu2 - mu1) * Im * ib
-        V = 2.5 * phi * eta0 / (a * Im)
+        V = cV * iIm
         F2 = tau_tr - Gdt * g - M * p - V * g
-        F2b = -(1.0 + (mu2 - mu1) * b * ib * ib * dIm) * p - M * Kdt * g + V * g * dIm / Im
+        F2b = -(1.0 + (mu2 - mu1) * b * ib * ib * dIm) * p - M * Kdt * g + V * g * dIm * iIm
         F2g = -Gdt - M * Kdt * beta - V
-        det = F1b * F2g - F1g * F2b
-        db = -(F1 * F2g - F1g * F2) / det
-        dg = -(F1b * F2 - F1 * F2b) / det
+        idet = 1.0 / (F1b * F2g - F1g * F2b)
+        db = (F1g * F2 - F1 * F2g) * idet
+        dg = (F1 * F2b - F1b * F2) * idet
         bn, gn = beta + db, g + dg
         if not (beta_lo < bn < beta_top and gn > 0.0 and gn < np.inf):
             return beta_lo
@@ -290,9 +299,11 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, ta
     if newton and beta_lo < beta_start < beta_top:
         x = beta_start
         for _ in range(_NEWTON_MAX):
-            R, dR, g, p, Im = _residual_slope(x, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
-                                              K3, mu1, mu2, b)
+            R, g, p, Im, xe, sq, Iv, mu = _residual_slope(x, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
+                                                          eta0, rd2, K3, mu1, mu2, b)
             n += 1
+            if abs(R) <= floor:        # the usual exit: the start was converged already
+                return x, g, p, Im, n
             if not np.isfinite(R):
                 if R < 0.0:                  # gdot(beta) = inf: beyond the root
                     hi, r_hi, hi_known = x, R, True
@@ -301,8 +312,9 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, ta
                 lo, r_lo = x, R
             else:
                 hi, r_hi, hi_known = x, R, True
+            dR = _slope(x, g, p, Im, xe, sq, Iv, mu, phi, phim, a, Gdt, Kdt, eta0, K3, mu1, mu2, b)
             step = R / dR
-            if abs(R) <= floor or abs(step) <= 1e-14 * abs(x):
+            if abs(step) <= 1e-14 * abs(x):
                 if abs(R) <= 1e-12 * (tau_tr - Gdt * g + mu1 * p) + floor:
                     return x, g, p, Im, n
                 break
