@@ -11,7 +11,6 @@ Layout of a run folder ``DIR`` (every file written atomically through :mod:`rheo
                                ``S.id, S.x, S.v, S.stress, S.V, S.m`` and the material's fields
                                (``S.phi``, ``S.f``, ``S.pressure_Pa``...); per rigid body B,
                                ``body.B.x`` (points), ``body.B.center``, ``body.B.velocity``
-                               (reproducible bytes: fixed zip timestamps)
     DIR/vtk/S_NNNNN.vtu        the same points and fields for ParaView (VTK XML UnstructuredGrid
                                of vertex cells, written by meshio; coordinates (x, y, 0) or
                                (r, z, 0); vectors padded to 3 components, tensors as 9)
@@ -33,9 +32,7 @@ plane strain and per radian in axisymmetry.
 
 from __future__ import annotations
 
-import io
 import json
-import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -47,8 +44,6 @@ UNITS = {"id": "-", "x": "m", "v": "m/s", "stress": "Pa", "V": "m^3 (per m or pe
          "granular_pressure_Pa": "Pa", "pore_pressure_Pa": "Pa", "taubar_Pa": "Pa",
          "shear_rate_p_per_s": "1/s", "case": "0 elastic, 1 separated, 2 shear flow, "
          "3 shear flow + compaction", "rho_f": "kg/m^3"}
-#: the fixed timestamp of the npz members (zip needs one; the bytes must not depend on the clock)
-_ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 
 
 def snapshot_arrays(sim) -> dict[str, np.ndarray]:
@@ -68,23 +63,11 @@ def snapshot_arrays(sim) -> dict[str, np.ndarray]:
     return out
 
 
-def npz_bytes(arrays: dict) -> bytes:
-    """An uncompressed npz (``np.load`` reads it) whose bytes depend only on the arrays: members
-    in the given order with a fixed timestamp (``np.savez`` stamps the wall clock)."""
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED, allowZip64=True) as zf:
-        for k, a in arrays.items():
-            info = zipfile.ZipInfo(f"{k}.npy", date_time=_ZIP_TIME)
-            info.external_attr = 0o644 << 16
-            with zf.open(info, "w", force_zip64=True) as fh:
-                np.lib.format.write_array(fh, np.asanyarray(a), allow_pickle=False)
-    return buf.getvalue()
-
-
 def write_npz(path: Path, arrays: dict) -> Path:
-    """Atomic, reproducible npz (see :func:`npz_bytes`)."""
-    data = npz_bytes(arrays)
-    return _atomic(path, lambda tmp: Path(tmp).write_bytes(data), ".npz")
+    """Atomic uncompressed npz (``np.savez`` stamps its members with a fixed date, so the bytes
+    depend only on the arrays). Not :func:`rheology.io.save_checkpoint`: a snapshot rewritten by
+    a resumed run keeps no ``.prev`` copy."""
+    return _atomic(path, lambda tmp: np.savez(tmp, **arrays), ".npz")
 
 
 def _point_data(n: int, fields: dict) -> dict:
@@ -269,4 +252,4 @@ def write_manifest(out: Path, manifest: dict) -> Path:
 
 __all__ = ["snapshot_arrays", "write_frame", "write_pvds", "write_manifest", "write_vtu",
            "read_vtu", "write_grid_vtu", "grid_fields", "project_to_nodes", "load_frames",
-           "npz_bytes", "UNITS"]
+           "UNITS"]
