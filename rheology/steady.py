@@ -22,9 +22,13 @@ from scipy.optimize import elementwise, minimize_scalar
 
 from . import laws
 from .checks import check_nonnegative, check_positive, check_range
-from .materials import Material
+from .materials import Material, get_material
 
 _TOL = dict(xatol=1e-300, xrtol=4e-16, fatol=0.0, frtol=0.0)
+#: Largest granular shear stress of a steady state, in units of tau* (H <= 1e150).
+TAUBAR_MAX_FACTOR = 1e100
+#: Smallest representable steady shear rate [1/s] (above the subnormal range).
+RATE_MIN = 1e-300
 
 
 def _phi_below_jamming(phi, m: Material) -> np.ndarray:
@@ -33,12 +37,13 @@ def _phi_below_jamming(phi, m: Material) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ Eqs. (1), (2), (24), (25)
-def granular_viscosity(phi, f, m: Material) -> np.ndarray:
+def granular_viscosity(phi, f, m: Material | str) -> np.ndarray:
     """Granular part of Eq. (1): taubar/(eta0 gdot) = 2 mu (a phi/y)^2 + 5/2 phi^2/y [-].
 
     y = phi_m(f) - phi; ``inf`` where phi >= phi_m(f) (jammed). mu is the critical-state friction
     (mu_c unless mu_2 != mu_c).
     """
+    m = get_material(m)
     phi = _phi_below_jamming(phi, m)
     f = check_range("f", f, 0.0, 1.0)
     phim = laws.phi_m(f, m.phi_c, m.phi_j)
@@ -50,13 +55,16 @@ def granular_viscosity(phi, f, m: Material) -> np.ndarray:
         return np.where(y > 0, 2 * mu * (a * phi / ys) ** 2 + 2.5 * phi ** 2 / ys, np.inf)
 
 
-def relative_viscosity(phi, f, m: Material) -> np.ndarray:
+def relative_viscosity(phi, f, m: Material | str) -> np.ndarray:
     """Eq. (1): eta_r = tau/(eta0 gdot) = 1 + 5/2 phi phi_m/(phi_m - phi) + 2 mu_c (a phi/(phi_m - phi))^2."""
-    return 1.0 + 2.5 * np.asarray(phi, dtype=float) + granular_viscosity(phi, f, m)
+    m = get_material(m)
+    eta_g = granular_viscosity(phi, f, m)                 # validates phi and f
+    return 1.0 + 2.5 * np.asarray(phi, dtype=float) + eta_g
 
 
-def normal_viscosity(phi, f, m: Material) -> np.ndarray:
+def normal_viscosity(phi, f, m: Material | str) -> np.ndarray:
     """Eq. (2): eta_n = p/(eta0 gdot) = 2 (a phi/(phi_m - phi))^2 [-]; ``inf`` when jammed."""
+    m = get_material(m)
     phi = _phi_below_jamming(phi, m)
     f = check_range("f", f, 0.0, 1.0)
     y = laws.phi_m(f, m.phi_c, m.phi_j) - phi
@@ -65,22 +73,25 @@ def normal_viscosity(phi, f, m: Material) -> np.ndarray:
         return np.where(y > 0, 2 * (a * phi / np.where(y > 0, y, 1.0)) ** 2, np.inf)
 
 
-def viscosity_low_limit(phi, m: Material) -> np.ndarray:
+def viscosity_low_limit(phi, m: Material | str) -> np.ndarray:
     """Eq. (24): eta_r as f -> 0 (phi_m = phi_j, a = a0), the low-stress Newtonian plateau [-]."""
+    m = get_material(m)
     return relative_viscosity(phi, 0.0, m)
 
 
-def viscosity_high_limit(phi, m: Material) -> np.ndarray:
+def viscosity_high_limit(phi, m: Material | str) -> np.ndarray:
     """Eq. (25): eta_r as f -> 1 (phi_m = phi_c, a = a_inf) [-]; ``inf`` for phi >= phi_c."""
+    m = get_material(m)
     return relative_viscosity(phi, 1.0, m)
 
 
-def critical_shear_rate(taubar, phi, f, m: Material) -> np.ndarray:
+def critical_shear_rate(taubar, phi, f, m: Material | str) -> np.ndarray:
     """Plastic shear rate at the critical state for granular stress taubar [1/s] (Eq. 35 with inertia).
 
     Multiplied through by (phi_m - phi)^2 it is continuous through jamming and 0 for
     phi >= phi_m(f). This is the algebraic relation of the 0-D (rheometer) model.
     """
+    m = get_material(m)
     taubar = check_nonnegative("taubar", taubar)
     phi = check_range("phi", phi, 0.0, 1.0, lo_closed=False, hi_closed=False)
     f = check_range("f", f, 0.0, 1.0)
@@ -174,7 +185,7 @@ def _eta_g(phi, y, a, m: Material):
     return 2 * mu * (a * phi / y) ** 2 + 2.5 * phi ** 2 / y
 
 
-def steady_state_stress(taubar, phi, m: Material) -> SteadyFlow:
+def steady_state_stress(taubar, phi, m: Material | str) -> SteadyFlow:
     """The unique steady state at imposed granular shear stress, for any number of points.
 
     Parameters
@@ -183,15 +194,31 @@ def steady_state_stress(taubar, phi, m: Material) -> SteadyFlow:
         Granular shear stress [Pa], >= 0 (broadcast against ``phi``).
     phi : array_like
         Volume fraction, 0 < phi < phi_j.
-    m : Material
+    m : Material or str
+        A parameter set or its registry name (see rheology.get_material).
 
     Returns
     -------
     SteadyFlow
         Satisfies Eq. (13) to ~1e-13 relative. ``jammed`` is True (gdot = 0, f = f_jam) only when
         eta_B = inf and xi_eps = 0 and H f_m/(H + 1) >= f_jam: the flowing branch has ended.
+
+    Raises
+    ------
+    ValueError
+        taubar < 0, > 1e100 tau*, or not finite; phi outside (0, phi_j); or a steady state that
+        is not representable in double precision (a shear rate below 1e-300 1/s or overflowing,
+        e.g. eta0 = 1e300 Pa s), naming taubar, phi and eta0.
     """
-    taubar = check_nonnegative("taubar", taubar)
+    with np.errstate(all="ignore"):          # every result is checked: _check_representable
+        return _steady_state_stress(taubar, phi, m)
+
+
+def _steady_state_stress(taubar, phi, m) -> SteadyFlow:
+    m = get_material(m)
+    taubar = check_range("taubar", taubar, 0.0, TAUBAR_MAX_FACTOR * m.tau_star,
+                         note=f"{TAUBAR_MAX_FACTOR:.0e} tau* of {m.name}: beyond, the hardening "
+                              f"H = (taubar/tau*)^(3/2) leaves double precision")
     phi = _phi_below_jamming(phi, m)
     taubar, phi = (x.astype(float).copy() for x in np.broadcast_arrays(taubar, phi))
     dphi = m.phi_j - m.phi_c
@@ -244,7 +271,28 @@ def steady_state_stress(taubar, phi, m: Material) -> SteadyFlow:
             else:
                 fs[sel], ys[sel] = fhi[sel] - res.x, yhi[sel] + res.x * dphi
         f.ravel()[idx], y.ravel()[idx] = fs, ys
-    return _state(taubar, phi, f, y, jammed, m)
+    out = _state(taubar, phi, f, y, jammed, m)
+    _check_representable(out, m)
+    return out
+
+
+def _check_representable(st: SteadyFlow, m: Material) -> None:
+    """ValueError where a flowing steady state is not representable in double precision: a
+    shear rate that underflows (below 1e-300 1/s: eta0 huge or the stress tiny) or any
+    non-finite rate, stress or pressure (no silent rate 0 / viscosity inf)."""
+    flowing = (st.taubar > 0) & ~st.jammed
+    with np.errstate(invalid="ignore"):
+        bad = flowing & ~((st.shear_rate >= RATE_MIN) & np.isfinite(st.shear_rate)
+                          & np.isfinite(st.shear_stress) & np.isfinite(st.pressure)
+                          & (st.viscosity > 0) & np.isfinite(st.viscosity))
+    if np.any(bad):
+        k = np.flatnonzero(np.ravel(bad))[0]
+        t, ph, g = (float(np.ravel(x)[k]) for x in (st.taubar, st.phi, st.shear_rate))
+        raise ValueError(
+            f"taubar = {t:.6g} Pa at phi = {ph:.6g} ({m.name}, eta0 = {m.eta0:.6g} Pa s): the "
+            f"steady state is not representable in double precision (shear rate {g:.3g} 1/s); "
+            f"valid: steady shear rates in [{RATE_MIN:g}, 1e300] 1/s with finite stresses, i.e. "
+            f"taubar/eta0 within about [1e-290, 1e290] 1/s")
 
 
 def _trace(phi, lo, hi, n, m: Material):
@@ -254,20 +302,37 @@ def _trace(phi, lo, hi, n, m: Material):
     return taus, steady_state_stress(taus, np.broadcast_to(phi[:, None], taus.shape), m)
 
 
+def _empty() -> SteadyFlow:
+    empty = np.zeros(0)
+    return SteadyFlow(*(empty,) * 7, jammed=np.zeros(0, bool), index=np.zeros(0, int),
+                      branch=np.zeros(0, int), stable=np.zeros(0, bool))
+
+
 def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi_factor: float):
     target = check_positive(control, target)
     phi = _phi_below_jamming(phi, m)
+    points_per_decade = int(check_range("points_per_decade", points_per_decade, 4, 1e5))
     target, phi = (np.ravel(x).astype(float) for x in np.broadcast_arrays(target, phi))
+    if target.size == 0:
+        return _empty()
     eta_f = m.eta0 * (1.0 + 2.5 * phi)
     eta_lo = m.eta0 * _eta_g(phi, m.phi_j - phi, m.a0, m)
+    top = 1e-3 * TAUBAR_MAX_FACTOR * m.tau_star          # room above for the search grid
     if control == "shear_rate":
+        check_range("taubar_max_factor", hi_factor, 1.0, 1e-3 * TAUBAR_MAX_FACTOR)
         lo = 0.5 * eta_lo * target                       # gdot(taubar) <= taubar/eta_lo
         hi = np.maximum(hi_factor * m.tau_star, 1e3 * lo)
         value = lambda st: st.shear_rate
+        check_range(control, target, 0.0, float(np.min(top / (0.5 * eta_lo * 1e3))),
+                    lo_closed=False, note=f"steady states are searched up to taubar = "
+                                          f"{TAUBAR_MAX_FACTOR:.0e} tau* of {m.name}")
     else:
         lo = 0.5 * target / (1.0 + eta_f / eta_lo)       # tau <= taubar (1 + eta_f/eta_lo)
         hi = target                                       # tau > taubar
         value = lambda st: st.shear_stress
+        check_range(control, target, 0.0, top, lo_closed=False,
+                    note=f"steady states are searched up to taubar = {TAUBAR_MAX_FACTOR:.0e} "
+                         f"tau* of {m.name}")
     decades = np.log10(hi / lo).max()
     n = int(max(64, points_per_decade * decades))
     taus, st = _trace(phi, lo, hi, n, m)
@@ -305,9 +370,7 @@ def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi
         b += edges[1:]
         stab += [sgn > 0, sgn < 0]                       # rising then falling through a maximum
     if not rows:
-        empty = np.zeros(0)
-        return SteadyFlow(*(empty,) * 7, jammed=np.zeros(0, bool), index=np.zeros(0, int),
-                          branch=np.zeros(0, int), stable=np.zeros(0, bool))
+        return _empty()
     order = np.lexsort((np.array(a), np.array(rows)))
     i = np.array(rows)[order]
     a, b, stable = np.array(a)[order], np.array(b)[order], np.array(stab, dtype=bool)[order]
@@ -327,7 +390,7 @@ def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi
                       index=i, branch=branch, stable=stable)
 
 
-def steady_states_rate(gdot, phi, m: Material, *, points_per_decade: int = 40,
+def steady_states_rate(gdot, phi, m: Material | str, *, points_per_decade: int = 40,
                        taubar_max_factor: float = 1e8) -> SteadyFlow:
     """Every steady state at an imposed shear rate, each marked stable or unstable.
 
@@ -348,26 +411,29 @@ def steady_states_rate(gdot, phi, m: Material, *, points_per_decade: int = 40,
     SteadyFlow
         One entry per state, with ``index`` (which input), ``branch`` and ``stable``.
     """
+    m = get_material(m)
     return _branches("shear_rate", gdot, phi, m, points_per_decade, taubar_max_factor)
 
 
-def steady_states_mixture_stress(tau, phi, m: Material, *,
+def steady_states_mixture_stress(tau, phi, m: Material | str, *,
                                  points_per_decade: int = 400) -> SteadyFlow:
     """Every steady state at an imposed mixture shear stress tau [Pa], marked stable or unstable.
 
     The mixture stress tau = taubar + eta0 (1 + 5/2 phi) gdot lies within a narrow band above
     taubar, searched on a fine grid; usually a single state.
     """
+    m = get_material(m)
     return _branches("shear_stress", tau, phi, m, points_per_decade, 1.0)
 
 
 # ------------------------------------------------------------------ DST and conversions
-def gdot_dst(phi, m: Material) -> np.ndarray:
+def gdot_dst(phi, m: Material | str) -> np.ndarray:
     """Eq. (33): shear rate of DST, the high-stress limit of the steady curve [1/s].
 
     gdot_DST = (tau*/eta0) (2 mu_c (eta_B/eta0 a(f_m) phi/(phi_j - phi))^2)^(-1/3), valid for
     phi_c <= phi <= phi* (0 if eta_B = inf).
     """
+    m = get_material(m)
     phi = check_range("phi", phi, m.phi_c, min(m.phi_star, m.phi_j), hi_closed=m.phi_star < m.phi_j,
                       note=f"DST exists only for phi_c <= phi <= phi* in {m.name}")
     fm = laws.f_max(phi, m.phi_c, m.phi_j, m.Delta)

@@ -77,6 +77,8 @@ def flow_curve(material, phi, *, stress=None, rate=None, control: str = "stress"
         solve = (rheology.steady_states_rate if control == "rate"
                  else rheology.steady_states_mixture_stress)
         df = pd.concat([solve(values, ph, m).to_frame() for ph in phis], ignore_index=True)
+    # the viscosity tau/gdot is undefined where the steady rate is zero (jammed): an empty cell
+    df.loc[~np.isfinite(df["viscosity_Pa_s"]), "viscosity_Pa_s"] = np.nan
     df["relative_viscosity"] = df["viscosity_Pa_s"] / m.eta0
     extra = [c for c in ("jammed", "index", "branch", "stable") if c in df.columns]
     df = df[list(FLOW_COLUMNS) + extra]
