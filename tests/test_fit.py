@@ -143,3 +143,24 @@ def test_cli_fit_bad_input_writes_nothing(tmp_path, capsys):
         main(["fit", f, f, "--phi", "0.4", "0.45", "--confidence", "1.5", "--out", str(out)])
     assert exc.value.code == 2 and "--confidence = 1.5" in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(len(FILES) != 5, reason="shared fixtures not present")
+def test_done_when_command_on_the_shared_fixtures(tmp_path, monkeypatch):
+    """`rheometer fit ../shared/fixtures/rheocompass/*.csv --phi ... --out fit` with figures and
+    profile intervals, then `rheometer flow-curve --material fit/material.json`."""
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["fit", *map(str, FILES), "--phi", *map(str, PHIS), "--out", "fit"]) == 0
+    for name in ("fit_curves.png", "residuals.png", "stage1_low_plateau.png",
+                 "stage2_high_plateau.png", "stage3_dst.png"):
+        assert (tmp_path / "fit" / name).stat().st_size > 1000
+    p = pd.read_csv(tmp_path / "fit" / "parameters.csv").set_index("parameter")
+    h = r.get_material("hermes2016")
+    for k in ("phi_j", "phi_c", "a0", "a_inf", "tau_star"):
+        assert p.loc[k, "lower"] <= getattr(h, k) <= p.loc[k, "upper"], k
+    assert p.loc["phi_j", "interval"] == "profile"
+    assert main(["flow-curve", "--material", "fit/material.json", "--points", "10",
+                 "--plot", "none"]) == 0
