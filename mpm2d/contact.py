@@ -15,13 +15,13 @@ improved frictional heating in the material point method", Comp. Part. Mech. 5):
   a rigid body its own (n = g_body/|g_body|; the body's geometry is exact there), for a
   deformable body against the material the symmetric n = (g_body - g_mat)/|..|;
 - contact is active at a node only if (i) both fields have mass there, (ii) the fields TOUCH, and
-  (iii) they approach along n ((v_mat - v_body).n < 0). Touching: against a rigid body, some
-  material point whose B-spline support covers the node has its square (side s = sqrt(in-plane
-  area)) touching or overlapping a body point's square (Chebyshev centre distance <= the sum of
-  the half sides; a k-d tree of the body points); between a deformable body and the material,
-  the gap along the normal g_i = min_{p in mat} [(x_p - x_i).n - e_p(n)] -
-  max_{q in body} [(x_q - x_i).n + e_q(n)] over the points covering node i is <= 0
-  (e(n) = s/2 (|n_x| + |n_y|) the half-extent along n). Criterion (ii) removes the classic early contact of
+  (iii) they approach along n ((v_mat - v_body).n < 0). Touching: some material point whose
+  B-spline support covers the node has its square (side s = sqrt(in-plane area)) touching or
+  overlapping a body point's square (Chebyshev centre distance <= the sum of the half sides; a
+  k-d tree of the body's points, rigid or deformable). A gap measured along the nodal normal
+  instead (min over material points of (x_p - x_i).n - e_p minus the body's max) fails at body
+  corners, where the normal turns sideways and the bed beside the body looks "touching": a rod
+  one cell above a bed was touched along its side normal from the first step. Criterion (ii) removes the classic early contact of
   the multi-field method, whose fields overlap as soon as the shape-function supports (1.5 h for
   quadratic B-splines) do: a body h/4 above a bed feels nothing until its surface reaches the
   bed's particle faces (geometrically exact for flat, grid-aligned faces);
@@ -83,43 +83,6 @@ def scatter_area_gradient(x, side, axisym, geo, out):
                 out[I, J, M] += wa * wb * a
                 out[I, J, FX] += da * wb * a * inv_h
                 out[I, J, FY] += wa * db * a * inv_h
-
-
-@_jit
-def extents(x, side, geo, normal, mask, sign, out):
-    """Extreme extent of points along the nodal normal, relative to the node [m].
-
-    sign > 0: out[I, J] = max over points of (x_p - x_I).n_I + e_p(n_I); sign < 0: the min of
-    (x_p - x_I).n_I - e_p(n_I); only at nodes with mask[I, J]. ``out`` is initialised by the
-    caller (-inf / +inf).
-    """
-    x0, y0, h = geo[0], geo[1], geo[2]
-    inv_h = 1.0 / h
-    for p in range(x.shape[0]):
-        bx = int(math.floor((x[p, 0] - x0) * inv_h - 0.5))
-        by = int(math.floor((x[p, 1] - y0) * inv_h - 0.5))
-        half = 0.5 * side[p]
-        for i in range(3):
-            I = bx + i + PAD
-            if I < 0 or I >= mask.shape[0]:
-                continue
-            rx = x[p, 0] - (x0 + (bx + i) * h)
-            for j in range(3):
-                J = by + j + PAD
-                if J < 0 or J >= mask.shape[1] or not mask[I, J]:
-                    continue
-                ry = x[p, 1] - (y0 + (by + j) * h)
-                nx, ny = normal[I, J, 0], normal[I, J, 1]
-                e = half * (abs(nx) + abs(ny))
-                d = rx * nx + ry * ny
-                if sign > 0:
-                    v = d + e
-                    if v > out[I, J]:
-                        out[I, J] = v
-                else:
-                    v = d - e
-                    if v < out[I, J]:
-                        out[I, J] = v
 
 
 @_jit
@@ -217,24 +180,6 @@ def unfold_normal(grid, normal):
     unfold(normal, _mirror_kind(grid.kind), np.zeros((4, 2)), grid.nx, grid.ny, True)
 
 
-def gap_field(grid, normal, mask, body_pts, mat_pts):
-    """g_i = min over material points - max over body points of their extents along n_i [m]
-    (+inf where either side has no point); see the module docstring."""
-    geo = grid.geometry()
-    eb = np.full(mask.shape, -np.inf)
-    em = np.full(mask.shape, np.inf)
-    for x, side in body_pts:
-        extents(x, side, geo, normal, mask, 1, eb)
-    for x, side in mat_pts:
-        extents(x, side, geo, normal, mask, -1, em)
-    fold_extent(eb, grid.kind, grid.nx, grid.ny, True)
-    fold_extent(em, grid.kind, grid.nx, grid.ny, False)
-    with np.errstate(invalid="ignore"):
-        g = em - eb
-    g[~np.isfinite(g)] = np.inf
-    return g
-
-
 @_jit
 def min_to_nodes(x, val, geo, mask, out):
     """out[I, J] = min over the points whose B-spline support covers node (I, J) of val_p."""
@@ -263,16 +208,26 @@ def box_gap_nodes(grid, mask, body_x, body_side, pts):
 
     geo = grid.geometry()
     out = np.full(mask.shape, np.inf)
-    tree = cKDTree(body_x)
+    per = np.array(grid.periodic)
+    span = grid.upper - grid.lower
+    box = np.where(per, span, 0.0)           # periodic sides: toroidal distances
+
+    def frame(x):
+        y = x - grid.lower
+        y[:, per] = np.mod(y[:, per], span[per])
+        return y
+
+    tree = cKDTree(frame(body_x), boxsize=box if per.any() else None)
     sb = float(np.max(body_side))
     lo = body_x.min(axis=0) - 3.0 * grid.h
     hi = body_x.max(axis=0) + 3.0 * grid.h
+    lo[per], hi[per] = -np.inf, np.inf
     for x, side in pts:
         near = np.all((x >= lo) & (x <= hi), axis=1)
         if not near.any():
             continue
         xn = np.ascontiguousarray(x[near])
-        d, _ = tree.query(xn, k=1, p=np.inf)
+        d, _ = tree.query(frame(xn), k=1, p=np.inf)
         gap = d - 0.5 * (side[near] + sb)
         min_to_nodes(xn, gap, geo, mask, out)
     fold_extent(out, grid.kind, grid.nx, grid.ny, False)

@@ -4,9 +4,11 @@ One step of size dt (USL: the stress is updated last, from the new grid velociti
 
     1. P2G           mass, APIC momentum, internal + external force (and, with two phases,
                      volumes and the pore-pressure force) into private node fields, reduced
-    2. grid update   gravity; mirror/periodic boundaries (fold); two phases: nodal phi,
-                     buoyancy split, v* = (p + dt f)/m, implicit drag; rigid bodies;
-                     ghost nodes (unfold)
+    2. grid update   gravity; mirror/periodic boundaries (fold); axisymmetry: the wall/axis
+                     correction (_axis_correction); two phases: nodal phi, buoyancy split,
+                     v* = (p + dt f)/m, implicit drag; contact (mpm2d.contact: deformable
+                     bodies on their own fields, then rigid bodies, implicitly); ghost nodes
+                     (unfold)
     3. G2P           v, C (APIC) or FLIP/PIC blend, L = grad v, x += dt v
     4. constitutive  each set's material advances stress, volume and state with L
     5. bodies move; t += dt; every ``sort_every`` steps the points are re-sorted by B-spline
@@ -451,7 +453,7 @@ class Simulation:
                     continue
                 n = ct.unit(A.outward - B.outward, np.array([0.0, 1.0]))
                 ct.unfold_normal(g, n)
-                gap = ct.gap_field(g, n, both, [(A.x, A.side)], [(B.x, B.side)])
+                gap = ct.box_gap_nodes(g, both, A.x, A.side, [(B.x, B.side)])
                 ct.pair_contact(self.G[fa], self.G[ph], self.vg[fa], self.vg[ph], n, gap, tol,
                                 mu, dt, force)
             self.contact_force[name] = force

@@ -189,3 +189,44 @@ def test_two_phase_bed_both_phases_meet_a_prescribed_piston():
         assert s.x[:, 0].min() > face - 0.3 * h, s.name           # neither phase entered
         assert s.v[:, 0].max() > 0.01, s.name                     # both phases pushed
     assert np.mean(forces[100:]) > 0.0                            # compressive reaction
+
+
+@pytest.mark.parametrize("bed_mode", ["elastic", "locked", "two-phase"])
+def test_deformable_body_meets_every_kind_of_bed(bed_mode):
+    """An elastic block on its own field (contact_sets) moving at 0.5 m/s towards a bed one cell
+    below: no force before the faces touch, then the bed (both phases in two-phase mode) is
+    pushed, the block does not pass through, and the exchange conserves the momentum of block
+    and bed in the direction without walls (x, periodic: stays 0) and sums to the force."""
+    h = 0.002
+    m = get_material("rod_impact", K=8.3e5, G=3.8e5, kappa=8.3e5)
+    grid = Grid(8, 14, h, boundaries=dict(xmin="periodic", xmax="periodic", ymin="noslip",
+                                         ymax="free"))
+    x, a = box((0.0, 0.0), (8 * h, 6 * h), h / 2)
+    if bed_mode == "elastic":
+        beds = [ParticleSet("bed", LinearElastic(1300.0, 8.3e5, 3.8e5), x, a)]
+    elif bed_mode == "locked":
+        beds = [ParticleSet("bed", Suspension(m, locked=True), x, a, phi=0.47, f=0.0)]
+    else:
+        beds = [ParticleSet("grains", Suspension(m), x, a, phi=0.47, f=0.0),
+                ParticleSet("fluid", NewtonianFluid.from_material(m), x, a, phi=0.47)]
+    xb, ab = box((2 * h, 7 * h), (6 * h, 11 * h), h / 2)
+    blk = ParticleSet("block", LinearElastic(2000.0, 1e6, 1e6), xb, ab, v=(0.0, -0.5))
+    sim = Simulation(grid, beds + [blk], contact_sets={"block": 0.0})
+    t_touch = h / 0.5
+    forces, times = [], []
+    pushed = {b.name: 0.0 for b in beds}
+    while sim.t < 3 * t_touch:
+        t0 = sim.t
+        sim.step()
+        forces.append(sim.contact_force["block"][1])
+        times.append(t0)
+        for b in beds:
+            pushed[b.name] = min(pushed[b.name], float(b.v[:, 1].min()))
+        if t0 < t_touch * (1 - 1e-9) - sim.last_dt:
+            assert forces[-1] == 0.0, (t0, forces[-1])
+            assert all(np.abs(b.v).max() < 1e-9 for b in beds)     # round-off only
+    assert max(forces) > 0.0                                      # the bed pushes the block up
+    assert blk.x[:, 1].min() - h / 4 > 6 * h - 0.5 * h            # no pass-through
+    for b in beds:
+        assert pushed[b.name] < -0.01, (b.name, pushed)           # every phase was pushed
+    assert abs(sim.momentum()[0]) < 1e-12
