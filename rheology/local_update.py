@@ -221,6 +221,11 @@ def _slope(beta, g, p, Im, x, sq, Iv, mu, phi, phim, a, Gdt, Kdt, eta0, K3, mu1,
     return -Gdt * dg - (dmu + 1.0) * p - (mu + beta) * dp
 
 
+#: Newton iterations tried (2-D start, then 1-D) before the bracket takes over.
+_NEWTON2D_MAX = 8
+_NEWTON_MAX = 6
+
+
 @_jit
 def _newton_2d(beta, g, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
                mu1, mu2, b):
@@ -238,7 +243,7 @@ def _newton_2d(beta, g, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
     """
     iK3 = 1.0 / K3
     cV = 2.5 * phi * eta0 / a
-    for _ in range(30):
+    for _ in range(_NEWTON2D_MAX):
         x = phi - beta * iK3
         w = phim - x
         ax = a * x
@@ -269,8 +274,6 @@ def _newton_2d(beta, g, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
     return beta_lo
 
 
-#: Newton iterations tried before the bracket takes over.
-_NEWTON_MAX = 12
 
 
 @_jit
@@ -475,8 +478,7 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
                 if newton and g0 > 0.0:
                     beta_start = _newton_2d(b0, g0, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr,
                                             Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b)
-                    if not beta_start > beta_lo:
-                        beta_start = b0
+                    # no settled start (far from the solution): straight to the bracket
                 beta, g, p, Im, iters = _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi,
                                                        phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
                                                        K3, mu1, mu2, b, newton)
