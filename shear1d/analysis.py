@@ -85,20 +85,23 @@ def front_fit(t: np.ndarray, front: np.ndarray, grid: Grid, lo: float = 0.1,
 
     The window runs from the first time the front passes ``lo`` of the gap to the first time it
     passes ``hi`` or reaches its largest position, whichever comes first (a kinematic front stalls
-    short of the no-slip outer wall and falls back once the flow stops). Returns speed [m/s],
+    short of the no-slip outer wall and falls back once the flow stops; NaN positions - no front
+    - end it too). Returns speed [m/s],
     intercept [m], r2, t_start, t_end [s] and the number of points.
     """
     t, front = np.asarray(t, dtype=float), np.asarray(front, dtype=float)
     x = (front - grid.inner) / grid.gap
-    start = np.flatnonzero(x >= lo)
+    start = np.flatnonzero(np.isfinite(x) & (x >= lo))
     out = dict(speed=float("nan"), intercept=float("nan"), r2=float("nan"),
                t_start=float("nan"), t_end=float("nan"), points=0)
     if start.size == 0:
         return out
     i0 = int(start[0])
-    stop = np.flatnonzero(x[i0:] >= hi)
-    i1 = i0 + int(stop[0]) if stop.size else len(t) - 1
-    i1 = min(i1, i0 + int(np.argmax(x[i0:])))
+    gone = np.flatnonzero(~np.isfinite(x[i0:]))        # NaN: no front (no band) from there on
+    i_end = i0 + int(gone[0]) - 1 if gone.size else len(t) - 1
+    stop = np.flatnonzero(x[i0:i_end + 1] >= hi)
+    i1 = i0 + int(stop[0]) if stop.size else i_end
+    i1 = min(i1, i0 + int(np.argmax(x[i0:i_end + 1])))
     sel = slice(i0, i1 + 1)
     tt, ff = t[sel], front[sel]
     if tt.size < 3:

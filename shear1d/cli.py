@@ -6,66 +6,101 @@
   shear1d couette (--speed U | --stress TAU) [--gap H] [--time T] [--out DIR] ...
       plane Couette start-up, driven by the moving plate's speed or shear stress
 
-Bad input ends with one line on stderr and a non-zero exit status.
+Long runs show a progress bar of the simulated time (--quiet: none), keep a checkpoint in DIR
+(every --checkpoint-every seconds, and on Ctrl-C or SIGTERM) and continue with --resume.
+Bad input ends with one line on stderr and exit status 2, before anything is written; a solver
+failure with one line and status 1; an interrupt with status 130 and where the checkpoint is.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
-from pathlib import Path
 
-import numpy as np
+from rheology.cli_common import Number, OneLineParser, run_command
 
-from rheology.cli_common import OneLineParser, run_command
+#: Size bounds of --cells and --outputs (a memory estimate is checked as well, before the run).
+#: 20000 cells on the Fig. 3 gap are 1.2 um, a fifth of a grain diameter: far beyond the
+#: continuum the model describes, and the explicit method's cost grows as cells^2 (hours there).
+MAX_CELLS = 20000
+MAX_OUTPUTS = 100000
 
 
 def _parser() -> argparse.ArgumentParser:
+    import rheology
+
+    from .model import MODES, max_wall_speed
+    from .integrate import METHODS
     from .scenes import R_INNER, R_OUTER, ROTATION_END, SPEEDS
 
+    m = rheology.get_material("annular_shear")
+    u_max = max_wall_speed(m, m.phi0)
     ap = OneLineParser(prog="shear1d", description=__doc__,
-                 formatter_class=argparse.RawDescriptionHelpFormatter)
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True, parser_class=OneLineParser)
 
-    def numerics(p, cells, outputs):
-        p.add_argument("--cells", type=int, default=cells, help=f"cells across the gap "
-                       f"(default {cells})")
-        p.add_argument("--mode", default=None, help="locked (phases move together, phi fixed), "
-                       "two-phase (Darcy migration), or both")
-        p.add_argument("--method", default="ida", help="ida (default) or explicit")
-        p.add_argument("--rtol", type=float, default=1e-4, help="IDA tolerance (default 1e-4)")
-        p.add_argument("--dt", type=float, default=None, help="explicit step [s] (default: half "
-                       "the stability limit; larger than the limit is refused)")
-        p.add_argument("--outputs", type=int, default=outputs, help=f"output intervals "
-                       f"(default {outputs})")
+    def numerics(p, cells, outputs, modes):
+        p.add_argument("--cells", type=Number("--cells", 4, MAX_CELLS, integer=True),
+                       default=cells, help=f"cells across the gap, 4-{MAX_CELLS} (default "
+                       f"{cells}; the memory the run needs is checked first)")
+        p.add_argument("--mode", default=None, choices=modes,
+                       help="locked (phases move together, phi fixed), two-phase (Darcy "
+                            "migration)" + (", or both" if "both" in modes else ""))
+        p.add_argument("--method", default="ida", choices=METHODS, help="ida (default) or "
+                       "explicit")
+        p.add_argument("--rtol", type=Number("--rtol", 1e-12, 1e-2), default=1e-4,
+                       help="IDA tolerance, 1e-12-1e-2 (default 1e-4)")
+        p.add_argument("--dt", type=Number("--dt", 0, None, lo_closed=False, unit="s"),
+                       default=None, help="explicit step [s] (default: half the stability "
+                       "limit; larger than the limit is refused)")
+        p.add_argument("--outputs", type=Number("--outputs", 1, MAX_OUTPUTS, integer=True),
+                       default=outputs, help=f"output intervals, 1-{MAX_OUTPUTS} (default "
+                       f"{outputs})")
+        p.add_argument("--resume", action="store_true", help="continue from the checkpoints in "
+                       "--out (refused if there are none)")
+        p.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0, None,
+                                                         lo_closed=False, unit="s"),
+                       default=60.0, help="wall-time seconds between checkpoints (default 60; "
+                       "one is also written at the end and on Ctrl-C/SIGTERM)")
+        p.add_argument("--quiet", action="store_true", help="no progress bar")
 
     a = sub.add_parser("annular", help="Fig. 3: annular shear, dynamic shear-jamming fronts")
-    a.add_argument("--u-inner", type=float, nargs="+", default=list(SPEEDS),
-                   help="bob surface speed(s) [m/s] (default 0.00084 0.084)")
+    a.add_argument("--u-inner", type=Number("--u-inner", 0, math.floor(u_max * 1e3) / 1e3,
+                                            lo_closed=False,
+                                            unit="m/s"), nargs="+", default=list(SPEEDS),
+                   help=f"bob surface speed(s) [m/s], up to {u_max:.3g} = 0.1 sqrt(G/rho) (the "
+                        "model is a small-elastic-strain law; default 0.00084 0.084)")
     a.add_argument("--out", default="annular_shear_jamming", help="output folder")
-    a.add_argument("--r-inner", type=float, default=R_INNER, help=f"bob radius [m] (default "
-                   f"{R_INNER})")
-    a.add_argument("--r-outer", type=float, default=R_OUTER, help=f"cup radius [m] (default "
-                   f"{R_OUTER})")
-    a.add_argument("--rotation", type=float, default=ROTATION_END,
+    a.add_argument("--r-inner", type=Number("--r-inner", 0, 1.0, lo_closed=False, unit="m"),
+                   default=R_INNER, help=f"bob radius [m] (default {R_INNER})")
+    a.add_argument("--r-outer", type=Number("--r-outer", 0, 2.0, lo_closed=False, unit="m"),
+                   default=R_OUTER, help=f"cup radius [m], > the bob radius (default {R_OUTER})")
+    a.add_argument("--rotation", type=Number("--rotation", 0, 100.0, lo_closed=False,
+                                             unit="rad"), default=ROTATION_END,
                    help=f"bob rotation to simulate [rad] (default {ROTATION_END})")
-    a.add_argument("--ramp-time", type=float, default=0.0, help="start-up ramp of the bob [s] "
-                   "(default 0: impulsive)")
-    a.add_argument("--resume", action="store_true", help="continue from checkpoints in --out")
-    numerics(a, 200, 310)
+    a.add_argument("--ramp-time", type=Number("--ramp-time", 0, None, unit="s"), default=0.0,
+                   help="start-up ramp of the bob [s] (default 0: impulsive)")
+    numerics(a, 200, 310, MODES + ("both",))
 
     c = sub.add_parser("couette", help="plane Couette start-up (speed- or stress-driven)")
     drive = c.add_mutually_exclusive_group(required=True)
-    drive.add_argument("--speed", type=float, help="speed of the moving plate [m/s]")
-    drive.add_argument("--stress", type=float, help="shear stress on the moving plate [Pa]")
-    c.add_argument("--gap", type=float, default=1e-2, help="gap [m] (default 0.01)")
-    c.add_argument("--time", type=float, default=1.0, help="duration [s] (default 1)")
-    c.add_argument("--phi", type=float, default=None, help="volume fraction (default: the "
-                   "material's phi0)")
+    drive.add_argument("--speed", type=Number("--speed", 0, None, lo_closed=False, unit="m/s"),
+                       help="speed of the moving plate [m/s] (up to 0.1 sqrt(G/rho) of the "
+                            "material)")
+    drive.add_argument("--stress", type=Number("--stress", 0, None, lo_closed=False, unit="Pa"),
+                       help="shear stress on the moving plate [Pa] (up to 0.1 G)")
+    c.add_argument("--gap", type=Number("--gap", 0, 1.0, lo_closed=False, unit="m"), default=1e-2,
+                   help="gap [m] (default 0.01)")
+    c.add_argument("--time", type=Number("--time", 0, None, lo_closed=False, unit="s"),
+                   default=1.0, help="duration [s] (default 1)")
+    c.add_argument("--phi", type=Number("--phi", 0, 1, lo_closed=False, hi_closed=False),
+                   default=None, help="volume fraction, below the material's phi_j (default: the "
+                                      "material's phi0)")
     c.add_argument("--material", default="annular_shear", help="rheology material name "
                    "(needs G, K, K0, densities; default annular_shear)")
     c.add_argument("--out", default="plane_couette", help="output folder")
-    numerics(c, 100, 200)
+    numerics(c, 100, 200, MODES)
     return ap
 
 
@@ -74,11 +109,7 @@ def _modes(mode: str | None, default: tuple[str, ...]) -> tuple[str, ...]:
 
     if mode is None:
         return default
-    if mode == "both":
-        return MODES
-    if mode not in MODES:
-        raise ValueError(f"--mode {mode!r} must be one of {MODES + ('both',)}")
-    return (mode,)
+    return MODES if mode == "both" else (mode,)
 
 
 def _annular(args) -> None:
@@ -87,46 +118,26 @@ def _annular(args) -> None:
     run_annular(args.out, tuple(args.u_inner), _modes(args.mode, ("locked", "two-phase")),
                 n_cells=args.cells, method=args.method, rtol=args.rtol, dt=args.dt,
                 n_out=args.outputs, r_inner=args.r_inner, r_outer=args.r_outer,
-                rotation=args.rotation, ramp_time=args.ramp_time, resume=args.resume)
+                rotation=args.rotation, ramp_time=args.ramp_time, resume=args.resume,
+                checkpoint_every=args.checkpoint_every, progress=not args.quiet)
 
 
 def _couette(args) -> None:
-    import pandas as pd
+    from .scenes import plane_couette, run_couette
 
-    from rheology.io import atomic_write_csv
-
-    from . import plots
-    from .integrate import solve
-    from .scenes import plane_couette
-
-    modes = _modes(args.mode, ("locked",))
-    if len(modes) != 1:
-        raise ValueError("--mode both is for the annular scene; give locked or two-phase")
     pb = plane_couette(args.speed, stress=args.stress, gap=args.gap, n_cells=args.cells,
-                       mode=modes[0], phi0=args.phi, material=args.material)
-    res = solve(pb, args.time, method=args.method, n_out=args.outputs, rtol=args.rtol, dt=args.dt)
-    out = Path(args.out)
-    g = pb.grid
-    v, tau = res.field("v"), np.abs(res.field("shear_stress"))
-    idx = np.unique(np.linspace(0, len(res.t) - 1, 6).astype(int))
-    prof = pd.concat([pd.DataFrame({"time_s": res.t[k], "y_m": g.faces, "v_m_per_s": v[k]})
-                      for k in idx], ignore_index=True)
-    wall = pd.DataFrame({"time_s": res.t, "wall_speed_m_per_s": v[:, 0],
-                         "wall_shear_stress_Pa": tau[:, 0],
-                         "mean_shear_rate_per_s": (v[:, 0] - v[:, -1]) / g.gap,
-                         "f_mean": res.field("f").mean(axis=1)})
-    atomic_write_csv(out / "couette_profiles.csv", prof)
-    atomic_write_csv(out / "couette_wall.csv", wall)
-    png = plots.couette(out / "couette.png", res, idx)
-    print(f"shear1d: plane Couette, {g.n} cells, {res.method}, {res.wall_time:.2f} s; wrote "
-          f"{out}/couette_profiles.csv, couette_wall.csv, {png.name}")
+                       mode=_modes(args.mode, ("locked",))[0], phi0=args.phi,
+                       material=args.material)
+    run_couette(args.out, pb, args.time, method=args.method, n_out=args.outputs, rtol=args.rtol,
+                dt=args.dt, resume=args.resume, checkpoint_every=args.checkpoint_every,
+                progress=not args.quiet)
 
 
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     return run_command(f"shear1d {args.cmd}", lambda: (_annular if args.cmd == "annular"
                                                       else _couette)(args),
-                       on_interrupt="rerun with --resume to continue from the checkpoint")
+                       on_interrupt="nothing was saved")
 
 
 if __name__ == "__main__":

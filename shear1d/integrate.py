@@ -32,7 +32,7 @@ import numpy as np
 
 from rheology import f_jam
 from rheology.checks import check_positive, check_range
-from rheology.io import load_checkpoint, save_checkpoint
+from rheology.io import CorruptCheckpoint, load_checkpoint, save_checkpoint
 
 from . import analysis, kernels
 from .model import STRESS_COMPONENTS, Couette
@@ -216,31 +216,128 @@ def check_state(problem: Couette, t: float, y: np.ndarray, diag: np.ndarray,
 
 
 # ----------------------------------------------------------------------------- checkpoints
-def _signature(problem: Couette, method: str) -> str:
+#: Arrays every checkpoint holds (a file without one of them is named as corrupt).
+CHECKPOINT_ARRAYS = ("signature", "t_out", "Y", "D", "event_names", "event_times", "counters",
+                     "finished")
+
+
+def _signature(problem: Couette, method: str, times: np.ndarray, setting: float) -> str:
+    """Text identifying a run: material, grid, drive, mode, method, its step or tolerance and the
+    output times. A checkpoint is resumed only by the run with the same signature."""
     m, g = problem.material, problem.grid
     params = ",".join(f"{x:.17g}" for x in m.kernel_array()) + f",{m.rho_f!r}"
-    return (f"{method}|{m.name}|{params}|{g.kind}|{g.inner!r}|{g.outer!r}|{g.n}|"
+    tsig = f"{times.size}:{times[0]!r}:{times[-1]!r}:{float(np.sum(times))!r}"
+    return (f"{method}|{setting!r}|{m.name}|{params}|{g.kind}|{g.inner!r}|{g.outer!r}|{g.n}|"
             f"{problem.mode}|{problem.wall_speed!r}|{problem.wall_stress!r}|{problem.ramp_time!r}|"
-            f"{problem.phi0!r}|{problem.contact_pressure!r}")
+            f"{problem.phi0!r}|{problem.contact_pressure!r}|{problem.rate_step!r}|{tsig}")
 
 
-def _save(path, problem, method, t_done, Y, D, events, extra):
-    names = np.array([k for k, ts in events.items() for _ in ts], dtype="U32")
-    times = np.array([t for ts in events.values() for t in ts], dtype=float)
-    save_checkpoint(path, signature=np.array(_signature(problem, method)), t_out=np.array(t_done),
-                    Y=np.array(Y), D=np.array(D), event_names=names, event_times=times, **extra)
+class _Outputs:
+    """The outputs recorded so far, the counters at each, and the checkpoint they go to.
+
+    Each output is appended as one tuple (time, state, diagnostics, counters), so an interrupt
+    (SIGTERM or Ctrl-C raise KeyboardInterrupt between any two bytecodes) never leaves the lists
+    inconsistent; events later than the last output are dropped when saving, so a resumed run,
+    which restarts from that output, finds them again.
+    """
+
+    def __init__(self, problem, method, times, setting, checkpoint, checkpoint_every, events):
+        self.pb, self.method, self.times = problem, method, times
+        self.sig = _signature(problem, method, times, setting)
+        self.path = None if checkpoint is None else Path(checkpoint)
+        self.every = float(checkpoint_every)
+        self.events = events
+        self.rows: list[tuple] = []
+        self.extra: dict = {}
+        self.last_save = time.perf_counter()
+        self.wall_before = 0.0           # integration time of the runs before a resume [s]
+
+    def add(self, t, y, diag, counters, extra=None):
+        self.rows.append((float(t), y, diag, np.asarray(counters, dtype=float), extra))
+
+    @property
+    def t_last(self) -> float:
+        return self.rows[-1][0]
+
+    def arrays(self):
+        T = np.array([r[0] for r in self.rows])
+        Y = np.array([r[1] for r in self.rows])
+        D = np.array([r[2] for r in self.rows])
+        return T, Y, D
+
+    def save(self, finished: bool = False, wall: float = 0.0) -> Path | None:
+        if self.path is None:
+            return None
+        rows = list(self.rows)
+        T, Y, D = (np.array([r[i] for r in rows]) for i in range(3))
+        t_last = T[-1]
+        names = np.array([k for k, ts in self.events.times.items() for x in ts if x <= t_last],
+                         dtype="U32")
+        times = np.array([x for ts in self.events.times.values() for x in ts if x <= t_last],
+                         dtype=float)
+        extra = rows[-1][4] or {}
+        save_checkpoint(self.path, signature=np.array(self.sig), t_out=T, Y=Y, D=D,
+                        event_names=names, event_times=times, counters=rows[-1][3],
+                        finished=np.array(bool(finished)), wall=np.array(wall), **extra)
+        self.last_save = time.perf_counter()
+        return self.path
+
+    def due(self) -> bool:
+        return self.path is not None and time.perf_counter() - self.last_save >= self.every
+
+    def load(self, log=None) -> dict:
+        """Read the checkpoint (refused if absent, corrupt without a readable predecessor, or of
+        another run) and restore the outputs and events; returns the checkpoint's arrays."""
+        ck = load_checkpoint(self.path, required=CHECKPOINT_ARRAYS, log=log)
+        sig = str(ck["signature"])
+        if sig != self.sig:
+            raise ValueError(f"--resume: checkpoint {self.path} belongs to another run (other "
+                             f"parameters, method, step or outputs); delete it or drop --resume")
+        T, Y, D = ck["t_out"], ck["Y"], ck["D"]
+        if T.ndim != 1 or Y.shape[0] != T.size or D.shape[0] != T.size or T.size == 0:
+            raise CorruptCheckpoint(f"checkpoint {self.path} is corrupt (inconsistent output "
+                                    "arrays)")
+        counters = ck["counters"]
+        for k in range(T.size):
+            self.rows.append((float(T[k]), Y[k].copy(), D[k].copy(), counters, None))
+        for name in EVENTS:
+            self.events.times[name] = []
+        for name, te in zip(ck["event_names"], ck["event_times"]):
+            self.events.times[str(name)].append(float(te))
+        self.wall_before = float(ck["wall"]) if "wall" in ck else 0.0
+        return ck
+
+    def interrupted(self, wall: float) -> KeyboardInterrupt:
+        """Save the checkpoint (if any) and return the KeyboardInterrupt that says so."""
+        path = self.save(wall=wall) if self.rows else None
+        if path is None:
+            return KeyboardInterrupt("nothing was saved")
+        return KeyboardInterrupt(f"checkpoint {path} holds the run to t = {self.t_last:.6g} s; "
+                                 f"rerun with --resume to continue")
 
 
-def _load(path, problem, method):
-    ck = load_checkpoint(path)
-    sig = str(ck["signature"])
-    if sig != _signature(problem, method):
-        raise ValueError(f"checkpoint {path} belongs to another run ({sig}); delete it or drop "
-                         f"--resume")
-    events = {k: [] for k in EVENTS}
-    for name, te in zip(ck["event_names"], ck["event_times"]):
-        events[str(name)].append(float(te))
-    return ck, events
+class _Progress:
+    """tqdm bar of the simulated time (with its ETA, on stderr), or nothing. The bar starts at
+    the first time it is given (a resumed run's ETA counts only what is left)."""
+
+    def __init__(self, enabled, t_end, label):
+        self.enabled, self.t_end, self.label, self.bar = bool(enabled), float(t_end), label, None
+
+    def to(self, t):
+        if not self.enabled:
+            return
+        if self.bar is None:
+            from tqdm import tqdm
+            self.bar = tqdm(total=self.t_end, initial=float(t), desc=self.label or "shear1d",
+                            bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.4g}/{total:.4g}"
+                                       " s simulated [{elapsed}<{remaining}]", leave=False,
+                            dynamic_ncols=True)
+        else:
+            self.bar.update(float(t) - self.bar.n)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
 
 
 # ----------------------------------------------------------------------------- driver
@@ -257,10 +354,23 @@ def output_times(t_end: float, n_out: int = 200, t_out=None) -> np.ndarray:
     return np.linspace(0.0, float(t_end), int(n_out) + 1)
 
 
+#: Floats held per cell and output by a run and its post-processing (states, diagnostics, the
+#: fields extracted for the files and figures, the checkpoint copy); measured peak ~ this times
+#: cells x outputs x 8 bytes (see tests/test_shear1d_cli.py).
+FLOATS_PER_CELL_OUTPUT = 48
+
+
+def memory_estimate(n_cells: int, n_out: int, runs: int = 1) -> float:
+    """Bytes a run of ``runs`` scenes of n_cells cells with n_out output intervals needs (all
+    results are kept for the combined figures)."""
+    return float(runs) * FLOATS_PER_CELL_OUTPUT * 8.0 * n_cells * (n_out + 1) + 50e6
+
+
 def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", n_out: int = 200,
           t_out=None, rtol: float = 1e-4, dt: float | None = None, check_stability: bool = True,
           stop_on=(), checkpoint=None, checkpoint_every: float = 60.0, resume: bool = False,
-          max_step: float = 0.0, max_order: int = 2) -> Result:
+          max_step: float = 0.0, max_order: int = 2, progress: bool = False, label: str = "",
+          stop_hook=None, log=None) -> Result:
     """Integrate a Couette problem from rest.
 
     Parameters
@@ -283,19 +393,47 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     stop_on : iterable of str
         Event names (``front_at_wall``, ``flow_stopped``) that end the run when they fire.
     checkpoint : path, optional
-        ``.npz`` checkpoint written atomically at most every ``checkpoint_every`` seconds of wall
-        time and at the end; with ``resume=True`` an existing one is continued.
+        ``.npz`` checkpoint (:func:`rheology.io.save_checkpoint`, the previous one kept as
+        ``.prev.npz``) written at an output at most every ``checkpoint_every`` seconds of wall
+        time, at the end, and when the run is interrupted (KeyboardInterrupt: Ctrl-C, or SIGTERM
+        under :func:`rheology.cli_common.run_command`); the interrupt is re-raised with a message
+        naming the checkpoint.
+    resume : bool
+        Continue from ``checkpoint`` (ValueError if there is none or it belongs to another run;
+        :class:`rheology.io.CorruptCheckpoint` if it and its predecessor are unreadable). The
+        run restarts from the checkpoint's last output: with the explicit method the result is
+        bit-for-bit the uninterrupted one; IDA restarts its BDF history there, so the result
+        agrees with the uninterrupted one to the integration tolerance (measured: see
+        tests/test_shear1d_resume.py).
     max_step : float
         Largest IDA step [s] (0: unbounded).
     max_order : int
         Largest BDF order of IDA, 1-5. Default 2: BDF1-2 are A-stable (BDF3-5 are not near the
         imaginary axis) and the jammed band is an elastic solid whose grid-scale shear waves only
-        the small fluid viscosity damps; on the fast Fig. 3 case it ran ~10 % faster than order 5
-        at 200 and 400 cells.
+        the small fluid viscosity damps.
+    progress : bool
+        Show a tqdm bar of the simulated time with its ETA (on stderr).
+    label : str
+        The bar's description.
+    stop_hook : callable, optional
+        Called as ``stop_hook(t)`` after every output is recorded (tests use it to interrupt a
+        run at a given output by raising KeyboardInterrupt).
+    log : callable, optional
+        Told when a corrupt checkpoint is replaced by its predecessor.
 
     Returns
     -------
-    Result
+    Result (``stats`` count every step and residual evaluation since t = 0, resumed parts
+    included; ``wall_time`` too).
+
+    Raises
+    ------
+    ValueError
+        Bad input (method, times, rtol, an unstable dt, a missing or foreign checkpoint).
+    RuntimeError
+        The integration failed or produced an unphysical state (with diagnostics).
+    KeyboardInterrupt
+        Interrupted; the message says where the checkpoint is (or that nothing was saved).
     """
     if method not in METHODS:
         raise ValueError(f"method = {method!r} must be one of {METHODS}")
@@ -306,12 +444,22 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     for name in stop_on:
         if name not in EVENTS:
             raise ValueError(f"stop_on event {name!r} must be one of {EVENTS}")
+    check_positive("checkpoint_every", checkpoint_every, note="s of wall time")
+    if resume and checkpoint is None:
+        raise ValueError("resume=True needs a checkpoint path")
+    events = _Events(problem)
     if method == "ida":
         check_range("rtol", rtol, 1e-12, 1e-2, lo_closed=True)
         if max_order not in (1, 2, 3, 4, 5):
             raise ValueError(f"max_order = {max_order!r} must be an integer in [1, 5]")
-        return _solve_ida(problem, times, rtol, stop_on, checkpoint, checkpoint_every, resume,
-                          max_step, max_order)
+        outs = _Outputs(problem, "ida", times, float(rtol), checkpoint, checkpoint_every, events)
+        ck = outs.load(log) if resume else None
+        bar = _Progress(progress, times[-1], label)
+        try:
+            return _solve_ida(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar,
+                              stop_hook)
+        finally:
+            bar.close()
     lim = stable_time_step(problem)
     if dt is None:
         dt = 0.5 * lim["dt"]
@@ -319,8 +467,13 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
         check_time_step(problem, dt)
     else:
         check_positive("dt", dt, note="s")
-    return _solve_explicit(problem, times, float(dt), lim, stop_on, checkpoint, checkpoint_every,
-                           resume)
+    outs = _Outputs(problem, "explicit", times, float(dt), checkpoint, checkpoint_every, events)
+    ck = outs.load(log) if resume else None
+    bar = _Progress(progress, times[-1], label)
+    try:
+        return _solve_explicit(problem, times, float(dt), lim, stop_on, outs, ck, bar, stop_hook)
+    finally:
+        bar.close()
 
 
 def _tolerances(problem: Couette, rtol: float) -> np.ndarray:
@@ -335,131 +488,151 @@ def _tolerances(problem: Couette, rtol: float) -> np.ndarray:
     return atol
 
 
-def _solve_ida(problem, times, rtol, stop_on, checkpoint, checkpoint_every, resume, max_step,
-               max_order):
+def _result(problem, method, outs, wall0, stats) -> Result:
+    T, Y, D = outs.arrays()
+    return Result(problem, method, T, Y, D, {k: list(v) for k, v in outs.events.times.items()},
+                  outs.wall_before + (time.perf_counter() - wall0), stats)
+
+
+def _solve_ida(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar, stop_hook):
     from sksundae.ida import IDA
 
     n = problem.grid.n
     work = np.empty(problem.size)
+    bw = problem.bandwidth()
 
     def resfn(t, y, yp, res):
         problem.rhs(t, y, work, problem.rate_step_at(rtol, t))
         np.subtract(yp, work, out=res)
 
-    events = _Events(problem)
-    y0 = problem.initial_state()
-    yp0 = np.empty_like(y0)
-    problem.rhs(0.0, y0, yp0, problem.rate_step_at(rtol, 0.0))
-    T, Y, D = [0.0], [y0.copy()], [problem.diagnostics(0.0, y0, problem.rate_step_at(rtol, 0.0))]
-    t0, i_next = 0.0, 1
-    if resume and checkpoint is not None and Path(checkpoint).exists():
-        ck, events.times = _load(checkpoint, problem, "ida")
-        T, Y, D = list(ck["t_out"]), list(ck["Y"]), list(ck["D"])
-        y0, yp0, t0 = ck["y"], ck["yp"], float(ck["t"])
-        i_next = int(np.searchsorted(times, t0, side="right"))
-    bw = problem.bandwidth()
+    def stats(counters):
+        return dict(nfev=int(counters[0]), njev=int(counters[1]), rtol=rtol, bandwidth=bw,
+                    rate_step_end=problem.rate_step_at(rtol, outs.t_last))
+
+    wall0 = time.perf_counter()
+    events = outs.events
+    if ck is None:
+        y0 = problem.initial_state()
+        yp0 = np.empty_like(y0)
+        problem.rhs(0.0, y0, yp0, problem.rate_step_at(rtol, 0.0))
+        outs.add(0.0, y0.copy(), problem.diagnostics(0.0, y0, problem.rate_step_at(rtol, 0.0)),
+                 (0, 0, 0), dict(y=y0.copy(), yp=yp0.copy()))
+        base = np.zeros(3)
+    else:
+        y0, yp0 = ck["y"], ck["yp"]
+        base = np.asarray(ck["counters"], dtype=float)
+        outs.rows[-1] = outs.rows[-1][:4] + (dict(y=y0, yp=yp0),)
+        if bool(ck["finished"]):
+            return _result(problem, "ida", outs, wall0, stats(base))
+    t0 = outs.t_last
+    i_next = int(np.searchsorted(times, t0, side="right"))
     opts = dict(rtol=rtol, atol=_tolerances(problem, rtol), linsolver="band", lband=bw, uband=bw,
                 max_num_steps=500000, max_step=max_step, max_order=max_order)
     if events.active:
         opts.update(eventsfn=events.ida_function(), num_events=len(EVENTS))
     solver = IDA(resfn, **opts)
     solver.init_step(t0, y0, yp0)
-    seen, stopped, nfev, njev = 0, False, 0, 0
-    wall0 = last_save = time.perf_counter()
-    sol = None
-    for t_target in times[i_next:]:
-        while True:
-            sol = solver.step(float(t_target))
-            nfev, njev = sol.nfev, sol.njev
-            if sol.status == _IDA_ROOT_RETURN:
-                te = np.atleast_1d(sol.t_events) if sol.t_events is not None else []
-                ie = np.atleast_2d(sol.i_events) if sol.i_events is not None else []
-                for k in range(seen, len(te)):
-                    for i, name in enumerate(EVENTS):
-                        if ie[k][i] != 0:
-                            events.times[name].append(float(te[k]))
-                            stopped |= name in stop_on
-                seen = len(te)
-                if stopped:
-                    break
-                continue
-            if not sol.success:
-                st = problem.unpack(sol.y, sol.t)
-                raise RuntimeError(f"IDA failed at t = {sol.t:.6g} s (target {t_target:.6g} s): "
-                                   f"{sol.message} (status {sol.status}); {n} cells, mode "
-                                   f"{problem.mode}, rtol {rtol:g}; max f = {st['f'].max():.6g}, "
-                                   f"max |sigma| = {np.abs(st['sigma']).max():.6g} Pa")
-            break
-        diag = problem.diagnostics(float(sol.t), sol.y, problem.rate_step_at(rtol, float(sol.t)))
-        check_state(problem, float(sol.t), sol.y, diag, f_tol=100 * rtol)
-        T.append(float(sol.t))
-        Y.append(sol.y.copy())
-        D.append(diag)
-        now = time.perf_counter()
-        if checkpoint is not None and (now - last_save > checkpoint_every or stopped
-                                       or t_target == times[-1]):
-            _save(checkpoint, problem, "ida", T, Y, D, events.times,
-                  dict(t=np.array(sol.t), y=sol.y, yp=sol.yp))
-            last_save = now
-        if stopped:
-            break
-    return Result(problem, "ida", np.array(T), np.array(Y), np.array(D), events.times,
-                  time.perf_counter() - wall0, dict(nfev=nfev, njev=njev, rtol=rtol,
-                                                    bandwidth=bw,
-                                                    rate_step_end=problem.rate_step_at(rtol,
-                                                                                       T[-1])))
+    bar.to(t0)
+    seen, stopped = 0, False
+    counters = base.copy()
+    try:
+        for t_target in times[i_next:]:
+            while True:
+                sol = solver.step(float(t_target))
+                counters = base + np.array([sol.nfev, sol.njev, 0.0])
+                if sol.status == _IDA_ROOT_RETURN:
+                    te = np.atleast_1d(sol.t_events) if sol.t_events is not None else []
+                    ie = np.atleast_2d(sol.i_events) if sol.i_events is not None else []
+                    for k in range(seen, len(te)):
+                        for i, name in enumerate(EVENTS):
+                            if ie[k][i] != 0:
+                                events.times[name].append(float(te[k]))
+                                stopped |= name in stop_on
+                    seen = len(te)
+                    if stopped:
+                        break
+                    continue
+                if not sol.success:
+                    st = problem.unpack(sol.y, sol.t)
+                    raise RuntimeError(
+                        f"IDA failed at t = {sol.t:.6g} s (target {t_target:.6g} s): "
+                        f"{sol.message} (status {sol.status}); {n} cells, mode {problem.mode}, "
+                        f"rtol {rtol:g}; max f = {st['f'].max():.6g}, max |sigma| = "
+                        f"{np.abs(st['sigma']).max():.6g} Pa")
+                break
+            t_now = float(sol.t)
+            diag = problem.diagnostics(t_now, sol.y, problem.rate_step_at(rtol, t_now))
+            check_state(problem, t_now, sol.y, diag, f_tol=100 * rtol)
+            outs.add(t_now, sol.y.copy(), diag, counters, dict(y=sol.y.copy(), yp=sol.yp.copy()))
+            bar.to(t_now)
+            last = stopped or t_target == times[-1]
+            if last or outs.due():
+                outs.save(finished=last, wall=outs.wall_before + time.perf_counter() - wall0)
+            if stop_hook is not None and not last:
+                stop_hook(t_now)
+            if stopped:
+                break
+    except KeyboardInterrupt:
+        raise outs.interrupted(outs.wall_before + time.perf_counter() - wall0) from None
+    return _result(problem, "ida", outs, wall0, stats(counters))
 
 
-def _solve_explicit(problem, times, dt, lim, stop_on, checkpoint, checkpoint_every, resume):
+def _solve_explicit(problem, times, dt, lim, stop_on, outs, ck, bar, stop_hook):
     lay, mt, n = problem.layout(), problem.metrics(), problem.grid.n
-    y0 = problem.initial_state()
-    st = problem.unpack(y0, 0.0)
+    events = outs.events
+
+    def stats(steps):
+        return dict(steps=int(steps), dt=dt, dt_stable=float(lim["dt"]))
+
+    wall0 = time.perf_counter()
+    if ck is None:
+        y0 = problem.initial_state()
+        outs.add(0.0, y0, problem.diagnostics(0.0, y0, dt), (0,))
+        steps = 0
+    else:
+        steps = int(ck["counters"][0])
+        if bool(ck["finished"]):
+            return _result(problem, "explicit", outs, wall0, stats(steps))
+    t_last, y_last = outs.rows[-1][0], outs.rows[-1][1]
+    st = problem.unpack(y_last, t_last)
     v, S, f, phi = st["v"].copy(), st["sigma"].copy(), st["f"].copy(), st["phi"].copy()
-    events = _Events(problem)
-    T, Y, D = [0.0], [y0], [problem.diagnostics(0.0, y0, dt)]
-    events.sample(0.0, y0)
-    i_next, steps = 1, 0
-    if resume and checkpoint is not None and Path(checkpoint).exists():
-        ck, events.times = _load(checkpoint, problem, "explicit")
-        T, Y, D = list(ck["t_out"]), list(ck["Y"]), list(ck["D"])
-        st = problem.unpack(Y[-1], T[-1])
-        v, S, f, phi = st["v"].copy(), st["sigma"].copy(), st["f"].copy(), st["phi"].copy()
-        events.sample(T[-1], Y[-1])
-        i_next = len(T)
+    events.sample(t_last, y_last)
+    i_next = len(outs.rows)
     diag = np.empty((n, kernels.NDIAG))
     m, P = problem.material, problem.parameters()
     common = (mt["cg"], mt["w"], mt["A"], mt["M"], mt["A_wall"], mt["a"], mt["V"], mt["hoop_c"],
               mt["hoop_f"], mt["dx"])
-    wall0 = last_save = time.perf_counter()
-    for k in range(i_next, len(times)):
-        t0, t1 = times[k - 1], times[k]
-        nsub = max(1, int(math.ceil((t1 - t0) / dt * (1 - 1e-12))))
-        h = (t1 - t0) / nsub
-        did, bad = kernels.explicit_steps(
-            nsub, t0, h, problem.drive_amplitude, problem.ramp_time, problem.stress_driven, v, S,
-            f, phi, *common, m.eta0, m.d, m.rho_s, m.rho_f, P, problem.contact_pressure, diag,
-            problem.two_phase)
-        steps += did
-        if bad >= 0:
-            raise RuntimeError(f"Table 8 local update failed in cell {bad} at t = "
-                               f"{t0 + did * h:.6g} s (explicit, dt = {h:.3g} s)")
-        if did < nsub or not np.all(np.isfinite(v)):
-            raise RuntimeError(f"explicit scheme diverged at t = {t0 + did * h:.6g} s with dt = "
-                               f"{h:.6g} s (stability limit {lim['dt']:.6g} s)")
-        y = problem.pack(v, S, f, phi)
-        dg = problem.diagnostics(float(t1), y, dt)
-        check_state(problem, float(t1), y, dg)
-        T.append(float(t1))
-        Y.append(y)
-        D.append(dg)
-        fired = events.sample(float(t1), y) if events.active else []
-        stopped = any(name in stop_on for name in fired)
-        now = time.perf_counter()
-        if checkpoint is not None and (now - last_save > checkpoint_every or stopped
-                                       or k == len(times) - 1):
-            _save(checkpoint, problem, "explicit", T, Y, D, events.times, {})
-            last_save = now
-        if stopped:
-            break
-    return Result(problem, "explicit", np.array(T), np.array(Y), np.array(D), events.times,
-                  time.perf_counter() - wall0, dict(steps=steps, dt=dt, dt_stable=lim["dt"]))
+    bar.to(t_last)
+    try:
+        for k in range(i_next, len(times)):
+            t0, t1 = times[k - 1], times[k]
+            nsub = max(1, int(math.ceil((t1 - t0) / dt * (1 - 1e-12))))
+            h = (t1 - t0) / nsub
+            did, bad = kernels.explicit_steps(
+                nsub, t0, h, problem.drive_amplitude, problem.ramp_time, problem.stress_driven, v,
+                S, f, phi, *common, m.eta0, m.d, m.rho_s, m.rho_f, P, problem.contact_pressure,
+                diag, problem.two_phase)
+            if bad >= 0:
+                raise RuntimeError(f"Table 8 local update failed in cell {bad} at t = "
+                                   f"{t0 + did * h:.6g} s (explicit, dt = {h:.3g} s)")
+            if did < nsub or not np.all(np.isfinite(v)):
+                raise RuntimeError(f"explicit scheme diverged at t = {t0 + did * h:.6g} s with dt"
+                                   f" = {h:.6g} s (stability limit {lim['dt']:.6g} s)")
+            y = problem.pack(v, S, f, phi)
+            dg = problem.diagnostics(float(t1), y, dt)
+            check_state(problem, float(t1), y, dg)
+            fired = events.sample(float(t1), y) if events.active else []
+            stopped = any(name in stop_on for name in fired)
+            outs.add(float(t1), y, dg, (steps + did,))
+            steps += did
+            bar.to(t1)
+            last = stopped or k == len(times) - 1
+            if last or outs.due():
+                outs.save(finished=last, wall=outs.wall_before + time.perf_counter() - wall0)
+            if stop_hook is not None and not last:
+                stop_hook(float(t1))
+            if stopped:
+                break
+    except KeyboardInterrupt:
+        raise outs.interrupted(outs.wall_before + time.perf_counter() - wall0) from None
+    return _result(problem, "explicit", outs, wall0, stats(steps))

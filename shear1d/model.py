@@ -37,6 +37,19 @@ from . import kernels
 from .geometry import Grid
 
 MODES = ("locked", "two-phase")
+#: Largest elastic shear strain the model is used at: the Table 8 law is hypoelastic (Jaumann
+#: rate of a linear elastic law), a small-elastic-strain law. An impulsively moved wall launches a
+#: shear wave of elastic strain u/c_s into the jammed skeleton, and a wall stress tau strains it by
+#: tau/G, so the wall speed is limited to ELASTIC_STRAIN_LIMIT c_s and the wall stress to
+#: ELASTIC_STRAIN_LIMIT G (annular_shear: 1.53 m/s, 18 times the fast Fig. 3 speed; 3.8e4 Pa).
+ELASTIC_STRAIN_LIMIT = 0.1
+
+
+def max_wall_speed(material, phi0: float) -> float:
+    """Largest wall speed [m/s] the model is used at: ELASTIC_STRAIN_LIMIT sqrt(G/rho) with the
+    mixture density rho = phi0 rho_s + (1 - phi0) rho_f (see ELASTIC_STRAIN_LIMIT)."""
+    rho = phi0 * material.rho_s + (1.0 - phi0) * material.rho_f
+    return ELASTIC_STRAIN_LIMIT * float(np.sqrt(material.G / rho))
 #: Stress components stored per cell, in this order.
 STRESS_COMPONENTS = ("sigma_rr", "sigma_thth", "sigma_zz", "sigma_rth")
 
@@ -94,10 +107,6 @@ class Couette:
                                           "diameter for Darcy drag")
         if (self.wall_speed is None) == (self.wall_stress is None):
             raise ValueError("give exactly one of wall_speed [m/s] and wall_stress [Pa]")
-        if self.wall_speed is not None:
-            check_range("wall_speed", self.wall_speed, note="m/s")
-        else:
-            check_nonnegative("wall_stress", self.wall_stress, note="Pa")
         check_nonnegative("ramp_time", self.ramp_time, note="s")
         phi0 = m.phi0 if self.phi0 is None else self.phi0
         if phi0 is None:
@@ -105,6 +114,17 @@ class Couette:
         check_range("phi0", phi0, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
                     note=f"below phi_j = {m.phi_j} of {m.name}")
         object.__setattr__(self, "phi0", float(phi0))
+        if self.wall_speed is not None:
+            u_max = max_wall_speed(m, self.phi0)
+            check_range("wall_speed", self.wall_speed, -u_max, u_max,
+                        note=f"m/s; |u| <= {ELASTIC_STRAIN_LIMIT:g} c_s, c_s = sqrt(G/rho) = "
+                             f"{u_max / ELASTIC_STRAIN_LIMIT:.4g} m/s the skeleton's shear-wave "
+                             "speed: faster walls strain the hypoelastic law beyond small "
+                             "elastic strain")
+        else:
+            check_range("wall_stress", self.wall_stress, 0.0, ELASTIC_STRAIN_LIMIT * m.G,
+                        note=f"Pa; <= {ELASTIC_STRAIN_LIMIT:g} G: larger stresses strain the "
+                             "hypoelastic law beyond small elastic strain")
         check_positive("contact_pressure", self.contact_pressure, note="Pa")
         if self.rate_step is not None:
             check_positive("rate_step", self.rate_step, note="s")

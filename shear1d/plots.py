@@ -60,45 +60,56 @@ def velocity_profiles(path, runs, rotations=(0.0, 0.1, 0.2, 0.31)):
     fig.suptitle("Annular shear: velocity profiles after 0, 0.1, 0.2, 0.31 rad of bob rotation")
     return _finish(fig, path)
 
-
-def front_positions(path, runs):
-    """Kinematic and structure fronts against bob rotation, with the linear fit and events, for
-    the runs that jammed."""
+def front_positions_figure(runs):
+    """Kinematic and structure fronts against bob rotation for the runs that jammed, drawn only
+    where a jammed band exists (:func:`shear1d.scenes.band_present`: the front_m cells of
+    <tag>_front.csv that are not empty), with the linear fit and the events."""
     from .scenes import front_frame, jammed
 
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = plt.subplots(figsize=(7.5, 4.8))
     runs = [r for r in runs if jammed(r.summary)]
     for run, c in zip(runs, plt.cm.tab10(np.arange(len(runs)))):
         res, g, s = run.result, run.result.problem.grid, run.summary
         fr = front_frame(res)
-        ax.plot(fr["rotation_rad"], (fr["front_m"] - g.inner) / g.gap, color=c, lw=1.8,
-                label=f"{_label(run)}: v/(omega r) = 1/2")
-        ax.plot(fr["rotation_rad"], (fr["structure_front_m"] - g.inner) / g.gap, "--", color=c,
-                lw=1.2, label="  f = f_jam/2")
+        band = np.isfinite(fr["front_m"].to_numpy())
+        rot = fr["rotation_rad"].to_numpy()[band]
+        ax.plot(rot, (fr["front_m"].to_numpy()[band] - g.inner) / g.gap, color=c, lw=1.8,
+                label=f"{_label(run)}: front v/(omega r) = 1/2")
+        ax.plot(rot, (fr["structure_front_m"].to_numpy()[band] - g.inner) / g.gap, "--",
+                color=c, lw=1.2, label="  structure front f = f_jam/2")
         if np.isfinite(s["front_speed_m_per_s"]):
-            rot = np.linspace(*s["front_fit_rotation_rad"], 20)
-            x = s["front_speed_m_per_s"] * rot * g.inner / s["u_inner_m_per_s"] \
+            rr = np.linspace(*s["front_fit_rotation_rad"], 20)
+            x = s["front_speed_m_per_s"] * rr * g.inner / s["u_inner_m_per_s"] \
                 + s["front_fit_intercept_m"]
-            ax.plot(rot, (x - g.inner) / g.gap, ":", color="k", lw=1)
-        for key, mk in (("front_at_wall_rotation_rad", "s"), ("flow_stopped_rotation_rad", "x")):
+            ax.plot(rr, (x - g.inner) / g.gap, ":", color="k", lw=1,
+                    label=f"  linear fit: {s['front_speed_m_per_s']:.3g} m/s")
+        for key, ls, what in (("front_at_wall_rotation_rad", ":", "band at outer wall"),
+                              ("flow_stopped_rotation_rad", "-.", "flow stopped")):
             if s[key] is not None:
-                ax.axvline(s[key], color=c, ls=":" if mk == "s" else "-.", lw=0.8)
+                ax.axvline(s[key], color=c, ls=ls, lw=0.8, label=f"  {what}")
     if not runs:
-        ax.text(0.5, 0.5, "no run jammed (f < f_jam/2 everywhere)", ha="center",
+        ax.text(0.5, 0.5, "no run jammed (f < f_jam/2 everywhere): no front", ha="center",
                 transform=ax.transAxes)
     ax.set_xlabel("bob rotation [rad]")
     ax.set_ylabel("(front - R_i) / (R_o - R_i)")
     ax.set_ylim(0, 1.02)
-    ax.set_title("Shear-jamming front (dotted: linear fit; vertical lines: band at wall, "
-                 "flow stopped)", fontsize=9)
-    ax.legend(fontsize=7)
+    ax.set_title("Shear-jamming front, drawn only while a jammed band (f >= f_jam/2 at the bob) "
+                 "grows,\nuntil the flow stops (the band then fills the gap)", fontsize=9)
+    if runs:
+        ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
-    return _finish(fig, path)
+    return fig
 
 
-def run_fields(path, run):
-    """Space-time maps of one run: v/(omega r), f, plastic shear rate and granular pressure."""
-    from .scenes import rotation_of
+def front_positions(path, runs):
+    """Write :func:`front_positions_figure` to ``path``."""
+    return _finish(front_positions_figure(runs), path)
+
+
+def run_fields_figure(run):
+    """Space-time maps of one run: v/(omega r), f, plastic shear rate and granular pressure; the
+    front is drawn only where a jammed band exists (as in <tag>_front.csv)."""
+    from .scenes import band_front, rotation_of
 
     res, g = run.result, run.result.problem.grid
     u = res.problem.drive_amplitude
@@ -112,19 +123,30 @@ def run_fields(path, run):
              "log10 plastic shear rate [1/s]", dict(cmap="cividis")),
             (np.log10(res.field("pressure") + 1e-3), "log10 granular pressure [Pa]",
              dict(cmap="plasma"))]
-    fig, axes = plt.subplots(1, 4, figsize=(18, 4.2))
+    fig, axes = plt.subplots(1, 4, figsize=(18, 4.4))
     ext = [g.inner * 1e3, g.outer * 1e3, rot[0], rot[-1]]
-    front = res.front()
+    front = band_front(res)
+    band = np.isfinite(front)
     for ax, (data, title, kw) in zip(axes, maps):
         im = ax.imshow(data, origin="lower", aspect="auto", extent=ext, interpolation="nearest",
                        **kw)
-        ax.plot(front * 1e3, rot, "w-", lw=0.8)
+        if band.any():
+            ax.plot(front[band] * 1e3, rot[band], "w-", lw=1.0, label="front of the jammed band")
         fig.colorbar(im, ax=ax)
         ax.set_title(title, fontsize=10)
         ax.set_xlabel("r [mm]")
+    if band.any():
+        axes[0].legend(fontsize=7, loc="upper right", facecolor="0.4", labelcolor="w")
     axes[0].set_ylabel("bob rotation [rad]")
-    fig.suptitle(f"{_label(run)}, {g.n} cells ({res.method}); white: front v/(omega r) = 1/2")
-    return _finish(fig, path)
+    what = ("white: front v/(omega r) = 1/2, drawn while a jammed band exists" if band.any()
+            else "no jammed band formed: no front drawn")
+    fig.suptitle(f"{_label(run)}, {g.n} cells ({res.method}); {what}")
+    return fig
+
+
+def run_fields(path, run):
+    """Write :func:`run_fields_figure` to ``path``."""
+    return _finish(run_fields_figure(run), path)
 
 
 def mode_comparison(path, runs):
@@ -151,24 +173,44 @@ def mode_comparison(path, runs):
     return _finish(fig, path)
 
 
-def couette(path, res, idx):
-    """Plane Couette: velocity profiles at the outputs ``idx`` and the wall stress and rate."""
+def couette_figure(res, idx):
+    """Plane Couette: velocity profiles at the outputs ``idx`` (left) and, against time, the wall
+    shear stress and the mean shear rate on two axes that both start at 0, with one legend for
+    both (right). The data are those of couette_profiles.csv and couette_wall.csv."""
+    from .scenes import couette_frames
+
     g = res.problem.grid
-    v, tau = res.field("v"), np.abs(res.field("shear_stress"))
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
-    for k, c in zip(idx, plt.cm.viridis(np.linspace(0, 0.9, len(idx)))):
-        axes[0].plot(g.faces * 1e3, v[k], color=c, label=f"t = {res.t[k]:.3g} s")
-    axes[0].set_xlabel("y [mm]")
+    prof, wall = couette_frames(res)
+    fig, axes = plt.subplots(1, 2, figsize=(11.5, 4.4))
+    groups = list(prof.groupby("time_s", sort=True))
+    for (t, grp), c in zip(groups, plt.cm.viridis(np.linspace(0, 0.9, len(groups)))):
+        axes[0].plot(grp["y_m"] * 1e3, grp["v_m_per_s"], color=c, label=f"t = {t:.3g} s")
+    axes[0].set_xlabel("y [mm] (moving plate at 0)")
     axes[0].set_ylabel("v [m/s]")
     axes[0].legend(fontsize=8)
-    axes[1].plot(res.t, tau[:, 0], "C0", label="wall shear stress [Pa]")
+    t = wall["time_s"].to_numpy()
+    tau, rate = wall["wall_shear_stress_Pa"].to_numpy(), wall["mean_shear_rate_per_s"].to_numpy()
+    l1 = axes[1].plot(t, tau, "C0", label="wall shear stress [Pa] (left axis)")
     axes[1].set_xlabel("t [s]")
-    axes[1].set_ylabel("wall shear stress [Pa]")
+    axes[1].set_ylabel("wall shear stress [Pa]", color="C0")
     ax2 = axes[1].twinx()
-    ax2.plot(res.t, (v[:, 0] - v[:, -1]) / g.gap, "C1", label="mean shear rate [1/s]")
-    ax2.set_ylabel("mean shear rate [1/s]")
+    l2 = ax2.plot(t, rate, "C1--", label="mean shear rate (v_wall - v_fixed)/gap [1/s] "
+                                         "(right axis)")
+    ax2.set_ylabel("mean shear rate [1/s]", color="C1")
+    for ax, data in ((axes[1], tau), (ax2, rate)):       # both from 0: a constant is a flat line
+        top = float(np.max(data)) if data.size else 0.0
+        bottom = min(0.0, float(np.min(data))) if data.size else 0.0
+        ax.set_ylim(1.08 * bottom, 1.08 * top if top > 0 else 1.0)
+    axes[1].legend(l1 + l2, [ln.get_label() for ln in l1 + l2], fontsize=8, loc="lower right")
     for ax in axes:
         ax.grid(alpha=0.3)
+    drive = (f"plate speed {res.problem.drive_amplitude:g} m/s" if not res.problem.stress_driven
+             else f"plate stress {res.problem.drive_amplitude:g} Pa")
     fig.suptitle(f"Plane Couette, gap {g.gap * 1e3:g} mm, phi = {res.problem.phi0:g}, "
-                 f"{res.problem.mode}")
-    return _finish(fig, path)
+                 f"{res.problem.mode}, {drive}")
+    return fig
+
+
+def couette(path, res, idx=None):
+    """Write :func:`couette_figure` to ``path``."""
+    return _finish(couette_figure(res, idx), path)

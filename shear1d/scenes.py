@@ -24,7 +24,6 @@ Command: ``shear1d annular [--u-inner U ...] [--out DIR]``. Python::
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,13 +31,14 @@ import numpy as np
 import pandas as pd
 
 import rheology
-from rheology.checks import check_positive
-from rheology.io import atomic_write_csv, atomic_write_text
+from rheology.checks import check_memory, check_positive, check_range
+from rheology.io import atomic_write_csv, atomic_write_json, previous_checkpoint
 
 from . import analysis
 from .analytic import annular_steady
 from .geometry import Grid
-from .integrate import EVENTS, Result, solve
+from .integrate import (EVENTS, METHODS, Result, check_time_step, memory_estimate,
+                        output_times, solve)
 from .model import Couette
 
 R_INNER = 12.5e-3
@@ -101,24 +101,73 @@ def rotation_of(result: Result, t) -> np.ndarray:
     return dist / pb.grid.inner
 
 
+def flow_stop_time(result: Result) -> float | None:
+    """Time [s] the flow stopped after the band reached the outer wall (None if it did not)."""
+    ev = result.events
+    wall_t = ev.get("front_at_wall", [])[:1]
+    wall = wall_t[0] if wall_t else None
+    return next((x for x in ev.get("flow_stopped", []) if wall is None or x >= wall), None)
+
+
+def band_present(result: Result) -> np.ndarray:
+    """(n_out,) bool: outputs at which a jammed band is carried by the moving wall.
+
+    A band exists where f >= f_jam(phi0)/2 in the cell at the moving wall (the structure front
+    has left it), and until the flow stops after the band reached the outer wall: from then on
+    the band fills the gap, and the rigid-ratio threshold crossing is only the edge of the thin
+    sheared layer at the wall, which oscillates with the elastic waves - no front of a band.
+    """
+    pb, g = result.problem, result.problem.grid
+    fjam = float(rheology.f_jam(pb.phi0, pb.material))
+    f = result.field("f")
+    band = f[:, 0] >= 0.5 * fjam
+    stop = flow_stop_time(result)
+    if stop is not None:
+        band &= result.t <= stop
+    return band
+
+
+def band_front(result: Result) -> np.ndarray:
+    """Kinematic front position [m] where a jammed band exists (:func:`band_present`), NaN
+    elsewhere (undefined by construction: no band, no front)."""
+    return np.where(band_present(result), result.front(), np.nan)
+
+
+#: Summary keys that are null where undefined by construction: the front fit when no jammed band
+#: crossed 10 % of the gap (the slow case, or a run stopped early) or fewer than 3 outputs fell in
+#: the crossing; the band rigidity and the largest front position when no band formed.
+NULLABLE = ("front_speed_m_per_s", "front_speed_over_u_inner", "front_fit_r2",
+            "front_fit_intercept_m", "front_fit_rotation_rad", "structure_front_speed_m_per_s",
+            "structure_front_fit_r2", "band_rigidity_mean", "band_rigidity_min",
+            "max_front_position_m")
+
+
 def summarize(result: Result) -> dict:
-    """Front speed and linearity, rigidity, events, conservation and Newtonian deviation."""
+    """Front speed and linearity, rigidity, events, conservation and Newtonian deviation.
+
+    Values undefined by construction are NaN (written as null: see :data:`NULLABLE`). The wall
+    time is not part of the summary (it is printed): a resumed run's files are the same bytes as
+    an uninterrupted run's.
+    """
     pb, g = result.problem, result.problem.grid
     m, u = pb.material, pb.drive_amplitude
     v, f, phi = result.field("v"), result.field("f"), result.field("phi")
-    front = result.front()
+    band = band_present(result)
+    front = np.where(band, result.front(), np.nan)
     fjam = float(rheology.f_jam(pb.phi0, m))
     sfront = np.array([analysis.structure_front(g, ff, fjam) for ff in f])
+    sfront = np.where(band, sfront, np.nan)
     fit = analysis.front_fit(result.t, front, g)
     sfit = analysis.front_fit(result.t, sfront, g)
     rot = rotation_of(result, result.t)
-    window = (result.t >= fit["t_start"]) & (result.t <= fit["t_end"])
+    window = (result.t >= fit["t_start"]) & (result.t <= fit["t_end"]) & band
     rigid = [analysis.band_rigidity(g, v[k], u, front[k]) for k in np.flatnonzero(window)]
+    rigid = [x for x in rigid if np.isfinite(x)]
     vol = g.cell_volumes()
     solids = phi @ vol
     ev = {k: [float(x) for x in result.events.get(k, [])] for k in EVENTS}
     wall_t = ev["front_at_wall"][0] if ev["front_at_wall"] else None
-    stop_t = next((x for x in ev["flow_stopped"] if wall_t is None or x >= wall_t), None)
+    stop_t = flow_stop_time(result)
     newt = {}
     for target in ROTATIONS[1:]:
         k = int(np.argmin(np.abs(rot - target)))
@@ -126,20 +175,21 @@ def summarize(result: Result) -> dict:
             vn = annular_steady(g.faces, g.inner, g.outer, u)
             newt[f"{target:g}"] = float(np.max(np.abs(v[k] - vn)) / u)
     tau = np.abs(result.field("shear_stress"))
+    nan = float("nan")
+    stats = {k: (float(x) if isinstance(x, (float, np.floating)) else int(x))
+             for k, x in result.stats.items()}
     return dict(
         u_inner_m_per_s=u, mode=pb.mode, method=result.method, n_cells=g.n, r_inner_m=g.inner,
         r_outer_m=g.outer, phi0=pb.phi0, t_end_s=float(result.t[-1]),
-        rotation_end_rad=float(rot[-1]), wall_time_s=result.wall_time,
-        solver={k: (float(x) if isinstance(x, (float, np.floating)) else int(x))
-                for k, x in result.stats.items()},
+        rotation_end_rad=float(rot[-1]), solver=stats,
         front_speed_m_per_s=fit["speed"], front_speed_over_u_inner=fit["speed"] / u,
         front_fit_r2=fit["r2"], front_fit_intercept_m=fit["intercept"],
         front_fit_rotation_rad=[float(rotation_of(result, fit["t_start"])),
                                 float(rotation_of(result, fit["t_end"]))],
         structure_front_speed_m_per_s=sfit["speed"], structure_front_fit_r2=sfit["r2"],
-        band_rigidity_mean=float(np.nanmean(rigid)) if rigid else float("nan"),
-        band_rigidity_min=float(np.nanmin(rigid)) if rigid else float("nan"),
-        max_front_position_m=float(front.max()),
+        band_rigidity_mean=float(np.mean(rigid)) if rigid else nan,
+        band_rigidity_min=float(np.min(rigid)) if rigid else nan,
+        max_front_position_m=float(np.nanmax(front)) if band.any() else nan,
         front_at_wall_rotation_rad=None if wall_t is None else float(rotation_of(result, wall_t)),
         flow_stopped_rotation_rad=None if stop_t is None else float(rotation_of(result, stop_t)),
         events_s=ev,
@@ -176,18 +226,26 @@ def profile_frames(result: Result, rotations=ROTATIONS) -> tuple[pd.DataFrame, p
     return pd.concat(vrows, ignore_index=True), pd.concat(crows, ignore_index=True)
 
 
+#: Columns of <tag>_front.csv left empty where undefined by construction: the front and the
+#: band's rigidity where no jammed band exists (:func:`band_present`).
+FRONT_EMPTY_OK = ("front_m", "band_rigidity")
+
+
 def front_frame(result: Result) -> pd.DataFrame:
-    """Front position and bob stress against time."""
+    """Front position and bob stress against time (front_m and band_rigidity empty where no
+    jammed band exists)."""
     pb, g = result.problem, result.problem.grid
     u = pb.drive_amplitude
     v, f = result.field("v"), result.field("f")
-    front = result.front()
+    front = band_front(result)
     fjam = float(rheology.f_jam(pb.phi0, pb.material))
     tau = np.abs(result.field("shear_stress"))[:, 0] * (g.centres[0] / g.inner) ** 2
+    rigidity = [analysis.band_rigidity(g, vv, u, fr) if np.isfinite(fr) else np.nan
+                for vv, fr in zip(v, front)]
     return pd.DataFrame({
         "time_s": result.t, "rotation_rad": rotation_of(result, result.t), "front_m": front,
         "structure_front_m": [analysis.structure_front(g, ff, fjam) for ff in f],
-        "band_rigidity": [analysis.band_rigidity(g, vv, u, fr) for vv, fr in zip(v, front)],
+        "band_rigidity": rigidity,
         "bulk_speed_over_u_inner": [analysis.bulk_speed(g, vv, u) for vv in v],
         "bob_shear_stress_Pa": tau,
         "bob_torque_per_height_N": 2 * np.pi * g.inner ** 2 * tau})
@@ -212,76 +270,204 @@ def fields_frame(result: Result, every: int = 1) -> pd.DataFrame:
 
 
 def write_run(out: Path, run: SceneRun) -> list[Path]:
-    """Write a run's CSV files and summary JSON into ``out`` (atomic); return the paths."""
+    """Write a run's CSV files and summary JSON into ``out`` (atomic, finite; empty cells and
+    nulls only where undefined by construction); return the paths."""
     out = Path(out)
     vel, cells = profile_frames(run.result)
     paths = [atomic_write_csv(out / f"{run.tag}_velocity_profiles.csv", vel),
              atomic_write_csv(out / f"{run.tag}_cell_profiles.csv", cells),
-             atomic_write_csv(out / f"{run.tag}_front.csv", front_frame(run.result)),
+             atomic_write_csv(out / f"{run.tag}_front.csv", front_frame(run.result),
+                              empty_ok=FRONT_EMPTY_OK),
              atomic_write_csv(out / f"{run.tag}_fields.csv",
                               fields_frame(run.result, every=max(1, len(run.result.t) // 160))),
-             atomic_write_text(out / f"{run.tag}_summary.json",
-                               json.dumps(run.summary, indent=1, default=_json))]
+             atomic_write_json(out / f"{run.tag}_summary.json", run.summary, nullable=NULLABLE)]
     return paths
 
 
-def _json(x):
-    if isinstance(x, (np.floating, np.integer)):
-        return x.item()
-    raise TypeError(type(x).__name__)
+def precheck(problem: Couette, method: str, rtol: float, dt: float | None) -> None:
+    """Refuse a bad method, tolerance or unstable explicit step before anything is written."""
+    if method not in METHODS:
+        raise ValueError(f"method = {method!r} must be one of {METHODS}")
+    check_range("rtol", rtol, 1e-12, 1e-2)
+    if method == "explicit" and dt is not None:
+        check_time_step(problem, dt)
+
+
+def check_out_dir(out) -> Path:
+    """The output folder as a Path; ValueError if it exists and is not a folder."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out = {str(out)!r} exists and is not a folder")
+    return out
+
+
+def _checkpoint_files(ck: Path) -> list[Path]:
+    return [p for p in (ck, previous_checkpoint(ck)) if p.is_file()]
+
+
+def _interrupted(exc: KeyboardInterrupt, checkpoints) -> KeyboardInterrupt:
+    """The interrupt message: where the checkpoints are, or that nothing was saved."""
+    msg = str(exc) if "checkpoint" in str(exc) else ""
+    kept = [p for p in checkpoints if p.is_file() and str(p) not in msg]
+    if kept:
+        msg += ("; " if msg else "") + "checkpoints kept: " + ", ".join(str(p) for p in kept)
+        if "--resume" not in msg:
+            msg += "; rerun with --resume to continue"
+    return KeyboardInterrupt(msg or "nothing was saved")
 
 
 def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
                 method: str = "ida", rtol: float = 1e-4, dt: float | None = None,
                 n_out: int = 310, r_inner: float = R_INNER, r_outer: float = R_OUTER,
                 rotation: float = ROTATION_END, ramp_time: float = 0.0, resume: bool = False,
+                checkpoint_every: float = 60.0, progress: bool = False, stop_hook=None,
                 log=print) -> list[SceneRun]:
     """Solve the Fig. 3 scene for every speed and mode; write CSV, JSON and PNG into ``out``.
 
-    Checkpoints ``<tag>.checkpoint.npz`` are written during each run (resume with
-    ``resume=True``) and removed when the run's files are written.
+    Every run keeps a checkpoint ``<tag>.checkpoint.npz`` (written every ``checkpoint_every``
+    seconds, at its end and on an interrupt) until all runs' files are written; with
+    ``resume=True`` finished runs are read back from theirs, an interrupted one continues from
+    its own, and runs that had not started start. ``resume=True`` with no checkpoint of these
+    runs in ``out`` is refused (ValueError). Every parameter and the memory the runs need are
+    checked before the first run.
+
+    Raises
+    ------
+    ValueError
+        Bad input, not enough memory (estimate stated), nothing to resume.
+    RuntimeError
+        A solver failure or a non-finite result (nothing written for that run).
+    KeyboardInterrupt
+        Interrupted; the message names the checkpoints kept (or says nothing was saved).
     """
     from . import plots
 
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = check_out_dir(out)
     problems = []
     for u in speeds:                         # validate everything before the first long run
         for mode in modes:
             problems.append((u, mode) + annular_shear_jamming(
                 u, n_cells=n_cells, mode=mode, r_inner=r_inner, r_outer=r_outer,
                 rotation=rotation, ramp_time=ramp_time))
+    for *_, problem, _t in problems:
+        precheck(problem, method, rtol, dt)
+    check_memory("--cells x --outputs", f"{n_cells} x {n_out}",
+                 memory_estimate(n_cells, n_out, runs=len(problems)))
+    cks = {run_tag(u, mode): out / f"{run_tag(u, mode)}.checkpoint.npz" for u, mode, *_ in problems}
+    if resume:
+        if not any(_checkpoint_files(ck) for ck in cks.values()):
+            raise ValueError(f"--resume: no checkpoint of these runs in {out}/ (looked for "
+                             f"{', '.join(p.name for p in cks.values())}); run without --resume "
+                             "to start")
+    out.mkdir(parents=True, exist_ok=True)
+    if not resume:
+        for ck in cks.values():              # stale checkpoints of an earlier run
+            for p in _checkpoint_files(ck):
+                p.unlink()
     runs = []
-    for u, mode, problem, t_end in problems:
-        tag = run_tag(u, mode)
-        ck = out / f"{tag}.checkpoint.npz"
-        log(f"shear1d: {tag}: {n_cells} cells, {method}, to {rotation:g} rad (t_end = "
-            f"{t_end:.4g} s) ...", flush=True)
-        res = solve(problem, t_end, method=method, n_out=n_out, rtol=rtol, dt=dt, checkpoint=ck,
-                    resume=resume)
-        run = SceneRun(tag, res, summarize(res))
-        write_run(out, run)
-        figs = plots.run_fields(out / f"{tag}_fields.png", run)
-        ck.unlink(missing_ok=True)
-        s = run.summary
-        if jammed(s):
-            log(f"    {res.wall_time:.2f} s; jammed band: front speed {s['front_speed_m_per_s']:.3g}"
-                f" m/s ({s['front_speed_over_u_inner']:.3g} u_i, R^2 {s['front_fit_r2']:.3f}), "
-                f"band v/(omega r) {s['band_rigidity_mean']:.2f}, at the outer wall "
-                f"{_fmt_rot(s['front_at_wall_rotation_rad'])}, flow stopped "
-                f"{_fmt_rot(s['flow_stopped_rotation_rad'])}", flush=True)
-        else:
-            dev = ", ".join(f"{k} rad {v:.1e}" for k, v in
-                            s["newtonian_deviation_max_over_u"].items())
-            log(f"    {res.wall_time:.2f} s; no jamming (f_max/f_jam {s['f_max'] / s['f_jam']:.1e})"
-                f"; max |v - v_Newtonian|/u_i: {dev}", flush=True)
-        runs.append(run)
-    figs = [plots.velocity_profiles(out / "velocity_profiles.png", runs),
-            plots.front_positions(out / "front_position.png", runs)]
-    if len(set(modes)) > 1:
-        figs.append(plots.mode_comparison(out / "mode_comparison.png", runs))
+    try:
+        for u, mode, problem, t_end in problems:
+            tag = run_tag(u, mode)
+            ck = cks[tag]
+            again = resume and bool(_checkpoint_files(ck))
+            log(f"shear1d: {tag}: {n_cells} cells, {method}, to {rotation:g} rad (t_end = "
+                f"{t_end:.4g} s){' resuming from ' + str(ck) if again else ''} ...", flush=True)
+            res = solve(problem, t_end, method=method, n_out=n_out, rtol=rtol, dt=dt,
+                        checkpoint=ck, checkpoint_every=checkpoint_every, resume=again,
+                        progress=progress, label=tag, stop_hook=stop_hook, log=log)
+            run = SceneRun(tag, res, summarize(res))
+            write_run(out, run)
+            plots.run_fields(out / f"{tag}_fields.png", run)
+            _report(run, log)
+            runs.append(run)
+        figs = [plots.velocity_profiles(out / "velocity_profiles.png", runs),
+                plots.front_positions(out / "front_position.png", runs)]
+        if len(set(modes)) > 1:
+            figs.append(plots.mode_comparison(out / "mode_comparison.png", runs))
+    except KeyboardInterrupt as exc:
+        raise _interrupted(exc, list(cks.values())) from None
+    for ck in cks.values():
+        for p in _checkpoint_files(ck):
+            p.unlink()
     log(f"shear1d: wrote {out}/ (" + ", ".join(p.name for p in figs) + " and per-run CSV/JSON)")
     return runs
+
+
+def _report(run: SceneRun, log) -> None:
+    s, res = run.summary, run.result
+    if jammed(s) and s["front_speed_m_per_s"] == s["front_speed_m_per_s"]:
+        log(f"    {res.wall_time:.2f} s; jammed band: front speed {s['front_speed_m_per_s']:.3g}"
+            f" m/s ({s['front_speed_over_u_inner']:.3g} u_i, R^2 {s['front_fit_r2']:.3f}), "
+            f"band v/(omega r) {s['band_rigidity_mean']:.2f}, at the outer wall "
+            f"{_fmt_rot(s['front_at_wall_rotation_rad'])}, flow stopped "
+            f"{_fmt_rot(s['flow_stopped_rotation_rad'])}", flush=True)
+    elif jammed(s):
+        log(f"    {res.wall_time:.2f} s; a jammed band formed (f_max/f_jam "
+            f"{s['f_max'] / s['f_jam']:.2f}) but its front did not cross 10-90 % of the gap in "
+            f"this run: no front speed", flush=True)
+    else:
+        dev = ", ".join(f"{k} rad {v:.1e}" for k, v in s["newtonian_deviation_max_over_u"].items())
+        log(f"    {res.wall_time:.2f} s; no jamming (f_max/f_jam {s['f_max'] / s['f_jam']:.1e})"
+            f"; max |v - v_Newtonian|/u_i: {dev or '-'}", flush=True)
+
+
+def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_out: int = 200,
+                rtol: float = 1e-4, dt: float | None = None, resume: bool = False,
+                checkpoint_every: float = 60.0, progress: bool = False, stop_hook=None,
+                log=print) -> Result:
+    """Solve a plane Couette start-up and write couette_profiles.csv, couette_wall.csv and
+    couette.png into ``out`` (checkpoint ``couette.checkpoint.npz`` until the files are written;
+    same resume rules as :func:`run_annular`)."""
+    from . import plots
+
+    out = check_out_dir(out)
+    precheck(problem, method, rtol, dt)
+    output_times(t_end, n_out)
+    check_memory("--cells x --outputs", f"{problem.grid.n} x {n_out}",
+                 memory_estimate(problem.grid.n, n_out))
+    ck = out / "couette.checkpoint.npz"
+    if resume and not _checkpoint_files(ck):
+        raise ValueError(f"--resume: no checkpoint at {ck}; run without --resume to start")
+    out.mkdir(parents=True, exist_ok=True)
+    if not resume:
+        for p in _checkpoint_files(ck):
+            p.unlink()
+    try:
+        res = solve(problem, t_end, method=method, n_out=n_out, rtol=rtol, dt=dt, checkpoint=ck,
+                    checkpoint_every=checkpoint_every, resume=resume, progress=progress,
+                    label="couette", stop_hook=stop_hook, log=log)
+        prof, wall = couette_frames(res)
+        atomic_write_csv(out / "couette_profiles.csv", prof)
+        atomic_write_csv(out / "couette_wall.csv", wall)
+        png = plots.couette(out / "couette.png", res, couette_profile_outputs(res))
+    except KeyboardInterrupt as exc:
+        raise _interrupted(exc, [ck]) from None
+    for p in _checkpoint_files(ck):
+        p.unlink()
+    g = problem.grid
+    log(f"shear1d: plane Couette, {g.n} cells, {res.method}, {res.wall_time:.2f} s; wrote "
+        f"{out}/couette_profiles.csv, couette_wall.csv, {png.name}")
+    return res
+
+
+def couette_profile_outputs(res: Result) -> np.ndarray:
+    """Indices of the (up to 6) outputs whose velocity profiles are written and drawn."""
+    return np.unique(np.linspace(0, len(res.t) - 1, 6).astype(int))
+
+
+def couette_frames(res: Result) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(profiles, wall history) of a plane Couette run: v(y) at a few times; wall speed, wall
+    shear stress, mean shear rate and mean f against time."""
+    g = res.problem.grid
+    v, tau = res.field("v"), np.abs(res.field("shear_stress"))
+    idx = couette_profile_outputs(res)
+    prof = pd.concat([pd.DataFrame({"time_s": res.t[k], "y_m": g.faces, "v_m_per_s": v[k]})
+                      for k in idx], ignore_index=True)
+    wall = pd.DataFrame({"time_s": res.t, "wall_speed_m_per_s": v[:, 0],
+                         "wall_shear_stress_Pa": tau[:, 0],
+                         "mean_shear_rate_per_s": (v[:, 0] - v[:, -1]) / g.gap,
+                         "f_mean": res.field("f").mean(axis=1)})
+    return prof, wall
 
 
 def jammed(summary: dict) -> bool:
@@ -293,5 +479,5 @@ def _fmt_rot(x) -> str:
     return "-" if x is None else f"{x:.3f} rad"
 
 
-__all__ = ["annular_shear_jamming", "plane_couette", "run_annular", "summarize", "SceneRun",
-           "R_INNER", "R_OUTER", "SPEEDS", "ROTATIONS"]
+__all__ = ["annular_shear_jamming", "plane_couette", "run_annular", "run_couette", "summarize",
+           "SceneRun", "band_present", "band_front", "R_INNER", "R_OUTER", "SPEEDS", "ROTATIONS"]

@@ -1,19 +1,25 @@
-"""The shear1d command line end to end on tiny grids, and its handling of bad input."""
+"""The shear1d command line end to end on tiny grids, and its handling of bad input: every
+numeric option of every subcommand refuses NaN, inf, out-of-range and non-numbers with one line,
+exit 2 and nothing written; physical ranges that depend on the material are refused at setup the
+same way; sizes are bounded and the memory a run needs is checked before it starts."""
 
+import argparse
 import json
+import math
 import subprocess
 import sys
 
 import pandas as pd
 import pytest
 
-from shear1d.cli import main
+from rheology.cli_common import Number
+from shear1d.cli import _parser, main
 
 
 def test_annular_command_writes_csv_json_png(tmp_path):
     out = tmp_path / "run"
     assert main(["annular", "--u-inner", "0.084", "--cells", "20", "--outputs", "62",
-                 "--mode", "locked", "--out", str(out)]) == 0
+                 "--mode", "locked", "--quiet", "--out", str(out)]) == 0
     tag = "u84mm_s_locked"
     for name in (f"{tag}_velocity_profiles.csv", f"{tag}_cell_profiles.csv", f"{tag}_front.csv",
                  f"{tag}_fields.csv", f"{tag}_summary.json", f"{tag}_fields.png",
@@ -24,31 +30,137 @@ def test_annular_command_writes_csv_json_png(tmp_path):
     assert sorted(prof["rotation_rad"].round(3).unique()) == [0.0, 0.1, 0.2, 0.31]
     s = json.loads((out / f"{tag}_summary.json").read_text())
     assert s["front_speed_m_per_s"] > 0 and s["front_fit_r2"] > 0.9
-    assert not list(out.glob("*.checkpoint.npz"))
+    assert not list(out.glob("*checkpoint*")) and not list(out.glob(".*"))
+
+
+def test_slow_case_summary_is_strict_json_with_null_front(tmp_path):
+    out = tmp_path / "slow"
+    assert main(["annular", "--u-inner", "0.00084", "--cells", "12", "--outputs", "31",
+                 "--mode", "locked", "--method", "explicit", "--quiet", "--out", str(out)]) == 0
+    text = (out / "u0.84mm_s_locked_summary.json").read_text()
+    assert "NaN" not in text and "Infinity" not in text
+    s = json.loads(text)
+    assert s["front_speed_m_per_s"] is None and s["band_rigidity_mean"] is None
+    assert s["f_max"] < 0.05 * s["f_jam"]
+    front = pd.read_csv(out / "u0.84mm_s_locked_front.csv")
+    assert front["front_m"].isna().all() and front["bob_shear_stress_Pa"].notna().all()
 
 
 def test_couette_command(tmp_path):
     assert main(["couette", "--speed", "0.01", "--cells", "10", "--time", "0.2", "--outputs", "10",
-                 "--out", str(tmp_path)]) == 0
+                 "--quiet", "--out", str(tmp_path)]) == 0
     wall = pd.read_csv(tmp_path / "couette_wall.csv")
     assert wall["wall_shear_stress_Pa"].iloc[-1] > 0
     assert (tmp_path / "couette.png").stat().st_size > 0
 
 
+def _numeric_options():
+    """(subcommand, option, Number) for every numeric option of every subcommand."""
+    sub = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction))
+    for cmd, p in sub.choices.items():
+        for act in p._actions:
+            if act.option_strings and act.type is not None:
+                assert isinstance(act.type, Number), (cmd, act.option_strings)
+                yield cmd, act.option_strings[0], act.type
+
+
+OPTIONS = list(_numeric_options())
+BASE = {"annular": ["annular", "--u-inner", "0.084", "--cells", "8"],
+        "couette": ["couette", "--speed", "0.01", "--cells", "8"]}
+
+
+def _bad_values(num: Number):
+    yield "nan"
+    yield "inf"
+    yield "-inf"
+    yield "abc"
+    if num.lo is not None:
+        yield repr(num.lo - 1.0 - abs(num.lo)) if num.lo_closed else repr(num.lo)
+    if num.hi is not None:
+        yield repr(num.hi * 10 + 1) if num.hi_closed else repr(num.hi)
+    if num.integer:
+        yield "3.5"
+
+
+CASES = [(cmd, opt, v) for cmd, opt, num in OPTIONS for v in _bad_values(num)]
+
+
+@pytest.mark.parametrize("cmd, opt, value", CASES, ids=[f"{c}{o}={v}" for c, o, v in CASES])
+def test_every_numeric_option_refuses_bad_values_with_one_line(tmp_path, capsys, cmd, opt, value):
+    out = tmp_path / "out"
+    args = [a for a in BASE[cmd]]
+    if opt in args:                                  # replace the base value
+        i = args.index(opt)
+        del args[i:i + 2]
+    if opt in ("--speed", "--stress"):
+        args = ["couette"] + args[3:]
+    with pytest.raises(SystemExit) as exc:
+        main(args + [f"{opt}={value}", "--out", str(out)])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and opt in err[0] and "Traceback" not in err[0], err
+    assert not out.exists()
+
+
+def test_the_options_have_physical_ranges():
+    ranges = {(c, o): n for c, o, n in OPTIONS}
+    u = ranges[("annular", "--u-inner")]
+    assert u.hi is not None and 1.5 < u.hi < 1.54 and not u.contains(1e6)    # 0.1 sqrt(G/rho)
+    assert ranges[("annular", "--cells")].hi == 20000
+    assert ranges[("annular", "--outputs")].integer and ranges[("couette", "--cells")].integer
+    assert not ranges[("annular", "--checkpoint-every")].contains(0.0)
+
+
 @pytest.mark.parametrize("args, word", [
-    (["annular", "--u-inner", "-1"], "u_inner"),
-    (["annular", "--u-inner", "abc"], "invalid float"),
+    (["annular", "--u-inner", "1e6", "--cells", "20", "--mode", "locked"], "--u-inner"),
     (["annular", "--mode", "drained"], "--mode"),
-    (["annular", "--cells", "2"], "n_cells"),
+    (["annular", "--method", "rk4"], "--method"),
+    (["annular", "--cells", "2"], "--cells"),
+    (["annular", "--cells", "100000000"], "--cells"),
+    (["annular", "--r-inner", "0.04", "--r-outer", "0.03"], "outer wall"),
     (["annular", "--u-inner", "0.084", "--method", "explicit", "--dt", "1"], "stability"),
     (["couette", "--speed", "0.01", "--stress", "2"], "not allowed"),
-    (["bogus"], "invalid choice"),
+    (["couette", "--speed", "2"], "wall_speed"),               # above 0.1 sqrt(G/rho)
+    (["couette", "--stress", "1e5"], "wall_stress"),           # above 0.1 G
+    (["couette", "--speed", "0.01", "--phi", "0.6"], "phi0"),  # above phi_j
+    (["couette", "--speed", "0.01", "--material", "hermes2016"], "hermes2016"),
+    (["couette", "--speed", "0.01", "--mode", "both"], "--mode"),
 ])
-def test_bad_input_exits_nonzero_with_one_line(tmp_path, args, word):
-    proc = subprocess.run([sys.executable, "-m", "shear1d", *args, "--out", str(tmp_path)]
-                          if args[0] != "bogus" else [sys.executable, "-m", "shear1d", *args],
+def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, args, word):
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "shear1d", *args, "--out", str(out)],
                           capture_output=True, text=True, timeout=300)
-    assert proc.returncode != 0
+    assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1, proc.stderr
     assert "Traceback" not in proc.stderr and word in lines[0], lines[0]
+    assert not out.exists()
+
+
+def test_a_run_too_large_for_memory_is_refused_with_its_estimate(tmp_path, capsys, monkeypatch):
+    import rheology.checks as checks
+
+    monkeypatch.setattr(checks, "available_memory", lambda: 2e9)
+    out = tmp_path / "big"
+    assert main(["annular", "--cells", "20000", "--outputs", "1000", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "GB (estimate)" in err and "--cells" in err and not out.exists()
+
+
+def test_memory_estimate_covers_the_measured_peak():
+    """The estimate (48 floats per cell and output) against the arrays a run really holds."""
+    from shear1d.integrate import FLOATS_PER_CELL_OUTPUT, memory_estimate, solve
+    from shear1d.scenes import annular_shear_jamming, fields_frame, front_frame, profile_frames
+
+    pb, t_end = annular_shear_jamming(0.084, n_cells=40, rotation=0.02)
+    res = solve(pb, t_end, n_out=20, method="explicit")
+    held = res.y.nbytes + res.diag.nbytes
+    held += sum(res.field(k).nbytes for k in ("v", "f", "phi", "sigma_rth", "pressure",
+                                              "shear_stress", "shear_rate",
+                                              "plastic_shear_rate"))
+    held += sum(int(f.memory_usage(deep=True).sum()) for f in (
+        *profile_frames(res), front_frame(res), fields_frame(res)))
+    floats = held / 8 / (40 * 21)
+    assert floats < FLOATS_PER_CELL_OUTPUT, floats
+    assert memory_estimate(100_000_000, 310) > 1e12
+    assert math.isclose(memory_estimate(10, 9, runs=2) - 50e6, 2 * 48 * 8 * 10 * 10)
