@@ -43,6 +43,53 @@ COLUMNS = ("time_s", "step", "strain", "shear_rate_per_s", "shear_stress_Pa",
            "viscosity_Pa_s", "jamming_gap")
 
 
+class _CapturedC:
+    """Redirect the process's stdout and stderr file descriptors (where SUNDIALS' C code prints
+    its error messages) into a temporary file for the duration of a solve; ``.text`` holds what
+    was printed. The command line thus prints one line per error, never C-level text."""
+
+    _file = None
+
+    def __enter__(self):
+        import ctypes
+        import os
+        import sys
+        import tempfile
+
+        self.text = ""
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            if _CapturedC._file is None:
+                _CapturedC._file = tempfile.TemporaryFile()
+            self._libc = ctypes.CDLL(None)
+            self._libc.fflush(None)
+            self._saved = (os.dup(1), os.dup(2))
+            f = _CapturedC._file
+            f.seek(0)
+            f.truncate()
+            os.dup2(f.fileno(), 1)
+            os.dup2(f.fileno(), 2)
+        except (OSError, AttributeError, ValueError):   # no file descriptors to redirect
+            self._saved = None
+        return self
+
+    def __exit__(self, *exc):
+        import os
+
+        if self._saved is None:
+            return False
+        self._libc.fflush(None)
+        os.dup2(self._saved[0], 1)
+        os.dup2(self._saved[1], 2)
+        os.close(self._saved[0])
+        os.close(self._saved[1])
+        f = _CapturedC._file
+        f.seek(0)
+        self.text = f.read(4096).decode("utf-8", "replace").strip()
+        return False
+
+
 @dataclass(frozen=True)
 class Step:
     """One step of a test.
@@ -397,7 +444,11 @@ class Rheometer:
                      jacfn=jacfn if self.jacobian else None, max_num_steps=200_000, **events)
         tspan = grid if grid.size > 2 else np.array([grid[0], 0.5 * (grid[0] + grid[-1]),
                                                       grid[-1]])
-        return solver.solve(tspan, y, yp)
+        with _CapturedC() as c_text:
+            sol = solver.solve(tspan, y, yp)
+        if c_text.text:                  # SUNDIALS' own C-level messages: into the diagnostics
+            sol.message = f"{sol.message} [{' '.join(c_text.text.split())[:300]}]"
+        return sol
 
     def _full(self, t, y, C) -> np.ndarray:
         """All five unknowns at the output times (fills gdot_p, gdot for the ODE form)."""
