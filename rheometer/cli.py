@@ -62,16 +62,23 @@ def _set_value(text: str):
 def _material(args):
     import rheology
 
+    from .instrument_cli import resolve_sample
+
     overrides = dict(args.set or [])
-    return rheology.get_material(args.material, **overrides)
+    m = rheology.get_material(args.material, **overrides)
+    resolve_sample(args, m)        # issue 15: --phi default per material, --mass-fraction, geometry
+    return m
 
 
 def _common(p, phi_default, out_default):
     p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
                    help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
     p.add_argument("--phi", type=Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False),
-                   nargs="+", default=phi_default, metavar="PHI",
-                   help=f"volume fraction(s) (default {' '.join(map(str, phi_default))})")
+                   nargs="+", default=None, metavar="PHI",
+                   help=f"volume fraction(s) (default: {len(phi_default)} from the material, "
+                        f"see 'rheometer materials'; hermes2016 "
+                        f"{' '.join(map(str, phi_default))})")
+    p.set_defaults(_phi_count=len(phi_default))
     p.add_argument("--set", action="append", type=_set_value, metavar="NAME=VALUE",
                    help="override any material parameter, e.g. --set eta0=0.01 (repeatable)")
     p.add_argument("--out", default=f"{out_default}.csv", metavar="FILE.csv",
@@ -79,6 +86,8 @@ def _common(p, phi_default, out_default):
     p.add_argument("--plot", default=None, metavar="FILE.png",
                    help=f"figure (default: the --out name with .png, {out_default}.png; 'none' "
                         f"for no figure)")
+    from .instrument_cli import add_instrument_options
+    add_instrument_options(p)      # issue 15: --geometry and dimensions, --mass-fraction
 
 
 def _modulus(name):
@@ -205,6 +214,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="output rows (400)")
     from .fit_cli import add_subcommands          # 'read' and 'fit' (rheometer/fit_cli.py)
     _COMMANDS.update(add_subcommands(sub))
+    from . import instrument_cli                  # 'oscillation' (rheometer/instrument_cli.py)
+    _COMMANDS.update(instrument_cli.add_subcommands(sub))
     return ap
 
 
@@ -229,8 +240,11 @@ def _plot_path(args):
 def _write(args, df: pd.DataFrame, fig_maker) -> str:
     from rheology.io import atomic_savefig, atomic_write_csv
 
+    from .instrument_cli import extra_outputs, finish_table
+
     plot = _plot_path(args)
-    atomic_write_csv(args.out, df, empty_ok=EMPTY_OK)
+    table, empty_ok = finish_table(args, df, EMPTY_OK)   # issue 15: instrument, mass, units
+    atomic_write_csv(args.out, table, empty_ok=empty_ok)
     msg = f"wrote {args.out} ({len(df)} rows)"
     if plot is not None:
         import matplotlib.pyplot as plt
@@ -247,7 +261,7 @@ def _write(args, df: pd.DataFrame, fig_maker) -> str:
         msg += f"\nevents: {shown}" + (f"; ... ({len(events)} in all)" if len(events) > 5 else "")
     if df.attrs.get("substeps_note"):
         msg += f"\n{df.attrs['substeps_note']}"
-    return msg
+    return msg + extra_outputs(args, df, plot)
 
 
 def _per_phi(args, run) -> pd.DataFrame:
@@ -277,6 +291,8 @@ def _cmd_materials(args) -> str:
     width = max(len(n) for n, _ in rows)
     for name, cite in rows:
         print(f"{name:{width}s}  {cite}")
+    from .instrument_cli import materials_note
+    print(materials_note())
     if args.out:
         from rheology.io import atomic_write_csv
 
@@ -388,10 +404,10 @@ def _cmd_material_point(args) -> str:
         m, ph, args.rate, args.t_end, args.dt, control=args.control, pressure=args.pressure,
         f0=args.f0, stress0=args.stress0, pressure0=args.pressure0, G=args.G, K=args.K,
         K0=args.K0, points=args.points))
-    first = df[df["phi"] == args.phi[0]]
     title = (f"{m.name}: material point, {args.control} control, rate {args.rate:g} 1/s, "
-             f"dt = {args.dt:g} s, phi0 = {args.phi[0]:g}")
-    return _write(args, df, lambda: plots.material_point_figure(first, title))
+             f"dt = {args.dt:g} s, phi0 = {', '.join(f'{p:g}' for p in args.phi)}")
+    # every run, by its initial phi (phi itself evolves under pressure control)
+    return _write(args, df, lambda: plots.material_point_figure(df, title))
 
 
 _COMMANDS = {"materials": _cmd_materials, "flow-curve": _cmd_flow_curve,

@@ -105,3 +105,58 @@ def test_normalised_columns():
                                  "viscosity_eta0", "frequency_gdot0", "torque_eta0_gdot0_m3",
                                  "phi", "f"]
     assert list(geo.normalise_columns(df, "hermes2016").columns) == list(df.columns)
+
+
+# ------------------------------------------------------------------ the command line
+def test_cli_mass_fraction_and_cone_plate(tmp_path, monkeypatch, capsys):
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["flow-curve", "--mass-fraction", "0.55", "0.57", "--geometry", "cone-plate",
+                 "--radius", "0.02", "--cone-angle", "2", "--points", "20", "--plot",
+                 "none"]) == 0
+    out = capsys.readouterr().out
+    phi = geo.volume_fraction(np.array([0.55, 0.57]), geo.Densities())
+    assert "mass fraction 0.55, 0.57 -> phi = " in out and "cone-plate" in out
+    df = pd.read_csv("flow_curve.csv")
+    assert np.allclose(sorted(df["phi"].unique()), phi, rtol=1e-12)
+    assert set(df["mass_fraction"].round(12)) == {0.55, 0.57}
+    R, a = 0.02, math.radians(2.0)
+    assert np.allclose(df["torque_N_m"], 2 * math.pi * R ** 3 * df["shear_stress_Pa"] / 3,
+                       rtol=1e-13)
+    assert np.allclose(df["rotation_speed_rad_per_s"], df["shear_rate_per_s"] * math.tan(a),
+                       rtol=1e-13)
+    assert np.allclose(df["apparent_shear_stress_Pa"], df["shear_stress_Pa"], rtol=1e-13)
+
+
+def test_cli_parallel_plate_flow_curve_writes_both_curves(tmp_path, monkeypatch):
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["flow-curve", "--phi", "0.5", "--geometry", "parallel-plate", "--points",
+                 "40"]) == 0
+    df = pd.read_csv("flow_curve.csv")
+    pp = pd.read_csv("flow_curve_parallel_plate.csv")
+    assert (tmp_path / "flow_curve_parallel_plate.png").stat().st_size > 10_000
+    assert {"apparent_shear_stress_Pa", "corrected_shear_stress_Pa"} <= set(pp.columns)
+    beyond = df["granular_shear_stress_Pa"] > pp["granular_shear_stress_Pa"].max()
+    assert beyond.any() and df.loc[beyond, "torque_N_m"].isna().all()   # no plate-wide state
+    assert df.loc[~beyond, "torque_N_m"].notna().all()
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["flow-curve", "--gap", "0.001"], "--gap needs --geometry"),
+    (["flow-curve", "--geometry", "cone-plate", "--gap", "0.001"], "not a dimension"),
+    (["flow-curve", "--mass-fraction", "0.9"], "--mass-fraction = 0.9"),
+    (["flow-curve", "--mass-fraction", "0.5", "--phi", "0.5"], "--phi or --mass-fraction"),
+    (["startup", "--phi", "0.6"], "--phi = 0.6"),
+    (["flow-curve", "--geometry", "couette", "--bob-radius", "0.02"], "cup radius"),
+])
+def test_cli_instrument_bad_input(tmp_path, monkeypatch, capsys, argv, words):
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert words in err and len(err.strip().splitlines()) == 1
+    assert not list(tmp_path.iterdir())                 # nothing written

@@ -116,3 +116,39 @@ def test_bad_input_names_the_parameter():
         osc.oscillate(HERMES, 0.6, 1.0, 0.01)
     with pytest.raises(ValueError, match="samples"):
         osc.oscillate(HERMES, PHI, 1.0, 0.01, samples=4)
+
+
+def test_cli_oscillation_sweep_with_geometry(tmp_path, monkeypatch, capsys):
+    import pandas as pd
+
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["oscillation", "--strain-amplitude", "0.001", "0.1", "--frequency", "1",
+                 "--geometry", "cone-plate"]) == 0
+    out = capsys.readouterr().out
+    assert "periodic steady state" in out and "2/2 points" in out
+    pts = pd.read_csv("oscillation.csv")
+    waves = pd.read_csv("oscillation_waveforms.csv")
+    for name in ("oscillation.png", "oscillation_lissajous.png"):
+        assert (tmp_path / name).stat().st_size > 10_000
+    assert len(pts) == 2 and len(waves) == 2 * osc.DEFAULT_SAMPLES
+    assert {"storage_modulus_Pa", "loss_modulus_Pa", "complex_viscosity_Pa_s", "I3_over_I1",
+            "cycles", "torque_amplitude_N_m"} <= set(pts.columns)
+    assert {"elastic_stress_Pa", "viscous_stress_Pa", "torque_N_m"} <= set(waves.columns)
+    G = pts["storage_modulus_Pa"] + 1j * pts["loss_modulus_Pa"]
+    assert np.allclose(pts["complex_viscosity_Pa_s"], np.abs(G) / (2 * np.pi), rtol=1e-12)
+    assert pts["phi"].iloc[0] == 0.50                     # the material's default
+
+
+def test_cli_oscillation_normalised_material(tmp_path, monkeypatch):
+    import pandas as pd
+
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["oscillation", "--material", "singh2018_a", "--strain-amplitude", "0.01",
+                 "--control", "strain", "--plot", "none"]) == 0
+    pts = pd.read_csv("oscillation.csv")
+    assert "storage_modulus_eta0_gdot0" in pts.columns and "frequency_gdot0" in pts.columns
+    assert not any(c.endswith("_Pa") for c in pts.columns)

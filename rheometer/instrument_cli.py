@@ -1,0 +1,366 @@
+"""The instrument's words on the ``rheometer`` command line (issue 15), kept apart from the
+command bodies of :mod:`rheometer.cli`, which call four hooks:
+
+- :func:`add_instrument_options` (from ``_common``): ``--geometry cone-plate|parallel-plate|couette``
+  with ``--cone-angle`` [deg], ``--radius``, ``--gap``, ``--bob-radius``, ``--cup-radius``,
+  ``--bob-length`` [m]; ``--mass-fraction W [W ...]`` (Eq. 20) with ``--grain-density``,
+  ``--liquid-density``, ``--water-density`` [kg/m^3], ``--swelling`` (lambda) and
+  ``--pore-fraction`` (beta);
+- :func:`resolve_sample` (from ``_material``): the default volume fractions of the material (one
+  rule, :func:`rheometer.geometry.default_fractions`) when ``--phi`` is not given, or the fractions
+  of ``--mass-fraction``;
+- :func:`finish_table` (from ``_write``): the mass-fraction column, the instrument columns (torque
+  [N m], rotation speed [rad/s], apparent stress and rate), normalised column names for the Table 1
+  sets; for the parallel plate the apparent flow curve of the radial integral beside the true one
+  (``<out>_parallel_plate.csv`` and ``.png``);
+- :func:`add_subcommands` (from ``build_parser``): ``rheometer oscillation``.
+
+Every numeric option is a :class:`rheology.cli_common.Number`.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rheology.cli_common import Number
+
+from . import geometry as geo
+
+#: Largest dimensions accepted [m] and densities [kg/m^3].
+LENGTH_MAX, DENSITY_MAX = 10.0, 1e5
+
+
+# ------------------------------------------------------------------ options
+def add_instrument_options(p) -> None:
+    """Geometry and mass-fraction options of every measuring command."""
+    g = p.add_argument_group("measuring geometry (torque, rotation speed, apparent stress and "
+                             "rate by the standard conversions)")
+    g.add_argument("--geometry", choices=geo.GEOMETRIES, default=None,
+                   help="cone-plate | parallel-plate | couette (default: none, sample values only)")
+    length = lambda name: Number(name, 0.0, LENGTH_MAX, lo_closed=False, unit="m")  # noqa: E731
+    d = geo.DEFAULTS
+    g.add_argument("--cone-angle", type=Number("--cone-angle", 0.0, 10.0, lo_closed=False,
+                                               unit="deg"), default=None,
+                   help=f"cone angle [deg] (cone-plate; {d['cone_angle_deg']:g})")
+    g.add_argument("--radius", type=length("--radius"), default=None,
+                   help=f"cone or plate radius [m] ({d['cone_radius']:g} cone, "
+                        f"{d['plate_radius']:g} plate)")
+    g.add_argument("--gap", type=length("--gap"), default=None,
+                   help=f"plate gap [m] (parallel-plate; {d['gap']:g})")
+    g.add_argument("--bob-radius", type=length("--bob-radius"), default=None,
+                   help=f"bob radius [m] (couette; {d['bob_radius']:g})")
+    g.add_argument("--cup-radius", type=length("--cup-radius"), default=None,
+                   help=f"cup radius [m] (couette; {d['cup_radius']:g})")
+    g.add_argument("--bob-length", type=length("--bob-length"), default=None,
+                   help=f"immersed bob length [m] (couette; {d['bob_length']:g})")
+    s = p.add_argument_group("sample by mass (Eq. 20 of the Supplement)")
+    s.add_argument("--mass-fraction", type=Number("--mass-fraction", 0.0, 1.0, lo_closed=False,
+                                                  hi_closed=False),
+                   nargs="+", default=None, metavar="W",
+                   help="grain mass fraction(s) m_grain/(m_grain + m_liquid), converted to volume "
+                        "fractions by Eq. 20 (instead of --phi)")
+    dens = lambda name: Number(name, 0.0, DENSITY_MAX, lo_closed=False, unit="kg/m^3")  # noqa
+    s.add_argument("--grain-density", type=dens("--grain-density"), default=None,
+                   help=f"grain density [kg/m^3] (material's rho_s, else {geo.RHO_GRAIN:g})")
+    s.add_argument("--liquid-density", type=dens("--liquid-density"), default=None,
+                   help=f"liquid density [kg/m^3] (material's rho_f, else {geo.RHO_LIQUID:g})")
+    s.add_argument("--water-density", type=dens("--water-density"), default=None,
+                   help=f"water density [kg/m^3] ({geo.RHO_WATER:g})")
+    s.add_argument("--swelling", type=Number("--swelling", 0.0, 10.0), default=None,
+                   help=f"swelling parameter lambda of Eq. 20 ({geo.LAMBDA:g})")
+    s.add_argument("--pore-fraction", type=Number("--pore-fraction", 0.0, 1.0, hi_closed=False),
+                   default=None, help=f"pore-space parameter beta of Eq. 20 ({geo.BETA:g})")
+
+
+def _densities(args, m) -> geo.Densities:
+    return geo.Densities.for_material(m, args.grain_density, args.liquid_density,
+                                      args.water_density, args.swelling, args.pore_fraction)
+
+
+def geometry_of(args) -> geo.Geometry | None:
+    """The geometry of ``--geometry`` and its dimensions (None without it); ValueError when a
+    dimension of another geometry is given."""
+    kind = getattr(args, "geometry", None)
+    own = {"cone-plate": ("cone_angle", "radius"), "parallel-plate": ("radius", "gap"),
+           "couette": ("bob_radius", "cup_radius", "bob_length")}
+    given = [k for k in ("cone_angle", "radius", "gap", "bob_radius", "cup_radius", "bob_length")
+             if getattr(args, k, None) is not None]
+    if kind is None:
+        if given:
+            raise ValueError(f"--{given[0].replace('_', '-')} needs --geometry "
+                             f"(cone-plate, parallel-plate or couette)")
+        return None
+    wrong = [k for k in given if k not in own[kind]]
+    if wrong:
+        raise ValueError(f"--{wrong[0].replace('_', '-')} is not a dimension of --geometry {kind} "
+                         f"(its dimensions: "
+                         f"{', '.join('--' + k.replace('_', '-') for k in own[kind])})")
+    return geo.Geometry.make(kind, cone_angle_deg=args.cone_angle, radius=args.radius,
+                             gap=args.gap, bob_radius=args.bob_radius,
+                             cup_radius=args.cup_radius, bob_length=args.bob_length)
+
+
+# ------------------------------------------------------------------ hooks
+def resolve_sample(args, m) -> None:
+    """Set ``args.phi`` from ``--mass-fraction`` or the material's defaults (when ``--phi`` is
+    not given), and remember the material and the geometry on ``args`` for :func:`finish_table`.
+    ValueError (one line, exit 2) for --phi with --mass-fraction, or a fraction >= phi_j."""
+    if not hasattr(args, "phi"):
+        return
+    args._material_obj = m
+    args._geometry = geometry_of(args)
+    args._mass = None
+    if getattr(args, "mass_fraction", None) is not None:
+        if args.phi is not None:
+            raise ValueError("give --phi or --mass-fraction, not both")
+        dens = _densities(args, m)
+        phis = geo.fractions_from_mass(args.mass_fraction, m, dens)
+        args.phi = [float(p) for p in phis]
+        args._mass = dict(zip(args.phi, map(float, args.mass_fraction)))
+        args._mass_note = (f"mass fraction {', '.join(f'{w:g}' for w in args.mass_fraction)} -> "
+                           f"phi = {', '.join(f'{p:.5g}' for p in args.phi)} ({dens.describe()})")
+    elif args.phi is None:
+        count = getattr(args, "_phi_count", 1)
+        args.phi = geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]
+    else:
+        bad = [p for p in args.phi if p >= m.phi_j]
+        if bad:
+            raise ValueError(f"--phi = {bad[0]:g} is outside the valid range (0, {m.phi_j:g}) "
+                             f"of {m.name} (below phi_j)")
+
+
+def _phi_column(df: pd.DataFrame) -> str | None:
+    return "phi0" if "phi0" in df.columns else ("phi" if "phi" in df.columns else None)
+
+
+def finish_table(args, df: pd.DataFrame, empty_ok=()) -> tuple[pd.DataFrame, tuple]:
+    """The table as written: mass fraction, instrument columns, normalised names. Returns it with
+    the (renamed) columns allowed to hold empty cells."""
+    out = df
+    empty = list(empty_ok)
+    m = getattr(args, "_material_obj", None)
+    mass = getattr(args, "_mass", None)
+    col = _phi_column(out)
+    if mass and col is not None:
+        out = out.copy()
+        out.insert(out.columns.get_loc(col) + 1, "mass_fraction",
+                   out[col].map(lambda p: mass.get(float(p), np.nan)))
+    g = getattr(args, "_geometry", None)
+    if g is not None and "shear_stress_Pa" in out.columns and "shear_rate_per_s" in out.columns:
+        if g.kind == "parallel-plate" and getattr(args, "cmd", "") == "flow-curve":
+            out = _plate_columns(out, m, g)
+            empty += list(geo.INSTRUMENT_COLUMNS)
+        else:
+            out = geo.instrument_columns(out, g)
+    if m is not None and m.units == "normalised":
+        out = geo.normalise_columns(out, m)
+        empty = [geo.normalised_name(c) for c in empty]
+    out.attrs.update(df.attrs)
+    return out, tuple(empty)
+
+
+def _plate_columns(df: pd.DataFrame, m, g: geo.Geometry) -> pd.DataFrame:
+    """Parallel-plate instrument columns of a flow curve: rows on the rising branch get the
+    torque of the radial integral; rows past the fold (no steady state over the whole plate
+    under rate control) are left empty."""
+    out = df.copy()
+    for c in geo.INSTRUMENT_COLUMNS:
+        out[c] = np.nan
+    for ph, idx in out.groupby("phi").groups.items():
+        pp = geo.parallel_plate_flow_curve(m, float(ph), g)
+        tau_fold = pp["granular_shear_stress_Pa"].max()
+        rows = out.loc[idx]
+        on = (rows["granular_shear_stress_Pa"] <= tau_fold) & (rows["shear_rate_per_s"] > 0)
+        on &= rows["shear_rate_per_s"] >= pp["rim_shear_rate_per_s"].min()
+        if not on.any():
+            continue
+        r = rows.loc[on, "shear_rate_per_s"].to_numpy()
+        M = np.exp(np.interp(np.log(r), np.log(pp["rim_shear_rate_per_s"]),
+                             np.log(pp["torque_N_m"])))
+        W = g.rotation_speed(r)
+        s_a, g_a = g.apparent(M, W)
+        sel = on[on].index
+        out.loc[sel, "torque_N_m"] = M
+        out.loc[sel, "rotation_speed_rad_per_s"] = W
+        out.loc[sel, "apparent_shear_stress_Pa"] = s_a
+        out.loc[sel, "apparent_shear_rate_per_s"] = g_a
+    out.attrs.update(df.attrs)
+    return out
+
+
+def extra_outputs(args, df: pd.DataFrame, plot=None) -> str:
+    """Files beside the main output (parallel-plate flow curve: the apparent curve of the radial
+    integral, its Weissenberg-Rabinowitsch correction and the true one, CSV and figure); returns
+    the message. Also the notes of the run (mass fraction, geometry)."""
+    msg = f"\n{args._mass_note}" if getattr(args, "_mass_note", None) else ""
+    g = getattr(args, "_geometry", None)
+    m = getattr(args, "_material_obj", None)
+    if g is not None:
+        msg += f"\ngeometry: {g.describe()}"
+        if g.kind == "parallel-plate" and getattr(args, "cmd", "") != "flow-curve":
+            msg += (" (the sample is taken homogeneous at the rim rate: the radial integration "
+                    "is done for steady flow curves)")
+        if g.kind == "parallel-plate" and getattr(args, "cmd", "") == "flow-curve":
+            from rheology.io import atomic_savefig, atomic_write_csv
+
+            from . import plots
+
+            base = Path(args.out)
+            csv = base.with_name(base.stem + "_parallel_plate.csv")
+            pp = pd.concat([geo.parallel_plate_flow_curve(m, float(ph), g) for ph in args.phi],
+                           ignore_index=True)
+            atomic_write_csv(csv, geo.normalise_columns(pp, m))
+            msg += f"\nwrote {csv} ({len(pp)} rows: true, apparent and corrected rim stress)"
+            if plot is not None:
+                import matplotlib.pyplot as plt
+
+                png = base.with_name(base.stem + "_parallel_plate.png")
+                fig = plots.parallel_plate_figure(pp, df, f"{m.name}: {g.describe()}")
+                try:
+                    atomic_savefig(fig, png)
+                finally:
+                    plt.close(fig)
+                msg += f" and {png}"
+    return msg
+
+
+def materials_note() -> str:
+    """The default-fraction rule and each material's defaults (for ``rheometer materials``)."""
+    import rheology
+
+    lines = [f"Defaults ({geo.DEFAULT_RULE}):"]
+    for name in rheology.materials.material_names():
+        m = rheology.get_material(name)
+        phis = geo.default_fractions(m)
+        lines.append(f"  {name:15s} phi = {' '.join(f'{p:g}' for p in phis)} "
+                     f"({'DST' if geo.has_dst(m) else 'no DST'}; phi_c = {m.phi_c:g}, phi_j = "
+                     f"{m.phi_j:g}{'; normalised units' if m.units == 'normalised' else ''})")
+    return "\n".join(lines)
+
+
+# ------------------------------------------------------------------ rheometer oscillation
+def add_subcommands(sub) -> dict:
+    """Add ``oscillation`` to the ``rheometer`` subparsers; return its command function."""
+    from . import oscillation as osc
+    from .cli import RATE_MAX, STRESS_MAX, _common, _k0, _modulus
+
+    p = sub.add_parser(
+        "oscillation", help="oscillatory shear: amplitude and frequency sweeps (G', G'', I3/I1, "
+                            "Lissajous curves)",
+        description="Imposed strain gamma0 sin(omega t) (or mixture stress sigma0 sin(omega t)) "
+                    "run to the periodic steady state (cycles until the cycle-to-cycle change "
+                    "of the first and third harmonics is below --tol, reported per point); per "
+                    "point G', G'' of the first harmonic, |eta*|, I3/I1 and the linearised "
+                    "model's G*; the last cycle of every point in <out>_waveforms.csv "
+                    "(Lissajous-Bowditch curves, <out>_lissajous.png). Default: an amplitude "
+                    "sweep 1e-3..1 at 1 Hz.")
+    _common(p, [0.50], "oscillation")
+    p.add_argument("--control", choices=("strain", "stress"), default="strain",
+                   help="imposed strain (default) or imposed mixture shear stress")
+    p.add_argument("--strain-amplitude", type=Number("--strain-amplitude", 0.0, 1e3,
+                                                     lo_closed=False),
+                   nargs="+", default=None, metavar="A",
+                   help="strain amplitude(s) [-] (several: an amplitude sweep; default 10 "
+                        "values 1e-3..1)")
+    p.add_argument("--stress-amplitude", type=Number("--stress-amplitude", 0.0, STRESS_MAX,
+                                                     lo_closed=False, unit="Pa"),
+                   nargs="+", default=None, metavar="S",
+                   help="mixture-stress amplitude(s) [Pa] for --control stress (default 10 "
+                        "values 0.01..10 tau*)")
+    p.add_argument("--frequency", type=Number("--frequency", 0.0, RATE_MAX, lo_closed=False,
+                                              unit="Hz"),
+                   nargs="+", default=[1.0], metavar="F",
+                   help="frequency(ies) [Hz] (several: a frequency sweep; 1)")
+    p.add_argument("--cycles", type=Number("--cycles", 2, 10 ** 5, integer=True),
+                   default=osc.DEFAULT_MAX_CYCLES,
+                   help=f"most cycles per point ({osc.DEFAULT_MAX_CYCLES}); a point not periodic "
+                        f"by then is flagged converged = False")
+    p.add_argument("--tol", type=Number("--tol", 1e-12, 0.1), default=osc.DEFAULT_TOL,
+                   help=f"periodic-state tolerance on the cycle-to-cycle change ("
+                        f"{osc.DEFAULT_TOL:g})")
+    p.add_argument("--samples", type=Number("--samples", 16, 8192, integer=True),
+                   default=osc.DEFAULT_SAMPLES,
+                   help=f"samples per cycle ({osc.DEFAULT_SAMPLES})")
+    p.add_argument("--start", choices=("rest", "previous"), default="rest",
+                   help="each point from rest (default), or from the previous point's state")
+    p.add_argument("--G", type=_modulus("--G"), default=None, help="granular shear modulus [Pa]")
+    p.add_argument("--K0", type=_k0(), default=None, help="structure-rate scale K0 [-]")
+    p.add_argument("--rtol", type=Number("--rtol", 1e-12, 1e-3), default=osc.DEFAULT_RTOL,
+                   help=f"IDA relative tolerance ({osc.DEFAULT_RTOL:g})")
+    return {"oscillation": _cmd_oscillation}
+
+
+def _cmd_oscillation(args) -> str:
+    from rheology.io import atomic_savefig, atomic_write_csv, check_output_path
+
+    from . import oscillation as osc
+    from . import plots
+    from .cli import _material, _plot_path
+
+    plot = _plot_path(args)
+    base = Path(args.out)
+    waves_csv = base.with_name(base.stem + "_waveforms.csv")
+    liss_png = base.with_name(base.stem + "_lissajous.png")
+    check_output_path("--out", str(waves_csv), ["csv"])
+    m = _material(args)
+    if args.control == "strain":
+        if args.stress_amplitude is not None:
+            raise ValueError("--stress-amplitude needs --control stress")
+        amps = args.strain_amplitude or list(np.logspace(-3, 0, 10))
+    else:
+        if args.strain_amplitude is not None:
+            raise ValueError("--strain-amplitude needs --control strain (the default)")
+        amps = args.stress_amplitude or list(m.tau_star * np.logspace(-2, 1, 10))
+    points, waves = osc.oscillation_sweep(
+        m, args.phi, frequency=args.frequency, amplitude=amps, control=args.control,
+        start=args.start, G=args.G, K0=args.K0, max_cycles=args.cycles, tol=args.tol,
+        samples=args.samples, rtol=args.rtol)
+    g = getattr(args, "_geometry", None)
+    if g is not None:
+        points = points.copy()
+        points["torque_amplitude_N_m"] = g.torque(points["stress_amplitude_Pa"])
+        points["angle_amplitude_rad"] = points["strain_amplitude"] / g.rate_factor()
+        waves = geo.instrument_columns(waves, g)
+    table, _ = finish_table(args, points)
+    wtable, _ = finish_table(args, waves)
+    empty = ("elastic_stress_Pa", "viscous_stress_Pa") if args.control == "stress" else ()
+    empty = tuple(geo.normalised_name(c) if m.units == "normalised" else c for c in empty)
+    atomic_write_csv(args.out, table)
+    atomic_write_csv(waves_csv, wtable, empty_ok=empty)
+    msg = f"wrote {args.out} ({len(table)} points) and {waves_csv} ({len(wtable)} rows)"
+    if plot is not None:
+        import matplotlib.pyplot as plt
+
+        dst = None
+        if len(args.phi) == 1:
+            try:
+                dst = osc.dst_onset_stress(m, args.phi[0])
+            except ValueError:
+                dst = None
+        what = (f"{args.control} control, G = {points.attrs['G_Pa']:g} Pa, K0 = "
+                f"{points.attrs['K0']:g}")
+        for path, maker in ((plot, lambda: plots.oscillation_figure(
+                                points, f"{m.name}: oscillation ({what})", dst)),
+                            (str(liss_png), lambda: plots.lissajous_figure(
+                                waves, f"{m.name}: Lissajous-Bowditch curves ({what})"))):
+            fig = maker()
+            try:
+                atomic_savefig(fig, path)
+            finally:
+                plt.close(fig)
+        msg += f", {plot} and {liss_png}"
+    cyc = points["cycles"]
+    msg += (f"\nperiodic steady state: cycle-to-cycle change < {args.tol:g} of |first "
+            f"harmonic| (and of mean f) in {int(points['converged'].sum())}/{len(points)} points;"
+            f" cycles used {int(cyc.min())}..{int(cyc.max())} (median {int(np.median(cyc))})")
+    bad = points[~points["converged"]]
+    if len(bad):
+        msg += ("\nWARNING: not periodic within --cycles " f"{args.cycles}: " + ", ".join(
+            f"phi {r.phi:g} {r.frequency_Hz:g} Hz amplitude {r.strain_amplitude:.3g} (change "
+            f"{r.cycle_change:.2g})" for r in bad.itertuples()))
+    msg += extra_outputs(args, points)
+    return msg
