@@ -48,7 +48,7 @@ from ..simulation import Simulation
     transfer=spec.transfer(), flip_alpha=spec.flip_alpha(), cfl=spec.cfl(),
     dt=spec.Param(0.0, 1.0, lo_closed=False, optional=True, unit="s",
                   doc="fixed step (none: adaptive)"),
-    size=lambda p: (4 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 8) * 7))
+    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 8) * 7))
 def setup(length=1.0, cells=32, ppc=2, E=1.0e6, rho=1000.0, v0=1.0e-3, periods=2.0,
           transfer="apic", flip_alpha=0.99, cfl=0.5, dt=None):
     h = length / cells
