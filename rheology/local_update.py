@@ -430,10 +430,17 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
     p, Im, beta = p_tr, 0.0, 0.0
     y = phim - phi
     if p_tr <= 0.0:                                           # separation: stress free
-        case = SEPARATED
+        # no contacts: no dilatancy, friction and inertial numbers undefined (inf); taubar = 0
+        # and H(0) gdot = 0 leave f_m and 1/eta_B out of the structure step (passed as 0)
         g = tau_tr / Gdt
-        xi1 = -p_tr / Kdt
-        p, Im, beta = 0.0, np.inf, 0.0                      # no contacts: no dilatancy
+        for i in range(3):
+            for j in range(3):
+                sig_out[i, j] = 0.0
+        out[0] = laws.structure_step(f, 0.0, g, 0.0, tau_star, 0.0, K0, xi_eps, dt)
+        out[1], out[2], out[3], out[4] = g, -p_tr / Kdt, 0.0, np.inf
+        out[5], out[6], out[7], out[8], out[9] = np.inf, np.inf, np.inf, 0.0, phi
+        out[10], out[11], out[12], out[13] = 0.0, 0.0, SEPARATED, 0
+        return
     else:
         if y > 0.0:                                           # try shear flow + compaction
             ap2 = (a * phi) ** 2
