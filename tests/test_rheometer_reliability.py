@@ -206,3 +206,42 @@ def test_stress_ramp_after_a_stress_jump_is_cheap():
         df = run_program(HERMES, 0.52, f"start from steady stress 71.6 Pa\n{line}\n")
         counts[name] = df.attrs["nfev"]
     assert counts["ramp"] < 5 * counts["const"], counts
+
+
+# ------------------------------------------------------------------ no NaN/inf in a CSV
+def test_undefined_viscosity_is_an_empty_cell(tmp_path, monkeypatch):
+    """A jammed steady state (eta_B = inf and f_m = 1: above phi_c the flowing branch ends
+    where H/(H + 1) reaches f_jam) and a relaxation (zero rate) have no viscosity tau/gdot:
+    empty cells, every other cell finite (the README lists these columns)."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["flow-curve", "--set", "varphi1=0", "--set", "varphi2=0", "--set", "Delta=1",
+                 "--phi", "0.5", "--stress-range", "1e-2", "1e4", "--points", "40",
+                 "--plot", "none"]) == 0
+    df = pd.read_csv("flow_curve.csv")
+    jammed = df["jammed"].astype(bool)
+    assert jammed.any() and (~jammed).any()
+    assert df.loc[jammed, "viscosity_Pa_s"].isna().all()
+    assert df.loc[jammed, "shear_rate_per_s"].eq(0).all()
+    assert df.loc[~jammed, "viscosity_Pa_s"].notna().all()
+    assert df.drop(columns=["viscosity_Pa_s", "relative_viscosity"]).notna().all().all()
+    assert main(["relax", "--t-end", "5", "--plot", "none"]) == 0
+    rel = pd.read_csv("relax.csv")
+    assert rel["viscosity_Pa_s"].isna().all()
+    assert rel.drop(columns=["viscosity_Pa_s"]).notna().all().all()
+
+
+def test_periodic_checkpoints_are_removed_after_success(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "p.txt").write_text(PROGRAM)
+    seen = []
+    from rheometer.checkpoint import ProgramCheckpoint
+
+    original = ProgramCheckpoint.save
+
+    def save(self):
+        original(self)
+        seen.append(self.path.exists())
+    monkeypatch.setattr(ProgramCheckpoint, "save", save)
+    assert main(["program", "p.txt", "--plot", "none", "--checkpoint-every", "1e-9"]) == 0
+    assert len(seen) == 5 and all(seen)                   # after each of 5 steps (not the last
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.txt", "program.csv"]  # file)
