@@ -159,7 +159,11 @@ def report(sim, history, out, params):
     res = analyse(history, params)
     snaps = {float(f["time_s"]): (f["grains.x"][:, 1], f["grains.phi"])
              for f in load_frames(out, "event")}
-    atomic_write_csv(out / "column_result.csv", pd.DataFrame([res]))
+    # undefined (empty) for a run too short to measure: no suspended grains after 0.05 s, or
+    # fewer than 3 history rows before 40% of the column has settled
+    atomic_write_csv(out / "column_result.csv", pd.DataFrame([res]),
+                     empty_ok=("grain_speed_m_per_s", "grain_speed_error",
+                               "interface_speed_m_per_s", "relative_error"))
     fig, axs = plots.plt.subplots(1, 3, figsize=(13, 5), width_ratios=(3, 3, 1.2))
     t = history["time_s"]
     h0 = history["interface_m"].iloc[0]
