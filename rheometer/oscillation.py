@@ -63,7 +63,11 @@ parallel and shrink geometrically (r < 0.99), else by one Newton step on the cyc
 the periodic state solves Phi(x) = x), its 2 x 2 Jacobian by finite differences (three
 one-period IDA solves at 1e-2 rtol, steps of 1e-3 in taubar/taubar_scale and f); then cycles resume from the new state and the convergence test starts
 afresh, so the reported state is always an integrated cycle that repeats itself to ``tol``
-(column ``extrapolations``: the Newton steps taken).
+(column ``extrapolations``: the jumps taken). A jump moves taubar by at most the last cycle's
+stress range and f by at most 0.2, and is undone (the state put back, no more jumps for this
+point) when the cycle-to-cycle change two cycles later is ten times larger than before it (jumps
+also stop after three in a row that did not halve it): a jammed sample,
+whose mean stress no cycle relaxes, gives a singular cycle map.
 
 Where the paper is silent: G and K0 default to the material's, else G = 1e4 Pa and K0 = 1 (as in
 every transient of :mod:`rheometer.transient`). Each point starts from rest (f = 0) carrying the
@@ -421,7 +425,8 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
     weights = np.array([max(tau_scale, 1e-300), m.phi_j - m.phi_c])
     lo = np.array([-np.inf, float(model.gap_of_structure(f_hi, P))])
     hi = np.array([np.inf, float(m.phi_j - phi)])
-    jumps = 0
+    jumps = reverted = 0
+    accelerate, backup, weak = bool(extrapolate), None, 0
     starts = [y0[:2] / weights]           # scaled cycle-start states since the last jump
     rtol_fd = max(1e-2 * rtol, 1e-12)        # the finite differences need tighter solves
 
@@ -477,9 +482,23 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
         converged = _periodic(changes, tol)
         if converged and not fixed_cycles and cycle >= min_cycles:
             break
+        if backup is not None and len(changes) >= 2:
+            weak = weak + 1 if changes[-1] > 0.5 * backup[1] else 0
+            if weak >= 3:                      # three jumps in a row that did not halve it
+                accelerate = False
+            if changes[-1] > 10.0 * backup[1]:  # the jump made it much worse: undo it, stop
+                y_old = backup[0]
+                yp_old = np.empty(3)
+                _rhs(times[-1], y_old, yp_old, P, O)
+                solver.init_step(times[-1], y_old, yp_old)
+                Y[-1] = y_old
+                prev, changes, starts = None, [], [y_old[:2] / weights]
+                accelerate = False
+                reverted += 1
+            backup = None
         starts.append(Y[-1, :2] / weights)
         slow = len(changes) >= 2 and changes[-2] > 0 and changes[-1] > 0.5 * changes[-2]
-        if (extrapolate and not fixed_cycles and slow and cycle < max_cycles - 3
+        if (accelerate and not fixed_cycles and slow and cycle < max_cycles - 3
                 and jumps < MAX_NEWTON):
             x = Y[-1, :2] / weights
             new = (_extrapolate(starts) if len(starts) >= 3 else None)
@@ -494,6 +513,12 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
                     cols.append((cycle_map(times[-1], (x + h) * weights) / weights - fx) / h[i])
                 new = _newton_step(x, fx, cols, lo / weights, hi / weights)
             if new is not None:
+                # damped: taubar moves by at most the cycle's stress range, f by at most 0.2
+                bound = np.array([np.ptp(Y[:, 0]) / weights[0], 0.2])
+                step = new - x
+                over = float(np.max(np.abs(step) / np.maximum(bound, 1e-300)))
+                new = x + step / max(1.0, over)
+                backup = (Y[-1].copy(), changes[-1])
                 y_new = np.array([new[0] * weights[0], new[1] * weights[1], Y[-1, 2]])
                 yp_new = np.empty(3)
                 _rhs(times[-1], y_new, yp_new, P, O)
