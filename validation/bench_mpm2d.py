@@ -172,15 +172,13 @@ def sheared_suspension(cells: int) -> Simulation:
 
 def sheared_locked(cells: int) -> Simulation:
     """(c): the same shear of a locked mixture (annular_shear, phi = 0.45, one velocity field,
-    undrained pore pressure), twice the points per cell of (b)'s granular set (same total)."""
+    undrained pore pressure) on a sqrt(2) finer grid, so that it has as many points (4 per cell)
+    as (b) has granular plus fluid points."""
     m = get_material("annular_shear")
     size, rate = 0.05, 10.0
+    cells = int(round(cells * np.sqrt(2.0)))
     grid = _shear_grid(cells, size, rate)
     x, area = box((0.0, 0.0), (size, size), size / cells / 2)
-    x = np.concatenate([x, x + np.array([size / cells / 4, size / cells / 4])])
-    x[:, 0] %= size
-    x[:, 1] = np.minimum(x[:, 1], size * (1 - 1e-9))
-    area = np.concatenate([area, area]) / 2
     v = np.stack([rate * x[:, 1], np.zeros(len(x))], axis=1)
     bed = ParticleSet("mixture", Suspension(m, locked=True), x, area, v=v, phi=0.45,
                       stress=-50.0 * np.eye(3), f=0.0)
