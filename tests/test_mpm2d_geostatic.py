@@ -40,10 +40,13 @@ def _field(mode, sets):
     return np.concatenate([sets[-1].pf, sets[0].stress.reshape(-1)])
 
 
-@pytest.mark.parametrize("mode, axi", [("locked", True), ("two-phase", False),
-                                       ("elastic", True), ("locked", False)])
-def test_bed_left_alone_stays_at_rest(mode, axi):
-    sim, sets = _sim(mode, axi)
+@pytest.mark.parametrize("mode, axi, phi", [("locked", True, 0.47), ("two-phase", False, 0.47),
+                                            ("elastic", True, 0.47), ("locked", False, 0.47),
+                                            ("locked", True, 0.56), ("two-phase", False, 0.56)])
+def test_bed_left_alone_stays_at_rest(mode, axi, phi):
+    """Loose beds (phi = 0.47 < phi_j = 0.535: grains stress-free, f = 0) and jammed ones
+    (phi = 0.56: grains carry the buoyant weight with K_lat, f = 1)."""
+    sim, sets = _sim(mode, axi, phi=phi)
     info = geostatic(sim)
     s0 = _field(mode, sets)
     x0 = [s.x.copy() for s in sets]
@@ -54,8 +57,14 @@ def test_bed_left_alone_stays_at_rest(mode, axi):
     assert change < 0.02, change
     assert max(float(np.abs(s.x - x).max()) for s, x in zip(sets, x0)) < 1e-5
     if mode != "elastic":
-        assert np.all(sets[0].f < 1e-9)                           # structure at rest: f = 0
-        assert info["bed.jammed_fraction" if mode == "locked" else "grains.jammed_fraction"] == 0
+        jammed = phi >= MAT.phi_j
+        f_rest = 1.0 if jammed else 0.0                           # structure at rest
+        assert np.all(np.abs(sets[0].f - f_rest) < 1e-9)
+        assert info["bed.jammed_fraction" if mode == "locked" else "grains.jammed_fraction"] \
+            == (1.0 if jammed else 0.0)
+        if jammed:                                                # grains keep their load
+            assert np.abs(sets[0].stress).max() > 0.5 * (phi * (MAT.rho_s - MAT.rho_f) * G0
+                                                          * 20e-3)
 
 
 def test_geostatic_state_values():
