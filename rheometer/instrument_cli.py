@@ -20,7 +20,6 @@ Every numeric option is a :class:`rheology.cli_common.Number`.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np

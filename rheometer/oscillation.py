@@ -91,7 +91,6 @@ from sksundae.ida import IDA
 import rheology
 from rheology import laws
 from rheology.checks import check_positive, check_range
-from rheology.materials import Material
 
 from . import model
 from .transient import DEFAULT_G, DEFAULT_K0

@@ -105,18 +105,6 @@ def _f_axis(ax, values):
     return ""
 
 
-def _log_floor(ax, values, decades: float = 8.0):
-    """Log y axis over the positive data, floored ``decades`` below the maximum (a relaxation to
-    1e-12 does not stretch the axis over 14 decades)."""
-    v = np.asarray(values, dtype=float)
-    v = v[np.isfinite(v) & (v > 0)]
-    if v.size == 0:
-        return
-    ax.set_yscale("log")
-    top = float(v.max())
-    ax.set_ylim(max(float(v.min()), top * 10.0 ** -decades) / 1.5, top * 1.5)
-
-
 def transient_figure(frames: dict, title: str, log_time: bool = False):
     """Mixture (solid) and granular (dashed) shear stress, shear rate and plastic rate, and the
     structure f against time; one colour per entry of ``frames`` (label -> DataFrame). The f axis
@@ -138,7 +126,7 @@ def transient_figure(frames: dict, title: str, log_time: bool = False):
     for ax, col in ((axs[0], "shear_stress_Pa"), (axs[1], "shear_rate_per_s")):
         v = np.concatenate([d[col].to_numpy()[d["time_s"].to_numpy() > 0] for d in frames.values()])
         if v.size and np.all(v > 0) and v.max() > 100 * v.min():
-            _log_floor(ax, v)
+            ax.set_yscale("log")
     axs[0].set_ylabel("shear stress [Pa]")
     axs[1].set_ylabel("shear rate [1/s]")
     note = _f_axis(axs[2], np.concatenate(f_all) if f_all else [])
