@@ -167,6 +167,29 @@ class FieldGeometry:
         self.x, self.side = x, side
 
 
+@_jit
+def rigid_normals(outward, node_x, node_y, cx, cy, out):
+    """Unit outward normals of a rigid body at every node: its area-gradient vector, or where
+    that vanishes (deep inside, far outside) the direction from the body's centre."""
+    big = 0.0
+    for I in range(outward.shape[0]):
+        for J in range(outward.shape[1]):
+            big = max(big, outward[I, J, 0] ** 2 + outward[I, J, 1] ** 2)
+    tiny = 1e-24 * big
+    for I in range(outward.shape[0]):
+        for J in range(outward.shape[1]):
+            ox, oy = outward[I, J, 0], outward[I, J, 1]
+            n2 = ox * ox + oy * oy
+            if n2 <= tiny or n2 == 0.0:
+                ox, oy = node_x[I] - cx, node_y[J] - cy
+                n2 = ox * ox + oy * oy
+                if n2 == 0.0:
+                    ox, oy, n2 = 0.0, 1.0, 1.0
+            r = 1.0 / math.sqrt(n2)
+            out[I, J, 0] = ox * r
+            out[I, J, 1] = oy * r
+
+
 def unit(v, fallback):
     """Row-normalised (NI, NJ, 2) vectors; ``fallback`` where |v| is ~0."""
     nrm = np.sqrt((v ** 2).sum(axis=2))

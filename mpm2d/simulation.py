@@ -462,9 +462,8 @@ class Simulation:
             Bg = ct.FieldGeometry(g, b.x, b.side, self._geo_work)
             rx = self.node_x[:, None] - b.center[0]
             ry = self.node_y[None, :] - b.center[1]
-            radial = np.stack(np.broadcast_arrays(rx, ry), axis=2)
-            radial = ct.unit(radial, np.array([0.0, 1.0]))
-            n = ct.unit(Bg.outward, radial)
+            n = np.empty_like(Bg.outward)
+            ct.rigid_normals(Bg.outward, self.node_x, self.node_y, b.center[0], b.center[1], n)
             ct.unfold_normal(g, n)
             bonded = {set_field[k] for k in b.bonded_to}
             covered = Bg.area >= (0.5 - 1e-9) * g.h ** 2
