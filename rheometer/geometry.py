@@ -31,7 +31,8 @@ with lambda = 0.3 (swelling) and beta = 0.1 (pore space) by default, rho_cs the 
 liquid and rho_w the water density. Where the material gives none (the steady fits): rho_cs =
 1620 kg/m^3 (the cornstarch grain density of Tables 4-7), rho_l = rho_w = 1000 kg/m^3 (water).
 
-Defaults per material (:func:`default_fractions`), one rule for every command: a set with DST
+Defaults per material (:func:`default_fractions`, from :mod:`rheology.defaults` so that every
+tier uses it), one rule for every command: a set with DST
 (finite eta_B: the Table 2-7 sets and Singh (b)) gets phi = phi_c + s (phi_j - phi_c) with
 s = 0.45, 0.65, 0.85 (all inside the DST window, phi_c <= phi < phi_j), a set without DST (eta_B
 infinite: Singh (a), which shear-jams above phi_c) gets s = -1.5, -0.75, -0.25 (below phi_c,
@@ -66,9 +67,6 @@ DEFAULTS = dict(cone_angle_deg=1.0, cone_radius=0.025, plate_radius=0.0125, gap=
 #: none [kg/m^3].
 LAMBDA, BETA = 0.3, 0.1
 RHO_GRAIN, RHO_LIQUID, RHO_WATER = 1620.0, 1000.0, 1000.0
-#: Default-fraction rule (see module docstring).
-DST_POSITIONS = (0.45, 0.65, 0.85)
-NO_DST_POSITIONS = (-1.5, -0.75, -0.25)
 #: Instrument columns.
 INSTRUMENT_COLUMNS = ("torque_N_m", "rotation_speed_rad_per_s", "apparent_shear_stress_Pa",
                       "apparent_shear_rate_per_s")
@@ -333,31 +331,10 @@ def _phi_top(dens: Densities) -> float:
 
 
 # ------------------------------------------------------------------ defaults per material
-def has_dst(m: Material) -> bool:
-    """Whether the set shows DST: a finite buckling resistance eta_B (Eq. 9)."""
-    return (m.varphi1 + m.varphi2) > 0
-
-
-def default_fractions(material) -> list[float]:
-    """The three default volume fractions of ``material`` (module docstring: one rule)."""
-    m = rheology.get_material(material)
-    s = DST_POSITIONS if has_dst(m) else NO_DST_POSITIONS
-    out = []
-    for x in s:
-        phi = round((m.phi_c + x * (m.phi_j - m.phi_c)) / 0.005) * 0.005
-        out.append(float(round(min(max(phi, 0.005), m.phi_j - 0.005), 6)))
-    return out
-
-
-def default_fraction(material) -> float:
-    """The single default volume fraction (the middle of :func:`default_fractions`)."""
-    return default_fractions(material)[1]
-
-
-DEFAULT_RULE = ("default phi: sets with DST (finite eta_B) phi_c + (0.45, 0.65, 0.85)(phi_j - "
-                "phi_c), sets without DST (Singh (a)) phi_c + (-1.5, -0.75, -0.25)(phi_j - phi_c), "
-                "rounded to 0.005; one-phi commands take the middle one")
-
+# the rule lives in rheology (shared with shear1d and mpm2d scenes)
+from rheology.defaults import (DST_POSITIONS, NO_DST_POSITIONS, default_fraction,  # noqa: E402
+                               default_fractions, has_dst)
+from rheology.defaults import RULE as DEFAULT_RULE  # noqa: E402
 
 # ------------------------------------------------------------------ normalised columns
 _SUFFIXES = (("_Pa_s", "_eta0"), ("_N_m", "_eta0_gdot0_m3"), ("_rad_per_s", "_rad_gdot0"),
