@@ -1,0 +1,669 @@
+"""A free aluminium rod strikes a cornstarch suspension: impact-activated solidification (Figs. 4-5).
+
+The rod-impact experiments of Waitukaitis & Jaeger (Nature 487, 205, 2012) as simulated by
+Baumgarten & Kamrin (section "Impact Activated Solidification", Table 5, Figs. 4 and 5): a
+flat-ended aluminium rod hits the free surface of a cornstarch-water(-glycerol) suspension at v0;
+a solid plug forms under it and grows ahead of it (a jamming front), the rod decelerates hard,
+then sinks slowly as in a liquid.
+
+Equations: axisymmetric (r, z) MPM of the Table 8 law (rheology.local_update) with the Table 5
+set: ``rod_impact`` (eta0 = 7 mPa s, Fig. 4) or ``rod_impact_1cp`` (eta0 = 1 mPa s, Fig. 5), both
+on the Hermes 2016 steady fit (Tables 2-3), rho_s = 1620, rho_f = 1000 kg/m^3, G = 3.8e7 Pa,
+K = 8.3e7 Pa, K0 = 1; d = 5.85 um, K3 = 4.715, K4 = 0 as in the paper's previous section;
+kappa = K (rheology's choice: the paper gives no fluid modulus). The rod is a free rigid body
+(mass, gravity, axial translation) meeting the bed through multi-velocity-field contact
+(mpm2d.contact: only where the surfaces touch, while they approach, free to separate), solved
+implicitly with the rod's velocity:
+
+    M dV/dt = -M g + F_contact,   a_rod = F_contact/M - g   (raw, every step)
+
+Default mode: the locked mixture (one velocity field, undrained pore pressure); ``mode=two-phase``
+runs grains and fluid on two fields with implicit Beetstra drag (for the comparison).
+
+Drained or undrained (DESIGN.md section 5), numbers for phi0 = 0.47 and Table 5 (eta0 = 7 mPa s):
+Beetstra F = 10 phi/(1 - phi)^2 + (1 - phi)^2 (1 + 1.5 sqrt(phi)) = 17.3, Darcy permeability
+k = (1 - phi) d^2/(18 phi F) = 1.24e-13 m^2; constrained modulus of a jammed skeleton M = K + 4G/3
+= 1.34e8 Pa, fluid storage (1 - phi)/kappa: c_v = k/(eta0 (1/M + (1 - phi)/kappa)) = 1.1 m^2/s
+(7.8 m^2/s at 1 mPa s). Over the plug (L ~ 2-5 cm) the pore pressure of a jammed skeleton
+equilibrates in L^2/c_v = 0.4-2 ms (0.05-0.3 ms at 1 mPa s), shorter than the 60 ms of Fig. 4 but
+not than the ~5 ms stiff phase. What drainage could do is bounded by the volume it can move:
+a Darcy flux w = (k/eta0) grad p ~ 1.8e-11 m^2/(Pa s) x (1e5 Pa/2 cm) = 8.8e-5 m/s against the
+rod's 1 m/s, i.e. relative fluid displacements ~1e-4 of the grains' over the stiff phase and a
+change of phi of w t/L ~ 3e-4 over 60 ms over 2 cm. An unjammed skeleton (phi < phi_m(f)) has no
+stiffness at all to drain against. So grains and fluid move together to ~1e-4 (as Han et al. 2016
+measured: no detectable change of packing fraction at the front) and the locked mixture, which
+is also ~2-3x cheaper, is the default; the two-phase run is the check (validation case
+``impact_locked_vs_two_phase``).
+
+Geometry and the choices where the paper is silent:
+- ``size=fig4``: container (mixture) radius 10 cm, depth 10 cm, on the paper's 100 x 120 grid at
+  1 mm (the 20 cells above the bed hold the represented rod and the free surface's heave),
+  eta0 = 7 mPa s (``rod_impact``), v0 = 1.0 m/s, 60 ms after impact;
+- ``size=fig5``: the "large container" on the paper's 150 x 225 grid at 1 mm: radius 15 cm and
+  depth 20.5 cm (the same 2 cm above the bed as Fig. 4), eta0 = 1 mPa s (``rod_impact_1cp``),
+  60 ms after impact; the speeds (0.5, 1, 2 m/s) by ``mpm2d sweep impact --set size=fig5
+  --set v0=0.5,1,2``;
+- ``size=default`` (``mpm2d run impact``): the Fig. 4 scene at 2 mm cells (50 x 60 grid), the
+  whole 60 ms; 4x fewer points and 2x fewer steps than Fig. 4 (point-steps in the README);
+- rod: radius 9.5 mm (the paper), aluminium 2700 kg/m^3, length 20 cm (mass 153 g): our choice,
+  a rod long enough to be guided by a linear bearing; Waitukaitis & Jaeger's exact rod mass could
+  not be checked from here (``rod_length``, ``rod_density`` change it). Only the rod's lowest
+  15 mm are represented by body points in the grid (the rod meets the suspension through its
+  face and side only); their density is raised to rod_density rod_length/15 mm so that the body
+  has the whole rod's mass. The lattice of the rod's points is fitted to its radius (exact at
+  every h);
+- launch: the rod starts with its face on the free surface moving down at v0 (impact at t = 0,
+  every time in the outputs is "after impact"); the launch height of a free drop that gives v0
+  is H = v0^2/(2 g) (5.1 cm for 1 m/s; reported), air drag neglected;
+- volume fraction phi0 = 0.47: the paper gives none; Hermes 2016's fit has phi_c = 0.436 and
+  phi_j = 0.535, and the impact fronts need phi_c < phi0 < phi_j (DST and shear jamming, but a
+  liquid at rest); 0.47 sits a third of the way in, as in the intruder scene (Han et al. 2016, the
+  same group's suspensions, Fig. 6 of the paper);
+- contact no-slip (mu_w = inf: the suspension wets the rod; ``rod_contact=frictionless`` for
+  mu_w = 0), free to separate; container: no-slip floor and outer wall, axis r = 0, free top;
+- the bed starts at rest (mpm2d.geostatic): loose, so the pore pressure carries the weight, f = 0.
+
+Measures (outputs):
+- rod z(t): the height of the rod's face above the initial free surface (0 at impact, negative
+  below); v(t) and a(t) from z by the paper's first-order finite difference over a stencil of
+  length ``stencil`` (default the longest shear-wave round trip to a wall, 2 max(depth, radius)/c_s
+  with c_s = sqrt(G/rho_mix): 1.2 ms for Fig. 4, 2.4 ms for Fig. 5), placed at the stencil's
+  centre: v_i = (z_{i+n/2} - z_{i-n/2})/stencil, a likewise from v (a > 0 decelerates a falling
+  rod). The elastic waves reflected by the walls make the raw acceleration F/M - g ring with the
+  P-wave period 4 L/c_p (~1 ms); averaging z over one round trip of the slowest wave removes them.
+  The raw a(t) (contact force every recorded step) is drawn beside it (``rod_raw.csv``);
+- the jamming front: where u_z = v_rod/2 on the axis column of cells below the rod's face
+  (mpm2d.fronts.longitudinal_front with the rod's current velocity; Han et al. 2016's criterion),
+  as a depth below the initial free surface, while the rod moves faster than 0.1 v0; its speed is
+  a straight-line fit over the window from the first record where the front is 2 cells ahead of
+  the face until the rod has lost half its speed or the front is within 2 cells of the floor;
+  k = (front speed)/(mean rod speed over the window) (lab frame, the ratio of Waitukaitis &
+  Jaeger); ``k_penetration`` = d(front depth)/d(rod depth) over the window, the same ratio free of
+  the time base;
+- |Delta z| below the rod (Fig. 4c): the mean |z - z_initial| of the bed's points with r < rod
+  radius, per row of initial depth; the plug is the stretch from the surface down to where
+  |Delta z| first drops below 5% of the rod's displacement; linearity = R^2 of a straight line
+  through it;
+- co-moving points (Fig. 4a): |Delta z| >= 90% of the rod's displacement.
+
+Parameters: size (default|fig4|fig5), v0 [m/s], phi0, radius, depth [m], cells_per_mm (1/h in
+1/mm), t_end [s] (after impact), material, rod_radius, rod_length [m], rod_density [kg/m^3],
+rod_contact, mode, stencil [s], gravity [m/s^2], cfl. ``none`` (the default) takes the size's
+value.
+
+Outputs (besides history.csv, frames, manifest): ``rod.csv`` (v0_m_per_s, time_s, z_m,
+v_m_per_s, a_m_per_s2), ``rod_raw.csv`` (time_s, z_m, force_N, a_raw_m_per_s2), ``front.csv``
+(v0_m_per_s, time_s, front_depth_m), ``displacement_vs_depth.csv`` (depth_m, displacement_m),
+``summary.json``, ``displacement.png`` (Fig. 4a), ``displacement_vs_depth.png`` (Fig. 4c),
+``rod.png`` (Fig. 5 for one v0) and ``front.png``. A sweep over v0 writes the same tables for all
+speeds together (``sweep_report``) with ``rod.png`` (Fig. 5) and ``speeds.json``.
+
+Run: ``mpm2d run impact --out impact`` (mode: locked mixture)
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rheology import get_material
+from rheology.io import atomic_write_csv, atomic_write_json
+
+from .. import plots
+from ..bodies import RigidBody, fill
+from ..fronts import cell_field, fit_speed, longitudinal_front
+from ..geostatic import geostatic
+from ..grid import Grid
+from ..materials import NewtonianFluid, Suspension
+from ..particles import ParticleSet
+from . import spec
+from ..run import Scene
+from ..simulation import Drag, Simulation
+
+#: presets: (radius [m], depth [m], cells per mm, material, v0 [m/s], t_end [s])
+SIZES = {
+    "default": dict(radius=0.10, depth=0.10, cells_per_mm=0.5, material="rod_impact", v0=1.0,
+                    t_end=0.06),
+    "fig4": dict(radius=0.10, depth=0.10, cells_per_mm=1.0, material="rod_impact", v0=1.0,
+                 t_end=0.06),
+    "fig5": dict(radius=0.15, depth=0.205, cells_per_mm=1.0, material="rod_impact_1cp", v0=1.0,
+                 t_end=0.06),
+}
+#: room above the bed [m] (the paper's grids: 120 - 100 and 225 - 205 cells of 1 mm)
+HEADROOM = 0.02
+#: represented length of the rod [m] (its lowest part; mass of the whole rod)
+ROD_REPRESENTED = 0.015
+#: the front criterion u_z / v_rod (Han et al. 2016)
+FRONT_FRACTION = 0.5
+#: the front is recorded while |v_rod| > this fraction of v0
+FRONT_MIN_SPEED = 0.1
+#: the front fit ends once the rod has lost this fraction of its speed
+FIT_SPEED_FRACTION = 0.5
+#: plug: |Delta z| >= this fraction of the rod's displacement
+PLUG_FRACTION = 0.05
+#: co-moving: |Delta z| >= this fraction of the rod's displacement
+COMOVING_FRACTION = 0.9
+#: records of the rod per run
+HISTORY_ROWS = 2400
+_NULLABLE = ("front_speed_m_per_s", "front_r2", "k", "k_penetration", "fit_t_start_s",
+             "fit_t_end_s", "plug_depth_m", "plug_r2", "plug_slope", "late_velocity_m_per_s",
+             "mean_rod_speed_fit_m_per_s")
+
+
+def resolved(p: dict) -> dict:
+    """The parameters with every ``None`` replaced by its size's value."""
+    base = SIZES[p["size"]]
+    return {k: (base[k] if (k in base and v is None) else v) for k, v in p.items()}
+
+
+def _h(p) -> float:
+    return 1e-3 / resolved(p)["cells_per_mm"]
+
+
+def _points(p) -> float:
+    q = resolved(p)
+    n = 4 * q["radius"] * q["depth"] * (q["cells_per_mm"] * 1e3) ** 2
+    return n * (2 if q["mode"] == "two-phase" else 1)
+
+
+def _nodes(p) -> float:
+    q = resolved(p)
+    c = q["cells_per_mm"] * 1e3
+    return (q["radius"] * c + 5) * ((q["depth"] + HEADROOM) * c + 5)
+
+
+def _declare(estimate, **params):
+    """:func:`mpm2d.scenes.spec.parameters_of` for a scene with a parameter named ``size``.
+
+    ``parameters_of(size=..., **params)`` takes the memory estimate under the keyword ``size``,
+    so a scene parameter of that name (the issue's ``--set size=fig4``) cannot be declared
+    through it; this builds the same :class:`~mpm2d.scenes.spec.SceneSpec` and validating
+    wrapper (same checks: the declaration and the signature name the same parameters, every
+    parameter has a default)."""
+
+    def wrap(setup):
+        sig = inspect.signature(setup)
+        names = list(sig.parameters)
+        missing = [k for k in names if k not in params]
+        extra = [k for k in params if k not in names]
+        if missing or extra:
+            raise TypeError(f"{setup.__module__}.setup: parameters without a declared range "
+                            f"{missing}, declared but not in the signature {extra}")
+        defaults = {k: q.default for k, q in sig.parameters.items()}
+        sc = spec.SceneSpec(setup.__module__.rsplit(".", 1)[-1], dict(params), defaults,
+                            estimate)
+
+        @functools.wraps(setup)
+        def checked(**kwargs):
+            return setup(**sc.validate(kwargs))
+
+        checked.spec = sc
+        return checked
+
+    return wrap
+
+
+def _geo(key, lo, hi, unit, doc, note="", **kw):
+    return spec.Param(lo, hi, unit=unit, doc=doc + " (none: the size's value)", optional=True,
+                      note=note, **kw)
+
+
+@_declare(
+    lambda p: (_points(p), _nodes(p)),
+    size=spec.Param(choices=tuple(SIZES), doc="scene: default (Fig. 4 at 2 mm), fig4 (100 x 120 "
+                    "at 1 mm, 7 mPa s), fig5 (150 x 225 at 1 mm, 1 mPa s)"),
+    v0=_geo("v0", 0.0, 5.0, "m/s", "impact speed (downwards)", lo_closed=False),
+    phi0=spec.phi_below_jamming(fixed="rod_impact", doc="solid volume fraction of the bed"),
+    radius=_geo("radius", lambda p: p["rod_radius"] + 4e-3 / resolved(p)["cells_per_mm"], 1.0,
+                "m", "container (mixture) radius", note="at least the rod radius + 4 cells"),
+    depth=_geo("depth", lambda p: 8e-3 / resolved(p)["cells_per_mm"], 1.0, "m",
+               "mixture depth", note="at least 8 cells"),
+    cells_per_mm=_geo("cells_per_mm", 0.2, 4.0, "1/mm", "1/h in 1/mm (1: the paper's 1 mm)"),
+    t_end=_geo("t_end", 0.0, 1.0, "s", "end time after impact", lo_closed=False),
+    material=spec.Param(choices=("rod_impact", "rod_impact_1cp"), optional=True,
+                        doc="Table 5 set: rod_impact (7 mPa s) or rod_impact_1cp (1 mPa s) "
+                            "(none: the size's)"),
+    rod_radius=spec.Param(lambda p: 2e-3 / resolved(p)["cells_per_mm"], 0.1, unit="m",
+                          doc="rod radius", note="at least 2 cells"),
+    rod_length=spec.Param(ROD_REPRESENTED, 2.0, unit="m", doc="rod length (sets its mass)",
+                          note="at least the represented 15 mm"),
+    rod_density=spec.density("rod density (aluminium 2700)"),
+    rod_contact=spec.Param(choices=("noslip", "frictionless"),
+                           doc="rod-suspension contact: no slip (mu_w = inf) or mu_w = 0"),
+    mode=spec.Param(choices=("locked mixture", "two-phase"),
+                    doc="locked mixture (undrained, default) or two-phase (grains + fluid)"),
+    stencil=spec.Param(0.0, lambda p: 0.25 * resolved(p)["t_end"], lo_closed=False, unit="s",
+                       optional=True, doc="finite-difference stencil of v and a (none: the "
+                       "shear-wave round trip 2 max(depth, radius)/c_s)",
+                       note="at most a quarter of t_end"),
+    gravity=spec.gravity(), cfl=spec.cfl())
+def setup(size="default", v0=None, phi0=0.47, radius=None, depth=None, cells_per_mm=None,
+          t_end=None, material=None, rod_radius=0.0095, rod_length=0.20, rod_density=2700.0,
+          rod_contact="noslip", mode="locked mixture", stencil=None, gravity=9.81, cfl=0.5):
+    params = dict(size=size, v0=v0, phi0=phi0, radius=radius, depth=depth,
+                  cells_per_mm=cells_per_mm, t_end=t_end, material=material,
+                  rod_radius=rod_radius, rod_length=rod_length, rod_density=rod_density,
+                  rod_contact=rod_contact, mode=mode, stencil=stencil, gravity=gravity, cfl=cfl)
+    q = resolved(params)
+    h = 1e-3 / q["cells_per_mm"]
+    m = get_material(q["material"])
+    if not phi0 < m.phi_j:
+        raise ValueError(f"phi0 = {phi0} is outside the valid range (0, {m.phi_j}) (phi_j of "
+                         f"material {q['material']!r})")
+    R, D, v0 = q["radius"], q["depth"], q["v0"]
+    nx = int(round(R / h))
+    nd = int(round(D / h))
+    nz = nd + int(round(HEADROOM / h))
+    D = nd * h
+    grid = Grid(nx, nz, h, axisymmetric=True,
+                boundaries=dict(xmin="axis", xmax="noslip", ymin="noslip", ymax="free"))
+    x, area = fill(lambda r, z: np.ones_like(r, dtype=bool), (0.0, 0.0), (nx * h, D), h / 2)
+    if mode == "two-phase":
+        sets = [ParticleSet("bed", Suspension(m), x, area, phi=phi0, f=0.0, axisymmetric=True),
+                ParticleSet("fluid", NewtonianFluid.from_material(m), x, area, phi=phi0,
+                            axisymmetric=True)]
+        extra = dict(drag=Drag.from_material(m))
+    else:
+        sets = [ParticleSet("bed", Suspension(m, locked=True), x, area, phi=phi0, f=0.0,
+                            axisymmetric=True)]
+        extra = {}
+    x_init = x.copy()                                       # by point id (ids = arange)
+    # the rod: lattice fitted to its radius, its lowest ROD_REPRESENTED represented
+    nr = int(math.ceil(rod_radius / (h / 2) - 1e-9))
+    sr, sz = rod_radius / nr, h / 2
+    nzr = int(round(ROD_REPRESENTED / sz))
+    side = math.sqrt(sr * sz)
+    z_face = D + 0.5 * sz - 0.5 * side                      # contact face on the free surface
+    rr, zz = np.meshgrid((np.arange(nr) + 0.5) * sr, z_face + (np.arange(nzr) + 0.5) * sz,
+                         indexing="ij")
+    xr = np.stack([rr.ravel(), zz.ravel()], axis=1)
+    rep_len = nzr * sz
+    rho_eff = rod_density * rod_length / rep_len
+    rod = RigidBody("rod", xr, sr * sz, density=rho_eff, velocity=(0.0, -v0), prescribed="none",
+                    axisymmetric=True, mu_w=math.inf if rod_contact == "noslip" else 0.0)
+    sim = Simulation(grid, sets, [rod], mode=mode, gravity=(0.0, -gravity), cfl=cfl,
+                     name="impact", **extra)
+    geostatic(sim, sets=[s.name for s in sets])            # the bed at rest under gravity
+    rho_mix = phi0 * m.rho_s + (1 - phi0) * m.rho_f
+    c_s = math.sqrt(m.G / rho_mix)
+    c_p = math.sqrt((m.K + 4 * m.G / 3 + m.kappa / (1 - phi0)) / rho_mix)
+    st = stencil if stencil is not None else 2 * max(D, R) / c_s
+    offset = float(rod.center[1]) - D                       # face = centre - offset + ... at t=0
+    face0 = float(rod.center[1])
+    mass = rod.mass
+    info = dict(h=h, nx=nx, nz=nz, depth=D, radius=R, v0=v0, t_end=q["t_end"], stencil=st,
+                c_s=c_s, c_p=c_p, rho_mix=rho_mix, material=q["material"], rod_radius=rod_radius,
+                rod_mass_kg=mass * 2 * math.pi, rod_represented_m=rep_len, rho_eff=rho_eff,
+                launch_height_m=v0 ** 2 / (2 * gravity), gravity=gravity, mode=mode,
+                size=size, phi0=phi0)
+
+    def face(sim) -> float:
+        """Height of the rod's face above the initial free surface [m]."""
+        return float(sim.bodies[0].center[1]) - face0
+
+    def front_now(sim, z_face_abs, v) -> float:
+        if not abs(v) > FRONT_MIN_SPEED * v0:
+            return float("nan")
+        bed = sim.sets[0]
+        uz = cell_field(bed.x, bed.v[:, 1], bed.m, (0.0, 0.0), h, (nx, nz))
+        rc = (np.arange(nx) + 0.5) * h
+        zc = (np.arange(nz) + 0.5) * h
+        zf = longitudinal_front(uz, rc, zc, z_face_abs, v, FRONT_FRACTION)
+        return D - zf if math.isfinite(zf) else float("nan")
+
+    def record(sim):
+        r = sim.bodies[0]
+        z = face(sim)
+        v = float(r.velocity[1])
+        return {"rod_z_m": z, "rod_velocity_m_per_s": v,
+                "rod_force_N": float(r.force[1]) * 2 * math.pi,
+                "rod_acceleration_raw_m_per_s2": float(r.force[1] / r.mass - gravity),
+                "front_depth_m": front_now(sim, D + z, v),
+                "max_f": float(np.max(sim.sets[0].f))}
+
+    top_limit = (nz - 1.5) * h
+
+    def before_step(sim):
+        r = sim.bodies[0]
+        top = float(np.max(r.x[:, 1])) + 0.5 * sz
+        bottom = float(np.min(r.x[:, 1])) - 0.5 * sz
+        if top > top_limit:
+            raise RuntimeError(f"impact: the rod bounced out of the grid (its represented top at "
+                               f"{top:.4g} m > {top_limit:.4g} m) at t = {sim.t:.4g} s")
+        if bottom < 3 * h:
+            raise RuntimeError(f"impact: the rod reached the floor (face at {bottom:.4g} m) at "
+                               f"t = {sim.t:.4g} s; use a deeper bed or a shorter t_end")
+
+    notes = (f"mode {mode}; size {size}; rod radius {rod_radius:g} m, mass "
+             f"{info['rod_mass_kg']:.4g} kg ({rod_length:g} m of {rod_density:g} kg/m^3, lowest "
+             f"{rep_len:g} m represented), v0 = {v0:g} m/s (free-drop height "
+             f"{info['launch_height_m']:.4g} m), contact {rod_contact}; material "
+             f"{q['material']}, phi0 = {phi0}; FD stencil {st:.4g} s")
+    return Scene(sim, q["t_end"], params, frames=10, history_rows=HISTORY_ROWS, record=record,
+                 before_step=before_step,
+                 report=lambda sim, hist, out: report(sim, hist, out, info, x_init),
+                 notes=notes, undefined=("front_depth_m",))
+
+
+# ---------------------------------------------------------------- analysis (pure functions)
+def finite_difference(t, y, stencil):
+    """First-order difference of ``y`` over ``stencil`` [s], placed at the stencil's centre.
+
+    ``t`` must be (nearly) uniform; the stencil is rounded to an even number n >= 2 of samples:
+    d_i = (y_{i+n/2} - y_{i-n/2})/(t_{i+n/2} - t_{i-n/2}); NaN where the stencil does not fit.
+    Returns (derivative array, n).
+    """
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    out = np.full(t.shape, np.nan)
+    if t.size < 3:
+        return out, 2
+    dt = float(np.median(np.diff(t)))
+    n = max(2, 2 * int(round(0.5 * stencil / dt)))
+    k = n // 2
+    if t.size > n:
+        out[k:-k] = (y[n:] - y[:-n]) / (t[n:] - t[:-n])
+    return out, n
+
+
+def rod_kinematics(t, z, stencil):
+    """v = dz/dt and a = -dv/dt... as the paper: both by :func:`finite_difference` over
+    ``stencil``; a is the acceleration (dv/dt, positive when a falling rod decelerates)."""
+    v, n = finite_difference(t, z, stencil)
+    a, _ = finite_difference(t, v, stencil)
+    return v, a, n
+
+
+def linear_fit(x, y) -> dict:
+    """Least-squares line y = a x + b: slope, intercept, R^2, points (NaN with < 3 points)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    if ok.sum() < 3:
+        nan = float("nan")
+        return {"slope": nan, "intercept": nan, "r2": nan, "points": int(ok.sum())}
+    res = fit_speed(x[ok], y[ok])
+    return {"slope": res["speed"], "intercept": res["intercept"], "r2": res["r2"],
+            "points": res["points"]}
+
+
+def displacement_profile(x, x0, rod_radius, depth, row):
+    """|Delta z| against initial depth below the rod (Fig. 4c).
+
+    Parameters
+    ----------
+    x, x0 : (n, 2) arrays [m]: current and initial point positions (same order)
+    rod_radius, depth : [m]; row : the initial row spacing [m]
+
+    Returns
+    -------
+    DataFrame (depth_m, displacement_m): mean |z - z0| of the points with r0 < rod_radius per
+    row of initial depth, ordered from the surface down.
+    """
+    sel = x0[:, 0] < rod_radius
+    d0 = depth - x0[sel, 1]
+    dz = np.abs(x[sel, 1] - x0[sel, 1])
+    k = np.floor(d0 / row).astype(int)
+    n = int(k.max()) + 1 if k.size else 0
+    cnt = np.bincount(k, minlength=n)
+    tot = np.bincount(k, dz, minlength=n)
+    keep = cnt > 0
+    return pd.DataFrame({"depth_m": ((np.arange(n) + 0.5) * row)[keep],
+                         "displacement_m": tot[keep] / cnt[keep]})
+
+
+def plug_fit(profile: pd.DataFrame, rod_disp: float) -> dict:
+    """Linearity of |Delta z| over the plug: from the surface to where |Delta z| first drops
+    below PLUG_FRACTION of the rod's displacement (R^2, slope, plug depth)."""
+    d = profile["depth_m"].to_numpy()
+    u = profile["displacement_m"].to_numpy()
+    below = np.flatnonzero(u < PLUG_FRACTION * rod_disp)
+    end = int(below[0]) if below.size else len(u)
+    fit = linear_fit(d[:end], u[:end])
+    return {"plug_depth_m": float(d[end - 1]) if end > 0 else float("nan"),
+            "plug_r2": fit["r2"], "plug_slope": fit["slope"], "plug_points": fit["points"]}
+
+
+def front_fit(t, front, z, v, v0, h, depth) -> dict:
+    """Front speed, R^2 and k over the window of the module docstring."""
+    t, front, z, v = (np.asarray(a, float) for a in (t, front, z, v))
+    nan = float("nan")
+    formed = np.isfinite(front) & (front - (-z) >= 2 * h)
+    res = {"fit_t_start_s": nan, "fit_t_end_s": nan, "front_speed_m_per_s": nan,
+           "front_r2": nan, "k": nan, "k_penetration": nan, "mean_rod_speed_fit_m_per_s": nan,
+           "fit_points": 0}
+    if not formed.any():
+        return res
+    k0 = int(np.argmax(formed))
+    with np.errstate(invalid="ignore"):
+        stop = (np.abs(v) < FIT_SPEED_FRACTION * v0) | (front >= depth - 2 * h)
+    stop[:k0 + 1] = False
+    k1 = int(np.argmax(stop)) - 1 if stop.any() else len(t) - 1
+    sel = np.zeros(len(t), bool)
+    sel[k0:k1 + 1] = True
+    sel &= np.isfinite(front)
+    if sel.sum() < 3:
+        return res
+    f = linear_fit(t[sel], front[sel])
+    pen = linear_fit(-z[sel], front[sel])
+    mean_v = float(np.mean(np.abs(v[sel])))
+    res.update(fit_t_start_s=float(t[k0]), fit_t_end_s=float(t[k1]),
+               front_speed_m_per_s=f["slope"], front_r2=f["r2"], k=f["slope"] / mean_v,
+               k_penetration=pen["slope"], mean_rod_speed_fit_m_per_s=mean_v,
+               fit_points=int(sel.sum()))
+    return res
+
+
+def _clean(d: dict) -> dict:
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+            for k, v in d.items()}
+
+
+# ---------------------------------------------------------------- report
+def report(sim, history, out, info, x_init):
+    out = Path(out)
+    v0, h = info["v0"], info["h"]
+    t = history["time_s"].to_numpy()
+    z = history["rod_z_m"].to_numpy()
+    v_fd, a_fd, n = rod_kinematics(t, z, info["stencil"])
+    rod = pd.DataFrame({"v0_m_per_s": v0, "time_s": t, "z_m": z, "v_m_per_s": v_fd,
+                        "a_m_per_s2": a_fd})
+    atomic_write_csv(out / "rod.csv", rod, empty_ok=("v_m_per_s", "a_m_per_s2"))
+    raw = pd.DataFrame({"time_s": t, "z_m": z,
+                        "force_N": history["rod_force_N"].to_numpy(),
+                        "a_raw_m_per_s2": history["rod_acceleration_raw_m_per_s2"].to_numpy()})
+    atomic_write_csv(out / "rod_raw.csv", raw)
+    front = pd.DataFrame({"v0_m_per_s": v0, "time_s": t,
+                          "front_depth_m": history["front_depth_m"].to_numpy()})
+    atomic_write_csv(out / "front.csv", front, empty_ok=("front_depth_m",))
+    bed = sim.sets[0]
+    x0 = x_init[bed.id]
+    prof = displacement_profile(bed.x, x0, info["rod_radius"], info["depth"], h / 2)
+    atomic_write_csv(out / "displacement_vs_depth.csv", prof)
+    rod_disp = float(-z[-1])
+    plug = plug_fit(prof, rod_disp)
+    ff = front_fit(t, front["front_depth_m"], z, history["rod_velocity_m_per_s"], v0, h,
+                   info["depth"])
+    late = t >= 0.8 * t[-1]
+    late_v = float(np.nanmean(v_fd[late])) if np.isfinite(v_fd[late]).any() else float("nan")
+    raw_a = raw["a_raw_m_per_s2"].to_numpy()
+    res = {"v0_m_per_s": v0, "size": info["size"], "mode": info["mode"],
+           "material": info["material"], "phi0": info["phi0"], "h_m": h,
+           "grid": [info["nx"], info["nz"]], "t_end_s": info["t_end"],
+           "rod_mass_kg": info["rod_mass_kg"], "rod_radius_m": info["rod_radius"],
+           "launch_height_m": info["launch_height_m"],
+           "stencil_s": info["stencil"], "stencil_samples": n,
+           "shear_wave_speed_m_per_s": info["c_s"], "p_wave_speed_m_per_s": info["c_p"],
+           "peak_deceleration_m_per_s2": float(np.nanmax(a_fd)) if np.isfinite(a_fd).any()
+           else float("nan"),
+           "time_of_peak_s": float(t[int(np.nanargmax(a_fd))]) if np.isfinite(a_fd).any()
+           else float("nan"),
+           "peak_raw_acceleration_m_per_s2": float(np.max(raw_a)),
+           "final_rod_depth_m": rod_disp, "final_rod_velocity_m_per_s": float(
+               sim.bodies[0].velocity[1]),
+           "late_velocity_m_per_s": late_v, "late_window_s": [float(0.8 * t[-1]), float(t[-1])],
+           "max_f": float(history["max_f"].max()),
+           "comoving_fraction": COMOVING_FRACTION, "plug_fraction": PLUG_FRACTION,
+           "front_fraction": FRONT_FRACTION, **plug, **ff}
+    atomic_write_json(out / "summary.json", res, nullable=_NULLABLE + ("peak_deceleration_m_per_s2",
+                                                                       "time_of_peak_s"))
+    return [displacement_figure(sim, x0, info, rod_disp, out / "displacement.png"),
+            profile_figure(prof, plug, info, out / "displacement_vs_depth.png"),
+            rod_figure([(v0, rod, raw)], out / "rod.png"),
+            front_figure(front, z, ff, info, out / "front.png")]
+
+
+def displacement_figure(sim, x0, info, rod_disp, path):
+    """Fig. 4a: z-displacement field with contours, co-moving points marked."""
+    h, nx, nz = info["h"], info["nx"], info["nz"]
+    bed = sim.sets[0]
+    dz = bed.x[:, 1] - x0[:, 1]
+    field = cell_field(x0, dz, bed.m, (0.0, 0.0), h, (nx, nz))   # Lagrangian: initial cells
+    fig, ax = plots.plt.subplots(figsize=(7.5, 6.5))
+    ext = (0.0, nx * h * 1e2, 0.0, nz * h * 1e2)
+    vmax = max(rod_disp, 1e-9) * 1e2
+    im = ax.imshow(field.T * 1e2, origin="lower", extent=ext, cmap="jet_r", vmin=-vmax, vmax=0.0)
+    rc = (np.arange(nx) + 0.5) * h * 1e2
+    zc = (np.arange(nz) + 0.5) * h * 1e2
+    levels = sorted(-f * vmax for f in (0.05, 0.1, 0.25, 0.5, 0.75, 0.9))
+    if np.isfinite(field).any():
+        cs = ax.contour(rc, zc, np.nan_to_num(field.T * 1e2, nan=0.0), levels=levels, colors="k",
+                        linewidths=0.7)
+        ax.clabel(cs, fmt="%.2f", fontsize=6)
+    co = np.abs(dz) >= COMOVING_FRACTION * rod_disp
+    ax.scatter(x0[co, 0] * 1e2, x0[co, 1] * 1e2, s=2, c="m", marker=".",
+               label=f"co-moving (|dz| >= {COMOVING_FRACTION:.0%} of the rod's)")
+    rod = sim.bodies[0]
+    ax.fill_between([0, info["rod_radius"] * 1e2], (info["depth"] - rod_disp) * 1e2,
+                    nz * h * 1e2, color="0.5", alpha=0.6, label="rod (final)")
+    fig.colorbar(im, ax=ax, label="z-displacement [cm] (at the points' initial positions)")
+    ax.set_xlabel("r [cm]")
+    ax.set_ylabel("z [cm]")
+    ax.set_title(f"z-displacement {sim.t * 1e3:.0f} ms after impact, v0 = {info['v0']:g} m/s, "
+                 f"rod {rod_disp * 1e3:.1f} mm deep", fontsize=9)
+    ax.legend(loc="lower right", fontsize=7)
+    ax.set_aspect("equal")
+    del rod
+    return plots.save(fig, path)
+
+
+def profile_figure(prof, plug, info, path):
+    """Fig. 4c: |Delta z| against depth below the rod, the plug's straight line."""
+    fig, ax = plots.plt.subplots(figsize=(6, 4.5))
+    d, u = prof["depth_m"].to_numpy(), prof["displacement_m"].to_numpy()
+    ax.plot(d * 1e2, u * 1e2, "k.-", ms=3, label="simulation (r < rod radius)")
+    if plug["plug_depth_m"] is not None and math.isfinite(plug["plug_depth_m"]):
+        dd = d[d <= plug["plug_depth_m"]]
+        yy = u[d <= plug["plug_depth_m"]]
+        b = float(np.mean(yy) - plug["plug_slope"] * np.mean(dd))
+        ax.plot(dd * 1e2, (b + plug["plug_slope"] * dd) * 1e2, "r-",
+                label=f"plug fit, R^2 = {plug['plug_r2']:.3f}")
+    ax.set_xlabel("initial depth below the surface z [cm]")
+    ax.set_ylabel("|Delta z| [cm]")
+    ax.set_title(f"displacement below the rod, {info['t_end'] * 1e3:.0f} ms after impact", fontsize=9)
+    ax.legend(fontsize=8)
+    return plots.save(fig, path)
+
+
+def rod_figure(runs, path):
+    """Fig. 5: z, v, a against t for each v0 (a from z, stencil), the raw a(t) lighter."""
+    fig, axs = plots.plt.subplots(1, 3, figsize=(15, 4.5))
+    colors = plots.plt.cm.viridis(np.linspace(0, 0.85, max(len(runs), 1)))
+    for (v0, rod, raw), c in zip(runs, colors):
+        t = rod["time_s"].to_numpy() * 1e3
+        axs[0].plot(t, rod["z_m"] * 1e2, color=c, label=f"v0 = {v0:g} m/s")
+        axs[1].plot(t, rod["v_m_per_s"], color=c)
+        if raw is not None:
+            axs[2].plot(raw["time_s"] * 1e3, raw["a_raw_m_per_s2"], color=c, lw=0.5, alpha=0.35)
+        axs[2].plot(t, rod["a_m_per_s2"], color=c, lw=2)
+    axs[0].set_ylabel("rod face z [cm]")
+    axs[1].set_ylabel("rod velocity v [m/s]")
+    axs[2].set_ylabel("rod acceleration a [m/s^2] (thin: raw F/M - g)")
+    axs[0].legend(fontsize=8)
+    for ax in axs:
+        ax.set_xlabel("t after impact [ms]")
+    return plots.save(fig, path)
+
+
+def front_figure(front, z, ff, info, path):
+    fig, ax = plots.plt.subplots(figsize=(6, 4.5))
+    t = front["time_s"].to_numpy()
+    ax.plot(t * 1e3, front["front_depth_m"] * 1e2, "b.", ms=2, label="front (u_z = v_rod/2)")
+    ax.plot(t * 1e3, -np.asarray(z) * 1e2, "k-", lw=1, label="rod face depth")
+    if ff["fit_t_start_s"] is not None and math.isfinite(ff["fit_t_start_s"]):
+        sel = (t >= ff["fit_t_start_s"]) & (t <= ff["fit_t_end_s"])
+        y = front["front_depth_m"].to_numpy()[sel]
+        ok = np.isfinite(y)
+        b = float(np.mean(y[ok]) - ff["front_speed_m_per_s"] * np.mean(t[sel][ok]))
+        tt = np.array([ff["fit_t_start_s"], ff["fit_t_end_s"]])
+        ax.plot(tt * 1e3, (b + ff["front_speed_m_per_s"] * tt) * 1e2, "r-", lw=2,
+                label=f"fit: {ff['front_speed_m_per_s']:.3g} m/s, R^2 = {ff['front_r2']:.3f}, "
+                      f"k = {ff['k']:.3g}")
+    ax.set_xlabel("t after impact [ms]")
+    ax.set_ylabel("depth below the initial surface [cm]")
+    ax.set_title(f"jamming front, v0 = {info['v0']:g} m/s", fontsize=9)
+    ax.legend(fontsize=8)
+    return plots.save(fig, path)
+
+
+# ---------------------------------------------------------------- sweeps (Fig. 5)
+def sweep_report(table, out) -> list:
+    """All speeds together: ``out/rod.csv``, ``out/front.csv`` (the issue's columns, every
+    case), ``out/rod.png`` (Fig. 5), ``out/speeds.csv`` (per v0: peak deceleration, late
+    velocity, k, R^2) and ``out/summary.json`` (with the log-log slope of the peak deceleration
+    against v0 and whether it grows monotonically)."""
+    out = Path(out)
+    runs, rods, fronts, rows = [], [], [], []
+    for _, r in table.iterrows():
+        folder = out / str(r["case"])
+        if not (folder / "summary.json").exists():
+            continue
+        s = json.loads((folder / "summary.json").read_text())
+        rod = pd.read_csv(folder / "rod.csv")
+        raw = pd.read_csv(folder / "rod_raw.csv") if (folder / "rod_raw.csv").exists() else None
+        rods.append(rod)
+        fronts.append(pd.read_csv(folder / "front.csv"))
+        runs.append((s["v0_m_per_s"], rod, raw))
+        rows.append({k: (np.nan if s.get(k) is None else s[k]) for k in SPEED_COLUMNS}
+                    | {"case": str(r["case"])})
+    if not rows:
+        return []
+    order = np.argsort([r[0] for r in runs])
+    runs = [runs[i] for i in order]
+    speeds = pd.DataFrame(rows).sort_values("v0_m_per_s")
+    paths = [atomic_write_csv(out / "rod.csv", pd.concat([rods[i] for i in order]),
+                              empty_ok=("v_m_per_s", "a_m_per_s2")),
+             atomic_write_csv(out / "front.csv", pd.concat([fronts[i] for i in order]),
+                              empty_ok=("front_depth_m",)),
+             atomic_write_csv(out / "speeds.csv", speeds, empty_ok=SPEED_COLUMNS[2:])]
+    summ = peak_scaling(speeds["v0_m_per_s"].to_numpy(),
+                        speeds["peak_deceleration_m_per_s2"].to_numpy())
+    summ["cases"] = speeds.replace({np.nan: None}).to_dict(orient="records")
+    paths.append(atomic_write_json(out / "summary.json", summ,
+                                   nullable=("loglog_slope", "loglog_r2")))
+    paths.append(rod_figure(runs, out / "rod.png"))
+    return [Path(p) for p in paths]
+
+
+SPEED_COLUMNS = ("v0_m_per_s", "peak_deceleration_m_per_s2", "late_velocity_m_per_s", "k",
+                 "front_r2", "plug_r2", "final_rod_depth_m")
+
+
+def peak_scaling(v0, peak) -> dict:
+    """Monotonicity and log-log slope of the peak deceleration against v0."""
+    v0, peak = np.asarray(v0, float), np.asarray(peak, float)
+    o = np.argsort(v0)
+    v0, peak = v0[o], peak[o]
+    ok = np.isfinite(peak) & (peak > 0)
+    mono = bool(ok.all() and np.all(np.diff(peak) > 0))
+    fit = linear_fit(np.log(v0[ok]), np.log(peak[ok])) if ok.sum() >= 2 else None
+    if fit is not None and ok.sum() == 2:
+        lv, lp = np.log(v0[ok]), np.log(peak[ok])
+        fit = {"slope": float((lp[1] - lp[0]) / (lv[1] - lv[0])), "r2": 1.0}
+    return {"v0_m_per_s": v0.tolist(), "peak_deceleration_m_per_s2": peak.tolist(),
+            "monotone": mono, "loglog_slope": fit["slope"] if fit else float("nan"),
+            "loglog_r2": fit["r2"] if fit else float("nan")}
