@@ -243,6 +243,7 @@ def _newton_2d(beta, g, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
     """
     iK3 = 1.0 / K3
     cV = 2.5 * phi * eta0 / a
+    r_prev = np.inf
     for _ in range(_NEWTON2D_MAX):
         x = phi - beta * iK3
         w = phim - x
@@ -269,8 +270,11 @@ def _newton_2d(beta, g, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
         if not (beta_lo < bn < beta_top and gn > 0.0 and gn < np.inf):
             return beta_lo
         beta, g = bn, gn
-        if abs(db) <= 1e-8 * bn and abs(dg) <= 1e-8 * gn:     # quadratic: now at roundoff
+        r = max(abs(db) / bn, abs(dg) / gn)
+        # quadratic convergence: the error left after this step is ~ r^3 / r_prev^2
+        if r <= 1e-8 or (r <= 1e-4 and r * r * r <= 1e-16 * r_prev * r_prev):
             return beta
+        r_prev = r
     return beta_lo
 
 
@@ -426,7 +430,7 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
 
     case, iters = ELASTIC, 0
     g, xi1, xi2 = 0.0, 0.0, 0.0
-    beta_guess = 0.0
+    beta_guess, beta_c, gc = 0.0, 0.0, 0.0
     p, Im, beta = p_tr, 0.0, 0.0
     y = phim - phi
     if p_tr <= 0.0:                                           # separation: stress free
@@ -456,6 +460,8 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
                 xi2 = (pc - p_tr) / Kdt
             else:                     # dilatant: K dt beta gdot ~ p - p*, with gdot ~ gc, p ~ pc
                 beta_guess = (pc - p_tr) / (Kdt * gc) if gc > 0.0 else 0.0
+                # to first order in beta, p = pc (1 - 2 beta I_m'/I_m) (I_m = y/(a phi) at beta = 0)
+                beta_c = (pc - p_tr) / (Kdt * gc + 2.0 * pc * phim / (phi * y * K3))
         if case == ELASTIC:
             beta_lo = max(0.0, K3 * (phi - phim))
             if y <= 0.0:
@@ -467,20 +473,20 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
                 beta = beta_lo
             else:
                 case = SHEAR_FLOW
-                # start of the solve: (beta, gdot) from the compaction estimate (or 1e-3 of the
-                # range) and the rate that would return tau* to mu_1 p* alone (cold), or the
-                # previous rate with beta = (p_n - p*)/(K dt gdot): p = p* + K dt beta gdot at
-                # the solution and p ~ p_n, the pressure at the start of the step (warm)
+                # start of the solve, (beta, gdot): below jamming, the compaction estimates
+                # (pc, gc) corrected to first order in beta (cold), or the previous step's rate
+                # (warm); jammed (phi >= phi_m), beta from p = p* + K dt beta gdot with p ~ p_n,
+                # the pressure at the start of the step, and the previous rate if there is one
                 beta_top = beta_lo + (K3 * phi - beta_lo) * (1.0 - 1e-15)
-                b0 = beta_lo + beta_guess if beta_guess > 0.0 else beta_lo + 1e-3 * (beta_top - beta_lo)
-                if g_prev > 0.0 and g_prev < np.inf:
-                    g0 = g_prev
-                    bw = -(sig[0, 0] + sig[1, 1] + sig[2, 2]) / 3.0 - p_tr
-                    bw /= Kdt * g_prev
-                    if beta_lo < bw < beta_top:
-                        b0 = bw
+                warm = g_prev > 0.0 and g_prev < np.inf
+                if y > 0.0:
+                    g0 = g_prev if warm else gc
+                    b0 = beta_c
                 else:
-                    g0 = max(tau_tr - mu1 * p_tr, 0.0) / Gdt
+                    g0 = g_prev if warm else max(tau_tr - mu1 * p_tr, 0.0) / Gdt
+                    b0 = (-(sig[0, 0] + sig[1, 1] + sig[2, 2]) / 3.0 - p_tr) / (Kdt * g0)
+                if not beta_lo < b0 < beta_top:
+                    b0 = beta_lo + 1e-3 * (beta_top - beta_lo)
                 beta_start = beta_lo
                 if newton and g0 > 0.0:
                     beta_start = _newton_2d(b0, g0, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr,
