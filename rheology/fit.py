@@ -676,24 +676,29 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     x_scale[np.isin(P.names, ["alpha1", "alpha2"])] = 1.0
     try:
         r1 = least_squares(resid, th0, bounds=(P.lo, P.hi), loss="soft_l1", f_scale=0.1,
-                           x_scale=x_scale, method="trf", xtol=1e-10, ftol=1e-10, max_nfev=400)
+                           x_scale=x_scale, method="trf", xtol=1e-8, ftol=1e-9, max_nfev=100)
         sig = 1.4826 * float(np.median(np.abs(r1.fun - np.median(r1.fun))))
         fs = f_scale if f_scale is not None else max(3 * sig, 1e-3)
         r2 = least_squares(resid, r1.x, bounds=(P.lo, P.hi), loss="soft_l1", f_scale=fs,
-                           x_scale=x_scale, method="trf", xtol=1e-12, ftol=1e-12, max_nfev=400)
+                           x_scale=x_scale, method="trf", xtol=1e-10, ftol=1e-11, max_nfev=100)
         sig = max(1.4826 * float(np.median(np.abs(r2.fun - np.median(r2.fun)))), 1e-12)
         outlier = np.abs(r2.fun - np.median(r2.fun)) > 4 * sig
         inl = ~outlier
         r3 = least_squares(lambda th: resid(th, inl), r2.x, bounds=(P.lo, P.hi),
-                           x_scale=x_scale, method="trf", xtol=1e-13, ftol=1e-13, max_nfev=200)
+                           x_scale=x_scale, method="trf", xtol=1e-10, ftol=1e-11, max_nfev=100)
     except (ValueError, FloatingPointError) as exc:
         raise RuntimeError(f"stage 4 failed: {exc}") from None
-    if r3.status <= 0:
-        raise RuntimeError(f"stage 4 did not converge: {r3.message}")
+    if r3.status < 0:
+        raise RuntimeError(f"stage 4 failed: {r3.message}")
+    if r3.status == 0:
+        messages.append(f"stage 4 stopped at its evaluation limit ({r3.nfev} in the polish; "
+                        f"optimality {r3.optimality:.2g}): the optimum may not be reached; check "
+                        "the held parameters (eta0, mu_c) and the residual plot")
     stages["4"] = {"soft_l1_f_scale": fs, "outliers": int(outlier.sum()),
                    "nfev": int(r1.nfev + r2.nfev + r3.nfev), "message": r3.message}
     return _finish(data, P.material(r3.x), base, P, free_list, outlier, stages, messages, n_eval,
-                   t0, confidence, r3, resid, name, citation, model, profile=profile,
+                   t0, confidence, r3, resid, name, citation, model,
+                   profile=profile and r3.status > 0,       # no profile around a non-optimum
                    stage3_material=stage3_material)
 
 
