@@ -751,7 +751,6 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
         dof = max(n_in - len(theta), 1)
         s2 = float(np.sum(res.fun ** 2)) / dof
         tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
-        U, sv, Vt = np.linalg.svd(J[:, ~active] if (~active).any() else J, full_matrices=False)
         keep = ~active
         cov_t = np.zeros((theta.size, theta.size))
         degenerate = set()

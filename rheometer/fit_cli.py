@@ -95,7 +95,13 @@ def add_subcommands(sub) -> dict:
 
     p = sub.add_parser("fit", help="fit the model to measured flow curves (Supplement, Figs. "
                                    "11-13, then a global fit)",
-                       description=__doc__.split("Examples::")[0])
+                       description="Fit Baumgarten & Kamrin's model to measured steady flow "
+                                   "curves: stages 1-3 of the Supplement (Figs. 11-13: low "
+                                   "plateau -> a0, phi_j; high plateau -> a_inf, phi_c; DST "
+                                   "rates -> eta_B), then all parameters at once (robust, log "
+                                   "viscosity). Writes DIR/material.json (accepted by every "
+                                   "--material), parameters.csv, fit.csv, correlation.csv, "
+                                   "curves.csv and PNG figures.")
     _read_options(p)
     p.add_argument("--out", default="fit", metavar="DIR", help="output folder (default fit)")
     p.add_argument("--material", default="hermes2016", metavar="NAME|FILE.json",
