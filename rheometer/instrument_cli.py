@@ -328,7 +328,8 @@ def _cmd_oscillation(args) -> str:
     wtable, _ = finish_table(args, waves)
     empty = ("elastic_stress_Pa", "viscous_stress_Pa") if args.control == "stress" else ()
     empty = tuple(geo.normalised_name(c) if m.units == "normalised" else c for c in empty)
-    atomic_write_csv(args.out, table)
+    # empty where undefined: tan_delta if G' <= 0, cycle_change if fewer than two cycles compared
+    atomic_write_csv(args.out, table, empty_ok=("tan_delta", "cycle_change"))
     atomic_write_csv(waves_csv, wtable, empty_ok=empty)
     msg = f"wrote {args.out} ({len(table)} points) and {waves_csv} ({len(wtable)} rows)"
     if plot is not None:

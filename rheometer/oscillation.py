@@ -481,7 +481,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
         converged = _periodic(changes, tol)
         if converged and not fixed_cycles and cycle >= min_cycles:
             break
-        if backup is not None and len(changes) >= 2:
+        if backup is not None and len(changes) >= 2 and cycle < max_cycles - 2:
             weak = weak + 1 if changes[-1] > 0.5 * backup[1] else 0
             if weak >= 3:                      # three jumps in a row that did not halve it
                 accelerate = False
@@ -543,7 +543,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
                  strain_amplitude=gamma_amp, stress_amplitude_Pa=sigma_amp,
                  peak_stress_Pa=float(np.max(np.abs(sigma))), storage_modulus_Pa=Gs.real,
                  loss_modulus_Pa=Gs.imag, complex_viscosity_Pa_s=abs(Gs) / omega,
-                 tan_delta=Gs.imag / Gs.real if Gs.real != 0 else np.inf, I3_over_I1=i3,
+                 tan_delta=Gs.imag / Gs.real if Gs.real > 0 else np.nan, I3_over_I1=i3,
                  linear_storage_modulus_Pa=Glin.real, linear_loss_modulus_Pa=Glin.imag,
                  mean_f=float(np.mean(f_cycle)), max_f=float(np.max(f_cycle)), cycles=cycle,
                  cycle_change=changes[-1] if changes else np.nan, converged=converged,
