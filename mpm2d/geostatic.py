@@ -203,8 +203,10 @@ def _relax(sim, bed, surface, gy, v_tol, max_steps, log):
         damp = min(0.5, 8.0 * math.pi * dt / period)
         vmax = 0.0
         for s in bed:
-            s.v *= 1.0 - damp
-            s.C *= 1.0 - damp
+            # in place through the arrays (``s.v *= ...`` would bind an instance attribute that
+            # shadows s.arrays["v"] and survives a checkpoint load)
+            np.multiply(s.arrays["v"], 1.0 - damp, out=s.arrays["v"])
+            np.multiply(s.arrays["C"], 1.0 - damp, out=s.arrays["C"])
             vmax = max(vmax, float(np.abs(s.v).max()))
         if vmax < v_tol and tmp.t > t_min:
             break

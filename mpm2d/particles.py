@@ -102,6 +102,15 @@ class ParticleSet:
             return arrays[key]
         raise AttributeError(key)
 
+    def __setattr__(self, key, value):
+        # ``ps.v *= a`` rebinds ps.v after the in-place product: route it to the arrays, never
+        # to an instance attribute that would shadow arrays["v"] (and survive a checkpoint load)
+        arrays = self.__dict__.get("arrays")
+        if arrays is not None and key in arrays:
+            arrays[key] = value
+        else:
+            object.__setattr__(self, key, value)
+
     def __len__(self) -> int:
         return self.arrays["x"].shape[0]
 
