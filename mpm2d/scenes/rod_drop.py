@@ -96,7 +96,7 @@ def setup(radius=0.03, depth=0.03, cells_per_mm=1.0, rod_radius=0.005, rod_lengt
 
     return Scene(sim, t_end, params, frames=10, history_rows=400, record=record,
                  report=lambda sim, hist, out: report(sim, hist, out, params),
-                 notes="mode locked mixture; rod: free rigid body (momentum projection)")
+                 notes="mode locked mixture; rod: free rigid body in frictionless contact; bed geostatic")
 
 
 def report(sim, history, out, params):
