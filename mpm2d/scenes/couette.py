@@ -46,7 +46,9 @@ PROFILE_T = (0.02, 0.05, 0.1, 0.2, 0.5)
     eta=spec.positive(1e6, "Pa s", "viscosity"),
     rho=spec.density(),
     kappa=spec.modulus("bulk modulus"),
-    U=spec.positive(1e3, "m/s", "velocity of the moving wall"),
+    U=spec.Param(0.0, lambda p: 0.1 * (p["kappa"] / p["rho"]) ** 0.5, lo_closed=False,
+                 unit="m/s", doc="velocity of the moving wall",
+                 note="U <= 0.1 c, c = sqrt(kappa/rho): nearly incompressible"),
     t_end_T=spec.positive(100.0, "", "end time in units of H^2/nu"),
     transfer=spec.transfer(), cfl=spec.cfl(),
     size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
