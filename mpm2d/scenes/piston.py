@@ -4,8 +4,9 @@ Equations: plane-strain linear elasticity with nu = 0 in one periodic cell layer
 strain, c = sqrt(E/rho)). The bar 0 <= x <= L is at rest; a rigid body (the piston, body points
 in -w <= x <= 0) moves at the prescribed velocity V from t = 0 (rigid body with every degree of
 freedom prescribed; it pushes the bar through frictionless contact, mpm2d.contact).
-Exact (d'Alembert): behind the front x = c t the bar moves at V with stress sigma_xx = -rho c V; the force on the piston is rho c V times the bar's
-height (per unit thickness). The run stops before the front reaches the free end (t_end <
+Exact (d'Alembert): behind the front x = c t the bar moves at V with stress
+sigma_xx = -rho c V; the force on the piston is rho c V times the bar's height (per unit
+thickness). The run stops before the front reaches the free end (t_end <
 L/c).
 
 Parameters: length L [m], cells (along L), ppc, E [Pa], rho [kg/m^3], V [m/s], t_end_fraction
