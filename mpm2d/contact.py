@@ -21,10 +21,11 @@ improved frictional heating in the material point method", Comp. Part. Mech. 5):
   k-d tree of the body's points, rigid or deformable). A gap measured along the nodal normal
   instead (min over material points of (x_p - x_i).n - e_p minus the body's max) fails at body
   corners, where the normal turns sideways and the bed beside the body looks "touching": a rod
-  one cell above a bed was touched along its side normal from the first step. Criterion (ii) removes the classic early contact of
-  the multi-field method, whose fields overlap as soon as the shape-function supports (1.5 h for
-  quadratic B-splines) do: a body h/4 above a bed feels nothing until its surface reaches the
-  bed's particle faces (geometrically exact for flat, grid-aligned faces);
+  one cell above a bed was touched along its side normal from the first step. Criterion (ii)
+  removes the classic early contact of the multi-field method, whose fields overlap as soon as
+  the shape-function supports (1.5 h for quadratic B-splines) do: a body h/4 above a bed feels
+  nothing until its surface reaches the bed's particle faces (exact for grid-aligned faces;
+  for a tilted face the point squares over-reach by up to (sqrt(2) - 1) s/2);
 - the contact impulse lambda on the material (equal and opposite on the body, so the total
   momentum is conserved exactly) makes the normal velocities equal (perfectly inelastic, no
   penetration), with Coulomb friction |lambda_t| <= mu_w lambda_n (mu_w = 0 frictionless,
