@@ -104,7 +104,7 @@ _G_I, _ETAF_I = model._G, model._ETAF
 #: Defaults.
 DEFAULT_SAMPLES = 128
 DEFAULT_TOL = 1e-5
-DEFAULT_MAX_CYCLES = 100
+DEFAULT_MAX_CYCLES = 300
 DEFAULT_RTOL = 1e-7
 _GAP_SCALE = 1e-8
 #: Newton steps on the cycle map per point, at most.
