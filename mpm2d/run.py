@@ -305,7 +305,7 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
         def checkpoint():
             state = sim.state()
             state["run.scene"] = np.array(name)
-            state["run.params"] = np.array(json.dumps(given))
+            state["run.params"] = np.array(json.dumps(params))     # all: defaults may change
             state["run.options"] = np.array(json.dumps(options))
             state.update(_history_arrays(rows))
             state["run.frames"] = np.array(json.dumps(manifest["frames"]))
