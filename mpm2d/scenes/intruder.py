@@ -1,0 +1,436 @@
+"""A rigid rod driven at constant speed v0 into a suspension bed: jamming fronts (Figs. 6-7).
+
+The controlled-intrusion experiment of Han, Peters & Jaeger (Nat. Commun. 7, 12243, 2016) as
+simulated by Baumgarten & Kamrin (section "Impact activated solidification", Table 6, Figs. 6-7):
+a flat-ended rod moves down at a prescribed speed v0 into a density-matched cornstarch
+suspension; a solid plug grows ahead of it, its front (u_z = v0/2) moving at v_fl along the axis
+and v_ft across it, with k_l = v_fl/v0 - 1 about twice k_t = v_ft/v0 for every phi and v0.
+
+Equations: axisymmetric (r, z) MPM of the Table 8 law (rheology.local_update) with the Table 6
+parameter set ``intruder`` (Hermes 2016 steady fit, eta0 = 4.6 mPa s, rho_s = rho_f = 1620
+kg/m^3, G = 3.8e7 Pa, K = 8.3e7 Pa, K0 = 0.2; d = 5.85 um, K3 = 4.715, K4 = 0; kappa = K, our
+choice, the paper gives no fluid modulus). Default mode: the locked mixture (one velocity field,
+undrained pore pressure); ``mode=two-phase`` runs grains and fluid on two fields with implicit
+Beetstra drag. The rod is a rigid body with every component prescribed (velocity (0, -v0) from
+t = 0) meeting the bed through multi-velocity-field contact (mpm2d.contact: gap criterion,
+Coulomb mu_w, free separation); its reaction force is recorded.
+
+Drained or undrained (DESIGN.md section 5), numbers for phi0 = 0.47: Beetstra F = 17.3, Darcy
+permeability k = (1 - phi) d^2/(18 phi F) = 1.24e-13 m^2; with the skeleton's constrained
+modulus M = K + 4G/3 = 1.34e8 Pa and the fluid's storage (1 - phi)/kappa, c_v = k/(eta0 (1/M +
+(1 - phi)/kappa)) = 1.9 m^2/s, so a JAMMED skeleton equilibrates its pore pressure over the
+plug's 1 cm in L^2/c_v = 5e-5 s. But the volume that drainage can move is set by the skeleton's
+strain, p/M ~ 1e4 Pa / 1.3e8 Pa ~ 1e-4, and an unjammed skeleton (phi < phi_m) has no stiffness
+at all (its granular pressure relaxes), so relative flow needs a pore-pressure gradient: the
+Darcy velocity w = k/eta0 grad p ~ 2.7e-5 m/s for 1e4 Pa over 1 cm, 1e-4 of v0 = 0.175 m/s;
+over 20 ms it changes phi by w t / L ~ 5e-5. Either way the grains and fluid move together to
+1e-4, as Han et al. measured (no detectable change of packing fraction at the front), so the
+locked mixture is the default; the two-phase mode is kept to show the difference (report).
+
+Geometry and choices where the paper is silent (Baumgarten & Kamrin give only the 50 x 35
+element, 1 mm grid):
+- bed: radius 50 mm, depth 35 mm (the paper's grid is the bed); the grid adds, above the bed,
+  room for the rod (v0 t_end + 5 mm) and for the free surface to heave: 50 x (35 + that) cells;
+- rod radius 3.175 mm (a 1/4-inch rod, the diameter we take for Han et al.'s intruder: we
+  could not check it against the paper's methods section from here, so it is a parameter);
+  on the point lattice (spacing h/2) the rod is ``n h/2`` wide, n = floor(2 rod_radius/h):
+  3.0 mm at h = 1 mm; the transverse front is searched beyond that represented radius;
+- rod contact no-slip (mu_w = inf: a viscous suspension wets the rod; ``rod_contact=
+  frictionless`` for mu_w = 0), free to separate; the tip starts at the free surface;
+- container: no-slip floor and outer wall (a rigid container wetted by the suspension), axis
+  r = 0, free top surface;
+- the bed starts at rest (mpm2d.geostatic): loose (phi0 < phi_j), so the pore pressure carries
+  the weight and f = 0.
+
+Fronts (Han et al. 2016, mpm2d.fronts): the vertical velocity of the bed's points binned to the
+grid's cells (mass-weighted); the longitudinal front is the depth below the initial surface
+where u_z/(-v0) falls below 1/2 on the axis column below the rod's tip (linear interpolation
+between cell centres), the transverse front the radius where it does on the row of cells just
+below the tip, searched outward from the rod's radius. Fit: straight lines over the stretch
+from the first record after the contact transient (four acoustic crossings of the bed, 0.3 ms
+on the default bed) and after the bed first jams (a point's f reaches f_jam, phi_m(f_jam) =
+phi0; ``jammed`` in summary.json says whether it did) where both fronts exist and the
+longitudinal front is at least 2 cells ahead of the tip until either front comes within ``fit_margin`` of the
+floor or the outer wall, or either falls back by more than a cell (h) from its farthest position
+(the plug stopped growing: it unjams once the stress waves come back from the floor); records where a front is momentarily undefined (the cell under the tip
+lagging the rod by more than v0/2 for a step) are left out of the fits, not ended at.
+k_l = v_fl/v0 - 1, k_t = v_ft/v0.
+
+Parameters: phi0, v0 [m/s], t_end [s], radius, depth [m], cells_per_mm (1/h in 1/mm),
+rod_radius [m], rod_contact, mode, fit_margin [m], gravity [m/s^2], cfl.
+
+Outputs (besides history.csv, frames, manifest): ``front.csv`` (time_s, longitudinal_m,
+transverse_m), ``front.png``, ``summary.json`` (k_l, k_t, R^2 of each fit, window, speeds),
+``fields.png`` (Fig. 6(a)-(e): u_z at 6.2, 13.2 and 20 ms, |D_rz| and |D_zz| at t_end with the
+u_z = 0.5 v0 contour bold). A sweep (``mpm2d sweep intruder --set phi0=... --set v0=...``)
+writes ``fronts.csv`` and ``fronts.png`` (the k_l-k_t scatter with k_l = 2 k_t, Fig. 7).
+
+Run: ``mpm2d run intruder --out intruder`` (mode: locked mixture)
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rheology import get_material
+from rheology.io import atomic_write_csv, atomic_write_json
+
+from .. import plots
+from ..bodies import RigidBody, fill
+from ..fronts import cell_field, fit_speed, longitudinal_front, transverse_front
+from ..geostatic import geostatic
+from ..grid import Grid
+from ..materials import NewtonianFluid, Suspension
+from ..output import load_frames
+from ..particles import ParticleSet
+from . import spec
+from ..run import Scene
+from ..simulation import Drag, Simulation
+
+#: Fig. 6(a)-(c) snapshot times [s]
+FIELD_TIMES = (6.2e-3, 13.2e-3, 20e-3)
+#: the front threshold u_z / v (Han et al. 2016)
+FRONT_FRACTION = 0.5
+#: rod length above its travel [m]
+ROD_EXTRA = 5e-3
+#: summary.json keys that may be undefined (no front formed, too few points)
+_NULLABLE = ("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal", "r2_transverse",
+             "v_fl_m_per_s", "v_ft_m_per_s", "fit_t_start_s", "fit_t_end_s", "t_jam_s")
+
+
+def _rod_length(p) -> float:
+    return p["v0"] * p["t_end"] + ROD_EXTRA
+
+
+def _headroom_cells(p) -> int:
+    h = 1e-3 / p["cells_per_mm"]
+    return int(math.ceil(_rod_length(p) / h)) + 3
+
+
+def _points(p) -> float:
+    n = (p["radius"] * p["depth"] + p["rod_radius"] * _rod_length(p)) * (p["cells_per_mm"] * 1e3) ** 2 * 4
+    return n * (2 if p["mode"] == "two-phase" else 1)
+
+
+@spec.parameters_of(
+    phi0=spec.phi_below_jamming(fixed="intruder", doc="solid volume fraction of the bed"),
+    v0=spec.Param(0.0, 10.0, lo_closed=False, unit="m/s", doc="rod speed (downwards)"),
+    t_end=spec.Param(0.0, lambda p: 0.8 * p["depth"] / p["v0"], lo_closed=False, unit="s",
+                     doc="end time", note="the rod travels at most 80% of the bed depth"),
+    radius=spec.Param(lambda p: p["rod_radius"] + 4e-3 / p["cells_per_mm"], 1.0, unit="m",
+                      doc="bed (container) radius", note="at least the rod radius + 4 cells"),
+    depth=spec.Param(lambda p: 4e-3 / p["cells_per_mm"], 1.0, unit="m", doc="bed depth",
+                     note="at least 4 cells"),
+    cells_per_mm=spec.Param(0.1, 20.0, unit="1/mm", doc="1/h in 1/mm (1: the paper's 1 mm)"),
+    rod_radius=spec.Param(lambda p: 1e-3 / p["cells_per_mm"], 0.5, unit="m", doc="rod radius",
+                          note="at least one cell"),
+    rod_contact=spec.Param(choices=("noslip", "frictionless"),
+                           doc="rod-suspension contact: no slip (mu_w = inf) or mu_w = 0"),
+    mode=spec.Param(choices=("locked mixture", "two-phase"),
+                    doc="locked mixture (undrained, default) or two-phase (grains + fluid)"),
+    fit_margin=spec.Param(0.0, lambda p: 0.5 * min(p["depth"], p["radius"]), unit="m",
+                          doc="fronts fitted until within this distance of the floor or wall",
+                          note="at most half the bed depth and radius"),
+    gravity=spec.gravity(), cfl=spec.cfl(),
+    size=lambda p: (_points(p), (p["radius"] * p["cells_per_mm"] * 1e3 + 5)
+                    * (p["depth"] * p["cells_per_mm"] * 1e3 + _headroom_cells(p) + 5)))
+def setup(phi0=0.47, v0=0.175, t_end=0.02, radius=0.05, depth=0.035, cells_per_mm=1.0,
+          rod_radius=3.175e-3, rod_contact="noslip", mode="locked mixture", fit_margin=5e-3,
+          gravity=9.81, cfl=0.5):
+    params = dict(phi0=phi0, v0=v0, t_end=t_end, radius=radius, depth=depth,
+                  cells_per_mm=cells_per_mm, rod_radius=rod_radius, rod_contact=rod_contact,
+                  mode=mode, fit_margin=fit_margin, gravity=gravity, cfl=cfl)
+    h = 1e-3 / cells_per_mm
+    m = get_material("intruder")
+    nx = int(round(radius / h))
+    nz = int(round(depth / h)) + _headroom_cells(params)
+    grid = Grid(nx, nz, h, axisymmetric=True,
+                boundaries=dict(xmin="axis", xmax="noslip", ymin="noslip", ymax="free"))
+    spacing = h / 2
+    x, area = fill(lambda r, z: np.ones_like(r, dtype=bool), (0.0, 0.0), (nx * h, depth), spacing)
+    if mode == "two-phase":
+        sets = [ParticleSet("bed", Suspension(m), x, area, phi=phi0, f=0.0, axisymmetric=True),
+                ParticleSet("fluid", NewtonianFluid.from_material(m), x, area, phi=phi0,
+                            axisymmetric=True)]
+        extra = dict(drag=Drag.from_material(m))
+    else:
+        sets = [ParticleSet("bed", Suspension(m, locked=True), x, area, phi=phi0, f=0.0,
+                            axisymmetric=True)]
+        extra = {}
+    length = _rod_length(params)
+    nrod = int(math.floor(rod_radius / spacing + 1e-9))
+    rod_r = nrod * spacing                                 # the represented rod radius
+    xr, ar = fill(lambda r, z: r < rod_r, (0.0, depth), (rod_r, depth + length), spacing)
+    rod = RigidBody("rod", xr, ar, density=m.rho_s, velocity=(0.0, -v0), prescribed="all",
+                    axisymmetric=True, mu_w=math.inf if rod_contact == "noslip" else 0.0)
+    sim = Simulation(grid, sets, [rod], mode=mode, gravity=(0.0, -gravity), cfl=cfl,
+                     name="intruder", **extra)
+    geostatic(sim, sets=[s.name for s in sets])           # the bed at rest under gravity
+    half = 0.5 * length
+
+    def fronts_now(sim):
+        bed = sim.sets[0]
+        rod = sim.bodies[0]
+        tip = float(rod.center[1] - half)
+        v = float(rod.velocity[1])
+        uz = cell_field(bed.x, bed.v[:, 1], bed.m, (0.0, 0.0), h, (nx, nz))
+        rc = (np.arange(nx) + 0.5) * h
+        zc = (np.arange(nz) + 0.5) * h
+        zl = longitudinal_front(uz, rc, zc, tip, v, FRONT_FRACTION)
+        rt = transverse_front(uz, rc, zc, tip, rod_r, v, FRONT_FRACTION)
+        return tip, zl, rt
+
+    def record(sim):
+        tip, zl, rt = fronts_now(sim)
+        return {"tip_depth_m": depth - tip, "longitudinal_m": depth - zl, "transverse_m": rt,
+                "max_f": float(np.max(sim.sets[0].f)),
+                "max_phi": float(np.max(sim.sets[0].svol / sim.sets[0].V))}
+
+    events = tuple(t for t in FIELD_TIMES if t <= t_end * (1 + 1e-9))
+    notes = (f"mode {mode}; rod radius {rod_r:g} m as represented ({rod_radius:g} m given), "
+             f"length {length:g} m, prescribed v0 = {v0:g} m/s, contact {rod_contact}")
+    return Scene(sim, t_end, params, frames=10, history_rows=400, record=record,
+                 frame_times=events,
+                 report=lambda sim, hist, out: report(sim, hist, out, params, rod_r),
+                 notes=notes, undefined=("longitudinal_m", "transverse_m"))
+
+
+# ---------------------------------------------------------------- analysis
+def set_up_time(params) -> float:
+    """The contact transient [s]: four crossings of the bed's larger dimension by the locked
+    mixture's fastest (acoustic) wave, c^2 = (K + 4G/3 + kappa/(1 - phi_j))/rho (the near field
+    around the rod is set up by reverberating pressure waves)."""
+    m = get_material("intruder")
+    rho = params["phi0"] * m.rho_s + (1.0 - params["phi0"]) * m.rho_f
+    c = math.sqrt((m.K + 4.0 * m.G / 3.0 + m.kappa / (1.0 - m.phi_j)) / rho)
+    return 4.0 * max(params["depth"], params["radius"]) / c
+
+
+def jamming_structure(phi0) -> float:
+    """The structure f at which phi_m(f) = phi_j + (phi_c - phi_j) f falls to phi0 (above it the
+    bed is jammed; Table 6 set ``intruder``), clipped to [0, 1]."""
+    m = get_material("intruder")
+    return float(min(max((m.phi_j - phi0) / (m.phi_j - m.phi_c), 0.0), 1.0))
+
+
+def fit_window(time, tip_depth, longitudinal, transverse, *, depth, radius, h, margin,
+               t_min=0.0):
+    """The stretch [t0, t1] over which the fronts are fitted (see the module docstring).
+
+    Parameters
+    ----------
+    time, tip_depth, longitudinal, transverse : (n,) arrays [s, m, m, m]
+        Rod tip depth, longitudinal front depth (below the initial surface) and transverse front
+        radius; NaN where no front.
+    depth, radius, h, margin : float [m]
+    t_min : float [s]
+        No earlier start (the contact transient, the plug's jamming).
+
+    Returns
+    -------
+    (t0, t1): NaN if the fronts never form.
+    """
+    t = np.asarray(time, float)
+    zl, rt = np.asarray(longitudinal, float), np.asarray(transverse, float)
+    formed = np.isfinite(zl) & np.isfinite(rt) & (zl - np.asarray(tip_depth, float) >= 2 * h) \
+        & (t >= t_min)
+    if not formed.any():
+        return float("nan"), float("nan")
+    k0 = int(np.argmax(formed))
+    with np.errstate(invalid="ignore"):
+        near = (zl >= depth - margin) | (rt >= radius - margin)
+        # a front that falls back by more than a cell from its farthest position: the plug
+        # stopped growing (it unjams once the stress waves return from the floor)
+        for pos in (zl, rt):
+            best = np.fmax.accumulate(np.where(np.arange(len(pos)) >= k0, pos, np.nan))
+            near |= pos < best - h
+    near[:k0] = False
+    k1 = int(np.argmax(near)) - 1 if near.any() else len(t) - 1
+    if k1 < k0:
+        return float("nan"), float("nan")
+    return float(t[k0]), float(t[k1])
+
+
+def analyse(front: pd.DataFrame, tip_depth, params, h, max_f=None) -> dict:
+    """k_l, k_t and the fits' R^2 from the front table (``front.csv``'s columns).
+
+    The fit starts after the contact transient (:func:`set_up_time`) and, if the bed jams
+    (``max_f``, the largest structure per record, reaches :func:`jamming_structure`), not before
+    it does; ``jammed`` in the result says whether it did (if not, the 'front' is the rod's
+    viscous near field, not a jammed plug)."""
+    t_min = set_up_time(params)
+    f_jam = jamming_structure(params["phi0"])
+    jammed, t_jam = False, float("nan")
+    if max_f is not None:
+        hit = np.flatnonzero(np.asarray(max_f, float) >= f_jam)
+        if hit.size:
+            jammed, t_jam = True, float(np.asarray(front["time_s"])[hit[0]])
+            t_min = max(t_min, t_jam)
+    t0, t1 = fit_window(front["time_s"], tip_depth, front["longitudinal_m"],
+                        front["transverse_m"], depth=params["depth"], radius=params["radius"],
+                        h=h, margin=params["fit_margin"], t_min=t_min)
+    v0 = params["v0"]
+    nan = float("nan")
+    if math.isfinite(t0):
+        fl = fit_speed(front["time_s"], front["longitudinal_m"], t0, t1)
+        ft = fit_speed(front["time_s"], front["transverse_m"], t0, t1)
+    else:
+        fl = ft = {"speed": nan, "r2": nan, "points": 0, "intercept": nan}
+    k_l = fl["speed"] / v0 - 1.0
+    k_t = ft["speed"] / v0
+    ratio = k_l / k_t if (math.isfinite(k_t) and k_t != 0) else nan
+    return {"phi0": params["phi0"], "v0_m_per_s": v0, "k_l": k_l, "k_t": k_t,
+            "k_l_over_k_t": ratio, "r2_longitudinal": fl["r2"], "r2_transverse": ft["r2"],
+            "v_fl_m_per_s": fl["speed"], "v_ft_m_per_s": ft["speed"],
+            "fit_t_start_s": t0, "fit_t_end_s": t1, "fit_points": int(min(fl["points"],
+                                                                          ft["points"])),
+            "front_fraction": FRONT_FRACTION, "mode": params["mode"], "jammed": jammed,
+            "t_jam_s": t_jam, "f_jam": f_jam, "set_up_time_s": set_up_time(params),
+            "cells_per_mm": params["cells_per_mm"]}
+
+
+def _clean(d: dict) -> dict:
+    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+            for k, v in d.items()}
+
+
+def report(sim, history, out, params, rod_r):
+    out = Path(out)
+    h = sim.grid.h
+    front = history[["time_s", "longitudinal_m", "transverse_m"]].copy()
+    atomic_write_csv(out / "front.csv", front, empty_ok=("longitudinal_m", "transverse_m"))
+    res = analyse(front, history["tip_depth_m"].to_numpy(), params, h,
+                  history["max_f"].to_numpy())
+    res["rod_radius_m"] = rod_r
+    atomic_write_json(out / "summary.json", res, nullable=_NULLABLE)
+    return [front_figure(history, res, params, out / "front.png"),
+            fields_figure(sim, out, params, rod_r, out / "fields.png")]
+
+
+def front_figure(history, res, params, path):
+    fig, ax = plots.plt.subplots(figsize=(6.5, 4.5))
+    t = history["time_s"].to_numpy() * 1e3
+    ax.plot(t, history["longitudinal_m"] * 1e3, "b.", ms=3, label="longitudinal (depth)")
+    ax.plot(t, history["transverse_m"] * 1e3, "r.", ms=3, label="transverse (radius)")
+    ax.plot(t, history["tip_depth_m"] * 1e3, "k-", lw=1, label="rod tip depth")
+    t0, t1 = res["fit_t_start_s"], res["fit_t_end_s"]
+    if math.isfinite(t0):
+        tt = np.array([t0, t1])
+        for col, speed, c in (("longitudinal_m", res["v_fl_m_per_s"], "b"),
+                              ("transverse_m", res["v_ft_m_per_s"], "r")):
+            sel = (history["time_s"] >= t0) & (history["time_s"] <= t1)
+            y = history.loc[sel, col].to_numpy()
+            ts = history.loc[sel, "time_s"].to_numpy()
+            b = float(np.mean(y) - speed * np.mean(ts))
+            ax.plot(tt * 1e3, (b + speed * tt) * 1e3, c + "-", lw=2)
+        ax.axvspan(t0 * 1e3, t1 * 1e3, color="0.9", zorder=0, label="fit window")
+    ax.set_xlabel("t [ms]")
+    ax.set_ylabel("front position [mm]")
+    kl, kt = res["k_l"], res["k_t"]
+    ax.set_title(f"phi0 = {params['phi0']}, v0 = {params['v0']} m/s: k_l = {kl:.3g}, "
+                 f"k_t = {kt:.3g}, k_l/k_t = {res['k_l_over_k_t']:.3g}", fontsize=9)
+    ax.legend(fontsize=8)
+    return plots.save(fig, path)
+
+
+def _grid_uz(x, v, m, h, shape):
+    return cell_field(x, v, m, (0.0, 0.0), h, shape)
+
+
+def fields_figure(sim, out, params, rod_r, path):
+    """Fig. 6(a)-(e): u_z at the event times, |D_rz| and |D_zz| at the end."""
+    h = sim.grid.h
+    nx, ny = sim.grid.nx, sim.grid.ny
+    v0 = params["v0"]
+    ext = (0.0, nx * h * 1e3, 0.0, ny * h * 1e3)
+    frames = [f for f in load_frames(out, tag="event")]
+    bed = sim.sets[0]
+    L = bed.L
+    drz = np.abs(0.5 * (L[:, 1] + L[:, 2]))
+    dzz = np.abs(L[:, 3])
+    uz_end = _grid_uz(bed.x, bed.v[:, 1], bed.m, h, (nx, ny))
+    panels = [(float(f["time_s"]), _grid_uz(f["bed.x"], f["bed.v"][:, 1], f["bed.m"], h, (nx, ny)),
+               f["body.rod.x"]) for f in frames]
+    n = len(panels) + 2
+    fig, axs = plots.plt.subplots(1, n, figsize=(3.6 * n, 3.4))
+    rc = (np.arange(nx) + 0.5) * h * 1e3
+    zc = (np.arange(ny) + 0.5) * h * 1e3
+
+    def draw_rod(ax, xr):
+        ax.fill_between([0, rod_r * 1e3], xr[:, 1].min() * 1e3, xr[:, 1].max() * 1e3,
+                        color="0.4")
+
+    for ax, (t, uz, xr) in zip(axs, panels):
+        im = ax.imshow(uz.T, origin="lower", extent=ext, cmap="viridis", vmin=-v0, vmax=0.0)
+        ax.contour(rc, zc, uz.T, levels=[-0.5 * v0], colors="w", linewidths=2)
+        draw_rod(ax, xr)
+        ax.set_title(f"u_z at t = {t * 1e3:.1f} ms", fontsize=9)
+        fig.colorbar(im, ax=ax, label="u_z [m/s]", shrink=0.8)
+    for ax, d, name in ((axs[-2], drz, "|D_rz|"), (axs[-1], dzz, "|D_zz|")):
+        field = cell_field(bed.x, d, bed.m, (0.0, 0.0), h, (nx, ny))
+        vmax = np.nanpercentile(field, 99) if np.isfinite(field).any() else 1.0
+        im = ax.imshow(field.T, origin="lower", extent=ext, cmap="magma", vmin=0.0,
+                       vmax=vmax if vmax > 0 else 1.0)
+        levels = [-0.9 * v0, -0.7 * v0, -0.3 * v0, -0.1 * v0]
+        ax.contour(rc, zc, uz_end.T, levels=levels, colors="c", linewidths=0.6)
+        ax.contour(rc, zc, uz_end.T, levels=[-0.5 * v0], colors="c", linewidths=2.5)
+        draw_rod(ax, sim.bodies[0].x)
+        ax.set_title(f"{name} at t = {sim.t * 1e3:.1f} ms (u_z = 0.5 v0 bold)", fontsize=9)
+        fig.colorbar(im, ax=ax, label=f"{name} [1/s]", shrink=0.8)
+    for ax in axs:
+        ax.set_xlabel("r [mm]")
+        ax.set_ylabel("z [mm]")
+        ax.set_aspect("equal")
+    fig.tight_layout()
+    return plots.save(fig, path)
+
+
+# ---------------------------------------------------------------- sweeps (Fig. 7)
+SWEEP_COLUMNS = ("phi0", "v0_m_per_s", "k_l", "k_t", "k_l_over_k_t", "r2_longitudinal",
+                 "r2_transverse")
+
+
+def sweep_report(table, out) -> list:
+    """``out/fronts.csv`` (one row per complete case: phi0, v0_m_per_s, k_l, k_t, k_l_over_k_t,
+    r2_longitudinal, r2_transverse, case) and ``out/fronts.png`` (k_l against k_t with the line
+    k_l = 2 k_t, Fig. 7), from each case's ``summary.json``."""
+    out = Path(out)
+    rows = []
+    for _, r in table.iterrows():
+        p = out / str(r["case"]) / "summary.json"
+        if not p.exists():
+            continue
+        s = json.loads(p.read_text())
+        rows.append({**{k: (np.nan if s.get(k) is None else s[k]) for k in SWEEP_COLUMNS},
+                     "case": str(r["case"])})
+    if not rows:
+        return []
+    df = pd.DataFrame(rows, columns=[*SWEEP_COLUMNS, "case"])
+    undefined = ("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal", "r2_transverse")
+    paths = [atomic_write_csv(out / "fronts.csv", df, empty_ok=undefined)]
+    fig, ax = plots.plt.subplots(figsize=(5.5, 4.5))
+    ok = df.dropna(subset=["k_l", "k_t"])
+    for v0, mk in zip(sorted(ok["v0_m_per_s"].unique()), "osD^v"):
+        sel = ok[ok["v0_m_per_s"] == v0]
+        sc = ax.scatter(sel["k_t"], sel["k_l"], c=sel["phi0"], cmap="coolwarm", marker=mk,
+                        vmin=df["phi0"].min(), vmax=max(df["phi0"].max(), df["phi0"].min() + 1e-9),
+                        edgecolors="k", label=f"v0 = {v0:g} m/s")
+    if len(ok):
+        fig.colorbar(sc, ax=ax, label="phi0")
+        kt = np.linspace(0, 1.1 * ok["k_t"].max(), 2)
+        ax.plot(kt, 2 * kt, "k--", label="k_l = 2 k_t (Han et al. 2016)")
+        ratio = ok["k_l_over_k_t"]
+        ax.set_title(f"k_l/k_t = {ratio.mean():.2f} +- {ratio.std(ddof=0):.2f} "
+                     f"(min {ratio.min():.2f}, max {ratio.max():.2f})", fontsize=9)
+    ax.set_xlabel("k_t = v_ft/v0")
+    ax.set_ylabel("k_l = v_fl/v0 - 1")
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize=8)
+    paths.append(plots.save(fig, out / "fronts.png"))
+    return [Path(p) for p in paths]

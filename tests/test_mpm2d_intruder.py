@@ -1,0 +1,140 @@
+"""The intruder scene (Figs. 6-7): a small run grows a plug that moves with the rod and fronts that
+advance; the front analysis recovers known speeds; the sweep table; bad input refused."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from mpm2d.cli import main
+from mpm2d.run import run_scene
+from mpm2d.scenes import get_setup
+from mpm2d.scenes.intruder import SWEEP_COLUMNS, analyse, fit_window, sweep_report
+
+#: a small, short case (h = 1 mm, a 20 mm x 16 mm bed, 2 ms at 0.5 m/s): a few seconds
+SMALL = dict(radius=0.02, depth=0.016, v0=0.5, t_end=0.002, fit_margin=0.002)
+
+
+def _strict(text):
+    def bad(c):
+        raise ValueError(f"non-strict JSON constant {c}")
+    return json.loads(text, parse_constant=bad)
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("intruder")
+    res = run_scene(get_setup("intruder"), out, dict(SMALL), progress=False, vtk=False,
+                    log=lambda m: None)
+    return out, res
+
+
+def test_small_run_writes_fronts_and_summary(small_run):
+    out, res = small_run
+    assert res["complete"]
+    front = pd.read_csv(out / "front.csv")
+    assert list(front.columns) == ["time_s", "longitudinal_m", "transverse_m"]
+    summary = _strict((out / "summary.json").read_text())
+    for k in ("k_l", "k_t", "r2_longitudinal", "r2_transverse"):
+        assert k in summary
+    assert summary["k_l"] is not None and summary["k_t"] is not None
+    assert math.isclose(summary["k_l_over_k_t"], summary["k_l"] / summary["k_t"])
+    for png in ("front.png", "fields.png"):
+        assert (out / png).stat().st_size > 1000
+
+
+def test_fronts_grow_and_the_plug_moves_with_the_rod(small_run):
+    out, res = small_run
+    hist = res["history"]
+    h = 1e-3
+    ok = hist.dropna(subset=["longitudinal_m", "transverse_m"])
+    assert len(ok) > 0.8 * len(hist)                 # the fronts exist from the first steps
+    summary = _strict((out / "summary.json").read_text())
+    # over the fit window (the plug growing, before the floor is felt): ahead of the tip, inside
+    # the bed, and monotone up to the binning noise (h/4)
+    grow = ok[(ok["time_s"] >= summary["fit_t_start_s"]) & (ok["time_s"] <= summary["fit_t_end_s"])]
+    assert len(grow) >= 10
+    zl = grow["longitudinal_m"].to_numpy()
+    rt = grow["transverse_m"].to_numpy()
+    assert np.all(zl >= grow["tip_depth_m"].to_numpy() - 1e-12)
+    assert np.all(zl <= SMALL["depth"] - SMALL["fit_margin"] + h) and np.all(rt <= SMALL["radius"])
+    # monotone growth: running means over 0.1 ms (the binning noise averaged) never fall back by
+    # more than h/4, and both fronts advance by more than a cell over the window
+    k = max(1, int(round(1e-4 / float(np.median(np.diff(grow["time_s"]))))))
+    for pos in (zl, rt):
+        mean = np.convolve(pos, np.ones(k) / k, mode="valid")
+        assert np.all(np.diff(mean) >= -h / 4)
+        assert pos[-1] - pos[0] > h
+    assert summary["jammed"] and summary["k_l"] > 0 and summary["k_t"] > 0
+    assert min(summary["r2_longitudinal"], summary["r2_transverse"]) > 0.8
+    # the rod moved at v0 and the material right under its tip moves with it
+    tip = hist["tip_depth_m"].to_numpy()
+    assert tip[-1] - tip[0] == pytest.approx(SMALL["v0"] * SMALL["t_end"], rel=1e-3)
+    sim = res["scene"].sim
+    bed, rod = sim.sets[0], sim.bodies[0]
+    tip_z = float(rod.x[:, 1].min())
+    under = (bed.x[:, 0] < 1.5e-3) & (bed.x[:, 1] < tip_z) \
+        & (bed.x[:, 1] > tip_z - h)
+    assert under.any()
+    assert np.average(bed.v[under, 1], weights=bed.m[under]) == pytest.approx(-SMALL["v0"],
+                                                                              rel=0.2)
+    # far from the rod (outer bottom corner) the bed barely moves
+    far = (bed.x[:, 0] > 0.8 * SMALL["radius"]) & (bed.x[:, 1] < 0.2 * SMALL["depth"])
+    assert np.abs(bed.v[far, 1]).max() < 0.5 * SMALL["v0"]
+
+
+def test_analysis_recovers_known_front_speeds():
+    """Synthetic fronts: depth 2 mm + v_fl t, radius 4 mm + v_ft t until they reach the walls."""
+    v0, v_fl, v_ft = 0.2, 1.1, 0.45                  # k_l = 4.5, k_t = 2.25
+    t = np.linspace(0.0, 0.04, 401)
+    depth, radius, margin, h = 0.035, 0.05, 0.005, 1e-3
+    zl = 0.002 + v_fl * t
+    rt = 0.004 + v_ft * t
+    zl[zl > depth] = np.nan                          # front left the bed: no crossing
+    rt = np.minimum(rt, radius)
+    tip = v0 * t
+    t0, t1 = fit_window(t, tip, zl, rt, depth=depth, radius=radius, h=h, margin=margin)
+    assert t0 == pytest.approx(0.0, abs=1e-9)
+    assert t1 <= (depth - margin - 0.002) / v_fl + 1e-12 and t1 > 0.02
+    front = pd.DataFrame({"time_s": t, "longitudinal_m": zl, "transverse_m": rt})
+    params = dict(depth=depth, radius=radius, fit_margin=margin, v0=v0, phi0=0.47,
+                  mode="locked mixture", cells_per_mm=1.0)
+    res = analyse(front, tip, params, h)
+    assert res["k_l"] == pytest.approx(v_fl / v0 - 1.0, rel=1e-9)
+    assert res["k_t"] == pytest.approx(v_ft / v0, rel=1e-9)
+    assert res["k_l_over_k_t"] == pytest.approx(2.0, rel=1e-9)
+    assert res["r2_longitudinal"] == pytest.approx(1.0) and res["r2_transverse"] == pytest.approx(1.0)
+    # no front at all: undefined, not garbage
+    none = analyse(front.assign(longitudinal_m=np.nan), tip, params, h)
+    assert math.isnan(none["k_l"]) and math.isnan(none["k_t"])
+
+
+def test_sweep_report_table_and_scatter(tmp_path):
+    rows = []
+    for phi, v0, kl, kt in ((0.46, 0.2, 4.0, 2.0), (0.48, 0.5, 3.0, 1.6)):
+        case = f"phi0={phi}_v0={v0}"
+        (tmp_path / case).mkdir()
+        (tmp_path / case / "summary.json").write_text(json.dumps(
+            {"phi0": phi, "v0_m_per_s": v0, "k_l": kl, "k_t": kt, "k_l_over_k_t": kl / kt,
+             "r2_longitudinal": 0.99, "r2_transverse": 0.98}))
+        rows.append({"phi0": phi, "v0": v0, "case": case, "status": "done"})
+    paths = sweep_report(pd.DataFrame(rows), tmp_path)
+    assert {p.name for p in paths} == {"fronts.csv", "fronts.png"}
+    df = pd.read_csv(tmp_path / "fronts.csv")
+    assert tuple(df.columns[:len(SWEEP_COLUMNS)]) == SWEEP_COLUMNS
+    assert df["k_l_over_k_t"].tolist() == pytest.approx([2.0, 1.875])
+
+
+@pytest.mark.parametrize("item", ["phi0=0.6", "phi0=nan", "v0=-0.1", "v0=inf", "t_end=1",
+                                  "mode=drained", "rod_contact=glue", "cells_per_mm=0",
+                                  "rod_radius=0.2", "fit_margin=0.03", "speed=1"])
+def test_bad_values_are_refused(tmp_path, capsys, item):
+    out = tmp_path / "never"
+    assert main(["run", "intruder", "--set", item, "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and item.split("=")[0] in err[0]
+    assert not out.exists()
