@@ -38,7 +38,7 @@ from . import analysis
 from .analytic import annular_steady
 from .geometry import Grid
 from .integrate import (EVENTS, METHODS, Result, check_time_step, memory_estimate,
-                        output_times, solve)
+                        output_times, solve, stable_time_step)
 from .model import Couette
 
 R_INNER = 12.5e-3
@@ -284,13 +284,29 @@ def write_run(out: Path, run: SceneRun) -> list[Path]:
     return paths
 
 
-def precheck(problem: Couette, method: str, rtol: float, dt: float | None) -> None:
-    """Refuse a bad method, tolerance or unstable explicit step before anything is written."""
+#: Largest explicit run accepted, in cell-steps (cells x steps): about 3 hours at the ~1e8
+#: cell-steps per second of the explicit kernel; longer runs are refused with the estimate.
+MAX_CELL_STEPS = 1e12
+
+
+def precheck(problem: Couette, method: str, rtol: float, dt: float | None,
+             t_end: float | None = None) -> None:
+    """Refuse a bad method, tolerance, an unstable explicit step or an explicit run longer than
+    MAX_CELL_STEPS before anything is written."""
     if method not in METHODS:
         raise ValueError(f"method = {method!r} must be one of {METHODS}")
     check_range("rtol", rtol, 1e-12, 1e-2)
-    if method == "explicit" and dt is not None:
-        check_time_step(problem, dt)
+    if method == "explicit":
+        if dt is not None:
+            check_time_step(problem, dt)
+        if t_end is not None:
+            step = dt if dt is not None else 0.5 * stable_time_step(problem)["dt"]
+            work = problem.grid.n * t_end / step
+            if work > MAX_CELL_STEPS:
+                raise ValueError(f"--method explicit: {problem.grid.n} cells over {t_end:.4g} s "
+                                 f"at dt = {step:.3g} s are {work:.2e} cell-steps (estimate), "
+                                 f"more than {MAX_CELL_STEPS:.0e} (hours); use fewer cells, a "
+                                 "shorter run or --method ida")
 
 
 def check_out_dir(out) -> Path:
@@ -349,8 +365,11 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
             problems.append((u, mode) + annular_shear_jamming(
                 u, n_cells=n_cells, mode=mode, r_inner=r_inner, r_outer=r_outer,
                 rotation=rotation, ramp_time=ramp_time))
-    for *_, problem, _t in problems:
-        precheck(problem, method, rtol, dt)
+    if len(set(speeds)) != len(tuple(speeds)) or len(set(modes)) != len(tuple(modes)):
+        raise ValueError(f"--u-inner {' '.join(f'{u:g}' for u in speeds)}: each speed (and "
+                         "mode) once")
+    for *_, problem, t_end in problems:
+        precheck(problem, method, rtol, dt, t_end)
     check_memory("--cells x --outputs", f"{n_cells} x {n_out}",
                  memory_estimate(n_cells, n_out, runs=len(problems)))
     cks = {run_tag(u, mode): out / f"{run_tag(u, mode)}.checkpoint.npz" for u, mode, *_ in problems}
@@ -421,8 +440,8 @@ def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_o
     from . import plots
 
     out = check_out_dir(out)
-    precheck(problem, method, rtol, dt)
     output_times(t_end, n_out)
+    precheck(problem, method, rtol, dt, t_end)
     check_memory("--cells x --outputs", f"{problem.grid.n} x {n_out}",
                  memory_estimate(problem.grid.n, n_out))
     ck = out / "couette.checkpoint.npz"

@@ -125,6 +125,9 @@ def test_the_options_have_physical_ranges():
     (["couette", "--speed", "0.01", "--phi", "0.6"], "phi0"),  # above phi_j
     (["couette", "--speed", "0.01", "--material", "hermes2016"], "hermes2016"),
     (["couette", "--speed", "0.01", "--mode", "both"], "--mode"),
+    (["annular", "--u-inner", "0.084", "0.084"], "once"),
+    (["annular", "--u-inner", "0.00084", "--rotation", "100", "--cells", "20000", "--method",
+      "explicit", "--outputs", "10"], "cell-steps"),
 ])
 def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, args, word):
     out = tmp_path / "out"
