@@ -48,8 +48,8 @@ def fit_speed(out: Path, quick: bool) -> BenchResult:
                      "evaluation-equivalents per evaluation": t / t_eval / res.n_evaluations})
         targets.append((f"fit {'with' if profile else 'without'} profile intervals < 5 s",
                         f"{t:.2f} s, {res.n_evaluations} evaluations", t < 5.0))
-    summary = (f"{machine_description()}. One model evaluation (150 points, vectorised "
-               f"mixture-stress solve): {t_eval * 1e3:.2f} ms median; the same through "
+    summary = (f"{machine_description()}. One model evaluation (150 points, numba Brent kernel, "
+               f"mixture stress imposed): {t_eval * 1e3:.3f} ms median; the same through "
                f"rheology.steady.steady_states_mixture_stress: {t_ref * 1e3:.1f} ms "
                f"({t_ref / t_eval:.0f}x). Fits: " + "; ".join(
                    f"{'profile' if q['profile_intervals'] else 'Jacobian only'}: {q['fit_s']:.2f} s"
