@@ -24,8 +24,9 @@ f_n:
      R(beta) = tau* - G dt gdot - (mu_p + beta) p = 0 is bracketed on [beta_lo, K3 phi)
      (R(beta_lo) > 0 whenever this case applies, R -> -inf as I_m -> inf). The solve:
      (i) a start from Newton on the pair (beta, gdot) of the two smooth equations (f_1 = 0 and the
-     I_m relation, see :func:`_newton_2d`), from the previous step's plastic rate when the caller
-     keeps it (warm start) or a compaction-based estimate (cold); (ii) a safeguarded Newton on
+     I_m relation, see :func:`_newton_2d`), below jamming from the compaction estimates (the
+     critical-state rate and pressure, corrected to first order in beta), jammed from the previous
+     step's plastic rate when the caller keeps it (warm start) or tau*/(G dt); (ii) a safeguarded Newton on
      R(beta) that stops on Brent's test (|R| at the roundoff floor or a step below 1e-14 beta) and
      is accepted by the same convergence check as before; (iii) if a step leaves the bracket or
      the check fails, the bracket: expansion and Brent's method, which cannot fail to converge
@@ -407,9 +408,11 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
     """Advance one material point by dt [s] (see module docstring); writes sig_out and out[:NOUT].
 
     ``g_prev``: the point's plastic shear rate of the previous step [1/s] (out[1] of that step),
-    the warm start of the dilatant solve; a negative or non-finite value means none. It only
-    changes where the solve starts, not its tolerance: results agree with the cold start to the
-    solver's convergence test. ``newton=False`` solves by the bracket alone (the reference).
+    the warm start of the dilatant solve of a jammed point (phi >= phi_m) that yields; below
+    jamming this step's critical-state rate is the better start and ``g_prev`` is not used. A
+    negative or non-finite value means none. It only changes where the solve starts, not its
+    tolerance: results agree with the cold start to the solver's convergence test.
+    ``newton=False`` solves by the bracket alone (the reference).
     """
     phi_c, phi_j, a0, ainf = P[0], P[1], P[2], P[3]
     mu1, mu2, b, tau_star, eta0 = P[4], P[5], P[6], P[7], P[8]
@@ -474,17 +477,22 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
             else:
                 case = SHEAR_FLOW
                 # start of the solve, (beta, gdot): below jamming, the compaction estimates
-                # (pc, gc) corrected to first order in beta (cold), or the previous step's rate
-                # (warm); jammed (phi >= phi_m), beta from p = p* + K dt beta gdot with p ~ p_n,
-                # the pressure at the start of the step, and the previous rate if there is one
+                # (pc, gc) corrected to first order in beta (this step's critical-state rate gc
+                # is a better start than the previous step's rate); jammed (phi >= phi_m), the
+                # previous step's rate (warm start) if there is one, else the rate that would
+                # return tau* to mu_1 p*, and beta from the I_m relation at that rate
                 beta_top = beta_lo + (K3 * phi - beta_lo) * (1.0 - 1e-15)
                 warm = g_prev > 0.0 and g_prev < np.inf
                 if y > 0.0:
-                    g0 = g_prev if warm else gc
+                    g0 = gc
                     b0 = beta_c
                 else:
                     g0 = g_prev if warm else max(tau_tr - mu1 * p_tr, 0.0) / Gdt
-                    b0 = (-(sig[0, 0] + sig[1, 1] + sig[2, 2]) / 3.0 - p_tr) / (Kdt * g0)
+                    # I_m from p I_m^2 = rd2 g^2 + 2 eta0 g at p ~ p* + K dt beta g, twice
+                    Ag = rd2 * g0 * g0 + 2.0 * eta0 * g0
+                    b0 = beta_lo
+                    for _ in range(2):
+                        b0 = K3 * (phi - phim / (1.0 + a * np.sqrt(Ag / (p_tr + Kdt * b0 * g0))))
                 if not beta_lo < b0 < beta_top:
                     b0 = beta_lo + 1e-3 * (beta_top - beta_lo)
                 beta_start = beta_lo
@@ -616,8 +624,9 @@ def local_update(stress, velocity_gradient, phi, f, dt: float, m: Material,
     plastic_rate : numpy.ndarray of float, shape (...) like the points, optional
         Warm start, read and written: on entry each point's plastic shear rate of the previous
         step [1/s] (negative or NaN: none, e.g. ``np.full(shape, -1.0)`` before the first step),
-        on return the new one (``shear_rate_p``). It only moves the start of the dilatant
-        solve; the tolerance is the same, results agree with a cold start to it.
+        on return the new one (``shear_rate_p``). It moves the start of the dilatant solve of
+        jammed points (phi >= phi_m) that yield; the tolerance is the same, results agree with a
+        cold start to it.
 
     Returns
     -------

@@ -312,3 +312,37 @@ def test_any_warm_start_gives_the_cold_answer(m, seed, g_prev):
     f1 = r.yield_functions(b.stress, b.shear_rate_p, phi, f, m, b.xi2)[0]
     flowing = b.case == SHEAR_FLOW
     assert np.all(np.abs(f1[flowing]) <= 1e-9 * scale[flowing])
+
+
+def test_jammed_yielding_points_solve_in_one_evaluation_and_agree_with_the_bracket():
+    """Points just above phi_m sheared for ten steps (dilatancy builds the pressure): the Newton
+    solve, cold and warm, lands where the bracket does, in a fraction of its evaluations."""
+    m = r.get_material("annular_shear")
+    P = kernel_parameters(m)
+    rng = np.random.default_rng(3)
+    n = 300
+    f = rng.uniform(0, 0.3, n)
+    phi = r.phi_m(f, m) + rng.uniform(1e-4, 2e-3, n)
+    p0 = rng.uniform(10, 1000, n)
+    sig = -p0[:, None, None] * np.eye(3)
+    sig[:, 0, 1] = sig[:, 1, 0] = 0.3 * p0
+    L = np.zeros((n, 3, 3))
+    L[:, 0, 1] = rng.uniform(1, 100, n)
+    states = {k: (sig.copy(), f.copy(), np.full(n, -1.0)) for k in ("bracket", "cold", "warm")}
+    evals = {k: [] for k in states}
+    for _ in range(10):
+        res = {}
+        for k, (s, ff, g) in states.items():
+            so, o = np.empty_like(s), np.empty((n, NOUT))
+            kw = dict(newton=False) if k == "bracket" else dict(g_prev=g) if k == "warm" else {}
+            update_points_serial(s, L, phi, ff, 1e-5, P, so, o, **kw)
+            res[k] = (so, o)
+            evals[k].append(o[o[:, 12] == SHEAR_FLOW, 13])
+        for k in ("cold", "warm"):
+            np.testing.assert_array_equal(res[k][1][:, 12], res["bracket"][1][:, 12])
+            np.testing.assert_allclose(res[k][0], res["bracket"][0], rtol=0,
+                                       atol=1e-9 * np.abs(res["bracket"][0]).max())
+        states = {k: (res[k][0], res[k][1][:, 0].copy(), res[k][1][:, 1].copy()) for k in states}
+    mean = {k: np.concatenate(v).mean() for k, v in evals.items()}
+    assert np.concatenate(evals["cold"]).size > n                       # most points yield
+    assert mean["cold"] <= 0.25 * mean["bracket"] and mean["warm"] <= 0.25 * mean["bracket"], mean
