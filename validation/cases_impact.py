@@ -1,0 +1,320 @@
+"""mpm2d impact scene (paper Figs. 4-5): plug, front, rod deceleration, grid and mode checks.
+
+Every case runs ``mpm2d run impact`` (mpm2d.scenes.impact) through :func:`mpm2d.run.run_scene`.
+The runs are shared between cases: each is kept in ``<report>/_impact_runs/<name>/`` and reused
+when complete with the same parameters (an interrupted one continues from its checkpoint), so
+the grid-convergence and mode cases do not repeat the runs of the plug and speed cases. The
+paper-size runs (Fig. 4 at 1 mm, Fig. 5 on 150 x 225) are ``slow`` cases; ``quick`` (the test
+suite's sizes) uses a tiny bed for every case.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from mpm2d.run import run_scene  # noqa: E402
+from mpm2d.scenes import impact  # noqa: E402
+from rheology import get_material  # noqa: E402
+from rheology.io import atomic_savefig, atomic_write_csv, atomic_write_json  # noqa: E402
+
+from .framework import Verdict, case  # noqa: E402
+
+#: the test suite's sizes (quick): a 3 cm bed at 2 mm, 4 ms
+QUICK = dict(radius=0.03, depth=0.03, cells_per_mm=0.5, t_end=0.004)
+#: the shorter runs of the grid and mode comparisons [s after impact]: the stiff phase and the
+#: start of the slow sinking (a 1 mm or two-phase run to 60 ms is 4-8x the default's cost)
+T_COMPARE = 0.02
+SPEEDS = (0.5, 1.0, 2.0)
+
+
+def _load(folder: Path) -> dict:
+    hist = pd.read_csv(folder / "history.csv")
+    return {"folder": folder, "summary": json.loads((folder / "summary.json").read_text()),
+            "history": hist, "rod": pd.read_csv(folder / "rod.csv"),
+            "profile": pd.read_csv(folder / "displacement_vs_depth.csv"),
+            "front": pd.read_csv(folder / "front.csv"),
+            "manifest": json.loads((folder / "manifest.json").read_text())}
+
+
+def canonical(params: dict) -> dict:
+    """The parameters that differ from the scene's defaults once each size's preset is applied
+    (``v0=1`` with the default size is the default run), so equal runs share one folder."""
+    sp = impact.setup.spec
+    want = impact.resolved(sp.validate(dict(params)))
+    base = impact.resolved({**sp.defaults, "size": want["size"]})
+    return {k: v for k, v in want.items()
+            if k == "size" and v != sp.defaults["size"] or k != "size" and v != base[k]}
+
+
+def run_name(params: dict) -> str:
+    """Folder name of a run: its canonical parameters (``default`` if none)."""
+    given = canonical(params)
+    return "_".join(f"{k}={str(v).replace(' ', '-')}" for k, v in given.items()) or "default"
+
+
+def run_cached(out: Path, params: dict) -> dict:
+    """Run (or reuse) the impact scene with ``params`` in ``<out>/../_impact_runs/<name>``.
+
+    Returns the loaded outputs plus ``wall_s`` (this call's wall time; 0 when reused), the
+    ``points``, ``steps`` and ``point_steps`` (points x steps) of the run."""
+    params = canonical(params)
+    folder = Path(out).parent / "_impact_runs" / run_name(params)
+    want = json.loads(json.dumps(impact.setup.spec.validate(dict(params))))
+    t0 = time.perf_counter()
+    man = folder / "manifest.json"
+    old = json.loads(man.read_text()) if man.exists() else {}
+    reused = old.get("status") == "complete" and old.get("params") == want
+    if not reused:
+        resume = (folder / "checkpoint.npz").exists() and old.get("params") == want
+        run_scene(impact.setup, folder, dict(params), resume=resume, progress=False, vtk=False,
+                  log=lambda m: None, scene_name="impact")
+    res = _load(folder)
+    res["wall_s"] = 0.0 if reused else time.perf_counter() - t0
+    res["points"] = _points(folder)
+    res["steps"] = int(res["manifest"].get("steps", 0))
+    res["point_steps"] = float(res["points"]) * res["steps"]
+    return res
+
+
+def _points(folder: Path) -> int:
+    frames = json.loads((folder / "manifest.json").read_text())["frames"]
+    with np.load(folder / frames[-1]["npz"]) as d:
+        return int(sum(d[k].shape[0] for k in d.files if k.endswith(".id")))
+
+
+def _base(quick: bool, **extra) -> dict:
+    return {**(QUICK if quick else {}), **extra}
+
+
+def _fmt(x, spec=".3g") -> str:
+    return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
+
+
+def _wall(r) -> str:
+    return (f"{r['points']} points x {r['steps']} steps = {r['point_steps']:.3g} point-steps, "
+            + (f"wall {r['wall_s']:.0f} s" if r["wall_s"] else "reused run"))
+
+
+# ---------------------------------------------------------------- plug and front (Fig. 4)
+def _plug_case(out: Path, quick: bool, size: str) -> Verdict:
+    r = run_cached(out, _base(quick, size=size))
+    s = r["summary"]
+    ok = (s["plug_r2"] is not None and s["plug_r2"] >= 0.95
+          and s.get("front_r2_penetration") is not None and s["front_r2_penetration"] >= 0.95)
+    figs = []
+    for png in ("displacement.png", "displacement_vs_depth.png", "rod.png", "front.png"):
+        src = r["folder"] / png
+        if src.exists():
+            dst = out / png
+            dst.write_bytes(src.read_bytes())
+            figs.append(dst)
+    return Verdict(
+        criterion="|dz| below the rod linear over the plug (R^2 >= 0.95, plug = surface to "
+                  "|dz| < 5% of the rod's displacement) and the front (u_z = v_rod/2) growing at "
+                  "a constant rate per unit of rod travel over its window (front depth linear "
+                  "in the rod's depth, R^2 >= 0.95; the R^2 against time is reported: the rod "
+                  "loses half its speed over the window); k = front speed / mean rod speed",
+        measured=(f"plug R^2 {_fmt(s['plug_r2'], '.4f')} over {_fmt(s['plug_depth_m'] * 100 if s['plug_depth_m'] else None)} cm; "
+                  f"front R^2 {_fmt(s.get('front_r2_penetration'), '.4f')} against the rod's "
+                  f"depth, {_fmt(s['front_r2'], '.4f')} against time over {_fmt(s['fit_t_start_s'] and s['fit_t_start_s'] * 1e3)}-"
+                  f"{_fmt(s['fit_t_end_s'] and s['fit_t_end_s'] * 1e3)} ms, front speed "
+                  f"{_fmt(s['front_speed_m_per_s'])} m/s, k = {_fmt(s['k'])} (k_penetration "
+                  f"{_fmt(s['k_penetration'])}); peak deceleration "
+                  f"{_fmt(s['peak_deceleration_m_per_s2'])} m/s^2 (raw {_fmt(s['peak_raw_acceleration_m_per_s2'])}), "
+                  f"late velocity {_fmt(s['late_velocity_m_per_s'])} m/s, rod "
+                  f"{_fmt(s['final_rod_depth_m'] * 1e3)} mm deep at {s['t_end_s'] * 1e3:.0f} ms; "
+                  + _wall(r)),
+        passed=bool(ok), figures=figs, details=json.dumps(s, indent=1))
+
+
+@case("mpm2d", "impact_plug_default", "mpm2d impact: Fig. 4 at 2 mm (the default run): plug "
+      "linearity, front speed, k", slow=True)
+def plug_default(out: Path, quick: bool) -> Verdict:
+    return _plug_case(out, quick, "default")
+
+
+@case("mpm2d", "impact_fig4_paper", "mpm2d impact: Fig. 4 on the paper's 100 x 120 grid at 1 mm, "
+      "60 ms", slow=True)
+def fig4_paper(out: Path, quick: bool) -> Verdict:
+    return _plug_case(out, quick, "fig4")
+
+
+# ---------------------------------------------------------------- speeds (Fig. 5)
+def _speeds_case(out: Path, quick: bool, size: str) -> Verdict:
+    runs = [run_cached(out, _base(quick, size=size, v0=v)) for v in SPEEDS]
+    paths = []
+    rows = []
+    for v, r in zip(SPEEDS, runs):
+        s = r["summary"]
+        rows.append({k: (np.nan if s.get(k) is None else s[k]) for k in impact.SPEED_COLUMNS}
+                    | {"wall_s": r["wall_s"], "point_steps": r["point_steps"]})
+    df = pd.DataFrame(rows)
+    atomic_write_csv(out / "speeds.csv", df, empty_ok=impact.SPEED_COLUMNS[2:])
+    scal = impact.peak_scaling(df["v0_m_per_s"], df["peak_deceleration_m_per_s2"])
+    atomic_write_json(out / "scaling.json", scal, nullable=("loglog_slope", "loglog_r2"))
+    rod = pd.concat([r["rod"] for r in runs])
+    atomic_write_csv(out / "rod.csv", rod, empty_ok=("v_m_per_s", "a_m_per_s2"))
+    raws = []
+    for r in runs:
+        p = r["folder"] / "rod_raw.csv"
+        raws.append(pd.read_csv(p) if p.exists() else None)
+    fig = impact.rod_figure([(v, r["rod"], raw) for v, r, raw in zip(SPEEDS, runs, raws)],
+                            out / "rod.png")
+    late_ok = bool(np.all(np.abs(df["late_velocity_m_per_s"]) < 0.5 * df["v0_m_per_s"]))
+    ok = scal["monotone"] and late_ok
+    return Verdict(
+        criterion="peak deceleration (from z, the stencil) grows monotonically with v0 over "
+                  f"{SPEEDS} m/s (log-log slope reported); after the stiff phase the rod sinks "
+                  "slowly: |late velocity| (last 20% of the run) < v0/2 for every v0",
+        measured="; ".join(f"v0 = {r['v0_m_per_s']:g}: peak {r['peak_deceleration_m_per_s2']:.4g} "
+                           f"m/s^2, late v {r['late_velocity_m_per_s']:.3g} m/s, k "
+                           f"{r['k']:.3g}, front R^2 {r['front_r2']:.3f}, plug R^2 "
+                           f"{r['plug_r2']:.3f}" for _, r in df.iterrows())
+                 + f"; log-log slope {_fmt(scal['loglog_slope'])} (R^2 {_fmt(scal['loglog_r2'])}), "
+                 f"monotone {scal['monotone']}; "
+                 + "; ".join(_wall(r) for r in runs),
+        passed=bool(ok), figures=[Path(fig)] + [Path(p) for p in paths],
+        details=df.to_string())
+
+
+@case("mpm2d", "impact_speeds", "mpm2d impact: rod deceleration against v0 (0.5, 1, 2 m/s) on "
+      "the Fig. 4 scene at 2 mm", slow=True)
+def speeds(out: Path, quick: bool) -> Verdict:
+    return _speeds_case(out, quick, "default")
+
+
+@case("mpm2d", "impact_fig5_paper", "mpm2d impact: Fig. 5, large container 150 x 225 at 1 mm, "
+      "eta0 = 1 mPa s, v0 = 0.5, 1, 2 m/s", slow=True)
+def fig5_paper(out: Path, quick: bool) -> Verdict:
+    return _speeds_case(out, quick, "fig5")
+
+
+# ---------------------------------------------------------------- grid convergence
+@case("mpm2d", "impact_grid_convergence", "mpm2d impact: Fig. 4 scene at 2 mm and 1 mm cells "
+      f"(to {T_COMPARE * 1e3:.0f} ms): |dz| profile and peak deceleration", slow=True)
+def grid_convergence(out: Path, quick: bool) -> Verdict:
+    t_end = QUICK["t_end"] if quick else T_COMPARE
+    base = dict(QUICK, t_end=t_end) if quick else dict(t_end=t_end)
+    runs = {}
+    for cpm in (0.5, 1.0):
+        runs[cpm] = run_cached(out, dict(base, cells_per_mm=cpm))
+    c, f = runs[0.5], runs[1.0]
+    pc, pf = c["profile"], f["profile"]
+    dmax = min(pc["depth_m"].max(), pf["depth_m"].max())
+    grid = pf["depth_m"][pf["depth_m"] <= dmax].to_numpy()
+    uc = np.interp(grid, pc["depth_m"], pc["displacement_m"])
+    uf = np.interp(grid, pf["depth_m"], pf["displacement_m"])
+    ref = float(f["summary"]["final_rod_depth_m"])
+    prof_diff = float(np.max(np.abs(uc - uf)) / ref)
+    prof_rms = float(np.sqrt(np.mean((uc - uf) ** 2)) / ref)
+    pk_c, pk_f = (r["summary"]["peak_deceleration_m_per_s2"] for r in (c, f))
+    pk_diff = abs(pk_c - pk_f) / pk_f
+    pen_diff = abs(c["summary"]["final_rod_depth_m"] - ref) / ref
+    table = pd.DataFrame([{"h_m": r["summary"]["h_m"],
+                           "peak_deceleration_m_per_s2": r["summary"]["peak_deceleration_m_per_s2"],
+                           "final_rod_depth_m": r["summary"]["final_rod_depth_m"],
+                           "plug_r2": r["summary"]["plug_r2"], "k": r["summary"]["k"],
+                           "point_steps": r["point_steps"], "wall_s": r["wall_s"]}
+                          for r in (c, f)])
+    atomic_write_csv(out / "grid.csv", table, empty_ok=("plug_r2", "k"))
+    fig, axs = plt.subplots(1, 2, figsize=(12, 4.5))
+    for r, lab in ((c, "h = 2 mm"), (f, "h = 1 mm")):
+        axs[0].plot(r["profile"]["depth_m"] * 100, r["profile"]["displacement_m"] * 100, ".-",
+                    ms=3, label=lab)
+        axs[1].plot(r["rod"]["time_s"] * 1e3, r["rod"]["a_m_per_s2"], label=lab)
+    axs[0].set_xlabel("initial depth [cm]")
+    axs[0].set_ylabel("|dz| below the rod [cm]")
+    axs[1].set_xlabel("t after impact [ms]")
+    axs[1].set_ylabel("a from z [m/s^2]")
+    for ax in axs:
+        ax.legend()
+    fig.suptitle(f"impact grid convergence at {t_end * 1e3:.0f} ms", fontsize=10)
+    png = atomic_savefig(fig, out / "grid_convergence.png")
+    plt.close(fig)
+    ok = prof_diff <= 0.15 and pk_diff <= 0.25
+    return Verdict(
+        criterion=f"2 mm against 1 mm at {t_end * 1e3:.0f} ms: max |dz| profile difference <= 15% "
+                  "of the rod's displacement and peak deceleration within 25%",
+        measured=(f"profile max diff {prof_diff:.3f}, rms {prof_rms:.3f} of the rod's "
+                  f"{ref * 1e3:.2f} mm; peak deceleration {pk_c:.4g} (2 mm) vs {pk_f:.4g} m/s^2 "
+                  f"(1 mm): {pk_diff:.1%}; rod depth differs {pen_diff:.1%}; "
+                  + "; ".join(_wall(r) for r in (c, f))),
+        passed=bool(ok), figures=[png], details=table.to_string())
+
+
+# ---------------------------------------------------------------- drained or undrained
+def drainage_numbers(material: str = "rod_impact", phi: float = 0.47,
+                     lengths=(0.01, 0.02, 0.05)) -> dict:
+    """The drained/undrained time scale of DESIGN.md section 5 for the impact set.
+
+    k = (1 - phi) d^2/(18 phi F) (Beetstra F at Re = 0), c_v = k/(eta0 (1/M + (1 - phi)/kappa))
+    with M = K + 4G/3; t_L = L^2/c_v for each plug length L [m]."""
+    m = get_material(material)
+    F = 10 * phi / (1 - phi) ** 2 + (1 - phi) ** 2 * (1 + 1.5 * math.sqrt(phi))
+    k = (1 - phi) * m.d ** 2 / (18 * phi * F)
+    M = m.K + 4 * m.G / 3
+    cv = k / (m.eta0 * (1 / M + (1 - phi) / m.kappa))
+    return {"material": material, "phi": phi, "beetstra_F": F, "permeability_m2": k,
+            "constrained_modulus_Pa": M, "c_v_m2_per_s": cv,
+            "t_L_s": {f"{L * 100:g} cm": L ** 2 / cv for L in lengths},
+            "darcy_flux_per_Pa_per_m": k / m.eta0}
+
+
+@case("mpm2d", "impact_locked_vs_two_phase", "mpm2d impact: locked mixture against two-phase on "
+      f"the Fig. 4 scene at 2 mm (to {T_COMPARE * 1e3:.0f} ms): rod motion and plug", slow=True)
+def locked_vs_two_phase(out: Path, quick: bool) -> Verdict:
+    t_end = QUICK["t_end"] if quick else T_COMPARE
+    base = dict(QUICK, t_end=t_end) if quick else dict(t_end=t_end)
+    runs = {mode: run_cached(out, dict(base, mode=mode))
+            for mode in ("locked mixture", "two-phase")}
+    lk, tp = runs["locked mixture"], runs["two-phase"]
+    t = lk["rod"]["time_s"].to_numpy()
+    z_tp = np.interp(t, tp["rod"]["time_s"], tp["rod"]["z_m"])
+    ref = float(lk["summary"]["final_rod_depth_m"])
+    dz_rod = float(np.max(np.abs(lk["rod"]["z_m"].to_numpy() - z_tp)) / ref)
+    pk = [r["summary"]["peak_deceleration_m_per_s2"] for r in (lk, tp)]
+    pk_diff = abs(pk[1] - pk[0]) / pk[0]
+    pl, pt = lk["profile"], tp["profile"]
+    ut = np.interp(pl["depth_m"], pt["depth_m"], pt["displacement_m"])
+    prof_diff = float(np.max(np.abs(ut - pl["displacement_m"])) / ref)
+    cost = tp["point_steps"] / lk["point_steps"] if lk["point_steps"] else float("nan")
+    wall_ratio = tp["wall_s"] / lk["wall_s"] if lk["wall_s"] and tp["wall_s"] else float("nan")
+    dn = drainage_numbers(lk["summary"]["material"], lk["summary"]["phi0"])
+    atomic_write_json(out / "drainage.json", dn)
+    fig, axs = plt.subplots(1, 2, figsize=(12, 4.5))
+    for r, lab in ((lk, "locked mixture"), (tp, "two-phase")):
+        axs[0].plot(r["rod"]["time_s"] * 1e3, r["rod"]["z_m"] * 1e3, label=lab)
+        axs[1].plot(r["profile"]["depth_m"] * 100, r["profile"]["displacement_m"] * 100, ".-",
+                    ms=3, label=lab)
+    axs[0].set_xlabel("t after impact [ms]")
+    axs[0].set_ylabel("rod face z [mm]")
+    axs[1].set_xlabel("initial depth [cm]")
+    axs[1].set_ylabel("|dz| below the rod [cm]")
+    for ax in axs:
+        ax.legend()
+    png = atomic_savefig(fig, out / "modes.png")
+    plt.close(fig)
+    tl = ", ".join(f"{k}: {v * 1e3:.2g} ms" for k, v in dn["t_L_s"].items())
+    ok = dz_rod <= 0.10 and prof_diff <= 0.10
+    return Verdict(
+        criterion="the locked mixture (default) reproduces the two-phase run: rod z(t) within "
+                  "10% of the penetration and the |dz| profile within 10% of the rod's "
+                  "displacement (the drainage time scale says phases move together)",
+        measured=(f"rod z max diff {dz_rod:.3%} of {ref * 1e3:.2f} mm; peak deceleration "
+                  f"{pk[0]:.4g} (locked) vs {pk[1]:.4g} m/s^2 (two-phase), {pk_diff:.1%}; "
+                  f"profile max diff {prof_diff:.3%}; c_v = {dn['c_v_m2_per_s']:.3g} m^2/s, "
+                  f"k = {dn['permeability_m2']:.3g} m^2, L^2/c_v = {tl}; two-phase cost "
+                  f"{cost:.2f}x the point-steps" + (f", {wall_ratio:.2f}x the wall time"
+                                                   if math.isfinite(wall_ratio) else "")
+                  + "; " + "; ".join(_wall(r) for r in (lk, tp))),
+        passed=bool(ok), figures=[png], details=json.dumps(dn, indent=1))
