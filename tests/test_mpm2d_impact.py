@@ -166,3 +166,16 @@ def test_bad_values_are_refused(tmp_path, capsys, item):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and item.split("=")[0] in err[0]
     assert not out.exists()
+
+
+def test_interrupted_run_resumes_to_the_same_files(tmp_path, tiny_run):
+    out0, _ = tiny_run
+    out = tmp_path / "resumed"
+    part = run_scene(get_setup("impact"), out, dict(TINY), progress=False, vtk=False,
+                     log=lambda m: None, stop_after_steps=150)
+    assert not part["complete"]
+    res = run_scene(get_setup("impact"), out, dict(TINY), resume=True, progress=False,
+                    vtk=False, log=lambda m: None)
+    assert res["complete"]
+    for name in ("rod.csv", "front.csv", "displacement_vs_depth.csv", "summary.json"):
+        assert (out / name).read_bytes() == (out0 / name).read_bytes(), name
