@@ -23,7 +23,8 @@ Student-t intervals; for phi_j and phi_c also the profile likelihood (refits at 
 the sum of squares has grown by s^2 t^2), which replaces the Jacobian interval when it is computed.
 A parameter is flagged unidentifiable when its interval is wider than a factor of 2 (scale
 parameters) or +-0.02 (fractions) or +-1 (exponents), when it is correlated with another beyond
-|r| = 0.995, or when it lies in a direction of (numerically) zero curvature.
+|r| = 0.99 (except varphi_i with alpha_i, correlated by the form of Eq. 34), or when it lies in
+a direction of (numerically) zero curvature.
 
 Everything is SI. The model is the viscous limit of Eq. (1) (grain inertia neglected, as in the
 paper's fits); the material's mu_2 and b are honoured.
@@ -59,6 +60,12 @@ DEFAULT_FREE: tuple[str, ...] = ("phi_j", "phi_c", "a0", "a_inf", "tau_star", "v
 
 #: Held fixed by default; ``free=`` may add them.
 OPTIONAL_FREE: tuple[str, ...] = ("eta0", "mu_c", "Delta", "varphi2", "alpha2")
+
+#: |correlation| beyond which both parameters are flagged unidentifiable.
+CORR_FLAG = 0.99
+#: Pairs correlated by the form of Eq. (34) alone (varphi x^alpha pivots at x = 1, far outside
+#: the data's phi_j - phi ~ 0.01-0.1): not flagged for their mutual correlation.
+_PIVOT_PAIRS = ({"varphi1", "alpha1"}, {"varphi2", "alpha2"})
 
 STAGE_OF = {"phi_j": "1", "a0": "1", "phi_c": "2", "a_inf": "2", "varphi1": "3", "alpha1": "3",
             "varphi2": "3", "alpha2": "3", "tau_star": "4", "eta0": "4", "mu_c": "4", "Delta": "4"}
@@ -871,7 +878,8 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
             wide = (half > np.log(2.0)) if SCALE[p] == "log" else (
                 half > (0.02 if p.startswith("phi") else 1.0 if p.startswith("alpha") else 0.2))
             partners = [free_list[j] for j in range(len(free_list))
-                        if j != k and abs(corr[k, j]) > 0.995 and not active[j]]
+                        if j != k and abs(corr[k, j]) > CORR_FLAG and not active[j]
+                        and {p, free_list[j]} not in _PIVOT_PAIRS]
             if active[k]:
                 status, note = "at_bound", "at a bound of its physical range: one-sided interval"
                 at_low = theta[k] - P.lo[k] < 1e-7 * span[k]
@@ -889,7 +897,7 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
                     why.append("interval wider than " + ("a factor 2" if SCALE[p] == "log" else
                                                          "the identifiability width"))
                 if partners:
-                    why.append("correlation > 0.995 with " + ", ".join(partners))
+                    why.append(f"correlation > {CORR_FLAG} with " + ", ".join(partners))
                 note = "; ".join(why)
                 messages.append(f"{p} is not identified by these data ({note})")
             params.append(ParameterEstimate(p, float(val), float(lo_), float(hi_), float(sd[k]),
