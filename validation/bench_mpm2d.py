@@ -407,7 +407,9 @@ def speed(out: Path, quick: bool) -> BenchResult:
         xs = np.arange(len(rows) + 1)
     a1.set_xticks(xs, labels, fontsize=8, rotation=15)
     a1.set_ylabel("point-steps/s ratio to the bare loop (dotted: target)")
-    a1.set_ylim(0, 1.25 * max(max(TARGETS.values()), float(df["ratio_to_bare"].max())))
+    top = max(max(TARGETS.values()), float(df["ratio_to_bare"].max()),
+              ti_rate / 1e6 / ela["bare_Mpoint_steps_per_s"] if ti_rate is not None else 0.0)
+    a1.set_ylim(0, 1.3 * top)
     a1.legend(fontsize=8, loc="upper left")
     shares = [c for c in df.columns if c.startswith("share_")]
     bottom = np.zeros(len(rows))
