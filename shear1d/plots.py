@@ -94,7 +94,8 @@ def front_positions_figure(runs):
     ax.set_ylabel("(front - R_i) / (R_o - R_i)")
     ax.set_ylim(0, 1.02)
     ax.set_title("Shear-jamming front, drawn only while a jammed band (f >= f_jam/2 at the bob) "
-                 "grows,\nuntil the flow stops (the band then fills the gap)", fontsize=9)
+                 "grows,\nuntil it reaches the outer wall (it then fills the gap) or the flow "
+                 "stops", fontsize=9)
     if runs:
         ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
@@ -138,7 +139,7 @@ def run_fields_figure(run):
     if band.any():
         axes[0].legend(fontsize=7, loc="upper right", facecolor="0.4", labelcolor="w")
     axes[0].set_ylabel("bob rotation [rad]")
-    what = ("white: front v/(omega r) = 1/2, drawn while a jammed band exists" if band.any()
+    what = ("white: front v/(omega r) = 1/2, drawn while a jammed band grows" if band.any()
             else "no jammed band formed: no front drawn")
     fig.suptitle(f"{_label(run)}, {g.n} cells ({res.method}); {what}")
     return fig

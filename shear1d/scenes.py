@@ -110,20 +110,22 @@ def flow_stop_time(result: Result) -> float | None:
 
 
 def band_present(result: Result) -> np.ndarray:
-    """(n_out,) bool: outputs at which a jammed band is carried by the moving wall.
+    """(n_out,) bool: outputs at which a jammed band grows from the moving wall.
 
     A band exists where f >= f_jam(phi0)/2 in the cell at the moving wall (the structure front
-    has left it), and until the flow stops after the band reached the outer wall: from then on
-    the band fills the gap, and the rigid-ratio threshold crossing is only the edge of the thin
-    sheared layer at the wall, which oscillates with the elastic waves - no front of a band.
+    has left it); it grows until it reaches the outer wall (the ``front_at_wall`` event) or the
+    flow stops (``flow_stopped``), whichever comes first. From then on the band fills the gap (or
+    has stopped), and the rigid-ratio threshold crossing is only the edge of the decelerating
+    layer at the bob, which falls back and oscillates with the elastic waves - no front of a band.
     """
-    pb, g = result.problem, result.problem.grid
+    pb = result.problem
     fjam = float(rheology.f_jam(pb.phi0, pb.material))
     f = result.field("f")
     band = f[:, 0] >= 0.5 * fjam
-    stop = flow_stop_time(result)
-    if stop is not None:
-        band &= result.t <= stop
+    ends = [ts[0] for ts in (result.events.get("front_at_wall", []),
+                             result.events.get("flow_stopped", [])) if ts]
+    if ends:
+        band &= result.t <= min(ends)
     return band
 
 

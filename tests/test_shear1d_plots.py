@@ -57,8 +57,8 @@ def test_front_figure_draws_the_front_exactly_where_the_csv_has_one(fast_run, sl
     fr = front_frame(fast_run.result)
     has = fr["front_m"].notna().to_numpy()
     assert 0 < has.sum() < len(fr)                      # no front before the band, after the stop
-    stop = fast_run.summary["flow_stopped_rotation_rad"]
-    assert stop is not None and fr["rotation_rad"][has].max() <= stop + 1e-12
+    wall = fast_run.summary["front_at_wall_rotation_rad"]
+    assert wall is not None and fr["rotation_rad"][has].max() <= wall + 1e-12
     fig = plots.front_positions_figure([fast_run, slow_run])
     try:
         ax = fig.axes[0]
