@@ -440,7 +440,6 @@ class Simulation:
         if not self.contact_sets and not self.bodies:
             return
         g = self.grid
-        tol = ct.GAP_TOL * g.h
         cache = {}
         for name, mu in self.contact_sets.items():
             fa = f"set:{name}"
@@ -451,10 +450,10 @@ class Simulation:
                 both = (self.G[fa][:, :, M] > 0.0) & (self.G[ph][:, :, M] > 0.0)
                 if not both.any():
                     continue
-                n = ct.unit(A.outward - B.outward, np.array([0.0, 1.0]))
-                ct.unfold_normal(g, n)
-                gap = ct.box_gap_nodes(g, both, A.x, A.side, [(B.x, B.side)])
-                ct.pair_contact(self.G[fa], self.G[ph], self.vg[fa], self.vg[ph], n, gap, tol,
+                n0 = ct.unit(A.outward - B.outward, np.array([0.0, 1.0]))
+                touch, n = ct.touching(g, A.x, A.side, [(B.x, B.side)], n0, self._geo_work)
+                gap = np.where(both & touch, -1.0, np.inf)
+                ct.pair_contact(self.G[fa], self.G[ph], self.vg[fa], self.vg[ph], n, gap, 0.0,
                                 mu, dt, force)
             self.contact_force[name] = force
         set_field = {s.name: self._field(s) for s in self.sets}
@@ -462,22 +461,22 @@ class Simulation:
             Bg = ct.FieldGeometry(g, b.x, b.side, self._geo_work)
             rx = self.node_x[:, None] - b.center[0]
             ry = self.node_y[None, :] - b.center[1]
-            n = np.empty_like(Bg.outward)
-            ct.rigid_normals(Bg.outward, self.node_x, self.node_y, b.center[0], b.center[1], n)
-            ct.unfold_normal(g, n)
+            n0 = np.empty_like(Bg.outward)
+            ct.rigid_normals(Bg.outward, self.node_x, self.node_y, b.center[0], b.center[1], n0)
             bonded = {set_field[k] for k in b.bonded_to}
             covered = Bg.area >= (0.5 - 1e-9) * g.h ** 2
             entries = []
             for ph in self.fields:
                 Gm = self.G[ph][:, :, M]
                 if ph in bonded:
-                    nodes = covered & (Gm > 0.0)
+                    nodes, n = covered & (Gm > 0.0), n0
                 else:
                     mask = (Bg.area > 0.0) & (Gm > 0.0)
                     if not mask.any():
                         continue
-                    gap = ct.box_gap_nodes(g, mask, Bg.x, Bg.side, self._points(ph))
-                    nodes = mask & (gap <= tol)
+                    touch, n = ct.touching(g, Bg.x, Bg.side, self._points(ph), n0,
+                                           self._geo_work)
+                    nodes = mask & touch
                 I, J = np.nonzero(nodes)
                 if I.size == 0:
                     continue
