@@ -57,7 +57,7 @@ import numpy as np
 
 from . import laws
 from .checks import check_range
-from .materials import KERNEL_FIELDS, Material
+from .materials import KERNEL_FIELDS, Material, get_material
 from .numba_cache import guard
 
 guard(__file__)
@@ -602,7 +602,7 @@ def kernel_parameters(m: Material) -> np.ndarray:
     return m.kernel_array()
 
 
-def local_update(stress, velocity_gradient, phi, f, dt: float, m: Material,
+def local_update(stress, velocity_gradient, phi, f, dt: float, m: Material | str,
                  plastic_rate=None) -> LocalUpdate:
     """Advance the Table 8 granular law by one implicit step at every material point.
 
@@ -619,8 +619,8 @@ def local_update(stress, velocity_gradient, phi, f, dt: float, m: Material,
     dt : float
         Time step [s] > 0. The update is implicit (unconditionally stable in the plastic
         correction and the structure); the explicit Jaumann spin limits dt |W| << 1.
-    m : Material
-        Needs G, K and K0.
+    m : Material or str
+        The parameter set or its name; needs G, K and K0.
     plastic_rate : numpy.ndarray of float, shape (...) like the points, optional
         Warm start, read and written: on entry each point's plastic shear rate of the previous
         step [1/s] (negative or NaN: none, e.g. ``np.full(shape, -1.0)`` before the first step),
@@ -641,7 +641,7 @@ def local_update(stress, velocity_gradient, phi, f, dt: float, m: Material,
     RuntimeError
         If the solve fails at any point (with the point's state).
     """
-    P = kernel_parameters(m)
+    P = kernel_parameters(get_material(m))
     sig = np.asarray(stress, dtype=float)
     L = np.asarray(velocity_gradient, dtype=float)
     if sig.shape[-2:] != (3, 3) or L.shape[-2:] != (3, 3):

@@ -346,3 +346,13 @@ def test_jammed_yielding_points_solve_in_one_evaluation_and_agree_with_the_brack
     mean = {k: np.concatenate(v).mean() for k, v in evals.items()}
     assert np.concatenate(evals["cold"]).size > n                       # most points yield
     assert mean["cold"] <= 0.25 * mean["bracket"] and mean["warm"] <= 0.25 * mean["bracket"], mean
+
+
+def test_material_by_name_equals_material_object():
+    """local_update takes the material as a name or a Material, like every public function."""
+    sig = -np.eye(3) * 50.0
+    L = np.zeros((3, 3))
+    L[0, 1] = 2.0
+    by_name = r.local_update(sig, L, 0.5, 0.1, 1e-3, "annular_shear")
+    by_obj = r.local_update(sig, L, 0.5, 0.1, 1e-3, r.get_material("annular_shear"))
+    assert np.array_equal(by_name.stress, by_obj.stress) and by_name.f == by_obj.f
