@@ -619,7 +619,6 @@ def write_rheocompass(path, curves: Iterable[dict], *, project: str = "synthetic
         lines.append("")
     path = Path(path)
     text = "\r\n".join(lines) + "\r\n"
-    from .io import _atomic
+    from .io import atomic_write_bytes
 
-    return _atomic(path, lambda tmp: Path(tmp).write_bytes(b"\xff\xfe" + text.encode("utf-16-le")),
-                   ".tmp")
+    return atomic_write_bytes(path, b"\xff\xfe" + text.encode("utf-16-le"))

@@ -124,6 +124,11 @@ def atomic_write_text(path, text: str) -> Path:
     return _atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"), ".tmp")
 
 
+def atomic_write_bytes(path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (e.g. text in another encoding)."""
+    return _atomic(path, lambda tmp: Path(tmp).write_bytes(data), ".tmp")
+
+
 def atomic_write_json(path, obj, *, nullable: Iterable[str] = (), indent: int = 1) -> Path:
     """Write ``obj`` as strict JSON (no NaN/Infinity tokens) atomically.
 
