@@ -450,6 +450,49 @@ def get_material(name: str | Material, **overrides) -> Material:
     return base.replace(**overrides) if overrides else base
 
 
+#: Fields a steady flow curve cannot determine: a scene's own (moduli, densities, grain size,
+#: structure-rate scale, fluid bulk modulus, initial fraction; Tables 4-7 and the text).
+SCENE_FIELDS = ("G", "K", "K0", "rho_s", "rho_f", "d", "K3", "K4", "kappa", "phi0")
+
+
+def scene_material(scene_set: str | Material, material: str | Material | None = None,
+                   **overrides) -> Material:
+    """A scene's parameter set with a user's steady fit in place of the paper's.
+
+    The paper runs every scene on the Hermes 2016 steady fit with the scene's Table 4-7 moduli,
+    densities and K0. ``scene_material("annular_shear", "fit/material.json")`` does the same
+    with the user's material: its steady-flow parameters (phi_c, phi_j, a0, a_inf, mu_c, tau*,
+    eta0, eta_B, Delta, ...) are used, and each of :data:`SCENE_FIELDS` the material leaves unset
+    (None; d = 0, the viscous limit of a steady fit) is taken from the scene's set.
+
+    Parameters
+    ----------
+    scene_set : str or Material
+        The scene's own set (e.g. ``"annular_shear"``, ``"rod_impact"``).
+    material : str, path, Material or None
+        The user's material (name, ``*.json`` file or Material); None: the scene's set.
+    **overrides
+        Field values applied last (validated).
+
+    Raises
+    ------
+    ValueError
+        Unknown or invalid material, a normalised (Table 1) set in an SI scene, bad overrides.
+    """
+    scene = get_material(scene_set)
+    if material is None:
+        return scene.replace(**overrides) if overrides else scene
+    user = get_material(material)
+    if user.units != scene.units:
+        raise ValueError(f"material {user.name!r} is in {user.units} units; the scene needs "
+                         f"{scene.units} units (e.g. a fitted material.json or hermes2016)")
+    unset = {k for k in SCENE_FIELDS if getattr(user, k) is None}
+    if user.d == 0.0:                        # 0: the viscous limit of a steady fit, no grain size
+        unset.add("d")
+    fill = {k: getattr(scene, k) for k in unset}
+    return user.replace(**fill, **overrides) if (fill or overrides) else user
+
+
 def list_materials() -> list[tuple[str, str]]:
     """``(name, citation)`` for every registered parameter set."""
     return [(n, f().citation) for n, f in _REGISTRY.items()]

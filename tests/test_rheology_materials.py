@@ -98,3 +98,19 @@ def test_unknown_material_and_field():
         r.get_material("hermes2016", viscosity=1.0)
     with pytest.raises(ValueError, match="G .* is not set for material hermes2016"):
         r.get_material("hermes2016").require("G")
+
+
+def test_scene_material_puts_a_steady_fit_on_a_scene():
+    """The user's steady parameters with the scene's moduli, densities, d and K0 (Tables 4-7)."""
+    from rheology.materials import SCENE_FIELDS, scene_material
+
+    fit = r.get_material("hermes2016", phi_j=0.54, eta0=2e-3)
+    m = scene_material("annular_shear", fit)
+    scene = r.get_material("annular_shear")
+    assert (m.phi_j, m.eta0, m.tau_star) == (0.54, 2e-3, fit.tau_star)
+    assert all(getattr(m, k) == getattr(scene, k) for k in SCENE_FIELDS)
+    own = scene_material("annular_shear", fit.replace(G=1e6, d=1e-5, rho_s=1500.0))
+    assert own.G == 1e6 and own.d == 1e-5 and own.rho_s == 1500.0 and own.K == scene.K
+    assert scene_material("annular_shear") == scene
+    with pytest.raises(ValueError, match="normalised"):
+        scene_material("annular_shear", "singh2018_a")
