@@ -91,8 +91,8 @@ Measures (outputs):
 
 Parameters: size (default|fig4|fig5), v0 [m/s], phi0, radius, depth [m], cells_per_mm (1/h in
 1/mm), t_end [s] (after impact), material, rod_radius, rod_length [m], rod_density [kg/m^3],
-rod_contact, mode, stencil [s], gravity [m/s^2], cfl. ``none`` (the default) takes the size's
-value.
+rod_contact, mode, stencil [s], gravity [m/s^2], cfl. ``none`` (``auto`` for the material, the
+defaults) takes the size's value.
 
 Outputs (besides history.csv, frames, manifest): ``rod.csv`` (v0_m_per_s, time_s, z_m,
 v_m_per_s, a_m_per_s2), ``rod_raw.csv`` (time_s, z_m, force_N, a_raw_m_per_s2), ``front.csv``
@@ -163,7 +163,8 @@ _NULLABLE = ("front_speed_m_per_s", "front_r2", "k", "k_penetration", "front_r2_
 def resolved(p: dict) -> dict:
     """The parameters with every ``None`` replaced by its size's value."""
     base = SIZES[p["size"]]
-    return {k: (base[k] if (k in base and v is None) else v) for k, v in p.items()}
+    return {k: (base[k] if (k in base and (v is None or (k == "material" and v == "auto")))
+                else v) for k, v in p.items()}
 
 
 def _h(p) -> float:
@@ -230,9 +231,9 @@ def _geo(key, lo, hi, unit, doc, note="", **kw):
                "mixture depth", note="at least 8 cells"),
     cells_per_mm=_geo("cells_per_mm", 0.2, 4.0, "1/mm", "1/h in 1/mm (1: the paper's 1 mm)"),
     t_end=_geo("t_end", 0.0, 1.0, "s", "end time after impact", lo_closed=False),
-    material=spec.Param(choices=("rod_impact", "rod_impact_1cp"), optional=True,
-                        doc="Table 5 set: rod_impact (7 mPa s) or rod_impact_1cp (1 mPa s) "
-                            "(none: the size's)"),
+    material=spec.Param(choices=("auto", "rod_impact", "rod_impact_1cp"),
+                        doc="Table 5 set: rod_impact (7 mPa s) or rod_impact_1cp (1 mPa s); "
+                            "auto: the size's (fig5: 1 mPa s, else 7 mPa s)"),
     rod_radius=spec.Param(lambda p: 2e-3 / resolved(p)["cells_per_mm"], 0.1, unit="m",
                           doc="rod radius", note="at least 2 cells"),
     rod_length=spec.Param(ROD_REPRESENTED, 2.0, unit="m", doc="rod length (sets its mass)",
@@ -248,7 +249,7 @@ def _geo(key, lo, hi, unit, doc, note="", **kw):
                        note="at most a quarter of t_end"),
     gravity=spec.gravity(), cfl=spec.cfl())
 def setup(size="default", v0=None, phi0=0.47, radius=None, depth=None, cells_per_mm=None,
-          t_end=None, material=None, rod_radius=0.0095, rod_length=0.20, rod_density=2700.0,
+          t_end=None, material="auto", rod_radius=0.0095, rod_length=0.20, rod_density=2700.0,
           rod_contact="noslip", mode="locked mixture", stencil=None, gravity=9.81, cfl=0.5):
     params = dict(size=size, v0=v0, phi0=phi0, radius=radius, depth=depth,
                   cells_per_mm=cells_per_mm, t_end=t_end, material=material,
