@@ -63,10 +63,6 @@ GEOMETRIES = ("cone-plate", "parallel-plate", "couette")
 #: concentric cylinder of 26.66/28.92 mm bob/cup diameter and 40 mm bob length (CC27).
 DEFAULTS = dict(cone_angle_deg=1.0, cone_radius=0.025, plate_radius=0.0125, gap=0.001,
                 bob_radius=0.01333, cup_radius=0.01446, bob_length=0.040)
-#: Eq. (20) defaults (Supplement: lambda ~ 0.3, beta ~ 0.1) and densities where the material has
-#: none [kg/m^3].
-LAMBDA, BETA = 0.3, 0.1
-RHO_GRAIN, RHO_LIQUID, RHO_WATER = 1620.0, 1000.0, 1000.0
 #: Instrument columns.
 INSTRUMENT_COLUMNS = ("torque_N_m", "rotation_speed_rad_per_s", "apparent_shear_stress_Pa",
                       "apparent_shear_rate_per_s")
@@ -268,66 +264,9 @@ def weissenberg_rabinowitsch(rim_rate, torque, geometry: Geometry) -> np.ndarray
 
 
 # ------------------------------------------------------------------ mass fractions
-@dataclass(frozen=True)
-class Densities:
-    """Eq. (20) inputs: grain, liquid and water densities [kg/m^3], lambda, beta [-]."""
-
-    grain: float = RHO_GRAIN
-    liquid: float = RHO_LIQUID
-    water: float = RHO_WATER
-    lam: float = LAMBDA
-    beta: float = BETA
-
-    @classmethod
-    def for_material(cls, m: Material, grain=None, liquid=None, water=None, lam=None,
-                     beta=None) -> "Densities":
-        """The material's rho_s, rho_f where set, else the defaults; explicit values win."""
-        return cls(grain if grain is not None else (m.rho_s or RHO_GRAIN),
-                   liquid if liquid is not None else (m.rho_f or RHO_LIQUID),
-                   water if water is not None else RHO_WATER,
-                   lam if lam is not None else LAMBDA, beta if beta is not None else BETA)
-
-    def describe(self) -> str:
-        return (f"Eq. 20 with rho_grain = {self.grain:g}, rho_liquid = {self.liquid:g}, "
-                f"rho_water = {self.water:g} kg/m^3, lambda = {self.lam:g}, beta = {self.beta:g}")
-
-
-def volume_fraction(mass_fraction, dens: Densities = Densities()) -> np.ndarray:
-    """Eq. (20): volume fraction phi [-] of mass fraction phi_W = m_cs/(m_cs + m_l) in (0, 1)."""
-    return rheology.phi_from_mass_fraction(mass_fraction, dens.grain, dens.liquid, dens.water,
-                                           dens.lam, dens.beta)
-
-
-def mass_fraction(phi, dens: Densities = Densities()) -> np.ndarray:
-    """Inverse of Eq. (20): the mass fraction phi_W giving volume fraction ``phi`` (0 < phi <
-    (1 + lambda)(1 - beta)/((1 - beta) + beta rho_cs/rho_w), the value as phi_W -> 1)."""
-    phi = np.asarray(phi, dtype=float)
-    top = (1 + dens.lam) * (1 - dens.beta)
-    base = (1 - dens.beta) + dens.beta * dens.grain / dens.water
-    check_range("phi", phi, 0.0, top / base, lo_closed=False, hi_closed=False,
-                note=f"the largest volume fraction Eq. 20 gives ({dens.describe()})")
-    Q = (top / phi - base) * dens.liquid / dens.grain
-    return 1.0 / (1.0 + Q)
-
-
-def fractions_from_mass(mass_fractions, m: Material, dens: Densities) -> np.ndarray:
-    """Volume fractions of ``mass_fractions`` for material ``m``; ValueError naming
-    --mass-fraction and its valid range when one gives phi outside (0, phi_j)."""
-    w = np.atleast_1d(np.asarray(mass_fractions, dtype=float))
-    check_range("--mass-fraction", w, 0.0, 1.0, lo_closed=False, hi_closed=False)
-    phi = np.atleast_1d(volume_fraction(w, dens))
-    if np.any(phi >= m.phi_j):
-        w_max = float(mass_fraction(min(m.phi_j, 0.999999 * _phi_top(dens)), dens))
-        bad = float(w[np.argmax(phi >= m.phi_j)])
-        raise ValueError(f"--mass-fraction = {bad:g} gives phi = {float(volume_fraction(bad, dens)):.4g}"
-                         f" >= phi_j = {m.phi_j} of {m.name}; valid range (0, {w_max:.4g}) "
-                         f"({dens.describe()})")
-    return phi
-
-
-def _phi_top(dens: Densities) -> float:
-    return (1 + dens.lam) * (1 - dens.beta) / ((1 - dens.beta) + dens.beta * dens.grain
-                                               / dens.water)
+# Eq. (20) lives in rheology (shared with shear1d and the mpm2d scenes)
+from rheology.sample import (BETA, LAMBDA, RHO_GRAIN, RHO_LIQUID, RHO_WATER,  # noqa: E402
+                             Densities, fractions_from_mass, mass_fraction, volume_fraction)
 
 
 # ------------------------------------------------------------------ defaults per material

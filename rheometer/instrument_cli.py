@@ -26,11 +26,12 @@ import numpy as np
 import pandas as pd
 
 from rheology.cli_common import Number
+from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 
 from . import geometry as geo
 
-#: Largest dimensions accepted [m] and densities [kg/m^3].
-LENGTH_MAX, DENSITY_MAX = 10.0, 1e5
+#: Largest dimension accepted [m].
+LENGTH_MAX = 10.0
 
 
 # ------------------------------------------------------------------ options
@@ -56,28 +57,7 @@ def add_instrument_options(p) -> None:
                    help=f"cup radius [m] (couette; {d['cup_radius']:g})")
     g.add_argument("--bob-length", type=length("--bob-length"), default=None,
                    help=f"immersed bob length [m] (couette; {d['bob_length']:g})")
-    s = p.add_argument_group("sample by mass (Eq. 20 of the Supplement)")
-    s.add_argument("--mass-fraction", type=Number("--mass-fraction", 0.0, 1.0, lo_closed=False,
-                                                  hi_closed=False),
-                   nargs="+", default=None, metavar="W",
-                   help="grain mass fraction(s) m_grain/(m_grain + m_liquid), converted to volume "
-                        "fractions by Eq. 20 (instead of --phi)")
-    dens = lambda name: Number(name, 0.0, DENSITY_MAX, lo_closed=False, unit="kg/m^3")  # noqa
-    s.add_argument("--grain-density", type=dens("--grain-density"), default=None,
-                   help=f"grain density [kg/m^3] (material's rho_s, else {geo.RHO_GRAIN:g})")
-    s.add_argument("--liquid-density", type=dens("--liquid-density"), default=None,
-                   help=f"liquid density [kg/m^3] (material's rho_f, else {geo.RHO_LIQUID:g})")
-    s.add_argument("--water-density", type=dens("--water-density"), default=None,
-                   help=f"water density [kg/m^3] ({geo.RHO_WATER:g})")
-    s.add_argument("--swelling", type=Number("--swelling", 0.0, 10.0), default=None,
-                   help=f"swelling parameter lambda of Eq. 20 ({geo.LAMBDA:g})")
-    s.add_argument("--pore-fraction", type=Number("--pore-fraction", 0.0, 1.0, hi_closed=False),
-                   default=None, help=f"pore-space parameter beta of Eq. 20 ({geo.BETA:g})")
-
-
-def _densities(args, m) -> geo.Densities:
-    return geo.Densities.for_material(m, args.grain_density, args.liquid_density,
-                                      args.water_density, args.swelling, args.pore_fraction)
+    add_mass_fraction_options(p)
 
 
 def geometry_of(args) -> geo.Geometry | None:
@@ -116,12 +96,8 @@ def resolve_sample(args, m) -> None:
     if getattr(args, "mass_fraction", None) is not None:
         if args.phi is not None:
             raise ValueError("give --phi or --mass-fraction, not both")
-        dens = _densities(args, m)
-        phis = geo.fractions_from_mass(args.mass_fraction, m, dens)
-        args.phi = [float(p) for p in phis]
+        args.phi, args._mass_note = mass_fraction_phi(args, m)
         args._mass = dict(zip(args.phi, map(float, args.mass_fraction)))
-        args._mass_note = (f"mass fraction {', '.join(f'{w:g}' for w in args.mass_fraction)} -> "
-                           f"phi = {', '.join(f'{p:.5g}' for p in args.phi)} ({dens.describe()})")
     elif args.phi is None:
         count = getattr(args, "_phi_count", 1)
         args.phi = geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]
