@@ -8,12 +8,25 @@ This is the K -> inf limit of the Table 8 tensor law, in which the granular pres
 the critical state. The unknowns and equations (one residual each, as IDA solves them)::
 
     y = [taubar, gap, gdot_p, gdot, strain]
-    0 = taubar' - G (gdot - gdot_p)                       Eq. (36) with the imposed rate
-    0 = gap'    + (phi_j - phi_c) df/dt(f, taubar, gdot_p) Table 8 structure law
-    0 = gdot_p  - gdot_cs(taubar, gap)                     algebraic (Eq. 35)
-    0 = gdot    - gdot_imposed(t)                          rate control (rest: gdot = 0), or
-    0 = taubar + eta0 (1 + 5/2 phi) gdot - tau_imposed(t)  mixture-stress control
+    0 = taubar' - G (gdot - gdot_p)                         Eq. (36) with the imposed rate
+    0 = gap'    + (phi_j - phi_c) df/dt(f, |taubar|, |gdot_p|) Table 8 structure law
+    0 = gdot_p  - sign(taubar) gdot_cs(|taubar|, gap)        algebraic (Eq. 35)
+    0 = gdot    - gdot_imposed(t)                            rate control (rest: gdot = 0), or
+    0 = taubar + eta0 (1 + 5/2 phi) gdot - tau_imposed(t)    mixture-stress control
     0 = strain' - gdot
+
+The shear stress and the rates are SIGNED: the Table 8 flow rule is isotropic (the plastic rate is
+coaxial with the deviatoric stress), so in simple shear the plastic rate has the sign of the shear
+stress and the magnitude of the critical-state law at |taubar|, and the structure law sees the
+magnitudes (|taubar| in H and taubar/eta_B, |gdot_p| in the shear-rate terms). Where the stress
+reverses (oscillation, a stress step below the granular stress, reversal after a shear step) the
+plastic rate reverses with it; for taubar >= 0 this is the law of Eqs. (35)-(37) unchanged. The odd
+extension is smooth at taubar = 0 to first order (gdot_cs is linear there, slope 1/eta_g).
+
+The imposed value is constant, ramped (linear or logarithmic) or sinusoidal: SINE imposes
+``v0 sin(omega (t - t0))`` (mixture-stress oscillation, amplitude v0 [Pa]), COSINE imposes
+``v0 cos(omega (t - t0))`` (strain oscillation gamma0 sin(omega (t - t0)) as the rate
+v0 = gamma0 omega), with omega = v1 [rad/s].
 
 The structure is carried by the jamming gap ``gap = phi_m(f) - phi = (phi_j - phi_c)(f_jam - f)``
 (negative when jammed), not by f: the plastic rate goes as gap^2 near jamming, and IDA's relative
@@ -52,7 +65,7 @@ TAU, GAP, GP, GD, STRAIN = 0, 1, 2, 3, 4
 NVAR = 5
 #: Control modes and ramp kinds of a segment (entries 0 and 1 of the control vector).
 RATE, STRESS = 0, 1
-CONST, LINEAR, LOG = 0, 1, 2
+CONST, LINEAR, LOG, SINE, COSINE = 0, 1, 2, 3, 4
 #: Number of root functions (jamming gap, strain target).
 NEVENTS = 2
 _H = 1e-30          # complex-step size (any tiny value: no cancellation)
@@ -79,7 +92,9 @@ def control(mode: int, kind: int, v0: float, v1: float, t0: float, duration: flo
     """Control vector of one segment: imposed rate [1/s] or mixture stress [Pa] from v0 to v1.
 
     ``kind`` is CONST (v0 throughout), LINEAR or LOG (geometric) over ``duration`` [s] from
-    ``t0`` [s]; ``strain_target`` [-] is the absolute strain at which the segment stops.
+    ``t0`` [s], or SINE / COSINE: ``v0 sin(v1 (t - t0))`` / ``v0 cos(v1 (t - t0))`` (amplitude
+    v0, angular frequency v1 [rad/s]; ``duration`` is then informative); ``strain_target`` [-] is
+    the absolute strain at which the segment stops.
     """
     return np.array([mode, kind, v0, v1, t0, duration, strain_target], dtype=float)
 
@@ -98,24 +113,45 @@ def gap_of_structure(f, P):
 
 
 @_jit
+def sign(x):
+    """+1 for x >= 0, else -1 (of the real part: a constant for the complex step)."""
+    return 1.0 if x.real >= 0.0 else -1.0
+
+
+@_jit
 def plastic_rate(taubar, gap, P):
-    """Critical-state plastic shear rate gdot_cs(taubar, gap) [1/s] (real or complex)."""
+    """Critical-state plastic shear rate gdot_cs(taubar, gap) [1/s] for taubar >= 0 (0 for
+    taubar <= 0: the magnitude law; real or complex)."""
     a = laws.dilatancy_a(structure_of_gap(gap, P), P[_A0], P[_AINF])
     return laws.critical_shear_rate(taubar, P[_PHI], np.maximum(gap, 0.0), a, P[_MU1], P[_MU2],
                                     P[_B], P[_ETA0], P[_D], P[_RHOS])
 
 
 @_jit
+def signed_plastic_rate(taubar, gap, P):
+    """sign(taubar) gdot_cs(|taubar|, gap) [1/s]: the plastic rate of a signed shear stress."""
+    s = sign(taubar)
+    return s * plastic_rate(s * taubar, gap, P)
+
+
+@_jit
 def gap_rate(gap, taubar, gp, P):
-    """d gap/dt = -(phi_j - phi_c) df/dt of Table 8 [1/s] at this phi (real or complex)."""
+    """d gap/dt = -(phi_j - phi_c) df/dt of Table 8 [1/s] at this phi (real or complex), for
+    the magnitudes taubar >= 0, gp >= 0."""
     f = structure_of_gap(gap, P)
     return -(P[_PHIJ] - P[_PHIC]) * laws.structure_rate(f, taubar, gp, P[_FM], P[_TSTAR], P[_INVB],
                                                         P[_K0], P[_XIEPS])
 
 
 @_jit
+def signed_gap_rate(gap, taubar, gp, P):
+    """:func:`gap_rate` of signed taubar and gdot_p (the structure law sees their magnitudes)."""
+    return gap_rate(gap, sign(taubar) * taubar, sign(gp) * gp, P)
+
+
+@_jit
 def _plastic_rate_d(taubar, gap, P):
-    """(gdot_cs, d gdot_cs/d taubar, d gdot_cs/d gap) by complex step."""
+    """(gdot_cs, d gdot_cs/d taubar, d gdot_cs/d gap) by complex step (magnitude law)."""
     g = plastic_rate(taubar, gap, P)
     gt = plastic_rate(taubar + 1j * _H, gap + 0j, P).imag / _H
     gy = plastic_rate(taubar + 0j, gap + 1j * _H, P).imag / _H
@@ -124,7 +160,7 @@ def _plastic_rate_d(taubar, gap, P):
 
 @_jit
 def _gap_rate_d(gap, taubar, gp, P):
-    """(d gap/dt, its partials d/d gap, d/d taubar, d/d gdot_p) by complex step."""
+    """(d gap/dt, its partials d/d gap, d/d taubar, d/d gdot_p) by complex step (magnitudes)."""
     r = gap_rate(gap, taubar, gp, P)
     ry = gap_rate(gap + 1j * _H, taubar + 0j, gp + 0j, P).imag / _H
     rt = gap_rate(gap + 0j, taubar + 1j * _H, gp + 0j, P).imag / _H
@@ -133,9 +169,31 @@ def _gap_rate_d(gap, taubar, gp, P):
 
 
 @_jit
+def _signed_plastic_rate_d(taubar, gap, P):
+    """(gdot_p, d gdot_p/d taubar, d gdot_p/d gap) of :func:`signed_plastic_rate`."""
+    s = sign(taubar)
+    g, gt, gy = _plastic_rate_d(s * taubar, gap, P)
+    return s * g, gt, s * gy
+
+
+@_jit
+def _signed_gap_rate_d(gap, taubar, gp, P):
+    """(d gap/dt, d/d gap, d/d taubar, d/d gdot_p) of :func:`signed_gap_rate`."""
+    st, sg = sign(taubar), sign(gp)
+    r, ry, rt, rg = _gap_rate_d(gap, st * taubar, sg * gp, P)
+    return r, ry, st * rt, sg * rg
+
+
+@_jit
 def imposed(t, C):
     """(value, d value/dt) of the imposed rate or stress at time t [s]."""
     kind, v0, v1, t0, T = C[1], C[2], C[3], C[4], C[5]
+    if kind == SINE:
+        ph = v1 * (t - t0)
+        return v0 * np.sin(ph), v0 * v1 * np.cos(ph)
+    if kind == COSINE:
+        ph = v1 * (t - t0)
+        return v0 * np.cos(ph), -v0 * v1 * np.sin(ph)
     if kind == CONST or T <= 0.0:
         return v0, 0.0
     s = min(max((t - t0) / T, 0.0), 1.0)
@@ -160,9 +218,9 @@ def _shear_rate(t, taubar, P, C):
 def consistent_state(t, taubar, gap, strain, P, C, y, yp):
     """Fill (y, yp) consistent with the DAE at time t from (taubar, gap, strain)."""
     g, gt_, gtime = _shear_rate(t, taubar, P, C)
-    gp, gpt, gpy = _plastic_rate_d(taubar, gap, P)
+    gp, gpt, gpy = _signed_plastic_rate_d(taubar, gap, P)
     taup = P[_G] * (g - gp)
-    yp_gap = gap_rate(gap, taubar, gp, P)
+    yp_gap = signed_gap_rate(gap, taubar, gp, P)
     y[TAU], y[GAP], y[GP], y[GD], y[STRAIN] = taubar, gap, gp, g, strain
     yp[TAU], yp[GAP], yp[STRAIN] = taup, yp_gap, g
     yp[GP] = gpt * taup + gpy * yp_gap
@@ -174,8 +232,8 @@ def residual(t, y, yp, res, P, C):
     """DAE residuals (see module docstring)."""
     v, _ = imposed(t, C)
     res[TAU] = yp[TAU] - P[_G] * (y[GD] - y[GP])
-    res[GAP] = yp[GAP] - gap_rate(y[GAP], y[TAU], y[GP], P)
-    res[GP] = y[GP] - plastic_rate(y[TAU], y[GAP], P)
+    res[GAP] = yp[GAP] - signed_gap_rate(y[GAP], y[TAU], y[GP], P)
+    res[GP] = y[GP] - signed_plastic_rate(y[TAU], y[GAP], P)
     if C[0] == RATE:
         res[GD] = y[GD] - v
     else:
@@ -186,8 +244,8 @@ def residual(t, y, yp, res, P, C):
 @_jit
 def jacobian(t, y, yp, cj, JJ, P, C):
     """JJ = d res/d y + cj d res/d yp of :func:`residual`, exact (complex-step partials)."""
-    _, gt, gy = _plastic_rate_d(y[TAU], y[GAP], P)
-    _, ry, rt, rg = _gap_rate_d(y[GAP], y[TAU], y[GP], P)
+    _, gt, gy = _signed_plastic_rate_d(y[TAU], y[GAP], P)
+    _, ry, rt, rg = _signed_gap_rate_d(y[GAP], y[TAU], y[GP], P)
     JJ[:, :] = 0.0
     JJ[TAU, TAU] = cj
     JJ[TAU, GP] = P[_G]
@@ -219,9 +277,9 @@ def events(t, y, ev, P, C):
 def ode_rhs(t, y, out, P, C):
     """Right-hand side of the eliminated form, y = [taubar, gap, strain]."""
     g, _, _ = _shear_rate(t, y[0], P, C)
-    gp = plastic_rate(y[0], y[1], P)
+    gp = signed_plastic_rate(y[0], y[1], P)
     out[0] = P[_G] * (g - gp)
-    out[1] = gap_rate(y[1], y[0], gp, P)
+    out[1] = signed_gap_rate(y[1], y[0], gp, P)
     out[2] = g
 
 
@@ -229,8 +287,8 @@ def ode_rhs(t, y, out, P, C):
 def ode_jacobian(t, y, J, P, C):
     """d rhs/d y of :func:`ode_rhs` (exact, by complex step)."""
     g, gt_, _ = _shear_rate(t, y[0], P, C)
-    gp, gpt, gpy = _plastic_rate_d(y[0], y[1], P)
-    _, ry, rt, rg = _gap_rate_d(y[1], y[0], gp, P)
+    gp, gpt, gpy = _signed_plastic_rate_d(y[0], y[1], P)
+    _, ry, rt, rg = _signed_gap_rate_d(y[1], y[0], gp, P)
     J[:, :] = 0.0
     J[0, 0] = P[_G] * (gt_ - gpt)
     J[0, 1] = -P[_G] * gpy

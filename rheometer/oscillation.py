@@ -9,12 +9,16 @@ Under oscillation the shear rate is imposed (strain control, ``gdot = gamma0 ome
 or follows from the imposed mixture stress (``gdot = (sigma(t) - taubar)/eta_F``); the unknowns
 ``y = [taubar, gap, strain]`` obey::
 
-    taubar' = G (gdot - gdot_cs(taubar, gap))                      Eq. (36) with the imposed drive
-    gap'    = -(phi_j - phi_c) df/dt(f, taubar, gdot_p)             Table 8 structure law
+    taubar' = G (gdot - sign(taubar) gdot_cs(|taubar|, gap))       Eq. (36) with the imposed drive
+    gap'    = -(phi_j - phi_c) df/dt(f, |taubar|, |gdot_p|)         Table 8 structure law
     strain' = gdot
 
-solved by IDA (residual ``yp - rhs``, exact Jacobian by the complex-step partials of
-:mod:`rheometer.model`). The laws are rheology's (through :mod:`rheometer.model`), not re-derived.
+solved by IDA (residual ``yp - rhs``, exact Jacobian by the complex-step partials): the
+eliminated form of :mod:`rheometer.model` with its sinusoidal control (:func:`drive`), the same
+equations as a program step ``oscillate at F Hz with strain A for N cycles``. The stress is signed:
+where it reverses the plastic rate follows its sign, ``gdot_p = sign(taubar) gdot_cs(|taubar|,
+gap)``, and the structure law sees |taubar| and |gdot_p| (see :mod:`rheometer.model`). The laws are
+rheology's (through :mod:`rheometer.model`), not re-derived.
 
 Linear viscoelasticity (the small-amplitude limit), derived here. At rest ``taubar = 0`` and
 ``f = 0``. For a small drive the structure equation gives ``df/dt = K0 gdot_p H (f_m - f) - ...``
@@ -83,7 +87,6 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 import pandas as pd
 from sksundae.ida import IDA
@@ -95,12 +98,11 @@ from rheology.checks import check_positive, check_range
 from . import model
 from .transient import DEFAULT_G, DEFAULT_K0
 
-_jit = nb.njit(cache=True, error_model="numpy")
 
 #: Drive modes.
 STRAIN, STRESS = 0, 1
 #: Indices of the parameter vector of :func:`rheometer.model.parameters` used here.
-_G_I, _ETAF_I = model._G, model._ETAF
+_ETAF_I = model._ETAF
 #: Defaults.
 DEFAULT_SAMPLES = 128
 DEFAULT_TOL = 1e-5
@@ -198,49 +200,15 @@ def dst_onset_stress(material, phi: float) -> float:
     return float(rheology.steady_state_stress(np.exp(res.x), phi, m).shear_stress)
 
 
-# ------------------------------------------------------------------ the DAE (kernels)
-@_jit
-def _drive(t, taubar, P, O):
-    """(gdot, d gdot/d taubar) of the drive O = [mode, amplitude, omega]."""
-    s = O[2] * t
-    if O[0] == STRAIN:
-        return O[1] * O[2] * np.cos(s), 0.0
-    return (O[1] * np.sin(s) - taubar) / P[_ETAF_I], -1.0 / P[_ETAF_I]
-
-
-@_jit
-def _rhs(t, y, out, P, O):
-    g, _ = _drive(t, y[0], P, O)
-    a = abs(y[0])
-    sg = 1.0 if y[0] >= 0.0 else -1.0
-    gp = model.plastic_rate(a, y[1], P)
-    out[0] = P[_G_I] * (g - sg * gp)
-    out[1] = model.gap_rate(y[1], a, gp, P)
-    out[2] = g
-
-
-@_jit
-def _residual(t, y, yp, res, P, O):
-    _rhs(t, y, res, P, O)
-    for i in range(3):
-        res[i] = yp[i] - res[i]
-
-
-@_jit
-def _jacobian(t, y, yp, cj, JJ, P, O):
-    """JJ = cj I - d rhs/d y (exact: complex-step partials of the laws, odd extension)."""
-    g, gt = _drive(t, y[0], P, O)
-    a = abs(y[0])
-    sg = 1.0 if y[0] >= 0.0 else -1.0
-    gp, gpt, gpy = model._plastic_rate_d(a, y[1], P)
-    _, ry, rt, rg = model._gap_rate_d(y[1], a, gp, P)
-    JJ[:, :] = 0.0
-    JJ[0, 0] = cj - P[_G_I] * (gt - gpt)
-    JJ[0, 1] = P[_G_I] * sg * gpy
-    JJ[1, 0] = -sg * (rt + rg * gpt)
-    JJ[1, 1] = cj - (ry + rg * gpy)
-    JJ[2, 0] = -gt
-    JJ[2, 2] = cj
+# ------------------------------------------------------------------ the drive
+def drive(mode: int, amplitude: float, omega: float, t0: float = 0.0) -> np.ndarray:
+    """Control vector (:func:`rheometer.model.control`) of the oscillatory drive from ``t0`` [s]:
+    strain ``amplitude sin(omega (t - t0))`` imposed as the rate ``amplitude omega cos(...)``
+    (mode STRAIN), or mixture stress ``amplitude sin(omega (t - t0))`` [Pa] (mode STRESS).
+    The model's residual (signed stress) is then integrated in its eliminated form."""
+    if mode == STRAIN:
+        return model.control(model.RATE, model.COSINE, amplitude * omega, omega, t0, 0.0)
+    return model.control(model.STRESS, model.SINE, amplitude, omega, t0, 0.0)
 
 
 # ------------------------------------------------------------------ harmonics
@@ -384,7 +352,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
     period = 1.0 / freq
     Glin = complex(lin.modulus(omega))
     mode = STRAIN if control == "strain" else STRESS
-    O = np.array([mode, amp, omega], dtype=float)
+    O = drive(mode, amp, omega)
     tau_scale = abs(Glin) * amp if mode == STRAIN else amp
     strain_scale = amp if mode == STRAIN else amp / abs(Glin)
     atol = 1e-3 * rtol * np.array([max(tau_scale, 1e-12 * m.tau_star), _GAP_SCALE, strain_scale])
@@ -401,13 +369,13 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
         st = _Start(*map(float, state))
     y0 = np.array([st.taubar, st.gap, st.strain])
     yp0 = np.empty(3)
-    _rhs(0.0, y0, yp0, P, O)
+    model.ode_rhs(0.0, y0, yp0, P, O)
 
     def resfn(t, y, yp, res):
-        _residual(t, y, yp, res, P, O)
+        model.ode_residual(t, y, yp, res, P, O)
 
     def jacfn(t, y, yp, res, cj, JJ):
-        _jacobian(t, y, yp, cj, JJ, P, O)
+        model.ode_residual_jacobian(t, y, yp, cj, JJ, P, O)
 
     solver = IDA(resfn, rtol=rtol, atol=atol, jacfn=jacfn, max_step=period / 16,
                  max_num_steps=100_000)
@@ -433,7 +401,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
         """State (taubar, gap) one period after (t_start, x): a separate IDA solve."""
         y = np.array([x[0], x[1], 0.0])
         yp = np.empty(3)
-        _rhs(t_start, y, yp, P, O)
+        model.ode_rhs(t_start, y, yp, P, O)
         s2 = IDA(resfn, rtol=rtol_fd, atol=atol * (rtol_fd / rtol), jacfn=jacfn,
                  max_step=period / 16, max_num_steps=100_000)
         sol = s2.solve(np.array([t_start, t_start + 0.5 * period, t_start + period]), y, yp)
@@ -461,7 +429,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
                 f"{amp:g}, cycle {cycle}, t = {times[i]:.6g} s: taubar = {Y[i, 0]:.6g} Pa, "
                 f"f = {f[i]:.6g} (valid [0, {f_hi:.6g}]): tighten rtol (now {rtol:g})")
         taubar = Y[:samples, 0]
-        gdot = np.array([_drive(t, tb, P, O)[0] for t, tb in zip(times[:samples], taubar)])
+        gdot = np.array([model._shear_rate(t, tb, P, O)[0] for t, tb in zip(times[:samples], taubar)])
         sigma = taubar + P[_ETAF_I] * gdot
         if mode == STRAIN:
             strain = amp * np.sin(phase)
@@ -488,7 +456,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
             if changes[-1] > 10.0 * backup[1]:  # the jump made it much worse: undo it, stop
                 y_old = backup[0]
                 yp_old = np.empty(3)
-                _rhs(times[-1], y_old, yp_old, P, O)
+                model.ode_rhs(times[-1], y_old, yp_old, P, O)
                 solver.init_step(times[-1], y_old, yp_old)
                 Y[-1] = y_old
                 prev, changes, starts = None, [], [y_old[:2] / weights]
@@ -520,7 +488,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
                 backup = (Y[-1].copy(), changes[-1])
                 y_new = np.array([new[0] * weights[0], new[1] * weights[1], Y[-1, 2]])
                 yp_new = np.empty(3)
-                _rhs(times[-1], y_new, yp_new, P, O)
+                model.ode_rhs(times[-1], y_new, yp_new, P, O)
                 solver.init_step(times[-1], y_new, yp_new)
                 Y[-1] = y_new
                 prev, changes, starts = None, [], [y_new[:2] / weights]

@@ -18,13 +18,22 @@ Lines (case-insensitive; ``#`` starts a comment; blank lines are ignored):
 ``rest for <time> s``                                           zero shear rate (relaxation)
 ``ramp rate from <a> to <b> 1/s over <time> s [log|linear]``    rate ramp (default log)
 ``ramp stress from <a> to <b> Pa over <time> s [log|linear]``   mixture-stress ramp (default log)
+``oscillate at <F> Hz with strain <A> for <N> cycles``          strain A sin(2 pi F t')
+``oscillate at <F> Hz with stress <S> Pa for <N> cycles``       mixture stress S sin(2 pi F t')
 ``start at rest``                                               initial state (default), first
 ``start from steady stress <tau> Pa``                           steady state at granular stress
 ``start from steady rate <rate> 1/s``                           lowest stable steady state
 =============================================================  ==================================
 
+An oscillation (t' the time since the step began) runs from whatever state the previous step left
+(the strain oscillates about the strain reached so far; the imposed stress oscillates about zero),
+on the same equations as every other step and as ``rheometer oscillation`` (signed stress: where it
+reverses the plastic rate follows its sign); its length is ``for <N> cycles`` or ``for <time> s``.
+Its rows are sampled at equal phases in every cycle, and the harmonic analysis of its last cycle
+(G', G'', I3/I1) is in the result's ``attrs["oscillations"]``.
+
 Units: rates ``1/s``, ``/s``, ``s^-1``; times ``ms``, ``s``, ``min``, ``h``; stresses ``mPa``,
-``Pa``, ``kPa``, ``MPa``; strains plain or in ``%``. A line that cannot be read raises
+``Pa``, ``kPa``, ``MPa``; strains plain or in ``%``; frequencies ``mHz``, ``Hz``, ``kHz``. A line that cannot be read raises
 ``ValueError("program line N: ...")`` naming what was expected.
 """
 
@@ -43,6 +52,7 @@ _TIME = {"ms": 1e-3, "s": 1.0, "sec": 1.0, "secs": 1.0, "second": 1.0, "seconds"
          "min": 60.0, "mins": 60.0, "minute": 60.0, "minutes": 60.0, "h": 3600.0,
          "hour": 3600.0, "hours": 3600.0}
 _STRESS = {"mPa": 1e-3, "Pa": 1.0, "kPa": 1e3, "MPa": 1e6}
+_FREQ = {"mHz": 1e-3, "Hz": 1.0, "kHz": 1e3}
 _END = (rf"(?:for\s+{_NUM}\s*{_TIME_U}"
         rf"|until\s+strain\s+{_NUM}\s*(%?)(?:\s+within\s+{_NUM}\s*{_TIME_U})?)")
 
@@ -57,6 +67,11 @@ _FORMS = {
              r"(?:\s+(log|logarithmic|linear|lin))?",
              "'ramp rate from <a> to <b> 1/s over <time> s [log|linear]' or "
              "'ramp stress from <a> to <b> Pa over <time> s [log|linear]'"),
+    "oscillate": (rf"oscillate\s+at\s+{_NUM}\s*(mHz|Hz|kHz)\s+with\s+(strain|stress)\s+"
+                  rf"(?:of\s+)?(?:amplitude\s+)?{_NUM}\s*(%|mPa|Pa|kPa|MPa)?\s+for\s+{_NUM}\s*"
+                  rf"(cycles?|{_TIME_U[1:-1]})",
+                  "'oscillate at <F> Hz with strain <A> for <N> cycles' or 'oscillate at <F> Hz "
+                  "with stress <S> Pa for <N> cycles'"),
     "start": (rf"start\s+(?:at\s+rest|from\s+steady\s+(stress|rate)\s+{_NUM}\s*"
               rf"(1/s|/s|s\^-1|s-1|mPa|Pa|kPa|MPa))",
               "'start at rest', 'start from steady stress <tau> Pa' or "
@@ -90,6 +105,44 @@ def _stress_unit(unit: str, lineno: int) -> float:
                      f"write mPa, Pa, kPa or MPa")
 
 
+def _freq_unit(unit: str, lineno: int) -> float:
+    if unit in _FREQ:
+        return _FREQ[unit]
+    if unit.lower() == "hz":
+        return 1.0
+    if unit.lower() == "khz":
+        return 1e3
+    raise ValueError(f"program line {lineno}: frequency unit {unit!r} is ambiguous or unknown; "
+                     f"write mHz, Hz or kHz")
+
+
+def _oscillation(g, lineno: int, line: str):
+    """Step of an 'oscillate at F Hz with strain|stress X for N cycles|T s' line."""
+    f, fu, what, x, xu, n, nu = g
+    freq = float(f) * _freq_unit(fu, lineno)
+    what = what.lower()
+    if what == "strain":
+        if xu not in (None, "%"):
+            raise ValueError(f"program line {lineno}: a strain amplitude is plain or in %, got "
+                             f"{xu}")
+        amp = float(x) / (100.0 if xu == "%" else 1.0)
+    else:
+        if xu in (None, "%"):
+            raise ValueError(f"program line {lineno}: a stress amplitude needs Pa"
+                             f"{', got %' if xu else ''}")
+        amp = float(x) * _stress_unit(xu, lineno)
+    if freq <= 0:
+        raise ValueError(f"program line {lineno}: oscillation frequency = {freq:g} Hz must be > 0")
+    if nu.lower().startswith("cycle"):
+        duration = float(n) / freq
+    else:
+        duration = float(n) * _TIME[nu.lower()]
+    if duration <= 0:
+        raise ValueError(f"program line {lineno}: an oscillation needs a positive number of "
+                         f"cycles or time, got {n} {nu}")
+    return Step(what, amp, ramp="sine", frequency=freq, duration=duration, label=line)
+
+
 def _is_rate_unit(unit: str) -> bool:
     return unit.lower() in ("1/s", "/s", "s^-1", "s-1")
 
@@ -120,7 +173,7 @@ def parse_program(text: str) -> Program:
         word = line.split()[0].lower()
         if word not in _FORMS:
             raise ValueError(f"program line {lineno}: unknown step {line.split()[0]!r}; a line "
-                             f"starts with shear, stress, rest, ramp or start "
+                             f"starts with shear, stress, rest, ramp, oscillate or start "
                              f"(e.g. 'shear at 10 1/s for 60 s')")
         pattern, expected = _FORMS[word]
         mt = re.fullmatch(pattern, line, flags=re.IGNORECASE)
@@ -150,6 +203,8 @@ def parse_program(text: str) -> Program:
             elif word == "stress":
                 scale = _stress_unit(g[1], lineno)
                 step = Step("stress", float(g[0]) * scale, label=line, **_end(g[2:8], lineno, line))
+            elif word == "oscillate":
+                step = _oscillation(g, lineno, line)
             elif word == "rest":
                 step = Step("rate", 0.0, duration=float(g[0]) * _TIME[g[1].lower()], label=line)
             else:

@@ -1,13 +1,24 @@
 """Transient tests of the 0-D model on SUNDIALS IDA: a :class:`Rheometer` runs a list of steps.
 
 Each step imposes a shear rate or a mixture shear stress, constant or ramped (linear or
-logarithmic), for a duration or until a strain is reached; "rest" is a zero rate. A step is one
-IDA solve of the DAE of :mod:`rheometer.model`, started from a consistent state (the algebraic
-unknowns solved, every derivative exact), and restarted at each event (jamming/unjamming, which
-changes the smoothness of the law) so that the BDF order is rebuilt from a clean point. After every
-solve the state is checked (finite, ``0 <= f <= max(f0, f_m)``, ``taubar >= 0``, ``gdot_p >= 0``)
-and a violation raises ``RuntimeError`` with the time, state and IDA statistics: a loose tolerance
-can return "success" with a blown-up state.
+logarithmic), for a duration or until a strain is reached; "rest" is a zero rate; or an
+oscillation for a number of cycles: strain ``gamma0 sin(omega (t - t_s))`` (imposed as the rate
+``gamma0 omega cos(omega (t - t_s))``, t_s the step's start, so the strain oscillates about the
+strain reached so far) or mixture stress ``sigma0 sin(omega (t - t_s))`` (about zero), from
+whatever state the previous step left. A step is one IDA solve of the DAE of
+:mod:`rheometer.model` (signed stress: where the stress reverses, the plastic rate reverses with
+it), started from a consistent state (the algebraic unknowns solved, every derivative exact), and
+restarted at each event (jamming/unjamming, which changes the smoothness of the law) so that the
+BDF order is rebuilt from a clean point. After every solve the state is checked (finite,
+``0 <= f <= max(f0, f_m)``, the plastic rate of the stress's sign) and a violation raises
+``RuntimeError`` with the time, state and IDA statistics: a loose tolerance can return "success"
+with a blown-up state.
+
+An oscillation step samples every cycle at the same phases (``max(32, points/cycles)`` per
+cycle, rounded up); the harmonic analysis of its last full cycle (first-harmonic G', G'', the
+third-harmonic ratio I3/I1, the amplitudes; the same definitions as :mod:`rheometer.oscillation`)
+is in ``attrs["oscillations"]``. It does not wait for the periodic steady state (the program runs
+the cycles it is told to); ``cycle_change`` there says how far the last two cycles differ.
 
 Defaults where the material has none (the steady fits of the paper): ``G = 1e4 Pa`` (Fig. 15: the
 relaxation times of tens of seconds reported by the experiments the paper cites need G ~ 10 kPa)
@@ -96,20 +107,26 @@ class Step:
 
     Attributes
     ----------
-    control : {"rate", "stress"}
-        Imposed shear rate [1/s] or imposed mixture shear stress [Pa]; rest is rate 0.
+    control : {"rate", "stress", "strain"}
+        Imposed shear rate [1/s] or imposed mixture shear stress [Pa]; rest is rate 0. "strain"
+        (strain amplitude [-]) only for an oscillation (``ramp="sine"``).
     start, end : float
-        Imposed value at the start and end of the step (equal for a constant step).
-    ramp : {"const", "linear", "log"}
-        How the value goes from start to end over ``duration``.
+        Imposed value at the start and end of the step (equal for a constant step); the
+        amplitude of an oscillation (> 0).
+    ramp : {"const", "linear", "log", "sine"}
+        How the value goes from start to end over ``duration``; "sine": an oscillation
+        ``start sin(2 pi frequency (t - t_step))`` of the strain or the mixture stress.
     duration : float or None
-        Length of the step [s] (None: until ``strain`` is reached, at most ``max_time``).
+        Length of the step [s] (None: until ``strain`` is reached, at most ``max_time``); of an
+        oscillation, cycles/frequency.
     strain : float or None
         Strain increment [-] at which the step ends (None: runs for ``duration``).
     max_time : float
         Longest time a step ending on strain may run [s].
     label : str
         Text shown in plots and tables (e.g. the program line).
+    frequency : float or None
+        Frequency of an oscillation [Hz] (only with ``ramp="sine"``).
     """
 
     control: str
@@ -120,13 +137,22 @@ class Step:
     strain: float | None = None
     max_time: float = DEFAULT_MAX_TIME
     label: str = ""
+    frequency: float | None = None
 
     def __post_init__(self) -> None:
-        if self.control not in ("rate", "stress"):
-            raise ValueError(f"step control = {self.control!r} must be 'rate' or 'stress'")
-        if self.ramp not in ("const", "linear", "log"):
-            raise ValueError(f"step ramp = {self.ramp!r} must be 'const', 'linear' or 'log'")
-        unit = "1/s" if self.control == "rate" else "Pa"
+        if self.control not in ("rate", "stress", "strain"):
+            raise ValueError(f"step control = {self.control!r} must be 'rate', 'stress' or "
+                             f"'strain' (oscillation)")
+        if self.ramp not in ("const", "linear", "log", "sine"):
+            raise ValueError(f"step ramp = {self.ramp!r} must be 'const', 'linear', 'log' or "
+                             f"'sine'")
+        if self.ramp == "sine":
+            self._check_oscillation()
+        elif self.control == "strain":
+            raise ValueError("a strain-controlled step is an oscillation (ramp 'sine')")
+        elif self.frequency is not None:
+            raise ValueError("only an oscillation (ramp 'sine') has a frequency")
+        unit = {"rate": "1/s", "stress": "Pa", "strain": "-"}[self.control]
         check_nonnegative(f"imposed {self.control} [{unit}]", self.start)
         if self.end is None:
             object.__setattr__(self, "end", self.start)
@@ -144,10 +170,42 @@ class Step:
             check_positive("step strain [-]", self.strain)
         check_positive("step max_time [s]", self.max_time)
 
+    def _check_oscillation(self) -> None:
+        if self.control not in ("strain", "stress"):
+            raise ValueError(f"an oscillation imposes a strain or a stress amplitude, not a "
+                             f"{self.control}")
+        unit = "[-]" if self.control == "strain" else "[Pa]"
+        check_positive(f"oscillation {self.control} amplitude {unit}", self.start)
+        if self.end is not None and self.end != self.start:
+            raise ValueError("an oscillation has one amplitude (end = start)")
+        if self.frequency is None:
+            raise ValueError("an oscillation needs a frequency [Hz]")
+        check_positive("oscillation frequency [Hz]", self.frequency)
+        if self.strain is not None:
+            raise ValueError("an oscillation runs for a number of cycles, not until a strain")
+        if self.duration is None:
+            raise ValueError("an oscillation needs a duration (cycles/frequency)")
+        check_positive("oscillation duration [s]", self.duration)
+
     @property
     def t_max(self) -> float:
         """Longest time the step may last [s]."""
         return self.duration if self.duration is not None else self.max_time
+
+    @property
+    def oscillation(self) -> bool:
+        """Whether the step is an oscillation."""
+        return self.ramp == "sine"
+
+    @property
+    def omega(self) -> float:
+        """Angular frequency of an oscillation [rad/s] (0 for other steps)."""
+        return 2.0 * np.pi * self.frequency if self.oscillation else 0.0
+
+    @property
+    def cycles(self) -> float:
+        """Number of cycles of an oscillation (0 for other steps)."""
+        return self.duration * self.frequency if self.oscillation else 0.0
 
 
 @dataclass
@@ -296,6 +354,7 @@ class Rheometer:
         if not steps:
             raise ValueError("a test needs at least one step")
         points = int(check_range("points", points, 3, 10 ** 6))
+        self._points = points
         stats = RunStats()
         pieces: list[_Piece] = []
         first = 0
@@ -309,8 +368,8 @@ class Rheometer:
             stats.solves, stats.nfev, stats.njev = resume.solves, resume.nfev, resume.njev
         else:
             st = state or self.rest()
-        if not (np.isfinite(st.gap) and np.isfinite(st.taubar) and st.taubar >= 0):
-            raise ValueError(f"initial state {st} must be finite with taubar >= 0")
+        if not (np.isfinite(st.gap) and np.isfinite(st.taubar) and np.isfinite(st.strain)):
+            raise ValueError(f"initial state {st} must be finite")
         t0 = time.perf_counter()
         for k in range(first, len(steps)):
             st = self._run_step(k, steps[k], st, points, pieces, stats)
@@ -319,13 +378,32 @@ class Rheometer:
         stats.seconds = time.perf_counter() - t0
         return self._frame(pieces, stats, steps)
 
+    def linear_modulus(self, omega: float) -> complex:
+        """Small-amplitude complex modulus G*(omega) [Pa] at rest: the Maxwell element (G,
+        eta_g = eta_low) in parallel with the fluid eta_F (derived in
+        :mod:`rheometer.oscillation`, whose :func:`~rheometer.oscillation.linear_modulus` is the
+        same formula); used here for the tolerance scales of an oscillation step."""
+        iwl = 1j * omega * self.eta_low / self.G
+        return complex(self.G * iwl / (1.0 + iwl) + 1j * omega * self.eta_fluid)
+
     def scales(self, step: Step, st: State) -> np.ndarray:
         """Scale of each DAE unknown for the absolute tolerances: stress [Pa], gap (tiny, so that
         the gap is controlled relatively down to ~1e-8), rates [1/s] (under stress control the
-        shear rate's is the stress scale over the fluid viscosity), strain."""
+        shear rate's is the stress scale over the fluid viscosity), strain (of an oscillation:
+        its amplitude, at most 1)."""
+        if step.oscillation:
+            G_abs = abs(self.linear_modulus(step.omega))
+            amp_strain = step.start if step.control == "strain" else step.start / G_abs
+            rate_max = amp_strain * step.omega if step.control == "strain" else 0.0
+            stress_max = step.start if step.control == "stress" else amp_strain * G_abs
+            tau = max(abs(st.taubar), stress_max, 1e-6 * self.material.tau_star)
+            g = max(amp_strain * step.omega, tau / self.eta_low)
+            gd = max(g, tau / self.eta_fluid) if step.control == "stress" else g
+            return np.array([tau, 1e-8, g, gd, min(1.0, amp_strain)])
         rate_max = max(step.start, step.end) if step.control == "rate" else 0.0
         stress_max = max(step.start, step.end) if step.control == "stress" else 0.0
-        tau = max(st.taubar, stress_max, self.eta_low * rate_max, 1e-6 * self.material.tau_star)
+        tau = max(abs(st.taubar), stress_max, self.eta_low * rate_max,
+                  1e-6 * self.material.tau_star)
         g = max(rate_max, tau / self.eta_low)
         # Under an imposed mixture stress the shear rate is slaved to the granular stress,
         # gdot = (tau_imposed - taubar)/eta_f: an error atol_tau in taubar IS an error
@@ -340,7 +418,14 @@ class Rheometer:
         """Output times from the step start: even for ramps; for constant steps half even and
         half log-spaced from a tenth of the fastest elastic time, eta/G (fluid viscosity under
         imposed stress, low-stress granular viscosity under imposed rate), so that the fast
-        loading is resolved."""
+        loading is resolved. An oscillation: :meth:`samples_per_cycle` at equal phases in every
+        cycle (the step's end added if the cycles are not whole)."""
+        if step.oscillation:
+            n = self.samples_per_cycle(step, points)
+            dt = 1.0 / (step.frequency * n)
+            m = int(np.floor(step.cycles * n * (1 + 1e-12)))
+            t = np.arange(m + 1) * dt
+            return t if t[-1] >= t_end * (1 - 1e-12) else np.append(t, t_end)
         if step.ramp != "const":
             return np.linspace(0.0, t_end, points)
         eta = self.eta_fluid if step.control == "stress" else self.eta_low
@@ -349,12 +434,30 @@ class Rheometer:
         return np.unique(np.concatenate([[0.0], np.geomspace(t_first, t_end, n_log),
                                          np.linspace(0.0, t_end, points - n_log)]))
 
-    def _run_step(self, k: int, step: Step, st: State, points: int, pieces: list,
-                  stats: RunStats) -> State:
+    @staticmethod
+    def samples_per_cycle(step: Step, points: int) -> int:
+        """Output samples per cycle of an oscillation step: ``max(32, ceil(points/cycles))``."""
+        return max(32, int(np.ceil(points / max(step.cycles, 1e-300))))
+
+    @staticmethod
+    def control_of(step: Step, st: State) -> np.ndarray:
+        """The control vector (:func:`rheometer.model.control`) of ``step`` started at ``st``."""
+        target = st.strain + step.strain if step.strain is not None else np.inf
+        if step.oscillation:
+            if step.control == "strain":       # strain A sin(w (t - t_s)): rate A w cos(...)
+                return model.control(model.RATE, model.COSINE, step.start * step.omega,
+                                     step.omega, st.t, step.duration, target)
+            return model.control(model.STRESS, model.SINE, step.start, step.omega, st.t,
+                                 step.duration, target)
         mode = model.RATE if step.control == "rate" else model.STRESS
         kind = {"const": model.CONST, "linear": model.LINEAR, "log": model.LOG}[step.ramp]
-        target = st.strain + step.strain if step.strain is not None else np.inf
-        C = model.control(mode, kind, step.start, step.end, st.t, step.duration or 0.0, target)
+        return model.control(mode, kind, step.start, step.end, st.t, step.duration or 0.0, target)
+
+    def _run_step(self, k: int, step: Step, st: State, points: int, pieces: list,
+                  stats: RunStats) -> State:
+        C = self.control_of(step, st)
+        # an oscillation: at most 1/16 period per IDA step, as in rheometer.oscillation
+        max_step = 1.0 / (16.0 * step.frequency) if step.oscillation else None
         t_stop = st.t + step.t_max
         grid = st.t + self.output_times(step, step.t_max, points)
         grid[-1] = t_stop
@@ -362,7 +465,7 @@ class Rheometer:
         restarts = 0
         while True:
             sol = self.integrate(grid, st, C, scale, jam_events=self._may_jam(st),
-                                 terminal_jam=restarts < self.max_restarts)
+                                 terminal_jam=restarts < self.max_restarts, max_step=max_step)
             stats.solves += 1
             stats.nfev += int(sol.nfev)
             stats.njev += int(sol.njev)
@@ -404,12 +507,13 @@ class Rheometer:
         return st.gap <= 0.0 or self.f_m > self.f_jam * (1.0 + 1e-12)
 
     def integrate(self, grid, st: State, C, scale, jam_events: bool = False,
-                  terminal_jam: bool = True):
+                  terminal_jam: bool = True, max_step: float | None = None):
         """One IDA solve of the model from state ``st`` over the output times ``grid`` [s].
 
         ``C`` is the control vector (:func:`rheometer.model.control`), ``scale`` the scale of
-        each unknown (atol = self.atol * scale). Returns the raw ``IDAResult`` (unknowns in the
-        order of the chosen form); :meth:`run` is the checked, user-level path.
+        each unknown (atol = self.atol * scale), ``max_step`` [s] IDA's largest step (None:
+        unlimited). Returns the raw ``IDAResult`` (unknowns in the order of the chosen form);
+        :meth:`run` is the checked, user-level path.
         """
         P, ode = self.P, self.form == "ode"
         y = np.empty(NVAR)
@@ -439,6 +543,8 @@ class Rheometer:
             if not jam_events:
                 eventsfn.terminal[0], eventsfn.direction[0] = False, 0
             events = dict(eventsfn=eventsfn, num_events=NEVENTS)
+        if max_step is not None:
+            events["max_step"] = float(max_step)
         solver = IDA(resfn, rtol=self.rtol, atol=self.atol * atol,
                      algebraic_idx=None if ode else [GP, GD],
                      jacfn=jacfn if self.jacobian else None, max_num_steps=200_000, **events)
@@ -472,40 +578,116 @@ class Rheometer:
                                f"{sol.nfev} residuals)")
         f_hi = max(float(model.structure_of_gap(st0.gap, self.P)), self.f_m)
         tol_f = 10 * self.rtol
-        tol_tau = 10 * self.rtol * max(1.0, float(np.max(np.abs(y[:, TAU]))))
+        # the plastic rate has the sign of the stress (signed law, rheometer.model)
+        tol_gp = 10 * self.rtol * max(1e-300, float(np.max(np.abs(y[:, GP]))))
         bad = (~np.all(np.isfinite(y), axis=1) | (f < -tol_f) | (f > f_hi + tol_f)
-               | (y[:, TAU] < -tol_tau) | (y[:, GP] < -tol_tau))
+               | (y[:, GP] * np.where(y[:, TAU] >= 0, 1.0, -1.0) < -tol_gp))
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
             raise RuntimeError(
                 f"unphysical state in {where} at t = {sol.t[i]:.6g} s: taubar = {y[i, TAU]:.6g} "
-                f"Pa, f = {f[i]:.6g} (valid [0, {f_hi:.6g}]), gdot_p = {y[i, GP]:.6g} 1/s; "
-                f"IDA reported '{sol.message}' after {sol.nfev} residuals: tighten rtol")
+                f"Pa, f = {f[i]:.6g} (valid [0, {f_hi:.6g}]), gdot_p = {y[i, GP]:.6g} 1/s (of "
+                f"the stress's sign); IDA reported '{sol.message}' after {sol.nfev} residuals: "
+                f"tighten rtol")
 
     def _frame(self, pieces: list[_Piece], stats: RunStats, steps) -> pd.DataFrame:
         t = np.concatenate([p.t for p in pieces])
         y = np.concatenate([p.y for p in pieces])
         k = np.concatenate([np.full(p.t.size, p.step) for p in pieces])
         m, phi = self.material, self.phi
-        tau_g = np.maximum(y[:, TAU], 0.0)
+        tau_g = y[:, TAU]                                  # signed (reversal, oscillation)
         gap = y[:, GAP]
         f = np.clip(model.structure_of_gap(gap, self.P), 0.0, 1.0)
-        gp = np.maximum(y[:, GP], 0.0)
+        gp = y[:, GP]
         g = y[:, GD]
         tau = tau_g + self.eta_fluid * g
+        # tau/gdot: the viscosity of a shear or creep step; undefined (empty) at gdot = 0 and in
+        # an oscillation (its |eta*| = |G*|/omega is in attrs["oscillations"])
+        osc = np.isin(k, [i for i, s in enumerate(steps) if s.oscillation])
+        defined = (g != 0) & ~osc
         with np.errstate(divide="ignore", invalid="ignore"):
-            visc = np.where(g > 0, tau / np.where(g > 0, g, 1.0), np.nan)
+            visc = np.where(defined, tau / np.where(defined, g, 1.0), np.nan)
         df = pd.DataFrame({
             "time_s": t, "step": k + 1, "strain": y[:, STRAIN], "shear_rate_per_s": g,
             "shear_stress_Pa": tau, "granular_shear_stress_Pa": tau_g,
             "plastic_shear_rate_per_s": gp, "f": f,
-            "granular_pressure_Pa": critical_state_pressure(tau_g, gp, phi, f, gap, m),
+            "granular_pressure_Pa": critical_state_pressure(np.abs(tau_g), np.abs(gp), phi, f,
+                                                            gap, m),
             "viscosity_Pa_s": visc, "jamming_gap": gap})
         df.attrs.update(material=m.name, phi=phi, G_Pa=self.G, K0=self.K0, rtol=self.rtol,
                         form=self.form, events=stats.events, solves=stats.solves,
                         nfev=stats.nfev, njev=stats.njev, seconds=stats.seconds,
-                        steps=[s.label or s.control for s in steps])
+                        steps=[s.label or s.control for s in steps],
+                        oscillations=[self.analyse_oscillation(steps[i], df[k == i], i)
+                                      for i in sorted(set(k.tolist())) if steps[i].oscillation])
         return df
+
+    def analyse_oscillation(self, step: Step, d: pd.DataFrame, index: int) -> dict:
+        """Harmonic analysis of the last full cycle of an oscillation step's rows ``d``.
+
+        The cycle's samples at phases 2 pi j/N (N = :meth:`samples_per_cycle`, phase 0 at the
+        step's start); the same definitions as :mod:`rheometer.oscillation`: ``G* = c_sigma,1 /
+        c_gamma,1`` (strain control: ``c_gamma,1 = -i gamma0``; stress control: ``c_sigma,1 = -i
+        sigma0`` and the strain's harmonic with its drift over the cycle removed), ``I3/I1`` of
+        the response (stress under strain control, strain under stress control). Keys: step (from
+        1), control, frequency_Hz, cycles, storage_modulus_Pa, loss_modulus_Pa,
+        complex_viscosity_Pa_s, I3_over_I1, strain_amplitude, stress_amplitude_Pa,
+        mean_stress_Pa, cycle_change (relative change of c_1 from the cycle before; NaN with one
+        cycle). Fewer than one full cycle: only step, control, frequency_Hz, cycles.
+        """
+        from .oscillation import harmonics
+
+        out = dict(step=index + 1, control=step.control, frequency_Hz=step.frequency,
+                   cycles=step.cycles)
+        full = int(np.floor(step.cycles * (1 + 1e-12)))
+        if full < 1 or d.empty:
+            return out
+        n = self.samples_per_cycle(step, self._points)
+        t = d["time_s"].to_numpy()
+        u = (t - t[0]) * step.frequency * n
+        j = np.rint(u)
+        on = np.abs(u - j) < 1e-6
+
+        def cycle(c):
+            sel = on & (j >= (c - 1) * n) & (j <= c * n)
+            idx = np.flatnonzero(sel)
+            _, first = np.unique(j[idx], return_index=True)
+            idx = idx[first]
+            return idx if idx.size == n + 1 else None
+
+        def c1(c):
+            idx = cycle(c)
+            if idx is None:
+                return None
+            stress = d["shear_stress_Pa"].to_numpy()[idx]
+            strain = d["strain"].to_numpy()[idx]
+            if step.control == "strain":
+                cs = harmonics(stress[:n])
+                cg = np.array([-1j * step.start, 0.0])
+                resp = cs
+            else:
+                drift = strain[n] - strain[0]
+                cg = harmonics(strain[:n] - drift * np.arange(n) / n)
+                cs = np.array([-1j * step.start, 0.0])
+                resp = cg
+            return cs, cg, resp, float(np.mean(stress[:n]))
+
+        last = c1(full)
+        if last is None:
+            return out
+        cs, cg, resp, mean = last
+        Gs = complex(cs[0] / cg[0])
+        change = np.nan
+        if full >= 2:
+            prev = c1(full - 1)
+            if prev is not None:
+                change = float(abs(prev[2][0] - resp[0]) / abs(resp[0]))
+        out.update(storage_modulus_Pa=Gs.real, loss_modulus_Pa=Gs.imag,
+                   complex_viscosity_Pa_s=abs(Gs) / step.omega,
+                   I3_over_I1=float(abs(resp[1]) / abs(resp[0])),
+                   strain_amplitude=float(abs(cg[0])), stress_amplitude_Pa=float(abs(cs[0])),
+                   mean_stress_Pa=mean, cycle_change=change)
+        return out
 
 
 def critical_state_pressure(taubar, gdot_p, phi, f, gap, m: Material) -> np.ndarray:
