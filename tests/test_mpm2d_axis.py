@@ -15,9 +15,8 @@ import pytest
 
 from mpm2d import (Grid, LinearElastic, NewtonianFluid, ParticleSet, Simulation, Suspension,
                    box)
-from mpm2d import grid_update as gu
 from mpm2d.geostatic import geostatic
-from mpm2d.grid import FX, M, PAD, fold
+from mpm2d.grid import FX, PAD, fold
 from rheology import get_material
 
 G0 = 9.81
