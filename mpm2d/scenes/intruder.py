@@ -51,7 +51,8 @@ from the first record after the contact transient (four acoustic crossings of th
 on the default bed) and after the bed first jams (a point's f reaches f_jam, phi_m(f_jam) =
 phi0; ``jammed`` in summary.json says whether it did) where both fronts exist and the
 longitudinal front is at least 2 cells ahead of the tip until either front comes within ``fit_margin`` of the
-floor or the outer wall, or either falls back by more than a cell (h) from its farthest position
+floor or the outer wall, or either (its running median over 9 records) falls back by more than
+a cell (h) from its farthest position
 (the plug stopped growing: it unjams once the stress waves come back from the floor); records where a front is momentarily undefined (the cell under the tip
 lagging the rod by more than v0/2 for a step) are left out of the fits, not ended at.
 k_l = v_fl/v0 - 1, k_t = v_ft/v0.
@@ -247,8 +248,10 @@ def fit_window(time, tip_depth, longitudinal, transverse, *, depth, radius, h, m
         # a front that falls back by more than a cell from its farthest position: the plug
         # stopped growing (it unjams once the stress waves return from the floor)
         for pos in (zl, rt):
-            best = np.fmax.accumulate(np.where(np.arange(len(pos)) >= k0, pos, np.nan))
-            near |= pos < best - h
+            # a running median over 9 records: the binning and contact noise left out
+            med = pd.Series(pos).rolling(9, center=True, min_periods=1).median().to_numpy()
+            best = np.fmax.accumulate(np.where(np.arange(len(med)) >= k0, med, np.nan))
+            near |= med < best - h
     near[:k0] = False
     k1 = int(np.argmax(near)) - 1 if near.any() else len(t) - 1
     if k1 < k0:
