@@ -238,7 +238,9 @@ class Simulation:
                  + (f" (FLIP fraction {self.flip_alpha})" if self.transfer == "flip" else "")
                  + f"; {self.grid.describe()}"]
         for s in self.sets:
-            lines.append(f"  set {s.name}: {len(s)} points, {s.material.describe()}")
+            own = (f"; own velocity field, contact mu_w = {self.contact_sets[s.name]:g}"
+                   if s.name in self.contact_sets else "")
+            lines.append(f"  set {s.name}: {len(s)} points, {s.material.describe()}{own}")
         for b in self.bodies:
             lines.append(f"  {b.describe()}")
         lines.append(f"  gravity ({self.gravity[0]:g}, {self.gravity[1]:g}) m/s^2; dt "
