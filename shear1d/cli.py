@@ -19,6 +19,7 @@ import math
 import sys
 
 from rheology.cli_common import Number, OneLineParser, run_command
+from rheology.sample import add_mass_fraction_options
 
 #: Size bounds of --cells and --outputs (a memory estimate is checked as well, before the run).
 #: 20000 cells on the Fig. 3 gap are 1.2 um, a fifth of a grain diameter: far beyond the
@@ -64,6 +65,14 @@ def _parser() -> argparse.ArgumentParser:
                        default=60.0, help="wall-time seconds between checkpoints (default 60; "
                        "one is also written at the end and on Ctrl-C/SIGTERM)")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
+        p.add_argument("--material", default="annular_shear", metavar="NAME|FILE.json",
+                       help="steady-flow parameters: a set name or a material file (e.g. "
+                            "fit/material.json from 'rheometer fit'); the moduli, densities, d "
+                            "and K0 it leaves unset come from Table 4 (annular_shear, default)")
+        p.add_argument("--phi", type=Number("--phi", 0, 1, lo_closed=False, hi_closed=False),
+                       default=None, help="volume fraction, below the material's phi_j (default: "
+                                          "Table 4's phi0 = 0.505)")
+        add_mass_fraction_options(p, nargs=None)
 
     a = sub.add_parser("annular", help="Fig. 3: annular shear, dynamic shear-jamming fronts")
     a.add_argument("--u-inner", type=Number("--u-inner", 0, math.floor(u_max * 1e3) / 1e3,
@@ -94,11 +103,6 @@ def _parser() -> argparse.ArgumentParser:
                    help="gap [m] (default 0.01)")
     c.add_argument("--time", type=Number("--time", 0, None, lo_closed=False, unit="s"),
                    default=1.0, help="duration [s] (default 1)")
-    c.add_argument("--phi", type=Number("--phi", 0, 1, lo_closed=False, hi_closed=False),
-                   default=None, help="volume fraction, below the material's phi_j (default: the "
-                                      "material's phi0)")
-    c.add_argument("--material", default="annular_shear", help="rheology material name "
-                   "(needs G, K, K0, densities; default annular_shear)")
     c.add_argument("--out", default="plane_couette", help="output folder")
     numerics(c, 100, 200, MODES)
     return ap
@@ -112,22 +116,43 @@ def _modes(mode: str | None, default: tuple[str, ...]) -> tuple[str, ...]:
     return MODES if mode == "both" else (mode,)
 
 
+def _sample(args):
+    """The material (the user's steady fit on Table 4's moduli) and phi0 (from --phi or
+    --mass-fraction, else the material's), with the conversion printed."""
+    from rheology.materials import scene_material
+    from rheology.sample import mass_fraction_phi
+
+    m = scene_material("annular_shear", args.material)
+    if args.phi is not None and args.mass_fraction is not None:
+        raise ValueError("give --phi or --mass-fraction, not both")
+    phis, note = mass_fraction_phi(args, m)
+    if phis is not None:
+        print(f"shear1d: {note}")
+        return m, phis[0]
+    if args.phi is not None and args.phi >= m.phi_j:
+        raise ValueError(f"--phi = {args.phi:g} is outside the valid range (0, {m.phi_j:g}) "
+                         f"(below phi_j of {m.name})")
+    return m, args.phi
+
+
 def _annular(args) -> None:
     from .scenes import run_annular
 
+    m, phi0 = _sample(args)
     run_annular(args.out, tuple(args.u_inner), _modes(args.mode, ("locked", "two-phase")),
                 n_cells=args.cells, method=args.method, rtol=args.rtol, dt=args.dt,
                 n_out=args.outputs, r_inner=args.r_inner, r_outer=args.r_outer,
                 rotation=args.rotation, ramp_time=args.ramp_time, resume=args.resume,
-                checkpoint_every=args.checkpoint_every, progress=not args.quiet)
+                checkpoint_every=args.checkpoint_every, progress=not args.quiet,
+                material=m, phi0=phi0)
 
 
 def _couette(args) -> None:
     from .scenes import plane_couette, run_couette
 
+    m, phi0 = _sample(args)
     pb = plane_couette(args.speed, stress=args.stress, gap=args.gap, n_cells=args.cells,
-                       mode=_modes(args.mode, ("locked",))[0], phi0=args.phi,
-                       material=args.material)
+                       mode=_modes(args.mode, ("locked",))[0], phi0=phi0, material=m)
     run_couette(args.out, pb, args.time, method=args.method, n_out=args.outputs, rtol=args.rtol,
                 dt=args.dt, resume=args.resume, checkpoint_every=args.checkpoint_every,
                 progress=not args.quiet)

@@ -51,7 +51,7 @@ ROTATION_END = 0.31
 def annular_shear_jamming(u_inner: float = 0.084, *, n_cells: int = 200, mode: str = "locked",
                           r_inner: float = R_INNER, r_outer: float = R_OUTER,
                           rotation: float = ROTATION_END, ramp_time: float = 0.0,
-                          material: str = "annular_shear", phi0: float | None = None,
+                          material="annular_shear", phi0: float | None = None,
                           **overrides) -> tuple[Couette, float]:
     """The Fig. 3 annular cell: (problem, t_end [s]) for a bob surface speed u_inner [m/s] > 0.
 
@@ -339,6 +339,7 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
                 n_out: int = 310, r_inner: float = R_INNER, r_outer: float = R_OUTER,
                 rotation: float = ROTATION_END, ramp_time: float = 0.0, resume: bool = False,
                 checkpoint_every: float = 60.0, progress: bool = False, stop_hook=None,
+                material="annular_shear", phi0: float | None = None,
                 log=print) -> list[SceneRun]:
     """Solve the Fig. 3 scene for every speed and mode; write CSV, JSON and PNG into ``out``.
 
@@ -366,7 +367,7 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
         for mode in modes:
             problems.append((u, mode) + annular_shear_jamming(
                 u, n_cells=n_cells, mode=mode, r_inner=r_inner, r_outer=r_outer,
-                rotation=rotation, ramp_time=ramp_time))
+                rotation=rotation, ramp_time=ramp_time, material=material, phi0=phi0))
     if len(set(speeds)) != len(tuple(speeds)) or len(set(modes)) != len(tuple(modes)):
         raise ValueError(f"--u-inner {' '.join(f'{u:g}' for u in speeds)}: each speed (and "
                          "mode) once")

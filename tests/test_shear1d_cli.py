@@ -122,8 +122,11 @@ def test_the_options_have_physical_ranges():
     (["couette", "--speed", "0.01", "--stress", "2"], "not allowed"),
     (["couette", "--speed", "2"], "wall_speed"),               # above 0.1 sqrt(G/rho)
     (["couette", "--stress", "1e5"], "wall_stress"),           # above 0.1 G
-    (["couette", "--speed", "0.01", "--phi", "0.6"], "phi0"),  # above phi_j
-    (["couette", "--speed", "0.01", "--material", "hermes2016"], "hermes2016"),
+    (["couette", "--speed", "0.01", "--phi", "0.6"], "--phi"),  # above phi_j
+    (["annular", "--mass-fraction", "0.6"], "--mass-fraction"),   # phi above phi_j by Eq. 20
+    (["annular", "--phi", "0.5", "--mass-fraction", "0.5"], "not both"),
+    (["couette", "--speed", "0.01", "--material", "singh2018_a"], "normalised"),
+    (["annular", "--material", "nosuch.json"], "nosuch.json"),
     (["couette", "--speed", "0.01", "--mode", "both"], "--mode"),
     (["annular", "--u-inner", "0.084", "0.084"], "once"),
     (["annular", "--u-inner", "0.00084", "--rotation", "100", "--cells", "20000", "--method",
@@ -167,3 +170,25 @@ def test_memory_estimate_covers_the_measured_peak():
     assert floats < FLOATS_PER_CELL_OUTPUT, floats
     assert memory_estimate(100_000_000, 310) > 1e12
     assert math.isclose(memory_estimate(10, 9, runs=2) - 50e6, 2 * 48 * 8 * 10 * 10)
+
+
+def test_material_file_and_mass_fraction(tmp_path):
+    """A user's material file runs on Table 4's moduli; a mass fraction sets phi by Eq. (20)."""
+    import json
+
+    import rheology
+    from rheology.sample import Densities, volume_fraction
+
+    fit = tmp_path / "material.json"
+    rheology.materials.save_material(fit, rheology.get_material("hermes2016", eta0=0.01))
+    out = tmp_path / "o"
+    w = 0.45
+    proc = subprocess.run([sys.executable, "-m", "shear1d", "annular", "--material", str(fit),
+                           "--mass-fraction", str(w), "--u-inner", "0.084", "--mode", "locked",
+                           "--cells", "20", "--rotation", "0.02", "--outputs", "5", "--quiet",
+                           "--out", str(out)], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    phi = float(volume_fraction(w, Densities(liquid=1620.0)))     # Table 4 is density matched
+    summary = json.loads((out / "u84mm_s_locked_summary.json").read_text())
+    assert summary["phi0"] == pytest.approx(phi, rel=1e-12)
+    assert f"phi = {phi:.5g}" in proc.stdout
