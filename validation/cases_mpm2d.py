@@ -39,7 +39,8 @@ def _convergence(setup, analyse, out, cells, extra, title, png):
               for k in ("frequency_error", "amplitude_error", "max_error")}
     for k, o in orders.items():
         df[f"order_{k}"] = np.concatenate([[np.nan], o])
-    atomic_write_csv(out / "convergence.csv", df)
+    atomic_write_csv(out / "convergence.csv", df,
+                     empty_ok=[f"order_{k}" for k in orders])   # no order on the coarsest row
     fig, ax = plt.subplots(figsize=(6.5, 5))
     for k, mk in (("frequency_error", "o-"), ("amplitude_error", "s-"), ("max_error", "^-")):
         ax.loglog(h, df[k], mk, label=k.replace("_", " "))
