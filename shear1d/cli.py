@@ -48,8 +48,9 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--mode", default=None, choices=modes,
                        help="locked (phases move together, phi fixed), two-phase (Darcy "
                             "migration)" + (", or both" if "both" in modes else ""))
-        p.add_argument("--method", default="ida", choices=METHODS, help="ida (default) or "
-                       "explicit")
+        p.add_argument("--method", default="ida", choices=METHODS, help="ida (default, full "
+                       "Table 8 law), explicit (full law), or dae (locked mode only: the reduced "
+                       "critical-state law as a smooth DAE, see shear1d.dae)")
         p.add_argument("--rtol", type=Number("--rtol", 1e-12, 1e-2), default=1e-4,
                        help="IDA tolerance, 1e-12-1e-2 (default 1e-4)")
         p.add_argument("--dt", type=Number("--dt", 0, None, lo_closed=False, unit="s"),
@@ -135,11 +136,21 @@ def _sample(args):
     return m, args.phi
 
 
+def _check_dae(method: str, modes: tuple[str, ...]) -> None:
+    """Refuse --method dae with a two-phase run (before anything is written)."""
+    if method == "dae" and "two-phase" in modes:
+        raise ValueError("--method dae (reduced critical-state law) is for --mode locked only "
+                         f"(got modes {', '.join(modes)}); add --mode locked or use --method "
+                         "ida|explicit")
+
+
 def _annular(args) -> None:
     from .scenes import run_annular
 
     m, phi0 = _sample(args)
-    run_annular(args.out, tuple(args.u_inner), _modes(args.mode, ("locked", "two-phase")),
+    modes = _modes(args.mode, ("locked", "two-phase"))
+    _check_dae(args.method, modes)
+    run_annular(args.out, tuple(args.u_inner), modes,
                 n_cells=args.cells, method=args.method, rtol=args.rtol, dt=args.dt,
                 n_out=args.outputs, r_inner=args.r_inner, r_outer=args.r_outer,
                 rotation=args.rotation, ramp_time=args.ramp_time, resume=args.resume,
@@ -151,6 +162,7 @@ def _couette(args) -> None:
     from .scenes import plane_couette, run_couette
 
     m, phi0 = _sample(args)
+    _check_dae(args.method, _modes(args.mode, ("locked",)))
     pb = plane_couette(args.speed, stress=args.stress, gap=args.gap, n_cells=args.cells,
                        mode=_modes(args.mode, ("locked",))[0], phi0=phi0, material=m)
     run_couette(args.out, pb, args.time, method=args.method, n_out=args.outputs, rtol=args.rtol,

@@ -37,7 +37,7 @@ from rheology.io import CorruptCheckpoint, load_checkpoint, save_checkpoint
 from . import analysis, kernels
 from .model import STRESS_COMPONENTS, Couette
 
-METHODS = ("ida", "explicit")
+METHODS = ("ida", "explicit", "dae")
 EVENTS = ("front_at_wall", "flow_stopped")
 #: flow_stopped fires when the bulk speed (analysis.bulk_speed) falls below this fraction of u_wall.
 FLOW_STOP_LEVEL = 0.1
@@ -380,7 +380,9 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     problem : Couette
     t_end : float
         End time [s] (or give ``t_out``).
-    method : {"ida", "explicit"}
+    method : {"ida", "explicit", "dae"}
+        ``"dae"``: locked mode only, the reduced (critical-state) law as a smooth DAE on IDA
+        (:mod:`shear1d.dae`; ValueError for two-phase); ``rtol`` as for ``"ida"``.
     n_out : int
         Number of output intervals (outputs at n_out + 1 evenly spaced times).
     t_out : array_like, optional
@@ -450,14 +452,22 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     if resume and checkpoint is None:
         raise ValueError("resume=True needs a checkpoint path")
     events = _Events(problem)
-    if method == "ida":
+    if method in ("ida", "dae"):
         check_range("rtol", rtol, 1e-12, 1e-2, lo_closed=True)
         if max_order not in (1, 2, 3, 4, 5):
             raise ValueError(f"max_order = {max_order!r} must be an integer in [1, 5]")
-        outs = _Outputs(problem, "ida", times, float(rtol), checkpoint, checkpoint_every, events)
+        if method == "dae" and problem.two_phase:
+            raise ValueError("method 'dae' (reduced critical-state law) is for mode 'locked' "
+                             "only; use method 'ida' or 'explicit' for two-phase")
+        outs = _Outputs(problem, method, times, float(rtol), checkpoint, checkpoint_every,
+                        events)
         ck = outs.load(log) if resume else None
         bar = _Progress(progress, times[-1], label)
         try:
+            if method == "dae":
+                from .dae import solve_dae
+                return solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order,
+                                 bar, stop_hook)
             return _solve_ida(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar,
                               stop_hook)
         finally:
