@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rheology.io import _atomic, atomic_write_json, atomic_write_text
+from rheology.io import atomic_savez, atomic_write_json, atomic_write_text, atomic_write_with
 
 UNITS = {"id": "-", "x": "m", "v": "m/s", "stress": "Pa", "V": "m^3 (per m or per rad)",
          "m": "kg (per m or per rad)", "phi": "-", "f": "-", "pressure_Pa": "Pa",
@@ -67,7 +67,7 @@ def write_npz(path: Path, arrays: dict) -> Path:
     """Atomic uncompressed npz (``np.savez`` stamps its members with a fixed date, so the bytes
     depend only on the arrays). Not :func:`rheology.io.save_checkpoint`: a snapshot rewritten by
     a resumed run keeps no ``.prev`` copy."""
-    return _atomic(path, lambda tmp: np.savez(tmp, **arrays), ".npz")
+    return atomic_savez(path, **arrays)
 
 
 def _point_data(n: int, fields: dict) -> dict:
@@ -101,8 +101,8 @@ def write_vtu(path: Path, points, fields: dict, cells=None) -> Path:
     if cells is None:
         cells = [("vertex", np.arange(n, dtype=np.int64).reshape(-1, 1))]
     mesh = meshio.Mesh(pts, cells, point_data=_point_data(n, fields))
-    return _atomic(path, lambda tmp: meshio.write(tmp, mesh, file_format="vtu", binary=True),
-                   ".vtu")
+    return atomic_write_with(path, lambda tmp: meshio.write(tmp, mesh, file_format="vtu",
+                                                            binary=True), ".vtu")
 
 
 def read_vtu(path) -> dict[str, np.ndarray]:

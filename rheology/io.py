@@ -129,6 +129,19 @@ def atomic_write_bytes(path, data: bytes) -> Path:
     return _atomic(path, lambda tmp: Path(tmp).write_bytes(data), ".tmp")
 
 
+def atomic_write_with(path, write, suffix: str = ".tmp") -> Path:
+    """Write ``path`` atomically with a writer of one's own: ``write(tmp_path)`` writes the whole
+    file to a temporary path in the same folder (e.g. ``lambda tmp: meshio.write(tmp, mesh)``);
+    ``suffix`` is the temporary file's, for writers that choose the format by it."""
+    return _atomic(path, write, suffix)
+
+
+def atomic_savez(path, **arrays) -> Path:
+    """Write named arrays to an .npz file atomically (no predecessor kept: for result snapshots;
+    checkpoints use :func:`save_checkpoint`)."""
+    return _atomic(path, lambda tmp: np.savez(tmp, **arrays), ".npz")
+
+
 def atomic_write_json(path, obj, *, nullable: Iterable[str] = (), indent: int = 1) -> Path:
     """Write ``obj`` as strict JSON (no NaN/Infinity tokens) atomically.
 
