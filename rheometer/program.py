@@ -228,11 +228,84 @@ def parse_program(text: str) -> Program:
     return Program(start, tuple(steps))
 
 
-#: The built-in program of ``rheometer program``: a rate sweep up and down, then rest.
-HYSTERESIS_PROGRAM = """\
-# rate sweep up then down: the stress on the way down differs (structure lags): hysteresis
-start at rest
-ramp rate from 0.01 to 10 1/s over 60 s log
-ramp rate from 10 to 0.01 1/s over 60 s log
-rest for 30 s
-"""
+def _sig(x: float) -> str:
+    """x to two significant digits (program text)."""
+    return f"{float(f'{x:.2g}'):g}"
+
+
+def dst_fold(material, phi: float) -> tuple[float, float] | None:
+    """(shear rate [1/s], mixture shear stress [Pa]) of the fold of the steady curve: the largest
+    steady shear rate, where DST sets in (above it no steady flow exists under rate control and
+    the sample shear-jams); None if the curve of ``phi`` has no fold (no DST). Eq. (13) with
+    Eq. (1), on 1201 granular stresses over tau* 1e-4 .. 1e8 (0.8% steps)."""
+    import numpy as np
+
+    import rheology
+
+    m = rheology.get_material(material)
+    taus = m.tau_star * np.logspace(-4, 8, 1201)
+    st = rheology.steady_state_stress(taus, phi, m)
+    g = np.where(st.jammed, 0.0, st.shear_rate)
+    k = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] > g[2:]))
+    if k.size == 0:
+        return None
+    i = int(k[0]) + 1
+    return float(g[i]), float(st.shear_stress[i])
+
+
+def hysteresis_program(material, phi: float) -> str:
+    """The built-in demonstration program for ``material`` at volume fraction ``phi`` (text).
+
+    With DST (a fold in the steady curve, :func:`dst_fold`), from the steady state at the
+    lowest rate ``r0 = 0.05 gdot_DST`` (Eq. 33, :func:`rheology.gdot_dst`): (1) a mixture-stress
+    sweep from the steady stress at r0 (3 digits) up to 10 times the fold stress and back, 60 s
+    each way: the rate rises to the fold then FALLS toward gdot_DST while the stress grows
+    tenfold (the S-shaped DST curve, stable under stress control; the way down lags); (2) a rate
+    sweep from r0 up to 0.95 of the fold rate and back, 20 s each way: below the fold, so the
+    sample flows throughout, and the structure lags the rate (on the way down f and the stress
+    are higher: hysteresis). A rate sweep past the fold would
+    shear-jam the sample and load it elastically (G times the strain: 1e4-1e6 Pa), hence the
+    stress sweep to cross DST. The stress sweep comes first so that it starts from a steady
+    state (a stress step below the lagging stress of a rate sweep's end would reverse the flow).
+    Without DST at this phi: a rate sweep over 0.01-10 1/s up and down.
+    """
+    import rheology
+
+    m = rheology.get_material(material)
+    fold = dst_fold(m, phi)
+    lines = [f"# {m.name} at phi = {phi:g}"]
+    if fold is None:
+        lines += ["# no DST at this phi: a rate sweep up and down (structure lags: hysteresis)",
+                  "start at rest",
+                  "ramp rate from 0.01 to 10 1/s over 60 s log",
+                  "ramp rate from 10 to 0.01 1/s over 60 s log"]
+    else:
+        r_fold, s_fold = fold
+        gd = float(rheology.gdot_dst(phi, m)) if m.phi_c <= phi <= min(m.phi_star, m.phi_j) \
+            else r_fold
+        lo, hi = _sig(0.05 * min(gd, r_fold)), _sig(0.95 * r_fold)
+        ss = rheology.steady_states_rate(float(lo), phi, m)
+        s_lo = f"{float(ss.shear_stress[0]):.3g}"
+        s_hi = _sig(10.0 * s_fold)
+        lines += [f"# gdot_DST = {gd:.3g} 1/s (Eq. 33); the steady curve folds (DST sets in) at "
+                  f"{r_fold:.3g} 1/s, {s_fold:.3g} Pa",
+                  f"start from steady rate {lo} 1/s",
+                  "# stress sweep across DST: the rate peaks at the fold, then falls toward "
+                  "gdot_DST",
+                  f"ramp stress from {s_lo} to {s_hi} Pa over 60 s log",
+                  f"ramp stress from {s_hi} to {s_lo} Pa over 60 s log",
+                  "# rate sweep below the fold: on the way down the structure lags (hysteresis)",
+                  f"ramp rate from {lo} to {hi} 1/s over 20 s log",
+                  f"ramp rate from {hi} to {lo} 1/s over 20 s log"]
+    return "\n".join(lines) + "\n"
+
+
+#: The built-in program of ``rheometer program`` (no file): :func:`hysteresis_program` of the
+#: default material (hermes2016) at its default volume fraction (0.50, rheology.defaults).
+def _default_program() -> str:
+    from rheology.defaults import default_fraction
+
+    return hysteresis_program("hermes2016", default_fraction("hermes2016"))
+
+
+HYSTERESIS_PROGRAM = _default_program()

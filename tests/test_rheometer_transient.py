@@ -89,12 +89,15 @@ def test_dae_and_ode_forms_and_jacobians_agree():
         assert np.allclose(df["f"], out[0]["f"], rtol=0, atol=1e-9)
 
 
-def test_exact_jacobian_matches_finite_differences():
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_exact_jacobian_matches_finite_differences(sign):
+    """Also for a reversed (negative) stress and plastic rate and the sinusoidal controls."""
     rng = np.random.default_rng(1)
     P = model.parameters(HERMES, 0.52, 1e4, 2.0)
-    for mode in (model.RATE, model.STRESS):
-        C = model.control(mode, model.LOG, 0.1, 10.0, 0.0, 5.0)
-        y = np.array([30.0, 0.004, 0.09, 0.2, 1.0]) * (1 + 0.1 * rng.random(5))
+    for mode, kind in ((model.RATE, model.LOG), (model.STRESS, model.LOG),
+                       (model.RATE, model.COSINE), (model.STRESS, model.SINE)):
+        C = model.control(mode, kind, 0.1, 10.0, 0.0, 5.0)
+        y = np.array([30.0 * sign, 0.004, 0.09 * sign, 0.2, 1.0]) * (1 + 0.1 * rng.random(5))
         yp = rng.normal(size=5)
         J = np.empty((5, 5))
         cj = 3.7
@@ -184,6 +187,12 @@ def test_bad_parameters_raise(kwargs, match):
     (dict(control="rate", start=0.0, end=1.0, ramp="log", duration=1.0), "log ramp"),
     (dict(control="rate", start=1.0), "duration"),
     (dict(control="stress", start=1.0, duration=0.0), "duration"),
+    (dict(control="strain", start=0.01, duration=1.0), "strain-controlled step is an oscill"),
+    (dict(control="rate", start=1.0, ramp="sine", frequency=1.0, duration=1.0), "not a rate"),
+    (dict(control="strain", start=0.01, ramp="sine", duration=1.0), "needs a frequency"),
+    (dict(control="strain", start=0.0, ramp="sine", frequency=1.0, duration=1.0), "amplitude"),
+    (dict(control="stress", start=1.0, ramp="sine", frequency=1.0, strain=1.0), "cycles"),
+    (dict(control="rate", start=1.0, duration=1.0, frequency=2.0), "only an oscillation"),
 ])
 def test_bad_steps_raise(step, match):
     with pytest.raises(ValueError, match=match):
@@ -195,3 +204,28 @@ def test_state_round_trip():
     st = r.state(3.0, 0.1234)
     assert isinstance(st, State)
     assert float(model.structure_of_gap(st.gap, r.P)) == pytest.approx(0.1234, rel=1e-13)
+
+
+def test_signed_law_is_odd_and_unchanged_for_positive_stress():
+    """gdot_p(-taubar) = -gdot_p(taubar), the structure rate even in taubar, and for taubar >= 0
+    the signed law is the paper's magnitude law (Eq. 35) itself."""
+    P = model.parameters(HERMES, 0.50, 1e4, 1.0)
+    for tau in (1e-6, 0.3, 5.0, 300.0):
+        for gap in (0.03, 0.004, -0.001):
+            g = model.plastic_rate(tau, gap, P)
+            assert model.signed_plastic_rate(tau, gap, P) == g
+            assert model.signed_plastic_rate(-tau, gap, P) == -g
+            assert model.signed_gap_rate(gap, -tau, -g, P) == model.gap_rate(gap, tau, g, P)
+
+
+def test_stress_step_below_the_granular_stress_reverses_the_flow():
+    """From a steady state at 10 Pa, an imposed mixture stress of 0: the fluid takes the
+    granular stress at once, gdot = -taubar/eta_F (recoil), and the skeleton relaxes to zero
+    through the reversed flow, never overshooting into a negative stress."""
+    r = Rheometer(HERMES, 0.50, G=1e4, K0=1.0, rtol=1e-9)
+    df = r.run([Step("stress", 0.0, duration=1.0)], r.steady(10.0), points=100)
+    eta_F = HERMES.eta0 * (1 + 2.5 * 0.50)
+    assert df["shear_rate_per_s"].iloc[0] == pytest.approx(-10.0 / eta_F, rel=1e-9)
+    assert np.allclose(df["shear_stress_Pa"], 0.0, atol=1e-9)
+    tau = df["granular_shear_stress_Pa"].to_numpy()
+    assert np.all(np.diff(tau) <= 1e-12) and tau[-1] < 1e-6 and tau.min() > -1e-9
