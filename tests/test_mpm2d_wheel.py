@@ -1,0 +1,154 @@
+"""mpm2d wheel scene (running on oobleck, Figs. 8, 9, 14): the default run runs both omegas,
+hub.csv/summary.json keep the interface columns and strict JSON, the driven wheel obeys its
+kinematics (spin = omega, no faster than free fall), bad --set values are refused, and the
+analysis helpers (grid phi, pressure noise, transition omega) give known answers."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from mpm2d.cli import main
+from mpm2d.run import run_scene
+from mpm2d.scenes import wheel
+
+#: a tiny wheel: R = 0.1 m on h = 25 mm (R/4), 0.8 m x 0.1 m bed, 0.03 s
+TINY = dict(radius=0.1, hub_radius=0.035, spoke_width=0.04, width=0.8, bed_depth=0.1,
+            height=0.45, h=0.025, t_end=0.03, frames=3)
+
+
+def _strict(text):
+    def bad(c):
+        raise ValueError(f"non-strict JSON constant {c}")
+    return json.loads(text, parse_constant=bad)
+
+
+@pytest.fixture(scope="module")
+def both(tmp_path_factory):
+    out = tmp_path_factory.mktemp("wheel") / "both"
+    res = run_scene(wheel.setup, out, TINY, progress=False, vtk=False, log=lambda m: None)
+    return out, res
+
+
+def test_default_runs_both_omegas_with_interface_files(both):
+    out, res = both
+    hub = pd.read_csv(out / "hub.csv")
+    assert list(hub.columns) == ["omega_per_s", "time_s", "x_m", "y_m"]
+    assert sorted(hub["omega_per_s"].unique()) == [1.0, 10.0]
+    assert np.isfinite(hub.to_numpy()).all()
+    for _, g in hub.groupby("omega_per_s"):
+        assert np.all(np.diff(g["time_s"].to_numpy()) > 0)
+        assert g["time_s"].iloc[-1] == pytest.approx(TINY["t_end"], rel=0.02)
+    s = _strict((out / "summary.json").read_text())
+    assert set(s["sink_depth_m"]) == {"10", "1"}
+    assert all(isinstance(v, float) for v in s["sink_depth_m"].values())
+    assert (out / "omega_1" / "summary.json").exists()
+    for name in ("hub.png", "fig8.png", "fig9.png", "wheel.gif"):
+        assert (out / name).stat().st_size > 1000, name
+    assert res["manifest"]["status"] == "complete"
+
+
+def test_wheel_kinematics(both):
+    """Each run: the spokes turn with the hub at the prescribed omega (within 10 %), the hub
+    falls no faster than free fall (the bed only pushes up), and the fast wheel advances more."""
+    out, _ = both
+    s = _strict((out / "summary.json").read_text())
+    g, t = 9.81, TINY["t_end"]
+    for key, r in s["runs"].items():
+        assert abs(r["wheel_spin_per_s"] - float(key)) <= 0.1 * float(key), r
+        assert r["max_sink_m"] <= 0.5 * g * t ** 2 * 1.01 + 1e-9, r
+    assert s["runs"]["10"]["advance_m"] > s["runs"]["1"]["advance_m"]
+
+
+def test_wheel_spins_at_the_prescribed_rate_single_omega(tmp_path):
+    out = tmp_path / "w10"
+    run_scene(wheel.setup, out, {**TINY, "omega": 10}, progress=False, vtk=False,
+              log=lambda m: None)
+    hub = pd.read_csv(out / "hub.csv")
+    assert set(hub["omega_per_s"]) == {10.0}
+    s = _strict((out / "summary.json").read_text())
+    assert list(s["sink_depth_m"]) == ["10"]
+    assert not (out / "omega_1").exists()
+
+
+def _call(argv):
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        try:
+            rc = main(argv)
+        except SystemExit as exc:
+            rc = exc.code
+    return rc, err.getvalue().strip().splitlines()
+
+
+@pytest.mark.parametrize("setting, words", [
+    ("omega=0", "omega = 0 is outside the valid range (0, 100] 1/s"),
+    ("omega=-1", "omega = -1 is outside"),
+    ("omega=nan", "omega = nan: must be finite"),
+    ("omega=fast", "omega = 'fast' is not a number"),
+    ("t_end=5", "t_end = 5.0 is outside the valid range (0, 1.04] s"),
+    ("transfer=pic", "transfer = 'pic' is not one of apic, flip"),
+    ("moduli_factor=0", "moduli_factor = 0 is outside"),
+    ("phi0=0.6", "phi_j of material 'wheel'"),
+    ("hub_radius=0.2", "hub_radius = 0.2 is outside"),
+    ("frames=0", "frames = 0 is outside"),
+])
+def test_bad_set_values_are_refused(setting, words, tmp_path):
+    out = tmp_path / "o"
+    rc, err = _call(["run", "wheel", "--set", setting, "--out", str(out), "--quiet"])
+    assert rc == 2 and len(err) == 1 and words in err[0], err
+    assert not out.exists()
+
+
+def test_grid_phi_is_phi_inside_and_zero_outside():
+    """Partition of unity: a uniform block at phi = 0.5 gives 0.5 at every node 1.5 cells inside,
+    0 two cells outside (quadratic B-splines reach 1.5 cells)."""
+    h, nx, ny = 0.1, 10, 10
+    s = h / 2
+    xs = np.arange(s / 2, nx * h, s)
+    ys = np.arange(s / 2, 0.5, s)
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    x = np.column_stack([X.ravel(), Y.ravel()])
+    gp = wheel.grid_phi(x, 0.5 * s * s * np.ones(len(x)), h, nx, ny)
+    assert gp.shape == (nx, ny + 1)
+    assert np.allclose(gp[:, 2:4], 0.5, rtol=1e-12)
+    assert np.all(gp[:, 7:] == 0.0)
+
+
+def _frame(p_of_cell, h=0.1, nx=20, ny=10):
+    s = h / 2
+    xs = np.arange(s / 2, nx * h, s)
+    ys = np.arange(s / 2, ny * h, s)
+    X, Y = np.meshgrid(xs, ys, indexing="ij")
+    x = np.column_stack([X.ravel(), Y.ravel()])
+    i, j = np.floor(x[:, 0] / h).astype(int), np.floor(x[:, 1] / h).astype(int)
+    n = len(x)
+    return {"bed.x": x, "bed.phi": np.full(n, 0.5), "bed.V": np.full(n, s * s),
+            "bed.m": np.ones(n), "bed.granular_pressure_Pa": p_of_cell(i, j),
+            "body.hub.center": np.array([1.0, 1.0])}
+
+
+def test_pressure_noise_smooth_versus_checkerboard():
+    params = dict(h=0.1, width=2.0, height=1.0, phi0=0.5, radius=0.25)
+    smooth = wheel.pressure_noise(_frame(lambda i, j: 1000.0 + 10.0 * (10 - j)), params)
+    checker = wheel.pressure_noise(_frame(lambda i, j: 1000.0 * (1 + 0.5 * (-1.0) ** (i + j))),
+                                   params)
+    # smooth: every jump 10 Pa in y, 0 in x -> RMS sqrt(1/2 * 100)-ish over a mean ~1050
+    assert smooth < 0.01
+    # checkerboard of amplitude 0.5: every jump is 1000 Pa, the mean 1000 Pa
+    assert checker == pytest.approx(1.0, rel=0.05)
+
+
+def test_transition_omega_interpolates_in_log_omega():
+    w = [1, 2, 4, 6, 10]
+    s = [0.3, 0.28, 0.2, 0.05, 0.02]
+    # mid = 0.16, crossed between 4 (0.2) and 6 (0.05): a = 0.04/0.15
+    expect = math.exp(math.log(4) + (0.04 / 0.15) * (math.log(6) - math.log(4)))
+    assert wheel.transition_omega(w, s) == pytest.approx(expect, rel=1e-12)
+    assert math.isnan(wheel.transition_omega([1, 2], [0.1, 0.1]))

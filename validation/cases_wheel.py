@@ -1,0 +1,181 @@
+"""mpm2d wheel scene (running on oobleck, Figs. 8, 9 and 14).
+
+- ``mpm2d_wheel_run_or_sink``: the default ``mpm2d run wheel`` (both omegas, the paper's 150 x 75
+  grid): at omega = 10 1/s the hub stays within FAST_BAND R of its start height while it advances
+  at least R; at omega = 1 1/s it sinks at least 3x deeper over the same time;
+- ``mpm2d_wheel_sweep``: sink depth against omega (1, 2, 4, 6, 10 1/s) through
+  ``mpm2d.sweep.run_sweep`` on Dask (reduced: h = 20 mm), with the transition omega;
+- ``mpm2d_wheel_convergence``: the sink depth of both omegas at h = 20 mm and at the paper's
+  13.3 mm;
+- ``mpm2d_wheel_fig14``: the granular pressure under the wheel for moduli x1, x10, x100 with APIC
+  and FLIP and its noise (RMS cell-to-cell jump over the mean) per case; criterion: the noise of
+  the paper's moduli is below NOISE_TRUSTED and the noise grows with the moduli (APIC).
+
+Quick mode (the test suite) runs tiny versions that check the machinery only.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+
+import pandas as pd
+
+from mpm2d.run import run_scene
+from mpm2d.scenes import wheel
+
+from .framework import Verdict, case
+
+#: the tiny (quick) wheel: R = 0.1 m, h = R/4, a 0.8 x 0.1 m bed, 0.03 s
+QUICK = dict(radius=0.1, hub_radius=0.035, spoke_width=0.04, width=0.8, bed_depth=0.1,
+             height=0.45, h=0.025, t_end=0.03, frames=3)
+#: the reduced sweep/convergence/Fig. 14 grid: 100 x 50 cells (h = 20 mm)
+COARSE_H = 0.02
+#: noise (RMS cell jump / mean) below which a pressure field is called trustworthy
+NOISE_TRUSTED = 0.5
+#: Fig. 14 cases: (label, moduli_factor, transfer)
+FIG14 = [("x1 APIC", 1.0, "apic"), ("x10 APIC", 10.0, "apic"), ("x100 APIC", 100.0, "apic"),
+         ("x1 FLIP", 1.0, "flip"), ("x10 FLIP", 10.0, "flip"), ("x100 FLIP", 100.0, "flip")]
+#: the reduced Fig. 14 runs: t = 0.3 s (not the paper's 1 s) on a 1 m wide domain at h = 20 mm
+FIG14_T = 0.3
+FIG14_REDUCED = dict(h=COARSE_H, width=1.0)
+#: convergence: the sink depths at the two resolutions within this fraction of R
+CONV_TOL_R = 0.25
+
+
+def _run(out: Path, **params):
+    t0 = time.perf_counter()
+    res = run_scene(wheel.setup, out, params, progress=False, vtk=False, log=lambda m: None)
+    wall = time.perf_counter() - t0
+    s = json.loads((Path(out) / "summary.json").read_text())
+    sim = res["scene"].sim
+    s["wall_s"] = wall
+    s["steps"] = int(sim.step_count)
+    s["points"] = int(sum(len(p) for p in sim.sets))
+    return s
+
+
+def _fmt_runs(s) -> str:
+    return "; ".join(f"omega {k}: sink {r['sink_depth_m'] * 1e3:.1f} mm ({r['sink_over_R']:.2f} R)"
+                     f", max excursion {r['max_excursion_over_R']:.2f} R, advance "
+                     f"{r['advance_m']:.3f} m" for k, r in s["runs"].items())
+
+
+@case("mpm2d", "mpm2d_wheel_run_or_sink",
+      "mpm2d: wheel at omega 10 runs, at omega 1 sinks (Figs. 8-9)", slow=True)
+def run_or_sink(out: Path, quick: bool) -> Verdict:
+    s = _run(out / "run", **(QUICK if quick else {}))
+    figs = [out / "run" / n for n in ("fig8.png", "fig9.png", "hub.png")]
+    c = s["checks"]
+    measured = (f"{_fmt_runs(s)}; sink ratio {c.get('sink_ratio')}; wall {s['wall_s']:.0f} s "
+                f"for both runs (machine shared), {s['points']} points")
+    if quick:
+        ok = set(s["sink_depth_m"]) == {"10", "1"}
+        return Verdict("quick: both omegas run, summary complete", measured, ok, figs)
+    ok = bool(c.get("fast_stays_up")) and bool(c.get("slow_sinks_3x"))
+    return Verdict(f"omega = 10: |hub height change| <= {wheel.FAST_BAND:.2f} R throughout and "
+                   f"advance >= R; omega = 1: sink >= {wheel.SINK_RATIO:g} x the omega = 10 sink",
+                   measured, ok, figs)
+
+
+@case("mpm2d", "mpm2d_wheel_sweep", "mpm2d: wheel sink depth against omega (Dask sweep)",
+      slow=True)
+def sweep(out: Path, quick: bool) -> Verdict:
+    from mpm2d.sweep import parse_grid, run_sweep
+
+    if quick:
+        grid = [f"{k}={v}" for k, v in QUICK.items()] + ["omega=1,10"]
+    else:
+        grid = [f"h={COARSE_H}", "omega=1,2,4,6,10"]
+    t0 = time.perf_counter()
+    table = run_sweep("wheel", parse_grid(grid), out / "sweep", progress=False,
+                      log=lambda m: None)
+    wall = time.perf_counter() - t0
+    sink = pd.read_csv(out / "sweep" / "sink.csv")
+    tr = json.loads((out / "sweep" / "transition.json").read_text())
+    wt = tr["transition_omega_per_s"]
+    failed = int((table["status"] == "failed").sum())
+    measured = ("; ".join(f"omega {r.omega_per_s:g}: sink {r.sink_depth_m * 1e3:.1f} mm"
+                          for r in sink.itertuples())
+                + f"; transition omega {wt if wt is None else round(wt, 3)} 1/s; {failed} failed;"
+                  f" sweep wall {wall:.0f} s")
+    figs = [out / "sweep" / "sink.png"]
+    n = 2 if quick else 5
+    ok = failed == 0 and len(sink) == n
+    if quick:
+        return Verdict("quick: both cases complete", measured, ok, figs)
+    ok = ok and wt is not None and 1.0 < wt < 10.0
+    return Verdict("five omegas complete; the sink depth crosses its half-way value between "
+                   "omega = 1 and 10 (the transition omega)", measured, ok, figs)
+
+
+@case("mpm2d", "mpm2d_wheel_convergence", "mpm2d: wheel sink depth at two resolutions",
+      slow=True)
+def convergence(out: Path, quick: bool) -> Verdict:
+    if quick:
+        hs = (QUICK["h"], QUICK["h"] * 0.8)
+        base = {k: v for k, v in QUICK.items() if k != "h"}
+    else:
+        hs = (COARSE_H, 2.0 / 150.0)
+        base = {}
+    res = {h: _run(out / f"h{h * 1e3:.1f}mm", h=h, **base) for h in hs}
+    R = next(iter(res.values()))["radius_m"]
+    rows = []
+    for h, s in res.items():
+        for k, r in s["runs"].items():
+            rows.append({"h_m": h, "omega_per_s": float(k), "sink_depth_m": r["sink_depth_m"],
+                         "wall_s": s["wall_s"], "steps": s["steps"], "points": s["points"]})
+    df = pd.DataFrame(rows)
+    from rheology.io import atomic_write_csv
+
+    atomic_write_csv(out / "convergence.csv", df)
+    diffs = {}
+    for w, g in df.groupby("omega_per_s"):
+        diffs[w] = abs(g["sink_depth_m"].iloc[0] - g["sink_depth_m"].iloc[1]) / R
+    measured = "; ".join(f"omega {w:g}: " + ", ".join(
+        f"h {r.h_m * 1e3:.1f} mm sink {r.sink_depth_m * 1e3:.1f} mm"
+        for r in df[df["omega_per_s"] == w].itertuples()) + f" (diff {d:.2f} R)"
+        for w, d in diffs.items())
+    ok = all(math.isfinite(d) for d in diffs.values())
+    if quick:
+        return Verdict("quick: both resolutions run", measured, ok)
+    ok = ok and all(d <= CONV_TOL_R for d in diffs.values())
+    return Verdict(f"sink depth of each omega at h = 20 and 13.3 mm within {CONV_TOL_R} R",
+                   measured, ok)
+
+
+@case("mpm2d", "mpm2d_wheel_fig14", "mpm2d: wheel pressure noise against moduli, APIC/FLIP "
+      "(Fig. 14)", slow=True)
+def fig14(out: Path, quick: bool) -> Verdict:
+    if quick:
+        base, cases, t = dict(QUICK, omega=10.0), FIG14[:1] + FIG14[3:4], QUICK["t_end"]
+    else:
+        base, cases, t = dict(FIG14_REDUCED, omega=10.0, t_end=FIG14_T), FIG14, FIG14_T
+    folders = []
+    rows = []
+    for label, fac, tr in cases:
+        folder = out / label.replace(" ", "_")
+        s = _run(folder, **base, moduli_factor=fac, transfer=tr)
+        folders.append((label, folder))
+        rows.append({"case": label, "moduli_factor": fac, "transfer": tr,
+                     "steps": s["steps"], "points": s["points"], "wall_s": s["wall_s"],
+                     "sink_depth_m": s["runs"]["10"]["sink_depth_m"]})
+    path, noise = wheel.pressure_figure(folders, lambda f: json.loads(
+        (Path(f) / "manifest.json").read_text())["params"], out / "fig14.png", t=t)
+    for r in rows:
+        r["noise"] = noise[r["case"]]
+    df = pd.DataFrame(rows)
+    from rheology.io import atomic_write_csv
+
+    atomic_write_csv(out / "fig14.csv", df, empty_ok=("noise",))
+    measured = "; ".join(f"{r.case}: noise {r.noise:.3g}, {r.steps} steps, {r.wall_s:.0f} s"
+                         for r in df.itertuples())
+    if quick:
+        return Verdict("quick: the cases run and the noise is defined",
+                       measured, bool(df["noise"].notna().all()), [path])
+    apic = df[df["transfer"] == "apic"].set_index("moduli_factor")["noise"]
+    ok = bool(apic.loc[1.0] < NOISE_TRUSTED and apic.loc[100.0] > apic.loc[1.0])
+    return Verdict(f"noise of the paper's moduli (APIC) < {NOISE_TRUSTED} and larger at x100 "
+                   f"(reduced: h = 20 mm, 1 m wide, t = {FIG14_T} s)", measured, ok, [path])
