@@ -68,6 +68,13 @@ class Grid:
         Tangential velocity [m/s] of a ``noslip`` wall, e.g. ``{"ymax": (0.1, 0.0)}``.
     axisymmetric : bool
         x is the radius r and y the axial coordinate z.
+    wall_swirl : dict
+        Azimuthal (out-of-plane) speed u_theta [m/s] of a cylindrical ``noslip`` r-wall of an
+        axisymmetric grid, e.g. ``{"xmin": 0.084}`` for a turning bob; used only by a
+        ``Simulation(..., swirl=True)`` (see :mod:`mpm2d.transfer`, swirl kernels).
+
+    Annulus: an axisymmetric grid may start off the axis (origin[0] = R_i > 0) when xmin is a
+    ``noslip`` or ``slip`` wall, the surface of an inner cylinder (the bob of a Couette cell).
     """
 
     nx: int
@@ -77,6 +84,7 @@ class Grid:
     boundaries: dict = field(default_factory=dict)
     wall_velocity: dict = field(default_factory=dict)
     axisymmetric: bool = False
+    wall_swirl: dict = field(default_factory=dict)
 
     def __post_init__(self):
         for name in ("nx", "ny"):
@@ -100,13 +108,19 @@ class Grid:
             if (b[a] == "periodic") != (b[c] == "periodic"):
                 raise ValueError(f"periodic boundaries come in pairs: {a} = {b[a]}, {c} = {b[c]}")
         if self.axisymmetric:
-            if self.origin[0] != 0.0:
-                raise ValueError(f"origin[0] = {self.origin[0]} must be 0 (the axis r = 0) for an "
-                                 "axisymmetric grid")
-            if b["xmin"] not in ("axis", "slip", "frictionless"):
-                raise ValueError(f"boundary xmin = {b['xmin']!r} must be 'axis' for an "
-                                 "axisymmetric grid (r = 0 is the symmetry axis)")
-            b["xmin"] = "axis"
+            if self.origin[0] < 0.0:
+                raise ValueError(f"origin[0] = {self.origin[0]} must be 0 (the axis r = 0) or, "
+                                 "for an annulus, > 0 for an axisymmetric grid")
+            if self.origin[0] > 0.0:
+                if b["xmin"] not in ("noslip", "slip", "frictionless"):
+                    raise ValueError(f"boundary xmin = {b['xmin']!r}: an annular axisymmetric "
+                                     f"grid (origin[0] = {self.origin[0]} > 0) needs an inner "
+                                     "wall, noslip or slip")
+            else:
+                if b["xmin"] not in ("axis", "slip", "frictionless"):
+                    raise ValueError(f"boundary xmin = {b['xmin']!r} must be 'axis' for an "
+                                     "axisymmetric grid (r = 0 is the symmetry axis)")
+                b["xmin"] = "axis"
         self.boundaries = b
         self.kind = np.array([KINDS[b[s]] for s in SIDES], dtype=np.int64)
         self.wall_u = np.zeros((4, 2))
@@ -121,6 +135,19 @@ class Grid:
                 raise ValueError(f"wall_velocity[{s}] = {tuple(u)} must be tangential (the walls "
                                  "do not move)")
             self.wall_u[SIDES.index(s)] = u
+        self.swirl_u = np.zeros(4)
+        for s, u in self.wall_swirl.items():
+            if s not in ("xmin", "xmax"):
+                raise ValueError(f"wall_swirl side {s!r} must be xmin or xmax (a cylindrical "
+                                 "wall r = const)")
+            if not self.axisymmetric:
+                raise ValueError("wall_swirl needs an axisymmetric grid")
+            if b[s] != "noslip":
+                raise ValueError(f"wall_swirl[{s}] needs a noslip wall, {s} is {b[s]}")
+            u = float(u)
+            if not np.isfinite(u):
+                raise ValueError(f"wall_swirl[{s}] = {u} must be finite [m/s]")
+            self.swirl_u[SIDES.index(s)] = u
         self.shape = (self.nx + 1 + 2 * PAD, self.ny + 1 + 2 * PAD)
 
     # ------------------------------------------------------------------ geometry
@@ -131,6 +158,11 @@ class Grid:
     @property
     def upper(self) -> np.ndarray:
         return np.array(self.origin) + self.h * np.array([self.nx, self.ny])
+
+    @property
+    def on_axis(self) -> bool:
+        """Whether xmin is the symmetry axis r = 0 (axisymmetric grid starting at the axis)."""
+        return self.axisymmetric and self.origin[0] == 0.0
 
     @property
     def periodic(self) -> tuple[bool, bool]:
@@ -150,7 +182,11 @@ class Grid:
     def describe(self) -> str:
         kind = "axisymmetric (r, z)" if self.axisymmetric else "plane strain (x, y)"
         sides = ", ".join(f"{s} {k}" for s, k in self.boundaries.items())
-        return f"{kind} grid {self.nx} x {self.ny} cells, h = {self.h:g} m; boundaries: {sides}"
+        swirl = "".join(f"; {k} turns at u_theta = {self.swirl_u[SIDES.index(k)]:g} m/s"
+                        for k in ("xmin", "xmax") if self.swirl_u[SIDES.index(k)] != 0.0)
+        return (f"{kind} grid {self.nx} x {self.ny} cells, h = {self.h:g} m"
+                + (f", r from {self.origin[0]:g} m (annulus)" if self.axisymmetric
+                   and self.origin[0] > 0 else "") + f"; boundaries: {sides}{swirl}")
 
 
 # ---------------------------------------------------------------------- fold / unfold kernels
@@ -296,3 +332,95 @@ def fold_scalar(S, kind, nx, ny):
                     else:
                         S[t, dst] += S[t, src]
                         S[t, src] = 0.0
+
+
+# ---------------------------------------------------------------------- swirl (angular momentum)
+@_jit
+def _swirl_sign(kind, side, on_axis):
+    """Image sign of the angular momentum l = r v_theta across side ``side`` (0..3).
+
+    noslip walls and the axis: odd about the wall value (v_theta = wall speed; l = 0 on the
+    axis); slip walls: even (no shear traction sigma_r_theta / sigma_theta_z on the wall)."""
+    kd = kind[side]
+    if kd == NOSLIP or (side == 0 and on_axis):
+        return -1.0
+    return 1.0
+
+
+@_jit
+def fold_swirl(W, m, kind, lw, nx, ny, on_axis):
+    """Fold the swirl node fields W (NI, NJ, 2) = (sum N m l, torque) like :func:`fold`.
+
+    ``m`` is the unfolded nodal mass (NI, NJ) (the image angular momentum about a wall with
+    l_w = R u_theta is S (m l) + (1 - S) m l_w); ``lw`` (4,) the wall values of l per side
+    (0 on z-walls: they do not turn). Must run before the main fold of the mass.
+    """
+    for axis in range(2):
+        n = nx if axis == 0 else ny
+        other = W.shape[1] if axis == 0 else W.shape[0]
+        for side in range(2):
+            sd = 2 * axis + side
+            kd = kind[sd]
+            if kd == FREE or (kd == PERIODIC and side == 1):
+                continue
+            S = _swirl_sign(kind, sd, on_axis)
+            for t in range(other):
+                if kd == PERIODIC:
+                    pairs = [(PAD - g, PAD + n - g) for g in range(1, PAD + 1)]
+                    pairs += [(PAD + n + g, PAD + g) for g in range(0, PAD + 1)]
+                else:
+                    w = PAD if side == 0 else PAD + n
+                    d = 1 if side == 0 else -1
+                    pairs = [(w, w)] + [(w - d * g, w + d * g) for g in range(1, PAD + 1)]
+                for src, dst in pairs:
+                    si, sj = (src, t) if axis == 0 else (t, src)
+                    di, dj = (dst, t) if axis == 0 else (t, dst)
+                    if kd == PERIODIC:
+                        W[di, dj, 0] += W[si, sj, 0]
+                        W[di, dj, 1] += W[si, sj, 1]
+                        W[si, sj, 0] = W[si, sj, 1] = 0.0
+                        m[di, dj] += m[si, sj]
+                        m[si, sj] = 0.0
+                    else:
+                        ms = m[si, sj]
+                        W[di, dj, 0] += S * W[si, sj, 0] + (1.0 - S) * ms * lw[sd]
+                        W[di, dj, 1] += S * W[si, sj, 1]
+                        m[di, dj] += ms
+                        if src != dst:
+                            W[si, sj, 0] = W[si, sj, 1] = 0.0
+                            m[si, sj] = 0.0
+
+
+@_jit
+def unfold_swirl(lg, kind, lw, nx, ny, on_axis):
+    """Ghost nodes of the nodal angular momentum per unit mass lg (NI, NJ): the wall node takes
+    its constraint (l = l_w on noslip walls and the axis), ghosts the odd/even images."""
+    NI, NJ = lg.shape
+    for axis in (1, 0):
+        n = nx if axis == 0 else ny
+        other = NJ if axis == 0 else NI
+        for side in range(2):
+            sd = 2 * axis + side
+            kd = kind[sd]
+            if kd == FREE or (kd == PERIODIC and side == 1):
+                continue
+            S = _swirl_sign(kind, sd, on_axis)
+            w = PAD if side == 0 else PAD + n
+            d = 1 if side == 0 else -1
+            for t in range(other):
+                for g in range(-PAD, PAD + 1):
+                    if kd == PERIODIC:
+                        src = PAD + n + g if g < 0 else PAD + g
+                        dst = PAD + g if g < 0 else PAD + n + g
+                    else:
+                        if g < 0:
+                            continue
+                        src, dst = w + d * g, w - d * g
+                    val = lg[src, t] if axis == 0 else lg[t, src]
+                    if kd != PERIODIC:
+                        img = S * val + (1.0 - S) * lw[sd]
+                        val = 0.5 * (val + img) if g == 0 else img
+                    if axis == 0:
+                        lg[dst, t] = val
+                    else:
+                        lg[t, dst] = val

@@ -45,6 +45,15 @@ def _fill_L(L, p, Lm):
 
 
 @_jit
+def _fill_Lw(Lw, p, Lm):
+    """Swirl rows of the 3 x 3 gradient (index 2 = theta): L_theta_r, L_theta_z in the basis
+    turning with the point (mpm2d.transfer.g2p_swirl); nothing for a set without swirl (Lw of
+    shape (0, 2)). det(1 + dt L) is unchanged (lower-triangular entries)."""
+    if Lw.shape[0] > 0:
+        Lm[2, 0], Lm[2, 1] = Lw[p, 0], Lw[p, 1]
+
+
+@_jit
 def _jacobian(L, p, dt):
     """det(1 + dt L) for the compact gradient row p."""
     return (((1.0 + dt * L[p, 0]) * (1.0 + dt * L[p, 3]) - dt * dt * L[p, 1] * L[p, 2])
@@ -61,26 +70,34 @@ def _viscous(L, p, eta):
 
 # ------------------------------------------------------------------ kernels
 @dual
-def elastic_kernel(stress, L, vol, dt, G, K, chunks, sp):
-    """Jaumann linear-elastic update of every point; sp = (xx, xy, yy, zz)."""
+def elastic_kernel(stress, L, vol, dt, G, K, chunks, sp, Lw, spw):
+    """Jaumann linear-elastic update of every point; sp = (xx, xy, yy, zz); with swirl (Lw,
+    spw of shape (N, 2), else (0, 2)) spw = (r theta, theta z)."""
+    sw = Lw.shape[0] > 0
     for c in nb.prange(chunks.shape[0] - 1):
         Lm = np.zeros((3, 3))
         s = np.empty((3, 3))
         for p in range(chunks[c], chunks[c + 1]):
             _fill_L(L, p, Lm)
+            _fill_Lw(Lw, p, Lm)
             elastic_trial(stress[p], Lm, dt, G, K, s)
             stress[p, :, :] = s
             vol[p] *= _jacobian(L, p, dt)
             sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = s[0, 0], s[0, 1], s[1, 1], s[2, 2]
+            if sw:
+                spw[p, 0], spw[p, 1] = s[0, 2], s[1, 2]
 
 
 @dual
-def fluid_kernel(L, vol, m, rho, divq, n, dt, eta0, einstein, rho0, kappa, two_phase, sp, pf):
+def fluid_kernel(L, vol, m, rho, divq, n, dt, eta0, einstein, rho0, kappa, two_phase, sp, pf,
+                 Lw, spw):
     """Newtonian fluid points: density, pore pressure and viscous stress.
 
     Two phases: rho_f *= exp(-dt div q / n) (Table 8 true-density law), sp = tau_f, pf = p_f.
-    One phase: rho = m/V exactly, sp = tau - p 1.
+    One phase: rho = m/V exactly, sp = tau - p 1. With swirl (Lw, spw (N, 2), else (0, 2)):
+    spw = eta (L_theta_r, L_theta_z) = (tau_r_theta, tau_theta_z).
     """
+    sw = Lw.shape[0] > 0
     for p in nb.prange(vol.shape[0]):
         vol[p] *= _jacobian(L, p, dt)
         if two_phase:
@@ -91,7 +108,10 @@ def fluid_kernel(L, vol, m, rho, divq, n, dt, eta0, einstein, rho0, kappa, two_p
             phi = 0.0
         pr = laws.pore_pressure(rho[p], rho0, kappa)
         pf[p] = pr
-        txx, txy, tyy, ttt = _viscous(L, p, laws.fluid_viscosity(phi, eta0) if einstein else eta0)
+        eta = laws.fluid_viscosity(phi, eta0) if einstein else eta0
+        txx, txy, tyy, ttt = _viscous(L, p, eta)
+        if sw:
+            spw[p, 0], spw[p, 1] = eta * Lw[p, 0], eta * Lw[p, 1]
         if two_phase:
             pr = 0.0                       # the pore pressure goes through pf (buoyancy split)
         sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = txx - pr, txy, tyy - pr, ttt - pr
@@ -99,20 +119,23 @@ def fluid_kernel(L, vol, m, rho, divq, n, dt, eta0, einstein, rho0, kappa, two_p
 
 @dual
 def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, kappa, eta0,
-                      chunks, sp, pf, gdot, case, fail):
+                      chunks, sp, pf, gdot, case, fail, Lw, spw):
     """The Table 8 granular law at every point (rheology.local_update.update_point).
 
     phi = svol/V at the start of the step; f and stress advanced; V *= det(1 + dt L).
     Locked mixture: pore pressure p_f = kappa ln(rho_f/rho_0f) with rho_f = (m - rho_s svol) /
     (V - svol) (undrained), fluid stress eta0 (1 + 5/2 phi)(L + L^T - 2/3 tr L), and
     sp = sigma~ - p_f 1 + tau_f. ``fail[0]`` = 1 + index of a failed point (0 if none).
+    With swirl (Lw, spw (N, 2), else (0, 2)): spw = (r theta, theta z) of sigma~ + tau_f.
     """
+    sw = Lw.shape[0] > 0
     for c in nb.prange(chunks.shape[0] - 1):
         Lm = np.zeros((3, 3))
         s = np.empty((3, 3))
         out = np.empty(NOUT)
         for p in range(chunks[c], chunks[c + 1]):
             _fill_L(L, p, Lm)
+            _fill_Lw(Lw, p, Lm)
             phi = svol[p] / vol[p]
             update_point(stress[p], Lm, phi, f[p], dt, P, s, out)
             if out[12] == FAILED:
@@ -122,16 +145,30 @@ def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, 
             gdot[p] = out[1]
             case[p] = out[12]
             vol[p] *= _jacobian(L, p, dt)
-            pr = txx = txy = tyy = ttt = 0.0
+            pr = txx = txy = tyy = ttt = eta = 0.0
             if locked:
                 phi = svol[p] / vol[p]
                 pr = laws.pore_pressure((m[p] - rho_s * svol[p]) / (vol[p] - svol[p]), rho_f0, kappa)
-                txx, txy, tyy, ttt = _viscous(L, p, laws.fluid_viscosity(phi, eta0))
+                eta = laws.fluid_viscosity(phi, eta0)
+                txx, txy, tyy, ttt = _viscous(L, p, eta)
+            if sw:
+                spw[p, 0] = s[0, 2] + eta * Lw[p, 0]
+                spw[p, 1] = s[1, 2] + eta * Lw[p, 1]
             pf[p] = pr
             sp[p, 0] = s[0, 0] + txx - pr
             sp[p, 1] = s[0, 1] + txy
             sp[p, 2] = s[1, 1] + tyy - pr
             sp[p, 3] = s[2, 2] + ttt - pr
+
+
+_NO_SWIRL = np.zeros((0, 2))
+
+
+def _swirl_arrays(ps):
+    """(Lw, spw) of a set with swirl, else two empty (0, 2) arrays (the kernels skip them)."""
+    if "Lw" in ps.arrays:
+        return ps.arrays["Lw"], ps.arrays["spw"]
+    return _NO_SWIRL, _NO_SWIRL
 
 
 def elastic_energy(stress, vol, G, K) -> float:
@@ -183,7 +220,8 @@ class LinearElastic:
         ps.sp[:] = np.stack([s[:, 0, 0], s[:, 0, 1], s[:, 1, 1], s[:, 2, 2]], axis=1)
 
     def update(self, ps, dt, chunks, parallel, **_):
-        elastic_kernel[parallel](ps.stress, ps.L, ps.V, dt, self.G, self.K, chunks, ps.sp)
+        elastic_kernel[parallel](ps.stress, ps.L, ps.V, dt, self.G, self.K, chunks, ps.sp,
+                                 *_swirl_arrays(ps))
 
     def wave_modulus(self) -> float:
         """Modulus S of the fastest wave, c^2 = S V/m [Pa] (P wave, K + 4G/3)."""
@@ -254,7 +292,8 @@ class NewtonianFluid:
 
     def update(self, ps, dt, chunks, parallel, two_phase=False, **_):
         fluid_kernel[parallel](ps.L, ps.V, ps.m, ps.rho_f, ps.divq, ps.n, dt, self.eta0,
-                     self.einstein, self.rho, self.kappa, two_phase, ps.sp, ps.pf)
+                     self.einstein, self.rho, self.kappa, two_phase, ps.sp, ps.pf,
+                     *_swirl_arrays(ps))
         self.two_phase = two_phase
 
     def wave_modulus(self) -> float:
@@ -337,7 +376,7 @@ class Suspension:
         suspension_kernel[parallel](ps.stress, ps.L, ps.V, ps.svol, ps.m, ps.f, dt, self.P, self.locked,
                           m.rho_s, m.rho_f if self.locked else 1.0,
                           m.kappa if self.locked else 0.0, m.eta0, chunks, ps.sp, ps.pf,
-                          ps.gdot_p, ps.case, fail)
+                          ps.gdot_p, ps.case, fail, *_swirl_arrays(ps))
         if fail[0]:
             k = fail[0] - 1
             raise RuntimeError(f"{ps.name}: the Table 8 local update failed at point id "

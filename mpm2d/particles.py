@@ -128,9 +128,43 @@ class ParticleSet:
         for k, a in self.per_point().items():
             self.arrays[k] = np.ascontiguousarray(a[order])
 
+    # ------------------------------------------------------------------ swirl
+    #: per-point arrays of the out-of-plane (azimuthal) velocity, see :meth:`enable_swirl`
+    SWIRL = {"vtheta": (), "Cl": (2,), "Lw": (2,), "spw": (2,)}
+
+    @property
+    def swirl(self) -> bool:
+        """Whether the set carries the azimuthal velocity v_theta (:meth:`enable_swirl`)."""
+        return "vtheta" in self.arrays
+
+    def enable_swirl(self, v_theta=0.0) -> None:
+        """Give the set the azimuthal velocity of an axisymmetric run with swirl.
+
+        Adds ``vtheta`` (N,) v_theta [m/s], ``Cl`` (N, 2) the APIC affine part of the angular
+        momentum per unit mass l = r v_theta [m/s], ``Lw`` (N, 2) the swirl velocity gradient
+        (L_theta_r, L_theta_z) = (dv_theta/dr - v_theta/r, dv_theta/dz) [1/s] in the basis that
+        turns with the point (physical components; the basis rotation v_theta/r is taken out, so
+        a rigid rotation has zero rate and zero spin) and ``spw`` (N, 2) the stress
+        (sigma_r_theta, sigma_theta_z) [Pa] for the torque. No-op if already enabled (a value
+        given then is refused, to keep a checkpoint's state).
+        """
+        if not self.axisymmetric:
+            raise ValueError(f"{self.name}: swirl (v_theta) needs an axisymmetric set")
+        n = len(self)
+        if self.swirl:
+            return
+        self.arrays["vtheta"] = _as(v_theta, (n,), f"{self.name}: v_theta")
+        self.arrays["Cl"] = np.zeros((n, 2))
+        self.arrays["Lw"] = np.zeros((n, 2))
+        st = self.stress
+        self.arrays["spw"] = np.ascontiguousarray(np.stack([st[:, 0, 2], st[:, 1, 2]], axis=1))
+
     def kinetic_energy(self) -> float:
-        """sum 1/2 m |v|^2 [J] (per unit thickness, or per radian)."""
-        return float(0.5 * np.sum(self.m * np.einsum("ij,ij->i", self.v, self.v)))
+        """sum 1/2 m (|v|^2 + v_theta^2) [J] (per unit thickness, or per radian)."""
+        ke = float(0.5 * np.sum(self.m * np.einsum("ij,ij->i", self.v, self.v)))
+        if self.swirl:
+            ke += float(0.5 * np.sum(self.m * self.vtheta ** 2))
+        return ke
 
     def momentum(self) -> np.ndarray:
         return (self.m[:, None] * self.v).sum(axis=0)

@@ -42,13 +42,14 @@ from rheology.checks import check_positive, check_range
 
 from . import grid_update as gu
 from .kernels import PARALLEL_MIN_POINTS, dual
-from .grid import FPX, FX, M, V, NF_ONE, NF_TWO, NOSLIP, PAD, SLIP, Grid, fold, unfold
+from .grid import (FPX, FX, M, V, NF_ONE, NF_TWO, NOSLIP, PAD, SLIP, SIDES, Grid, fold,
+                   fold_swirl, unfold, unfold_swirl)
 from .materials import Suspension
 from .particles import ParticleSet
 from .bodies import check_mu
 from . import contact as ct
-from .transfer import (wall_moments, chunk_bounds, g2p, gather_scalar_vector, p2g,
-                       reduce_private, sort_order)
+from .transfer import (wall_moments, chunk_bounds, g2p, g2p_swirl, gather_scalar_vector, p2g,
+                       p2g_swirl, reduce_private, sort_order)
 
 MODES = ("single phase", "two-phase", "locked mixture")
 TRANSFERS = ("apic", "flip", "pic")
@@ -113,11 +114,21 @@ class Simulation:
         ``{set name: mu_w}``: deformable bodies (e.g. an elastic wheel) on their own velocity
         field, in contact with the material's fields with Coulomb friction mu_w (0 to ``inf``)
         instead of sharing its velocity (see :mod:`mpm2d.contact`).
+    swirl : bool
+        Axisymmetric runs only: carry the azimuthal velocity v_theta (every set gets
+        ``vtheta``, see :meth:`ParticleSet.enable_swirl`), with the stresses sigma_r_theta,
+        sigma_theta_z and the Jaumann terms through the 3 x 3 L of the law, the angular-momentum
+        balance rho D(r v_theta)/Dt = (1/r) d(r^2 sigma_r_theta)/dr + r d(sigma_theta_z)/dz and
+        the centrifugal force rho v_theta^2/r in the radial balance; cylindrical walls turn at
+        ``grid.wall_swirl`` (ramped linearly over ``swirl_ramp`` [s] if > 0). Single-phase and
+        locked-mixture modes, APIC or PIC transfer, no rigid bodies or contact sets (refused
+        otherwise). Off (default): the step is exactly the one without swirl.
     """
 
     def __init__(self, grid: Grid, sets, bodies=(), *, mode=None, gravity=(0.0, 0.0),
                  transfer="apic", flip_alpha=0.99, dt=None, cfl=0.5, cfl_visc=0.25, drag=None,
-                 sort_every=20, chunks=None, name="mpm2d", contact_sets=None):
+                 sort_every=20, chunks=None, name="mpm2d", contact_sets=None, swirl=False,
+                 swirl_ramp=0.0):
         self.grid, self.sets, self.bodies, self.name = grid, list(sets), list(bodies), name
         if not self.sets:
             raise ValueError("a simulation needs at least one particle set")
@@ -202,6 +213,8 @@ class Simulation:
         #: accumulated wall time per phase of the step [s] (see :meth:`step`)
         self.timings = dict.fromkeys(("step size", "P2G", "grid update", "G2P", "constitutive",
                                       "sort"), 0.0)
+        self.swirl = bool(swirl)
+        self._setup_swirl(float(check_range("swirl_ramp", swirl_ramp, 0.0, None)))
         self._sort()
         self.user_dt = None
         if dt is not None:
@@ -213,6 +226,42 @@ class Simulation:
             self.user_dt = dt
 
     # ------------------------------------------------------------------ set-up helpers
+    def _setup_swirl(self, ramp):
+        g = self.grid
+        if not self.swirl:
+            if np.any(g.swirl_u != 0.0):
+                raise ValueError("grid.wall_swirl turns a wall but swirl = False; use "
+                                 "Simulation(..., swirl=True)")
+            return
+        if not g.axisymmetric:
+            raise ValueError("swirl = True needs an axisymmetric grid (v_theta is the "
+                             "out-of-plane velocity of an (r, z) run)")
+        if self.two_phase:
+            raise ValueError("swirl = True: two-phase mode is not supported (single phase or "
+                             "locked mixture)")
+        if self.bodies or self.contact_sets:
+            raise ValueError("swirl = True: rigid bodies and contact sets are not supported "
+                             "(drive v_theta with grid.wall_swirl)")
+        if self.transfer == "flip":
+            raise ValueError("swirl = True: transfer must be 'apic' or 'pic', not 'flip'")
+        for s in self.sets:
+            s.enable_swirl()
+        self.swirl_ramp = ramp
+        shape = self.grid.shape
+        self.Gw = np.zeros(shape + (3,))
+        self.privw = np.zeros((self.nc,) + shape + (3,))
+        self.lg = np.zeros(shape)
+        self._mw = np.zeros(shape)
+
+    def swirl_wall_l(self, t) -> np.ndarray:
+        """Wall values of l = r u_theta [m^2/s] per side at time t (ramped)."""
+        g = self.grid
+        ramp = min(1.0, t / self.swirl_ramp) if self.swirl_ramp > 0 else 1.0
+        lw = np.zeros(4)
+        lw[0] = g.origin[0] * g.swirl_u[0] * ramp
+        lw[1] = g.upper[0] * g.swirl_u[1] * ramp
+        return lw
+
     def _infer_mode(self, mode):
         has_fluid = any(s.phase == "fluid" for s in self.sets)
         locked = [isinstance(s.material, Suspension) and s.material.locked for s in self.sets]
@@ -304,6 +353,7 @@ class Simulation:
         clock = time.perf_counter
         t0 = clock()
         dt = self._step_size() if dt is None else dt
+        self._dt_next = dt
         t1 = clock()
         self._p2g()
         t2 = clock()
@@ -341,6 +391,19 @@ class Simulation:
                 self._chunks[s.name], self.priv[ph])
         for ph in self.fields:
             reduce_private[self.par_grid](self.priv[ph], self.G[ph])
+        if self.swirl:
+            for s in self.sets:
+                p2g_swirl[self.par](s.x, s.m, s.V, s.vtheta, s.Cl, s.spw, self._geo,
+                                    self._chunks[s.name], self.privw)
+            reduce_private[self.par_grid](self.privw, self.Gw)
+            G = self.G["solid"]
+            G[:, :, FX] += self.Gw[:, :, 2]
+            # fold the angular momentum and torque now, with the unfolded masses (the image
+            # momentum about a turning wall needs the images' mass)
+            g = self.grid
+            self._mw[:] = G[:, :, M]
+            fold_swirl(self.Gw, self._mw, g.kind, self.swirl_wall_l(self.t + self._dt_next),
+                       g.nx, g.ny, g.on_axis)
 
     def _grid_update(self, dt):
         """Phase 2: forces, boundaries, velocities, drag, bodies, ghost nodes."""
@@ -349,6 +412,8 @@ class Simulation:
         for ph in self.fields:
             gu.add_body_force[pg](self.G[ph], self.gravity[0], self.gravity[1])
             fold(self.G[ph], kind, wall_u, g.nx, g.ny)
+        if self.swirl:
+            self._swirl_update(dt)
         if g.axisymmetric:
             self._axis_correction()
         if self.two_phase:
@@ -371,6 +436,16 @@ class Simulation:
                             self.q_nodes)
             unfold(self.q_nodes, kind, wall_u, g.nx, g.ny, True)
             unfold(self.phi_nodes[:, :, None], kind, wall_u, g.nx, g.ny, False)
+
+    def _swirl_update(self, dt):
+        """Nodal l* = (sum N m l + dt torque)/m on the folded fields (folded in _p2g), the
+        walls' l imposed on the wall nodes and the ghosts."""
+        g = self.grid
+        lw = self.swirl_wall_l(self.t + dt)
+        mw, Gw, lg = self._mw, self.Gw, self.lg
+        np.divide(Gw[:, :, 0] + dt * Gw[:, :, 1], mw, out=lg, where=mw > 0.0)
+        lg[mw <= 0.0] = 0.0
+        unfold_swirl(lg, g.kind, lw, g.nx, g.ny, g.on_axis)
 
     # ------------------------------------------------------------------ axis
     def _axis_correction(self):
@@ -493,6 +568,8 @@ class Simulation:
         apic = self.transfer == "apic"
         for s in self.sets:
             ph = self._field(s)
+            if self.swirl:
+                g2p_swirl[self.par](s.x, s.vtheta, s.Cl, s.Lw, self.lg, self._geo, apic)
             g2p[self.par](s.x, s.v, s.C, s.L, self.vg[ph], self.vg_old[ph], self._geo, axi, apic,
                 self.flip_alpha, dt, kind, self._flag)
             if self._flag[0]:
@@ -552,6 +629,13 @@ class Simulation:
             L += b.mass * float(b.center[0] * b.velocity[1] - b.center[1] * b.velocity[0])
             L += b.inertia * b.omega
         return L
+
+    def swirl_angular_momentum(self) -> float:
+        """Total axial angular momentum of the swirl, sum m r v_theta (+ APIC part: l is
+        carried affinely, its sum is sum m l_p) [kg m^2/s per radian]; 0 without swirl."""
+        if not self.swirl:
+            return 0.0
+        return float(sum(np.sum(s.m * s.x[:, 0] * s.vtheta) for s in self.sets))
 
     # ------------------------------------------------------------------ checkpoints
     def state(self) -> dict:

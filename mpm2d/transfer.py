@@ -347,3 +347,90 @@ def wall_moments(x, vol, s, geo, lo_band, hi_band, out):
                 out[I, J, M] += wa * wb * A
                 out[I, J, V] += wa * wb * A * s[p]
                 out[I, J, FX] += A * (r * da * inv_h + wa) * wb
+
+
+# ---------------------------------------------------------------------- swirl (opt-in)
+@dual
+def p2g_swirl(x, m, vol, vth, Cl, spw, geo, chunks, priv):
+    """Scatter the azimuthal motion of one set into private fields ``priv`` (nc, NI, NJ, 3).
+
+    Axisymmetric swirl carried as the angular momentum per unit mass l = r v_theta, whose
+    balance needs no Coriolis term (it is the -rho v_r v_theta / r of the v_theta equation)::
+
+        rho Dl/Dt = (1/r) d(r^2 sigma_r_theta)/dr + r d(sigma_theta_z)/dz
+
+    Weak form with the per-radian volumes V_p = r_p A_p:
+
+        priv[..., 0] += N_ip m_p (l_p + Cl_p . (x_i - x_p))        (APIC angular momentum)
+        priv[..., 1] += -V_p r_p (sigma_rt dN_ip/dr + sigma_tz dN_ip/dz)   (torque [N m])
+        priv[..., 2] += N_ip m_p v_theta^2 / r_p                   (centrifugal radial force)
+
+    Shapes: x (N, 2) [m], m, vol (N,), vth (N,) [m/s], Cl (N, 2) [m/s], spw (N, 2) [Pa].
+    """
+    nc = chunks.shape[0] - 1
+    x0, y0, h = geo[0], geo[1], geo[2]
+    inv_h = 1.0 / h
+    for c in nb.prange(nc):
+        G = priv[c]
+        for p in range(chunks[c], chunks[c + 1]):
+            bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
+            by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
+            r = x[p, 0]
+            mp = m[p]
+            ml = mp * r * vth[p]
+            c0, c1 = mp * h * Cl[p, 0], mp * h * Cl[p, 1]
+            tr, tz = vol[p] * r * spw[p, 0] * inv_h, vol[p] * r * spw[p, 1] * inv_h
+            fc = mp * vth[p] * vth[p] / r
+            wx = (wx0, wx1, wx2)
+            wy = (wy0, wy1, wy2)
+            dx = (dx0, dx1, dx2)
+            dy = (dy0, dy1, dy2)
+            for a in range(3):
+                rx = a - fx
+                for b in range(3):
+                    ry = b - fy
+                    w = wx[a] * wy[b]
+                    I, J = bx + a + PAD, by + b + PAD
+                    G[I, J, 0] += w * (ml + c0 * rx + c1 * ry)
+                    G[I, J, 1] -= tr * dx[a] * wy[b] + tz * wx[a] * dy[b]
+                    G[I, J, 2] += w * fc
+
+
+@dual
+def g2p_swirl(x, vth, Cl, Lw, lg, geo, apic):
+    """Gather the nodal l = r v_theta to one set (call before :func:`g2p` moves the points).
+
+    v_theta = l_p / r_p with l_p = sum N_ip l_i; Cl = D^-1 sum N_ip l_i (x_i - x_p) (APIC, else
+    0); Lw = (dv_theta/dr - v_theta/r, dv_theta/dz) = (l_r/r - 2 l/r^2, l_z/r) with
+    l_r, l_z = sum l_i grad N_ip: the swirl rates in the basis turning with the point.
+    """
+    x0, y0, h = geo[0], geo[1], geo[2]
+    inv_h = 1.0 / h
+    dinv = APIC_D_INV * inv_h
+    for p in nb.prange(x.shape[0]):
+        bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
+        by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
+        wx = (wx0, wx1, wx2)
+        wy = (wy0, wy1, wy2)
+        dx = (dx0, dx1, dx2)
+        dy = (dy0, dy1, dy2)
+        l = lr = lz = br = bz = 0.0
+        for a in range(3):
+            rx = a - fx
+            for b in range(3):
+                ry = b - fy
+                li = lg[bx + a + PAD, by + b + PAD]
+                w = wx[a] * wy[b]
+                l += w * li
+                br += w * li * rx
+                bz += w * li * ry
+                lr += li * dx[a] * wy[b]
+                lz += li * wx[a] * dy[b]
+        r = x[p, 0]
+        vth[p] = l / r
+        Lw[p, 0] = lr * inv_h / r - 2.0 * l / (r * r)
+        Lw[p, 1] = lz * inv_h / r
+        if apic:
+            Cl[p, 0], Cl[p, 1] = dinv * br, dinv * bz
+        else:
+            Cl[p, 0] = Cl[p, 1] = 0.0

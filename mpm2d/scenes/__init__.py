@@ -29,6 +29,7 @@ SCENES = {
     "wheel": "elastic wheel driven at a prescribed angular velocity (suspension bed)",
     "intruder": "rigid rod driven at constant speed into a suspension bed: jamming fronts (Figs. 6-7)",
     "impact": "free aluminium rod striking a suspension: impact-activated solidification (Figs. 4-5)",
+    "annular": "annular shear cell with swirl (axisymmetric, locked mixture): jammed fronts (Fig. 3)",
 }
 
 
