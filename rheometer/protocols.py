@@ -5,7 +5,10 @@ the steady flow curves come from :mod:`rheology.steady` (exact steady states, no
 
 Transient columns: ``time_s, step, strain, shear_rate_per_s, shear_stress_Pa`` (mixture:
 granular + eta0 (1 + 5/2 phi) gdot), ``granular_shear_stress_Pa, plastic_shear_rate_per_s, f,
-granular_pressure_Pa, viscosity_Pa_s, jamming_gap`` (phi_m(f) - phi; <= 0 when jammed).
+granular_pressure_Pa, viscosity_Pa_s, jamming_gap`` (phi_m(f) - phi; <= 0 when jammed). Stresses
+and rates are signed (negative where the flow reverses: oscillation steps, recoil after a stress
+drop); the pressure is the critical-state pressure of their magnitudes; ``viscosity_Pa_s`` is
+tau/gdot, empty where gdot = 0 and in oscillation steps.
 """
 
 from __future__ import annotations
