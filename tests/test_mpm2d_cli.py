@@ -47,6 +47,15 @@ def _fmt(x) -> str:
 def bad_value(draw, scene, key):
     """A value outside the declared valid set of ``scene.key`` (others at their defaults)."""
     p, lo, hi = _bounds(scene, key)
+    if p.kind == "material":                      # neither a set name nor a readable file
+        from rheology import material_names
+
+        names = {n.lower() for n in material_names()}
+        return draw(st.one_of(st.sampled_from(["nan", "inf", "-1", "singh2018_a", "x.json",
+                                               "/nonexistent/m.json"]),
+                              st.text(alphabet="abcdefghijklmnopqrstuvwxyz_0123456789.-",
+                                      min_size=1, max_size=12)).filter(
+            lambda s: s.lower() not in names - {"singh2018_a"}))
     if p.kind == "choice":
         opts = {str(o).lower() for o in p.options()}
         return draw(st.text(alphabet="abcdefghijklmnopqrstuvwxyz_0123456789.-", min_size=1,
@@ -112,6 +121,10 @@ def test_every_number_has_a_finite_range_and_the_default_inside(scene, key):
     if p.kind == "number":
         assert lo is not None and hi is not None and math.isfinite(lo) and math.isfinite(hi)
         assert default is None and p.optional or not _is_bad(scene, key, str(default))
+    elif p.kind == "material":
+        from rheology import material_names
+
+        assert str(default) in material_names()
     else:
         assert str(default).lower() in {str(o).lower() for o in
                                         (p.options() if p.kind == "choice" else (True, False))}
@@ -128,7 +141,7 @@ def test_every_number_has_a_finite_range_and_the_default_inside(scene, key):
     (["run", "bar", "--set", "periods=nan"], "periods = nan: must be finite"),
     (["run", "column", "--set", "gravity=inf"], "gravity = inf: must be finite"),
     (["run", "shear", "--set", "phi=0.6"], "phi_j of material 'annular_shear'"),
-    (["run", "shear", "--set", "material=hermes2016"], "material = 'hermes2016' is not one of"),
+    (["run", "shear", "--set", "material=singh2018_a"], "material = 'singh2018_a' is not one of"),
     (["run", "bar", "--set", "cellz=4"], "unknown parameter 'cellz' of scene bar"),
     (["run", "bar", "--set", "cells=4.5"], "cells = 4.5 is not an integer"),
     (["run", "bar", "--set", "transfer=mls"], "transfer = 'mls' is not one of apic, flip, pic"),

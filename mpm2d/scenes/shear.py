@@ -17,8 +17,9 @@ stress, granular pressure and f with that point (rheology.local_update in a loop
 Parameters: material (rheology parameter set), phi, rate gdot [1/s], p0 [Pa] (initial granular
 pressure: a point sheared from exactly zero pressure stays separated), f0, height [m], cells
 (over the height), ppc, t_end [s], dt [s] (fixed step; default 0.9 x the stable step), cfl.
-Single material fields cannot be overridden here: choose a rheology parameter set by name with
-``material`` (``mpm2d show shear`` lists the valid ones).
+``material`` is any SI parameter set or a material file (``fit/material.json`` from ``rheometer
+fit``): its steady-flow parameters are used, and the moduli, densities, d and K0 it leaves unset
+come from Table 4 (``annular_shear``).
 
 Run: ``mpm2d run shear --set rate=50 --out shear`` (mode: locked mixture)
 """
@@ -28,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from rheology import get_material
+from rheology.materials import scene_material
 from rheology.local_update import NOUT, kernel_parameters, update_points
 from rheology.io import atomic_write_csv
 
@@ -43,9 +44,7 @@ from ..simulation import Simulation
 
 
 @spec.parameters_of(
-    material=spec.Param(choices=spec.materials_where(
-        lambda m: m.rho_s and m.rho_f and m.K and m.kappa, "sets with densities and moduli"),
-        doc="rheology parameter set (with densities and moduli)"),
+    material=spec.scene_material_param("annular_shear"),
     phi=spec.phi_below_jamming(doc="solid volume fraction"),
     rate=spec.positive(1e5, "1/s", "shear rate gdot"),
     p0=spec.Param(0.0, 1e9, unit="Pa", doc="initial granular pressure"),
@@ -62,7 +61,7 @@ def setup(material="annular_shear", phi=0.40, rate=50.0, p0=1.0, f0=0.0, height=
           ppc=2, t_end=0.5, dt=None, cfl=0.5):
     params = dict(material=material, phi=phi, rate=rate, p0=p0, f0=f0, height=height,
                   cells=cells, ppc=ppc, t_end=t_end, dt=dt, cfl=cfl)
-    m = get_material(material)
+    m = scene_material("annular_shear", material)
     h = height / cells
     U = rate * height
     grid = Grid(2, cells, h, boundaries=dict(xmin="periodic", xmax="periodic", ymin="noslip",
@@ -102,7 +101,7 @@ def point_history(params: dict, times) -> pd.DataFrame:
     The point takes the same steps (dt = params["dt"]) through rheology.local_update's kernel
     and is sampled at ``times`` (the MPM's history times, multiples of dt).
     """
-    m = get_material(params["material"])
+    m = scene_material("annular_shear", params["material"])
     P = kernel_parameters(m)
     dt = params["dt"]
     L = np.zeros((1, 3, 3))

@@ -90,9 +90,12 @@ class Param:
     optional: bool = False
     doc: str = ""
     note: str | Callable = ""
+    material_of: str | None = None
 
     @property
     def kind(self) -> str:
+        if self.material_of is not None:
+            return "material"
         return "choice" if self.choices is not None else "bool" if self.boolean else "number"
 
     @property
@@ -113,7 +116,10 @@ class Param:
 
     def range_text(self, params: dict | None = None) -> str:
         """The valid values as text, with derived bounds evaluated at ``params``."""
-        if self.kind == "choice":
+        if self.kind == "material":
+            text = ("an SI parameter set (rheometer materials) or a material file *.json; the "
+                    f"moduli, densities, d and K0 it leaves unset come from {self.material_of}")
+        elif self.kind == "choice":
             text = "one of " + ", ".join(map(str, self.options()))
         elif self.kind == "bool":
             text = "true or false"
@@ -135,6 +141,18 @@ class Param:
         if self.optional and (value is None or (isinstance(value, str)
                                                 and value.strip().lower() in ("none", ""))):
             return None
+        if self.kind == "material":
+            from rheology.materials import scene_material
+
+            if not isinstance(value, str) or not value.strip():
+                raise ValueError(f"{name} = {value!r} is not a parameter set name or a material "
+                                 "file")
+            try:
+                scene_material(self.material_of, value.strip())
+            except ValueError as exc:
+                raise ValueError(f"{name} = {value!r} is not one of the SI parameter sets or a "
+                                 f"valid material file: {exc}") from None
+            return value.strip()
         if self.kind == "choice":
             opts = self.options()
             if not isinstance(value, str) or value.strip().lower() not in [str(o).lower()
@@ -319,6 +337,13 @@ def flip_alpha():
 
 def gravity(hi=1000.0):
     return Param(0.0, hi, unit="m/s^2", doc="gravitational acceleration (downwards)")
+
+
+def scene_material_param(scene_set: str, doc: str = "steady-flow parameters") -> Param:
+    """A ``material`` parameter: any SI parameter set or a material file (``fit/material.json``
+    from ``rheometer fit``), put on the scene's own set ``scene_set`` by
+    :func:`rheology.materials.scene_material` (which the scene calls to build it)."""
+    return Param(material_of=scene_set, doc=doc)
 
 
 def materials_where(predicate: Callable, what: str) -> Callable[[], tuple]:
