@@ -570,8 +570,12 @@ class Simulation:
             ph = self._field(s)
             if self.swirl:
                 g2p_swirl[self.par](s.x, s.vtheta, s.Cl, s.Lw, self.lg, self._geo, apic)
+                r_old = s.x[:, 0].copy()
             g2p[self.par](s.x, s.v, s.C, s.L, self.vg[ph], self.vg_old[ph], self._geo, axi, apic,
                 self.flip_alpha, dt, kind, self._flag)
+            if self.swirl:
+                # l = r v_theta is what a point carries: v_theta at the new radius
+                s.vtheta *= r_old / s.x[:, 0]
             if self._flag[0]:
                 raise RuntimeError(f"set {s.name}: a point left the grid at t = {self.t:.6g} s "
                                    f"(step {self.step_count}); enlarge the grid or close the "
