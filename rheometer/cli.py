@@ -168,8 +168,10 @@ def build_parser() -> argparse.ArgumentParser:
                               "'stress 5 Pa for 60 s', 'stress 5 Pa until strain 10', "
                               "'rest for 100 s', 'ramp rate from 0.1 to 100 1/s over 60 s [log|"
                               "linear]', 'ramp stress from 1 to 100 Pa over 60 s', 'start from "
-                              "steady stress 10 Pa'; '#' comments. Without FILE: a rate sweep "
-                              "up and down (hysteresis).")
+                              "steady stress 10 Pa', 'oscillate at 1 Hz with strain 0.01 for 10 "
+                              "cycles', 'oscillate at 1 Hz with stress 5 Pa for 10 cycles'; '#' "
+                              "comments. Without FILE: stress and rate sweeps up and down across "
+                              "DST, built for the material and the first phi (hysteresis).")
     p.add_argument("file", nargs="?", default=None, help="program file ('-' for stdin)")
     _common(p, [0.46], "program")
     _transient_options(p)
@@ -368,15 +370,16 @@ def read_program_file(name: str) -> tuple[str, str]:
 def _cmd_program(args) -> str:
     from . import plots
     from .checkpoint import ProgramCheckpoint
-    from .program import HYSTERESIS_PROGRAM, parse_program
+    from .program import hysteresis_program, parse_program
 
     _plot_path(args)
+    m = _material(args)
     if args.file is None:
-        text, name = HYSTERESIS_PROGRAM, "built-in rate sweep up and down"
+        text = hysteresis_program(m, args.phi[0])
+        name = f"built-in stress and rate sweeps up and down at phi = {args.phi[0]:g}"
     else:
         text, name = read_program_file(args.file)
     program = parse_program(text)
-    m = _material(args)
     ck = ProgramCheckpoint(Path(args.out).with_suffix(".checkpoint.npz"), m, list(args.phi),
                            text, dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points),
                            every=args.checkpoint_every)
@@ -388,6 +391,9 @@ def _cmd_program(args) -> str:
     first = df[df["phi"] == args.phi[0]]
     first.attrs.update(df.attrs)
     msg = _write(args, df, lambda: plots.program_figure(first, title))
+    for osc in df.attrs.get("oscillations") or []:
+        msg += "\noscillation " + ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else
+                                            f"{k} = {v}" for k, v in osc.items())
     ck.remove()
     if args.resume:
         msg += f"\nresumed from {ck.path}"

@@ -163,12 +163,19 @@ def program_figure(df: pd.DataFrame, title: str):
     steps = np.unique(df["step"])
     labels = df.attrs.get("steps", [])
     ax = axs[0]
+    oscillating = []
     for c, k in zip(_colors(len(steps)), steps):
         d = df[df["step"] == k]
         lab = f"{k}: " + (labels[k - 1] if k - 1 < len(labels) else f"step {k}")
+        if lab.split(": ", 1)[-1].startswith("oscillate"):
+            oscillating.append(str(k))           # a loop through zero: the time panels show it
+            continue
         g = _positive(d["shear_rate_per_s"])
         if np.any(np.isfinite(g)):
             ax.loglog(g, _positive(d["shear_stress_Pa"]), "-", color=c, lw=2, label=lab)
+    if oscillating:
+        ax.text(0.02, 0.02, f"oscillation step(s) {', '.join(oscillating)}: stress and rate "
+                "change sign, see the time panels", transform=ax.transAxes, fontsize=7)
     ax.set_xlabel("shear rate [1/s]")
     ax.set_ylabel("mixture shear stress [Pa]")
     ax.set_title("stress vs rate (steps in legend order)", fontsize=9)

@@ -70,7 +70,9 @@ def test_relax_issue_command(tmp_path, monkeypatch):
     assert df["f"].iloc[0] == pytest.approx(float(st.f), rel=1e-12)
     assert df["plastic_shear_rate_per_s"].iloc[0] == pytest.approx(float(st.shear_rate), rel=1e-9)
     assert df["time_s"].iloc[-1] == pytest.approx(50.0)
-    assert np.all(np.diff(df["shear_stress_Pa"]) <= 0)
+    # decays monotonically, to IDA's tolerance (rtol 1e-7 of the initial stress): once the stress
+    # is ~1e-10 Pa the signed law's plastic rate may flip sign within that tolerance
+    assert np.all(np.diff(df["shear_stress_Pa"]) <= 1e-7 * df["shear_stress_Pa"].iloc[0])
     assert (tmp_path / "relax.png").exists()
 
 
