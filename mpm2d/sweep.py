@@ -101,7 +101,7 @@ def run_case(scene: str, out: str, params: dict, checkpoint_every: float = 60.0,
     final, partial = Path(out) / name, Path(out) / f"{name}.partial"
     if _complete(final):
         return {"case": name, "status": "skipped", "wall_s": 0.0}
-    numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))  # <= pool
     t0 = time.perf_counter()
     resume = (partial / "checkpoint.npz").exists() and (partial / "manifest.json").exists()
     run_scene(get_setup(scene), partial, dict(params), resume=resume, progress=False, vtk=vtk,
@@ -113,14 +113,19 @@ def run_case(scene: str, out: str, params: dict, checkpoint_every: float = 60.0,
 
 
 def _client(scheduler: str | None, workers: int | None):
+    import dask.config
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
         return Client(scheduler, timeout="20s"), None
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                           dashboard_address=None, silence_logs=50,
-                           env={"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"})
+    # one numba thread per worker, set before the worker process starts (numba refuses a
+    # changed NUMBA_NUM_THREADS once its threads run: an environment applied later races it)
+    environ = {**dask.config.get("distributed.nanny.pre-spawn-environ"),
+               "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=50)
     return Client(cluster), cluster
 
 
