@@ -513,32 +513,33 @@ def hub_figure(hub: pd.DataFrame, R, path):
 
 
 def pressure_figure(cases, params_of, path, t=1.0):
-    """Fig. 14: granular pressure under the wheel at time t for each case (label, run folder)
-    and the noise measure per case. Returns (path, {label: noise})."""
+    """Fig. 14: granular pressure under the wheel at time t for each case (label, run folder),
+    three maps a row, and the noise measure per case (bars). Returns (path, {label: noise})."""
     plt = plots.plt
     n = len(cases)
-    fig, axs = plt.subplots(2, n, figsize=(3.2 * n, 6.0), squeeze=False)
+    rows = (n + 2) // 3
+    fig = plt.figure(figsize=(12, 3.0 * rows + 3.2), constrained_layout=True)
+    gs = fig.add_gridspec(rows + 1, 3)
     noise = {}
     for k, (label, folder) in enumerate(cases):
         p = params_of(folder)
         fr = frame_at(folder, t)
         pw, xe, ye = pressure_window(fr, p)
         noise[label] = pressure_noise(fr, p)
-        ax = axs[0, k]
+        ax = fig.add_subplot(gs[k // 3, k % 3])
         if pw.size:
             im = ax.pcolormesh(xe, ye, pw.T / 1e3, cmap="magma", shading="flat")
             fig.colorbar(im, ax=ax, label="p~ [kPa]", shrink=0.8)
         ax.set_aspect("equal")
-        ax.set_title(f"{label}\nt = {float(fr['time_s']):.2f} s, noise {noise[label]:.2f}",
-                     fontsize=8)
+        ax.set_title(f"{label}: t = {float(fr['time_s']):.2f} s, noise {noise[label]:.2f}",
+                     fontsize=9)
         ax.set_xlabel("x [m]")
-    axs[1, 0].bar(range(n), [noise[c[0]] for c in cases], color="C1")
-    axs[1, 0].set_xticks(range(n))
-    axs[1, 0].set_xticklabels([c[0] for c in cases], rotation=60, fontsize=7)
-    axs[1, 0].set_ylabel("RMS cell jump of p~ / mean p~")
-    for ax in axs[1, 1:]:
-        ax.axis("off")
-    fig.tight_layout()
+        ax.set_ylabel("y [m]")
+    ax = fig.add_subplot(gs[rows, :])
+    ax.bar(range(n), [noise[c[0]] for c in cases], color="C1")
+    ax.set_xticks(range(n))
+    ax.set_xticklabels([c[0] for c in cases], fontsize=8)
+    ax.set_ylabel("RMS cell jump of p~ / mean p~")
     return plots.save(fig, path), noise
 
 
