@@ -15,17 +15,16 @@ Beetstra drag. The rod is a rigid body with every component prescribed (velocity
 t = 0) meeting the bed through multi-velocity-field contact (mpm2d.contact: gap criterion,
 Coulomb mu_w, free separation); its reaction force is recorded.
 
-Drained or undrained (DESIGN.md section 5), numbers for phi0 = 0.47: Beetstra F = 17.3, Darcy
-permeability k = (1 - phi) d^2/(18 phi F) = 1.24e-13 m^2; with the skeleton's constrained
-modulus M = K + 4G/3 = 1.34e8 Pa and the fluid's storage (1 - phi)/kappa, c_v = k/(eta0 (1/M +
-(1 - phi)/kappa)) = 1.9 m^2/s, so a JAMMED skeleton equilibrates its pore pressure over the
-plug's 1 cm in L^2/c_v = 5e-5 s. But the volume that drainage can move is set by the skeleton's
-strain, p/M ~ 1e4 Pa / 1.3e8 Pa ~ 1e-4, and an unjammed skeleton (phi < phi_m) has no stiffness
-at all (its granular pressure relaxes), so relative flow needs a pore-pressure gradient: the
-Darcy velocity w = k/eta0 grad p ~ 2.7e-5 m/s for 1e4 Pa over 1 cm, 1e-4 of v0 = 0.175 m/s;
-over 20 ms it changes phi by w t / L ~ 5e-5. Either way the grains and fluid move together to
-1e-4, as Han et al. measured (no detectable change of packing fraction at the front), so the
-locked mixture is the default; the two-phase mode is kept to show the difference: measured at
+Drained or undrained (DESIGN.md section 5, whose "c_v of order 1 m^2/s" is 1000x too large),
+numbers for phi0 = 0.47: Beetstra F = 17.3, Darcy permeability k = (1 - phi) d^2/(18 phi F) =
+1.24e-13 m^2 (k/eta0 = 2.7e-11 m^2/(Pa s)); with the skeleton's constrained modulus M = K + 4G/3
+= 1.34e8 Pa and the fluid's storage (1 - phi)/kappa, c_v = k/(eta0 (1/M + (1 - phi)/kappa)) =
+1.9e-3 m^2/s (3.6e-3 without the storage). Over the plug's 1 cm the pore pressure needs L^2/c_v
+= 51 ms to drain, longer than the 20 ms run: the intrusion is undrained, grains and fluid move
+together, and an unjammed skeleton (phi < phi_m), which has no stiffness, drains even less (the
+Darcy velocity k/eta0 grad p ~ 2.7e-5 m/s for 1e4 Pa over 1 cm is 1e-4 of v0 = 0.175 m/s and
+changes phi by ~5e-5 in 20 ms), as Han et al. measured (no detectable change of packing fraction
+at the front). So the locked mixture is the default; the two-phase mode is kept to show the difference: measured at
 phi0 = 0.47, v0 = 0.5 m/s over 8 ms, two-phase gives k_l 8.5% and k_t 8.4% lower (the same
 k_l/k_t, 0.64) at 2.3x the wall time (validation case ``mpm2d_intruder_modes``).
 
