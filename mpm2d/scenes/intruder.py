@@ -24,8 +24,8 @@ numbers for phi0 = 0.47: Beetstra F = 17.3, Darcy permeability k = (1 - phi) d^2
 together, and an unjammed skeleton (phi < phi_m), which has no stiffness, drains even less (the
 Darcy velocity k/eta0 grad p ~ 2.7e-5 m/s for 1e4 Pa over 1 cm is 1e-4 of v0 = 0.175 m/s and
 changes phi by ~5e-5 in 20 ms), as Han et al. measured (no detectable change of packing fraction
-at the front). So the locked mixture is the default; the two-phase mode is kept to show the difference: measured at
-phi0 = 0.47, v0 = 0.5 m/s over 8 ms, two-phase gives k_l 8.5% and k_t 8.4% lower (the same
+at the front). So the locked mixture is the default; the two-phase mode is kept to show the
+difference: measured at phi0 = 0.47, v0 = 0.5 m/s over 8 ms, two-phase gives k_l 8.5% and k_t 8.4% lower (the same
 k_l/k_t, 0.64) at 2.3x the wall time (validation case ``mpm2d_intruder_modes``).
 
 Geometry and choices where the paper is silent (Baumgarten & Kamrin give only the 50 x 35
