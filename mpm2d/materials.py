@@ -54,6 +54,23 @@ def _fill_Lw(Lw, p, Lm):
 
 
 @_jit
+def _get_stress(stress, p, s):
+    """s[:] = stress[p], element by element (a view stress[p] costs its reference counting,
+    about as much as an elastic update)."""
+    for i in range(3):
+        for j in range(3):
+            s[i, j] = stress[p, i, j]
+
+
+@_jit
+def _put_stress(stress, p, s):
+    """stress[p] = s, element by element (no slice assignment)."""
+    for i in range(3):
+        for j in range(3):
+            stress[p, i, j] = s[i, j]
+
+
+@_jit
 def _jacobian(L, p, dt):
     """det(1 + dt L) for the compact gradient row p."""
     return (((1.0 + dt * L[p, 0]) * (1.0 + dt * L[p, 3]) - dt * dt * L[p, 1] * L[p, 2])
@@ -76,12 +93,14 @@ def elastic_kernel(stress, L, vol, dt, G, K, chunks, sp, Lw, spw):
     sw = Lw.shape[0] > 0
     for c in nb.prange(chunks.shape[0] - 1):
         Lm = np.zeros((3, 3))
+        s0 = np.empty((3, 3))
         s = np.empty((3, 3))
         for p in range(chunks[c], chunks[c + 1]):
             _fill_L(L, p, Lm)
             _fill_Lw(Lw, p, Lm)
-            elastic_trial(stress[p], Lm, dt, G, K, s)
-            stress[p, :, :] = s
+            _get_stress(stress, p, s0)
+            elastic_trial(s0, Lm, dt, G, K, s)
+            _put_stress(stress, p, s)
             vol[p] *= _jacobian(L, p, dt)
             sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = s[0, 0], s[0, 1], s[1, 1], s[2, 2]
             if sw:
@@ -131,16 +150,20 @@ def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, 
     sw = Lw.shape[0] > 0
     for c in nb.prange(chunks.shape[0] - 1):
         Lm = np.zeros((3, 3))
+        s0 = np.empty((3, 3))
         s = np.empty((3, 3))
         out = np.empty(NOUT)
         for p in range(chunks[c], chunks[c + 1]):
             _fill_L(L, p, Lm)
             _fill_Lw(Lw, p, Lm)
             phi = svol[p] / vol[p]
-            update_point(stress[p], Lm, phi, f[p], dt, P, s, out)
+            _get_stress(stress, p, s0)
+            # warm start of a jammed point's dilatant solve from its previous plastic rate
+            # (gdot_p, checkpointed): same tolerance, a different starting point
+            update_point(s0, Lm, phi, f[p], dt, P, s, out, gdot[p])
             if out[12] == FAILED:
                 fail[0] = p + 1
-            stress[p, :, :] = s
+            _put_stress(stress, p, s)
             f[p] = out[0]
             gdot[p] = out[1]
             case[p] = out[12]

@@ -207,6 +207,8 @@ class Simulation:
         self._geo = grid.geometry()
         self._flag = np.zeros(1, dtype=np.int64)
         self._chunks = {}
+        #: per set, per chunk: max V/m and max |v|^2 as the last P2G scattered them
+        self._ext = {s.name: np.zeros((self.nc, 2)) for s in self.sets}
         self.t, self.step_count, self.last_dt = 0.0, 0, 0.0
         #: force on each deformable contact body from the material in the last step [N]
         self.contact_force = {k: np.zeros(2) for k in self.contact_sets}
@@ -313,12 +315,17 @@ class Simulation:
             self._chunks[s.name] = chunk_bounds(len(s), self.nc)
 
     # ------------------------------------------------------------------ step size
-    def stable_dt(self) -> float:
-        """The largest stable step now [s] (sets ``_limit_reason``)."""
+    def stable_dt(self, _ext=None) -> float:
+        """The largest stable step now [s] (sets ``_limit_reason``).
+
+        ``_ext`` (internal): {set name: (nc, 2) per-chunk max V/m, max |v|^2} already taken from
+        the current state (by the step's P2G pass, :func:`mpm2d.transfer.p2g`); else computed."""
         h = self.grid.h
         c2 = v2 = nu = 0.0
         for s in self.sets:
-            ext = _extremes[self.par](s.m, s.V, s.v, self._chunks[s.name]).max(axis=0)
+            e = _ext[s.name] if _ext is not None else _extremes[self.par](
+                s.m, s.V, s.v, self._chunks[s.name])
+            ext = e.max(axis=0)
             c2 = max(c2, s.material.wave_modulus() * ext[0])
             nu = max(nu, s.material.viscosity_bound() * ext[0])
             v2 = max(v2, ext[1])
@@ -337,8 +344,8 @@ class Simulation:
             else f" limit, cfl_visc {self.cfl_visc}"
         return dt
 
-    def _step_size(self) -> float:
-        limit = self.stable_dt()
+    def _step_size(self, _ext=None) -> float:
+        limit = self.stable_dt(_ext)
         if self.user_dt is None:
             return limit
         if self.user_dt > limit * (1.0 + 1e-12):
@@ -352,10 +359,10 @@ class Simulation:
         """Advance one step (dt: override, for tests); returns the dt used [s]."""
         clock = time.perf_counter
         t0 = clock()
-        dt = self._step_size() if dt is None else dt
-        self._dt_next = dt
-        t1 = clock()
         self._p2g()
+        t1 = clock()
+        # the step size from the extremes P2G took of the state it scattered (one pass fewer)
+        dt = self._step_size(self._ext) if dt is None else dt
         t2 = clock()
         self._grid_update(dt)
         t3 = clock()
@@ -366,8 +373,8 @@ class Simulation:
         for b in self.bodies:
             b.advance(dt)
         tm = self.timings
-        tm["step size"] += t1 - t0
-        tm["P2G"] += t2 - t1
+        tm["P2G"] += t1 - t0
+        tm["step size"] += t2 - t1
         tm["grid update"] += t3 - t2
         tm["G2P"] += t4 - t3
         tm["constitutive"] += t5 - t4
@@ -381,51 +388,54 @@ class Simulation:
         return dt
 
     def _p2g(self):
-        """Phase 1: particles to private node fields, reduced per phase."""
+        """Phase 1: particles to private node fields, reduced per phase with the body force
+        m_i g; records each set's extremes for the step size in ``_ext``."""
         axi = self.grid.axisymmetric
         for s in self.sets:
             ph = self._field(s)
             svol = s.svol if (self.two_phase and ph in self.phases) else np.zeros(0)
             pf = s.pf if (self.two_phase and s.phase == "fluid") else np.zeros(0)
             p2g[self.par](s.x, s.v, s.C, s.m, s.V, s.sp, pf, s.fext, svol, self._geo, axi,
-                self._chunks[s.name], self.priv[ph])
+                self._chunks[s.name], self.priv[ph], self._ext[s.name])
+        gx, gy = self.gravity[0], self.gravity[1]
         for ph in self.fields:
-            reduce_private[self.par_grid](self.priv[ph], self.G[ph])
+            reduce_private[self.par_grid](self.priv[ph], self.G[ph], True, gx, gy)
         if self.swirl:
             for s in self.sets:
                 p2g_swirl[self.par](s.x, s.m, s.V, s.vtheta, s.Cl, s.spw, self._geo,
                                     self._chunks[s.name], self.privw)
-            reduce_private[self.par_grid](self.privw, self.Gw)
+            reduce_private[self.par_grid](self.privw, self.Gw, False, 0.0, 0.0)
             G = self.G["solid"]
             G[:, :, FX] += self.Gw[:, :, 2]
-            # fold the angular momentum and torque now, with the unfolded masses (the image
-            # momentum about a turning wall needs the images' mass)
-            g = self.grid
-            self._mw[:] = G[:, :, M]
-            fold_swirl(self.Gw, self._mw, g.kind, self.swirl_wall_l(self.t + self._dt_next),
-                       g.nx, g.ny, g.on_axis)
 
     def _grid_update(self, dt):
-        """Phase 2: forces, boundaries, velocities, drag, bodies, ghost nodes."""
+        """Phase 2: boundaries, velocities, drag, bodies, ghost nodes (the body force came
+        with the P2G reduction)."""
         g, kind, wall_u = self.grid, self.grid.kind, self.grid.wall_u
         pg = self.par_grid
+        if self.swirl:
+            # fold the angular momentum and torque first, with the unfolded masses (the image
+            # momentum about a turning wall needs the images' mass)
+            self._mw[:] = self.G["solid"][:, :, M]
+            fold_swirl(self.Gw, self._mw, g.kind, self.swirl_wall_l(self.t + dt),
+                       g.nx, g.ny, g.on_axis)
         for ph in self.fields:
-            gu.add_body_force[pg](self.G[ph], self.gravity[0], self.gravity[1])
             fold(self.G[ph], kind, wall_u, g.nx, g.ny)
         if self.swirl:
             self._swirl_update(dt)
         if g.axisymmetric:
             self._axis_correction()
         if self.two_phase:
+            # nodal phi, buoyancy split, both phases' velocities and the implicit drag in one
+            # pass (grid_update.two_phase_nodes)
             Gs, Gf = self.G["solid"], self.G["fluid"]
-            gu.volume_fraction[pg](Gs, Gf, self.phi_nodes)
-            gu.share_pore_pressure[pg](Gs, Gf, self.phi_nodes)
-        for ph in self.fields:
-            gu.velocities[pg](self.G[ph], dt, self.vg[ph], self.vg_old[ph])
-        if self.two_phase:
             d = self.drag
-            gu.implicit_drag[pg](Gs, Gf, self.phi_nodes, self.vg["solid"], self.vg["fluid"], dt,
-                             d.eta0, d.d, d.rho_f, self.drag_nodes)
+            gu.two_phase_nodes[pg](Gs, Gf, self.phi_nodes, dt, self.vg["solid"],
+                                   self.vg_old["solid"], self.vg["fluid"], self.vg_old["fluid"],
+                                   d.eta0, d.d, d.rho_f, self.drag_nodes)
+        for ph in self.fields:
+            if not (self.two_phase and ph in self.phases):
+                gu.velocities[pg](self.G[ph], dt, self.vg[ph], self.vg_old[ph])
         self._contact(dt)
         for ph in self.fields:
             unfold(self.vg[ph], kind, wall_u, g.nx, g.ny, True)

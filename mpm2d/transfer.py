@@ -73,7 +73,7 @@ def chunk_bounds(n: int, nc: int) -> np.ndarray:
 
 
 @dual
-def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv):
+def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext):
     """Scatter one particle set into the private node fields ``priv[c]`` of its chunks.
 
     Parameters
@@ -88,6 +88,8 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv):
     svol : (N,) or (0,) true solid volume of granular points (two-phase), into V and VS
     geo : (x0, y0, h, x1, y1)
     priv : (nc, NI, NJ, NF) private node fields, zero on entry
+    ext : (nc, 2) written: per chunk, max V/m [m^3/kg] and max |v|^2 [m^2/s^2] of the points
+        as scattered (the step size's wave and advection limits, taken in the same pass)
 
     Points are sorted by their B-spline base node, so consecutive points usually share the
     whole 3 x 3 stencil: their contributions are summed in a local block and written to the
@@ -102,6 +104,7 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv):
         G = priv[c]
         acc = np.zeros((3, 3, nf))
         cbx, cby = -(1 << 40), -(1 << 40)
+        e_vm = e_v2 = 0.0
         for p in range(chunks[c], chunks[c + 1]):
             bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
             by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
@@ -110,6 +113,8 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv):
                     _flush(G, acc, cbx, cby)
                 cbx, cby = bx, by
             mp, Vp = m[p], vol[p]
+            e_vm = max(e_vm, Vp / mp)
+            e_v2 = max(e_v2, v[p, 0] * v[p, 0] + v[p, 1] * v[p, 1])
             mvx, mvy = mp * v[p, 0], mp * v[p, 1]
             c00, c01 = mp * h * C[p, 0, 0], mp * h * C[p, 0, 1]
             c10, c11 = mp * h * C[p, 1, 0], mp * h * C[p, 1, 1]
@@ -156,6 +161,7 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv):
                         G[ex + a + PAD, ey + b + PAD, FY] += ew[a] * eh[b] * fext[p, 1]
         if cbx != -(1 << 40):
             _flush(G, acc, cbx, cby)
+        ext[c, 0], ext[c, 1] = e_vm, e_v2
 
 
 @_jit
@@ -169,8 +175,10 @@ def _flush(G, acc, bx, by):
 
 
 @dual
-def reduce_private(priv, out):
-    """out = sum over chunks of priv (fixed order), then priv := 0."""
+def reduce_private(priv, out, gravity, gx, gy):
+    """out = sum over chunks of priv (fixed order), then priv := 0; with ``gravity`` also the
+    body force f_i += m_i g (out[..., FX/FY] += out[..., M] (gx, gy)), in the same pass (before
+    folding, so that images see mirrored gravity)."""
     nc, NI = priv.shape[0], priv.shape[1]
     NJ, NF = priv.shape[2], priv.shape[3]
     for I in nb.prange(NI):
@@ -181,6 +189,9 @@ def reduce_private(priv, out):
                     s += priv[c, I, J, k]
                     priv[c, I, J, k] = 0.0
                 out[I, J, k] = s
+            if gravity:
+                out[I, J, FX] += out[I, J, M] * gx
+                out[I, J, FY] += out[I, J, M] * gy
 
 
 @dual
