@@ -31,7 +31,6 @@ from rheology.materials import Material
 from rheology.numba_cache import guard
 
 from .kernels import dual
-from .transfer import g2p_point
 
 guard(__file__)                          # drop cached kernels if rheology's laws changed
 
@@ -97,38 +96,15 @@ def elastic_kernel(stress, L, vol, dt, G, K, chunks, sp, Lw, spw):
         s0 = np.empty((3, 3))
         s = np.empty((3, 3))
         for p in range(chunks[c], chunks[c + 1]):
-            _elastic_point(p, stress, L, vol, dt, G, K, sp, Lw, spw, sw, Lm, s0, s)
-
-
-@_jit
-def _elastic_point(p, stress, L, vol, dt, G, K, sp, Lw, spw, sw, Lm, s0, s):
-    """:func:`elastic_kernel` for point p (Lm, s0, s: 3 x 3 work arrays, Lm zero outside the
-    entries _fill_L/_fill_Lw set)."""
-    _fill_L(L, p, Lm)
-    _fill_Lw(Lw, p, Lm)
-    _get_stress(stress, p, s0)
-    elastic_trial(s0, Lm, dt, G, K, s)
-    _put_stress(stress, p, s)
-    vol[p] *= _jacobian(L, p, dt)
-    sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = s[0, 0], s[0, 1], s[1, 1], s[2, 2]
-    if sw:
-        spw[p, 0], spw[p, 1] = s[0, 2], s[1, 2]
-
-
-@dual
-def g2p_elastic_kernel(x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag,
-                       stress, vol, G, K, chunks, sp, Lw, spw):
-    """G2P (mpm2d.transfer.g2p) and the elastic update (:func:`elastic_kernel`) of each point in
-    one pass: the same arithmetic as the two kernels one after the other (identical results),
-    one parallel region and no round trip of L through memory."""
-    sw = Lw.shape[0] > 0
-    for c in nb.prange(chunks.shape[0] - 1):
-        Lm = np.zeros((3, 3))
-        s0 = np.empty((3, 3))
-        s = np.empty((3, 3))
-        for p in range(chunks[c], chunks[c + 1]):
-            g2p_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag)
-            _elastic_point(p, stress, L, vol, dt, G, K, sp, Lw, spw, sw, Lm, s0, s)
+            _fill_L(L, p, Lm)
+            _fill_Lw(Lw, p, Lm)
+            _get_stress(stress, p, s0)
+            elastic_trial(s0, Lm, dt, G, K, s)
+            _put_stress(stress, p, s)
+            vol[p] *= _jacobian(L, p, dt)
+            sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = s[0, 0], s[0, 1], s[1, 1], s[2, 2]
+            if sw:
+                spw[p, 0], spw[p, 1] = s[0, 2], s[1, 2]
 
 
 @dual
@@ -265,15 +241,6 @@ class LinearElastic:
         ps.arrays["m"] = self.rho * ps.svol
         s = ps.stress
         ps.sp[:] = np.stack([s[:, 0, 0], s[:, 0, 1], s[:, 1, 1], s[:, 2, 2]], axis=1)
-
-    #: the step may run this material's update inside G2P (:meth:`g2p_and_update`)
-    fused_g2p = True
-
-    def g2p_and_update(self, ps, dt, chunks, parallel, g2p_args):
-        """G2P of the set (``g2p_args``: mpm2d.transfer.g2p's arguments after x, v, C, L) and
-        the update, in one pass (:func:`g2p_elastic_kernel`)."""
-        g2p_elastic_kernel[parallel](ps.x, ps.v, ps.C, ps.L, *g2p_args, ps.stress, ps.V,
-                                     self.G, self.K, chunks, ps.sp, *_swirl_arrays(ps))
 
     def update(self, ps, dt, chunks, parallel, **_):
         elastic_kernel[parallel](ps.stress, ps.L, ps.V, dt, self.G, self.K, chunks, ps.sp,

@@ -10,9 +10,7 @@ One step of size dt (USL: the stress is updated last, from the new grid velociti
                      bodies on their own fields, then rigid bodies, implicitly); ghost nodes
                      (unfold)
     3. G2P           v, C (APIC) or FLIP/PIC blend, L = grad v, x += dt v
-    4. constitutive  each set's material advances stress, volume and state with L (a linear
-                     elastic set does it inside its G2P pass, point by point, with the same
-                     arithmetic: one pass fewer; its time is then counted as G2P)
+    4. constitutive  each set's material advances stress, volume and state with L
     5. bodies move; t += dt; every ``sort_every`` steps the points are re-sorted by B-spline
        base node (O(N) counting sort, skipped when already in order)
 
@@ -583,13 +581,8 @@ class Simulation:
             if self.swirl:
                 g2p_swirl[self.par](s.x, s.vtheta, s.Cl, s.Lw, self.lg, self._geo, apic)
                 r_old = s.x[:, 0].copy()
-            args = (self.vg[ph], self.vg_old[ph], self._geo, axi, apic, self.flip_alpha, dt,
-                    kind, self._flag)
-            if getattr(s.material, "fused_g2p", False):
-                # G2P and the constitutive update in one pass (identical arithmetic)
-                s.material.g2p_and_update(s, dt, self._chunks[s.name], self.par, args)
-            else:
-                g2p[self.par](s.x, s.v, s.C, s.L, *args)
+            g2p[self.par](s.x, s.v, s.C, s.L, self.vg[ph], self.vg_old[ph], self._geo, axi, apic,
+                self.flip_alpha, dt, kind, self._flag)
             if self.swirl:
                 # l = r v_theta is what a point carries: v_theta at the new radius
                 s.vtheta *= r_old / s.x[:, 0]
@@ -606,9 +599,7 @@ class Simulation:
     def _constitutive_update(self, dt):
         """Phase 4: each material advances its points with L over dt."""
         for s in self.sets:
-            if not getattr(s.material, "fused_g2p", False):      # else done in _g2p
-                s.material.update(s, dt, self._chunks[s.name], self.par,
-                                  two_phase=self.two_phase)
+            s.material.update(s, dt, self._chunks[s.name], self.par, two_phase=self.two_phase)
 
     # ------------------------------------------------------------------ running
     def run(self, t_end: float, callback=None, every: int = 1, progress=None) -> None:

@@ -204,71 +204,65 @@ def g2p(x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag):
     Particles crossing a wall are reflected back, periodic ones wrapped; a particle leaving a
     free side's ghost layer sets ``flag[0] = 1``.
     """
-    for p in nb.prange(x.shape[0]):
-        g2p_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag)
-
-
-@_jit
-def g2p_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag):
-    """:func:`g2p` for point p (shared with fused kernels such as
-    mpm2d.materials.g2p_elastic_kernel)."""
     x0, y0, h, x1, y1 = geo[0], geo[1], geo[2], geo[3], geo[4]
     inv_h = 1.0 / h
     dinv = APIC_D_INV * inv_h          # D^-1 (x_i - x_p) with (x_i - x_p) in cell units
+    N = x.shape[0]
     lo_x, hi_x = x0 - 1.4 * h, x1 + 1.4 * h
     lo_y, hi_y = y0 - 1.4 * h, y1 + 1.4 * h
-    bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
-    by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
-    wx = (wx0, wx1, wx2)
-    wy = (wy0, wy1, wy2)
-    dx = (dx0, dx1, dx2)
-    dy = (dy0, dy1, dy2)
-    vx = vy = 0.0
-    bxx = bxy = byx = byy = 0.0
-    lxx = lxy = lyx = lyy = 0.0
-    for a in range(3):
-        I = bx + a + PAD
-        rx = a - fx
-        for b in range(3):
-            J = by + b + PAD
-            ry = b - fy
-            w = wx[a] * wy[b]
-            gx = dx[a] * wy[b]
-            gy = wx[a] * dy[b]
-            ux, uy = vg[I, J, 0], vg[I, J, 1]
-            wux, wuy = w * ux, w * uy
-            vx += wux
-            vy += wuy
-            bxx += wux * rx
-            bxy += wux * ry
-            byx += wuy * rx
-            byy += wuy * ry
-            lxx += ux * gx
-            lxy += ux * gy
-            lyx += uy * gx
-            lyy += uy * gy
-    L[p, 0], L[p, 1], L[p, 2], L[p, 3] = lxx * inv_h, lxy * inv_h, lyx * inv_h, lyy * inv_h
-    L[p, 4] = vx / x[p, 0] if axisym else 0.0
-    if apic:
-        C[p, 0, 0], C[p, 0, 1] = dinv * bxx, dinv * bxy
-        C[p, 1, 0], C[p, 1, 1] = dinv * byx, dinv * byy
-        v[p, 0], v[p, 1] = vx, vy
-    else:
-        ox = oy = 0.0
+    for p in nb.prange(N):
+        bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
+        by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
+        wx = (wx0, wx1, wx2)
+        wy = (wy0, wy1, wy2)
+        dx = (dx0, dx1, dx2)
+        dy = (dy0, dy1, dy2)
+        vx = vy = 0.0
+        bxx = bxy = byx = byy = 0.0
+        lxx = lxy = lyx = lyy = 0.0
         for a in range(3):
+            I = bx + a + PAD
+            rx = a - fx
             for b in range(3):
+                J = by + b + PAD
+                ry = b - fy
                 w = wx[a] * wy[b]
-                ox += w * vg_old[bx + a + PAD, by + b + PAD, 0]
-                oy += w * vg_old[bx + a + PAD, by + b + PAD, 1]
-        v[p, 0] = flip_alpha * (v[p, 0] + vx - ox) + (1.0 - flip_alpha) * vx
-        v[p, 1] = flip_alpha * (v[p, 1] + vy - oy) + (1.0 - flip_alpha) * vy
-    xn = x[p, 0] + dt * vx
-    yn = x[p, 1] + dt * vy
-    xn = _keep_inside(xn, x0, x1, kind[0], kind[1])
-    yn = _keep_inside(yn, y0, y1, kind[2], kind[3])
-    if not (lo_x < xn < hi_x and lo_y < yn < hi_y):
-        flag[0] = 1
-    x[p, 0], x[p, 1] = xn, yn
+                gx = dx[a] * wy[b]
+                gy = wx[a] * dy[b]
+                ux, uy = vg[I, J, 0], vg[I, J, 1]
+                wux, wuy = w * ux, w * uy
+                vx += wux
+                vy += wuy
+                bxx += wux * rx
+                bxy += wux * ry
+                byx += wuy * rx
+                byy += wuy * ry
+                lxx += ux * gx
+                lxy += ux * gy
+                lyx += uy * gx
+                lyy += uy * gy
+        L[p, 0], L[p, 1], L[p, 2], L[p, 3] = lxx * inv_h, lxy * inv_h, lyx * inv_h, lyy * inv_h
+        L[p, 4] = vx / x[p, 0] if axisym else 0.0
+        if apic:
+            C[p, 0, 0], C[p, 0, 1] = dinv * bxx, dinv * bxy
+            C[p, 1, 0], C[p, 1, 1] = dinv * byx, dinv * byy
+            v[p, 0], v[p, 1] = vx, vy
+        else:
+            ox = oy = 0.0
+            for a in range(3):
+                for b in range(3):
+                    w = wx[a] * wy[b]
+                    ox += w * vg_old[bx + a + PAD, by + b + PAD, 0]
+                    oy += w * vg_old[bx + a + PAD, by + b + PAD, 1]
+            v[p, 0] = flip_alpha * (v[p, 0] + vx - ox) + (1.0 - flip_alpha) * vx
+            v[p, 1] = flip_alpha * (v[p, 1] + vy - oy) + (1.0 - flip_alpha) * vy
+        xn = x[p, 0] + dt * vx
+        yn = x[p, 1] + dt * vy
+        xn = _keep_inside(xn, x0, x1, kind[0], kind[1])
+        yn = _keep_inside(yn, y0, y1, kind[2], kind[3])
+        if not (lo_x < xn < hi_x and lo_y < yn < hi_y):
+            flag[0] = 1
+        x[p, 0], x[p, 1] = xn, yn
 
 
 @_jit
