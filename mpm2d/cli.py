@@ -25,6 +25,7 @@ import os
 import sys
 
 from rheology.cli_common import Number, OneLineParser, run_command
+from rheology.sample import add_mass_fraction_options
 
 
 def _parse_set(items):
@@ -63,6 +64,7 @@ def main(argv=None) -> int:
     run.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0, 1e6,
                                                        lo_closed=False, unit="s"),
                      default=60.0, help="wall seconds between checkpoints (default 60)")
+    add_mass_fraction_options(run, nargs=None)
     sw = sub.add_parser("sweep", help="run a scene over a grid of parameters (Dask)")
     sw.add_argument("scene")
     sw.add_argument("--set", action="append", metavar="KEY=V1[,V2...]", default=[],
@@ -110,9 +112,32 @@ def _command(args) -> None:
         numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
     from .run import run_scene
 
-    run_scene(get_setup(args.scene), args.out or args.scene, _parse_set(args.set),
+    params = _parse_set(args.set)
+    if args.mass_fraction is not None:
+        _mass_fraction(args, get_spec(args.scene), params)
+    run_scene(get_setup(args.scene), args.out or args.scene, params,
               resume=args.resume, progress=not args.quiet, vtk=False if args.no_vtk else None,
               frames=args.frames, checkpoint_every=args.checkpoint_every, scene_name=args.scene)
+
+
+def _mass_fraction(args, spec, params: dict) -> None:
+    """Set the scene's volume fraction from ``--mass-fraction`` (Eq. 20 with the scene material's
+    densities unless given) and print the conversion; ValueError where the scene has none."""
+    from rheology import get_material
+    from rheology.sample import mass_fraction_phi
+
+    from .scenes.spec import volume_fraction_key
+
+    key = volume_fraction_key(spec)
+    if key is None:
+        raise ValueError(f"--mass-fraction: scene {spec.name} has no suspension volume fraction")
+    if key in params:
+        raise ValueError(f"give --set {key}=... or --mass-fraction, not both")
+    full = {**spec.defaults, **spec.coerce(params)}
+    m = get_material(spec.params[key].fraction_of(full))
+    (phi,), note = mass_fraction_phi(args, m)
+    params[key] = phi
+    print(f"mpm2d run: {note}: {key} = {phi:.6g}")
 
 
 if __name__ == "__main__":

@@ -192,3 +192,23 @@ def test_python_api_validates_too():
         bar.setup(cells=True)
     with pytest.raises(ValueError, match="unknown parameter 'lenght'"):
         bar.setup(lenght=2.0)
+
+
+def test_mass_fraction_sets_the_scene_volume_fraction(tmp_path, capsys):
+    """--mass-fraction gives the scene's phi by Eq. (20) with its material's densities; a scene
+    without a suspension fraction, or a fraction given twice, is refused."""
+    import json
+
+    from rheology.sample import Densities, volume_fraction
+
+    out = tmp_path / "mf"
+    assert main(["run", "shear", "--mass-fraction", "0.42", "--set", "t_end=0.001", "--quiet",
+                 "--no-vtk", "--out", str(out)]) == 0
+    phi = float(volume_fraction(0.42, Densities(grain=1620.0, liquid=1620.0)))  # annular_shear
+    assert json.loads((out / "manifest.json").read_text())["params"]["phi"] == pytest.approx(phi)
+    assert f"phi = {phi:.5g}" in capsys.readouterr().out
+    for argv, word in ((["run", "bar", "--mass-fraction", "0.4"], "no suspension volume fraction"),
+                       (["run", "shear", "--mass-fraction", "0.4", "--set", "phi=0.4"],
+                        "not both")):
+        assert main(argv + ["--out", str(tmp_path / "x")]) == 2
+        assert word in capsys.readouterr().err and not (tmp_path / "x").exists()

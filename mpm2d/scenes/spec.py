@@ -77,6 +77,12 @@ class Param:
         What the parameter is (printed by ``mpm2d show``).
     note : str or callable(params) -> str
         Where a derived bound comes from (appended to the message), e.g. ``phi_j of material``.
+    material_of : str, optional
+        A material parameter: any SI set or a material file, on this scene set
+        (:func:`scene_material_param`).
+    fraction_of : callable(params) -> str, optional
+        A volume fraction of the named material (:func:`phi_below_jamming`): ``mpm2d run
+        --mass-fraction`` sets it through Eq. (20).
     """
 
     lo: float | Callable | None = None
@@ -91,6 +97,7 @@ class Param:
     doc: str = ""
     note: str | Callable = ""
     material_of: str | None = None
+    fraction_of: Callable | None = None
 
     @property
     def kind(self) -> str:
@@ -372,6 +379,11 @@ def phi_below_jamming(material_key="material", fixed=None, doc="initial solid vo
         return get_material(name(p)).phi_j
 
     return Param(0.0, phi_j, lo_closed=False, hi_closed=False, doc=doc,
-                 note=lambda p: f"phi_j of material {name(p)!r}")
+                 note=lambda p: f"phi_j of material {name(p)!r}", fraction_of=name)
+
+
+def volume_fraction_key(spec) -> str | None:
+    """The scene's volume-fraction parameter (declared with :func:`phi_below_jamming`), if any."""
+    return next((k for k, p in spec.params.items() if p.fraction_of is not None), None)
 
 
