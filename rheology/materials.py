@@ -463,7 +463,9 @@ def scene_material(scene_set: str | Material, material: str | Material | None = 
     densities and K0. ``scene_material("annular_shear", "fit/material.json")`` does the same
     with the user's material: its steady-flow parameters (phi_c, phi_j, a0, a_inf, mu_c, tau*,
     eta0, eta_B, Delta, ...) are used, and each of :data:`SCENE_FIELDS` the material leaves unset
-    (None; d = 0, the viscous limit of a steady fit) is taken from the scene's set.
+    (None; d = 0, the viscous limit of a steady fit) is taken from the scene's set, except a
+    scene phi0 at or above the material's phi_j: then phi0 follows the default-fraction rule of
+    :func:`rheology.defaults.default_fraction` (the rule every command uses).
 
     Parameters
     ----------
@@ -490,6 +492,10 @@ def scene_material(scene_set: str | Material, material: str | Material | None = 
     if user.d == 0.0:                        # 0: the viscous limit of a steady fit, no grain size
         unset.add("d")
     fill = {k: getattr(scene, k) for k in unset}
+    if "phi0" in fill and (fill["phi0"] is None or fill["phi0"] >= user.phi_j):
+        from .defaults import default_fraction    # the scene's phi0 would be jammed here
+
+        fill["phi0"] = default_fraction(user)
     return user.replace(**fill, **overrides) if (fill or overrides) else user
 
 

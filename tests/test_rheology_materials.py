@@ -114,3 +114,13 @@ def test_scene_material_puts_a_steady_fit_on_a_scene():
     assert scene_material("annular_shear") == scene
     with pytest.raises(ValueError, match="normalised"):
         scene_material("annular_shear", "singh2018_a")
+
+
+def test_scene_material_phi0_stays_below_the_users_jamming_fraction():
+    """A fit jamming below the scene's phi0 gets the default-fraction rule's phi0 instead."""
+    from rheology.defaults import default_fraction
+    from rheology.materials import scene_material
+
+    loose = r.get_material("hermes2016", phi_c=0.40, phi_j=0.48)
+    m = scene_material("annular_shear", loose)            # Table 4's phi0 = 0.505 >= 0.48
+    assert m.phi0 == default_fraction(loose) and m.phi_c < m.phi0 < m.phi_j
