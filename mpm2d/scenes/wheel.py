@@ -159,9 +159,7 @@ def _points(p) -> float:
     omega=spec.Param(0.0, 100.0, lo_closed=False, optional=True, unit="1/s",
                      doc="prescribed angular velocity (clockwise, driving to +x); none: both 10 "
                          "and 1 1/s (the default run)"),
-    radius=spec.Param(lambda p: p["hub_radius"] + 2 * p["h"], 0.5, unit="m",
-                      doc="wheel radius R (along each spoke's axis)",
-                      note="the hub radius + 2 cells to 0.5 m"),
+    radius=spec.positive(10.0, "m", "wheel radius R (along each spoke's axis)"),
     hub_radius=spec.Param(lambda p: p["h"], lambda p: p["radius"] - 2 * p["h"], unit="m",
                           doc="rigid hub radius", note="one cell to the radius - 2 cells"),
     spoke_width=spec.Param(lambda p: p["h"] / 2, lambda p: 2 * p["hub_radius"], unit="m",
