@@ -128,6 +128,8 @@ def test_peak_scaling_slope():
     res = peak_scaling(v0, 1000.0 * v0 ** 1.5)
     assert res["monotone"] and res["loglog_slope"] == pytest.approx(1.5)
     assert not peak_scaling(v0, np.array([1.0, 3.0, 2.0]))["monotone"]
+    neg = peak_scaling(v0, np.array([200.0, -2.0, 25.0]))   # v0 = 0.5 never decelerates
+    assert neg["monotone"] and neg["loglog_slope"] == pytest.approx(math.log(8) / math.log(2))
 
 
 def test_sweep_report_gathers_speeds(tmp_path):

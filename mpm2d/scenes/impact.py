@@ -663,12 +663,13 @@ SPEED_COLUMNS = ("v0_m_per_s", "peak_deceleration_m_per_s2", "late_velocity_m_pe
 
 
 def peak_scaling(v0, peak) -> dict:
-    """Monotonicity and log-log slope of the peak deceleration against v0."""
+    """Monotonicity (every finite peak, sorted by v0) and log-log slope (over the positive
+    peaks: a rod that never decelerates has none) of the peak deceleration against v0."""
     v0, peak = np.asarray(v0, float), np.asarray(peak, float)
     o = np.argsort(v0)
     v0, peak = v0[o], peak[o]
-    ok = np.isfinite(peak) & (peak > 0)
-    mono = bool(ok.all() and np.all(np.diff(peak) > 0))
+    mono = bool(np.isfinite(peak).all() and np.all(np.diff(peak) > 0))
+    ok = np.isfinite(peak) & (peak > 0)             # the slope: decelerating runs only
     fit = linear_fit(np.log(v0[ok]), np.log(peak[ok])) if ok.sum() >= 2 else None
     if fit is not None and ok.sum() == 2:
         lv, lp = np.log(v0[ok]), np.log(peak[ok])
