@@ -32,7 +32,8 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from rheology.io import atomic_write_csv, load_checkpoint, save_checkpoint
+from rheology.io import (atomic_write_csv, check_output_dir, load_checkpoint,
+                         previous_checkpoint, save_checkpoint)
 
 from .output import write_frame, write_manifest, write_pvds
 from .progress import Progress
@@ -215,7 +216,7 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
         SIGINT/SIGTERM: after the current step, a checkpoint is written.
     """
     log = log or (lambda msg: print(msg, flush=True))
-    out = Path(out)
+    out = check_output_dir("--out", out)
     ckpt_path = out / "checkpoint.npz"
     spec = spec_of(setup)
     name = scene_name or spec.name
@@ -377,6 +378,8 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
         manifest["history"] = "history.csv"
         manifest["steps"] = sim.step_count
         checkpoint()
+        if complete:                         # the final state is whole: no fallback needed, and
+            previous_checkpoint(ckpt_path).unlink(missing_ok=True)   # files match a fresh run
     log(f"{'finished' if complete else 'stopped'} at t = {sim.t:.6g} s after {sim.step_count} "
         f"steps; results in {out}")
     return {"scene": scene, "history": history, "figures": figures, "manifest": manifest,

@@ -32,7 +32,7 @@ from pathlib import Path
 import pandas as pd
 
 from rheology.cli_common import one_line
-from rheology.io import atomic_write_csv
+from rheology.io import atomic_write_csv, check_output_dir
 
 #: parameter-name pattern of a case folder (stable across reruns)
 _SAFE = re.compile(r"[^A-Za-z0-9.+\-]+")
@@ -168,7 +168,7 @@ def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | N
     names = [case_name(p) for p in cases]
     if len(set(names)) != len(names):
         raise ValueError("two cases map to the same folder name; give distinct values")
-    out = Path(out)
+    out = check_output_dir("--out", out)
     out.mkdir(parents=True, exist_ok=True)
     rows = {n: {**p, "case": n, "status": "pending", "wall_s": 0.0, "error": ""}
             for n, p in zip(names, cases)}

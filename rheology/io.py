@@ -10,7 +10,8 @@
   ``nullable`` (written as ``null``: the JSON is always strict).
 - A checkpoint keeps its predecessor (``NAME.prev.npz``); :func:`load_checkpoint` names a corrupt
   file as corrupt and falls back to the previous one when it is readable.
-- :func:`check_output_path` validates an output name (its format) before any work is done, so a
+- :func:`check_output_path` (a file) and :func:`check_output_dir` (a folder) validate an output
+  name (its format, that it can be written) before any work is done, so a
   bad ``--plot fig.xyz`` is refused before the CSV is written.
 """
 
@@ -204,6 +205,42 @@ def check_output_path(name: str, path, kinds: Iterable[str]) -> Path:
                          f"{', '.join(allowed)}")
     if p.exists() and p.is_dir():
         raise ValueError(f"{name} = {str(path)!r} is a folder, not a file")
+    _check_writable(name, path, p.parent)
+    return p
+
+
+def _check_writable(name: str, given, folder: Path) -> None:
+    """Refuse (ValueError) unless a file can be created in ``folder`` or, where it does not exist
+    yet, in its nearest existing ancestor (tried with a temporary file, removed at once: an
+    access check is not enough for root or for special file systems such as /proc)."""
+    probe = Path(folder) if str(folder) else Path(".")
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if not probe.is_dir():
+        raise ValueError(f"{name} = {str(given)!r}: {probe} is a file, not a folder")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=".write-test.", dir=probe)
+        os.close(fd)
+        os.remove(tmp)
+    except OSError as exc:
+        raise ValueError(f"{name} = {str(given)!r}: cannot write in {probe} "
+                         f"({exc.strerror or type(exc).__name__})") from None
+
+
+def check_output_dir(name: str, path) -> Path:
+    """Check, before any work, that ``path`` is (or can be created as) a writable folder.
+
+    Raises
+    ------
+    ValueError
+        ``"--out = 'x.csv' exists and is not a folder"`` or ``"--out = '/proc/x': cannot write
+        in /proc (...)"``.
+    """
+    p = Path(str(path))
+    if p.exists() and not p.is_dir():
+        raise ValueError(f"--out = {str(path)!r} exists and is not a folder" if name == "--out"
+                         else f"{name} = {str(path)!r} exists and is not a folder")
+    _check_writable(name, path, p)
     return p
 
 
@@ -236,8 +273,9 @@ def _read_npz(path: Path, required: Iterable[str]) -> dict[str, np.ndarray]:
         with np.load(path, allow_pickle=False) as data:
             out = {k: data[k] for k in data.files}
     except (zipfile.BadZipFile, EOFError, OSError, ValueError, KeyError) as exc:
-        raise CorruptCheckpoint(f"checkpoint {path} is corrupt ({type(exc).__name__}: "
-                                f"{' '.join(str(exc).split())[:120]})") from None
+        reason = ("not an .npz archive" if "pickle" in str(exc) else
+                  f"{type(exc).__name__}: {' '.join(str(exc).split())[:120]}")
+        raise CorruptCheckpoint(f"checkpoint {path} is corrupt ({reason})") from None
     missing = [k for k in required if k not in out]
     if missing:
         raise CorruptCheckpoint(f"checkpoint {path} is corrupt (missing {', '.join(missing)})")

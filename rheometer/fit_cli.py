@@ -169,9 +169,9 @@ def cmd_fit(args) -> str:
     from rheology.io import atomic_write_csv
     from rheology.materials import save_material
 
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"--out = {args.out!r} is a file, not a folder")
+    from rheology.io import check_output_dir
+
+    out = check_output_dir("--out", args.out)
     start = rheology.get_material(args.material)
     fixed = dict(args.set or [])
     for k in fixed:

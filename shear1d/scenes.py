@@ -32,7 +32,7 @@ import pandas as pd
 
 import rheology
 from rheology.checks import check_memory, check_positive, check_range
-from rheology.io import atomic_write_csv, atomic_write_json, previous_checkpoint
+from rheology.io import atomic_write_csv, atomic_write_json, check_output_dir, previous_checkpoint
 
 from . import analysis
 from .analytic import annular_steady
@@ -312,11 +312,9 @@ def precheck(problem: Couette, method: str, rtol: float, dt: float | None,
 
 
 def check_out_dir(out) -> Path:
-    """The output folder as a Path; ValueError if it exists and is not a folder."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"--out = {str(out)!r} exists and is not a folder")
-    return out
+    """The output folder as a Path; ValueError if it exists and is not a folder or cannot be
+    written (rheology.io.check_output_dir)."""
+    return check_output_dir("--out", out)
 
 
 def _checkpoint_files(ck: Path) -> list[Path]:

@@ -142,3 +142,20 @@ def test_help_of_every_subcommand(cli, capsys):
             mod.main([sub, "--help"])
         assert exc.value.code == 0
     assert capsys.readouterr().out
+
+
+def test_unwritable_outputs_are_refused_before_any_work(tmp_path):
+    """An output under a folder where nothing can be created (or a file where a folder is
+    needed) is refused with one line naming the option, before anything runs or is written."""
+    from rheology.io import check_output_dir, check_output_path
+
+    with pytest.raises(ValueError, match="--plot = '/proc/x.png': cannot write in /proc"):
+        check_output_path("--plot", "/proc/x.png", ["figure"])
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    with pytest.raises(ValueError, match="exists and is not a folder"):
+        check_output_dir("--out", afile)
+    with pytest.raises(ValueError, match="is a file, not a folder"):
+        check_output_dir("--out", afile / "sub")
+    assert check_output_dir("--out", tmp_path / "new" / "deeper") == tmp_path / "new" / "deeper"
+    assert not (tmp_path / "new").exists() and sorted(tmp_path.iterdir()) == [afile]
