@@ -90,14 +90,15 @@ class Number:
         except (TypeError, ValueError):
             raise ValueError(f"{self.name} = {value!r} is not {kind}; valid range "
                              f"{self.range_text}") from None
+        shown = value if isinstance(value, str) else f"{x:.6g}"      # as typed, or compact
         if not math.isfinite(x):
-            raise ValueError(f"{self.name} = {value}: must be finite; valid range "
+            raise ValueError(f"{self.name} = {shown}: must be finite; valid range "
                              f"{self.range_text}")
         if self.integer and x != int(x):
-            raise ValueError(f"{self.name} = {value} is not an integer; valid range "
+            raise ValueError(f"{self.name} = {shown} is not an integer; valid range "
                              f"{self.range_text}")
         if not self.contains(x):
-            raise ValueError(f"{self.name} = {value} is outside the valid range "
+            raise ValueError(f"{self.name} = {shown} is outside the valid range "
                              f"{self.range_text}")
         return int(x) if self.integer else x
 

@@ -31,11 +31,8 @@ import pandas as pd
 from rheology.cli_common import Number, OneLineParser, run_command
 
 DEFAULT_MATERIAL = "hermes2016"
-#: Upper bounds of the numeric options (physical, and what the solvers are verified for):
-#: stresses and moduli <= 1e12 Pa (five times the shear modulus of diamond: no grain skeleton is
-#: stiffer and no suspension carries more), shear rates <= 1e9 1/s (well past impact and
-#: ultrasonic rheometry), times <= 1e9 s (30 years), K0 <= 1e6 (the paper's sets use 0.06-1).
-STRESS_MAX, RATE_MAX, TIME_MAX, K0_MAX = 1e12, 1e9, 1e9, 1e6
+#: Upper bounds of the numeric options: rheometer.limits (shared with the program parser).
+from .limits import K0_MAX, RATE_MAX, STRESS_MAX, TIME_MAX  # noqa: E402
 _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
            "skeleton; 'mixture shear stress' = granular + eta0 (1 + 5/2 phi) gdot is what a "
            "rheometer measures. G [Pa] and K0 default to the material's values, else G = 1e4 Pa "

@@ -42,6 +42,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from . import limits
 from .transient import DEFAULT_MAX_TIME, Step
 
 _NUM = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
@@ -133,14 +134,29 @@ def _oscillation(g, lineno: int, line: str):
         amp = float(x) * _stress_unit(xu, lineno)
     if freq <= 0:
         raise ValueError(f"program line {lineno}: oscillation frequency = {freq:g} Hz must be > 0")
+    (limits.PROGRAM_AMPLITUDE_STRAIN if what == "strain" else
+     limits.PROGRAM_AMPLITUDE_STRESS).check(amp)
     if nu.lower().startswith("cycle"):
-        duration = float(n) / freq
+        duration = float(limits.PROGRAM_CYCLES.check(float(n))) / freq
     else:
         duration = float(n) * _TIME[nu.lower()]
     if duration <= 0:
         raise ValueError(f"program line {lineno}: an oscillation needs a positive number of "
                          f"cycles or time, got {n} {nu}")
     return Step(what, amp, ramp="sine", frequency=freq, duration=duration, label=line)
+
+
+def _check_step(step: Step) -> None:
+    """The ranges of rheometer.limits for a step's values, duration and strain (ValueError)."""
+    if step.control in ("rate", "stress"):
+        check = limits.PROGRAM_RATE if step.control == "rate" else limits.PROGRAM_STRESS
+        for v in (step.start, step.end):
+            if v is not None:
+                check.check(v)
+    if step.duration is not None:
+        limits.PROGRAM_DURATION.check(step.duration)
+    if step.strain is not None:
+        limits.PROGRAM_STRAIN.check(step.strain)
 
 
 def _is_rate_unit(unit: str) -> bool:
@@ -197,6 +213,9 @@ def parse_program(text: str) -> Program:
                     start = Start("rate", float(g[1]))
                 if start.value < 0:
                     raise ValueError(f"program line {lineno}: the starting value must be >= 0")
+                if start.kind != "rest":
+                    (limits.PROGRAM_STRESS if start.kind == "stress" else
+                     limits.PROGRAM_RATE).check(start.value)
                 continue
             if word == "shear":
                 step = Step("rate", float(g[0]), label=line, **_end(g[2:8], lineno, line))
@@ -218,6 +237,7 @@ def parse_program(text: str) -> Program:
                 step = Step("rate" if what == "rate" else "stress", float(a) * scale,
                             float(b) * scale, ramp=ramp, duration=float(T) * _TIME[tu.lower()],
                             label=line)
+            _check_step(step)
         except ValueError as exc:
             msg = str(exc)
             raise ValueError(msg if msg.startswith("program line") else

@@ -133,8 +133,14 @@ def test_oscillation_lines_parse():
     ("oscillate at 1 Hz with stress 2 for 10 cycles", r"line 1: a stress amplitude needs Pa"),
     ("oscillate at 1 MHZ with strain 0.01 for 10 cycles", r"line 1: frequency unit 'MHZ'"),
     ("oscillate at 0 Hz with strain 0.01 for 10 cycles", r"line 1: oscillation frequency"),
-    ("oscillate at 1 Hz with strain 0 for 10 cycles", r"line 1: oscillation strain amplitude"),
-    ("oscillate at 1 Hz with strain 0.01 for 0 cycles", r"line 1: an oscillation needs a pos"),
+    ("oscillate at 1 Hz with strain 0 for 10 cycles",
+     r"line 1: strain amplitude = 0 is outside the valid range \(0, 1e\+06\]"),
+    ("oscillate at 1 Hz with strain 0.01 for 0 cycles",
+     r"line 1: cycles = 0 is outside the valid range \(0, 100000\]"),
+    ("oscillate at 1 Hz with strain 0.01 for 1e9 cycles", r"line 1: cycles = 1e\+09 is outside"),
+    ("shear at 1e20 1/s for 1 s", r"line 1: rate = 1e\+20 is outside the valid range"),
+    ("shear at 1 1/s for 1e20 s", r"line 1: duration = 1e\+20 is outside"),
+    ("start from steady stress 1e13 Pa\nrest for 1 s", r"line 1: stress = 1e\+13 is outside"),
     ("oscillate at 1 Hz with strain 0.01", r"line 1: cannot read .*expected 'oscillate at <F>"),
 ])
 def test_oscillation_parse_errors(text, match):
