@@ -61,6 +61,10 @@ def _material(args):
 
     from .instrument_cli import resolve_sample
 
+    names = [k for k, _ in args.set or []]
+    twice = sorted({k for k in names if names.count(k) > 1})
+    if twice:
+        raise ValueError(f"--set {twice[0]} given twice; give each parameter once")
     overrides = dict(args.set or [])
     m = rheology.get_material(args.material, **overrides)
     resolve_sample(args, m)        # issue 15: --phi default per material, --mass-fraction, geometry

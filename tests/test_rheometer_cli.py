@@ -154,3 +154,11 @@ def test_console_script_bad_input_and_parse_error(tmp_path):
         assert r.returncode == 2, r.stderr
         assert r.stderr.count("\n") == 1 and match in r.stderr and "Traceback" not in r.stderr
         assert r.stdout == ""
+
+
+def test_a_parameter_set_twice_is_refused(tmp_path, monkeypatch, capsys):
+    """--set NAME=... twice is ambiguous: one line, exit 2, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["flow-curve", "--set", "eta0=1", "--set", "eta0=2"]) == 2
+    assert "--set eta0 given twice" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
