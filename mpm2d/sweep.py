@@ -117,7 +117,11 @@ def _client(scheduler: str | None, workers: int | None):
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
-        return Client(scheduler, timeout="20s"), None
+        try:
+            return Client(scheduler, timeout="20s"), None
+        except (OSError, ValueError, TypeError) as exc:
+            raise ValueError(f"--scheduler = {scheduler!r}: cannot reach a Dask scheduler there "
+                             f"({one_line(exc)})") from None
     n = workers or os.cpu_count() or 1
     # one numba thread per worker, set before the worker process starts (numba refuses a
     # changed NUMBA_NUM_THREADS once its threads run: an environment applied later races it)
@@ -168,8 +172,7 @@ def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | N
     names = [case_name(p) for p in cases]
     if len(set(names)) != len(names):
         raise ValueError("two cases map to the same folder name; give distinct values")
-    out = check_output_dir("--out", out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = check_output_dir("--out", out)       # created once the cluster is reached
     rows = {n: {**p, "case": n, "status": "pending", "wall_s": 0.0, "error": ""}
             for n, p in zip(names, cases)}
     todo = [(n, p) for n, p in zip(names, cases) if not _complete(out / n)]
@@ -205,6 +208,7 @@ def _run_on_dask(scene, out, todo, rows, scheduler, workers, checkpoint_every, v
     from dask.distributed import as_completed
 
     client, cluster = _client(scheduler, workers)
+    out.mkdir(parents=True, exist_ok=True)
     bar = None
     try:
         log(f"dask: {client.scheduler.address if hasattr(client.scheduler, 'address') else ''}"
