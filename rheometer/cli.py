@@ -253,6 +253,11 @@ def _write(args, df: pd.DataFrame, fig_maker) -> str:
         import matplotlib.pyplot as plt
 
         fig = fig_maker()
+        m = getattr(args, "_material_obj", None)
+        if m is not None and m.units == "normalised":
+            from .plots import normalise_units
+
+            normalise_units(fig)
         try:
             atomic_savefig(fig, plot)
         finally:

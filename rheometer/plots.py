@@ -375,3 +375,22 @@ def parallel_plate_figure(df: pd.DataFrame, true_curve: pd.DataFrame | None, tit
     fig.suptitle(title, fontsize=11)
     fig.tight_layout()
     return fig
+
+
+#: SI units in axis labels and their Table 1 (normalised) counterparts, longest first
+_NORMALISED = (("[Pa s]", "[eta0]"), ("[1/s]", "[gdot0]"), ("[Pa]", "[eta0 gdot0]"),
+               ("[s]", "[1/gdot0]"), ("[Hz]", "[gdot0]"), ("[N m]", "[-]"))
+
+
+def normalise_units(fig) -> None:
+    """Relabel a figure of a normalised (Table 1) material: SI units in axis labels and titles
+    become the paper's units (stresses in eta0 gdot0, rates in gdot0, times in 1/gdot0)."""
+    def fix(text: str) -> str:
+        for si, norm in _NORMALISED:
+            text = text.replace(si, norm)
+        return text
+
+    for ax in fig.axes:
+        ax.set_xlabel(fix(ax.get_xlabel()))
+        ax.set_ylabel(fix(ax.get_ylabel()))
+        ax.set_title(fix(ax.get_title()))

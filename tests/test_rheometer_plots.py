@@ -138,3 +138,19 @@ def test_parallel_plate_figure_has_true_apparent_and_corrected():
     _shows(ax1, pp["rim_shear_rate_per_s"])
     _shows(ax2, pp["rim_shear_rate_per_s"])
     plt.close(fig)
+
+
+def test_normalised_material_figures_carry_normalised_units():
+    """A Table 1 (normalised) set's figure labels say eta0 gdot0 and gdot0, not Pa and 1/s."""
+    import matplotlib.pyplot as plt
+
+    from rheometer.plots import normalise_units
+
+    fig, ax = plt.subplots()
+    ax.set_xlabel("shear rate [1/s]")
+    ax.set_ylabel("viscosity [Pa s]")
+    ax.set_title("stress [Pa] over time [s]")
+    normalise_units(fig)
+    assert ax.get_xlabel() == "shear rate [gdot0]" and ax.get_ylabel() == "viscosity [eta0]"
+    assert ax.get_title() == "stress [eta0 gdot0] over time [1/gdot0]"
+    plt.close(fig)
