@@ -113,7 +113,6 @@ def run_case(scene: str, out: str, params: dict, checkpoint_every: float = 60.0,
 
 
 def _client(scheduler: str | None, workers: int | None):
-    import dask.config
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
@@ -123,13 +122,16 @@ def _client(scheduler: str | None, workers: int | None):
             raise ValueError(f"--scheduler = {scheduler!r}: cannot reach a Dask scheduler there "
                              f"({one_line(exc)})") from None
     n = workers or os.cpu_count() or 1
-    # one numba thread per worker, set before the worker process starts (numba refuses a
-    # changed NUMBA_NUM_THREADS once its threads run: an environment applied later races it)
-    environ = {**dask.config.get("distributed.nanny.pre-spawn-environ"),
-               "NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+    # one numba thread per worker: run_case calls numba.set_num_threads(1). NUMBA_NUM_THREADS is
+    # left alone: changing it once numba's pool runs is an error, and dask applies a worker
+    # environment late (env=, seen racing numba) or to the parent process too (pre-spawn-environ)
+    saved = dict(os.environ)                 # nannies write their pre-spawn variables into ours
+    try:
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=50)
+    finally:
+        os.environ.clear()
+        os.environ.update(saved)
     return Client(cluster), cluster
 
 

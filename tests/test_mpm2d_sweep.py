@@ -25,8 +25,12 @@ def test_grid_is_the_cartesian_product():
 
 
 def test_sweep_resume_and_failure(tmp_path):
+    import os
+
     out = tmp_path / "sw"
+    env = dict(os.environ)
     table = run_sweep("bar", parse_grid(TINY), out, workers=2, progress=False, log=lambda m: None)
+    assert dict(os.environ) == env      # the cluster leaves our environment (and numba's) alone
     assert list(table["status"]) == ["done"] * 4
     for name in table["case"]:
         hist = pd.read_csv(out / name / "history.csv")
