@@ -584,8 +584,11 @@ class Rheometer:
                                f"{sol.nfev} residuals)")
         f_hi = max(float(model.structure_of_gap(st0.gap, self.P)), self.f_m)
         tol_f = 10 * self.rtol
-        # the plastic rate has the sign of the stress (signed law, rheometer.model)
-        tol_gp = 10 * self.rtol * max(1e-300, float(np.max(np.abs(y[:, GP]))))
+        # the plastic rate has the sign of the stress (signed law, rheometer.model), to the
+        # tolerance the algebraic pair (gdot_p, gdot) is solved to: relative to the step's rate
+        # scale (near jamming the flow rule hardly constrains gdot_p: a recoiling sample at a
+        # positive stress may show |gdot_p| ~ 1e-5 1/s of the wrong sign at gdot ~ 65 1/s)
+        tol_gp = 10 * self.rtol * max(1e-300, float(np.max(np.abs(y[:, [GP, GD]]))))
         bad = (~np.all(np.isfinite(y), axis=1) | (f < -tol_f) | (f > f_hi + tol_f)
                | (y[:, GP] * np.where(y[:, TAU] >= 0, 1.0, -1.0) < -tol_gp))
         if np.any(bad):
