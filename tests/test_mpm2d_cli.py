@@ -212,3 +212,10 @@ def test_mass_fraction_sets_the_scene_volume_fraction(tmp_path, capsys):
                         "not both")):
         assert main(argv + ["--out", str(tmp_path / "x")]) == 2
         assert word in capsys.readouterr().err and not (tmp_path / "x").exists()
+
+
+def test_bad_value_of_a_derived_bound_states_the_derived_range(capsys, tmp_path):
+    """phi0 = nan names phi_j of the scene's material as the bound, not the static (0, inf)."""
+    assert main(["run", "column", "--set", "phi0=nan", "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert "valid range (0, 0.535) (phi_j of material 'rod_impact')" in err and "inf)" not in err

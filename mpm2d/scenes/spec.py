@@ -204,6 +204,26 @@ class SceneSpec:
                  size: Callable | None):
         self.name, self.params, self.defaults, self.size = name, params, defaults, size
 
+    def _with_derived_range(self, key, value, given: dict, exc: ValueError) -> ValueError:
+        """A refusal of a value with a derived bound (NaN, text, ...) states the bound as it is
+        for the other parameters (e.g. phi_j of the material), not the static (0, inf)."""
+        p = self.params[key]
+        if not p.derived:
+            return exc
+        others = {**self.defaults}
+        for k, v in given.items():
+            if k != key and k in self.params:
+                try:
+                    others[k] = self.params[k].convert(k, v)
+                except ValueError:
+                    return exc
+        try:
+            text = p.range_text(others)
+        except Exception:                    # a bound that cannot be evaluated: keep the first
+            return exc
+        first = str(exc).split("; valid range")[0].split(" is outside")[0]
+        return ValueError(f"{first}; valid range {text}")
+
     def coerce(self, given: dict) -> dict:
         """Convert and check the ``given`` overrides (strings or values) and return them (with
         the canonical types), after checking them together with the defaults of the others.
@@ -219,7 +239,10 @@ class SceneSpec:
             if k not in self.params:
                 raise ValueError(f"unknown parameter {k!r} of scene {self.name}; valid: "
                                  f"{', '.join(self.params)}")
-            out[k] = self.params[k].convert(k, v)
+            try:
+                out[k] = self.params[k].convert(k, v)
+            except ValueError as exc:
+                raise self._with_derived_range(k, v, given, exc) from None
         full = {**self.defaults, **out}
         for k, p in self.params.items():
             if k not in out:
