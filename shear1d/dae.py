@@ -322,14 +322,8 @@ def solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar,
                 sol = solver.step(float(t_target))
                 counters = base + np.array([sol.nfev, sol.njev, 0.0])
                 if sol.status == _IDA_ROOT_RETURN:
-                    te = np.atleast_1d(sol.t_events) if sol.t_events is not None else []
-                    ie = np.atleast_2d(sol.i_events) if sol.i_events is not None else []
-                    for k in range(seen, len(te)):
-                        for i, name in enumerate(EVENTS):
-                            if ie[k][i] != 0:
-                                events.times[name].append(float(te[k]))
-                                stopped |= name in stop_on
-                    seen = len(te)
+                    seen, fired = events.record_roots(sol, seen)
+                    stopped = stopped or any(name in stop_on for name in fired)
                     if stopped:
                         break
                     continue

@@ -172,6 +172,19 @@ class _Events:
         eventsfn.direction = list(self.directions)
         return eventsfn
 
+    def record_roots(self, sol, seen: int) -> tuple[int, list[str]]:
+        """Record the roots IDA has reported since the first ``seen`` (IDA keeps them all);
+        returns the new count and the names of the events that fired."""
+        te = np.atleast_1d(sol.t_events) if sol.t_events is not None else []
+        ie = np.atleast_2d(sol.i_events) if sol.i_events is not None else []
+        fired = []
+        for k in range(seen, len(te)):
+            for i, name in enumerate(EVENTS):
+                if ie[k][i] != 0:
+                    self.times[name].append(float(te[k]))
+                    fired.append(name)
+        return len(te), fired
+
     def sample(self, t: float, y: np.ndarray) -> list[str]:
         """Record crossings between the previous sample and (t, y) (explicit scheme)."""
         g1 = self.values(t, y)
@@ -553,14 +566,8 @@ def _solve_ida(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar
                 sol = solver.step(float(t_target))
                 counters = base + np.array([sol.nfev, sol.njev, 0.0])
                 if sol.status == _IDA_ROOT_RETURN:
-                    te = np.atleast_1d(sol.t_events) if sol.t_events is not None else []
-                    ie = np.atleast_2d(sol.i_events) if sol.i_events is not None else []
-                    for k in range(seen, len(te)):
-                        for i, name in enumerate(EVENTS):
-                            if ie[k][i] != 0:
-                                events.times[name].append(float(te[k]))
-                                stopped |= name in stop_on
-                    seen = len(te)
+                    seen, fired = events.record_roots(sol, seen)
+                    stopped = stopped or any(name in stop_on for name in fired)
                     if stopped:
                         break
                     continue
