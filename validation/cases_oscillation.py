@@ -27,22 +27,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import rheology  # noqa: E402
-from rheology.io import atomic_savefig  # noqa: E402
 from rheometer import geometry as geo  # noqa: E402
 from rheometer import oscillation as osc  # noqa: E402
 from rheometer import plots  # noqa: E402
 from rheometer.protocols import flow_curve, startup  # noqa: E402
 
-from .framework import BenchResult, Verdict, benchmark, case  # noqa: E402
+from .framework import BenchResult, Verdict, benchmark, case, save_figure  # noqa: E402
 from .report import machine_description  # noqa: E402
 
 HERMES = "hermes2016"
-
-
-def _save(fig, out: Path, name: str) -> Path:
-    path = atomic_savefig(fig, Path(out) / name)
-    plt.close(fig)
-    return path
 
 
 @case("rheometer", "oscillation_linear_limit",
@@ -81,7 +74,7 @@ def linear_limit(out: Path, quick: bool) -> Verdict:
     ax.set_title("Hermes 2016, G = 1e4 Pa, gamma0 = 1e-7: time domain vs linear G*", fontsize=9)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=6)
-    png = _save(fig, out, "linear_limit.png")
+    png = save_figure(fig, out, "linear_limit.png")
     return Verdict(criterion="max |G*_sim - G*_lin|/|G*_lin| < 1e-4 over 0.1 Hz..1 MHz, phi = "
                              "0.48, 0.50, strain and stress control",
                    measured=f"max relative difference {worst:.2e}", passed=worst < 1e-4,
@@ -113,7 +106,7 @@ def high_frequency(out: Path, quick: bool) -> Verdict:
     ax.set_ylabel("relative excess of G'' over the fluid's")
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8)
-    png = _save(fig, out, "high_frequency.png")
+    png = save_figure(fig, out, "high_frequency.png")
     last = ratios[-1] - 1
     return Verdict(criterion="G''/(omega eta0 (1 + 5/2 phi)) - 1 < 1e-5 at 10 MHz and decreasing "
                              "as omega^-2 (phi = 0.50, G = 1e4 Pa)",
@@ -136,9 +129,9 @@ def strain_stiffening(out: Path, quick: bool) -> Verdict:
     k_dst = int(np.argmax(peak >= sigma_dst)) if np.any(peak >= sigma_dst) else -1
     jump = np.flatnonzero(i3[1:] > 5 * i3[:-1]) + 1
     k_i3 = int(jump[0]) if jump.size else -1
-    figs = [_save(plots.oscillation_figure(pts, f"{m.name}, phi = {phi:g}, 1 Hz", sigma_dst), out,
+    figs = [save_figure(plots.oscillation_figure(pts, f"{m.name}, phi = {phi:g}, 1 Hz", sigma_dst), out,
                   "amplitude_sweep.png"),
-            _save(plots.lissajous_figure(waves, f"{m.name}, phi = {phi:g}, 1 Hz"), out,
+            save_figure(plots.lissajous_figure(waves, f"{m.name}, phi = {phi:g}, 1 Hz"), out,
                   "lissajous.png")]
     rows = [f"gamma0 = {a:.4g}: peak stress {p:.4g} Pa ({p / sigma_dst:.3g} sigma_DST), "
             f"G' = {g1:.4g} Pa, G'' = {g2:.4g} Pa, I3/I1 = {r:.3e}, mean f = {f:.4g}, "
@@ -170,7 +163,7 @@ def parallel_plate(out: Path, quick: bool) -> Verdict:
 
     df = pd.concat(frames, ignore_index=True)
     true = flow_curve(m, list(phis), stress=np.logspace(-5, 6, 400))
-    png = _save(plots.parallel_plate_figure(df, true, f"{m.name}: parallel plate R = 12.5 mm, "
+    png = save_figure(plots.parallel_plate_figure(df, true, f"{m.name}: parallel plate R = 12.5 mm, "
                                                       f"gap 1 mm"), out, "parallel_plate.png")
     rows, worst = [], 0.0
     for ph, d in zip(phis, frames):
@@ -223,7 +216,7 @@ def sweep_benchmark(out: Path, quick: bool) -> BenchResult:
     ax.set_xlabel("strain amplitude [-]")
     ax.set_ylabel("seconds per point")
     ax.grid(True, which="both", alpha=0.25)
-    png = _save(fig, out, "sweep_time.png")
+    png = save_figure(fig, out, "sweep_time.png")
     summary = (f"{machine_description()}. One amplitude sweep (Hermes 2016, phi = 0.50, 1 Hz, 20 "
                f"amplitudes 1e-3..10, default rtol {osc.DEFAULT_RTOL:g}, tol {osc.DEFAULT_TOL:g}, "
                f"{osc.DEFAULT_SAMPLES} samples per cycle): median wall time {ts:.3g} s, CPU "

@@ -94,6 +94,17 @@ def benchmark(tier: str, name: str, title: str):
     return _register("benchmark", tier, name, title, True)
 
 
+def save_figure(fig, out, name: str) -> Path:
+    """Save a case's figure atomically as ``out/name`` and close it; returns the path."""
+    import matplotlib.pyplot as plt
+
+    from rheology.io import atomic_savefig
+
+    path = atomic_savefig(fig, Path(out) / name)
+    plt.close(fig)
+    return path
+
+
 def load_all() -> dict[str, Entry]:
     """Import every ``validation.cases_*`` and ``validation.bench_*`` module; return the registry."""
     import validation
