@@ -129,10 +129,10 @@ def strain_stiffening(out: Path, quick: bool) -> Verdict:
     k_dst = int(np.argmax(peak >= sigma_dst)) if np.any(peak >= sigma_dst) else -1
     jump = np.flatnonzero(i3[1:] > 5 * i3[:-1]) + 1
     k_i3 = int(jump[0]) if jump.size else -1
-    figs = [save_figure(plots.oscillation_figure(pts, f"{m.name}, phi = {phi:g}, 1 Hz", sigma_dst), out,
-                  "amplitude_sweep.png"),
-            save_figure(plots.lissajous_figure(waves, f"{m.name}, phi = {phi:g}, 1 Hz"), out,
-                  "lissajous.png")]
+    label = f"{m.name}, phi = {phi:g}, 1 Hz"
+    figs = [save_figure(plots.oscillation_figure(pts, label, sigma_dst), out,
+                        "amplitude_sweep.png"),
+            save_figure(plots.lissajous_figure(waves, label), out, "lissajous.png")]
     rows = [f"gamma0 = {a:.4g}: peak stress {p:.4g} Pa ({p / sigma_dst:.3g} sigma_DST), "
             f"G' = {g1:.4g} Pa, G'' = {g2:.4g} Pa, I3/I1 = {r:.3e}, mean f = {f:.4g}, "
             f"cycles {c}, converged {ok}"
@@ -163,8 +163,8 @@ def parallel_plate(out: Path, quick: bool) -> Verdict:
 
     df = pd.concat(frames, ignore_index=True)
     true = flow_curve(m, list(phis), stress=np.logspace(-5, 6, 400))
-    png = save_figure(plots.parallel_plate_figure(df, true, f"{m.name}: parallel plate R = 12.5 mm, "
-                                                      f"gap 1 mm"), out, "parallel_plate.png")
+    png = save_figure(plots.parallel_plate_figure(
+        df, true, f"{m.name}: parallel plate R = 12.5 mm, gap 1 mm"), out, "parallel_plate.png")
     rows, worst = [], 0.0
     for ph, d in zip(phis, frames):
         err = np.abs(d["corrected_shear_stress_Pa"] / d["shear_stress_Pa"] - 1).to_numpy()
