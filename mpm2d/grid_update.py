@@ -43,15 +43,6 @@ PHI_NODE_MAX = 0.95
 
 
 @dual
-def add_body_force(G, gx, gy):
-    """f_i += m_i g (before folding, so that images see mirrored gravity)."""
-    for I in nb.prange(G.shape[0]):
-        for J in range(G.shape[1]):
-            G[I, J, FX] += G[I, J, M] * gx
-            G[I, J, FY] += G[I, J, M] * gy
-
-
-@dual
 def velocities(G, dt, vg, vg_old):
     """v_old = p/m and v* = (p + dt f)/m at nodes with mass (0 elsewhere)."""
     for I in nb.prange(G.shape[0]):
@@ -65,57 +56,6 @@ def velocities(G, dt, vg, vg_old):
             else:
                 vg_old[I, J, 0] = vg_old[I, J, 1] = 0.0
                 vg[I, J, 0] = vg[I, J, 1] = 0.0
-
-
-@dual
-def volume_fraction(Gs, Gf, phi):
-    """phi_i = solid true volume / mixture volume at the nodes (clipped to PHI_NODE_MAX)."""
-    for I in nb.prange(Gs.shape[0]):
-        for J in range(Gs.shape[1]):
-            vmix = max(Gs[I, J, V], Gf[I, J, V])
-            phi[I, J] = min(Gs[I, J, VS] / vmix, PHI_NODE_MAX) if vmix > 0.0 else 0.0
-
-
-@dual
-def share_pore_pressure(Gs, Gf, phi):
-    """Buoyancy: the granular nodes get phi F^p, the fluid nodes (1 - phi) F^p."""
-    for I in nb.prange(Gs.shape[0]):
-        for J in range(Gs.shape[1]):
-            fpx, fpy = Gf[I, J, FPX], Gf[I, J, FPY]
-            Gs[I, J, FX] += phi[I, J] * fpx
-            Gs[I, J, FY] += phi[I, J] * fpy
-            Gf[I, J, FX] += (1.0 - phi[I, J]) * fpx
-            Gf[I, J, FY] += (1.0 - phi[I, J]) * fpy
-
-
-@dual
-def implicit_drag(Gs, Gf, phi, vs, vf, dt, eta0, d, rho_f, drag_out):
-    """Closed-form backward-Euler drag between the phases at every node holding both.
-
-    C per unit volume = 18 phi (1 - phi) eta0 F(phi, Re) / d^2 (rheology.laws.drag_coefficient,
-    Beetstra's F, Re = rho_f |v_s* - v_f*| d / eta0 from the predicted velocities). ``drag_out`` receives |f_d| [N] per node for diagnostics.
-    """
-    for I in nb.prange(Gs.shape[0]):
-        for J in range(Gs.shape[1]):
-            ms, mf = Gs[I, J, M], Gf[I, J, M]
-            drag_out[I, J] = 0.0
-            if ms <= 0.0 or mf <= 0.0:
-                continue
-            # the grains' own concentration and volume: at the edge of a granular region the
-            # node is only partly covered, but each grain there feels the bulk drag
-            vgr = Gs[I, J, V]
-            ph = min(Gs[I, J, VS] / vgr, PHI_NODE_MAX)
-            dvx = vs[I, J, 0] - vf[I, J, 0]
-            dvy = vs[I, J, 1] - vf[I, J, 1]
-            Re = rho_f * np.sqrt(dvx * dvx + dvy * dvy) * d / eta0
-            c = laws.drag_coefficient(ph, Re, eta0, d) * vgr
-            k = c / (1.0 + dt * c * (1.0 / ms + 1.0 / mf))
-            fx, fy = k * dvx, k * dvy
-            vs[I, J, 0] -= dt * fx / ms
-            vs[I, J, 1] -= dt * fy / ms
-            vf[I, J, 0] += dt * fx / mf
-            vf[I, J, 1] += dt * fy / mf
-            drag_out[I, J] = np.sqrt(fx * fx + fy * fy)
 
 
 @dual
@@ -135,9 +75,12 @@ def mixture_flux(Gs, Gf, phi, vs, vf, q):
 
 @dual
 def two_phase_nodes(Gs, Gf, phi, dt, vs, vs_old, vf, vf_old, eta0, d, rho_f, drag_out):
-    """The two-phase node pass in one sweep: :func:`volume_fraction`, :func:`share_pore_pressure`,
-    :func:`velocities` of both phases and :func:`implicit_drag`, node by node with the same
-    arithmetic as those kernels (identical results, one parallel region instead of five)."""
+    """The two-phase node pass in one sweep (one parallel region): per node the volume fraction
+    phi_i (clipped to PHI_NODE_MAX), the pore-pressure force shared as phi_i F^p on the grains and
+    (1 - phi_i) F^p on the fluid (buoyancy), both phases' :func:`velocities`, and the closed-form
+    backward-Euler drag where both phases have mass (the module docstring gives the equations;
+    C from rheology.laws.drag_coefficient with Re = rho_f |v_s* - v_f*| d / eta0 of the predicted
+    velocities). ``drag_out`` receives |f_d| [N] per node for diagnostics."""
     for I in nb.prange(Gs.shape[0]):
         for J in range(Gs.shape[1]):
             vmix = max(Gs[I, J, V], Gf[I, J, V])
