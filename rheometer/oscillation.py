@@ -185,14 +185,13 @@ def dst_onset_stress(material, phi: float) -> float:
     Eq. 1). Raises ValueError if the steady curve of ``phi`` has no fold (no DST)."""
     from scipy.optimize import minimize_scalar
 
+    from .program import steady_fold
+
     m = rheology.get_material(material)
-    taus = m.tau_star * np.logspace(-4, 8, 1201)
-    st = rheology.steady_state_stress(taus, phi, m)
-    g = np.where(st.jammed, 0.0, st.shear_rate)
-    k = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] > g[2:]))
-    if k.size == 0:
+    fold = steady_fold(m, phi)
+    if fold is None:
         raise ValueError(f"phi = {phi:g}: the steady curve of {m.name} has no fold (no DST)")
-    i = k[0] + 1
+    taus, _, _, i = fold
     res = minimize_scalar(lambda x: -float(rheology.steady_state_stress(np.exp(x), phi,
                                                                          m).shear_rate),
                           bounds=(np.log(taus[i - 1]), np.log(taus[i + 1])), method="bounded",

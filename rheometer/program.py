@@ -258,6 +258,18 @@ def dst_fold(material, phi: float) -> tuple[float, float] | None:
     steady shear rate, where DST sets in (above it no steady flow exists under rate control and
     the sample shear-jams); None if the curve of ``phi`` has no fold (no DST). Eq. (13) with
     Eq. (1), on 1201 granular stresses over tau* 1e-4 .. 1e8 (0.8% steps)."""
+    fold = steady_fold(material, phi)
+    if fold is None:
+        return None
+    taus, st, g, i = fold
+    return float(g[i]), float(st.shear_stress[i])
+
+
+def steady_fold(material, phi: float):
+    """The first fold of the steady curve on a grid of 1201 granular stresses over tau* 1e-4 ..
+    1e8 (0.8% steps): ``(taus, steady, rates, i)`` with ``i`` the grid maximum of the shear rate
+    (jammed states count as rate 0), or None if the curve of ``phi`` has no fold. Shared by
+    :func:`dst_fold` and :func:`rheometer.oscillation.dst_onset_stress` (which refines it)."""
     import numpy as np
 
     import rheology
@@ -269,8 +281,7 @@ def dst_fold(material, phi: float) -> tuple[float, float] | None:
     k = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] > g[2:]))
     if k.size == 0:
         return None
-    i = int(k[0]) + 1
-    return float(g[i]), float(st.shear_stress[i])
+    return taus, st, g, int(k[0]) + 1
 
 
 def hysteresis_program(material, phi: float) -> str:
