@@ -123,11 +123,10 @@ from ..bodies import RigidBody, fill
 from ..fronts import cell_field, fit_speed, longitudinal_front
 from ..geostatic import geostatic
 from ..grid import Grid
-from ..materials import NewtonianFluid, Suspension
-from ..particles import ParticleSet
 from . import spec
+from .beds import suspension_bed
 from ..run import Scene
-from ..simulation import Drag, Simulation
+from ..simulation import Simulation
 
 #: presets: (radius [m], depth [m], cells per mm, material, v0 [m/s], t_end [s])
 SIZES = {
@@ -269,15 +268,7 @@ def setup(size="default", v0=None, phi0=0.47, radius=None, depth=None, cells_per
     grid = Grid(nx, nz, h, axisymmetric=True,
                 boundaries=dict(xmin="axis", xmax="noslip", ymin="noslip", ymax="free"))
     x, area = fill(lambda r, z: np.ones_like(r, dtype=bool), (0.0, 0.0), (nx * h, D), h / 2)
-    if mode == "two-phase":
-        sets = [ParticleSet("bed", Suspension(m), x, area, phi=phi0, f=0.0, axisymmetric=True),
-                ParticleSet("fluid", NewtonianFluid.from_material(m), x, area, phi=phi0,
-                            axisymmetric=True)]
-        extra = dict(drag=Drag.from_material(m))
-    else:
-        sets = [ParticleSet("bed", Suspension(m, locked=True), x, area, phi=phi0, f=0.0,
-                            axisymmetric=True)]
-        extra = {}
+    sets, extra = suspension_bed(m, x, area, phi0, mode, axisymmetric=True)
     x_init = x.copy()                                       # by point id (ids = arange)
     # the rod: lattice fitted to its radius, its lowest ROD_REPRESENTED represented
     nr = int(math.ceil(rod_radius / (h / 2) - 1e-9))

@@ -87,12 +87,11 @@ from ..bodies import RigidBody, fill
 from ..fronts import cell_field, fit_speed, longitudinal_front, transverse_front
 from ..geostatic import geostatic
 from ..grid import Grid
-from ..materials import NewtonianFluid, Suspension
 from ..output import load_frames
-from ..particles import ParticleSet
 from . import spec
+from .beds import suspension_bed
 from ..run import Scene
-from ..simulation import Drag, Simulation
+from ..simulation import Simulation
 
 #: Fig. 6(a)-(c) snapshot times [s]
 FIELD_TIMES = (6.2e-3, 13.2e-3, 20e-3)
@@ -155,15 +154,7 @@ def setup(phi0=0.47, v0=0.175, t_end=0.02, radius=0.05, depth=0.035, cells_per_m
                 boundaries=dict(xmin="axis", xmax="noslip", ymin="noslip", ymax="free"))
     spacing = h / 2
     x, area = fill(lambda r, z: np.ones_like(r, dtype=bool), (0.0, 0.0), (nx * h, depth), spacing)
-    if mode == "two-phase":
-        sets = [ParticleSet("bed", Suspension(m), x, area, phi=phi0, f=0.0, axisymmetric=True),
-                ParticleSet("fluid", NewtonianFluid.from_material(m), x, area, phi=phi0,
-                            axisymmetric=True)]
-        extra = dict(drag=Drag.from_material(m))
-    else:
-        sets = [ParticleSet("bed", Suspension(m, locked=True), x, area, phi=phi0, f=0.0,
-                            axisymmetric=True)]
-        extra = {}
+    sets, extra = suspension_bed(m, x, area, phi0, mode, axisymmetric=True)
     length = _rod_length(params)
     nrod = int(math.floor(rod_radius / spacing + 1e-9))
     rod_r = nrod * spacing                                 # the represented rod radius
