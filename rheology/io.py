@@ -198,6 +198,9 @@ def check_output_path(name: str, path, kinds: Iterable[str]) -> Path:
     allowed: list[str] = []
     for k in kinds:
         allowed.extend(figure_formats() if k == "figure" else [k])
+    if str(path).endswith(("/", os.sep)):
+        raise ValueError(f"{name} = {str(path)!r} names a folder (trailing separator), not a "
+                         "file")
     p = Path(str(path))
     suffix = p.suffix.lower().lstrip(".")
     if suffix not in allowed:

@@ -151,6 +151,9 @@ def test_unwritable_outputs_are_refused_before_any_work(tmp_path):
 
     with pytest.raises(ValueError, match="--plot = '/proc/x.png': cannot write in /proc"):
         check_output_path("--plot", "/proc/x.png", ["figure"])
+    with pytest.raises(ValueError, match="trailing separator"):
+        check_output_path("--out", f"{tmp_path}/d.csv/", ["csv"])
+    assert not (tmp_path / "d.csv").exists()
     afile = tmp_path / "afile"
     afile.write_text("x")
     with pytest.raises(ValueError, match="exists and is not a folder"):
