@@ -649,8 +649,10 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
             a_inf = base.a_inf
         phi_c, _ = _plateau_fit(phis[plat], eta_r_max, mu_c, [_clip_inside(phi_c, lo, hi)],
                                 ([lo], [hi]), fixed_a=a_inf)
-        messages.append(f"stage 2: one high-stress plateau only: a_inf held at {a_inf:.4g} "
-                        "(the start's a_inf/a0), phi_c fitted")
+        messages.append(f"stage 2: one high-stress plateau only: a_inf starts at {a_inf:.4g} "
+                        "(the start's a_inf/a0) and only phi_c is fitted here"
+                        + ("; a_inf stays fixed" if "a_inf" in fixed else
+                           "; stage 4 fits a_inf with the rest (its status is in the table)"))
     else:
         lo_c = 1e-3
         phi_c = _clip_inside(phi_c, lo_c, phi_c_hi)
