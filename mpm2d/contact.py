@@ -208,8 +208,58 @@ def scatter_touch(x, nvec, geo, out):
                 out[I, J, FY] += w * nvec[p, 1]
 
 
-#: neighbours of a material point examined for a face contact
-K_NEAR = 4
+@_jit
+def _face_normals(fx, side, fb, sb, span, per, start, order, lo, width, nb, tol, slack, vec, hit):
+    """For each material point (frame coordinates ``fx``, sides ``side``), the face contact with
+    the nearest (Euclidean) body point whose square it touches across a face, from the body
+    points binned in a cell list (bins ``width`` >= the largest contact distance, so only the
+    3 x 3 neighbouring bins can hold a touching point; ``start``/``order`` the bins' CSR lists).
+    Writes the separating axis's unit vector to ``vec[p]`` and ``hit[p]``."""
+    for p in range(fx.shape[0]):
+        S = 0.5 * (side[p] + sb)
+        bi = [0, 0]
+        for a in range(2):
+            bi[a] = int(math.floor((fx[p, a] - lo[a]) / width[a]))
+        best = np.inf
+        bx = 0.0
+        by = 0.0
+        for di in range(-1, 2):
+            i = bi[0] + di
+            if per[0]:
+                if nb[0] < 3 and di != 0:
+                    continue
+                i = i % nb[0]
+            elif i < 0 or i >= nb[0]:
+                continue
+            for dj in range(-1, 2):
+                j = bi[1] + dj
+                if per[1]:
+                    if nb[1] < 3 and dj != 0:
+                        continue
+                    j = j % nb[1]
+                elif j < 0 or j >= nb[1]:
+                    continue
+                c = i * nb[1] + j
+                for q in range(start[c], start[c + 1]):
+                    b = order[q]
+                    dx = fx[p, 0] - fb[b, 0]
+                    dy = fx[p, 1] - fb[b, 1]
+                    if per[0]:
+                        dx -= span[0] * np.round(dx / span[0])
+                    if per[1]:
+                        dy -= span[1] * np.round(dy / span[1])
+                    ax, ay = abs(dx), abs(dy)
+                    if max(ax, ay) - S <= tol and min(ax, ay) - S < -slack:
+                        d2 = dx * dx + dy * dy
+                        if d2 < best:
+                            best, bx, by = d2, dx, dy
+        hit[p] = best < np.inf
+        if hit[p]:
+            # the face's normal: the separating axis (largest |d|), from the body to the point
+            if abs(bx) >= abs(by):
+                vec[p, 0], vec[p, 1] = (1.0 if bx >= 0.0 else -1.0), 0.0
+            else:
+                vec[p, 0], vec[p, 1] = 0.0, (1.0 if by >= 0.0 else -1.0)
 
 
 def touching(grid, body_x, body_side, pts, fallback, work):
@@ -226,16 +276,15 @@ def touching(grid, body_x, body_side, pts, fallback, work):
     its normal is the N-weighted mean of those points' normals: the direction of the actual
     contact, not of the body's nearest face (at a corner node the body's area gradient points
     sideways while the material touches its bottom). Periodic sides use minimum images.
+    The body's points are searched through a cell list (bins as wide as the largest contact
+    distance, rebuilt every call: O(points), compiled).
 
     Returns (touch (NI, NJ) bool, normal (NI, NJ, 2)); ``fallback`` gives the normal elsewhere.
     """
-    from scipy.spatial import cKDTree
-
     geo = grid.geometry()
     h = grid.h
     per = np.array(grid.periodic)
     span = grid.upper - grid.lower
-    box = np.where(per, span, 0.0)
 
     def frame(x):
         y = x - grid.lower
@@ -243,41 +292,34 @@ def touching(grid, body_x, body_side, pts, fallback, work):
         return y
 
     work[:] = 0.0
-    fb = frame(body_x)
-    tree = cKDTree(fb, boxsize=box if per.any() else None)
+    fb = frame(np.array(body_x, dtype=float))
     sb = float(np.max(body_side))
-    lo = body_x.min(axis=0) - 3.0 * h
-    hi = body_x.max(axis=0) + 3.0 * h
-    lo[per], hi[per] = -np.inf, np.inf
-    k = min(K_NEAR, len(body_x))
-    tol = GAP_TOL * h
+    reach = 0.5 * (max((float(np.max(sd)) for _, sd in pts if len(sd)), default=0.0) + sb)
+    reach = max(reach, 1e-12 * h) * (1.0 + 1e-9) + 2 * GAP_TOL * h
+    lo = np.where(per, 0.0, fb.min(axis=0) - reach)
+    ext = np.where(per, span, fb.max(axis=0) + reach - lo)
+    nb = np.maximum(np.floor(ext / reach).astype(np.int64), 1)
+    width = ext / nb
+    cell = np.floor((fb - lo) / width).astype(np.int64)
+    cell = np.minimum(np.maximum(cell, 0), nb - 1)
+    key = cell[:, 0] * nb[1] + cell[:, 1]
+    order = np.argsort(key, kind="stable")
+    start = np.searchsorted(key[order], np.arange(nb[0] * nb[1] + 1))
+    blo = body_x.min(axis=0) - 3.0 * h
+    bhi = body_x.max(axis=0) + 3.0 * h
+    blo[per], bhi[per] = -np.inf, np.inf
     for x, side in pts:
-        near = np.all((x >= lo) & (x <= hi), axis=1)
+        near = np.all((x >= blo) & (x <= bhi), axis=1)
         if not near.any():
             continue
         xn = np.ascontiguousarray(x[near])
-        fx = frame(xn)
-        d, idx = tree.query(fx, k=k, p=np.inf)
-        d, idx = d.reshape(len(xn), k), idx.reshape(len(xn), k)
-        ok = np.isfinite(d)
-        delta = fx[:, None, :] - fb[np.where(ok, idx, 0)]
-        if per.any():
-            delta[..., per] -= span[per] * np.round(delta[..., per] / span[per])
-        S = 0.5 * (side[near] + sb)[:, None]
-        ad = np.abs(delta)
-        face = ok & (ad.max(axis=2) - S <= tol) & (ad.min(axis=2) - S < -1e-3 * h)
-        hit = face.any(axis=1)
-        if not hit.any():
-            continue
-        dist = np.where(face, np.sqrt((delta ** 2).sum(axis=2)), np.inf)
-        best = np.argmin(dist, axis=1)
-        rows = np.nonzero(hit)[0]
-        dv = delta[rows, best[rows]]
-        # the face's normal: the separating axis (largest |d|), pointing from body to point
-        ax = np.argmax(np.abs(dv), axis=1)
-        vec = np.zeros_like(dv)
-        vec[np.arange(len(rows)), ax] = np.where(dv[np.arange(len(rows)), ax] >= 0.0, 1.0, -1.0)
-        scatter_touch(np.ascontiguousarray(xn[rows]), np.ascontiguousarray(vec), geo, work)
+        vec = np.zeros((len(xn), 2))
+        hit = np.zeros(len(xn), dtype=np.bool_)
+        _face_normals(frame(xn), np.ascontiguousarray(side[near], dtype=float), fb, sb, span,
+                      per, start, order, lo, width, nb, GAP_TOL * h, 1e-3 * h, vec, hit)
+        if hit.any():
+            scatter_touch(np.ascontiguousarray(xn[hit]), np.ascontiguousarray(vec[hit]), geo,
+                          work)
     fold(work, _mirror_kind(grid.kind), np.zeros((4, 2)), grid.nx, grid.ny)
     touch = work[:, :, M] > 0.0
     normal = unit(work[:, :, FX:FY + 1], fallback)
