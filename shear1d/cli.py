@@ -49,8 +49,8 @@ def _parser() -> argparse.ArgumentParser:
                        help="locked (phases move together, phi fixed), two-phase (Darcy "
                             "migration)" + (", or both" if "both" in modes else ""))
         p.add_argument("--method", default="ida", choices=METHODS, help="ida (default, full "
-                       "Table 8 law), explicit (full law), or dae (locked mode only: the reduced "
-                       "critical-state law as a smooth DAE, see shear1d.dae)")
+                       "Table 8 law as a rate), explicit (full law), or dae (locked mode only: the "
+                       "full law as a smooth DAE, fastest for many cells, see shear1d.dae)")
         p.add_argument("--rtol", type=Number("--rtol", 1e-12, 1e-2), default=1e-4,
                        help="IDA tolerance, 1e-12-1e-2 (default 1e-4)")
         p.add_argument("--dt", type=Number("--dt", 0, None, lo_closed=False, unit="s"),
@@ -136,12 +136,18 @@ def _sample(args):
     return m, args.phi
 
 
-def _check_dae(method: str, modes: tuple[str, ...]) -> None:
-    """Refuse --method dae with a two-phase run (before anything is written)."""
-    if method == "dae" and "two-phase" in modes:
-        raise ValueError("--method dae (reduced critical-state law) is for --mode locked only "
+def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
+    """Refuse --method dae with a two-phase run, or a material and phi outside its smooth form
+    (shear1d.dae.check_material), before anything is written."""
+    if method != "dae":
+        return
+    if "two-phase" in modes:
+        raise ValueError("--method dae is for --mode locked only "
                          f"(got modes {', '.join(modes)}); add --mode locked or use --method "
                          "ida|explicit")
+    from .dae import check_material
+
+    check_material(material, material.phi0 if phi0 is None else phi0)
 
 
 def _annular(args) -> None:
@@ -149,7 +155,7 @@ def _annular(args) -> None:
 
     m, phi0 = _sample(args)
     modes = _modes(args.mode, ("locked", "two-phase"))
-    _check_dae(args.method, modes)
+    _check_dae(args.method, modes, m, phi0)
     run_annular(args.out, tuple(args.u_inner), modes,
                 n_cells=args.cells, method=args.method, rtol=args.rtol, dt=args.dt,
                 n_out=args.outputs, r_inner=args.r_inner, r_outer=args.r_outer,
@@ -162,7 +168,7 @@ def _couette(args) -> None:
     from .scenes import plane_couette, run_couette
 
     m, phi0 = _sample(args)
-    _check_dae(args.method, _modes(args.mode, ("locked",)))
+    _check_dae(args.method, _modes(args.mode, ("locked",)), m, phi0)
     pb = plane_couette(args.speed, stress=args.stress, gap=args.gap, n_cells=args.cells,
                        mode=_modes(args.mode, ("locked",))[0], phi0=phi0, material=m)
     run_couette(args.out, pb, args.time, method=args.method, n_out=args.outputs, rtol=args.rtol,

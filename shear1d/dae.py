@@ -1,54 +1,72 @@
-"""Method ``"dae"``: the locked-mode Couette problem with the reduced (critical-state) law, as a
-smooth DAE on SUNDIALS IDA.
+"""Method ``"dae"``: the locked-mode Couette problem with the FULL Table 8 law as a smooth DAE on
+SUNDIALS IDA.
 
-Why: the ``"ida"`` method integrates the full Table 8 local update as a rate,
-``(U_delta(state) - state)/delta``; in flowing cells that state sits on the update's switch
-between compaction and dilatant flow, so IDA sees a kinked right-hand side, re-evaluates its
-Jacobian on about half the residual calls and its cost grows as cells^2.4 on the fast Fig. 3 case.
-Here every cell carries the state of the 0-D rheometer DAE (paper Eqs. 35-37, the K -> inf limit of
-Table 8 in simple shear), whose residual is smooth, coupled across the gap by the same momentum
-balance as :mod:`shear1d.kernels`.
+Why: the ``"ida"`` method integrates the Table 8 local update as a rate,
+``(U_delta(state) - state)/delta``; a flowing cell sits on the update's switch between
+compaction and dilatant flow (the critical state is that switch), so IDA sees a right-hand side
+whose Jacobian jumps, cuts its steps each time a cell crosses it and its cost grows as
+cells^2.4 on the fast Fig. 3 case. Here the same law is written in its continuous (dt -> 0) form,
+with the plastic state as an algebraic unknown and the flow rule as its equation (as the 0-D
+rheometer's DAE does), and with no switch left in the residual but one C1-smoothed compaction
+term (below).
 
-Unknowns, interleaved cell by cell (banded Jacobian, half bandwidth 4)::
+Unknowns, interleaved cell by cell (banded Jacobian, half bandwidth :data:`BANDWIDTH` = 7)::
 
-    [v_0 if stress-driven], per cell j: taubar_j, gap_j, gdot_p_j, then v_{j+1} (not after the
-    last cell: the fixed wall)
+    [v_0 if stress-driven], per cell j: s_rr, s_thth, s_rth, p, gap, x, then v_{j+1} (not after
+    the last cell: the fixed wall)
 
-Equations (SI units; gdot_j = cg_j (v_{j+1} w_{j+1} - v_j w_j) = r d(v/r)/dr or dv/dy)::
+with s the deviatoric granular stress (s_zz = -s_rr - s_thth), p the granular pressure
+(sigma = s - p I), gap = phi_m(f) - phi the jamming gap (negative when jammed; f = f_jam -
+gap/(phi_j - phi_c)) and x the mixed inertial number I_m extended below zero (algebraic).
 
-    0 = taubar_j' - G (gdot_j - gdot_p_j)                       granular shear stress (elastic)
-    0 = gap_j'    + (phi_j - phi_c) df/dt(f, |taubar|, |gdot_p|) Table 8 structure law
-    0 = gdot_p_j  - sign(taubar) gdot_cs(|taubar_j|, gap_j)      flow rule at the critical state
-    0 = rho M_k v_k' - (A_k tau_k - A_{k-1} tau_{k-1})           shear momentum, interior faces
-    tau_j = taubar_j + eta0 (1 + 5/2 phi) gdot_j                mixture shear stress
+Equations (SI units; co-rotating cylindrical basis as in :mod:`shear1d.kernels`, so the velocity
+gradient is L = [[0, 0, 0], [gdot, 0, 0], [0, 0, 0]] with gdot_j = cg_j (v_{j+1} w_{j+1} - v_j w_j);
+phi fixed (locked), so D_kk = 0)::
 
-with gap = phi_m(f) - phi the jamming gap (negative when jammed) and gdot_cs the critical-state
-plastic rate of :func:`rheology.laws.critical_shear_rate`: Eq. (35) with grain inertia, multiplied
-through by max(gap, 0)^2, i.e. ``A gdot_p^2 + eta0 gdot_p [2 mu* (a phi)^2 + 5/2 phi^2 y] =
-taubar y^2``, y = max(gap, 0) (0 when jammed). A stress-driven moving wall carries the half dual
-cell: ``rho M_0 v_0' = A_0 tau_0 + A_wall tau_wall``.
+    s'   = 2G D' + W s - s W - G gdot_p s/taubar       Table 8 effective stress (Jaumann, radial
+                                                      plastic flow), taubar = sqrt(s:s/2)
+    p'   = K (beta gdot_p + xi_2)                      Table 8 volumetric part, locked (D_kk = 0)
+    gap' = -(phi_j - phi_c) df/dt(f, taubar, gdot_p)   Table 8 structure law
+    0    = taubar - Y(x) p                             the flow rule f_1 = 0 (algebraic in x)
+    rho M_k v_k' = A_k tau_k - A_{k-1} tau_{k-1},  tau = sigma_rth + eta0 (1 + 5/2 phi) gdot
 
-What the reduced law keeps and leaves out (against the full Table 8 update of ``"ida"`` and
-``"explicit"``): it keeps the elastic shear response (G), the critical-state flow rule with its
-friction mu*(gap), the dilatancy parameter a(f), grain inertia, the full structure law (Table 8,
-with f_m(phi), eta_B(phi), K0, xi_eps) and the fluid's viscous stress. It leaves out the
-granular pressure as a state: p is slaved to the critical state (K -> inf), so there is no
-elastic volumetric response, no compaction or separation, no dilatancy-driven pressure transient
-(dp/dt = K beta gdot_p) and no normal-stress differences (sigma_rr = sigma_thth = sigma_zz = -p);
-the Jaumann rotation terms, which couple the shear stress to normal-stress differences, vanish
-with them. The reported pressure is the critical-state one, ``p = |taubar|/(mu* + 5/2 eta0
-y/(a^2 (gdot_p d^2 rho_s + 2 eta0)))`` (equal to :func:`rheology.laws.critical_pressure` where
-the cell flows), which is |taubar|/mu_1 in a jammed cell: the reduced law leaves a jammed cell's
-pressure undetermined above that yield bound, and the bound is what is reported. The 0-D
-comparison of the two laws is the validation case ``shear1d_reduced_vs_full_law``.
+The flow rule, in terms of x (x = I_m >= 0 where the cell flows): gdot_p is the positive root of
+``p x^2 = rho_s d^2 gdot_p^2 + 2 eta0 gdot_p`` (Table 8's I_m), I_v = eta0 gdot_p/p,
+beta = K3 (phi - phi_m/(1 + a x)) and Y(x) = mu_p(I_v, x) + beta(x), so ``taubar = Y(x) p`` is
+f_1 = 0 exactly. Below x = 0 the yield ratio is continued linearly, Y(0) + Y'(0) x, and
+gdot_p = 0: a cell under its yield stress (taubar < Y(0) p, a jammed band loading elastically)
+has x < 0 and no plastic flow. gdot_p grows as x^2 from zero, so the elastic-plastic switch of
+f_1 is continuously differentiable in x, with no complementarity left for IDA.
 
-Only the locked mode (phi fixed) is reduced this way: two-phase migration needs the pressure
-gradient, which this law does not carry.
+The compaction rule (f_3 <= 0, xi_2 <= 0, f_3 xi_2 = 0): with K4 = 0 f_3 <= 0 is beta >= 0,
+i.e. x >= I_cs = max(gap, 0)/(a phi) (phi at or above the critical-state packing). The rule is
+rate-independent: a cell pressed above its critical-state pressure compacts at once. Here it
+compacts at a finite, large rate, the compaction rule of Table 8 with K4 > 0 (zeta = gdot_p - K4
+xi_2; the paper's own regularisation, the materials' K4 = 0 being its limit)::
 
-The Jacobian is SUNDIALS' banded difference quotient (2 x 4 + 1 residual calls per evaluation,
-see :func:`solve_dae`); the results are returned in the layout of :class:`shear1d.model.Couette`
-(stress components -p, -p, -p, taubar; f; face velocities) so every analysis, file and figure of
-the other methods applies unchanged.
+    xi_2 = -s_w(zeta_cs - gdot_p)/K4 * (1 - p_floor/p),  zeta_cs = gdot_p(x = I_cs, p)
+
+where zeta_cs - gdot_p > 0 exactly when beta < 0, and s_w(u) = 0 (u <= 0), u^2/(2w) (u < w),
+u - w/2 (u >= w), w = COMPACTION_WIDTH zeta_cs, is the max(u, 0) of f_3's complementarity
+smoothed to C1. At a steady critical state u = 0 and s_w = 0, so the smoothing does not move the
+steady states; K4 -> 0 is the law itself. The factor (1 - p_floor/p) is the explicit method's
+contact-pressure floor (:func:`shear1d.kernels.local_updates`): compaction stops at p_floor
+(p_floor = the problem's contact_pressure, 1e-3 Pa by default) and below it pushes p back, so
+p > 0 always. The defaults, K4 = :data:`K4_REG` and :data:`COMPACTION_WIDTH`, are where the
+front speed of the fast Fig. 3 case stops changing (measured: tests/test_shear1d_dae.py and the
+benchmark ``shear1d_cost_vs_cells``). Separation (p <= 0) cannot occur: p stays above zero.
+
+Kept against the explicit method: the whole law (normal-stress differences and Jaumann terms,
+dilatancy pressure K beta gdot_p, the structure law, grain inertia, the fluid stress, the contact
+floor); changed: compaction is fast instead of instantaneous (K4_REG) and its on/off switch is
+C1 instead of a kink. Needs ``mu1 + K3 (phi0 - phi_j) > 0`` (Y(0) > 0: the yield ratio of a loose
+cell at rest is positive, so f_1's max(., 0) never acts) and b > 0 unless mu_2 = mu_1 (the
+friction continuous at I_m = 0); refused with a ValueError otherwise, as is the two-phase mode
+(the Darcy flux needs the pressure gradient of the two-phase kernels; use ``"ida"``).
+
+The Jacobian is SUNDIALS' banded difference quotient (2 x 7 + 1 residual calls per evaluation);
+results are returned in the layout of :class:`shear1d.model.Couette` (sigma = s - p I, f, face
+velocities) so every analysis, file and figure of the other methods applies unchanged.
 """
 
 from __future__ import annotations
@@ -59,36 +77,75 @@ import numba as nb
 import numpy as np
 
 from rheology import laws
-from rheology.local_update import ELASTIC, SHEAR_FLOW
+from rheology.local_update import COMPACTION, ELASTIC, SHEAR_FLOW
 from rheology.numba_cache import guard
 
 from . import kernels
-from .integrate import (_IDA_ROOT_RETURN, EVENTS, _Events, _result, check_state)
+from .integrate import _IDA_ROOT_RETURN, EVENTS, _Events, _result, check_state
 from .model import Couette
 
 guard(__file__)                          # drop cached kernels if rheology's laws changed
 _jit = nb.njit(cache=True, error_model="numpy")
 
-#: Half bandwidth of the DAE's Jacobian (a face couples to tau of both cells and to both
-#: neighbouring faces, 4 unknowns away in the interleaved layout).
-BANDWIDTH = 4
+#: Unknowns per cell (s_rr, s_thth, s_rth, p, gap, x) plus the cell's outer face velocity.
+BLOCK = 7
+#: Half bandwidth of the Jacobian: a face's momentum residual couples to the neighbouring faces,
+#: one block (7 unknowns) away in the interleaved layout.
+BANDWIDTH = 7
+#: Regularising K4 of the compaction rule (see the module docstring). At K4 = 0.1 an over-pressed
+#: loose cell relaxes to its critical-state pressure at the rate K I_cs^2/(2 eta0 K4), 2e8 1/s for
+#: annular_shear at f = 0, ~1e7 times the fast Fig. 3 shear rate (slower near jamming, where
+#: I_cs -> 0). Measured on the fast Fig. 3 case at 100 cells: K4 = 1, 0.1, 0.01 give the same
+#: front speed within 0.05 % and velocity fields 2.7, 1.5, 1.2 % of u_i from the explicit
+#: method's while the band grows; K4 = 0.01 needs rtol <= 1e-5 and twice the work.
+K4_REG = 0.1
+#: Width of the C1 smoothing of the compaction switch, as a fraction of zeta_cs.
+COMPACTION_WIDTH = 0.1
+#: Absolute tolerance scale of x (an inertial number) [-].
+X_SCALE = 1e-1
 
 # parameter vector layout (see parameters())
-_PHI, _PHIC, _PHIJ, _A0, _AINF, _MU1, _MU2, _B, _ETA0, _D, _RHOS, _TSTAR, _INVB, _FM, _K0, \
-    _XIEPS, _G, _ETAF = range(18)
+(_PHI, _PHIC, _PHIJ, _A0, _AINF, _MU1, _MU2, _B, _ETA0, _RD2, _TSTAR, _INVB, _FM, _K0, _XIEPS,
+ _G, _K, _K3, _ETAF, _K4, _PFLOOR, _WIDTH) = range(22)
 
 
-def parameters(problem: Couette) -> np.ndarray:
-    """Parameter vector of the per-cell reduced law at the problem's (uniform, fixed) phi0."""
+def check_material(m, phi0: float) -> None:
+    """Raise ValueError (one line) where the smooth form does not apply to material ``m`` at
+    volume fraction ``phi0`` (see the module docstring): mu_1 + K3 (phi0 - phi_j) <= 0, or b = 0
+    with mu_2 != mu_1."""
+    if m.mu_c + m.K3 * (phi0 - m.phi_j) <= 0.0:
+        raise ValueError(f"method 'dae' needs mu_1 + K3 (phi0 - phi_j) > 0 (a positive yield "
+                         f"ratio at rest), got {m.mu_c:g} + {m.K3:g} ({phi0:g} - {m.phi_j:g}) <= 0 "
+                         f"for {m.name}: phi0 must exceed {m.phi_j - m.mu_c / m.K3:.6g}; use "
+                         f"method 'ida' or 'explicit'")
+    if (m.b or 0.0) <= 0.0 and m.mu2 != m.mu_c:
+        raise ValueError(f"method 'dae' needs b > 0 when mu_2 != mu_1 (friction continuous at "
+                         f"I_m = 0), got b = {m.b} for {m.name}; use method 'ida' or 'explicit'")
+
+
+def parameters(problem: Couette, k4: float = K4_REG, width: float = COMPACTION_WIDTH
+               ) -> np.ndarray:
+    """Parameter vector of the per-cell law at the problem's (uniform, fixed) phi0.
+
+    Raises ValueError where the smooth form does not apply (:func:`check_material`) or for
+    k4 <= 0, width outside (0, 1].
+    """
     m, phi = problem.material, problem.phi0
-    return np.array([phi, m.phi_c, m.phi_j, m.a0, m.a_inf, m.mu_c, m.mu2, m.b, m.eta0, m.d,
-                     m.rho_s, m.tau_star,
+    check_material(m, phi)
+    mu2 = m.mu2
+    if not (k4 > 0.0 and np.isfinite(k4)):
+        raise ValueError(f"k4 = {k4!r} must be > 0 (the regularising compaction K4)")
+    if not (0.0 < width <= 1.0):
+        raise ValueError(f"width = {width!r} must be in (0, 1]")
+    return np.array([phi, m.phi_c, m.phi_j, m.a0, m.a_inf, m.mu_c, mu2, m.b or 0.0, m.eta0,
+                     m.rho_s * m.d ** 2, m.tau_star,
                      laws.inv_eta_B(phi, m.phi_j, m.varphi1, m.alpha1, m.varphi2, m.alpha2),
-                     laws.f_max(phi, m.phi_c, m.phi_j, m.Delta), m.K0, m.xi_eps, m.G,
-                     laws.fluid_viscosity(phi, m.eta0)], dtype=float)
+                     laws.f_max(phi, m.phi_c, m.phi_j, m.Delta), m.K0, m.xi_eps, m.G, m.K, m.K3,
+                     laws.fluid_viscosity(phi, m.eta0), k4, problem.contact_pressure, width],
+                    dtype=float)
 
 
-# ------------------------------------------------------------------ point-wise reduced law
+# ------------------------------------------------------------------ point-wise law
 @_jit
 def structure_of_gap(gap, P):
     """f = f_jam - gap/(phi_j - phi_c) [-]."""
@@ -96,53 +153,90 @@ def structure_of_gap(gap, P):
 
 
 @_jit
-def plastic_rate(taubar, gap, P):
-    """sign(taubar) gdot_cs(|taubar|, gap) [1/s]: Eq. (35) at the critical state, multiplied
-    through by max(gap, 0)^2 (0 when jammed)."""
-    s = 1.0 if taubar >= 0.0 else -1.0
-    a = laws.dilatancy_a(structure_of_gap(gap, P), P[_A0], P[_AINF])
-    return s * laws.critical_shear_rate(s * taubar, P[_PHI], max(gap, 0.0), a, P[_MU1],
-                                        P[_MU2], P[_B], P[_ETA0], P[_D], P[_RHOS])
+def plastic_rate(x, p, P):
+    """gdot_p >= 0 [1/s]: positive root of p x^2 = rho_s d^2 gdot^2 + 2 eta0 gdot (0 for x <= 0)."""
+    if x <= 0.0 or p <= 0.0:
+        return 0.0
+    eta0 = P[_ETA0]
+    c = p * x * x
+    return c / (eta0 + np.sqrt(eta0 * eta0 + P[_RD2] * c))
 
 
 @_jit
-def gap_rate(gap, taubar, gp, P):
-    """d gap/dt = -(phi_j - phi_c) df/dt, Table 8's structure law on |taubar|, |gdot_p| [1/s]."""
+def yield_ratio(x, p, gap, P):
+    """Y(x) = mu_p + beta of Table 8 at I_m = x >= 0; C1 linear continuation below 0 [-]."""
     f = structure_of_gap(gap, P)
-    return -(P[_PHIJ] - P[_PHIC]) * laws.structure_rate(f, abs(taubar), abs(gp), P[_FM],
-                                                        P[_TSTAR], P[_INVB], P[_K0], P[_XIEPS])
+    a = laws.dilatancy_a(f, P[_A0], P[_AINF])
+    phi, phim, b, K3 = P[_PHI], P[_PHI] + gap, P[_B], P[_K3]
+    mu1, dmu = P[_MU1], P[_MU2] - P[_MU1]
+    if x <= 0.0:
+        slope = (dmu / b if b > 0.0 else 0.0) + 1.25 * phi / a + K3 * phim * a
+        return mu1 + K3 * (phi - phim) + slope * x
+    eta0 = P[_ETA0]
+    ivim = eta0 * x / (eta0 + np.sqrt(eta0 * eta0 + P[_RD2] * p * x * x))      # I_v / I_m
+    mu = mu1 + (dmu * x / (x + b) if b > 0.0 else dmu) + 2.5 * phi * ivim / a
+    return mu + K3 * (phi - phim / (1.0 + a * x))
 
 
 @_jit
-def critical_pressure(taubar, gap, gp, P):
-    """Granular pressure of the critical state [Pa] (see the module docstring), >= 0."""
-    y = max(gap, 0.0)
-    a = laws.dilatancy_a(structure_of_gap(gap, P), P[_A0], P[_AINF])
-    mu = laws.critical_friction(P[_PHI], y, a, P[_MU1], P[_MU2], P[_B])
-    g = abs(gp)
-    return abs(taubar) / (mu + 2.5 * P[_ETA0] * y / (a * a * (g * P[_D] ** 2 * P[_RHOS]
-                                                                + 2.0 * P[_ETA0])))
+def smooth_positive(u, w):
+    """max(u, 0) smoothed to C1 over (0, w): 0, u^2/(2w), u - w/2."""
+    if u <= 0.0:
+        return 0.0
+    if u < w:
+        return 0.5 * u * u / w
+    return u - 0.5 * w
+
+
+@_jit
+def cell_law(srr, stt, srt, p, gap, x, P):
+    """The law at one cell: (taubar, gdot_p, dp/dt [Pa/s], dgap/dt [1/s], f_1 residual [Pa],
+    case code)."""
+    szz = -srr - stt
+    taubar = np.sqrt(0.5 * (srr * srr + stt * stt + szz * szz) + srt * srt)
+    gp = plastic_rate(x, p, P)
+    f = structure_of_gap(gap, P)
+    a = laws.dilatancy_a(f, P[_A0], P[_AINF])
+    phi, phim = P[_PHI], P[_PHI] + gap
+    beta = P[_K3] * (phi - phim / (1.0 + a * max(x, 0.0)))
+    i_cs = max(gap, 0.0) / (a * phi)
+    zcs = plastic_rate(i_cs, p, P)
+    comp = smooth_positive(zcs - gp, P[_WIDTH] * zcs + 1e-300)
+    xi2 = -comp / P[_K4] * (1.0 - P[_PFLOOR] / p) if p > 0.0 else 0.0
+    pdot = P[_K] * (beta * gp + xi2)
+    gapdot = -(P[_PHIJ] - P[_PHIC]) * laws.structure_rate(f, taubar, gp, P[_FM], P[_TSTAR],
+                                                          P[_INVB], P[_K0], P[_XIEPS])
+    f1 = taubar - yield_ratio(x, p, gap, P) * p
+    case = ELASTIC if x <= 0.0 else (COMPACTION if comp > 0.0 else SHEAR_FLOW)
+    return taubar, gp, pdot, gapdot, f1, case
 
 
 # ------------------------------------------------------------------ residual over the gap
 @_jit
-def residual(y, yp, u0, tau_wall, i_tau, i_gap, i_gp, i_v, cg, w, A, M, A_wall, rho_face, P,
-             res):
-    """DAE residuals into ``res`` (see the module docstring), all in the interleaved layout."""
-    n = i_tau.shape[0]
+def residual(y, yp, u0, tau_wall, i_c, i_v, cg, w, A, M, A_wall, rho_face, P, res):
+    """DAE residuals into ``res`` (see the module docstring); ``i_c[j]`` is the index of cell
+    j's first unknown (s_rr), the others follow in the order s_thth, s_rth, p, gap, x."""
+    n = i_c.shape[0]
     v = np.empty(n + 1)
     gdot = np.empty(n)
     tau = np.empty(n)
     vdot = np.empty(n + 1)
     kernels.face_velocities(y, i_v, u0, v)
     kernels.shear_rates(v, cg, w, gdot)
-    G, etaf = P[_G], P[_ETAF]
+    G, etaf, scale = P[_G], P[_ETAF], 1.0 / P[_TSTAR]
     for j in range(n):
-        tb, gap, gp = y[i_tau[j]], y[i_gap[j]], y[i_gp[j]]
-        res[i_tau[j]] = yp[i_tau[j]] - G * (gdot[j] - gp)
-        res[i_gap[j]] = yp[i_gap[j]] - gap_rate(gap, tb, gp, P)
-        res[i_gp[j]] = gp - plastic_rate(tb, gap, P)
-        tau[j] = tb + etaf * gdot[j]
+        k = i_c[j]
+        srr, stt, srt, p, gap, x = y[k], y[k + 1], y[k + 2], y[k + 3], y[k + 4], y[k + 5]
+        taubar, gp, pdot, gapdot, f1, _ = cell_law(srr, stt, srt, p, gap, x, P)
+        g = gdot[j]
+        relax = G * gp / taubar if taubar > 0.0 else 0.0
+        res[k] = yp[k] - (-g * srt - relax * srr)
+        res[k + 1] = yp[k + 1] - (g * srt - relax * stt)
+        res[k + 2] = yp[k + 2] - (G * g + 0.5 * g * (srr - stt) - relax * srt)
+        res[k + 3] = yp[k + 3] - pdot
+        res[k + 4] = yp[k + 4] - gapdot
+        res[k + 5] = f1 * scale
+        tau[j] = srt + etaf * g
     kernels.momentum_rates(tau, A, M, rho_face, i_v, A_wall, tau_wall, vdot)
     for k in range(n + 1):
         if i_v[k] >= 0:
@@ -150,120 +244,149 @@ def residual(y, yp, u0, tau_wall, i_tau, i_gap, i_gp, i_v, cg, w, A, M, A_wall, 
 
 
 @_jit
-def to_couette(y, u0, i_tau, i_gap, i_gp, i_v, cg, w, P, c_S, c_f, c_v, size, diag):
+def to_couette(y, u0, i_c, i_v, cg, w, P, c_S, c_f, c_v, size, diag):
     """The DAE state in :class:`Couette`'s layout (index arrays c_S (n, 4), c_f, c_v) and the
     per-cell diagnostics (shear rate, plastic rate, pressure, case)."""
-    n = i_tau.shape[0]
+    n = i_c.shape[0]
     out = np.zeros(size)
     v = np.empty(n + 1)
     gdot = np.empty(n)
     kernels.face_velocities(y, i_v, u0, v)
     kernels.shear_rates(v, cg, w, gdot)
     for j in range(n):
-        tb, gap, gp = y[i_tau[j]], y[i_gap[j]], y[i_gp[j]]
-        p = critical_pressure(tb, gap, gp, P)
-        for c in range(3):
-            out[c_S[j, c]] = -p
-        out[c_S[j, 3]] = tb
+        k = i_c[j]
+        srr, stt, srt, p, gap, x = y[k], y[k + 1], y[k + 2], y[k + 3], y[k + 4], y[k + 5]
+        _, gp, _, _, _, case = cell_law(srr, stt, srt, p, gap, x, P)
+        out[c_S[j, 0]] = srr - p
+        out[c_S[j, 1]] = stt - p
+        out[c_S[j, 2]] = -srr - stt - p
+        out[c_S[j, 3]] = srt
         out[c_f[j]] = structure_of_gap(gap, P)
         diag[j, 0] = gdot[j]
         diag[j, 1] = gp
         diag[j, 2] = p
-        diag[j, 3] = SHEAR_FLOW if gap > 0.0 else ELASTIC
+        diag[j, 3] = case
     for k in range(n + 1):
         if c_v[k] >= 0:
             out[c_v[k]] = v[k]
     return out
 
 
-# ------------------------------------------------------------------ the problem as a DAE
-class ReducedDAE:
-    """The reduced-law DAE of a locked :class:`Couette` problem (layout, residual, conversion).
+@_jit
+def solve_x(taubar, p, gap, P, x0):
+    """x with taubar = Y(x) p (Newton with bisection safeguard; Y increases with x) [-]."""
+    lo, hi = -1e3, 1e3
+    x = x0
+    for _ in range(200):
+        r = taubar - yield_ratio(x, p, gap, P) * p
+        if r > 0.0:
+            lo = x
+        else:
+            hi = x
+        h = 1e-7 * (abs(x) + 1e-3)
+        d = -(yield_ratio(x + h, p, gap, P) - yield_ratio(x, p, gap, P)) * p / h
+        xn = x - r / d if d < 0.0 else 0.5 * (lo + hi)
+        if not lo < xn < hi:
+            xn = 0.5 * (lo + hi)
+        if abs(xn - x) <= 1e-14 * (abs(x) + 1e-12):
+            return xn
+        x = xn
+    return x
 
-    Raises ValueError for a two-phase problem (the reduced law has no pressure to drive Darcy
-    migration).
+
+# ------------------------------------------------------------------ the problem as a DAE
+class FullLawDAE:
+    """The full-law DAE of a locked :class:`Couette` problem (layout, residual, conversion).
+
+    Parameters
+    ----------
+    problem : Couette (locked mode)
+    k4, width : float
+        Regularising K4 and smoothing width of the compaction rule (module docstring).
+
+    Raises ValueError for a two-phase problem or a material outside the form's range.
     """
 
-    def __init__(self, problem: Couette):
+    def __init__(self, problem: Couette, k4: float = K4_REG, width: float = COMPACTION_WIDTH):
         if problem.two_phase:
-            raise ValueError("method 'dae' (reduced critical-state law) is for mode 'locked' "
-                             "only: two-phase migration needs the granular pressure, which the "
-                             "reduced law does not evolve; use method 'ida' or 'explicit'")
+            raise ValueError("method 'dae' is for mode 'locked' only: two-phase migration needs "
+                             "the Darcy flux of the two-phase kernels; use method 'ida' or "
+                             "'explicit'")
         self.pb = problem
+        self.P = parameters(problem, k4, width)
         n = problem.grid.n
-        i_tau, i_gap, i_gp = (np.empty(n, dtype=np.int64) for _ in range(3))
+        i_c = np.empty(n, dtype=np.int64)
         i_v = np.full(n + 1, -1, dtype=np.int64)
         pos = 0
         if problem.stress_driven:
             i_v[0], pos = 0, 1
         for j in range(n):
-            i_tau[j], i_gap[j], i_gp[j] = pos, pos + 1, pos + 2
-            pos += 3
+            i_c[j] = pos
+            pos += BLOCK - 1
             if j < n - 1:
                 i_v[j + 1], pos = pos, pos + 1
-        self.i_tau, self.i_gap, self.i_gp, self.i_v, self.size = i_tau, i_gap, i_gp, i_v, pos
-        self.P = parameters(problem)
-        mt = problem.metrics()
-        self.mt = mt
+        self.i_c, self.i_v, self.size = i_c, i_v, pos
+        self.i_p, self.i_gap, self.i_x = i_c + 3, i_c + 4, i_c + 5
+        self.mt = problem.metrics()
         self.rho_face = problem.coefficients(np.full(n, problem.phi0))[0]
         lay = problem.layout()
         self.c_S, self.c_f, self.c_v = lay["i_S"], lay["i_f"], lay["i_v"]
         self.c_size = problem.size
 
-    # -- residual and state
     def residual(self, t: float, y: np.ndarray, yp: np.ndarray, res: np.ndarray) -> None:
         mt = self.mt
-        residual(y, yp, self.pb.wall_velocity(t), self.pb.wall_traction(t), self.i_tau,
-                 self.i_gap, self.i_gp, self.i_v, mt["cg"], mt["w"], mt["A"], mt["M"],
-                 mt["A_wall"], self.rho_face, self.P, res)
+        residual(y, yp, self.pb.wall_velocity(t), self.pb.wall_traction(t), self.i_c, self.i_v,
+                 mt["cg"], mt["w"], mt["A"], mt["M"], mt["A_wall"], self.rho_face, self.P, res)
 
     def initial_state(self) -> tuple[np.ndarray, np.ndarray]:
-        """At rest (taubar = 0, f = 0, v = 0 inside the gap) with consistent derivatives."""
+        """At rest: s = 0, p = contact pressure, f = 0, v = 0 inside the gap, x on the flow rule
+        (taubar = 0: x = -Y(0)/Y'(0) < 0, no plastic flow), with consistent derivatives."""
+        P = self.P
         y = np.zeros(self.size)
-        y[self.i_gap] = self.P[_PHIJ] - self.P[_PHI]          # f = 0
+        gap0 = P[_PHIJ] - P[_PHI]
+        p0 = self.pb.contact_pressure
+        y[self.i_p] = p0
+        y[self.i_gap] = gap0
+        y[self.i_x] = solve_x(0.0, p0, gap0, P, -0.1)
         return y, self.consistent_yp(0.0, y)
 
     def consistent_yp(self, t: float, y: np.ndarray) -> np.ndarray:
-        """y' of the differential unknowns from the residual at y' = 0; the algebraic plastic
-        rate's derivative by a directional difference along (taubar', gap')."""
+        """y' of the differential unknowns from the residual at y' = 0; x' = 0 (x is algebraic:
+        IDA uses its y' only to start its predictor)."""
         res = np.empty(self.size)
         self.residual(t, y, np.zeros(self.size), res)
         yp = -res
-        h = 1e-7 * max(self.pb.flow_time(), 1e-12)
-        y2 = y + h * yp
-        gp = np.array([plastic_rate(y[a], y[b], self.P) for a, b in zip(self.i_tau, self.i_gap)])
-        gp2 = np.array([plastic_rate(y2[a], y2[b], self.P)
-                        for a, b in zip(self.i_tau, self.i_gap)])
-        yp[self.i_gp] = (gp2 - gp) / h
+        yp[self.i_x] = 0.0
         return yp
 
     def algebraic(self) -> np.ndarray:
-        return self.i_gp.copy()
+        return self.i_x.copy()
 
     def tolerances(self, rtol: float) -> np.ndarray:
-        """Absolute tolerances: rtol times tau* (stress), (phi_j - phi_c) (gap, i.e. f to rtol),
-        the velocity scale (v) and the velocity scale over the gap width (plastic rate)."""
+        """Absolute tolerances: rtol times tau* (stresses, pressure), (phi_j - phi_c) (gap: f to
+        rtol), 1 (x, an inertial number) and the velocity scale (v)."""
         pb = self.pb
         atol = np.empty(self.size)
-        atol[self.i_tau] = rtol * pb.stress_scale()
+        for c in range(4):
+            atol[self.i_c + c] = rtol * pb.stress_scale()
         atol[self.i_gap] = rtol * (self.P[_PHIJ] - self.P[_PHIC])
-        atol[self.i_gp] = rtol * pb.velocity_scale() / pb.grid.gap
+        atol[self.i_x] = X_SCALE * rtol
         atol[self.i_v[self.i_v >= 0]] = rtol * pb.velocity_scale()
         return atol
 
     def convert(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(Couette-layout state, diagnostics (n, 4)) of a DAE state at time t."""
         diag = np.empty((self.pb.grid.n, kernels.NDIAG))
-        yc = to_couette(np.asarray(y, dtype=float), self.pb.wall_velocity(t), self.i_tau,
-                        self.i_gap, self.i_gp, self.i_v, self.mt["cg"], self.mt["w"], self.P,
-                        self.c_S, self.c_f, self.c_v, self.c_size, diag)
+        yc = to_couette(np.asarray(y, dtype=float), self.pb.wall_velocity(t), self.i_c,
+                        self.i_v, self.mt["cg"], self.mt["w"], self.P, self.c_S, self.c_f,
+                        self.c_v, self.c_size, diag)
         return yc, diag
 
 
 class _DAEEvents(_Events):
     """The events of :mod:`shear1d.integrate` evaluated on the converted state."""
 
-    def __init__(self, problem: Couette, dae: ReducedDAE):
+    def __init__(self, problem: Couette, dae: FullLawDAE):
         super().__init__(problem)
         self.dae = dae
 
@@ -273,14 +396,17 @@ class _DAEEvents(_Events):
         return super().values(t, y)
 
 
-def solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar, stop_hook):
+def solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar, stop_hook,
+              k4=None, width=None):
     """Integrate with IDA (banded difference-quotient Jacobian, BDF order <= max_order); the
     same outputs, events, checkpoints and stats as :func:`shear1d.integrate.solve` with
-    ``method="ida"`` (called from there with ``method="dae"``). Raises RuntimeError with
-    diagnostics when IDA fails or a state is unphysical."""
+    ``method="ida"`` (called from there with ``method="dae"``); ``k4`` and ``width`` default to
+    the module's :data:`K4_REG` and :data:`COMPACTION_WIDTH` at call time. Raises RuntimeError
+    with diagnostics when IDA fails or a state is unphysical."""
     from sksundae.ida import IDA
 
-    dae = ReducedDAE(problem)
+    dae = FullLawDAE(problem, K4_REG if k4 is None else k4,
+                     COMPACTION_WIDTH if width is None else width)
     n = problem.grid.n
     events = _DAEEvents(problem, dae)
     events.times = outs.events.times
@@ -288,7 +414,7 @@ def solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar,
 
     def stats(counters):
         return dict(nfev=int(counters[0]), njev=int(counters[1]), rtol=rtol,
-                    bandwidth=BANDWIDTH)
+                    bandwidth=BANDWIDTH, k4=float(dae.P[_K4]), width=float(dae.P[_WIDTH]))
 
     wall0 = time.perf_counter()
     if ck is None:
@@ -333,8 +459,9 @@ def solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar,
                     raise RuntimeError(
                         f"IDA (method dae) failed at t = {sol.t:.6g} s (target {t_target:.6g} "
                         f"s): {sol.message} (status {sol.status}); {n} cells, rtol {rtol:g}; "
-                        f"max f = {st['f'].max():.6g}, max |taubar| = "
-                        f"{np.abs(sol.y[dae.i_tau]).max():.6g} Pa")
+                        f"max f = {st['f'].max():.6g}, max |sigma| = "
+                        f"{np.abs(st['sigma']).max():.6g} Pa, min p = "
+                        f"{sol.y[dae.i_p].min():.6g} Pa")
                 break
             t_now = float(sol.t)
             yc, diag = dae.convert(t_now, sol.y)

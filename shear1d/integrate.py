@@ -1,6 +1,6 @@
 """Time integration of a :class:`~shear1d.model.Couette` problem, and its results.
 
-Two methods on the same finite-volume grid and the same Table 8 law:
+Three methods on the same finite-volume grid and the same Table 8 law:
 
 - ``"ida"``: method of lines on SUNDIALS IDA (``sksundae.ida.IDA``), BDF of order <= 2 with
   adaptive steps, banded finite-difference Jacobian (unknowns interleaved cell by cell), the local
@@ -14,9 +14,12 @@ Two methods on the same finite-volume grid and the same Table 8 law:
   ``dt <= 4/(lambda + sqrt(lambda^2 + 4 omega^2))`` (omega: fastest elastic shear mode, ~2c/dx with
   c = sqrt(G/rho); lambda: fastest fluid-viscous rate ~4 eta_f/(rho dx^2)) and, in two-phase mode,
   ``dt <= dx^2/(2 D)`` with the consolidation diffusivity D = (K + 4G/3) n^2/C; a larger user dt is
-  refused with a ValueError (:func:`stable_time_step`).
+  refused with a ValueError (:func:`stable_time_step`);
+- ``"dae"`` (locked mode only): the same law in its continuous form as a smooth DAE on IDA
+  (:mod:`shear1d.dae`: the plastic state algebraic with the flow rule as its equation, compaction
+  by Table 8's rule with a regularising K4 > 0), whose cost grows about linearly with the cells.
 
-Both write results at the requested output times, check the physics there (finite state,
+All three write results at the requested output times, check the physics there (finite state,
 0 <= f <= 1, 0 < phi < 1, p >= 0) and raise with diagnostics if it breaks, and can checkpoint to an
 ``.npz`` file and resume from it (:mod:`rheology.io`, atomic).
 """
@@ -394,7 +397,7 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     t_end : float
         End time [s] (or give ``t_out``).
     method : {"ida", "explicit", "dae"}
-        ``"dae"``: locked mode only, the reduced (critical-state) law as a smooth DAE on IDA
+        ``"dae"``: locked mode only, the full Table 8 law as a smooth DAE on IDA
         (:mod:`shear1d.dae`; ValueError for two-phase); ``rtol`` as for ``"ida"``.
     n_out : int
         Number of output intervals (outputs at n_out + 1 evenly spaced times).
@@ -470,8 +473,8 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
         if max_order not in (1, 2, 3, 4, 5):
             raise ValueError(f"max_order = {max_order!r} must be an integer in [1, 5]")
         if method == "dae" and problem.two_phase:
-            raise ValueError("method 'dae' (reduced critical-state law) is for mode 'locked' "
-                             "only; use method 'ida' or 'explicit' for two-phase")
+            raise ValueError("method 'dae' is for mode 'locked' only; use method 'ida' or "
+                             "'explicit' for two-phase")
         outs = _Outputs(problem, method, times, float(rtol), checkpoint, checkpoint_every,
                         events)
         ck = outs.load(log) if resume else None
