@@ -408,16 +408,28 @@ def p2g_swirl(x, m, vol, vth, Cl, spw, geo, chunks, priv):
 
 
 @dual
-def g2p_swirl(x, vth, Cl, Lw, lg, geo, apic):
+def g2p_swirl(x, vth, Cl, Lw, lg, lg_old, geo, apic, alpha):
     """Gather the nodal l = r v_theta to one set (call before :func:`g2p` moves the points).
 
-    v_theta = l_p / r_p with l_p = sum N_ip l_i; Cl = D^-1 sum N_ip l_i (x_i - x_p) (APIC, else
-    0); Lw = (dv_theta/dr - v_theta/r, dv_theta/dz) = (l_r/r - 2 l/r^2, l_z/r) with
-    l_r, l_z = sum l_i grad N_ip: the swirl rates in the basis turning with the point.
+    l_p = sum N_ip l_i + alpha (r_p v_theta - sum N_ip l_i^old), then v_theta = l_p / r_p, with
+    ``lg_old`` the nodal l before this step's torque: alpha = 0 is APIC or PIC, alpha > 0 keeps
+    that fraction of what the point carries beyond the grid's interpolant (FLIP/PIC blend
+    without ``apic``, the APIC-FLIP blend of Fei et al. 2021 with it). Cl = D^-1 sum N_ip l_i
+    (x_i - x_p) (APIC, else 0); Lw = (dv_theta/dr - v_theta/r, dv_theta/dz) = (l_r/r - 2 l/r^2,
+    l_z/r) with l, l_r, l_z = sum l_i (N_ip, grad N_ip): the swirl rates in the basis turning
+    with the point.
+
+    Why the blend: APIC and PIC replace a point's l by the grid interpolant every step, which
+    damps what the grid does not represent (PIC all but the interpolant, APIC all but its affine
+    part) once per step, so at fixed h the damping of a shear wave grows as dt falls (measured,
+    see mpm2d.scenes.annular). Both blends conserve sum m_p l_p exactly (the alpha term sums to
+    zero with lumped masses). Shapes: x (N, 2) [m], vth (N,) [m/s] in/out, Cl, Lw (N, 2) out,
+    lg, lg_old (NI, NJ) [m^2/s]; lg_old is not read when alpha = 0.
     """
     x0, y0, h = geo[0], geo[1], geo[2]
     inv_h = 1.0 / h
     dinv = APIC_D_INV * inv_h
+    blend = alpha > 0.0
     for p in nb.prange(x.shape[0]):
         bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
         by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
@@ -425,7 +437,7 @@ def g2p_swirl(x, vth, Cl, Lw, lg, geo, apic):
         wy = (wy0, wy1, wy2)
         dx = (dx0, dx1, dx2)
         dy = (dy0, dy1, dy2)
-        l = lr = lz = br = bz = 0.0
+        l = lr = lz = br = bz = lo = 0.0
         for a in range(3):
             rx = a - fx
             for b in range(3):
@@ -437,10 +449,15 @@ def g2p_swirl(x, vth, Cl, Lw, lg, geo, apic):
                 bz += w * li * ry
                 lr += li * dx[a] * wy[b]
                 lz += li * wx[a] * dy[b]
+                if blend:
+                    lo += w * lg_old[bx + a + PAD, by + b + PAD]
         r = x[p, 0]
-        vth[p] = l / r
         Lw[p, 0] = lr * inv_h / r - 2.0 * l / (r * r)
         Lw[p, 1] = lz * inv_h / r
+        if blend:
+            vth[p] = (l + alpha * (r * vth[p] - lo)) / r
+        else:
+            vth[p] = l / r
         if apic:
             Cl[p, 0], Cl[p, 1] = dinv * br, dinv * bz
         else:

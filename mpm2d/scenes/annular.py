@@ -26,7 +26,21 @@ Initial state as in shear1d: at rest, f = 0, phi = phi0, isotropic granular cont
 ``p0`` (shear1d's 1e-3 Pa floor), zero pore pressure. No gravity.
 
 Parameters: material, phi0, u_inner [m/s], r_inner, r_outer [m], cells (across the gap), rows
-(in z), ppc, rotation [rad], ramp_time [s], p0 [Pa], transfer, cfl.
+(in z), ppc, rotation [rad], ramp_time [s], p0 [Pa], kappa [Pa] (fluid bulk modulus; default the
+material's), transfer, flip_alpha, swirl_flip, cfl.
+
+Transfer (why ``swirl_flip`` = 0.99): plain APIC replaces each point's l = r v_theta by the grid
+interpolant every step and so damps the shear waves of the jammed band once per step, the more
+the smaller dt at fixed h. That made the front dt-dependent and slow: on 24 cells, front speed
+0.500, 0.472, 0.453 m/s at cfl 0.5, 0.25, 0.125 (0.441, 0.407, 0.357 on 12 cells), against
+shear1d's explicit 0.547 (24 cells, converged in dt to 0.7 %) and 0.588 (200 cells). The same
+drift appears in a plane Couette cell without any swirl code (0.211, 0.203, 0.183 m/s, shear1d
+0.213): it is the transfer, not the swirl equations; PIC forms no band at all. The APIC-FLIP
+blend (mpm2d.transfer.g2p_swirl) keeps 99 % of what a point carries beyond the interpolant:
+0.527, 0.529, 0.540, 0.540 m/s at cfl 0.5, 0.25, 0.125, 0.0625 (24 cells). What remains
+against shear1d at the same cells (-4 %) is the fluid's compressibility: shear1d's locked mode
+holds phi fixed, a locked mixture here has kappa = K (Table 4's set): with kappa = 10 K the
+24-cell front is 0.554 m/s (shear1d 0.547-0.551).
 
 Outputs (report): ``annular_front.csv`` (time, bob rotation, kinematic front position: the
 first radius from the bob where v_theta / (u_i r/R_i) < 1/2, shear1d's definition; f at the bob)
@@ -37,6 +51,8 @@ Run: ``mpm2d run annular --set u_inner=0.084 --out annular`` (mode: locked mixtu
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pandas as pd
@@ -162,16 +178,24 @@ def front_fit(t, front, r_inner, r_outer, lo=FIT_LO, hi=FIT_HI) -> dict:
     rotation=spec.positive(100.0, "rad", "bob rotation to simulate"),
     ramp_time=spec.Param(0.0, 100.0, unit="s", doc="linear start-up of the bob speed"),
     p0=spec.Param(0.0, 1e6, unit="Pa", doc="initial isotropic granular pressure"),
-    transfer=spec.Param(choices=("apic", "pic"), doc="particle-grid transfer"),
+    transfer=spec.transfer(),
+    flip_alpha=spec.flip_alpha(),
+    kappa=spec.Param(0.0, 1e12, lo_closed=False, optional=True, unit="Pa",
+                     doc="fluid bulk modulus (none: the material's)"),
+    swirl_flip=spec.Param(0.0, 1.0, hi_closed=False,
+                          doc="FLIP fraction of the APIC swirl transfer (APIC-FLIP blend)"),
     cfl=spec.cfl(),
     size=lambda p: (p["cells"] * p["rows"] * p["ppc"] ** 2, (p["cells"] + 5) * (p["rows"] + 5)))
 def setup(material="annular_shear", phi0=0.505, u_inner=0.084, r_inner=R_INNER,
           r_outer=R_OUTER, cells=24, rows=50, ppc=2, rotation=0.31, ramp_time=0.0, p0=1e-3,
-          transfer="apic", cfl=0.5):
+          kappa=None, transfer="apic", flip_alpha=0.99, swirl_flip=0.99, cfl=0.5):
     params = dict(material=material, phi0=phi0, u_inner=u_inner, r_inner=r_inner,
                   r_outer=r_outer, cells=cells, rows=rows, ppc=ppc, rotation=rotation,
-                  ramp_time=ramp_time, p0=p0, transfer=transfer, cfl=cfl)
+                  ramp_time=ramp_time, p0=p0, kappa=kappa, transfer=transfer, flip_alpha=flip_alpha,
+                  swirl_flip=swirl_flip, cfl=cfl)
     m = scene_material("annular_shear", material)
+    if kappa is not None:
+        m = dataclasses.replace(m, kappa=float(kappa))
     h = (r_outer - r_inner) / cells
     grid = Grid(cells, rows, h, origin=(r_inner, 0.0), axisymmetric=True,
                 boundaries=dict(xmin="noslip", xmax="noslip", ymin="periodic", ymax="periodic"),
@@ -179,8 +203,8 @@ def setup(material="annular_shear", phi0=0.505, u_inner=0.084, r_inner=R_INNER,
     x, area = box((r_inner, 0.0), (r_outer, rows * h), h / ppc)
     pts = ParticleSet("suspension", Suspension(m, locked=True), x, area, phi=phi0,
                       stress=-p0 * np.eye(3), f=0.0, axisymmetric=True)
-    sim = Simulation(grid, [pts], transfer=transfer, cfl=cfl, swirl=True, swirl_ramp=ramp_time,
-                     name="annular")
+    sim = Simulation(grid, [pts], transfer=transfer, flip_alpha=flip_alpha, cfl=cfl, swirl=True,
+                     swirl_flip=swirl_flip, swirl_ramp=ramp_time, name="annular")
     t_end = rotation * r_inner / u_inner + 0.5 * ramp_time
     fjam = float(f_jam(phi0, m))
 
