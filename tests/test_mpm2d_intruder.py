@@ -115,18 +115,20 @@ def test_analysis_recovers_known_front_speeds():
 
 def test_sweep_report_table_and_scatter(tmp_path):
     rows = []
-    for phi, v0, kl, kt in ((0.46, 0.2, 4.0, 2.0), (0.48, 0.5, 3.0, 1.6)):
+    for phi, v0, kl, kt, jam in ((0.46, 0.2, 4.0, 2.0, False), (0.48, 0.5, 3.0, 1.6, True)):
         case = f"phi0={phi}_v0={v0}"
         (tmp_path / case).mkdir()
         (tmp_path / case / "summary.json").write_text(json.dumps(
             {"phi0": phi, "v0_m_per_s": v0, "k_l": kl, "k_t": kt, "k_l_over_k_t": kl / kt,
-             "r2_longitudinal": 0.99, "r2_transverse": 0.98}))
+             "r2_longitudinal": 0.99, "r2_transverse": 0.98, "jammed": jam}))
         rows.append({"phi0": phi, "v0": v0, "case": case, "status": "done"})
     paths = sweep_report(pd.DataFrame(rows), tmp_path)
     assert {p.name for p in paths} == {"fronts.csv", "fronts.png"}
     df = pd.read_csv(tmp_path / "fronts.csv")
     assert tuple(df.columns[:len(SWEEP_COLUMNS)]) == SWEEP_COLUMNS
     assert df["k_l_over_k_t"].tolist() == pytest.approx([2.0, 1.875])
+    # whether each bed jammed is carried (an unjammed 'front' is the rod's near field, no plug)
+    assert df["jammed"].tolist() == [False, True]
 
 
 @pytest.mark.parametrize("item", ["phi0=0.6", "phi0=nan", "v0=-0.1", "v0=inf", "t_end=1",

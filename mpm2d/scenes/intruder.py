@@ -25,15 +25,24 @@ together, and an unjammed skeleton (phi < phi_m), which has no stiffness, drains
 Darcy velocity k/eta0 grad p ~ 2.7e-5 m/s for 1e4 Pa over 1 cm is 1e-4 of v0 = 0.175 m/s and
 changes phi by ~5e-5 in 20 ms), as Han et al. measured (no detectable change of packing fraction
 at the front). So the locked mixture is the default; the two-phase mode is kept to show the
-difference: measured at phi0 = 0.47, v0 = 0.5 m/s over 8 ms, two-phase gives k_l 8.5% and k_t 8.4% lower (the same
-k_l/k_t, 0.64) at 2.3x the wall time (validation case ``mpm2d_intruder_modes``).
+difference: measured at phi0 = 0.47, v0 = 0.5 m/s over 8 ms, two-phase gives k_l 8.5% and k_t
+8.4% lower (the same k_l/k_t, 0.64) at 2.3x the wall time (validation case
+``mpm2d_intruder_modes``).
 
-Geometry and choices where the paper is silent (Baumgarten & Kamrin give only the 50 x 35
-element, 1 mm grid):
+Geometry and choices where the paper is silent (Baumgarten & Kamrin give only "axisymmetric MPM
+on a 50x35 element Cartesian grid with 1mm x 1mm resolution"; the author's code,
+aaronbaumgarten/mpm_3d, holds no intruder scene in any commit of its history: no script, config
+or driver names or mentions an intruder, Han et al., or 0.175 m/s):
 - bed: radius 50 mm, depth 35 mm (the paper's grid is the bed); the grid adds, above the bed,
-  room for the rod (v0 t_end + 5 mm) and for the free surface to heave: 50 x (35 + that) cells;
+  room for the rod (v0 t_end + 5 mm) and for the free surface to heave: 50 x (35 + that) cells.
+  The author's impact generator (mpm_pygen/GenerateImpactMixture2D_v2.py) writes its grid as
+  Nx x Ny = radius x height with the room above the bed inside the height (0.30 m of bed in a
+  0.60 m grid) and 3 x 3 points per cell; read that way, the paper's 50 x 35 would be 50 mm of
+  radius by 35 mm of height including the rod's room, a shallower bed. Unverified either way; a
+  deeper bed (35 mm radius x 50 mm) moved k_l/k_t by less than 0.1 (below);
 - rod radius 3.175 mm (a 1/4-inch rod, the diameter we take for Han et al.'s intruder: we
-  could not check it against the paper's methods section from here, so it is a parameter);
+  could not check it against their methods section from here, so it is a parameter; 6.35 and
+  12.7 mm moved k_l/k_t by less than 0.15, below);
   on the point lattice (spacing h/2) the rod is ``n h/2`` wide, n = floor(2 rod_radius/h):
   3.0 mm at h = 1 mm; the transverse front is searched beyond that represented radius;
 - rod contact no-slip (mu_w = inf: a viscous suspension wets the rod; ``rod_contact=
@@ -51,12 +60,32 @@ below the tip, searched outward from the rod's radius. Fit: straight lines over 
 from the first record after the contact transient (four acoustic crossings of the bed, 0.3 ms
 on the default bed) and after the bed first jams (a point's f reaches f_jam, phi_m(f_jam) =
 phi0; ``jammed`` in summary.json says whether it did) where both fronts exist and the
-longitudinal front is at least 2 cells ahead of the tip until either front comes within ``fit_margin`` of the
-floor or the outer wall, or either (its running median over 9 records) falls back by more than
-a cell (h) from its farthest position
-(the plug stopped growing: it unjams once the stress waves come back from the floor); records where a front is momentarily undefined (the cell under the tip
-lagging the rod by more than v0/2 for a step) are left out of the fits, not ended at.
-k_l = v_fl/v0 - 1, k_t = v_ft/v0.
+longitudinal front is at least 2 cells ahead of the tip until either front comes within
+``fit_margin`` of the floor or the outer wall, or either (its running median over 9 records)
+falls back by more than a cell (h) from its farthest position (the plug stopped growing: it
+unjams once the stress waves come back from the floor); records where a front is momentarily
+undefined (the cell under the tip lagging the rod by more than v0/2 for a step) are left out of
+the fits, not ended at.
+k_l = v_fl/v0 - 1, k_t = v_ft/v0: the paper's "(v_fl - v0)/v_ft ~ 2 ... transverse and
+longitudinal front propagation factors k_t = v_ft/v0 and k_l = v_fl/v0 - 1", front "defined by
+u_z = 0.5 v0"; v_fl is the lab-frame speed of the front along the axis (v_fl - v0 its speed
+ahead of the tip, the same number whether the front is read from the surface or from the tip).
+
+Status against Fig. 7 (measured, locked mixture, 1 mm): NOT reproduced. The plug grows about
+as fast across as along the axis in the lab frame (v_fl ~ v_ft), where Han et al.'s ratio needs
+v_fl = (2 + 1/k_t) v_ft, so k_l/k_t = 0.6-1.0 instead of ~2. At phi0 = 0.47, v0 = 0.5 m/s
+(fit 0.5-5 ms): the default measure 0.86; the transverse front read at the tip's row, 3 or 6 mm
+below the tip, at 5 or 10 mm depth, or as the plug's widest radius: 0.67-0.86 (the reading moves
+k_t by < 30%, never towards 2); a frictionless rod 0.98; rod radius 6.35 mm 0.97, 12.7 mm 0.93;
+slip floor and wall 1.02; a 35 mm radius x 50 mm deep bed 0.79; the rod started 12 mm deep (no
+free surface at the tip) 0.86; h = 0.5 mm 0.89 (over 5 ms). The fields show why: the plug's
+side is a thin shear band (high gdot_p, so H = (taubar/tau*)^(3/2) and the structure rate K0 H
+gdot_p are high and f reaches f_jam within a cell or two), while ahead of the plug u_z falls
+off over ~10 mm (a low rate), so jamming spreads at about the same lab speed both ways. That is
+the model as the engine integrates it (rheology.local_update, mpm2d), not the front reading.
+At v0 = 0.175-0.2 m/s and phi0 <= 0.47 the bed does not jam within 20 ms (max f ~ 0.3 <
+f_jam = 0.66-0.76): ``jammed`` is false and the 'front' is the rod's near field, whereas the
+paper's Fig. 6 shows a plug at phi = 0.47, v0 = 0.175 m/s.
 
 Parameters: phi0, v0 [m/s], t_end [s], radius, depth [m], cells_per_mm (1/h in 1/mm),
 rod_radius [m], rod_contact, mode, fit_margin [m], gravity [m/s^2], cfl.
@@ -114,7 +143,8 @@ def _headroom_cells(p) -> int:
 
 
 def _points(p) -> float:
-    n = (p["radius"] * p["depth"] + p["rod_radius"] * _rod_length(p)) * (p["cells_per_mm"] * 1e3) ** 2 * 4
+    n = ((p["radius"] * p["depth"] + p["rod_radius"] * _rod_length(p))
+         * (p["cells_per_mm"] * 1e3) ** 2 * 4)
     return n * (2 if p["mode"] == "two-phase" else 1)
 
 
@@ -392,8 +422,9 @@ SWEEP_COLUMNS = ("phi0", "v0_m_per_s", "k_l", "k_t", "k_l_over_k_t", "r2_longitu
 
 def sweep_report(table, out) -> list:
     """``out/fronts.csv`` (one row per complete case: phi0, v0_m_per_s, k_l, k_t, k_l_over_k_t,
-    r2_longitudinal, r2_transverse, case) and ``out/fronts.png`` (k_l against k_t with the line
-    k_l = 2 k_t, Fig. 7), from each case's ``summary.json``."""
+    r2_longitudinal, r2_transverse, jammed (whether the bed jammed during the run, from
+    summary.json), case) and ``out/fronts.png`` (k_l against k_t with the line k_l = 2 k_t,
+    Fig. 7; a case that never jammed drawn faint), from each case's ``summary.json``."""
     out = Path(out)
     rows = []
     for _, r in table.iterrows():
@@ -402,19 +433,27 @@ def sweep_report(table, out) -> list:
             continue
         s = json.loads(p.read_text())
         rows.append({**{k: (np.nan if s.get(k) is None else s[k]) for k in SWEEP_COLUMNS},
-                     "case": str(r["case"])})
+                     "jammed": bool(s.get("jammed", True)), "case": str(r["case"])})
     if not rows:
         return []
-    df = pd.DataFrame(rows, columns=[*SWEEP_COLUMNS, "case"])
+    df = pd.DataFrame(rows, columns=[*SWEEP_COLUMNS, "jammed", "case"])
     undefined = ("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal", "r2_transverse")
     paths = [atomic_write_csv(out / "fronts.csv", df, empty_ok=undefined)]
     fig, ax = plots.plt.subplots(figsize=(5.5, 4.5))
     ok = df.dropna(subset=["k_l", "k_t"])
     for v0, mk in zip(sorted(ok["v0_m_per_s"].unique()), "osD^v"):
-        sel = ok[ok["v0_m_per_s"] == v0]
-        sc = ax.scatter(sel["k_t"], sel["k_l"], c=sel["phi0"], cmap="coolwarm", marker=mk,
-                        vmin=df["phi0"].min(), vmax=max(df["phi0"].max(), df["phi0"].min() + 1e-9),
-                        edgecolors="k", label=f"v0 = {v0:g} m/s")
+        for jam in (True, False):
+            sel = ok[(ok["v0_m_per_s"] == v0) & (ok["jammed"] == jam)]
+            if not len(sel):
+                continue
+            # a case whose bed never jammed (the 'front' is the rod's viscous near field, not a
+            # plug): open marker
+            sc = ax.scatter(sel["k_t"], sel["k_l"], c=sel["phi0"], cmap="coolwarm", marker=mk,
+                            vmin=df["phi0"].min(),
+                            vmax=max(df["phi0"].max(), df["phi0"].min() + 1e-9),
+                            edgecolors="k", linewidths=1.0 if jam else 2.0,
+                            alpha=1.0 if jam else 0.35,
+                            label=f"v0 = {v0:g} m/s" + ("" if jam else ", not jammed"))
     if len(ok):
         fig.colorbar(sc, ax=ax, label="phi0")
         kt = np.linspace(0, 1.1 * ok["k_t"].max(), 2)
