@@ -35,3 +35,40 @@ def weights(g):
     w1 = 0.75 - (f - 1.0) ** 2
     w2 = 0.5 * (f - 0.5) ** 2
     return int(b), f, w0, w1, w2, f - 1.5, -2.0 * (f - 1.0), f - 0.5
+
+
+@nb.njit(cache=True, inline="always")
+def hydrostatic_coefficient(area, h):
+    """Coefficient c of the hydrostatic (well-balanced) body-force term of one point.
+
+    The point adds ``m_p c h^2 d2N_i/dx_k^2 g_k`` (k = x, y) to the nodal force, i.e.
+    ``m_p c g_k`` times (1, -2, 1) over its three nodes along k; with a = sqrt(area)/2 the half
+    side of its square domain [m], c = a^2 / (2 h^2) = area / (8 h^2) [-].
+
+    Why: the particle quadrature is the midpoint rule on the point domains. For a bed at rest
+    under gravity (stress gradient rho g) it misses, per point and node, V_p a^2/2 rho g N_i''
+    (a^2/3 from the stress term, a^2/6 from the weight: the midpoint rule's error
+    (2a)^3/24 f'' on a domain where the B-spline is one polynomial). In the interior these
+    terms cancel (sum_p m_p N_i'' = rho int N_i'' = 0); on a node whose support is cut by a free
+    surface they add up to a^2/2 rho g N_i'(y_s) per unit area: the analytic hydrostatic field
+    is then not a discrete equilibrium, and the node above the surface (which sees only the top
+    points) forces the top point's pressure to rho g h/8 instead of rho g h/4 (2 points per
+    cell): -19.5 % in the top cell row, -0.9 % in the second, in every mode. Adding the missing
+    term to the body force makes the hydrostatic state an exact discrete equilibrium (a
+    well-balanced scheme, in the sense of Greenberg & LeRoux 1996 and Audusse et al. 2004:
+    gravity discretised consistently with the pressure gradient) without touching the stress
+    divergence; it changes nothing in the bulk of a uniform bed, keeps the total force and
+    torque of gravity (sum_i N_i'' = sum_i x_i N_i'' = 0), and is O(h^2) everywhere.
+
+    Odd layouts: with an odd number of points per cell and direction a point sits on every knot
+    (cell centre) and the midpoint errors of the knot points cancel those of the others: the
+    hydrostatic state is already exact there (checked for 1 and 3 points; tests), so c = 0. The
+    layout n = h / sqrt(area) is rounded to the nearest integer (robust to volume changes of
+    -36 % to +78 % at n = 2).
+
+    area : in-plane area of the point [m^2] (V_p, or V_p / r_p in axisymmetry); h : cell [m].
+    """
+    n = int(h / math.sqrt(area) + 0.5)
+    if n % 2 == 1 or n == 0:                 # odd layouts (or points larger than a cell)
+        return 0.0
+    return area / (8.0 * h * h)

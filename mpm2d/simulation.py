@@ -407,7 +407,7 @@ class Simulation:
             svol = s.svol if (self.two_phase and ph in self.phases) else np.zeros(0)
             pf = s.pf if (self.two_phase and s.phase == "fluid") else np.zeros(0)
             p2g[self.par](s.x, s.v, s.C, s.m, s.V, s.sp, pf, s.fext, svol, self._geo, axi,
-                self._chunks[s.name], self.priv[ph], self._ext[s.name])
+                self._chunks[s.name], self.priv[ph], self._ext[s.name], self.gravity)
         gx, gy = self.gravity[0], self.gravity[1]
         for ph in self.fields:
             reduce_private[self.par_grid](self.priv[ph], self.G[ph], True, gx, gy)

@@ -14,7 +14,10 @@ fields, and :func:`reduce_private` sums the copies in a fixed order. Results are
 deterministic and independent of the number of threads that run the chunks.
 
 The stress enters the nodal force as f_i = -sum_p V_p sigma_p grad N_ip, plus, in axisymmetry
-(x = r, volumes per radian V_p = r_p A_p), the hoop term -sum_p V_p sigma_thth N_ip / r_p.
+(x = r, volumes per radian V_p = r_p A_p), the hoop term -sum_p V_p sigma_thth N_ip / r_p. Under
+gravity each point adds the well-balanced term m_p c_p h^2 d2N_ip/dx_k^2 g_k, which makes a bed
+at rest an exact discrete equilibrium up to its free surface
+(:func:`mpm2d.shape.hydrostatic_coefficient`).
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ import numpy as np
 
 from .kernels import dual
 from .grid import FPX, FPY, FX, FY, MX, MY, PAD, V, VS, M, FREE, PERIODIC
-from .shape import APIC_D_INV, weights
+from .shape import APIC_D_INV, hydrostatic_coefficient, weights
 
 _jit = nb.njit(cache=True, error_model="numpy")
 
@@ -73,7 +76,7 @@ def chunk_bounds(n: int, nc: int) -> np.ndarray:
 
 
 @dual
-def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext):
+def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, grav):
     """Scatter one particle set into the private node fields ``priv[c]`` of its chunks.
 
     Parameters
@@ -90,6 +93,8 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext):
     priv : (nc, NI, NJ, NF) private node fields, zero on entry
     ext : (nc, 2) written: per chunk, max V/m [m^3/kg] and max |v|^2 [m^2/s^2] of the points
         as scattered (the step size's wave and advection limits, taken in the same pass)
+    grav : (2,) gravity [m/s^2], for the hydrostatic quadrature term only (the body force
+        m_i g itself is added by :func:`reduce_private`); see :func:`hydrostatic_coefficient`
 
     Points are sorted by their B-spline base node, so consecutive points usually share the
     whole 3 x 3 stencil: their contributions are summed in a local block and written to the
@@ -100,6 +105,9 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext):
     inv_h = 1.0 / h
     has_p, has_f, has_s = pf.shape[0] > 0, fext.shape[0] > 0, svol.shape[0] > 0
     nf = priv.shape[3]
+    grx, gry = grav[0], grav[1]
+    has_g = grx != 0.0 or gry != 0.0
+    n2 = (1.0, -2.0, 1.0)                    # h^2 d2N/dx2 of the three B-spline weights
     for c in nb.prange(nc):
         G = priv[c]
         acc = np.zeros((3, 3, nf))
@@ -120,6 +128,9 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext):
             c10, c11 = mp * h * C[p, 1, 0], mp * h * C[p, 1, 1]
             sxx, sxy, syy = Vp * sp[p, 0] * inv_h, Vp * sp[p, 1] * inv_h, Vp * sp[p, 2] * inv_h
             hoop = Vp * sp[p, 3] / x[p, 0] if axisym else 0.0
+            kg = hydrostatic_coefficient(Vp / x[p, 0] if axisym else Vp, h) * mp if has_g \
+                else 0.0
+            kgx, kgy = kg * grx, kg * gry
             wx = (wx0, wx1, wx2)
             wy = (wy0, wy1, wy2)
             dx = (dx0, dx1, dx2)
@@ -135,8 +146,8 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext):
                     acc[a, b, M] += w * mp
                     acc[a, b, MX] += w * (mxa + c01 * ry)
                     acc[a, b, MY] += w * (mya + c11 * ry)
-                    acc[a, b, FX] += -(sxx * gx + sxy * gy) - w * hoop
-                    acc[a, b, FY] += -(sxy * gx + syy * gy)
+                    acc[a, b, FX] += -(sxx * gx + sxy * gy) - w * hoop + kgx * n2[a] * wy[b]
+                    acc[a, b, FY] += -(sxy * gx + syy * gy) + kgy * wx[a] * n2[b]
             if nf > V:
                 pp = Vp * pf[p] * inv_h if has_p else 0.0
                 hoop_p = Vp * pf[p] / x[p, 0] if (has_p and axisym) else 0.0

@@ -496,63 +496,79 @@ def contact_case(out: Path, quick: bool) -> Verdict:
         passed=bool(ok), figures=[fig_path], details=df.to_string())
 
 
-def _axis_bed(mode, h, nx, nz):
+def _axis_bed(mode, h, nx, nz, axi=True):
     from mpm2d import (Grid, LinearElastic, NewtonianFluid, ParticleSet, Simulation,
                        Suspension, box)
     from rheology import get_material
     m = get_material("rod_impact", K=8.3e5, G=3.8e5, kappa=8.3e5)
-    grid = Grid(nx, nz + 2, h, axisymmetric=True,
-                boundaries=dict(xmin="axis", xmax="slip", ymin="noslip", ymax="free"))
+    grid = Grid(nx, nz + 2, h, axisymmetric=axi,
+                boundaries=dict(xmin="axis" if axi else "slip", xmax="slip", ymin="noslip",
+                                ymax="free"))
     x, a = box((0.0, 0.0), (nx * h, nz * h), h / 2)
+    kw = dict(axisymmetric=axi)
     if mode == "locked":
-        sets = [ParticleSet("bed", Suspension(m, locked=True), x, a, phi=0.47, f=0.0,
-                            axisymmetric=True)]
+        sets = [ParticleSet("bed", Suspension(m, locked=True), x, a, phi=0.47, f=0.0, **kw)]
     elif mode == "elastic":
-        sets = [ParticleSet("bed", LinearElastic(1600.0, 8.3e5, 3.8e5), x, a, axisymmetric=True)]
+        sets = [ParticleSet("bed", LinearElastic(1600.0, 8.3e5, 3.8e5), x, a, **kw)]
     else:
-        sets = [ParticleSet("grains", Suspension(m), x, a, phi=0.47, f=0.0, axisymmetric=True),
-                ParticleSet("fluid", NewtonianFluid.from_material(m), x, a, phi=0.47,
-                            axisymmetric=True)]
+        sets = [ParticleSet("grains", Suspension(m), x, a, phi=0.47, f=0.0, **kw),
+                ParticleSet("fluid", NewtonianFluid.from_material(m), x, a, phi=0.47, **kw)]
     rho = 1600.0 if mode == "elastic" else 0.47 * m.rho_s + 0.53 * m.rho_f
     return Simulation(grid, sets, gravity=(0.0, -9.81)), sets, rho
 
 
 @case("mpm2d", "mpm2d_axis_rest", "mpm2d: hydrostatic axisymmetric bed at rest, every cell "
-      "incl. the axis (0.1 s)")
+      "incl. the axis and the free surface (0.1 s)")
 def axis_rest_case(out: Path, quick: bool) -> Verdict:
+    """Every cell row held to 0.5 %, the free-surface rows included.
+
+    Measure (the issue's "equal rho g depth in every cell"): per cell, the mean over its points
+    of (field - rho g d_p)/(rho g d_p). Also reported: the cell-mean field against rho g times
+    the cell-mean depth (``max_cell_mean_field_error``), which weighs the shallow points less.
+    Before the well-balanced body force (mpm2d.shape.hydrostatic_coefficient) the top cell row
+    was -19.5 % (-4.2 % in the second measure) and the second row -0.9 %, in every mode, at any
+    r, in plane strain too: the particle quadrature's free-surface residual, not the axis.
+    """
     from mpm2d.geostatic import geostatic
     rows, ok = [], True
     for h in ((2e-3,) if quick else (2e-3, 1e-3)):
         nx, nz = (6, 12) if quick else (10, 16)
-        for mode in ("elastic", "locked", "two-phase"):
-            sim, sets, rho = _axis_bed(mode, h, nx, nz)
-            geostatic(sim, relax=False)
-            sim.run(0.1)
-            s = sets[-1]
-            d = nz * h - s.x[:, 1]
-            val = -s.stress[:, 1, 1] if mode == "elastic" else s.pf
-            err = (val - rho * 9.81 * d) / (rho * 9.81 * d)
-            ci = np.floor(s.x[:, 0] / h).astype(int)
-            cj = np.floor(s.x[:, 1] / h).astype(int)
-            cells = np.array([[err[(ci == i) & (cj == j)].mean() for i in range(nx)]
-                              for j in range(nz)])
-            inner = float(np.abs(cells[:nz - 2]).max())
-            axis = float(np.abs(cells[:nz - 2, 0]).max())
-            rows.append(dict(h_mm=h * 1e3, mode=mode, max_cell_error=inner, axis_cell_error=axis,
-                             surface_row_error=float(cells[nz - 1].mean()),
-                             second_row_error=float(cells[nz - 2].mean())))
-            ok &= inner < 0.005
+        for geometry in ("axisymmetric", "plane strain"):
+            for mode in ("elastic", "locked", "two-phase"):
+                sim, sets, rho = _axis_bed(mode, h, nx, nz, axi=geometry == "axisymmetric")
+                geostatic(sim, relax=False)
+                sim.run(0.1)
+                s = sets[-1]
+                d = nz * h - s.x[:, 1]
+                val = -s.stress[:, 1, 1] if mode == "elastic" else s.pf
+                err = (val - rho * 9.81 * d) / (rho * 9.81 * d)
+                ci = np.floor(s.x[:, 0] / h).astype(int)
+                cj = np.floor(s.x[:, 1] / h).astype(int)
+                ids = [[(ci == i) & (cj == j) for i in range(nx)] for j in range(nz)]
+                cells = np.array([[err[k].mean() for k in row] for row in ids])
+                field = np.array([[val[k].mean() / (rho * 9.81 * d[k].mean()) - 1.0
+                                   for k in row] for row in ids])
+                worst = float(np.abs(cells).max())
+                rows.append(dict(
+                    h_mm=h * 1e3, geometry=geometry, mode=mode, max_cell_error=worst,
+                    axis_cell_error=float(np.abs(cells[:, 0]).max()),
+                    surface_row_error=float(cells[nz - 1].mean()),
+                    second_row_error=float(cells[nz - 2].mean()),
+                    max_cell_mean_field_error=float(np.abs(field).max()),
+                    max_speed_m_per_s=max(float(np.abs(q.v).max()) for q in sets)))
+                ok &= worst < 0.005
     df = pd.DataFrame(rows)
     atomic_write_csv(out / "axis_rest.csv", df)
     return Verdict(
         criterion="after 0.1 s at rest the load-carrying field (elastic -sigma_zz; locked and "
                   "two-phase loose beds: pore pressure) equals rho g depth to 0.5% in every cell "
-                  "including the axis cells, below the two surface cell rows (free-surface "
-                  "quadrature layer, reported)",
-        measured="; ".join(f"{r['mode']} {r['h_mm']:g} mm: max {100 * r['max_cell_error']:.2f}% "
-                           f"(axis {100 * r['axis_cell_error']:.2f}%), surface rows "
-                           f"{100 * r['surface_row_error']:.1f}%/{100 * r['second_row_error']:.2f}%"
-                           for r in rows),
+                  "(cell mean of the points' relative errors), the axis cells and the free-"
+                  "surface rows included; axisymmetric and plane strain",
+        measured="; ".join(f"{'axi' if r['geometry'] == 'axisymmetric' else 'plane'} {r['mode']} {r['h_mm']:g} mm: max "
+                           f"{100 * r['max_cell_error']:.3f}% (axis "
+                           f"{100 * r['axis_cell_error']:.3f}%), surface rows "
+                           f"{100 * r['surface_row_error']:.3f}%/"
+                           f"{100 * r['second_row_error']:.3f}%" for r in rows),
         passed=bool(ok), details=df.to_string())
 
 
