@@ -40,7 +40,11 @@ blend (mpm2d.transfer.g2p_swirl) keeps 99 % of what a point carries beyond the i
 0.527, 0.529, 0.540, 0.540 m/s at cfl 0.5, 0.25, 0.125, 0.0625 (24 cells). What remains
 against shear1d at the same cells (-4 %) is the fluid's compressibility: shear1d's locked mode
 holds phi fixed, a locked mixture here has kappa = K (Table 4's set): with kappa = 10 K the
-24-cell front is 0.554 m/s (shear1d 0.547-0.551).
+front is 0.554, 0.562, 0.571 m/s on 24, 48, 96 cells (shear1d 0.547, 0.567, 0.581 on 24, 48,
+100 cells, 0.588 on 200; kappa = 100 K: 0.550 on 24 cells); with kappa = K 0.527, 0.536,
+0.544. Not 1: with alpha = 1 the points next to the bob keep their initial lag for good (a
+deviation from the interpolant the mirrored grid never sees) and the band overshoots the bob's
+speed; 0.9 gives 0.520 and 0.523 m/s at cfl 0.5 and 0.125.
 
 Outputs (report): ``annular_front.csv`` (time, bob rotation, kinematic front position: the
 first radius from the bob where v_theta / (u_i r/R_i) < 1/2, shear1d's definition; f at the bob)
