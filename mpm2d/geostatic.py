@@ -24,13 +24,13 @@ The state (depth d below the free surface y_s, gravity g along -y):
 Relaxation: the bed's sets alone (no bodies) are stepped with a velocity damping until the
 largest speed is below ``v_tol`` (or ``max_steps``); their stresses, volumes, pore pressures and
 states are kept, their positions, velocities and affine matrices reset, f reset to f_rest.
-On a bed whose points tile it on the grid's layout (n x n per cell, surface on a node or half-node
-line) the analytic field above is already an exact discrete equilibrium: the engine's
-well-balanced body force (:func:`mpm2d.shape.hydrostatic_coefficient`) removes the particle
-quadrature's free-surface residual (which once put the top cell row 19.5 % below rho g d in
-every mode) and its axis correction the mirror-wall one; the relaxation then changes the field by
-< 0.05 % (tests). It stays for what those do not cover: beds whose points are not on that
-layout, the radial corner residual at an axisymmetric floor (~1e-4 of a node's weight).
+On a bed whose points tile it on the grid's layout (n x n per cell from a node line, so that the
+surface lies on a multiple of h/n) the analytic field is already an exact discrete equilibrium:
+the engine's well-balanced body force (:func:`mpm2d.shape.hydrostatic_coefficient`) removes the
+particle quadrature's free-surface residual (which once put the top cell row 19.5 % below
+rho g d in every mode) and its axis correction the mirror-wall one; the relaxation then changes
+the field by < 0.05 % (tests). It stays for what those do not cover: beds whose points are not
+on that layout, the radial corner residual at an axisymmetric floor (~1e-4 of a node's weight).
 """
 
 from __future__ import annotations
