@@ -9,6 +9,7 @@ shear-jamming scene of the paper's Fig. 3.
 - :mod:`shear1d.model`: the Couette problem and its method-of-lines right-hand side
 - :mod:`shear1d.kernels`: numba kernels
 - :mod:`shear1d.integrate`: IDA and explicit integration, stability limit, results, checkpoints
+- :mod:`shear1d.dae`: method "dae", the full law as a smooth DAE on IDA (locked mode)
 - :mod:`shear1d.analysis`: front position, speed, rigidity
 - :mod:`shear1d.analytic`: Newtonian solutions
 - :mod:`shear1d.scenes`: ``annular_shear_jamming`` (Fig. 3), ``plane_couette``
