@@ -147,7 +147,9 @@ def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
                          "ida|explicit")
     from .dae import check_material
 
-    check_material(material, material.phi0 if phi0 is None else phi0)
+    phi = material.phi0 if phi0 is None else phi0
+    if phi is not None:                 # no phi at all is refused by the Couette problem
+        check_material(material, phi)
 
 
 def _annular(args) -> None:
