@@ -104,7 +104,8 @@ def intruder_fig7(out: Path, quick: bool) -> Verdict:
     failed = int((table["status"] == "failed").sum())
     ratio = fronts["k_l_over_k_t"]
     lines = "; ".join(f"phi {r.phi0:g} v0 {r.v0_m_per_s:g}: k_l {r.k_l:.3g} k_t {r.k_t:.3g} "
-                      f"ratio {r.k_l_over_k_t:.3g}" for r in fronts.itertuples())
+                      f"ratio {r.k_l_over_k_t:.3g}{'' if r.jammed else ' (not jammed)'}"
+                      for r in fronts.itertuples())
     measured = (f"{len(fronts)} cases ({failed} failed), k_l/k_t mean {ratio.mean():.3g} sd "
                 f"{ratio.std(ddof=0):.3g} [{ratio.min():.3g}, {ratio.max():.3g}], sweep wall "
                 f"{wall:.0f} s on 2 workers; {lines}")
