@@ -31,6 +31,7 @@ from rheology.materials import Material
 from rheology.numba_cache import guard
 
 from .kernels import dual
+from .transfer import gather_point
 
 guard(__file__)                          # drop cached kernels if rheology's laws changed
 
@@ -86,25 +87,48 @@ def _viscous(L, p, eta):
 
 
 # ------------------------------------------------------------------ kernels
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p, Lm, s0, s):
+    """Jaumann linear-elastic update of point p (scratch Lm, s0, s: 3 x 3)."""
+    _fill_L(L, p, Lm)
+    _fill_Lw(Lw, p, Lm)
+    _get_stress(stress, p, s0)
+    elastic_trial(s0, Lm, dt, G, K, s)
+    _put_stress(stress, p, s)
+    vol[p] *= _jacobian(L, p, dt)
+    sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = s[0, 0], s[0, 1], s[1, 1], s[2, 2]
+    if Lw.shape[0] > 0:
+        spw[p, 0], spw[p, 1] = s[0, 2], s[1, 2]
+
+
 @dual
 def elastic_kernel(stress, L, vol, dt, G, K, chunks, sp, Lw, spw):
     """Jaumann linear-elastic update of every point; sp = (xx, xy, yy, zz); with swirl (Lw,
     spw of shape (N, 2), else (0, 2)) spw = (r theta, theta z)."""
-    sw = Lw.shape[0] > 0
     for c in nb.prange(chunks.shape[0] - 1):
         Lm = np.zeros((3, 3))
         s0 = np.empty((3, 3))
         s = np.empty((3, 3))
         for p in range(chunks[c], chunks[c + 1]):
-            _fill_L(L, p, Lm)
-            _fill_Lw(Lw, p, Lm)
-            _get_stress(stress, p, s0)
-            elastic_trial(s0, Lm, dt, G, K, s)
-            _put_stress(stress, p, s)
-            vol[p] *= _jacobian(L, p, dt)
-            sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = s[0, 0], s[0, 1], s[1, 1], s[2, 2]
-            if sw:
-                spw[p, 0], spw[p, 1] = s[0, 2], s[1, 2]
+            _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p, Lm, s0, s)
+
+
+@dual
+def elastic_g2p_kernel(x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag,
+                       stress, vol, G, K, chunks, sp, Lw, spw):
+    """G2P (:func:`mpm2d.transfer.g2p`, same arguments first) and the linear-elastic update
+    (:func:`elastic_kernel`, same arguments after) of each point in one pass: the point's L is
+    used while it is in registers and cache, and the step has one parallel loop fewer. Same
+    arithmetic in the same order per point as the two kernels called one after the other, so
+    the results are identical to them."""
+    for c in nb.prange(chunks.shape[0] - 1):
+        Lm = np.zeros((3, 3))
+        s0 = np.empty((3, 3))
+        s = np.empty((3, 3))
+        for p in range(chunks[c], chunks[c + 1]):
+            gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind,
+                         flag)
+            _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p, Lm, s0, s)
 
 
 @dual
@@ -245,6 +269,12 @@ class LinearElastic:
     def update(self, ps, dt, chunks, parallel, **_):
         elastic_kernel[parallel](ps.stress, ps.L, ps.V, dt, self.G, self.K, chunks, ps.sp,
                                  *_swirl_arrays(ps))
+
+    def g2p_update(self, ps, g2p_args, dt, chunks, parallel):
+        """G2P of the set fused with :meth:`update` (one pass, identical results):
+        ``g2p_args`` are :func:`mpm2d.transfer.g2p`'s arguments (ps.x ... flag)."""
+        elastic_g2p_kernel[parallel](*g2p_args, ps.stress, ps.V, self.G, self.K, chunks, ps.sp,
+                                     *_swirl_arrays(ps))
 
     def wave_modulus(self) -> float:
         """Modulus S of the fastest wave, c^2 = S V/m [Pa] (P wave, K + 4G/3)."""

@@ -9,7 +9,8 @@ One step of size dt (USL: the stress is updated last, from the new grid velociti
                      v* = (p + dt f)/m, implicit drag; contact (mpm2d.contact: deformable
                      bodies on their own fields, then rigid bodies, implicitly); ghost nodes
                      (unfold)
-    3. G2P           v, C (APIC) or FLIP/PIC blend, L = grad v, x += dt v
+    3. G2P           v, C (APIC) or FLIP/PIC blend, L = grad v, x += dt v; a linear-elastic
+                     set's stress update (phase 4) is done in the same pass, point by point
     4. constitutive  each set's material advances stress, volume and state with L
     5. bodies move; t += dt; every ``sort_every`` steps the points are re-sorted by B-spline
        base node (O(N) counting sort, skipped when already in order)
@@ -48,9 +49,11 @@ from .materials import Suspension
 from .particles import ParticleSet
 from .bodies import check_mu
 from . import contact as ct
-from .transfer import (wall_moments, chunk_bounds, g2p, g2p_swirl, gather_scalar_vector, p2g,
-                       p2g_swirl, reduce_private, sort_order)
+from .transfer import (boundary_velocities, wall_moments, chunk_bounds, g2p, g2p_swirl,
+                       gather_scalar_vector, p2g, p2g_swirl, reduce_private, reduce_velocities,
+                       sort_order)
 
+_EMPTY = np.zeros(0)
 MODES = ("single phase", "two-phase", "locked mixture")
 TRANSFERS = ("apic", "flip", "pic")
 
@@ -222,7 +225,13 @@ class Simulation:
         #: accumulated wall time per phase of the step [s] (see :meth:`step`)
         self.timings = dict.fromkeys(("step size", "P2G", "grid update", "G2P", "constitutive",
                                       "sort"), 0.0)
+        #: sets whose material updates in the G2P pass (g2p_update: linear elastic)
+        self._fused_update = frozenset(s.name for s in self.sets
+                                       if hasattr(s.material, "g2p_update"))
         self.swirl = bool(swirl)
+        #: velocities in the reduction pass (transfer.reduce_velocities): only where nothing
+        #: but the fold acts between the two (one velocity field, plane, no swirl)
+        self._fuse_grid = not (self.two_phase or self.swirl or grid.axisymmetric)
         self._setup_swirl(float(check_range("swirl_ramp", swirl_ramp, 0.0, None)),
                           float(check_range("swirl_flip", swirl_flip, 0.0, 1.0, hi_closed=False)))
         self._sort()
@@ -370,12 +379,15 @@ class Simulation:
         """Advance one step (dt: override, for tests); returns the dt used [s]."""
         clock = time.perf_counter
         t0 = clock()
-        self._p2g()
+        self._scatter()
         t1 = clock()
         # the step size from the extremes P2G took of the state it scattered (one pass fewer)
         dt = self._step_size(self._ext) if dt is None else dt
         t2 = clock()
-        self._grid_update(dt)
+        fused = self._fuse_grid
+        self._reduce(dt if fused else None)
+        t2b = clock()
+        self._grid_update(dt, velocities_done=fused)
         t3 = clock()
         self._g2p(dt)
         t4 = clock()
@@ -384,9 +396,9 @@ class Simulation:
         for b in self.bodies:
             b.advance(dt)
         tm = self.timings
-        tm["P2G"] += t1 - t0
+        tm["P2G"] += (t1 - t0) + (t2b - t2)
         tm["step size"] += t2 - t1
-        tm["grid update"] += t3 - t2
+        tm["grid update"] += t3 - t2b
         tm["G2P"] += t4 - t3
         tm["constitutive"] += t5 - t4
         self.t += dt
@@ -401,27 +413,44 @@ class Simulation:
     def _p2g(self):
         """Phase 1: particles to private node fields, reduced per phase with the body force
         m_i g; records each set's extremes for the step size in ``_ext``."""
+        self._scatter()
+        self._reduce()
+
+    def _scatter(self):
+        """Phase 1a: every set's P2G into the private node fields (and its extremes)."""
         axi = self.grid.axisymmetric
         for s in self.sets:
             ph = self._field(s)
-            svol = s.svol if (self.two_phase and ph in self.phases) else np.zeros(0)
-            pf = s.pf if (self.two_phase and s.phase == "fluid") else np.zeros(0)
+            svol = s.svol if (self.two_phase and ph in self.phases) else _EMPTY
+            pf = s.pf if (self.two_phase and s.phase == "fluid") else _EMPTY
             p2g[self.par](s.x, s.v, s.C, s.m, s.V, s.sp, pf, s.fext, svol, self._geo, axi,
                 self._chunks[s.name], self.priv[ph], self._ext[s.name], self.gravity)
-        gx, gy = self.gravity[0], self.gravity[1]
-        for ph in self.fields:
-            reduce_private[self.par_grid](self.priv[ph], self.G[ph], True, gx, gy)
         if self.swirl:
             for s in self.sets:
                 p2g_swirl[self.par](s.x, s.m, s.V, s.vtheta, s.Cl, s.spw, self._geo,
                                     self._chunks[s.name], self.privw)
+
+    def _reduce(self, dt=None):
+        """Phase 1b: the private fields summed per phase with the body force m_i g; with
+        ``dt`` (only when ``_fuse_grid``) also the nodal velocities in the same pass, the
+        boundary nodes' then redone after the fold (:meth:`_grid_update`)."""
+        gx, gy = self.gravity[0], self.gravity[1]
+        for ph in self.fields:
+            if dt is None:
+                reduce_private[self.par_grid](self.priv[ph], self.G[ph], True, gx, gy)
+            else:
+                reduce_velocities[self.par_grid](self.priv[ph], self.G[ph], gx, gy, dt,
+                                                 self.vg[ph], self.vg_old[ph],
+                                                 self.transfer != "apic")
+        if self.swirl:
             reduce_private[self.par_grid](self.privw, self.Gw, False, 0.0, 0.0)
             G = self.G["solid"]
             G[:, :, FX] += self.Gw[:, :, 2]
 
-    def _grid_update(self, dt):
+    def _grid_update(self, dt, velocities_done=False):
         """Phase 2: boundaries, velocities, drag, bodies, ghost nodes (the body force came
-        with the P2G reduction)."""
+        with the P2G reduction; with ``velocities_done`` the velocities too, from
+        :meth:`_reduce` with dt, and only the nodes the fold changed are redone here)."""
         g, kind, wall_u = self.grid, self.grid.kind, self.grid.wall_u
         pg = self.par_grid
         if self.swirl:
@@ -445,7 +474,10 @@ class Simulation:
                                    self.vg_old["solid"], self.vg["fluid"], self.vg_old["fluid"],
                                    d.eta0, d.d, d.rho_f, self.drag_nodes)
         for ph in self.fields:
-            if not (self.two_phase and ph in self.phases):
+            if velocities_done:
+                boundary_velocities(self.G[ph], dt, self.vg[ph], self.vg_old[ph],
+                                    self.transfer != "apic")
+            elif not (self.two_phase and ph in self.phases):
                 gu.velocities[pg](self.G[ph], dt, self.vg[ph], self.vg_old[ph])
         self._contact(dt)
         for ph in self.fields:
@@ -599,8 +631,13 @@ class Simulation:
                 g2p_swirl[self.par](s.x, s.vtheta, s.Cl, s.Lw, self.lg, self.lg_old, self._geo,
                                     apic, self.swirl_alpha)
                 r_old = s.x[:, 0].copy()
-            g2p[self.par](s.x, s.v, s.C, s.L, self.vg[ph], self.vg_old[ph], self._geo, axi, apic,
-                self.flip_alpha, dt, kind, self._flag)
+            args = (s.x, s.v, s.C, s.L, self.vg[ph], self.vg_old[ph], self._geo, axi, apic,
+                    self.flip_alpha, dt, kind, self._flag)
+            if s.name in self._fused_update:
+                # the material's update in the same pass (phase 4 skips the set)
+                s.material.g2p_update(s, args, dt, self._chunks[s.name], self.par)
+            else:
+                g2p[self.par](*args)
             if self.swirl:
                 # l = r v_theta is what a point carries: v_theta at the new radius
                 s.vtheta *= r_old / s.x[:, 0]
@@ -617,7 +654,9 @@ class Simulation:
     def _constitutive_update(self, dt):
         """Phase 4: each material advances its points with L over dt."""
         for s in self.sets:
-            s.material.update(s, dt, self._chunks[s.name], self.par, two_phase=self.two_phase)
+            if s.name not in self._fused_update:
+                s.material.update(s, dt, self._chunks[s.name], self.par,
+                                  two_phase=self.two_phase)
 
     # ------------------------------------------------------------------ running
     def run(self, t_end: float, callback=None, every: int = 1, progress=None) -> None:

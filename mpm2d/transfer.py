@@ -205,6 +205,60 @@ def reduce_private(priv, out, gravity, gx, gy):
                 out[I, J, FY] += out[I, J, M] * gy
 
 
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def node_velocity(G, I, J, dt, vg, vg_old, old):
+    """v* = (p + dt f)/m at node (I, J) (0 without mass), and with ``old`` v_old = p/m: the
+    arithmetic of mpm2d.grid_update.velocities, node by node."""
+    m = G[I, J, M]
+    if m > 0.0:
+        if old:
+            vg_old[I, J, 0] = G[I, J, MX] / m
+            vg_old[I, J, 1] = G[I, J, MY] / m
+        vg[I, J, 0] = (G[I, J, MX] + dt * G[I, J, FX]) / m
+        vg[I, J, 1] = (G[I, J, MY] + dt * G[I, J, FY]) / m
+    else:
+        if old:
+            vg_old[I, J, 0] = vg_old[I, J, 1] = 0.0
+        vg[I, J, 0] = vg[I, J, 1] = 0.0
+
+
+@dual
+def reduce_velocities(priv, out, gx, gy, dt, vg, vg_old, old):
+    """:func:`reduce_private` with the body force, and the nodal velocities
+    (:func:`node_velocity`) in the same pass over the grid.
+
+    For a field whose only change between the reduction and the velocities is the boundary fold
+    (one velocity field, no axis correction, no swirl): the velocities of the nodes the fold
+    changes are then recomputed by :func:`boundary_velocities`. Same values as reduce, fold,
+    velocities in turn."""
+    nc, NI = priv.shape[0], priv.shape[1]
+    NJ, NF = priv.shape[2], priv.shape[3]
+    for I in nb.prange(NI):
+        for J in range(NJ):
+            for k in range(NF):
+                s = 0.0
+                for c in range(nc):
+                    s += priv[c, I, J, k]
+                    priv[c, I, J, k] = 0.0
+                out[I, J, k] = s
+            out[I, J, FX] += out[I, J, M] * gx
+            out[I, J, FY] += out[I, J, M] * gy
+            node_velocity(out, I, J, dt, vg, vg_old, old)
+
+
+@_jit
+def boundary_velocities(G, dt, vg, vg_old, old):
+    """:func:`node_velocity` on the nodes a fold can change: the 2 PAD + 1 outer node lines
+    of each side (ghosts, wall node and the PAD nodes inside it, or a periodic band)."""
+    NI, NJ = G.shape[0], G.shape[1]
+    band = 2 * PAD + 1
+    for I in range(NI):
+        edge_i = I < band or I >= NI - band
+        for J in range(NJ):
+            if edge_i or J < band or J >= NJ - band:
+                node_velocity(G, I, J, dt, vg, vg_old, old)
+
+
 @dual
 def g2p(x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag):
     """Gather grid velocities to one particle set and move it.
@@ -213,67 +267,73 @@ def g2p(x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag):
     (1 - alpha) sum N v_i), C (APIC only), L = grad v as (N, 5) = (xx, xy, yx, yy, thth) with
     L_ab = d v_a / d x_b and L_thth = v_r / r in axisymmetry, and x += dt sum N v_i.
     Particles crossing a wall are reflected back, periodic ones wrapped; a particle leaving a
-    free side's ghost layer sets ``flag[0] = 1``.
+    free side's ghost layer sets ``flag[0] = 1``. The per-point work is :func:`gather_point`
+    (shared with the fused gather + elastic update, mpm2d.materials.elastic_g2p_kernel).
     """
+    for p in nb.prange(x.shape[0]):
+        gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag):
+    """G2P of point p (see :func:`g2p`): v, C, L and the new position of point p."""
     x0, y0, h, x1, y1 = geo[0], geo[1], geo[2], geo[3], geo[4]
     inv_h = 1.0 / h
     dinv = APIC_D_INV * inv_h          # D^-1 (x_i - x_p) with (x_i - x_p) in cell units
-    N = x.shape[0]
     lo_x, hi_x = x0 - 1.4 * h, x1 + 1.4 * h
     lo_y, hi_y = y0 - 1.4 * h, y1 + 1.4 * h
-    for p in nb.prange(N):
-        bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
-        by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
-        wx = (wx0, wx1, wx2)
-        wy = (wy0, wy1, wy2)
-        dx = (dx0, dx1, dx2)
-        dy = (dy0, dy1, dy2)
-        vx = vy = 0.0
-        bxx = bxy = byx = byy = 0.0
-        lxx = lxy = lyx = lyy = 0.0
+    bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
+    by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
+    wx = (wx0, wx1, wx2)
+    wy = (wy0, wy1, wy2)
+    dx = (dx0, dx1, dx2)
+    dy = (dy0, dy1, dy2)
+    vx = vy = 0.0
+    bxx = bxy = byx = byy = 0.0
+    lxx = lxy = lyx = lyy = 0.0
+    for a in range(3):
+        I = bx + a + PAD
+        rx = a - fx
+        for b in range(3):
+            J = by + b + PAD
+            ry = b - fy
+            w = wx[a] * wy[b]
+            gx = dx[a] * wy[b]
+            gy = wx[a] * dy[b]
+            ux, uy = vg[I, J, 0], vg[I, J, 1]
+            wux, wuy = w * ux, w * uy
+            vx += wux
+            vy += wuy
+            bxx += wux * rx
+            bxy += wux * ry
+            byx += wuy * rx
+            byy += wuy * ry
+            lxx += ux * gx
+            lxy += ux * gy
+            lyx += uy * gx
+            lyy += uy * gy
+    L[p, 0], L[p, 1], L[p, 2], L[p, 3] = lxx * inv_h, lxy * inv_h, lyx * inv_h, lyy * inv_h
+    L[p, 4] = vx / x[p, 0] if axisym else 0.0
+    if apic:
+        C[p, 0, 0], C[p, 0, 1] = dinv * bxx, dinv * bxy
+        C[p, 1, 0], C[p, 1, 1] = dinv * byx, dinv * byy
+        v[p, 0], v[p, 1] = vx, vy
+    else:
+        ox = oy = 0.0
         for a in range(3):
-            I = bx + a + PAD
-            rx = a - fx
             for b in range(3):
-                J = by + b + PAD
-                ry = b - fy
                 w = wx[a] * wy[b]
-                gx = dx[a] * wy[b]
-                gy = wx[a] * dy[b]
-                ux, uy = vg[I, J, 0], vg[I, J, 1]
-                wux, wuy = w * ux, w * uy
-                vx += wux
-                vy += wuy
-                bxx += wux * rx
-                bxy += wux * ry
-                byx += wuy * rx
-                byy += wuy * ry
-                lxx += ux * gx
-                lxy += ux * gy
-                lyx += uy * gx
-                lyy += uy * gy
-        L[p, 0], L[p, 1], L[p, 2], L[p, 3] = lxx * inv_h, lxy * inv_h, lyx * inv_h, lyy * inv_h
-        L[p, 4] = vx / x[p, 0] if axisym else 0.0
-        if apic:
-            C[p, 0, 0], C[p, 0, 1] = dinv * bxx, dinv * bxy
-            C[p, 1, 0], C[p, 1, 1] = dinv * byx, dinv * byy
-            v[p, 0], v[p, 1] = vx, vy
-        else:
-            ox = oy = 0.0
-            for a in range(3):
-                for b in range(3):
-                    w = wx[a] * wy[b]
-                    ox += w * vg_old[bx + a + PAD, by + b + PAD, 0]
-                    oy += w * vg_old[bx + a + PAD, by + b + PAD, 1]
-            v[p, 0] = flip_alpha * (v[p, 0] + vx - ox) + (1.0 - flip_alpha) * vx
-            v[p, 1] = flip_alpha * (v[p, 1] + vy - oy) + (1.0 - flip_alpha) * vy
-        xn = x[p, 0] + dt * vx
-        yn = x[p, 1] + dt * vy
-        xn = _keep_inside(xn, x0, x1, kind[0], kind[1])
-        yn = _keep_inside(yn, y0, y1, kind[2], kind[3])
-        if not (lo_x < xn < hi_x and lo_y < yn < hi_y):
-            flag[0] = 1
-        x[p, 0], x[p, 1] = xn, yn
+                ox += w * vg_old[bx + a + PAD, by + b + PAD, 0]
+                oy += w * vg_old[bx + a + PAD, by + b + PAD, 1]
+        v[p, 0] = flip_alpha * (v[p, 0] + vx - ox) + (1.0 - flip_alpha) * vx
+        v[p, 1] = flip_alpha * (v[p, 1] + vy - oy) + (1.0 - flip_alpha) * vy
+    xn = x[p, 0] + dt * vx
+    yn = x[p, 1] + dt * vy
+    xn = _keep_inside(xn, x0, x1, kind[0], kind[1])
+    yn = _keep_inside(yn, y0, y1, kind[2], kind[3])
+    if not (lo_x < xn < hi_x and lo_y < yn < hi_y):
+        flag[0] = 1
+    x[p, 0], x[p, 1] = xn, yn
 
 
 @_jit

@@ -15,7 +15,9 @@ interleaved step by step with the bare loop so load changes hit both):
 The bare reference: P2G of mass and momentum, nodal velocities, G2P of velocity and affine matrix
 and the position update (no stress, boundaries or materials). Per-phase shares come from the
 simulation's own clocks (the step size's extremes are taken in the P2G pass, so its share is the
-remaining bookkeeping; the body force is added in the P2G reduction). For the suspension modes
+remaining bookkeeping; the body force is added in the P2G reduction, and in plane single-field
+runs such as (a) the nodal velocities too, so "grid update" is then the boundaries alone; a
+linear-elastic set's stress update is done in its G2P pass, so (a) has no "constitutive" share). For the suspension modes
 the Table 8 update is also timed alone on the run's points, with the bracket-only solve (the
 reference), the Newton solve from a cold start (what mpm2d calls) and from the previous plastic rate (warm start), with residual evaluations per point.
 
