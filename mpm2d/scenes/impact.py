@@ -55,10 +55,16 @@ Geometry and the choices where the paper is silent:
 - launch: the rod starts with its face on the free surface moving down at v0 (impact at t = 0,
   every time in the outputs is "after impact"); the launch height of a free drop that gives v0
   is H = v0^2/(2 g) (5.1 cm for 1 m/s; reported), air drag neglected;
-- volume fraction phi0 = 0.47: the paper gives none; Hermes 2016's fit has phi_c = 0.436 and
-  phi_j = 0.535, and the impact fronts need phi_c < phi0 < phi_j (DST and shear jamming, but a
-  liquid at rest); 0.47 sits a third of the way in, as in the intruder scene (Han et al. 2016, the
-  same group's suspensions, Fig. 6 of the paper);
+- volume fraction phi0 = 0.47 (default, fig4) and 0.50 (fig5): the paper gives none; Hermes
+  2016's fit has phi_c = 0.436 and phi_j = 0.535, and the impact fronts need phi_c < phi0 < phi_j
+  (DST and shear jamming, but a liquid at rest); 0.47 sits a third of the way in, as in the
+  intruder scene (Han et al. 2016, the same group's suspensions, Fig. 6 of the paper). At
+  eta0 = 1 mPa s (fig5) the rate scale of shear thickening, tau*/eta0, is 7x higher and a bed at
+  0.47 hardly answers a 1 m/s rod: on the paper's 150 x 225 grid it gave k = 1.2, a peak
+  deceleration of 42 m/s^2 and a rod still sinking at 0.57 m/s after 60 ms (v0 = 0.5/1/2 m/s:
+  late 0.53/0.57/0.60 m/s), where Waitukaitis & Jaeger's rods stop; at 0.50 (2 mm probe, 20 ms,
+  v0 = 1) the plug forms again: peak 156 m/s^2, k = 13.5, late 0.22 m/s (0.47: 27 m/s^2, k = 1.9,
+  0.71 m/s). So fig5 uses 0.50, two thirds of the way from phi_c to phi_j;
 - contact no-slip (mu_w = inf: the suspension wets the rod; ``rod_contact=frictionless`` for
   mu_w = 0), free to separate; container: no-slip floor and outer wall, axis r = 0, free top;
 - the bed starts at rest (mpm2d.geostatic): loose, so the pore pressure carries the weight, f = 0.
@@ -128,14 +134,14 @@ from .beds import suspension_bed
 from ..run import Scene
 from ..simulation import Simulation
 
-#: presets: (radius [m], depth [m], cells per mm, material, v0 [m/s], t_end [s])
+#: presets: (radius [m], depth [m], cells per mm, material, v0 [m/s], t_end [s], phi0)
 SIZES = {
     "default": dict(radius=0.10, depth=0.10, cells_per_mm=0.5, material="rod_impact", v0=1.0,
-                    t_end=0.06),
+                    t_end=0.06, phi0=0.47),
     "fig4": dict(radius=0.10, depth=0.10, cells_per_mm=1.0, material="rod_impact", v0=1.0,
-                 t_end=0.06),
+                 t_end=0.06, phi0=0.47),
     "fig5": dict(radius=0.15, depth=0.205, cells_per_mm=1.0, material="rod_impact_1cp", v0=1.0,
-                 t_end=0.06),
+                 t_end=0.06, phi0=0.50),
 }
 #: room above the bed [m] (the paper's grids: 120 - 100 and 225 - 205 cells of 1 mm)
 HEADROOM = 0.02
@@ -223,7 +229,9 @@ def _geo(key, lo, hi, unit, doc, note="", **kw):
     size=spec.Param(choices=tuple(SIZES), doc="scene: default (Fig. 4 at 2 mm), fig4 (100 x 120 "
                     "at 1 mm, 7 mPa s), fig5 (150 x 225 at 1 mm, 1 mPa s)"),
     v0=_geo("v0", 0.0, 5.0, "m/s", "impact speed (downwards)", lo_closed=False),
-    phi0=spec.phi_below_jamming(fixed="rod_impact", doc="solid volume fraction of the bed"),
+    phi0=spec.phi_below_jamming(fixed="rod_impact", optional=True,
+                                doc="solid volume fraction of the bed (none: the size's value, "
+                                    "0.47; fig5 0.50)"),
     radius=_geo("radius", lambda p: p["rod_radius"] + 4e-3 / resolved(p)["cells_per_mm"], 1.0,
                 "m", "container (mixture) radius", note="at least the rod radius + 4 cells"),
     depth=_geo("depth", lambda p: 8e-3 / resolved(p)["cells_per_mm"], 1.0, "m",
@@ -247,7 +255,7 @@ def _geo(key, lo, hi, unit, doc, note="", **kw):
                        "shear-wave round trip 2 max(depth, radius)/c_s)",
                        note="at most a quarter of t_end"),
     gravity=spec.gravity(), cfl=spec.cfl())
-def setup(size="default", v0=None, phi0=0.47, radius=None, depth=None, cells_per_mm=None,
+def setup(size="default", v0=None, phi0=None, radius=None, depth=None, cells_per_mm=None,
           t_end=None, material="auto", rod_radius=0.0095, rod_length=0.20, rod_density=2700.0,
           rod_contact="noslip", mode="locked mixture", stencil=None, gravity=9.81, cfl=0.5):
     params = dict(size=size, v0=v0, phi0=phi0, radius=radius, depth=depth,
@@ -255,6 +263,7 @@ def setup(size="default", v0=None, phi0=0.47, radius=None, depth=None, cells_per
                   rod_radius=rod_radius, rod_length=rod_length, rod_density=rod_density,
                   rod_contact=rod_contact, mode=mode, stencil=stencil, gravity=gravity, cfl=cfl)
     q = resolved(params)
+    phi0 = q["phi0"]
     h = 1e-3 / q["cells_per_mm"]
     m = get_material(q["material"])
     if not phi0 < m.phi_j:

@@ -389,9 +389,10 @@ def materials_where(predicate: Callable, what: str) -> Callable[[], tuple]:
     return names
 
 
-def phi_below_jamming(material_key="material", fixed=None, doc="initial solid volume fraction"):
+def phi_below_jamming(material_key="material", fixed=None, doc="initial solid volume fraction",
+                      optional=False):
     """A volume fraction in (0, phi_j) of the scene's material (``params[material_key]``, or the
-    named ``fixed`` material)."""
+    named ``fixed`` material); ``optional``: ``none`` allowed (the scene picks its value)."""
 
     def name(p):
         return fixed if fixed else p[material_key]
@@ -401,7 +402,7 @@ def phi_below_jamming(material_key="material", fixed=None, doc="initial solid vo
 
         return get_material(name(p)).phi_j
 
-    return Param(0.0, phi_j, lo_closed=False, hi_closed=False, doc=doc,
+    return Param(0.0, phi_j, lo_closed=False, hi_closed=False, doc=doc, optional=optional,
                  note=lambda p: f"phi_j of material {name(p)!r}", fraction_of=name)
 
 
