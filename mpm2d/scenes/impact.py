@@ -63,7 +63,7 @@ Geometry and the choices where the paper is silent:
   0.47 hardly answers a 1 m/s rod: on the paper's 150 x 225 grid it gave k = 1.2, a peak
   deceleration of 42 m/s^2 and a rod still sinking at 0.57 m/s after 60 ms (v0 = 0.5/1/2 m/s:
   late 0.53/0.57/0.60 m/s), where Waitukaitis & Jaeger's rods stop; at 0.50 (2 mm probe, 20 ms,
-  v0 = 1) the plug forms again: peak 156 m/s^2, k = 13.5, late 0.22 m/s (0.47: 27 m/s^2, k = 1.9,
+  1 m/s) the plug forms again: peak 156 m/s^2, k = 13.5, late 0.22 m/s (0.47: 27 m/s^2, k = 1.9,
   0.71 m/s). So fig5 uses 0.50, two thirds of the way from phi_c to phi_j;
 - contact no-slip (mu_w = inf: the suspension wets the rod; ``rod_contact=frictionless`` for
   mu_w = 0), free to separate; container: no-slip floor and outer wall, axis r = 0, free top;
