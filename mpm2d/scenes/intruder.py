@@ -85,7 +85,13 @@ off over ~10 mm (a low rate), so jamming spreads at about the same lab speed bot
 the model as the engine integrates it (rheology.local_update, mpm2d), not the front reading.
 At v0 = 0.175-0.2 m/s and phi0 <= 0.47 the bed does not jam within 20 ms (max f ~ 0.3 <
 f_jam = 0.66-0.76): ``jammed`` is false and the 'front' is the rod's near field, whereas the
-paper's Fig. 6 shows a plug at phi = 0.47, v0 = 0.175 m/s.
+paper's Fig. 6 shows a plug at phi = 0.47, v0 = 0.175 m/s. The ten Fig. 7 cases (``mpm2d
+sweep intruder --set phi0=0.46,...,0.50 --set v0=0.2,0.5``): k_l/k_t = 1.74 and 1.69 (phi0 0.46,
+0.47 at 0.2 m/s, not jammed), 0.99, 0.81, 0.53, 0.86, 1.38, 1.27, 0.84, 1.61 (phi0 0.46 and 0.47
+at 0.5 m/s; 0.48 at 0.2, 0.5; 0.49 at 0.2, 0.5; 0.50 at 0.2, 0.5): mean 1.17, sd 0.40, three
+of ten in [1.5, 2.5]. The ratio also depends on the fit window, because the longitudinal front
+slows down long before the floor: over 0.5-4 ms it is 1.1-1.6 for the jammed 0.5 m/s cases and
+2.3-3.3 for the 0.2 m/s cases (their rod's near field, jammed late or not at all).
 
 Parameters: phi0, v0 [m/s], t_end [s], radius, depth [m], cells_per_mm (1/h in 1/mm),
 rod_radius [m], rod_contact, mode, fit_margin [m], gravity [m/s^2], cfl.
