@@ -90,8 +90,10 @@ sweep intruder --set phi0=0.46,...,0.50 --set v0=0.2,0.5``): k_l/k_t = 1.74 and 
 0.47 at 0.2 m/s, not jammed), 0.99, 0.81, 0.53, 0.86, 1.38, 1.27, 0.84, 1.61 (phi0 0.46 and 0.47
 at 0.5 m/s; 0.48 at 0.2, 0.5; 0.49 at 0.2, 0.5; 0.50 at 0.2, 0.5): mean 1.17, sd 0.40, three
 of ten in [1.5, 2.5]. The ratio also depends on the fit window, because the longitudinal front
-slows down long before the floor: over 0.5-4 ms it is 1.1-1.6 for the jammed 0.5 m/s cases and
-2.3-3.3 for the 0.2 m/s cases (their rod's near field, jammed late or not at all).
+slows down long before the floor: over 0.5-4 ms it is 0.8-1.6 for the 0.5 m/s cases (jammed
+within 0.4 ms), 1.3 at phi0 = 0.50, 0.2 m/s (jammed at 0.3 ms), and 2.3-3.3 for phi0 <= 0.49 at
+0.2 m/s, whose bed has not jammed by then (not at all, or after 2 ms): the unjammed near field
+of the rod is elongated along the axis, the jammed plug is not.
 
 Parameters: phi0, v0 [m/s], t_end [s], radius, depth [m], cells_per_mm (1/h in 1/mm),
 rod_radius [m], rod_contact, mode, fit_margin [m], gravity [m/s^2], cfl.
