@@ -156,7 +156,9 @@ def _annular(args) -> None:
     from .scenes import run_annular
 
     m, phi0 = _sample(args)
-    modes = _modes(args.mode, ("locked", "two-phase"))
+    modes = _modes(args.mode, ("locked",) if args.method == "dae" else ("locked", "two-phase"))
+    if args.method == "dae" and args.mode is None:
+        print("shear1d: --method dae runs the locked mode only (no --mode given: locked)")
     _check_dae(args.method, modes, m, phi0)
     run_annular(args.out, tuple(args.u_inner), modes,
                 n_cells=args.cells, method=args.method, rtol=args.rtol, dt=args.dt,

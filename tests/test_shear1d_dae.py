@@ -216,7 +216,8 @@ def test_refusals(tmp_path, capsys):
     with pytest.raises(ValueError, match="locked"):
         solve(pb, t_end, method="dae", n_out=2)
     out = tmp_path / "o"
-    assert cli_main(["annular", "--method", "dae", "--cells", "8", "--out", str(out)]) == 2
+    assert cli_main(["annular", "--method", "dae", "--mode", "both", "--cells", "8", "--out",
+                     str(out)]) == 2
     assert "--mode locked" in capsys.readouterr().err
     assert not out.exists()
     assert cli_main(["couette", "--speed", "0.01", "--method", "dae", "--phi", "0.2", "--out",
