@@ -208,6 +208,16 @@ def scatter_touch(x, nvec, geo, out):
                 out[I, J, FY] += w * nvec[p, 1]
 
 
+@nb.njit(cache=True, inline="always")
+def _neighbour_bin(b, d, periodic, n):
+    """Index of the bin ``d`` (-1, 0, 1) away from bin ``b`` along an axis of ``n`` bins (wrapped
+    if ``periodic``; an axis of fewer than 3 periodic bins is scanned once), or -1 if none."""
+    k = b + d
+    if periodic:
+        return -1 if (n < 3 and d != 0) else k % n
+    return k if 0 <= k < n else -1
+
+
 @_jit
 def _face_normals(fx, side, fb, sb, span, per, start, order, lo, width, nb, tol, slack, vec, hit):
     """For each material point (frame coordinates ``fx``, sides ``side``), the face contact with
@@ -224,20 +234,12 @@ def _face_normals(fx, side, fb, sb, span, per, start, order, lo, width, nb, tol,
         bx = 0.0
         by = 0.0
         for di in range(-1, 2):
-            i = bi[0] + di
-            if per[0]:
-                if nb[0] < 3 and di != 0:
-                    continue
-                i = i % nb[0]
-            elif i < 0 or i >= nb[0]:
+            i = _neighbour_bin(bi[0], di, per[0], nb[0])
+            if i < 0:
                 continue
             for dj in range(-1, 2):
-                j = bi[1] + dj
-                if per[1]:
-                    if nb[1] < 3 and dj != 0:
-                        continue
-                    j = j % nb[1]
-                elif j < 0 or j >= nb[1]:
+                j = _neighbour_bin(bi[1], dj, per[1], nb[1])
+                if j < 0:
                     continue
                 c = i * nb[1] + j
                 for q in range(start[c], start[c + 1]):
