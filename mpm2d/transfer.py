@@ -185,21 +185,26 @@ def _flush(G, acc, bx, by):
                 acc[a, b, k] = 0.0
 
 
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def sum_chunks(priv, out, I, J):
+    """out[I, J, :] = sum over chunks of priv[:, I, J, :] (fixed order), then priv := 0 there."""
+    for k in range(priv.shape[3]):
+        s = 0.0
+        for c in range(priv.shape[0]):
+            s += priv[c, I, J, k]
+            priv[c, I, J, k] = 0.0
+        out[I, J, k] = s
+
+
 @dual
 def reduce_private(priv, out, gravity, gx, gy):
     """out = sum over chunks of priv (fixed order), then priv := 0; with ``gravity`` also the
     body force f_i += m_i g (out[..., FX/FY] += out[..., M] (gx, gy)), in the same pass (before
     folding, so that images see mirrored gravity)."""
-    nc, NI = priv.shape[0], priv.shape[1]
-    NJ, NF = priv.shape[2], priv.shape[3]
+    NI, NJ = priv.shape[1], priv.shape[2]
     for I in nb.prange(NI):
         for J in range(NJ):
-            for k in range(NF):
-                s = 0.0
-                for c in range(nc):
-                    s += priv[c, I, J, k]
-                    priv[c, I, J, k] = 0.0
-                out[I, J, k] = s
+            sum_chunks(priv, out, I, J)
             if gravity:
                 out[I, J, FX] += out[I, J, M] * gx
                 out[I, J, FY] += out[I, J, M] * gy
@@ -231,16 +236,10 @@ def reduce_velocities(priv, out, gx, gy, dt, vg, vg_old, old):
     (one velocity field, no axis correction, no swirl): the velocities of the nodes the fold
     changes are then recomputed by :func:`boundary_velocities`. Same values as reduce, fold,
     velocities in turn."""
-    nc, NI = priv.shape[0], priv.shape[1]
-    NJ, NF = priv.shape[2], priv.shape[3]
+    NI, NJ = priv.shape[1], priv.shape[2]
     for I in nb.prange(NI):
         for J in range(NJ):
-            for k in range(NF):
-                s = 0.0
-                for c in range(nc):
-                    s += priv[c, I, J, k]
-                    priv[c, I, J, k] = 0.0
-                out[I, J, k] = s
+            sum_chunks(priv, out, I, J)
             out[I, J, FX] += out[I, J, M] * gx
             out[I, J, FY] += out[I, J, M] * gy
             node_velocity(out, I, J, dt, vg, vg_old, old)
