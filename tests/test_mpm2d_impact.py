@@ -181,3 +181,17 @@ def test_interrupted_run_resumes_to_the_same_files(tmp_path, tiny_run):
     assert res["complete"]
     for name in ("rod.csv", "front.csv", "displacement_vs_depth.csv", "summary.json"):
         assert (out / name).read_bytes() == (out0 / name).read_bytes(), name
+
+
+def test_late_change_is_the_velocity_change_over_the_late_window():
+    """A rod decelerating uniformly: the late window (last 20%) sees its velocity change by
+    a (0.2 t_end); NaN samples (the stencil's ends) are left out; too few samples give NaN."""
+    from mpm2d.scenes.impact import late_change
+    t = np.linspace(0.0, 0.05, 501)
+    v = -0.3 + 2.0 * t                       # a = 2 m/s^2
+    v[-3:] = np.nan
+    mean, change = late_change(t, v)
+    late = (t >= 0.8 * t[-1]) & np.isfinite(v)
+    assert change == pytest.approx(2.0 * (t[late][-1] - t[late][0]), rel=1e-9)
+    assert mean == pytest.approx(np.mean(v[late]), rel=1e-12)
+    assert np.isnan(late_change(t[:3], np.array([np.nan, 1.0, np.nan]))[0])

@@ -38,6 +38,9 @@ SPEEDS = (0.5, 1.0, 2.0)
 #: the grid comparison's and the speeds' end time [s]: the stiff phase (peak deceleration at
 #: ~1 ms) and the plug it leaves; a 1 mm run costs 8x the 2 mm run per simulated ms
 T_GRID = 0.01
+#: the steady late sinking: the velocity change over the last 20% of the run, at most this
+#: fraction of the late speed
+STEADY_CHANGE = 0.10
 
 
 def _load(folder: Path) -> dict:
@@ -191,20 +194,31 @@ def _speeds_case(out: Path, quick: bool, size: str) -> Verdict:
                             out / "rod.png")
     late = np.abs(df["late_velocity_m_per_s"].to_numpy())
     spread = float((late.max() - late.min()) / late.mean())
+    change = np.array([abs(impact.late_change(r["rod"]["time_s"], r["rod"]["v_m_per_s"])[1])
+                       for r in runs])
+    steady = change / late
     fast = df["v0_m_per_s"].to_numpy() >= 1.0
-    late_ok = bool(spread <= 0.2 and np.all(late[fast] < 0.5 * df["v0_m_per_s"].to_numpy()[fast]))
-    ok = scal["monotone"] and late_ok
+    late_ok = bool(np.all(steady <= STEADY_CHANGE)
+                   and np.all(late[fast] < 0.5 * df["v0_m_per_s"].to_numpy()[fast]))
+    plug_ok = bool(np.all(df["plug_r2"].to_numpy()[fast] >= 0.95)
+                   and np.all(df["front_r2_penetration"].to_numpy()[fast] >= 0.95))
+    ok = scal["monotone"] and late_ok and (quick or size == "default" or plug_ok)
     return Verdict(
         criterion="peak deceleration (from z, the stencil) grows monotonically with v0 over "
-                  f"{SPEEDS} m/s (log-log slope reported); after the stiff phase the rod sinks "
-                  "slowly at a speed that has forgotten v0: the late velocities (last 20% of "
-                  "the run) within 20% of each other, and below v0/2 for v0 >= 1 m/s (a slow "
-                  "impact has hardly a stiff phase: it keeps more than half its speed)",
+                  f"{SPEEDS} m/s (log-log slope reported); "
+                  + ("" if size == "default" else
+                     "for v0 >= 1 m/s a plug and a front as in Fig. 4 (plug R^2 >= 0.95, front "
+                     "R^2 against the rod's depth >= 0.95; reported at 0.5 m/s); ")
+                  + "after the stiff phase the rod sinks steadily (the paper's words): over the last 20% of the run its velocity "
+                  f"changes by at most {STEADY_CHANGE:.0%} of its mean there, and for v0 >= 1 "
+                  "m/s that late speed is below v0/2 (a slow impact has hardly a stiff phase); "
+                  "the spread of the late speeds between v0 is reported",
         measured="; ".join(f"v0 = {r['v0_m_per_s']:g}: peak {r['peak_deceleration_m_per_s2']:.4g} "
-                           f"m/s^2, late v {r['late_velocity_m_per_s']:.3g} m/s, k "
+                           f"m/s^2, late v {r['late_velocity_m_per_s']:.3g} m/s (changing "
+                           f"{st:.1%} over the window), k "
                            f"{r['k']:.3g}, front R^2 (time) {r['front_r2']:.3f}, (rod depth) "
                            f"{r['front_r2_penetration']:.3f}, plug R^2 {r['plug_r2']:.3f}"
-                           for _, r in df.iterrows())
+                           for (_, r), st in zip(df.iterrows(), steady))
                  + f"; log-log slope {_fmt(scal['loglog_slope'])} (R^2 {_fmt(scal['loglog_r2'])}), "
                  f"monotone {scal['monotone']}; late-velocity spread {spread:.1%}; "
                  + "; ".join(_wall(r) for r in runs),

@@ -662,6 +662,23 @@ SPEED_COLUMNS = ("v0_m_per_s", "peak_deceleration_m_per_s2", "late_velocity_m_pe
                  "front_r2", "front_r2_penetration", "plug_r2", "final_rod_depth_m")
 
 
+def late_change(time_s, v, fraction=0.2) -> tuple[float, float]:
+    """The rod's late sinking: its mean velocity and its velocity change over the last
+    ``fraction`` of the run (a straight line fitted to v(t) there, times the window length).
+
+    time_s, v : (N,) time [s] and rod velocity [m/s] (NaN where the stencil has no value).
+    Returns (mean v [m/s], change of v over the window [m/s]); NaN if fewer than 3 finite
+    samples. A steady sinking has |change| << |mean v| (the paper: "the steady sinking that is
+    observed once the rods have slowed").
+    """
+    t, v = np.asarray(time_s, float), np.asarray(v, float)
+    late = (t >= (1.0 - fraction) * t[-1]) & np.isfinite(v)
+    if late.sum() < 3:
+        return float("nan"), float("nan")
+    slope = np.polyfit(t[late], v[late], 1)[0]
+    return float(np.mean(v[late])), float(slope * (t[late][-1] - t[late][0]))
+
+
 def peak_scaling(v0, peak) -> dict:
     """Monotonicity (every finite peak, sorted by v0) and log-log slope (over the positive
     peaks: a rod that never decelerates has none) of the peak deceleration against v0."""
