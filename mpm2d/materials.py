@@ -6,7 +6,7 @@ velocity gradient L gathered by the grid-to-particle transfer (USL: the stress i
 with the new grid velocities). The stress used by the next particle-to-grid transfer is written to
 ``sp`` = (xx, xy, yy, thth/zz). The physics comes from :mod:`rheology`:
 
-- :class:`LinearElastic`: Jaumann-rate linear elasticity, ``rheology.local_update.elastic_trial``.
+- :class:`LinearElastic`: Jaumann-rate linear elasticity, ``rheology.local_update.jaumann_elastic``.
 - :class:`NewtonianFluid`: Table 8 fluid: p_f = kappa ln(rho_f/rho_0f), tau_f = eta0 (1 + 5/2 phi)
   (L + L^T - 2/3 tr L 1); true density from Table 8's law (n/rho_f) D rho_f/Dt = -div q,
   q = phi v_s + n v_f the mixture volume flux (q = v for a single fluid).
@@ -26,7 +26,7 @@ import numpy as np
 from rheology import laws
 from rheology.checks import check_positive, check_range
 from rheology.flow_rule import invariants
-from rheology.local_update import FAILED, NOUT, elastic_trial, kernel_parameters, update_point
+from rheology.local_update import FAILED, NOUT, jaumann_elastic, kernel_parameters, update_point
 from rheology.materials import Material
 from rheology.numba_cache import guard
 
@@ -88,47 +88,46 @@ def _viscous(L, p, eta):
 
 # ------------------------------------------------------------------ kernels
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p, Lm, s0, s):
-    """Jaumann linear-elastic update of point p (scratch Lm, s0, s: 3 x 3)."""
-    _fill_L(L, p, Lm)
-    _fill_Lw(Lw, p, Lm)
-    _get_stress(stress, p, s0)
-    elastic_trial(s0, Lm, dt, G, K, s)
-    _put_stress(stress, p, s)
+def _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p):
+    """Jaumann linear-elastic update of point p in registers
+    (rheology.local_update.jaumann_elastic on the 3 x 3 L of :func:`_fill_L` and
+    :func:`_fill_Lw`: the swirl rows L_theta_r, L_theta_z, zeros above them)."""
+    sw = Lw.shape[0] > 0
+    l20 = Lw[p, 0] if sw else 0.0
+    l21 = Lw[p, 1] if sw else 0.0
+    r = jaumann_elastic((stress[p, 0, 0], stress[p, 0, 1], stress[p, 0, 2],
+                         stress[p, 1, 0], stress[p, 1, 1], stress[p, 1, 2],
+                         stress[p, 2, 0], stress[p, 2, 1], stress[p, 2, 2]),
+                        (L[p, 0], L[p, 1], 0.0, L[p, 2], L[p, 3], 0.0, l20, l21, L[p, 4]),
+                        dt, G, K)
+    stress[p, 0, 0], stress[p, 0, 1], stress[p, 0, 2] = r[0], r[1], r[2]
+    stress[p, 1, 0], stress[p, 1, 1], stress[p, 1, 2] = r[3], r[4], r[5]
+    stress[p, 2, 0], stress[p, 2, 1], stress[p, 2, 2] = r[6], r[7], r[8]
     vol[p] *= _jacobian(L, p, dt)
-    sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = s[0, 0], s[0, 1], s[1, 1], s[2, 2]
-    if Lw.shape[0] > 0:
-        spw[p, 0], spw[p, 1] = s[0, 2], s[1, 2]
+    sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = r[0], r[1], r[4], r[8]
+    if sw:
+        spw[p, 0], spw[p, 1] = r[2], r[5]
 
 
 @dual
-def elastic_kernel(stress, L, vol, dt, G, K, chunks, sp, Lw, spw):
+def elastic_kernel(stress, L, vol, dt, G, K, sp, Lw, spw):
     """Jaumann linear-elastic update of every point; sp = (xx, xy, yy, zz); with swirl (Lw,
     spw of shape (N, 2), else (0, 2)) spw = (r theta, theta z)."""
-    for c in nb.prange(chunks.shape[0] - 1):
-        Lm = np.zeros((3, 3))
-        s0 = np.empty((3, 3))
-        s = np.empty((3, 3))
-        for p in range(chunks[c], chunks[c + 1]):
-            _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p, Lm, s0, s)
+    for p in nb.prange(vol.shape[0]):
+        _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p)
 
 
 @dual
 def elastic_g2p_kernel(x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag,
-                       stress, vol, G, K, chunks, sp, Lw, spw):
+                       stress, vol, G, K, sp, Lw, spw):
     """G2P (:func:`mpm2d.transfer.g2p`, same arguments first) and the linear-elastic update
     (:func:`elastic_kernel`, same arguments after) of each point in one pass: the point's L is
     used while it is in registers and cache, and the step has one parallel loop fewer. Same
     arithmetic in the same order per point as the two kernels called one after the other, so
     the results are identical to them."""
-    for c in nb.prange(chunks.shape[0] - 1):
-        Lm = np.zeros((3, 3))
-        s0 = np.empty((3, 3))
-        s = np.empty((3, 3))
-        for p in range(chunks[c], chunks[c + 1]):
-            gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind,
-                         flag)
-            _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p, Lm, s0, s)
+    for p in nb.prange(x.shape[0]):
+        gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag)
+        _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p)
 
 
 @dual
@@ -267,13 +266,13 @@ class LinearElastic:
         ps.sp[:] = np.stack([s[:, 0, 0], s[:, 0, 1], s[:, 1, 1], s[:, 2, 2]], axis=1)
 
     def update(self, ps, dt, chunks, parallel, **_):
-        elastic_kernel[parallel](ps.stress, ps.L, ps.V, dt, self.G, self.K, chunks, ps.sp,
+        elastic_kernel[parallel](ps.stress, ps.L, ps.V, dt, self.G, self.K, ps.sp,
                                  *_swirl_arrays(ps))
 
     def g2p_update(self, ps, g2p_args, dt, chunks, parallel):
         """G2P of the set fused with :meth:`update` (one pass, identical results):
         ``g2p_args`` are :func:`mpm2d.transfer.g2p`'s arguments (ps.x ... flag)."""
-        elastic_g2p_kernel[parallel](*g2p_args, ps.stress, ps.V, self.G, self.K, chunks, ps.sp,
+        elastic_g2p_kernel[parallel](*g2p_args, ps.stress, ps.V, self.G, self.K, ps.sp,
                                      *_swirl_arrays(ps))
 
     def wave_modulus(self) -> float:

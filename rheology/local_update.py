@@ -377,30 +377,44 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, ta
     return beta, g, p, (phim - xe) / (a * xe), n
 
 
-@_jit
-def elastic_trial(sig, L, dt, G, K, out):
-    """Jaumann elastic predictor sigma + dt [2G D' + K tr(D) 1 + W sigma - sigma W] into ``out``.
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def jaumann_elastic(s, L, dt, G, K):
+    """Jaumann elastic predictor on scalars: s + dt [2G D' + K tr(D) 1 + W s - s W].
 
-    Written out component by component (W = [[0, w01, w02], [-w01, 0, w12], [-w02, -w12, 0]]):
-    twice as fast as the index loops, which matters in the MPM's constitutive loop.
+    ``s`` and ``L`` are 9-tuples (row-major 3 x 3: stress [Pa], velocity gradient [1/s]); returns
+    the new stress as a 9-tuple. Written out component by component
+    (W = [[0, w01, w02], [-w01, 0, w12], [-w02, -w12, 0]]) and inlined, so that a caller keeps the
+    point in registers (no scratch arrays): this is the MPM's linear-elastic update, and the
+    trial step of every Table 8 update (:func:`elastic_trial`).
     """
-    d0, d1, d2 = L[0, 0], L[1, 1], L[2, 2]
-    e01, e02, e12 = 0.5 * (L[0, 1] + L[1, 0]), 0.5 * (L[0, 2] + L[2, 0]), 0.5 * (L[1, 2] + L[2, 1])
-    w01, w02, w12 = 0.5 * (L[0, 1] - L[1, 0]), 0.5 * (L[0, 2] - L[2, 0]), 0.5 * (L[1, 2] - L[2, 1])
+    d0, d1, d2 = L[0], L[4], L[8]
+    e01, e02, e12 = 0.5 * (L[1] + L[3]), 0.5 * (L[2] + L[6]), 0.5 * (L[5] + L[7])
+    w01, w02, w12 = 0.5 * (L[1] - L[3]), 0.5 * (L[2] - L[6]), 0.5 * (L[5] - L[7])
     lam = (K - 2.0 * G / 3.0) * (d0 + d1 + d2)
     G2 = 2.0 * G
-    s00, s01, s02 = sig[0, 0], sig[0, 1], sig[0, 2]
-    s10, s11, s12 = sig[1, 0], sig[1, 1], sig[1, 2]
-    s20, s21, s22 = sig[2, 0], sig[2, 1], sig[2, 2]
-    out[0, 0] = s00 + dt * (G2 * d0 + lam + w01 * (s10 + s01) + w02 * (s20 + s02))
-    out[0, 1] = s01 + dt * (G2 * e01 + w01 * (s11 - s00) + w02 * s21 + s02 * w12)
-    out[0, 2] = s02 + dt * (G2 * e02 + w01 * s12 + w02 * (s22 - s00) - s01 * w12)
-    out[1, 0] = s10 + dt * (G2 * e01 - w01 * s00 + w12 * s20 + s11 * w01 + s12 * w02)
-    out[1, 1] = s11 + dt * (G2 * d1 + lam - w01 * (s01 + s10) + w12 * (s21 + s12))
-    out[1, 2] = s12 + dt * (G2 * e12 - w01 * s02 + w12 * (s22 - s11) - s10 * w02)
-    out[2, 0] = s20 + dt * (G2 * e02 - w02 * s00 - w12 * s10 + s21 * w01 + s22 * w02)
-    out[2, 1] = s21 + dt * (G2 * e12 - w02 * s01 - w12 * s11 - s20 * w01 + s22 * w12)
-    out[2, 2] = s22 + dt * (G2 * d2 + lam - w02 * (s02 + s20) - w12 * (s12 + s21))
+    s00, s01, s02, s10, s11, s12, s20, s21, s22 = s
+    return (s00 + dt * (G2 * d0 + lam + w01 * (s10 + s01) + w02 * (s20 + s02)),
+            s01 + dt * (G2 * e01 + w01 * (s11 - s00) + w02 * s21 + s02 * w12),
+            s02 + dt * (G2 * e02 + w01 * s12 + w02 * (s22 - s00) - s01 * w12),
+            s10 + dt * (G2 * e01 - w01 * s00 + w12 * s20 + s11 * w01 + s12 * w02),
+            s11 + dt * (G2 * d1 + lam - w01 * (s01 + s10) + w12 * (s21 + s12)),
+            s12 + dt * (G2 * e12 - w01 * s02 + w12 * (s22 - s11) - s10 * w02),
+            s20 + dt * (G2 * e02 - w02 * s00 - w12 * s10 + s21 * w01 + s22 * w02),
+            s21 + dt * (G2 * e12 - w02 * s01 - w12 * s11 - s20 * w01 + s22 * w12),
+            s22 + dt * (G2 * d2 + lam - w02 * (s02 + s20) - w12 * (s12 + s21)))
+
+
+@_jit
+def elastic_trial(sig, L, dt, G, K, out):
+    """Jaumann elastic predictor sigma + dt [2G D' + K tr(D) 1 + W sigma - sigma W] into ``out``
+    (sig, L, out: 3 x 3 arrays; :func:`jaumann_elastic` on their entries)."""
+    r = jaumann_elastic((sig[0, 0], sig[0, 1], sig[0, 2], sig[1, 0], sig[1, 1], sig[1, 2],
+                         sig[2, 0], sig[2, 1], sig[2, 2]),
+                        (L[0, 0], L[0, 1], L[0, 2], L[1, 0], L[1, 1], L[1, 2],
+                         L[2, 0], L[2, 1], L[2, 2]), dt, G, K)
+    out[0, 0], out[0, 1], out[0, 2] = r[0], r[1], r[2]
+    out[1, 0], out[1, 1], out[1, 2] = r[3], r[4], r[5]
+    out[2, 0], out[2, 1], out[2, 2] = r[6], r[7], r[8]
 
 
 @_jit
