@@ -291,6 +291,39 @@ def grid_convergence(out: Path, quick: bool) -> Verdict:
         passed=bool(ok), figures=[png], details=table.to_string())
 
 
+# ---------------------------------------------------------------- two runs compared
+def compare_runs(ref: dict, other: dict, labels, path: Path) -> dict:
+    """Rod motion, plug and front of two runs (:func:`run_cached` results), ``ref`` the reference.
+
+    Returns rod_z (max |z_other - z_ref| over time, over ref's final depth), profile (max |dz|
+    profile difference over ref's final depth), peak ([ref, other] peak decelerations [m/s^2]),
+    peak_diff (relative to ref's), ref_m (ref's final depth [m]) and figure (rod z, |dz| profile
+    and front depth of both, saved at ``path``)."""
+    depth = float(ref["summary"]["final_rod_depth_m"])
+    t = ref["rod"]["time_s"].to_numpy()
+    z_o = np.interp(t, other["rod"]["time_s"], other["rod"]["z_m"])
+    pr, po = ref["profile"], other["profile"]
+    u_o = np.interp(pr["depth_m"], po["depth_m"], po["displacement_m"])
+    pk = [r["summary"]["peak_deceleration_m_per_s2"] for r in (ref, other)]
+    fig, axs = plt.subplots(1, 3, figsize=(16, 4.5))
+    for r, lab in zip((ref, other), labels):
+        axs[0].plot(r["rod"]["time_s"] * 1e3, r["rod"]["z_m"] * 1e3, label=lab)
+        axs[1].plot(r["profile"]["depth_m"] * 100, r["profile"]["displacement_m"] * 100, ".-",
+                    ms=3, label=lab)
+        axs[2].plot(r["front"]["time_s"] * 1e3, r["front"]["front_depth_m"] * 1e3, label=lab)
+    for ax, xl, yl in zip(axs, ("t after impact [ms]", "initial depth [cm]",
+                                "t after impact [ms]"),
+                          ("rod face z [mm]", "|dz| below the rod [cm]", "front depth [mm]")):
+        ax.set_xlabel(xl)
+        ax.set_ylabel(yl)
+        ax.legend()
+    png = atomic_savefig(fig, path)
+    plt.close(fig)
+    return {"rod_z": float(np.max(np.abs(ref["rod"]["z_m"].to_numpy() - z_o)) / depth),
+            "profile": float(np.max(np.abs(u_o - pr["displacement_m"])) / depth),
+            "peak": pk, "peak_diff": abs(pk[1] - pk[0]) / pk[0], "ref_m": depth, "figure": png}
+
+
 # ---------------------------------------------------------------- step-size convergence
 @case("mpm2d", "impact_step_convergence", "mpm2d impact: the Fig. 4 scene at 2 mm with the "
       f"time step halved (cfl 0.5 and 0.25, to {T_COMPARE * 1e3:.0f} ms)", slow=True)
@@ -300,27 +333,11 @@ def step_convergence(out: Path, quick: bool) -> Verdict:
     t_end = QUICK["t_end"] if quick else T_COMPARE
     base = dict(QUICK, t_end=t_end) if quick else dict(t_end=t_end)
     c, f = (run_cached(out, dict(base, cfl=cfl)) for cfl in (0.5, 0.25))
-    ref = float(f["summary"]["final_rod_depth_m"])
-    t = c["rod"]["time_s"].to_numpy()
-    z_f = np.interp(t, f["rod"]["time_s"], f["rod"]["z_m"])
-    dz_rod = float(np.max(np.abs(c["rod"]["z_m"].to_numpy() - z_f)) / ref)
-    uf = np.interp(c["profile"]["depth_m"], f["profile"]["depth_m"], f["profile"]["displacement_m"])
-    prof_diff = float(np.max(np.abs(uf - c["profile"]["displacement_m"])) / ref)
-    pk = [r["summary"]["peak_deceleration_m_per_s2"] for r in (c, f)]
-    pk_diff = abs(pk[0] - pk[1]) / pk[1]
+    d = compare_runs(f, c, ("cfl 0.25", "cfl 0.5"), out / "step_convergence.png")
+    dz_rod, prof_diff, pk, pk_diff, ref, png = (d[k] for k in ("rod_z", "profile", "peak",
+                                                                "peak_diff", "ref_m", "figure"))
+    pk = pk[::-1]
     ks = [r["summary"]["k"] for r in (c, f)]
-    fig, axs = plt.subplots(1, 2, figsize=(12, 4.5))
-    for r, lab in ((c, "cfl 0.5"), (f, "cfl 0.25")):
-        axs[0].plot(r["rod"]["time_s"] * 1e3, r["rod"]["z_m"] * 1e3, label=lab)
-        axs[1].plot(r["front"]["time_s"] * 1e3, r["front"]["front_depth_m"] * 1e3, label=lab)
-    axs[0].set_xlabel("t after impact [ms]")
-    axs[0].set_ylabel("rod face z [mm]")
-    axs[1].set_xlabel("t after impact [ms]")
-    axs[1].set_ylabel("front depth [mm]")
-    for ax in axs:
-        ax.legend()
-    png = atomic_savefig(fig, out / "step_convergence.png")
-    plt.close(fig)
     ok = dz_rod <= 0.02 and prof_diff <= 0.10 and pk_diff <= 0.10
     return Verdict(
         criterion="cfl 0.5 (default) against 0.25: rod z(t) within 2% of the penetration, the "
@@ -359,32 +376,13 @@ def locked_vs_two_phase(out: Path, quick: bool) -> Verdict:
     runs = {mode: run_cached(out, dict(base, mode=mode))
             for mode in ("locked mixture", "two-phase")}
     lk, tp = runs["locked mixture"], runs["two-phase"]
-    t = lk["rod"]["time_s"].to_numpy()
-    z_tp = np.interp(t, tp["rod"]["time_s"], tp["rod"]["z_m"])
-    ref = float(lk["summary"]["final_rod_depth_m"])
-    dz_rod = float(np.max(np.abs(lk["rod"]["z_m"].to_numpy() - z_tp)) / ref)
-    pk = [r["summary"]["peak_deceleration_m_per_s2"] for r in (lk, tp)]
-    pk_diff = abs(pk[1] - pk[0]) / pk[0]
-    pl, pt = lk["profile"], tp["profile"]
-    ut = np.interp(pl["depth_m"], pt["depth_m"], pt["displacement_m"])
-    prof_diff = float(np.max(np.abs(ut - pl["displacement_m"])) / ref)
+    d = compare_runs(lk, tp, ("locked mixture", "two-phase"), out / "modes.png")
+    dz_rod, prof_diff, pk, pk_diff, ref, png = (d[k] for k in ("rod_z", "profile", "peak",
+                                                                "peak_diff", "ref_m", "figure"))
     cost = tp["point_steps"] / lk["point_steps"] if lk["point_steps"] else float("nan")
     wall_ratio = tp["wall_s"] / lk["wall_s"] if lk["wall_s"] and tp["wall_s"] else float("nan")
     dn = drainage_numbers(lk["summary"]["material"], lk["summary"]["phi0"])
     atomic_write_json(out / "drainage.json", dn)
-    fig, axs = plt.subplots(1, 2, figsize=(12, 4.5))
-    for r, lab in ((lk, "locked mixture"), (tp, "two-phase")):
-        axs[0].plot(r["rod"]["time_s"] * 1e3, r["rod"]["z_m"] * 1e3, label=lab)
-        axs[1].plot(r["profile"]["depth_m"] * 100, r["profile"]["displacement_m"] * 100, ".-",
-                    ms=3, label=lab)
-    axs[0].set_xlabel("t after impact [ms]")
-    axs[0].set_ylabel("rod face z [mm]")
-    axs[1].set_xlabel("initial depth [cm]")
-    axs[1].set_ylabel("|dz| below the rod [cm]")
-    for ax in axs:
-        ax.legend()
-    png = atomic_savefig(fig, out / "modes.png")
-    plt.close(fig)
     tl = ", ".join(f"{k}: {v * 1e3:.2g} ms" for k, v in dn["t_L_s"].items())
     ok = dz_rod <= 0.10 and prof_diff <= 0.10
     return Verdict(
