@@ -78,8 +78,6 @@ velocities) so every analysis, file and figure of the other methods applies unch
 
 from __future__ import annotations
 
-import time
-
 import numba as nb
 import numpy as np
 
@@ -88,7 +86,7 @@ from rheology.local_update import COMPACTION, ELASTIC, SHEAR_FLOW
 from rheology.numba_cache import guard
 
 from . import kernels
-from .integrate import _IDA_ROOT_RETURN, EVENTS, _Events, _result, check_state
+from .integrate import _Events, _run_ida, ida_failure_message
 from .model import Couette
 
 guard(__file__)                          # drop cached kernels if rheology's laws changed
@@ -405,83 +403,34 @@ class _DAEEvents(_Events):
 
 def solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar, stop_hook,
               k4=None, width=None):
-    """Integrate with IDA (banded difference-quotient Jacobian, BDF order <= max_order); the
-    same outputs, events, checkpoints and stats as :func:`shear1d.integrate.solve` with
-    ``method="ida"`` (called from there with ``method="dae"``); ``k4`` and ``width`` default to
-    the module's :data:`K4_REG` and :data:`COMPACTION_WIDTH` at call time. Raises RuntimeError
-    with diagnostics when IDA fails or a state is unphysical."""
-    from sksundae.ida import IDA
-
+    """Integrate with IDA (banded difference-quotient Jacobian, BDF order <= max_order, x
+    algebraic) on the stepping loop of method ``"ida"`` (:func:`shear1d.integrate._run_ida`), so
+    with the same outputs, events, checkpoints and stats as :func:`shear1d.integrate.solve` with
+    ``method="ida"`` (called from there with ``method="dae"``); the outputs and checks see the
+    DAE state converted to the Couette layout (:meth:`FullLawDAE.convert`), and the checkpoint
+    also keeps the DAE state (y, y') a resume restarts from. ``k4`` and ``width`` default to the
+    module's :data:`K4_REG` and :data:`COMPACTION_WIDTH` at call time. Raises ValueError when the
+    checkpoint's DAE state does not fit the grid, RuntimeError with diagnostics (min p included)
+    when IDA fails or a state is unphysical."""
     dae = FullLawDAE(problem, K4_REG if k4 is None else k4,
                      COMPACTION_WIDTH if width is None else width)
-    n = problem.grid.n
     events = _DAEEvents(problem, dae)
     events.times = outs.events.times
     outs.events = events
+    if ck is not None and ck["y"].shape != (dae.size,):
+        raise ValueError("--resume: the checkpoint's DAE state does not match this grid")
 
     def stats(counters):
         return dict(nfev=int(counters[0]), njev=int(counters[1]), rtol=rtol,
                     bandwidth=BANDWIDTH, k4=float(dae.P[_K4]), width=float(dae.P[_WIDTH]))
 
-    wall0 = time.perf_counter()
-    if ck is None:
-        y0, yp0 = dae.initial_state()
-        yc, dg = dae.convert(0.0, y0)
-        outs.add(0.0, yc, dg, (0, 0, 0), dict(y=y0.copy(), yp=yp0.copy()))
-        base = np.zeros(3)
-    else:
-        y0, yp0 = ck["y"], ck["yp"]
-        if y0.shape != (dae.size,):
-            raise ValueError("--resume: the checkpoint's DAE state does not match this grid")
-        base = np.asarray(ck["counters"], dtype=float)
-        outs.rows[-1] = outs.rows[-1][:4] + (dict(y=y0, yp=yp0),)
-        if bool(ck["finished"]):
-            return _result(problem, "dae", outs, wall0, stats(base))
-    t0 = outs.t_last
-    i_next = int(np.searchsorted(times, t0, side="right"))
-    opts = dict(rtol=rtol, atol=dae.tolerances(rtol), linsolver="band", lband=BANDWIDTH,
-                uband=BANDWIDTH, max_num_steps=500000, max_step=max_step, max_order=max_order,
-                algebraic_idx=dae.algebraic())
-    if events.active:
-        opts.update(eventsfn=events.ida_function(), num_events=len(EVENTS))
-    solver = IDA(dae.residual, **opts)
-    solver.init_step(t0, y0, yp0)
-    bar.to(t0)
-    seen, stopped = 0, False
-    counters = base.copy()
-    try:
-        for t_target in times[i_next:]:
-            while True:
-                sol = solver.step(float(t_target))
-                counters = base + np.array([sol.nfev, sol.njev, 0.0])
-                if sol.status == _IDA_ROOT_RETURN:
-                    seen, fired = events.record_roots(sol, seen)
-                    stopped = stopped or any(name in stop_on for name in fired)
-                    if stopped:
-                        break
-                    continue
-                if not sol.success:
-                    yc, _ = dae.convert(sol.t, sol.y)
-                    st = problem.unpack(yc, sol.t)
-                    raise RuntimeError(
-                        f"IDA (method dae) failed at t = {sol.t:.6g} s (target {t_target:.6g} "
-                        f"s): {sol.message} (status {sol.status}); {n} cells, rtol {rtol:g}; "
-                        f"max f = {st['f'].max():.6g}, max |sigma| = "
-                        f"{np.abs(st['sigma']).max():.6g} Pa, min p = "
-                        f"{sol.y[dae.i_p].min():.6g} Pa")
-                break
-            t_now = float(sol.t)
-            yc, diag = dae.convert(t_now, sol.y)
-            check_state(problem, t_now, yc, diag, f_tol=100 * rtol)
-            outs.add(t_now, yc, diag, counters, dict(y=sol.y.copy(), yp=sol.yp.copy()))
-            bar.to(t_now)
-            last = stopped or t_target == times[-1]
-            if last or outs.due():
-                outs.save(finished=last, wall=outs.wall_before + time.perf_counter() - wall0)
-            if stop_hook is not None and not last:
-                stop_hook(t_now)
-            if stopped:
-                break
-    except KeyboardInterrupt:
-        raise outs.interrupted(outs.wall_before + time.perf_counter() - wall0) from None
-    return _result(problem, "dae", outs, wall0, stats(counters))
+    def failure(sol, t_target):
+        return ida_failure_message(problem, sol, t_target, rtol, dae.convert(sol.t, sol.y)[0],
+                                   solver="IDA (method dae)", with_mode=False,
+                                   extra=f", min p = {sol.y[dae.i_p].min():.6g} Pa")
+
+    return _run_ida(problem, "dae", times, rtol, stop_on, outs, ck, max_step, max_order, bar,
+                    stop_hook, residual=dae.residual, start=dae.initial_state, convert=dae.convert,
+                    options=dict(atol=dae.tolerances(rtol), lband=BANDWIDTH, uband=BANDWIDTH,
+                                 algebraic_idx=dae.algebraic()),
+                    stats=stats, failure=failure)

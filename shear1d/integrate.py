@@ -523,9 +523,9 @@ def _result(problem, method, outs, wall0, stats) -> Result:
 
 
 def _solve_ida(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar, stop_hook):
-    from sksundae.ida import IDA
-
-    n = problem.grid.n
+    """Method ``"ida"``: the rate form (:meth:`Couette.rhs` over delta =
+    :meth:`Couette.rate_step_at`) as ``y' - rhs(y) = 0`` on :func:`_run_ida`; the solver's state
+    is the problem's own (layout of :meth:`Couette.layout`)."""
     work = np.empty(problem.size)
     bw = problem.bandwidth()
 
@@ -533,32 +533,135 @@ def _solve_ida(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar
         problem.rhs(t, y, work, problem.rate_step_at(rtol, t))
         np.subtract(yp, work, out=res)
 
+    def start():
+        y0 = problem.initial_state()
+        yp0 = np.empty_like(y0)
+        problem.rhs(0.0, y0, yp0, problem.rate_step_at(rtol, 0.0))
+        return y0, yp0
+
+    def convert(t, y):
+        diag = problem.diagnostics(t, y, problem.rate_step_at(rtol, t))
+        return y.copy(), diag
+
     def stats(counters):
         return dict(nfev=int(counters[0]), njev=int(counters[1]), rtol=rtol, bandwidth=bw,
                     rate_step_end=problem.rate_step_at(rtol, outs.t_last))
 
+    def failure(sol, t_target):
+        return ida_failure_message(problem, sol, t_target, rtol, sol.y)
+
+    return _run_ida(problem, "ida", times, rtol, stop_on, outs, ck, max_step, max_order, bar,
+                    stop_hook, residual=resfn, start=start, convert=convert,
+                    options=dict(atol=_tolerances(problem, rtol), lband=bw, uband=bw),
+                    stats=stats, failure=failure)
+
+
+def ida_failure_message(problem: Couette, sol, t_target: float, rtol: float, state: np.ndarray,
+                        solver: str = "IDA", with_mode: bool = True, extra: str = "") -> str:
+    """The one-line diagnosis of a failed IDA step.
+
+    Names the ``solver`` (e.g. ``"IDA"``, ``"IDA (method dae)"``), the time reached
+    (``sol.t`` [s]) and the target output time [s], IDA's message and status, the cell count, the
+    problem's mode (``with_mode``), ``rtol``, and the largest f and |sigma| [Pa] of ``state`` (the
+    solver's state in the layout of :meth:`Couette.layout`, size ``problem.size``), followed by
+    ``extra`` (further diagnostics, starting with ", ").
+    """
+    st = problem.unpack(state, sol.t)
+    mode = f", mode {problem.mode}" if with_mode else ""
+    return (f"{solver} failed at t = {sol.t:.6g} s (target {t_target:.6g} s): {sol.message} "
+            f"(status {sol.status}); {problem.grid.n} cells{mode}, rtol {rtol:g}; max f = "
+            f"{st['f'].max():.6g}, max |sigma| = {np.abs(st['sigma']).max():.6g} Pa{extra}")
+
+
+def _run_ida(problem, method, times, rtol, stop_on, outs, ck, max_step, max_order, bar,
+             stop_hook, *, residual, start, convert, options, stats, failure) -> Result:
+    """Integrate a DAE ``residual(t, y, yp) = 0`` on SUNDIALS IDA from rest or from a checkpoint,
+    recording the outputs: the one stepping loop of methods ``"ida"`` (:func:`_solve_ida`) and
+    ``"dae"`` (:func:`shear1d.dae.solve_dae`).
+
+    Starts from ``start()`` (recorded as the output at t = 0) or, when ``ck`` (the checkpoint's
+    arrays, read by :meth:`_Outputs.load`) is given, from its last output's solver state ``y``,
+    ``yp`` and counters (a finished run is returned as it is). Steps to every output time of
+    ``times`` after that (IDA restarts its BDF history there), with the root events of
+    ``outs.events`` when they are active (``stop_on`` names those that end the run); at each
+    output the state is converted, checked (:func:`check_state`, f within 100 rtol of [0, 1]),
+    recorded with the solver's y and y' (what a resume restarts from), shown on ``bar`` and
+    checkpointed at the end or when ``outs.due()``; ``stop_hook(t)`` follows every output but
+    the last.
+
+    Parameters
+    ----------
+    problem : Couette
+    method : str
+        The method named in the result and the checkpoint (``"ida"``, ``"dae"``).
+    times : (n_out + 1,) float array
+        Output times [s], from 0.
+    rtol : float
+        IDA's relative tolerance.
+    stop_on : tuple of str
+        Events (names of :data:`EVENTS`) that end the run.
+    outs : _Outputs
+        Where the outputs go (its ``events`` evaluate the root functions on the solver's y).
+    ck : dict or None
+        The checkpoint to resume from.
+    max_step : float
+        Largest IDA step [s] (0: unbounded).
+    max_order : int
+        Largest BDF order (1-5).
+    bar : _Progress
+    stop_hook : callable or None
+    residual : callable
+        ``residual(t, y, yp, res)``: the DAE residual into ``res``.
+    start : callable
+        ``start() -> (y0, yp0)``: the solver's consistent state at t = 0.
+    convert : callable
+        ``convert(t, y) -> (state, diag)``: the solver's y at t as a new array in the layout of
+        :meth:`Couette.layout` and the per-cell diagnostics (n, :data:`kernels.NDIAG`).
+    options : dict
+        IDA options of the method: ``atol`` (array), ``lband``, ``uband`` of the banded
+        Jacobian, and any other (e.g. ``algebraic_idx``); rtol, the band solver, 500000 steps at
+        most, ``max_step``, ``max_order`` and the events are added here.
+    stats : callable
+        ``stats(counters) -> dict``: the result's stats from the counters (nfev, njev, 0), counted
+        since t = 0.
+    failure : callable
+        ``failure(sol, t_target) -> str``: the message of a failed step (e.g.
+        :func:`ida_failure_message`).
+
+    Returns
+    -------
+    Result
+
+    Raises
+    ------
+    RuntimeError
+        IDA failed (``failure``'s message) or a state is unphysical (:func:`check_state`).
+    KeyboardInterrupt
+        Interrupted; the checkpoint is saved and the message says where
+        (:meth:`_Outputs.interrupted`).
+    """
+    from sksundae.ida import IDA
+
     wall0 = time.perf_counter()
     events = outs.events
     if ck is None:
-        y0 = problem.initial_state()
-        yp0 = np.empty_like(y0)
-        problem.rhs(0.0, y0, yp0, problem.rate_step_at(rtol, 0.0))
-        outs.add(0.0, y0.copy(), problem.diagnostics(0.0, y0, problem.rate_step_at(rtol, 0.0)),
-                 (0, 0, 0), dict(y=y0.copy(), yp=yp0.copy()))
+        y0, yp0 = start()
+        yc, dg = convert(0.0, y0)
+        outs.add(0.0, yc, dg, (0, 0, 0), dict(y=y0.copy(), yp=yp0.copy()))
         base = np.zeros(3)
     else:
         y0, yp0 = ck["y"], ck["yp"]
         base = np.asarray(ck["counters"], dtype=float)
         outs.rows[-1] = outs.rows[-1][:4] + (dict(y=y0, yp=yp0),)
         if bool(ck["finished"]):
-            return _result(problem, "ida", outs, wall0, stats(base))
+            return _result(problem, method, outs, wall0, stats(base))
     t0 = outs.t_last
     i_next = int(np.searchsorted(times, t0, side="right"))
-    opts = dict(rtol=rtol, atol=_tolerances(problem, rtol), linsolver="band", lband=bw, uband=bw,
-                max_num_steps=500000, max_step=max_step, max_order=max_order)
+    opts = dict(rtol=rtol, linsolver="band", max_num_steps=500000, max_step=max_step,
+                max_order=max_order, **options)
     if events.active:
         opts.update(eventsfn=events.ida_function(), num_events=len(EVENTS))
-    solver = IDA(resfn, **opts)
+    solver = IDA(residual, **opts)
     solver.init_step(t0, y0, yp0)
     bar.to(t0)
     seen, stopped = 0, False
@@ -575,17 +678,12 @@ def _solve_ida(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar
                         break
                     continue
                 if not sol.success:
-                    st = problem.unpack(sol.y, sol.t)
-                    raise RuntimeError(
-                        f"IDA failed at t = {sol.t:.6g} s (target {t_target:.6g} s): "
-                        f"{sol.message} (status {sol.status}); {n} cells, mode {problem.mode}, "
-                        f"rtol {rtol:g}; max f = {st['f'].max():.6g}, max |sigma| = "
-                        f"{np.abs(st['sigma']).max():.6g} Pa")
+                    raise RuntimeError(failure(sol, t_target))
                 break
             t_now = float(sol.t)
-            diag = problem.diagnostics(t_now, sol.y, problem.rate_step_at(rtol, t_now))
-            check_state(problem, t_now, sol.y, diag, f_tol=100 * rtol)
-            outs.add(t_now, sol.y.copy(), diag, counters, dict(y=sol.y.copy(), yp=sol.yp.copy()))
+            yc, diag = convert(t_now, sol.y)
+            check_state(problem, t_now, yc, diag, f_tol=100 * rtol)
+            outs.add(t_now, yc, diag, counters, dict(y=sol.y.copy(), yp=sol.yp.copy()))
             bar.to(t_now)
             last = stopped or t_target == times[-1]
             if last or outs.due():
@@ -596,7 +694,7 @@ def _solve_ida(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar
                 break
     except KeyboardInterrupt:
         raise outs.interrupted(outs.wall_before + time.perf_counter() - wall0) from None
-    return _result(problem, "ida", outs, wall0, stats(counters))
+    return _result(problem, method, outs, wall0, stats(counters))
 
 
 def _solve_explicit(problem, times, dt, lim, stop_on, outs, ck, bar, stop_hook):
