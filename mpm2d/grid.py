@@ -238,6 +238,41 @@ def _fold_line(G, axis, t, src, dst, kind, ux, uy, clear):
 
 
 @_jit
+def _fold_pairs(kd, side, n, wall):
+    """(source, destination) node indices along one axis folded across one side (not FREE):
+    periodic copies (i = -g -> n - g for g = 1..PAD, i = n + g -> g for g = 0..PAD), or mirror
+    images about the wall node w (w - d g -> w + d g, d into the domain), with ``wall`` the
+    wall node onto itself first."""
+    if kd == PERIODIC:
+        pairs = [(PAD - g, PAD + n - g) for g in range(1, PAD + 1)]
+        pairs += [(PAD + n + g, PAD + g) for g in range(0, PAD + 1)]
+        return pairs
+    w = PAD if side == 0 else PAD + n
+    d = 1 if side == 0 else -1
+    pairs = [(w - d * g, w + d * g) for g in range(0 if wall else 1, PAD + 1)]
+    return pairs
+
+
+@_jit
+def _unfold_pairs(kd, side, n):
+    """(source, destination, on the wall) node indices along one axis that fill one side's
+    ghosts (not FREE): periodic copies (g = -PAD..PAD), or mirror images w + d g -> w - d g
+    (g = 0..PAD, the wall node onto itself at g = 0)."""
+    w = PAD if side == 0 else PAD + n
+    d = 1 if side == 0 else -1
+    out = []
+    for g in range(-PAD, PAD + 1):
+        if kd == PERIODIC:
+            if g < 0:
+                out.append((PAD + n + g, PAD + g, False))
+            else:
+                out.append((PAD + g, PAD + n + g, False))
+        elif g >= 0:
+            out.append((w + d * g, w - d * g, g == 0))
+    return out
+
+
+@_jit
 def fold(G, kind, wall_u, nx, ny):
     """Add the ghost nodes' contributions (mirror images or periodic copies) into real nodes.
 
@@ -253,18 +288,10 @@ def fold(G, kind, wall_u, nx, ny):
             if kd == FREE or (kd == PERIODIC and side == 1):
                 continue
             ux, uy = wall_u[s, 0], wall_u[s, 1]
+            pairs = _fold_pairs(kd, side, n, True)
             for t in range(other):
-                if kd == PERIODIC:
-                    for g in range(1, PAD + 1):               # i = -g  ->  n - g
-                        _fold_line(G, axis, t, PAD - g, PAD + n - g, kd, ux, uy, True)
-                    for g in range(0, PAD + 1):               # i = n + g  ->  g
-                        _fold_line(G, axis, t, PAD + n + g, PAD + g, kd, ux, uy, True)
-                else:
-                    w = PAD if side == 0 else PAD + n         # wall node, its own image
-                    d = 1 if side == 0 else -1                # into the domain
-                    _fold_line(G, axis, t, w, w, kd, ux, uy, False)
-                    for g in range(1, PAD + 1):
-                        _fold_line(G, axis, t, w - d * g, w + d * g, kd, ux, uy, True)
+                for src, dst in pairs:
+                    _fold_line(G, axis, t, src, dst, kd, ux, uy, src != dst)
 
 
 @_jit
@@ -284,23 +311,15 @@ def unfold(Vg, kind, wall_u, nx, ny, vector):
             kd = kind[s]
             if kd == FREE or (kd == PERIODIC and side == 1):
                 continue
-            w = PAD if side == 0 else PAD + n
-            d = 1 if side == 0 else -1
+            pairs = _unfold_pairs(kd, side, n)
             for t in range(other):
-                for g in range(-PAD, PAD + 1):
-                    if kd == PERIODIC:
-                        src = PAD + n + g if g < 0 else PAD + g
-                        dst = PAD + g if g < 0 else PAD + n + g
-                    else:
-                        if g < 0:
-                            continue
-                        src, dst = w + d * g, w - d * g
+                for src, dst, at_wall in pairs:
                     for c in range(nc):
                         val = Vg[src, t, c] if axis == 0 else Vg[t, src, c]
                         if vector and kd != PERIODIC:
                             sg = _mirror_sign(kd, c, axis)
                             img = sg * val + (1.0 - sg) * wall_u[s, c]
-                            val = 0.5 * (val + img) if g == 0 else img
+                            val = 0.5 * (val + img) if at_wall else img
                         if axis == 0:
                             Vg[dst, t, c] = val
                         else:
@@ -317,14 +336,8 @@ def fold_scalar(S, kind, nx, ny):
             kd = kind[2 * axis + side]
             if kd == FREE or (kd == PERIODIC and side == 1):
                 continue
+            pairs = _fold_pairs(kd, side, n, False)
             for t in range(other):
-                if kd == PERIODIC:
-                    pairs = [(PAD - g, PAD + n - g) for g in range(1, PAD + 1)]
-                    pairs += [(PAD + n + g, PAD + g) for g in range(0, PAD + 1)]
-                else:
-                    w = PAD if side == 0 else PAD + n
-                    d = 1 if side == 0 else -1
-                    pairs = [(w - d * g, w + d * g) for g in range(1, PAD + 1)]
                 for src, dst in pairs:
                     if axis == 0:
                         S[dst, t] += S[src, t]
@@ -364,14 +377,8 @@ def fold_swirl(W, m, kind, lw, nx, ny, on_axis):
             if kd == FREE or (kd == PERIODIC and side == 1):
                 continue
             S = _swirl_sign(kind, sd, on_axis)
+            pairs = _fold_pairs(kd, side, n, True)
             for t in range(other):
-                if kd == PERIODIC:
-                    pairs = [(PAD - g, PAD + n - g) for g in range(1, PAD + 1)]
-                    pairs += [(PAD + n + g, PAD + g) for g in range(0, PAD + 1)]
-                else:
-                    w = PAD if side == 0 else PAD + n
-                    d = 1 if side == 0 else -1
-                    pairs = [(w, w)] + [(w - d * g, w + d * g) for g in range(1, PAD + 1)]
                 for src, dst in pairs:
                     si, sj = (src, t) if axis == 0 else (t, src)
                     di, dj = (dst, t) if axis == 0 else (t, dst)
@@ -405,21 +412,13 @@ def unfold_swirl(lg, kind, lw, nx, ny, on_axis):
             if kd == FREE or (kd == PERIODIC and side == 1):
                 continue
             S = _swirl_sign(kind, sd, on_axis)
-            w = PAD if side == 0 else PAD + n
-            d = 1 if side == 0 else -1
+            pairs = _unfold_pairs(kd, side, n)
             for t in range(other):
-                for g in range(-PAD, PAD + 1):
-                    if kd == PERIODIC:
-                        src = PAD + n + g if g < 0 else PAD + g
-                        dst = PAD + g if g < 0 else PAD + n + g
-                    else:
-                        if g < 0:
-                            continue
-                        src, dst = w + d * g, w - d * g
+                for src, dst, at_wall in pairs:
                     val = lg[src, t] if axis == 0 else lg[t, src]
                     if kd != PERIODIC:
                         img = S * val + (1.0 - S) * lw[sd]
-                        val = 0.5 * (val + img) if g == 0 else img
+                        val = 0.5 * (val + img) if at_wall else img
                     if axis == 0:
                         lg[dst, t] = val
                     else:
