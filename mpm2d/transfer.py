@@ -122,16 +122,23 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, gra
             c10, c11 = mp * h * C[p, 1, 0], mp * h * C[p, 1, 1]
             sxx, sxy, syy = Vp * sp[p, 0] * inv_h, Vp * sp[p, 1] * inv_h, Vp * sp[p, 2] * inv_h
             hoop = Vp * sp[p, 3] / x[p, 0] if axisym else 0.0
-            kg = hydrostatic_coefficient(Vp / x[p, 0] if axisym else Vp, h) * mp if has_g \
-                else 0.0
-            kgx, kgy = kg * grx, kg * gry
+            ch = hydrostatic_coefficient(Vp / x[p, 0] if axisym else Vp, h) if has_g else 0.0
+            kgx, kgy = ch * mp * grx, ch * mp * gry
+            # the term on an outer stencil node is limited where the point's weight there is
+            # below ch/2 (never in a regular layout, whose smallest weight is ch = 1/(8 n^2)),
+            # the middle node taking the rest (the sum stays 0): N'' stays 1/h^2 where the
+            # node's mass share goes to 0, an unbounded acceleration of a node that only such a
+            # point reaches (a free surface after deformation; the wheel scene's stops)
+            lim = 2.0 / ch if ch > 0.0 else 0.0
+            sx0, sx2 = min(1.0, wx0 * lim), min(1.0, wx2 * lim)
+            sy0, sy2 = min(1.0, wy0 * lim), min(1.0, wy2 * lim)
             wx = (wx0, wx1, wx2)
             wy = (wy0, wy1, wy2)
             dx = (dx0, dx1, dx2)
             dy = (dy0, dy1, dy2)
             # FX: - w hoop + kgx h^2 N'' = wy_b q_a; FY: kgy wx_a h^2 N''_b = wx_a r_b
-            q = (kgx - wx0 * hoop, -2.0 * kgx - wx1 * hoop, kgx - wx2 * hoop)
-            r = (kgy, -2.0 * kgy, kgy)
+            q = (kgx * sx0 - wx0 * hoop, -kgx * (sx0 + sx2) - wx1 * hoop, kgx * sx2 - wx2 * hoop)
+            r = (kgy * sy0, -kgy * (sy0 + sy2), kgy * sy2)
             for a in range(3):
                 I = bx + a + PAD
                 rx = a - fx                          # (x_i - x_p)/h
