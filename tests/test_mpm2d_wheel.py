@@ -98,6 +98,9 @@ def _call(argv):
     ("phi0=0.6", "phi_j of material 'wheel'"),
     ("hub_radius=0.2", "hub_radius = 0.2 is outside"),
     ("frames=0", "frames = 0 is outside"),
+    ("start_angle=60", "start_angle = 60 is outside"),
+    ("mu_w=-1", "mu_w = -1 is outside"),
+    ("kappa_factor=0", "kappa_factor = 0 is outside"),
 ])
 def test_bad_set_values_are_refused(setting, words, tmp_path):
     out = tmp_path / "o"
@@ -152,3 +155,73 @@ def test_transition_omega_interpolates_in_log_omega():
     expect = math.exp(math.log(4) + (0.04 / 0.15) * (math.log(6) - math.log(4)))
     assert wheel.transition_omega(w, s) == pytest.approx(expect, rel=1e-12)
     assert math.isnan(wheel.transition_omega([1, 2], [0.1, 0.1]))
+
+
+@pytest.mark.parametrize("angle, lowest", [(45.0, 2), (0.0, 1)])
+def test_start_rests_on_the_surface(angle, lowest):
+    """The wheel starts resting on the undisturbed surface: its lowest point faces on the bed's
+    top faces, on two spoke tips at 45 deg and on one at 0 deg; the hub centre's start height
+    above the surface is R cos(angle) + (w/2) sin(angle) to within a point spacing, and the
+    fast-wheel band FAST_BAND is at most that height at the default start (so a fast wheel within
+    the band keeps its hub centre above the surface it started on)."""
+    p = dict(TINY, start_angle=angle, omega=10.0)
+    sc = wheel.setup(**p)
+    bed, hub = sc.sim.sets[0], sc.sim.bodies[0]
+    spacing = p["h"] / 2
+    top = bed.x[:, 1].max() + 0.5 * spacing
+    low = hub.x[:, 1].min() - 0.5 * spacing
+    assert low == pytest.approx(top, abs=1e-9)
+    # the points of the lowest two rows form one group per resting tip (gaps > 2 spacings)
+    xs = np.sort(hub.x[hub.x[:, 1] < low + 2.01 * spacing][:, 0])
+    assert 1 + int(np.sum(np.diff(xs) > 2 * spacing)) == lowest, xs
+    a = math.radians(angle)
+    w = p["spoke_width"]
+    expect = p["radius"] * math.cos(a) + 0.5 * w * math.sin(a)
+    assert hub.center[1] - top == pytest.approx(expect, abs=spacing)
+    R, r_hub, w0 = 0.15, 0.05, 0.0556
+    default_height = R * math.cos(math.pi / 4) + 0.5 * w0 * math.sin(math.pi / 4)
+    assert wheel.FAST_BAND * R <= default_height
+
+
+def test_checks_band_advance_and_ratio():
+    """checks(): the fast wheel passes only within the band AND advancing at least R; the slow
+    wheel passes only sinking at least SINK_RATIO times the fast wheel's sink."""
+    R = 0.15
+
+    def run(exc, adv, sink):
+        return {"max_excursion_over_R": exc, "advance_m": adv, "sink_depth_m": sink,
+                "sink_over_R": sink / R}
+    ok = wheel.checks({"10": run(0.79, 0.9, 0.08), "1": run(1.9, 0.05, 0.25)}, R)
+    assert ok["fast_stays_up"] and ok["slow_sinks_3x"] and ok["sink_ratio"] == pytest.approx(3.125)
+    deep = wheel.checks({"10": run(0.81, 0.9, 0.08), "1": run(1.9, 0.05, 0.25)}, R)
+    assert not deep["fast_stays_up"]
+    stuck = wheel.checks({"10": run(0.5, 0.1, 0.08), "1": run(1.9, 0.05, 0.25)}, R)
+    assert not stuck["fast_stays_up"]
+    weak = wheel.checks({"10": run(0.79, 0.9, 0.09), "1": run(1.9, 0.05, 0.25)}, R)
+    assert not weak["slow_sinks_3x"] and weak["sink_ratio"] == pytest.approx(0.25 / 0.09)
+
+
+@pytest.mark.parametrize("offset", [1e-7, 1e-4, 0.05])
+def test_surface_point_barely_reaching_a_node_gives_bounded_acceleration(offset):
+    """Regression (mpm2d.transfer.p2g, met in this scene: 'a point left the grid'): a free-surface
+    point whose stencil barely reaches the node above it (weight 0.5 offset^2 there, node mass ->
+    0) must not give that node an unbounded acceleration through the well-balanced hydrostatic
+    term (N'' = 1/h^2 does not vanish with the weight). One stress-free point at rest under
+    gravity: after one step every nodal velocity is within a few g dt."""
+    from mpm2d.grid import Grid
+    from mpm2d.materials import LinearElastic
+    from mpm2d.particles import ParticleSet
+    from mpm2d.simulation import Simulation
+
+    h, g, dt = 0.02, 9.81, 1e-4
+    grid = Grid(6, 6, h, boundaries=dict(xmin="periodic", xmax="periodic", ymin="noslip",
+                                         ymax="free"))
+    # base node j = floor(y/h - 0.5); the upper node's weight is 0.5 (fy - 0.5)^2, fy = y/h - j
+    y = (2 + 0.5 + offset) * h
+    ps = ParticleSet("p", LinearElastic(1000.0, E=1e6, nu=0.3), np.array([[0.06, y]]),
+                     np.array([(h / 2) ** 2]))
+    sim = Simulation(grid, [ps], gravity=(0.0, -g), cfl=0.5)
+    sim.step(dt)
+    vmax = max(float(np.abs(v).max()) for v in sim.vg.values())
+    assert vmax <= 4.0 * g * dt, vmax
+    assert np.all(np.isfinite(ps.L)) and float(np.abs(ps.L).max()) <= 4.0 * g * dt / h
