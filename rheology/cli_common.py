@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import signal
 import sys
 from collections.abc import Callable
@@ -25,8 +26,22 @@ from collections.abc import Callable
 USAGE, FAILED, INTERRUPTED = 2, 1, 130
 
 
+#: What a negative number looks like on a command line: argparse's own matcher takes only ``-1``
+#: and ``-.5``, so ``--G -1e4`` or ``--phi -inf`` became "expected one argument" instead of the
+#: option's range; this one also takes ``-1e4``, ``-1.5E-3``, ``-inf``, ``-infinity``, ``-nan``.
+NEGATIVE_NUMBER = re.compile(r"^-(?:(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|inf|infinity|nan)$",
+                             re.IGNORECASE)
+
+
 class OneLineParser(argparse.ArgumentParser):
-    """argparse whose usage errors are one line (no usage block) with status 2."""
+    """argparse whose usage errors are one line (no usage block) with status 2, and which reads
+    every negative number (:data:`NEGATIVE_NUMBER`, e.g. ``--G -1e4``) as a value, so that the
+    option's :class:`Number` refuses it with its range. Subparsers made with
+    ``add_subparsers(parser_class=OneLineParser)`` get the same."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER
 
     def error(self, message):
         self.exit(USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")

@@ -1,0 +1,72 @@
+"""rheology.cli_common.OneLineParser: a negative number given as a separate word is a value.
+
+argparse's own matcher reads only ``-1`` and ``-.5`` as negative numbers; ``--G -1e4``,
+``--G -inf`` or ``--frames -3e0`` became "expected one argument" with no range. Every CLI's
+parser and subparsers (``parser_class=OneLineParser``) now hand such words to the option's
+``Number``, which names the option and its range.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from rheology.cli_common import NEGATIVE_NUMBER, Number, OneLineParser
+
+
+@pytest.mark.parametrize("word", ["-1", "-.5", "-1.", "-1e4", "-1E4", "-1.5e-3", "-.5e+2",
+                                  "-inf", "-Inf", "-infinity", "-nan", "-NaN"])
+def test_negative_numbers_are_values(word):
+    assert NEGATIVE_NUMBER.match(word)
+    p = OneLineParser(prog="t")
+    sub = p.add_subparsers(dest="cmd", parser_class=OneLineParser)
+    s = sub.add_parser("run")
+    s.add_argument("--x", type=str)
+    assert s.parse_args(["--x", word]).x == word
+
+
+@pytest.mark.parametrize("word", ["-x", "--x", "-e4", "-1e", "-", "-1-2", "-infx"])
+def test_option_like_words_are_not_numbers(word):
+    assert not NEGATIVE_NUMBER.match(word)
+
+
+def _run(argv, tmp_path, monkeypatch, capsys):
+    import importlib
+
+    monkeypatch.chdir(tmp_path)
+    main = importlib.import_module(f"{argv[0]}.cli").main
+    try:
+        status = main(argv[1:])
+    except SystemExit as exc:
+        status = exc.code
+    err = capsys.readouterr().err
+    assert status == 2, (argv, err)
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert not any(tmp_path.iterdir()), list(tmp_path.iterdir())
+    return err
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["rheometer", "relax", "--G", "-1e4"], "--G = -1e4 is outside the valid range (0, 1e+12] Pa"),
+    (["rheometer", "relax", "--G", "-inf"], "--G = -inf: must be finite; valid range (0, 1e+12]"),
+    (["rheometer", "startup", "--rate", "-1e-3"], "--rate = -1e-3 is outside the valid range"),
+    (["rheometer", "flow-curve", "--phi", "0.5", "-1e-2"], "--phi = -1e-2 is outside"),
+    (["rheometer", "relax", "--phi", "-nan"], "--phi = -nan: must be finite"),
+    (["shear1d", "couette", "--speed", "-1e-2"], "--speed = -1e-2 is outside the valid range"),
+    (["shear1d", "annular", "--u-inner", "-1E3"], "--u-inner = -1E3 is outside the valid range"),
+    (["mpm2d", "run", "bar", "--frames", "-3"], "--frames = -3 is outside the valid range"),
+    (["mpm2d", "run", "bar", "--frames", "-3e0"], "--frames = -3e0 is outside the valid range"),
+])
+def test_negative_word_gets_the_options_range(argv, match, tmp_path, monkeypatch, capsys):
+    err = _run(argv, tmp_path, monkeypatch, capsys)
+    assert match in err and "expected one argument" not in err
+
+
+def test_number_type_still_refuses_through_argparse():
+    p = OneLineParser(prog="t")
+    p.add_argument("--n", type=Number("--n", 0, 10))
+    assert p.parse_args(["--n", "5e0"]).n == 5.0
+    with pytest.raises(SystemExit):
+        p.parse_args(["--n", "-5e0"])
+    assert isinstance(p, argparse.ArgumentParser)
