@@ -450,6 +450,53 @@ def get_material(name: str | Material, **overrides) -> Material:
     return base.replace(**overrides) if overrides else base
 
 
+#: Text (metadata) fields of a Material: never set from the command line (``--set``).
+TEXT_FIELDS: tuple[str, ...] = ("name", "citation", "units", "notes")
+#: Numeric fields that may be unset (None); ``--set NAME=none`` unsets them.
+OPTIONAL_FIELDS: tuple[str, ...] = ("mu_2", "K0", "G", "K", "rho_s", "rho_f", "kappa", "phi0")
+
+
+def settable_fields() -> list[str]:
+    """The parameters ``--set NAME=VALUE`` may change: every numeric field (:data:`FIELD_UNITS`),
+    sorted; the text fields (:data:`TEXT_FIELDS`) are not settable."""
+    return sorted(FIELD_UNITS)
+
+
+def check_set_override(name: str, value, option: str = "--set"):
+    """Validate one ``--set NAME=VALUE`` of a command line; return ``(name, value)``.
+
+    ``value`` is a number, None (``none``: only for :data:`OPTIONAL_FIELDS`) or text as typed.
+    The value's range is checked by the Material when it is built.
+
+    Raises
+    ------
+    ValueError
+        One line naming the key and the settable keys when ``name`` is a text field or unknown;
+        naming the key and its value when the value is not a finite number (or a ``none`` where
+        a number is required).
+    """
+    valid = ", ".join(settable_fields())
+    if name in TEXT_FIELDS:
+        raise ValueError(f"{option} {name}: {name} is a text field of the material, not a settable "
+                         f"parameter; settable: {valid}")
+    if name not in FIELD_UNITS:
+        raise ValueError(f"{option} {name}: unknown material parameter; settable: {valid}")
+    if value is None:
+        if name not in OPTIONAL_FIELDS:
+            raise ValueError(f"{option} {name} = none: {name} needs a number (only "
+                             f"{', '.join(OPTIONAL_FIELDS)} can be unset)")
+        return name, None
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            raise ValueError(f"{option} {name} = {value!r} is not a number "
+                             f"[{FIELD_UNITS[name]}]") from None
+    if isinstance(value, bool) or not np.isfinite(value):
+        raise ValueError(f"{option} {name} = {value}: must be finite")
+    return name, float(value)
+
+
 #: Fields a steady flow curve cannot determine: a scene's own (moduli, densities, grain size,
 #: structure-rate scale, fluid bulk modulus, initial fraction; Tables 4-7 and the text).
 SCENE_FIELDS = ("G", "K", "K0", "rho_s", "rho_f", "d", "K3", "K4", "kappa", "phi0")

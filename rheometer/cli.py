@@ -40,20 +40,18 @@ _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried
 
 
 def _set_value(text: str):
-    """``NAME=VALUE`` of ``--set``: a number (finite: the Material checks its range), none, or
-    text (for the name fields)."""
+    """``NAME=VALUE`` of ``--set``: a numeric parameter of the material (its text fields name,
+    citation, units, notes are not settable) and a finite number, or ``none`` to unset an optional
+    one (rheology.materials.check_set_override; the Material checks the value's range)."""
+    from rheology.materials import check_set_override
+
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"--set expects NAME=VALUE, got {text!r}")
     name, value = (s.strip() for s in text.split("=", 1))
-    if value.lower() in ("none", "null"):
-        return name, None
     try:
-        x = float(value)
-    except ValueError:
-        return name, value
-    if not np.isfinite(x):
-        raise argparse.ArgumentTypeError(f"--set {name} = {value}: must be finite")
-    return name, x
+        return check_set_override(name, None if value.lower() in ("none", "null") else value)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _material(args):

@@ -40,14 +40,19 @@ def _columns(text: str):
 
 
 def _set_value(text: str):
+    """``NAME=VALUE`` of ``fit --set``: a numeric parameter of the material (not a text field)
+    held at a finite number (rheology.materials.check_set_override)."""
+    from rheology.materials import check_set_override
+
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"--set expects NAME=VALUE, got {text!r}")
     name, value = (s.strip() for s in text.split("=", 1))
     try:
-        return name, float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--set {name}={value!r}: the value must be a number") \
-            from None
+        if value.lower() in ("none", "null"):
+            raise ValueError(f"--set {name} = {value}: fit --set holds a parameter at a number")
+        return check_set_override(name, value)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _read_options(p):

@@ -162,3 +162,35 @@ def test_a_parameter_set_twice_is_refused(tmp_path, monkeypatch, capsys):
     assert main(["flow-curve", "--set", "eta0=1", "--set", "eta0=2"]) == 2
     assert "--set eta0 given twice" in capsys.readouterr().err
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("cmd", [["flow-curve"], ["startup", "--t-end", "1"], ["materials",
+                                 "--material", "hermes2016"], ["fit", "x.csv", "--phi", "0.4"]])
+@pytest.mark.parametrize("key", ["name", "citation", "notes", "units"])
+def test_text_fields_are_not_settable(cmd, key, tmp_path, monkeypatch, capsys):
+    """--set on a material's text field (name crashed with a TypeError; citation, notes ran):
+    one line naming the key and the settable (numeric) keys, exit 2, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    try:
+        status = main([*cmd, "--set", f"{key}=1"])
+    except SystemExit as exc:
+        status = exc.code
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert f"--set {key}: {key} is a text field" in err
+    settable = err.split("settable: ")[1]
+    assert "eta0" in settable and "phi_j" in settable
+    assert not any(k in settable for k in ("name", "citation", "notes", "units"))
+    assert not any(tmp_path.iterdir())
+
+
+def test_unknown_and_unset_overrides_name_the_key(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    for arg, match in (("colour=3", "--set colour: unknown material parameter; settable: Delta"),
+                       ("eta0=none", "--set eta0 = none: eta0 needs a number"),
+                       ("eta0=abc", "--set eta0 = 'abc' is not a number [Pa s]")):
+        with pytest.raises(SystemExit) as exc:
+            main(["flow-curve", "--set", arg])
+        err = capsys.readouterr().err
+        assert exc.value.code == 2 and err.count("\n") == 1 and match in err, err
+    assert not any(tmp_path.iterdir())
