@@ -69,14 +69,24 @@ def _material(args):
     return m
 
 
-def _common(p, phi_default, out_default):
+def _default_phis(count: int) -> list[float]:
+    """The fractions a command with ``count`` default fractions runs at on DEFAULT_MATERIAL
+    (rheology.defaults, the rule resolve_sample applies): three, or the middle one."""
+    from rheology.defaults import default_fraction, default_fractions
+
+    return default_fractions(DEFAULT_MATERIAL) if count > 1 else [default_fraction(DEFAULT_MATERIAL)]
+
+
+def _common(p, phi_count, out_default):
+    """Options of every measuring command; ``phi_count`` (1 or 3) default fractions."""
+    phi_default = _default_phis(phi_count)
     p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
                    help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
     p.add_argument("--phi", type=Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False),
                    nargs="+", default=None, metavar="PHI",
                    help=f"volume fraction(s) (default: {len(phi_default)} from the material, "
-                        f"see 'rheometer materials'; hermes2016 "
-                        f"{' '.join(map(str, phi_default))})")
+                        f"see 'rheometer materials'; {DEFAULT_MATERIAL} "
+                        f"{' '.join(f'{x:g}' for x in phi_default)})")
     p.set_defaults(_phi_count=len(phi_default))
     p.add_argument("--set", action="append", type=_set_value, metavar="NAME=VALUE",
                    help="override any material parameter, e.g. --set eta0=0.01 (repeatable)")
@@ -132,7 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "--control mixture-stress imposes the MIXTURE shear stress and --control rate "
                     "the shear rate: every steady state, with columns branch and stable.",
         epilog=_EPILOG)
-    _common(p, [0.48, 0.50, 0.52], "flow_curve")
+    _common(p, 3, "flow_curve")
     p.add_argument("--control", choices=("stress", "mixture-stress", "rate"), default="stress")
     p.add_argument("--stress-range", type=Number("--stress-range", 0.0, STRESS_MAX,
                                                  lo_closed=False, unit="Pa"),
@@ -146,19 +156,19 @@ def build_parser() -> argparse.ArgumentParser:
                    help="values, log-spaced (200)")
 
     transients = (
-        ("startup", "start-up of shear at an imposed rate, from rest", 0.50, 60.0,
+        ("startup", "start-up of shear at an imposed rate, from rest", 60.0,
          ("--rate", 0.5, "imposed shear rate [1/s] (0.5)",
           Number("--rate", 0.0, RATE_MAX, unit="1/s"))),
-        ("creep", "creep at an imposed mixture shear stress, from rest", 0.50, 60.0,
+        ("creep", "creep at an imposed mixture shear stress, from rest", 60.0,
          ("--stress", 10.0, "imposed MIXTURE shear stress [Pa] (10)",
-          Number("--stress", 0.0, STRESS_MAX, unit="Pa"))),
-        ("relax", "stress relaxation after cessation of steady shear (Fig. 15)", 0.52, 50.0,
+          Number("--stress", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"))),
+        ("relax", "stress relaxation after cessation of steady shear (Fig. 15)", 50.0,
          ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
                               "[Pa] (1000)",
           Number("--stress", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"))))
-    for name, text, phi, t_end, (flag, value, flag_help, kind) in transients:
+    for name, text, t_end, (flag, value, flag_help, kind) in transients:
         p = sub.add_parser(name, help=text, epilog=_EPILOG)
-        _common(p, [phi], name)
+        _common(p, 1, name)
         p.add_argument(flag, type=kind, default=value, help=flag_help)
         _transient_options(p, t_end)
 
@@ -172,7 +182,7 @@ def build_parser() -> argparse.ArgumentParser:
                               "comments. Without FILE: stress and rate sweeps up and down across "
                               "DST, built for the material and the first phi (hysteresis).")
     p.add_argument("file", nargs="?", default=None, help="program file ('-' for stdin)")
-    _common(p, [0.46], "program")
+    _common(p, 1, "program")
     _transient_options(p)
     p.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0.0, TIME_MAX,
                                                      lo_closed=False, unit="s"),
@@ -187,7 +197,7 @@ def build_parser() -> argparse.ArgumentParser:
                        epilog="Volume control keeps phi; pressure control imposes the granular "
                               "pressure and lets phi evolve. Start from the steady state at "
                               "--stress0 or from rest under --pressure0.")
-    _common(p, [0.50], "material_point")
+    _common(p, 1, "material_point")
     p.add_argument("--rate", type=Number("--rate", 0.0, RATE_MAX, unit="1/s"), default=0.5,
                    help="shear rate [1/s] (0.5)")
     p.add_argument("--t-end", type=_t_end(), default=10.0, help="duration [s] (10)")

@@ -233,7 +233,7 @@ def add_subcommands(sub) -> dict:
                     "model's G*; the last cycle of every point in <out>_waveforms.csv "
                     "(Lissajous-Bowditch curves, <out>_lissajous.png). Default: an amplitude "
                     "sweep 1e-3..1 at 1 Hz.")
-    _common(p, [0.50], "oscillation")
+    _common(p, 1, "oscillation")
     p.add_argument("--control", choices=("strain", "stress"), default="strain",
                    help="imposed strain (default) or imposed mixture shear stress")
     p.add_argument("--strain-amplitude", type=Number("--strain-amplitude", 0.0, 1e3,

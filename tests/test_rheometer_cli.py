@@ -194,3 +194,40 @@ def test_unknown_and_unset_overrides_name_the_key(tmp_path, monkeypatch, capsys)
         err = capsys.readouterr().err
         assert exc.value.code == 2 and err.count("\n") == 1 and match in err, err
     assert not any(tmp_path.iterdir())
+
+
+def test_phi_help_states_the_default_the_run_uses():
+    """Each command's --phi help names the fractions a run without --phi uses (relax said 0.52
+    and ran at 0.50; program said 0.46): the help is generated from rheology.defaults."""
+    import argparse
+    import re
+
+    from rheometer.cli import DEFAULT_MATERIAL, _material, build_parser
+
+    ap = build_parser()
+    sub = next(a for a in ap._actions if isinstance(a, argparse._SubParsersAction))
+    checked = []
+    for name, sp in sub.choices.items():
+        if "_phi_count" not in sp._defaults:          # read/fit: --phi labels data files
+            continue
+        helptext = next(a.help for a in sp._actions if "--phi" in a.option_strings)
+        stated = [float(x) for x in
+                  re.search(rf"{DEFAULT_MATERIAL} ([0-9. ]+)\)", helptext).group(1).split()]
+        args = ap.parse_args([name, "x.txt"] if name == "program" else [name])
+        _material(args)                                # fills args.phi with the defaults
+        assert args.phi == pytest.approx(stated), (name, helptext, args.phi)
+        checked.append(name)
+    assert {"flow-curve", "startup", "creep", "relax", "program", "material-point",
+            "oscillation"} <= set(checked)
+
+
+def test_creep_at_zero_stress_is_refused(tmp_path, monkeypatch, capsys):
+    """A creep from rest at zero imposed stress never leaves rest (no test at all): --stress is
+    in (0, 1e12] Pa as the README says; one line, exit 2, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main(["creep", "--stress", "0"])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and err.count("\n") == 1
+    assert "--stress = 0 is outside the valid range (0, 1e+12] Pa" in err
+    assert not any(tmp_path.iterdir())
