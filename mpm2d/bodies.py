@@ -113,10 +113,12 @@ class RigidBody:
         self.torque = 0.0
         self.x = x.copy()
 
-    def describe(self) -> str:
+    def describe(self, extent: str = "") -> str:
+        """One line: mass (``extent``: e.g. " per radian" in axisymmetry), free and prescribed
+        degrees of freedom, contact."""
         free = [d for d, f in zip(DOFS, self.free) if f]
         fixed = [d for d, f in zip(DOFS, self.free) if not f]
-        return (f"rigid body {self.name}: mass {self.mass:.4g} kg, free {free or 'none'}, "
+        return (f"rigid body {self.name}: mass {self.mass:.4g} kg{extent}, free {free or 'none'}, "
                 f"prescribed {fixed or 'none'}; contact mu_w = {self.mu_w:g}"
                 + (f", bonded to {list(self.bonded_to)}" if self.bonded_to else ""))
 

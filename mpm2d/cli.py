@@ -28,17 +28,12 @@ from rheology.cli_common import Number, OneLineParser, run_command
 from rheology.sample import add_mass_fraction_options
 
 
-def _parse_set(items):
-    out = {}
-    for item in items or []:
-        if "=" not in item:
-            raise ValueError(f"--set {item!r} must be key=value")
-        k, v = item.split("=", 1)
-        k = k.strip()
-        if k in out:
-            raise ValueError(f"--set {k} given twice")
-        out[k] = v.strip()
-    return out
+def _parse_set(items) -> dict:
+    """``--set key=value`` items of ``mpm2d run`` -> {key: value}: the sweep's parser
+    (:func:`mpm2d.sweep.parse_grid`: no empty key or value, no key twice), one value each."""
+    from .sweep import parse_grid
+
+    return {k: v[0] for k, v in parse_grid(items, lists=False).items()}
 
 
 def main(argv=None) -> int:
@@ -80,7 +75,9 @@ def main(argv=None) -> int:
     sw.add_argument("--quiet", action="store_true", help="no progress bar")
     args = ap.parse_args(argv)
     # a run stopped by a signal says where its checkpoint is (run_scene's KeyboardInterrupt)
-    return run_command(f"mpm2d {args.cmd}", lambda: _command(args))
+    hint = ("rerun the same command to continue: completed cases are kept, the others resume "
+            "from their checkpoints" if args.cmd == "sweep" else "")
+    return run_command(f"mpm2d {args.cmd}", lambda: _command(args), on_interrupt=hint)
 
 
 def _command(args) -> None:

@@ -15,7 +15,9 @@ writes a checkpoint and raises ``KeyboardInterrupt``. ``resume=True`` continues 
 rebuilt from the parameters stored with the checkpoint, its state is loaded, and every file the
 resumed run writes (history, manifest, frames, VTK, result tables, figures) is byte-identical to
 an uninterrupted run's. A resume of another scene, with other parameters or other output options
-is refused by name.
+is refused by name. The scene's set-up (a bed's geostatic relaxation can take minutes at paper
+size; a resume repeats it, then loads the checkpoint) runs before anything is written and stops
+at once on SIGINT/SIGTERM, writing nothing.
 """
 
 from __future__ import annotations
@@ -213,7 +215,8 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     RuntimeError
         The run diverged (non-finite energy); a checkpoint is written first.
     KeyboardInterrupt
-        SIGINT/SIGTERM: after the current step, a checkpoint is written.
+        SIGINT/SIGTERM: after the current step, a checkpoint is written (during the set-up:
+        at once, nothing written).
     """
     log = log or (lambda msg: print(msg, flush=True))
     out = check_output_dir("--out", out)
@@ -247,9 +250,9 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
         full_stored = {**spec.defaults, **stored}
         for k, v in given.items():
             if full_stored[k] != v:
+                was = "none (the scene's default)" if full_stored[k] is None else full_stored[k]
                 raise ValueError(f"--resume: {k} = {v} differs from the checkpoint's {k} = "
-                                 f"{full_stored[k]}; resume without --set {k} or start a new "
-                                 "folder")
+                                 f"{was}; resume without --set {k} or start a new folder")
         given = stored
         old = json.loads(str(saved["run.options"])) if "run.options" in saved else {}
         for k, v in old.items():
@@ -260,11 +263,22 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     vtk = True if options["vtk"] is None else bool(options["vtk"])
     options["vtk"] = vtk
     params = spec.validate(given)
+    # the scene's set-up (a bed's geostatic relaxation can take minutes) is interrupted at once
+    # by Ctrl-C or SIGTERM (there is nothing to save yet); nothing is written before it ends
+    log(f"setting up scene {name}" + (" (then the checkpoint is loaded)" if saved is not None
+                                       else "") + "...")
+    try:
+        scene = setup(**params)
+    except KeyboardInterrupt:
+        raise KeyboardInterrupt(f"during the scene's set-up, nothing written"
+                                + (f"; {ckpt_path} is as it was" if saved is not None else ""))
+    if saved is None and (ckpt_path.exists() or ckpt_path.with_name("checkpoint.prev.npz").exists()):
+        log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "
+            "replaces it (--resume continues it instead)")
     with _DeferredSignals() as stop:         # from here on, a signal stops between steps
         out.mkdir(parents=True, exist_ok=True)
         for f in _remove_stale_temporaries(out):
             log(f"removed {f}, a temporary file of an interrupted write")
-        scene = setup(**params)
         sim = scene.sim
         nframes = scene.frames if options["frames"] is None else int(options["frames"])
         t_end = scene.t_end

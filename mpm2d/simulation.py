@@ -312,8 +312,9 @@ class Simulation:
             own = (f"; own velocity field, contact mu_w = {self.contact_sets[s.name]:g}"
                    if s.name in self.contact_sets else "")
             lines.append(f"  set {s.name}: {len(s)} points, {s.material.describe()}{own}")
+        extent = " per radian" if self.grid.axisymmetric else " per m of thickness"
         for b in self.bodies:
-            lines.append(f"  {b.describe()}")
+            lines.append(f"  {b.describe(extent)}")
         lines.append(f"  gravity ({self.gravity[0]:g}, {self.gravity[1]:g}) m/s^2; dt "
                      + (f"{self.user_dt:g} s (fixed)" if self.user_dt else
                         f"adaptive, cfl {self.cfl}, now {self.stable_dt():.4g} s "

@@ -38,8 +38,11 @@ from rheology.io import atomic_write_csv, check_output_dir
 _SAFE = re.compile(r"[^A-Za-z0-9.+\-]+")
 
 
-def parse_grid(items) -> dict[str, list[str]]:
+def parse_grid(items, lists: bool = True) -> dict[str, list[str]]:
     """``["phi0=0.46,0.47", "v0=0.2"]`` -> ``{"phi0": ["0.46", "0.47"], "v0": ["0.2"]}``.
+
+    ``lists=False`` (``mpm2d run``): each value is one string, commas included (the scene's
+    validation then names the parameter and its range).
 
     Raises
     ------
@@ -51,11 +54,13 @@ def parse_grid(items) -> dict[str, list[str]]:
         if "=" not in item:
             raise ValueError(f"--set {item!r} must be key=value[,value...]")
         key, values = (s.strip() for s in item.split("=", 1))
-        vals = [v.strip() for v in values.split(",")]
+        vals = [v.strip() for v in values.split(",")] if lists else [values]
         if not key or any(v == "" for v in vals):
-            raise ValueError(f"--set {item!r}: empty key or value")
+            raise ValueError(f"--set {item!r}: empty key or value (an optional parameter's "
+                             "default is given as none, e.g. --set v0=none)")
         if key in grid:
-            raise ValueError(f"--set {key} given twice; list its values once: {key}=a,b,c")
+            raise ValueError(f"--set {key} given twice" + (f"; list its values once: {key}=a,b,c"
+                                                           if lists else ""))
         grid[key] = vals
     return grid
 

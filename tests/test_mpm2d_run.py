@@ -223,3 +223,49 @@ def test_history_step_column_is_integer_after_resume(tmp_path):
     steps = [r.split(",")[col] for r in lines[1:]]
     assert all(s.isdigit() for s in steps), steps[:5]
     assert [int(s) for s in steps] == sorted(int(s) for s in steps)
+
+
+def test_signal_during_set_up_stops_at_once_and_writes_nothing(tmp_path, monkeypatch):
+    """The set-up (a bed's geostatic relaxation) is not deferred: a Ctrl-C/SIGTERM there stops
+    the run at once with the reason, and no output folder is created; a resume's set-up
+    interrupted the same way leaves the checkpoint as it was."""
+    from mpm2d.scenes import rod_drop
+
+    calls = []
+
+    def interrupted(*a, **k):
+        calls.append(1)
+        raise KeyboardInterrupt
+
+    small = dict(radius=0.02, depth=0.02, cells_per_mm=0.5, t_end=0.001)
+    monkeypatch.setattr(rod_drop, "geostatic", interrupted)
+    out = tmp_path / "o"
+    with pytest.raises(KeyboardInterrupt, match="set-up, nothing written"):
+        _run(rod_drop.setup, out, params=small)
+    assert calls and not out.exists()
+    monkeypatch.undo()
+    _run(rod_drop.setup, out, params=small, stop_after_steps=3)
+    before = {k: p.read_bytes() for k, p in _files(out).items()}
+    monkeypatch.setattr(rod_drop, "geostatic", interrupted)
+    with pytest.raises(KeyboardInterrupt, match="checkpoint.npz is as it was"):
+        _run(rod_drop.setup, out, params=small, resume=True)
+    assert {k: p.read_bytes() for k, p in _files(out).items()} == before
+
+
+def test_set_without_a_value_and_resume_of_a_default_are_refused_by_name(tmp_path, capsys):
+    """``--set v0=`` is refused (not taken as the default) by run as by sweep; a resume that sets
+    an optional parameter whose checkpoint value is the default says 'none (the scene's
+    default)', not 'None'."""
+    out = tmp_path / "o"
+    for cmd in ("run", "sweep"):
+        assert main([cmd, "bar", "--set", "rho=", "--out", str(out), "--quiet"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "'rho='" in err[0] and "empty" in err[0], err
+        assert not out.exists()
+    assert main(["run", "bar", "--set", "periods=0.05", "--set", "cells=8", "--out", str(out),
+                 "--quiet", "--no-vtk"]) == 0
+    capsys.readouterr()
+    assert main(["run", "bar", "--resume", "--set", "dt=1e-5", "--out", str(out),
+                 "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "checkpoint's dt = none (the scene's default)" in err[0], err
