@@ -105,7 +105,7 @@ v_m_per_s, a_m_per_s2), ``rod_raw.csv`` (time_s, z_m, force_N, a_raw_m_per_s2), 
 (v0_m_per_s, time_s, front_depth_m), ``displacement_vs_depth.csv`` (depth_m, displacement_m),
 ``summary.json``, ``displacement.png`` (Fig. 4a), ``displacement_vs_depth.png`` (Fig. 4c),
 ``rod.png`` (Fig. 5 for one v0) and ``front.png``. A sweep over v0 writes the same tables for all
-speeds together (``sweep_report``) with ``rod.png`` (Fig. 5) and ``speeds.json``.
+speeds together (``sweep_report``) with ``rod.png`` (Fig. 5), ``speeds.csv`` and ``summary.json``.
 
 Run: ``mpm2d run impact --out impact`` (mode: locked mixture)
 """

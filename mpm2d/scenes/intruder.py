@@ -413,7 +413,8 @@ def fields_figure(sim, out, params, rod_r, path):
         ax.contour(rc, zc, uz_end.T, levels=levels, colors="c", linewidths=0.6)
         ax.contour(rc, zc, uz_end.T, levels=[-0.5 * v0], colors="c", linewidths=2.5)
         draw_rod(ax, sim.bodies[0].x)
-        ax.set_title(f"{name} at t = {sim.t * 1e3:.1f} ms (u_z = 0.5 v0 bold)", fontsize=9)
+        ax.set_title(f"{name} at t = {sim.t * 1e3:.1f} ms\n(contours of u_z, 0.5 v0 bold)",
+                     fontsize=9)
         fig.colorbar(im, ax=ax, label=f"{name} [1/s]", shrink=0.8)
     for ax in axs:
         ax.set_xlabel("r [mm]")
