@@ -270,7 +270,7 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     try:
         scene = setup(**params)
     except KeyboardInterrupt:
-        raise KeyboardInterrupt(f"during the scene's set-up, nothing written"
+        raise KeyboardInterrupt("during the scene's set-up, nothing written"
                                 + (f"; {ckpt_path} is as it was" if saved is not None else ""))
     if saved is None and (ckpt_path.exists() or ckpt_path.with_name("checkpoint.prev.npz").exists()):
         log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "
