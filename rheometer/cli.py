@@ -337,13 +337,32 @@ def _cmd_flow_curve(args) -> str:
     return _write(args, df, lambda: plots.flow_curve_figure(df, m))
 
 
+def _check_relax_stress(args, m) -> None:
+    """``relax --stress`` starts from a steady state at that granular stress: its elastic strain
+    stress/G is known before the run; past the small-strain limit (rheology.elastic) the run is
+    refused here (exit 2) rather than failed by the solver's check (exit 1)."""
+    from rheology.elastic import ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress
+
+    from .transient import DEFAULT_G
+
+    G = args.G if args.G is not None else (m.G or DEFAULT_G)
+    top = elastic_strain_limit_stress(G)
+    if args.stress > top * (1.0 + 1e-12):
+        src = "--G" if args.G is not None else (f"G of {m.name}" if m.G else "the default G")
+        raise ValueError(f"--stress = {args.stress:g} Pa is outside the valid range (0, {top:g}] "
+                         f"Pa: the steady state before cessation would strain the skeleton by "
+                         f"stress/G = {args.stress / G:.3g}, past the small-elastic-strain limit "
+                         f"{ELASTIC_STRAIN_LIMIT:g} of the hypoelastic law (G = {G:g} Pa, "
+                         f"{src}); lower --stress or raise --G")
+
+
 def _transient(args, kind: str) -> str:
     from . import plots
     from .protocols import creep, relax, startup
 
     _plot_path(args)
     m = _material(args)
-    opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points)
+    opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True)
     if kind == "startup":
         df = _per_phi(args, lambda ph: startup(m, ph, args.rate, args.t_end, **opts))
         what = f"start-up at {args.rate:g} 1/s"
@@ -351,6 +370,7 @@ def _transient(args, kind: str) -> str:
         df = _per_phi(args, lambda ph: creep(m, ph, args.stress, args.t_end, **opts))
         what = f"creep at mixture stress {args.stress:g} Pa"
     else:
+        _check_relax_stress(args, m)
         df = _per_phi(args, lambda ph: relax(m, ph, args.stress, args.t_end, **opts))
         what = f"relaxation from steady granular stress {args.stress:g} Pa"
     title = f"{m.name}: {what} (G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})"
@@ -395,7 +415,8 @@ def _cmd_program(args) -> str:
         text, name = read_program_file(args.file)
     program = parse_program(text)
     ck = ProgramCheckpoint(Path(args.out).with_suffix(".checkpoint.npz"), m, list(args.phi),
-                           text, dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points),
+                           text, dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points,
+                                      elastic_limit=True),
                            every=args.checkpoint_every)
     if args.resume:
         ck.load(log=lambda msg: print(msg, file=sys.stderr))
@@ -423,7 +444,7 @@ def _cmd_material_point(args) -> str:
     df = _per_phi(args, lambda ph: simple_shear_point(
         m, ph, args.rate, args.t_end, args.dt, control=args.control, pressure=args.pressure,
         f0=args.f0, stress0=args.stress0, pressure0=args.pressure0, G=args.G, K=args.K,
-        K0=args.K0, points=args.points))
+        K0=args.K0, points=args.points, elastic_limit=True))
     title = (f"{m.name}: material point, {args.control} control, rate {args.rate:g} 1/s, "
              f"dt = {args.dt:g} s, phi0 = {', '.join(f'{p:g}' for p in args.phi)}")
     # every run, by its initial phi (phi itself evolves under pressure control)

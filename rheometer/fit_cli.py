@@ -40,19 +40,12 @@ def _columns(text: str):
 
 
 def _set_value(text: str):
-    """``NAME=VALUE`` of ``fit --set``: a numeric parameter of the material (not a text field)
-    held at a finite number (rheology.materials.check_set_override)."""
-    from rheology.materials import check_set_override
-
+    """``NAME=VALUE`` of ``fit --set`` (checked in cmd_fit by rheology.materials.
+    check_set_override: a numeric parameter, not a text field, held at a finite number)."""
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"--set expects NAME=VALUE, got {text!r}")
     name, value = (s.strip() for s in text.split("=", 1))
-    try:
-        if value.lower() in ("none", "null"):
-            raise ValueError(f"--set {name} = {value}: fit --set holds a parameter at a number")
-        return check_set_override(name, value)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+    return name, value
 
 
 def _read_options(p):
@@ -178,10 +171,16 @@ def cmd_fit(args) -> str:
 
     out = check_output_dir("--out", args.out)
     start = rheology.get_material(args.material)
-    fixed = dict(args.set or [])
-    for k in fixed:
-        if k not in SCALE and k not in {f for f in rheology.materials.FIELD_UNITS}:
-            raise ValueError(f"--set {k}: unknown parameter; valid: {', '.join(SCALE)}")
+    from rheology.materials import check_set_override
+
+    fixed = {}
+    for k, v in args.set or []:
+        if v.lower() in ("none", "null"):
+            raise ValueError(f"--set {k} = {v}: fit --set holds a parameter at a number")
+        name, x = check_set_override(k, v)
+        if name in fixed:
+            raise ValueError(f"--set {name} given twice; give each parameter once")
+        fixed[name] = x
     if fixed:
         start.replace(**fixed)
     donor = rheology.get_material(args.transient_from) if args.transient_from else None

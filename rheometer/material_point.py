@@ -50,6 +50,7 @@ import pandas as pd
 
 import rheology
 from rheology.checks import check_nonnegative, check_positive, check_range
+from rheology.elastic import check_elastic_strain
 from rheology.local_update import (CASE_NAMES, COMPACTION, ELASTIC, FAILED, NOUT, OUT_FIELDS,
                                    SHEAR_FLOW, update_point)
 from rheology.materials import Material
@@ -299,7 +300,7 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
                        f0: float | None = None, stress0: float | None = None,
                        pressure0: float | None = None, G: float | None = None,
                        K: float | None = None, K0: float | None = None,
-                       points: int = 400) -> pd.DataFrame:
+                       points: int = 400, elastic_limit: bool = False) -> pd.DataFrame:
     """Drive one material point of the Table 8 law through homogeneous simple shear.
 
     Parameters
@@ -326,6 +327,10 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
         Moduli [Pa] and structure rate; default the material's, else 1e4 Pa, (8.3/3.8) G, 1.
     points : int
         Approximate number of output rows.
+    elastic_limit : bool
+        Refuse (``RuntimeError``) a run whose elastic strain taubar/G or p/K passes
+        :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT` (0.1): the command line always sets it; the
+        default False lets tests follow the Jaumann algebra to large strains.
 
     Returns
     -------
@@ -342,7 +347,8 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
         or a strain gdot t_end needing more than 2e7 local updates, with the longest t_end).
     RuntimeError
         The local update or the pressure solve failed even with 1e9 sub-steps per step, or the
-        state became non-finite (with the step, time and state).
+        state became non-finite (with the step, time and state), or (``elastic_limit``) the
+        elastic strain taubar/G or p/K passed the small-strain limit 0.1 (:mod:`rheology.elastic`).
 
     ``attrs``: ``substeps`` (local updates in all), ``max_substeps_per_step``, ``retries``.
     """
@@ -398,6 +404,16 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
         df.attrs["substeps_note"] = (
             f"sub-stepped: {int(stats[0])} local updates for {nsteps} steps of {dt:g} s (at "
             f"most {int(stats[1])} per step; strain per sub-step <= {x_max:.3g})")
+    # the hypoelastic law holds for small elastic strains only: taubar/G and p/K (rheology.elastic)
+    where = (f"material point ({control} control, phi0 = {phi:g}, rate = {rate:g} 1/s, "
+             f"G = {m.G:g} Pa, K = {m.K:g} Pa)")
+    advice = ("impose a lower rate, pressure or initial stress or a shorter time, or stiffer "
+              "moduli (--G, --K)")
+    if elastic_limit:
+        check_elastic_strain(df["time_s"], df["granular_shear_stress_Pa"], m.G, where=where,
+                             advice=advice)
+        check_elastic_strain(df["time_s"], df["granular_pressure_Pa"], m.K, stress_name="p",
+                             modulus_name="K", where=where, advice=advice)
     return df
 
 

@@ -12,7 +12,9 @@ restarted at each event (jamming/unjamming, which changes the smoothness of the 
 BDF order is rebuilt from a clean point. After every solve the state is checked (finite,
 ``0 <= f <= max(f0, f_m)``, the plastic rate of the stress's sign) and a violation raises
 ``RuntimeError`` with the time, state and IDA statistics: a loose tolerance can return "success"
-with a blown-up state.
+with a blown-up state. With ``elastic_limit=True`` (every command line run) so does an elastic
+strain taubar/G past the small-strain limit of the hypoelastic law
+(:data:`rheology.elastic.ELASTIC_STRAIN_LIMIT`, 10 %; shear1d's bound too).
 
 An oscillation step samples every cycle at the same phases (``max(32, points/cycles)`` per
 cycle, rounded up); the harmonic analysis of its last full cycle (first-harmonic G', G'', the
@@ -37,6 +39,7 @@ from sksundae.ida import IDA
 import rheology
 from rheology import laws
 from rheology.checks import check_nonnegative, check_positive, check_range
+from rheology.elastic import check_elastic_strain
 from rheology.materials import Material
 
 from . import model
@@ -297,11 +300,16 @@ class Rheometer:
     max_restarts : int
         Jamming/unjamming events after which a step stops restarting at events (and only records
         them), against chatter.
+    elastic_limit : bool
+        Refuse (``RuntimeError``) a solution whose elastic strain taubar/G passes
+        :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT` (0.1), beyond which the hypoelastic law is
+        used outside its range. The command line always sets it; the default False lets tests
+        and validation follow the law's algebra to large strains.
     """
 
     def __init__(self, material, phi: float, *, G: float | None = None, K0: float | None = None,
                  rtol: float = 1e-7, atol: float | None = None, form: str = "dae",
-                 jacobian: bool = True, max_restarts: int = 50):
+                 jacobian: bool = True, max_restarts: int = 50, elastic_limit: bool = False):
         self.material: Material = rheology.get_material(material)
         m = self.material
         self.phi = float(check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
@@ -314,6 +322,7 @@ class Rheometer:
         if form not in ("dae", "ode"):
             raise ValueError(f"form = {form!r} must be 'dae' or 'ode'")
         self.form, self.jacobian, self.max_restarts = form, bool(jacobian), int(max_restarts)
+        self.elastic_limit = bool(elastic_limit)
         self.P = model.parameters(m, self.phi, self.G, self.K0)
         self.f_m = float(laws.f_max(self.phi, m.phi_c, m.phi_j, m.Delta))
         self.f_jam = (m.phi_j - self.phi) / (m.phi_j - m.phi_c)
@@ -598,6 +607,13 @@ class Rheometer:
                 f"Pa, f = {f[i]:.6g} (valid [0, {f_hi:.6g}]), gdot_p = {y[i, GP]:.6g} 1/s (of "
                 f"the stress's sign); IDA reported '{sol.message}' after {sol.nfev} residuals: "
                 f"tighten rtol")
+        # the hypoelastic law holds for small elastic strains taubar/G only (rheology.elastic)
+        if self.elastic_limit:
+            check_elastic_strain(sol.t, y[:, TAU], self.G, where=where,
+                                 advice="impose a lower rate or stress or a shorter time (a "
+                                        "shear-jammed sample under an imposed rate strains "
+                                        "elastically by the imposed strain), or a stiffer "
+                                        "skeleton (--G) under an imposed stress")
 
     def _frame(self, pieces: list[_Piece], stats: RunStats, steps) -> pd.DataFrame:
         t = np.concatenate([p.t for p in pieces])

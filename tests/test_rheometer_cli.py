@@ -92,7 +92,9 @@ def test_startup_and_creep_end_on_steady_states(tmp_path, monkeypatch):
 
 def test_program_and_material_point_and_materials(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "steps.txt").write_text("shear at 1 1/s for 5 s\nrest for 5 s\n")
+    # 3 s: at phi 0.50 the sample shear-jams at 1 1/s and its elastic strain taubar/G passes the
+    # small-strain limit 0.1 at t ~ 4.4 s (refused since; see test_elastic_strain_past_...)
+    (tmp_path / "steps.txt").write_text("shear at 1 1/s for 3 s\nrest for 5 s\n")
     assert main(["program", "steps.txt", "--phi", "0.48", "0.50"]) == 0
     df = pd.read_csv("program.csv")
     assert set(df["phi"]) == {0.48, 0.50} and set(df["step"]) == {1, 2}
@@ -231,3 +233,55 @@ def test_creep_at_zero_stress_is_refused(tmp_path, monkeypatch, capsys):
     assert exc.value.code == 2 and err.count("\n") == 1
     assert "--stress = 0 is outside the valid range (0, 1e+12] Pa" in err
     assert not any(tmp_path.iterdir())
+
+
+def test_elastic_strain_past_the_small_strain_limit_fails(tmp_path, monkeypatch, capsys):
+    """startup --rate 1e9 wrote a granular stress of 1e13 Pa (taubar/G ~ 1e9 with G = 1e4 Pa).
+    The hypoelastic law holds for elastic strains taubar/G <= 0.1 (rheology.elastic, shear1d's
+    bound): the run fails with one line naming the limit, the strain, the time, what to change;
+    exit 1, nothing written. relax --stress past 0.1 G is known up front: exit 2."""
+    from rheology.elastic import ELASTIC_STRAIN_LIMIT
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["startup", "--rate", "1e9", "--t-end", "1", "--points", "5"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "rheometer startup: failed:" in err
+    assert f"exceeds the small-elastic-strain limit {ELASTIC_STRAIN_LIMIT:g}" in err
+    assert "elastic strain taubar/G = " in err and " at t = " in err and "--G" in err
+    assert main(["creep", "--stress", "1e5", "--t-end", "1", "--points", "5"]) == 1
+    assert "taubar <= 1000 Pa" in capsys.readouterr().err
+    assert main(["material-point", "--rate", "1e3", "--t-end", "1"]) == 1
+    assert "elastic strain taubar/G" in capsys.readouterr().err
+    assert main(["relax", "--stress", "2000", "--t-end", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "--stress = 2000 Pa is outside the valid range (0, 1000] Pa" in err and "--G" in err
+    assert not any(tmp_path.iterdir()), list(tmp_path.iterdir())
+    # at the limit and with a stiffer skeleton the same inputs run
+    assert main(["relax", "--stress", "1000", "--t-end", "1", "--points", "5",
+                 "--plot", "none"]) == 0
+    assert main(["relax", "--stress", "2000", "--G", "1e5", "--t-end", "1", "--points", "5",
+                 "--plot", "none"]) == 0
+    df = pd.read_csv("relax.csv")
+    assert df["granular_shear_stress_Pa"].abs().max() <= ELASTIC_STRAIN_LIMIT * 1e5 * (1 + 1e-6)
+
+
+def test_python_api_follows_large_strains_unless_asked():
+    """The Python functions follow the law's algebra to large strains by default (validation of
+    the Jaumann relations); elastic_limit=True applies the command line's check."""
+    from rheometer import startup
+
+    df = startup("hermes2016", 0.50, 1.0, 6.0, points=20)
+    assert df["granular_shear_stress_Pa"].max() > 0.1 * df.attrs["G_Pa"]
+    with pytest.raises(RuntimeError, match="elastic strain taubar/G"):
+        startup("hermes2016", 0.50, 1.0, 6.0, points=20, elastic_limit=True)
+
+
+def test_check_elastic_strain_unit():
+    import numpy as np
+
+    from rheology.elastic import check_elastic_strain
+
+    check_elastic_strain([0, 1], [0.0, 1000.0], 1e4)            # exactly at the limit: allowed
+    with pytest.raises(RuntimeError, match=r"p/K = 0.2 at t = 2 s .*from t ~ 1.5 s"):
+        check_elastic_strain(np.array([0.0, 1.0, 2.0]), [0.0, 0.0, 2e3], 1e4, stress_name="p",
+                             modulus_name="K")

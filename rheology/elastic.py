@@ -1,0 +1,74 @@
+"""The small-elastic-strain limit of the Table 8 law, shared by every tier.
+
+The granular stress of Baumgarten & Kamrin's model (Table 8) is hypoelastic: a Jaumann rate of a
+linear elastic law with shear modulus G and bulk modulus K, i.e. a law for SMALL elastic strains.
+The elastic shear strain of the skeleton is taubar/G (and its volumetric strain p/K); a run in
+which it grows past :data:`ELASTIC_STRAIN_LIMIT` (10 %) uses the law outside its range: its
+stresses (up to G times any strain the drive imposes) mean nothing. ``shear1d`` bounds its wall
+speed to 0.1 c_s and its wall stress to 0.1 G for this reason (an impulsively moved wall sends a
+shear wave of elastic strain u/c_s); the rheometer checks the strain reached.
+
+:func:`check_elastic_strain` raises ``RuntimeError`` (a solver-side failure: exit status 1 on the
+command line; the command writes no result) naming the limit, the strain reached, the time and what to change.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Largest elastic strain (taubar/G, p/K) at which the hypoelastic law is used.
+ELASTIC_STRAIN_LIMIT = 0.1
+#: Relative margin on the limit for round-off and solver tolerance (a run held exactly at the
+#: limit, e.g. a relaxation from taubar = 0.1 G, is not refused for 1e-12 of drift).
+MARGIN = 1e-6
+
+
+def elastic_strain_limit_stress(modulus: float) -> float:
+    """The largest stress [Pa] the limit allows on ``modulus`` [Pa]: ELASTIC_STRAIN_LIMIT * G."""
+    return ELASTIC_STRAIN_LIMIT * float(modulus)
+
+
+def check_elastic_strain(t, stress, modulus: float, *, stress_name: str = "taubar",
+                         modulus_name: str = "G", where: str = "", advice: str = "") -> None:
+    """Raise ``RuntimeError`` if ``|stress|/modulus`` exceeds :data:`ELASTIC_STRAIN_LIMIT`.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Times [s] of the rows.
+    stress : array_like, shape (n,)
+        Granular shear stress taubar or granular pressure p [Pa] at those times.
+    modulus : float
+        G or K [Pa].
+    stress_name, modulus_name : str
+        Names in the message (``"taubar"``, ``"G"``; ``"p"``, ``"K"``).
+    where : str
+        What ran (e.g. ``"startup at 1e9 1/s, phi = 0.5"``), put in front of the message.
+    advice : str
+        What to change (e.g. ``"lower --rate or --t-end, or raise --G"``).
+
+    Raises
+    ------
+    RuntimeError
+        One line: the limit, the strain and stress reached at the first row past it, its time,
+        the modulus, and ``advice``.
+    """
+    t = np.asarray(t, dtype=float).ravel()
+    s = np.abs(np.asarray(stress, dtype=float).ravel())
+    strain = s / float(modulus)
+    over = np.flatnonzero(strain > ELASTIC_STRAIN_LIMIT * (1.0 + MARGIN))
+    if over.size == 0:
+        return
+    i = int(over[0])
+    head = f"{where}: " if where else ""
+    crossed = ""
+    if i > 0:                    # linear interpolation between the last row below and this one
+        a, b = strain[i - 1], strain[i]
+        tc = t[i - 1] + (t[i] - t[i - 1]) * (ELASTIC_STRAIN_LIMIT - a) / (b - a)
+        crossed = f", past the limit from t ~ {tc:.4g} s"
+    raise RuntimeError(
+        f"{head}elastic strain {stress_name}/{modulus_name} = {strain[i]:.3g} at t = {t[i]:.6g} s "
+        f"({stress_name} = {s[i]:.4g} Pa, {modulus_name} = {float(modulus):.4g} Pa{crossed}) "
+        f"exceeds the small-elastic-strain limit {ELASTIC_STRAIN_LIMIT:g} of the hypoelastic law "
+        f"({stress_name} <= {elastic_strain_limit_stress(modulus):.4g} Pa)"
+        + (f"; {advice}" if advice else ""))
