@@ -15,7 +15,6 @@ failure with one line and status 1; an interrupt with status 130 and where the c
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 
 from rheology.cli_common import Number, OneLineParser, run_command
@@ -31,7 +30,7 @@ MAX_OUTPUTS = 100000
 def _parser() -> argparse.ArgumentParser:
     import rheology
 
-    from .model import MODES, max_wall_speed
+    from .model import ELASTIC_STRAIN_LIMIT, MODES, max_wall_speed
     from .integrate import METHODS
     from .scenes import R_INNER, R_OUTER, ROTATION_END, SPEEDS
 
@@ -76,11 +75,15 @@ def _parser() -> argparse.ArgumentParser:
         add_mass_fraction_options(p, nargs=None)
 
     a = sub.add_parser("annular", help="Fig. 3: annular shear, dynamic shear-jamming fronts")
-    a.add_argument("--u-inner", type=Number("--u-inner", 0, math.floor(u_max * 1e3) / 1e3,
-                                            lo_closed=False,
-                                            unit="m/s"), nargs="+", default=list(SPEEDS),
-                   help=f"bob surface speed(s) [m/s], up to {u_max:.3g} = 0.1 sqrt(G/rho) (the "
-                        "model is a small-elastic-strain law; default 0.00084 0.084)")
+    # --u-inner, --speed, --stress: their upper bound depends on the material and phi (0.1 c_s,
+    # 0.1 G). The parser checks --u-inner against annular_shear's (the scene's set), --speed and
+    # --stress (any material, plane cell) only for being finite numbers; _check_drive checks each
+    # against the material and phi of the run, by the option's name, in its units.
+    a.add_argument("--u-inner", type=Number("--u-inner", 0, u_max, lo_closed=False, unit="m/s"),
+                   nargs="+", default=list(SPEEDS),
+                   help=f"bob surface speed(s) [m/s], in (0, 0.1 sqrt(G/rho)]: (0, {u_max:.6g}] "
+                        f"for annular_shear at phi {m.phi0:g} (the model is a small-elastic-strain "
+                        "law; default 0.00084 0.084)")
     a.add_argument("--out", default="annular_shear_jamming", help="output folder")
     a.add_argument("--r-inner", type=Number("--r-inner", 0, 1.0, lo_closed=False, unit="m"),
                    default=R_INNER, help=f"bob radius [m] (default {R_INNER})")
@@ -95,11 +98,12 @@ def _parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("couette", help="plane Couette start-up (speed- or stress-driven)")
     drive = c.add_mutually_exclusive_group(required=True)
-    drive.add_argument("--speed", type=Number("--speed", 0, None, lo_closed=False, unit="m/s"),
-                       help="speed of the moving plate [m/s] (up to 0.1 sqrt(G/rho) of the "
-                            "material)")
-    drive.add_argument("--stress", type=Number("--stress", 0, None, lo_closed=False, unit="Pa"),
-                       help="shear stress on the moving plate [Pa] (up to 0.1 G)")
+    drive.add_argument("--speed", type=Number("--speed", unit="m/s"),
+                       help=f"speed of the moving plate [m/s], in (0, 0.1 sqrt(G/rho)]: (0, "
+                            f"{u_max:.6g}] for annular_shear at phi {m.phi0:g}")
+    drive.add_argument("--stress", type=Number("--stress", unit="Pa"),
+                       help=f"shear stress on the moving plate [Pa], in (0, 0.1 G]: (0, "
+                            f"{ELASTIC_STRAIN_LIMIT * m.G:g}] for annular_shear")
     c.add_argument("--gap", type=Number("--gap", 0, 1.0, lo_closed=False, unit="m"), default=1e-2,
                    help="gap [m] (default 0.01)")
     c.add_argument("--time", type=Number("--time", 0, None, lo_closed=False, unit="s"),
@@ -136,6 +140,40 @@ def _sample(args):
     return m, args.phi
 
 
+def _check_drive(option: str, values, material, phi0, *, stress: bool = False) -> None:
+    """Range of --u-inner / --speed (0 < u <= 0.1 c_s) or --stress (0 < tau <= 0.1 G) for this
+    material and phi (shear1d.model: beyond, the hypoelastic law is strained past 10 %),
+    refused by the option's name with the range in its own units (ValueError)."""
+    from .model import ELASTIC_STRAIN_LIMIT, max_wall_speed
+
+    phi = material.phi0 if phi0 is None else phi0
+    if phi is None:                   # no phi at all: the Couette problem refuses it by name
+        return
+    material.require("G", "rho_s", "rho_f")
+    if stress:
+        top, unit = ELASTIC_STRAIN_LIMIT * material.G, "Pa"
+        why = (f"0.1 G, G = {material.G:g} Pa of {material.name}: a larger stress strains the "
+               "hypoelastic law past 10 % elastic strain")
+    else:
+        top, unit = max_wall_speed(material, phi), "m/s"
+        why = (f"0.1 c_s, c_s = sqrt(G/rho) = {top / ELASTIC_STRAIN_LIMIT:.4g} m/s for "
+               f"{material.name} at phi = {phi:g}: a faster wall strains the hypoelastic law past "
+               "10 % elastic strain")
+    check = Number(option, 0.0, top, lo_closed=False, unit=unit)
+    for v in values:
+        try:
+            check.check(v)
+        except ValueError as exc:
+            raise ValueError(f"{exc} ({why})") from None
+
+
+def _check_annulus(r_inner: float, r_outer: float) -> None:
+    """--r-outer must lie beyond --r-inner (the cup around the bob)."""
+    if not r_outer > r_inner:
+        raise ValueError(f"--r-outer = {r_outer:g} is outside the valid range ({r_inner:g}, 2] m "
+                         f"(the cup must lie beyond the bob, --r-inner = {r_inner:g} m)")
+
+
 def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
     """Refuse --method dae with a two-phase run, or a material and phi outside its smooth form
     (shear1d.dae.check_material), before anything is written."""
@@ -156,6 +194,8 @@ def _annular(args) -> None:
     from .scenes import run_annular
 
     m, phi0 = _sample(args)
+    _check_annulus(args.r_inner, args.r_outer)
+    _check_drive("--u-inner", args.u_inner, m, phi0)
     modes = _modes(args.mode, ("locked",) if args.method == "dae" else ("locked", "two-phase"))
     if args.method == "dae" and args.mode is None:
         print("shear1d: --method dae runs the locked mode only (no --mode given: locked)")
@@ -172,6 +212,10 @@ def _couette(args) -> None:
     from .scenes import plane_couette, run_couette
 
     m, phi0 = _sample(args)
+    if args.speed is not None:
+        _check_drive("--speed", [args.speed], m, phi0)
+    else:
+        _check_drive("--stress", [args.stress], m, phi0, stress=True)
     _check_dae(args.method, _modes(args.mode, ("locked",)), m, phi0)
     pb = plane_couette(args.speed, stress=args.stress, gap=args.gap, n_cells=args.cells,
                        mode=_modes(args.mode, ("locked",))[0], phi0=phi0, material=m)

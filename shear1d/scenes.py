@@ -300,7 +300,12 @@ def precheck(problem: Couette, method: str, rtol: float, dt: float | None,
     check_range("rtol", rtol, 1e-12, 1e-2)
     if method == "explicit":
         if dt is not None:
-            check_time_step(problem, dt)
+            try:
+                check_time_step(problem, dt)
+            except ValueError as exc:     # named as the user's option (--dt, --method ida)
+                text = str(exc)
+                raise ValueError(("--" + text if text.startswith("dt ") else text)
+                                 .replace("method='ida'", "--method ida")) from None
         if t_end is not None:
             step = dt if dt is not None else 0.5 * stable_time_step(problem)["dt"]
             work = problem.grid.n * t_end / step

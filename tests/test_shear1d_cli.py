@@ -117,11 +117,17 @@ def test_the_options_have_physical_ranges():
     (["annular", "--method", "rk4"], "--method"),
     (["annular", "--cells", "2"], "--cells"),
     (["annular", "--cells", "100000000"], "--cells"),
-    (["annular", "--r-inner", "0.04", "--r-outer", "0.03"], "outer wall"),
-    (["annular", "--u-inner", "0.084", "--method", "explicit", "--dt", "1"], "stability"),
+    (["annular", "--r-inner", "0.04", "--r-outer", "0.03"],
+     "--r-outer = 0.03 is outside the valid range (0.04, 2] m"),
+    (["annular", "--u-inner", "0.084", "--method", "explicit", "--dt", "1"],
+     "--dt = 1 s is outside the explicit stability range"),
     (["couette", "--speed", "0.01", "--stress", "2"], "not allowed"),
-    (["couette", "--speed", "2"], "wall_speed"),               # above 0.1 sqrt(G/rho)
-    (["couette", "--stress", "1e5"], "wall_stress"),           # above 0.1 G
+    # the user's option and its range in its units, not the model's wall_speed / wall_stress
+    (["couette", "--speed", "2"], "--speed = 2 is outside the valid range (0, 1.53156] m/s"),
+    (["couette", "--speed=-0.01"], "--speed = -0.01 is outside the valid range (0, 1.53156] m/s"),
+    (["couette", "--speed", "-1e-2"], "--speed = -0.01 is outside the valid range (0, 1.53156]"),
+    (["couette", "--stress", "1e5"], "--stress = 100000 is outside the valid range (0, 38000] Pa"),
+    (["couette", "--stress", "0"], "--stress = 0 is outside the valid range (0, 38000] Pa"),
     (["couette", "--speed", "0.01", "--phi", "0.6"], "--phi"),  # above phi_j
     (["annular", "--mass-fraction", "0.6"], "--mass-fraction"),   # phi above phi_j by Eq. 20
     (["annular", "--phi", "0.5", "--mass-fraction", "0.5"], "not both"),
@@ -192,3 +198,22 @@ def test_material_file_and_mass_fraction(tmp_path):
     summary = json.loads((out / "u84mm_s_locked_summary.json").read_text())
     assert summary["phi0"] == pytest.approx(phi, rel=1e-12)
     assert f"phi = {phi:.5g}" in proc.stdout
+
+
+def test_drive_range_follows_the_material_and_names_the_option():
+    """--speed / --u-inner up to 0.1 c_s and --stress up to 0.1 G of the run's material and
+    phi, refused by the option's name in its units (a stiffer skeleton allows faster walls)."""
+    import rheology
+    from shear1d.cli import _check_drive
+    from shear1d.model import max_wall_speed
+
+    stiff = rheology.get_material("rod_impact")               # G = 3.8e7 Pa: 100 x annular
+    top = max_wall_speed(stiff, 0.5)
+    assert 15 < top < 18                                      # 0.1 sqrt(G/rho)
+    _check_drive("--speed", [5.0], stiff, 0.5)                # above annular's 1.53 m/s: fine
+    with pytest.raises(ValueError, match=rf"--u-inner = 20 is outside the valid range "
+                                         rf"\(0, {top:g}\] m/s"):
+        _check_drive("--u-inner", [0.1, 20.0], stiff, 0.5)
+    with pytest.raises(ValueError, match=r"--stress = 4e\+06 is outside the valid range "
+                                         r"\(0, 3\.8e\+06\] Pa"):
+        _check_drive("--stress", [4e6], stiff, 0.5, stress=True)
