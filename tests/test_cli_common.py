@@ -53,8 +53,10 @@ def _run(argv, tmp_path, monkeypatch, capsys):
     (["rheometer", "startup", "--rate", "-1e-3"], "--rate = -1e-3 is outside the valid range"),
     (["rheometer", "flow-curve", "--phi", "0.5", "-1e-2"], "--phi = -1e-2 is outside"),
     (["rheometer", "relax", "--phi", "-nan"], "--phi = -nan: must be finite"),
-    (["shear1d", "couette", "--speed", "-1e-2"], "--speed = -1e-2 is outside the valid range"),
-    (["shear1d", "annular", "--u-inner", "-1E3"], "--u-inner = -1E3 is outside the valid range"),
+    (["shear1d", "couette", "--speed", "-1e-2"],
+     "--speed = -0.01 is outside the valid range (0, 1.53156] m/s"),
+    (["shear1d", "annular", "--u-inner", "-1E3"],
+     "--u-inner = -1E3 is outside the valid range (0, 1.53156] m/s"),
     (["mpm2d", "run", "bar", "--frames", "-3"], "--frames = -3 is outside the valid range"),
     (["mpm2d", "run", "bar", "--frames", "-3e0"], "--frames = -3e0 is outside the valid range"),
 ])

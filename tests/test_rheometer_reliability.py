@@ -114,14 +114,23 @@ def test_material_point_refuses_a_run_beyond_the_substep_limit():
 
 
 def test_cli_material_point_issue_command(tmp_path, monkeypatch, capsys):
+    """The issue's commands (were -3400 Pa and -2e28 Pa): the shear-jammed point loads
+    elastically to taubar -> G (bounded, see test_issue_rate_1000_...), i.e. elastic strains ~1,
+    past the hypoelastic law's small-strain limit 0.1 (rheology.elastic): the command line
+    stops with one line naming it (exit 1, nothing written). A run that stays below it (t_end
+    short enough) writes its rows, sub-stepped."""
     monkeypatch.chdir(tmp_path)
-    for rate in ("1000", "1e4"):          # was -3400 Pa and -2e28 Pa
+    for rate in ("1000", "1e4"):
         assert main(["material-point", "--rate", rate, "--t-end", "0.05", "--points", "10",
-                     "--plot", "none"]) == 0
-        df = pd.read_csv("material_point.csv")
-        assert df.notna().all().all()
-        assert df["granular_shear_stress_Pa"].max() <= 1.1e4
-        assert abs(df["shear_stress_Pa"]).max() < 1.1e4
+                     "--plot", "none"]) == 1
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "small-elastic-strain limit 0.1" in err
+        assert not any(tmp_path.iterdir())
+    assert main(["material-point", "--rate", "1000", "--t-end", "2e-4", "--dt", "1e-4",
+                 "--points", "2", "--plot", "none"]) == 0
+    df = pd.read_csv("material_point.csv")
+    assert df.notna().all().all()
+    assert df["granular_shear_stress_Pa"].max() <= 0.1 * 1e4 * (1 + 1e-6)
     assert "sub-stepped" in capsys.readouterr().out
 
 
