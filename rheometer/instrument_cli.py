@@ -338,5 +338,15 @@ def _cmd_oscillation(args) -> str:
         msg += ("\nWARNING: not periodic within --cycles " f"{args.cycles}: " + ", ".join(
             f"phi {r.phi:g} {r.frequency_Hz:g} Hz amplitude {r.strain_amplitude:.3g} (change "
             f"{r.cycle_change:.2g})" for r in bad.itertuples()))
+    from rheology.elastic import ELASTIC_STRAIN_LIMIT
+
+    past = points[points["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT]
+    if len(past):
+        msg += (f"\nWARNING: {len(past)}/{len(points)} points strain the skeleton elastically "
+                f"past {ELASTIC_STRAIN_LIMIT:g} (taubar/G up to "
+                f"{float(past['max_elastic_strain'].max()):.3g}, column max_elastic_strain; "
+                f"first at amplitude {float(past.iloc[0]['strain_amplitude']):.3g}): the "
+                f"hypoelastic law is used there outside its small-strain range (the jammed "
+                f"sample answers elastically)")
     msg += extra_outputs(args, points)
     return msg

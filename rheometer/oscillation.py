@@ -117,7 +117,8 @@ POINT_COLUMNS = ("phi", "control", "frequency_Hz", "angular_frequency_rad_per_s"
                  "strain_amplitude", "stress_amplitude_Pa", "peak_stress_Pa",
                  "storage_modulus_Pa", "loss_modulus_Pa", "complex_viscosity_Pa_s", "tan_delta",
                  "I3_over_I1", "linear_storage_modulus_Pa", "linear_loss_modulus_Pa",
-                 "mean_f", "max_f", "cycles", "extrapolations", "cycle_change", "converged")
+                 "mean_f", "max_f", "max_elastic_strain", "cycles", "extrapolations",
+                 "cycle_change", "converged")
 #: Columns of the waveform table (the last, periodic cycle of every point).
 WAVE_COLUMNS = ("point", "phi", "frequency_Hz", "strain_amplitude", "stress_amplitude_Pa",
                 "phase_rad", "time_s", "strain", "shear_rate_per_s", "shear_stress_Pa",
@@ -512,7 +513,11 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
                  loss_modulus_Pa=Gs.imag, complex_viscosity_Pa_s=abs(Gs) / omega,
                  tan_delta=Gs.imag / Gs.real if Gs.real > 0 else np.nan, I3_over_I1=i3,
                  linear_storage_modulus_Pa=Glin.real, linear_loss_modulus_Pa=Glin.imag,
-                 mean_f=float(np.mean(f_cycle)), max_f=float(np.max(f_cycle)), cycles=cycle,
+                 mean_f=float(np.mean(f_cycle)), max_f=float(np.max(f_cycle)),
+                 # elastic strain taubar/G of the skeleton over the cycle: past
+                 # rheology.elastic.ELASTIC_STRAIN_LIMIT (0.1) the hypoelastic law is used
+                 # outside its range (a jammed sample answering elastically to gamma0 ~ 1)
+                 max_elastic_strain=float(np.max(np.abs(taubar))) / G, cycles=cycle,
                  cycle_change=changes[-1] if changes else np.nan, converged=converged,
                  extrapolations=jumps,
                  seconds=time.perf_counter() - t0)

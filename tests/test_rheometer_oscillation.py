@@ -152,3 +152,26 @@ def test_cli_oscillation_normalised_material(tmp_path, monkeypatch):
     pts = pd.read_csv("oscillation.csv")
     assert "storage_modulus_eta0_gdot0" in pts.columns and "frequency_gdot0" in pts.columns
     assert not any(c.endswith("_Pa") for c in pts.columns)
+
+
+def test_points_past_the_small_strain_limit_are_flagged(tmp_path, monkeypatch, capsys):
+    """Issue 15's amplitude sweep deliberately drives the jammed sample to elastic strains ~1
+    (strain stiffening); the hypoelastic law is then outside its small-strain range
+    (rheology.elastic): each point reports max_elastic_strain = max |taubar|/G over the cycle,
+    and the command warns, naming the points past 0.1."""
+    import pandas as pd
+
+    from rheology.elastic import ELASTIC_STRAIN_LIMIT
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["oscillation", "--strain-amplitude", "0.01", "1", "--plot", "none"]) == 0
+    out = capsys.readouterr().out
+    pts = pd.read_csv("oscillation.csv")
+    waves = pd.read_csv("oscillation_waveforms.csv")
+    for k, row in pts.iterrows():
+        tb = waves[waves["point"] == k]["granular_shear_stress_Pa"].abs().max()
+        assert row["max_elastic_strain"] == pytest.approx(tb / 1e4, rel=1e-12)
+    assert pts["max_elastic_strain"].iloc[0] < 1e-3 < ELASTIC_STRAIN_LIMIT
+    assert pts["max_elastic_strain"].iloc[1] > 0.5
+    assert "WARNING: 1/2 points strain the skeleton elastically past 0.1" in out
