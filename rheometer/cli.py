@@ -89,7 +89,9 @@ def _common(p, phi_count, out_default):
                         f"{' '.join(f'{x:g}' for x in phi_default)})")
     p.set_defaults(_phi_count=len(phi_default))
     p.add_argument("--set", action="append", type=_set_value, metavar="NAME=VALUE",
-                   help="override any material parameter, e.g. --set eta0=0.01 (repeatable)")
+                   help="override a numeric material parameter, e.g. --set eta0=0.01, or unset "
+                        "an optional one (G=none); repeatable; the text fields name, citation, "
+                        "units, notes are not settable")
     p.add_argument("--out", default=f"{out_default}.csv", metavar="FILE.csv",
                    help=f"CSV output (default {out_default}.csv)")
     p.add_argument("--plot", default=None, metavar="FILE.png",
@@ -132,7 +134,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("materials", help="list the parameter sets and their sources")
     p.add_argument("--material", default=None, metavar="NAME", help="show every parameter of one")
     p.add_argument("--set", action="append", type=_set_value, metavar="NAME=VALUE",
-                   help="override parameters of --material")
+                   help="override numeric parameters of --material (not name, citation, units, "
+                        "notes)")
     p.add_argument("--out", default=None, metavar="FILE.csv", help="also write the table as CSV")
 
     p = sub.add_parser(
@@ -160,7 +163,7 @@ def build_parser() -> argparse.ArgumentParser:
          ("--rate", 0.5, "imposed shear rate [1/s] (0.5)",
           Number("--rate", 0.0, RATE_MAX, unit="1/s"))),
         ("creep", "creep at an imposed mixture shear stress, from rest", 60.0,
-         ("--stress", 10.0, "imposed MIXTURE shear stress [Pa] (10)",
+         ("--stress", 10.0, "imposed MIXTURE shear stress [Pa], > 0 (10)",
           Number("--stress", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"))),
         ("relax", "stress relaxation after cessation of steady shear (Fig. 15)", 50.0,
          ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
