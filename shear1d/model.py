@@ -33,16 +33,17 @@ from rheology import granular_viscosity, kernel_parameters
 from rheology.checks import check_nonnegative, check_positive, check_range
 from rheology.materials import Material
 
+from rheology.elastic import ELASTIC_STRAIN_LIMIT
+
 from . import kernels
 from .geometry import Grid
 
 MODES = ("locked", "two-phase")
-#: Largest elastic shear strain the model is used at: the Table 8 law is hypoelastic (Jaumann
-#: rate of a linear elastic law), a small-elastic-strain law. An impulsively moved wall launches a
-#: shear wave of elastic strain u/c_s into the jammed skeleton, and a wall stress tau strains it by
-#: tau/G, so the wall speed is limited to ELASTIC_STRAIN_LIMIT c_s and the wall stress to
-#: ELASTIC_STRAIN_LIMIT G (annular_shear: 1.53 m/s, 18 times the fast Fig. 3 speed; 3.8e4 Pa).
-ELASTIC_STRAIN_LIMIT = 0.1
+# The small-elastic-strain limit of the hypoelastic Table 8 law (rheology.elastic). An
+# impulsively moved wall launches a shear wave of elastic strain u/c_s into the jammed skeleton,
+# and a wall stress tau strains it by tau/G, so the wall speed is limited to ELASTIC_STRAIN_LIMIT
+# c_s and the wall stress to ELASTIC_STRAIN_LIMIT G (annular_shear: 1.53 m/s, 18 times the fast
+# Fig. 3 speed; 3.8e4 Pa).
 
 
 def max_wall_speed(material, phi0: float) -> float:
