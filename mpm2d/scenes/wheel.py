@@ -621,20 +621,24 @@ def hub_figure(hub: pd.DataFrame, R, path):
     return plots.save(fig, path)
 
 
-def pressure_figure(cases, params_of, path, t=1.0):
+def pressure_figure(cases, params_of, path, t=1.0, t_from=None):
     """Fig. 14: granular pressure under the wheel at time t for each case (label, run folder),
-    three maps a row, and the noise measure per case (bars). Returns (path, {label: noise})."""
+    three maps a row (each titled with its snapshot's noise), and per case the noise's mean over
+    the snapshots from ``t_from`` to t with its standard error (bars; :func:`mean_pressure_noise`;
+    ``t_from`` None: t/3). Returns (path, {label: snapshot noise}, {label: (mean, sem, n)})."""
     plt = plots.plt
+    t_from = t / 3.0 if t_from is None else t_from
     n = len(cases)
     rows = (n + 2) // 3
     fig = plt.figure(figsize=(12, 3.0 * rows + 3.2), constrained_layout=True)
     gs = fig.add_gridspec(rows + 1, 3)
-    noise = {}
+    noise, mean = {}, {}
     for k, (label, folder) in enumerate(cases):
         p = params_of(folder)
         fr = frame_at(folder, t)
         pw, xe, ye = pressure_window(fr, p)
         noise[label] = pressure_noise(fr, p)
+        mean[label] = mean_pressure_noise(folder, p, t_from, t)
         ax = fig.add_subplot(gs[k // 3, k % 3])
         if pw.size:
             im = ax.pcolormesh(xe, ye, pw.T / 1e3, cmap="magma", shading="flat")
@@ -645,11 +649,12 @@ def pressure_figure(cases, params_of, path, t=1.0):
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
     ax = fig.add_subplot(gs[rows, :])
-    ax.bar(range(n), [noise[c[0]] for c in cases], color="C1")
+    ax.bar(range(n), [mean[c[0]][0] for c in cases], yerr=[mean[c[0]][1] for c in cases],
+           capsize=4, color="C1")
     ax.set_xticks(range(n))
     ax.set_xticklabels([c[0] for c in cases], fontsize=8)
-    ax.set_ylabel("RMS cell jump of p~ / mean p~")
-    return plots.save(fig, path), noise
+    ax.set_ylabel(f"RMS cell jump of p~ / mean p~\n(mean over {t_from:.2g}-{t:.2g} s, +- s.e.)")
+    return plots.save(fig, path), noise, mean
 
 
 # ---------------------------------------------------------------- report
