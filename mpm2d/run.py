@@ -250,9 +250,11 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
         full_stored = {**spec.defaults, **stored}
         for k, v in given.items():
             if full_stored[k] != v:
-                was = "none (the scene's default)" if full_stored[k] is None else full_stored[k]
-                raise ValueError(f"--resume: {k} = {v} differs from the checkpoint's {k} = "
-                                 f"{was}; resume without --set {k} or start a new folder")
+                def shown(x):
+                    return "none (the scene's default)" if x is None else x
+                raise ValueError(f"--resume: {k} = {shown(v)} differs from the checkpoint's {k} "
+                                 f"= {shown(full_stored[k])}; resume without --set {k} or start "
+                                 "a new folder")
         given = stored
         old = json.loads(str(saved["run.options"])) if "run.options" in saved else {}
         for k, v in old.items():

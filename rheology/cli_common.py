@@ -105,9 +105,15 @@ class Number:
         except (TypeError, ValueError):
             raise ValueError(f"{self.name} = {value!r} is not {kind}; valid range "
                              f"{self.range_text}") from None
-        shown = value if isinstance(value, str) else f"{x:.6g}"      # as typed, or compact
+        # as typed, or compact unless that rounds it (1.531561 is not shown as 1.53156)
+        shown = value if isinstance(value, str) else (
+            f"{x:.6g}" if float(f"{x:.6g}") == x else repr(x))
         if not math.isfinite(x):
             raise ValueError(f"{self.name} = {shown}: must be finite; valid range "
+                             f"{self.range_text}")
+        if x != 0.0 and abs(x) < sys.float_info.min:
+            raise ValueError(f"{self.name} = {shown} is subnormal (nonzero but below "
+                             f"{sys.float_info.min:.3g}, held with lost precision); valid range "
                              f"{self.range_text}")
         if self.integer and x != int(x):
             raise ValueError(f"{self.name} = {shown} is not an integer; valid range "

@@ -333,7 +333,7 @@ def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi
         check_range(control, target, 0.0, top, lo_closed=False,
                     note=f"steady states are searched up to taubar = {TAUBAR_MAX_FACTOR:.0e} "
                          f"tau* of {m.name}")
-    decades = np.log10(hi / lo).max()
+    decades = (np.log10(hi) - np.log10(lo)).max()          # hi/lo may overflow (1e-300 .. 1)
     n = int(max(64, points_per_decade * decades))
     taus, st = _trace(phi, lo, hi, n, m)
     r = value(st) - target[:, None]

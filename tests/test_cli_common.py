@@ -72,3 +72,31 @@ def test_number_type_still_refuses_through_argparse():
     with pytest.raises(SystemExit):
         p.parse_args(["--n", "-5e0"])
     assert isinstance(p, argparse.ArgumentParser)
+
+
+def test_number_refuses_subnormals_and_shows_values_unrounded():
+    """A nonzero value below the smallest normal double is held with lost precision (a creep at
+    1e-320 Pa gave a wrong viscosity): refused by name; a float that 6 digits would round onto the
+    bound is shown in full, so the message does not contradict itself."""
+    from rheology.cli_common import Number
+
+    n = Number("--stress", 0.0, 1e12, lo_closed=False, unit="Pa")
+    with pytest.raises(ValueError, match=r"--stress = 1e-320 is subnormal"):
+        n.check("1e-320")
+    with pytest.raises(ValueError, match=r"outside the valid range \(0, 1e\+12\] Pa"):
+        n.check("1e-400")                           # 0 once parsed: the range says so
+    assert n.check("3e-308") == 3e-308
+    top = Number("--speed", 0.0, 1.5315603, lo_closed=False, unit="m/s")
+    with pytest.raises(ValueError, match=r"--speed = 1\.531561 is outside"):
+        top.check(1.531561)
+
+
+def test_extreme_rate_range_is_refused_not_a_traceback(capsys):
+    """--rate-range 1e-300 1 overflowed hi/lo in the steady solver's grid (OverflowError): now the
+    steady states that double precision cannot hold are refused with one line."""
+    from rheometer.cli import main
+
+    rc = main(["flow-curve", "--control", "rate", "--rate-range", "1e-300", "1", "--points", "5",
+               "--plot", "none", "--out", "/nonexistent_dir_for_test/x.csv"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "not representable" in err[0], err
