@@ -158,6 +158,36 @@ def _remove_stale_temporaries(out: Path) -> list[str]:
     return gone
 
 
+_FRAME = re.compile(r"frame_\d+\.npz$")
+
+
+def _remove_previous_run(out: Path) -> list[str]:
+    """Delete what an earlier run wrote into ``out`` that a fresh run would not overwrite in
+    full: its snapshots (frames/frame_N.npz, vtk/*.vtu, *.pvd), checkpoints, history, manifest
+    and the figures its manifest lists (a fresh run with fewer frames left the old ones beside
+    its own). The scene's result tables are rewritten by the new run at its end."""
+    gone = []
+    man = out / "manifest.json"
+    figures = []
+    if man.is_file():
+        try:
+            figures = [str(f) for f in json.loads(man.read_text()).get("figures", [])]
+        except (ValueError, OSError, AttributeError):
+            figures = []
+    files = [out / "frames" / f.name for f in (out / "frames").glob("frame_*.npz")
+             if _FRAME.match(f.name)] if (out / "frames").is_dir() else []
+    if (out / "vtk").is_dir():
+        files += [f for f in (out / "vtk").iterdir() if f.suffix in (".vtu", ".pvd")]
+    files += [out / n for n in ("checkpoint.npz", "checkpoint.prev.npz", "history.csv",
+                                "manifest.json")]
+    files += [out / f for f in figures if "/" not in f and "\\" not in f]
+    for f in files:
+        if f.is_file():
+            f.unlink()
+            gone.append(str(f.relative_to(out)))
+    return gone
+
+
 def _history_arrays(rows: list[dict]) -> dict[str, np.ndarray]:
     """The history as one typed array per column (integer columns stay integer)."""
     hist = pd.DataFrame(rows)
@@ -281,6 +311,12 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
         out.mkdir(parents=True, exist_ok=True)
         for f in _remove_stale_temporaries(out):
             log(f"removed {f}, a temporary file of an interrupted write")
+        if saved is None:
+            gone = _remove_previous_run(out)
+            if gone:
+                log(f"removed the earlier run's {len(gone)} files in {out} (snapshots, VTK, "
+                    "checkpoints, history, manifest, figures); its result tables are replaced "
+                    "when this run ends")
         sim = scene.sim
         nframes = scene.frames if options["frames"] is None else int(options["frames"])
         t_end = scene.t_end

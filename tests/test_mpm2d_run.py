@@ -269,3 +269,17 @@ def test_set_without_a_value_and_resume_of_a_default_are_refused_by_name(tmp_pat
                  "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "checkpoint's dt = none (the scene's default)" in err[0], err
+
+
+def test_fresh_run_into_an_old_run_folder_leaves_none_of_its_snapshots(tmp_path):
+    """A new run (no --resume) into the folder of an earlier one with more frames: the earlier
+    snapshots, VTK files and checkpoints are removed, so the folder holds one run (the manifest's
+    frames are exactly the files present)."""
+    out = tmp_path / "o"
+    _run(bar.setup, out, params=dict(cells=8, periods=0.1), frames=8)
+    assert len(list((out / "frames").glob("frame_*.npz"))) >= 8
+    res = _run(bar.setup, out, params=dict(cells=8, periods=0.05), frames=2)
+    listed = {Path(f["npz"]).name for f in res["manifest"]["frames"]}
+    assert {p.name for p in (out / "frames").glob("frame_*.npz")} == listed
+    vtus = {p.name for p in (out / "vtk").glob("*.vtu")}
+    assert all(any(f"_{int(Path(n).stem.split('_')[1]):05d}" in v for n in listed) for v in vtus)
