@@ -88,7 +88,7 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--r-inner", type=Number("--r-inner", 0, 1.0, lo_closed=False, unit="m"),
                    default=R_INNER, help=f"bob radius [m] (default {R_INNER})")
     a.add_argument("--r-outer", type=Number("--r-outer", 0, 2.0, lo_closed=False, unit="m"),
-                   default=R_OUTER, help=f"cup radius [m], > the bob radius (default {R_OUTER})")
+                   default=None, help=f"cup radius [m], > the bob radius (default {R_OUTER})")
     a.add_argument("--rotation", type=Number("--rotation", 0, 100.0, lo_closed=False,
                                              unit="rad"), default=ROTATION_END,
                    help=f"bob rotation to simulate [rad] (default {ROTATION_END})")
@@ -167,10 +167,12 @@ def _check_drive(option: str, values, material, phi0, *, stress: bool = False) -
             raise ValueError(f"{exc} ({why})") from None
 
 
-def _check_annulus(r_inner: float, r_outer: float) -> None:
-    """--r-outer must lie beyond --r-inner (the cup around the bob)."""
+def _check_annulus(r_inner: float, r_outer: float, default_outer: bool = False) -> None:
+    """--r-outer must lie beyond --r-inner (the cup around the bob); ``default_outer``: the
+    user did not give --r-outer (the message says it is the default)."""
     if not r_outer > r_inner:
-        raise ValueError(f"--r-outer = {r_outer:g} is outside the valid range ({r_inner:g}, 2] m "
+        given = " (the default)" if default_outer else ""
+        raise ValueError(f"--r-outer = {r_outer:g}{given} is outside the valid range ({r_inner:g}, 2] m "
                          f"(the cup must lie beyond the bob, --r-inner = {r_inner:g} m)")
 
 
@@ -191,10 +193,13 @@ def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
 
 
 def _annular(args) -> None:
-    from .scenes import run_annular
+    from .scenes import R_OUTER, run_annular
 
     m, phi0 = _sample(args)
-    _check_annulus(args.r_inner, args.r_outer)
+    default_outer = args.r_outer is None
+    if default_outer:
+        args.r_outer = R_OUTER
+    _check_annulus(args.r_inner, args.r_outer, default_outer)
     _check_drive("--u-inner", args.u_inner, m, phi0)
     modes = _modes(args.mode, ("locked",) if args.method == "dae" else ("locked", "two-phase"))
     if args.method == "dae" and args.mode is None:

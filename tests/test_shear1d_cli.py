@@ -217,3 +217,14 @@ def test_drive_range_follows_the_material_and_names_the_option():
     with pytest.raises(ValueError, match=r"--stress = 4e\+06 is outside the valid range "
                                          r"\(0, 3\.8e\+06\] Pa"):
         _check_drive("--stress", [4e6], stiff, 0.5, stress=True)
+
+
+def test_default_cup_radius_is_named_as_the_default(tmp_path, capsys):
+    """--r-inner beyond the default cup: the refusal says the --r-outer it names is the default
+    (the user did not type it)."""
+    from shear1d.cli import main
+
+    rc = main(["annular", "--r-inner", "0.05", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--r-outer = 0.036 (the default)" in err[0], err
+    assert not (tmp_path / "o").exists()
