@@ -37,6 +37,16 @@ def weights(g):
     return int(b), f, w0, w1, w2, f - 1.5, -2.0 * (f - 1.0), f - 0.5
 
 
+@nb.njit(cache=True)
+def stencil(xp, yp, x0, y0, inv_h):
+    """The 3 x 3 B-spline stencil of a point at (xp, yp) [m] on a grid with origin (x0, y0) and
+    1/h = inv_h: base nodes bx, by (unpadded), offsets fx, fy (cell units) and the weight and
+    derivative (times h) triples wx, wy, dx, dy (:func:`weights` along each axis)."""
+    bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((xp - x0) * inv_h)
+    by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((yp - y0) * inv_h)
+    return bx, by, fx, fy, (wx0, wx1, wx2), (wy0, wy1, wy2), (dx0, dx1, dx2), (dy0, dy1, dy2)
+
+
 @nb.njit(cache=True, inline="always")
 def hydrostatic_coefficient(area, h):
     """Coefficient c of the hydrostatic (well-balanced) body-force term of one point.

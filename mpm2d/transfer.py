@@ -27,7 +27,7 @@ import numpy as np
 
 from .kernels import dual
 from .grid import FPX, FPY, FX, FY, MX, MY, PAD, V, VS, M, FREE, PERIODIC
-from .shape import APIC_D_INV, hydrostatic_coefficient, weights
+from .shape import APIC_D_INV, hydrostatic_coefficient, stencil, weights
 
 _jit = nb.njit(cache=True, error_model="numpy")
 
@@ -112,8 +112,7 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, gra
         G = priv[c]
         e_vm = e_v2 = 0.0
         for p in range(chunks[c], chunks[c + 1]):
-            bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
-            by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
+            bx, by, fx, fy, wx, wy, dx, dy = stencil(x[p, 0], x[p, 1], x0, y0, inv_h)
             mp, Vp = m[p], vol[p]
             e_vm = max(e_vm, Vp / mp)
             e_v2 = max(e_v2, v[p, 0] * v[p, 0] + v[p, 1] * v[p, 1])
@@ -130,14 +129,11 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, gra
             # node's mass share goes to 0, an unbounded acceleration of a node that only such a
             # point reaches (a free surface after deformation; the wheel scene's stops)
             lim = 2.0 / ch if ch > 0.0 else 0.0
-            sx0, sx2 = min(1.0, wx0 * lim), min(1.0, wx2 * lim)
-            sy0, sy2 = min(1.0, wy0 * lim), min(1.0, wy2 * lim)
-            wx = (wx0, wx1, wx2)
-            wy = (wy0, wy1, wy2)
-            dx = (dx0, dx1, dx2)
-            dy = (dy0, dy1, dy2)
+            sx0, sx2 = min(1.0, wx[0] * lim), min(1.0, wx[2] * lim)
+            sy0, sy2 = min(1.0, wy[0] * lim), min(1.0, wy[2] * lim)
             # FX: - w hoop + kgx h^2 N'' = wy_b q_a; FY: kgy wx_a h^2 N''_b = wx_a r_b
-            q = (kgx * sx0 - wx0 * hoop, -kgx * (sx0 + sx2) - wx1 * hoop, kgx * sx2 - wx2 * hoop)
+            q = (kgx * sx0 - wx[0] * hoop, -kgx * (sx0 + sx2) - wx[1] * hoop,
+                 kgx * sx2 - wx[2] * hoop)
             r = (kgy * sy0, -kgy * (sy0 + sy2), kgy * sy2)
             for a in range(3):
                 I = bx + a + PAD
@@ -277,12 +273,7 @@ def gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, k
     dinv = APIC_D_INV * inv_h          # D^-1 (x_i - x_p) with (x_i - x_p) in cell units
     lo_x, hi_x = x0 - 1.4 * h, x1 + 1.4 * h
     lo_y, hi_y = y0 - 1.4 * h, y1 + 1.4 * h
-    bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
-    by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
-    wx = (wx0, wx1, wx2)
-    wy = (wy0, wy1, wy2)
-    dx = (dx0, dx1, dx2)
-    dy = (dy0, dy1, dy2)
+    bx, by, fx, fy, wx, wy, dx, dy = stencil(x[p, 0], x[p, 1], x0, y0, inv_h)
     vx = vy = 0.0
     bxx = bxy = byx = byy = 0.0
     lxx = lxy = lyx = lyy = 0.0
@@ -354,13 +345,10 @@ def scatter_area(x, area, geo, out):
     x0, y0, h = geo[0], geo[1], geo[2]
     inv_h = 1.0 / h
     for p in range(x.shape[0]):
-        bx, fx, wx0, wx1, wx2, _, _, _ = weights((x[p, 0] - x0) * inv_h)
-        by, fy, wy0, wy1, wy2, _, _, _ = weights((x[p, 1] - y0) * inv_h)
+        bx, by, _, _, wx, wy, _, _ = stencil(x[p, 0], x[p, 1], x0, y0, inv_h)
         for a in range(3):
-            wa = wx0 if a == 0 else (wx1 if a == 1 else wx2)
             for b in range(3):
-                wb = wy0 if b == 0 else (wy1 if b == 1 else wy2)
-                out[bx + a + PAD, by + b + PAD] += wa * wb * area[p]
+                out[bx + a + PAD, by + b + PAD] += wx[a] * wy[b] * area[p]
 
 
 @dual
@@ -373,15 +361,12 @@ def gather_scalar_vector(x, s_nodes, q_nodes, geo, axisym, s_out, div_out):
     x0, y0, h = geo[0], geo[1], geo[2]
     inv_h = 1.0 / h
     for p in nb.prange(x.shape[0]):
-        bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
-        by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
+        bx, by, fx, fy, wx, wy, dx, dy = stencil(x[p, 0], x[p, 1], x0, y0, inv_h)
         s = dv = qr = 0.0
         for a in range(3):
-            wa = wx0 if a == 0 else (wx1 if a == 1 else wx2)
-            da = dx0 if a == 0 else (dx1 if a == 1 else dx2)
+            wa, da = wx[a], dx[a]
             for b in range(3):
-                wb = wy0 if b == 0 else (wy1 if b == 1 else wy2)
-                db = dy0 if b == 0 else (dy1 if b == 1 else dy2)
+                wb, db = wy[b], dy[b]
                 I, J = bx + a + PAD, by + b + PAD
                 w = wa * wb
                 s += w * s_nodes[I, J]
@@ -450,18 +435,13 @@ def p2g_swirl(x, m, vol, vth, Cl, spw, geo, chunks, priv):
     for c in nb.prange(nc):
         G = priv[c]
         for p in range(chunks[c], chunks[c + 1]):
-            bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
-            by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
+            bx, by, fx, fy, wx, wy, dx, dy = stencil(x[p, 0], x[p, 1], x0, y0, inv_h)
             r = x[p, 0]
             mp = m[p]
             ml = mp * r * vth[p]
             c0, c1 = mp * h * Cl[p, 0], mp * h * Cl[p, 1]
             tr, tz = vol[p] * r * spw[p, 0] * inv_h, vol[p] * r * spw[p, 1] * inv_h
             fc = mp * vth[p] * vth[p] / r
-            wx = (wx0, wx1, wx2)
-            wy = (wy0, wy1, wy2)
-            dx = (dx0, dx1, dx2)
-            dy = (dy0, dy1, dy2)
             for a in range(3):
                 rx = a - fx
                 for b in range(3):
@@ -497,12 +477,7 @@ def g2p_swirl(x, vth, Cl, Lw, lg, lg_old, geo, apic, alpha):
     dinv = APIC_D_INV * inv_h
     blend = alpha > 0.0
     for p in nb.prange(x.shape[0]):
-        bx, fx, wx0, wx1, wx2, dx0, dx1, dx2 = weights((x[p, 0] - x0) * inv_h)
-        by, fy, wy0, wy1, wy2, dy0, dy1, dy2 = weights((x[p, 1] - y0) * inv_h)
-        wx = (wx0, wx1, wx2)
-        wy = (wy0, wy1, wy2)
-        dx = (dx0, dx1, dx2)
-        dy = (dy0, dy1, dy2)
+        bx, by, fx, fy, wx, wy, dx, dy = stencil(x[p, 0], x[p, 1], x0, y0, inv_h)
         l = lr = lz = br = bz = lo = 0.0
         for a in range(3):
             rx = a - fx
