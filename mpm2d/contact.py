@@ -62,9 +62,12 @@ import math
 import numba as nb
 import numpy as np
 
+from rheology.numba_cache import guard
+
 from .grid import FX, FY, M, NOSLIP, PAD, SLIP, fold
 from .shape import weights
 
+guard(__file__)                          # drop cached kernels if a module they use changed
 _jit = nb.njit(cache=True, error_model="numpy")
 
 #: gap below which two fields touch [in units of h] (round-off of exactly touching faces)

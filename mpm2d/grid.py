@@ -35,6 +35,7 @@ import numba as nb
 import numpy as np
 
 from rheology.checks import check_positive
+from rheology.numba_cache import guard
 
 PAD = 2
 #: node-field indices
@@ -46,6 +47,7 @@ KINDS = {"free": FREE, "noslip": NOSLIP, "slip": SLIP, "frictionless": SLIP, "ax
          "periodic": PERIODIC}
 SIDES = ("xmin", "xmax", "ymin", "ymax")
 
+guard(__file__)                          # drop cached kernels if a module they use changed
 _jit = nb.njit(cache=True)
 
 

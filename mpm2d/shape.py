@@ -22,6 +22,10 @@ import math
 
 import numba as nb
 
+from rheology.numba_cache import guard
+
+guard(__file__)                          # drop cached kernels if a module they use changed
+
 #: APIC inertia scaling for quadratic B-splines: D_p^-1 = APIC_D_INV / h^2.
 APIC_D_INV = 4.0
 

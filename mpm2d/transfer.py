@@ -25,10 +25,13 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from rheology.numba_cache import guard
+
 from .kernels import dual
 from .grid import FPX, FPY, FX, FY, MX, MY, PAD, V, VS, M, FREE, PERIODIC
 from .shape import APIC_D_INV, hydrostatic_coefficient, stencil, weights
 
+guard(__file__)                          # drop cached kernels if a module they use changed
 _jit = nb.njit(cache=True, error_model="numpy")
 
 
