@@ -26,7 +26,8 @@ import numpy as np
 from rheology import laws
 from rheology.checks import check_positive, check_range
 from rheology.flow_rule import invariants
-from rheology.local_update import FAILED, NOUT, jaumann_elastic, kernel_parameters, update_point
+from rheology.local_update import (FAILED, NOUT, jaumann_elastic, jaumann_elastic_plane,
+                                   kernel_parameters, update_point)
 from rheology.materials import Material
 from rheology.numba_cache import guard
 
@@ -89,24 +90,30 @@ def _viscous(L, p, eta):
 # ------------------------------------------------------------------ kernels
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p):
-    """Jaumann linear-elastic update of point p in registers
-    (rheology.local_update.jaumann_elastic on the 3 x 3 L of :func:`_fill_L` and
-    :func:`_fill_Lw`: the swirl rows L_theta_r, L_theta_z, zeros above them)."""
-    sw = Lw.shape[0] > 0
-    l20 = Lw[p, 0] if sw else 0.0
-    l21 = Lw[p, 1] if sw else 0.0
-    r = jaumann_elastic((stress[p, 0, 0], stress[p, 0, 1], stress[p, 0, 2],
-                         stress[p, 1, 0], stress[p, 1, 1], stress[p, 1, 2],
-                         stress[p, 2, 0], stress[p, 2, 1], stress[p, 2, 2]),
-                        (L[p, 0], L[p, 1], 0.0, L[p, 2], L[p, 3], 0.0, l20, l21, L[p, 4]),
-                        dt, G, K)
-    stress[p, 0, 0], stress[p, 0, 1], stress[p, 0, 2] = r[0], r[1], r[2]
-    stress[p, 1, 0], stress[p, 1, 1], stress[p, 1, 2] = r[3], r[4], r[5]
-    stress[p, 2, 0], stress[p, 2, 1], stress[p, 2, 2] = r[6], r[7], r[8]
-    vol[p] *= _jacobian(L, p, dt)
-    sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = r[0], r[1], r[4], r[8]
-    if sw:
+    """Jaumann linear-elastic update of point p in registers: with swirl
+    rheology.local_update.jaumann_elastic on the 3 x 3 L of :func:`_fill_L` and :func:`_fill_Lw`
+    (the swirl rows L_theta_r, L_theta_z, zeros above them); without, the plane form
+    (jaumann_elastic_plane: no out-of-plane shear, which Simulation checks at the start, so the
+    four in-plane and hoop components are the whole update)."""
+    if Lw.shape[0] > 0:
+        r = jaumann_elastic((stress[p, 0, 0], stress[p, 0, 1], stress[p, 0, 2],
+                             stress[p, 1, 0], stress[p, 1, 1], stress[p, 1, 2],
+                             stress[p, 2, 0], stress[p, 2, 1], stress[p, 2, 2]),
+                            (L[p, 0], L[p, 1], 0.0, L[p, 2], L[p, 3], 0.0, Lw[p, 0], Lw[p, 1],
+                             L[p, 4]), dt, G, K)
+        stress[p, 0, 0], stress[p, 0, 1], stress[p, 0, 2] = r[0], r[1], r[2]
+        stress[p, 1, 0], stress[p, 1, 1], stress[p, 1, 2] = r[3], r[4], r[5]
+        stress[p, 2, 0], stress[p, 2, 1], stress[p, 2, 2] = r[6], r[7], r[8]
+        sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = r[0], r[1], r[4], r[8]
         spw[p, 0], spw[p, 1] = r[2], r[5]
+    else:
+        n00, n01, n11, n22 = jaumann_elastic_plane(stress[p, 0, 0], stress[p, 0, 1],
+                                                   stress[p, 1, 1], stress[p, 2, 2], L[p, 0],
+                                                   L[p, 1], L[p, 2], L[p, 3], L[p, 4], dt, G, K)
+        stress[p, 0, 0], stress[p, 0, 1], stress[p, 1, 0] = n00, n01, n01
+        stress[p, 1, 1], stress[p, 2, 2] = n11, n22
+        sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = n00, n01, n11, n22
+    vol[p] *= _jacobian(L, p, dt)
 
 
 @dual

@@ -251,6 +251,14 @@ class Simulation:
             if np.any(g.swirl_u != 0.0):
                 raise ValueError("grid.wall_swirl turns a wall but swirl = False; use "
                                  "Simulation(..., swirl=True)")
+            for s in self.sets:
+                # without swirl the in-plane and hoop components are the whole stress (the
+                # elastic update, rheology.local_update.jaumann_elastic_plane, carries no other)
+                shear = np.abs(s.stress[:, [0, 1], 2]).max(initial=0.0)
+                if shear > 0.0:
+                    raise ValueError(f"set {s.name}: stress has out-of-plane shear components "
+                                     f"(sigma_02, sigma_12 up to {shear:g} Pa); valid: 0 in a "
+                                     "run without swirl (Simulation(swirl=True) carries them)")
             return
         if not g.axisymmetric:
             raise ValueError("swirl = True needs an axisymmetric grid (v_theta is the "

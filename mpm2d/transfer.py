@@ -277,30 +277,35 @@ def gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, k
     lo_x, hi_x = x0 - 1.4 * h, x1 + 1.4 * h
     lo_y, hi_y = y0 - 1.4 * h, y1 + 1.4 * h
     bx, by, fx, fy, wx, wy, dx, dy = stencil(x[p, 0], x[p, 1], x0, y0, inv_h)
+    # separable sums: along each stencil column a, the sums over b of u weighted by N_b,
+    # N_b (y_b - y_p)/h and h dN_b/dy, then over a with N_a, N_a (x_a - x_p)/h and h dN_a/dx
+    wry = (-fy * wy[0], (1.0 - fy) * wy[1], (2.0 - fy) * wy[2])
     vx = vy = 0.0
     bxx = bxy = byx = byy = 0.0
     lxx = lxy = lyx = lyy = 0.0
     for a in range(3):
         I = bx + a + PAD
-        rx = a - fx
+        s0x = s1x = s2x = s0y = s1y = s2y = 0.0
         for b in range(3):
             J = by + b + PAD
-            ry = b - fy
-            w = wx[a] * wy[b]
-            gx = dx[a] * wy[b]
-            gy = wx[a] * dy[b]
             ux, uy = vg[I, J, 0], vg[I, J, 1]
-            wux, wuy = w * ux, w * uy
-            vx += wux
-            vy += wuy
-            bxx += wux * rx
-            bxy += wux * ry
-            byx += wuy * rx
-            byy += wuy * ry
-            lxx += ux * gx
-            lxy += ux * gy
-            lyx += uy * gx
-            lyy += uy * gy
+            s0x += wy[b] * ux
+            s0y += wy[b] * uy
+            s1x += wry[b] * ux
+            s1y += wry[b] * uy
+            s2x += dy[b] * ux
+            s2y += dy[b] * uy
+        wa, wr, da = wx[a], wx[a] * (a - fx), dx[a]
+        vx += wa * s0x
+        vy += wa * s0y
+        bxx += wr * s0x
+        byx += wr * s0y
+        bxy += wa * s1x
+        byy += wa * s1y
+        lxx += da * s0x
+        lyx += da * s0y
+        lxy += wa * s2x
+        lyy += wa * s2y
     L[p, 0], L[p, 1], L[p, 2], L[p, 3] = lxx * inv_h, lxy * inv_h, lyx * inv_h, lyy * inv_h
     L[p, 4] = vx / x[p, 0] if axisym else 0.0
     if apic:

@@ -404,6 +404,24 @@ def jaumann_elastic(s, L, dt, G, K):
             s22 + dt * (G2 * d2 + lam - w02 * (s02 + s20) - w12 * (s12 + s21)))
 
 
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def jaumann_elastic_plane(s00, s01, s11, s22, l00, l01, l10, l11, l22, dt, G, K):
+    """:func:`jaumann_elastic` of a symmetric stress with no out-of-plane shear
+    (sigma_02 = sigma_12 = 0) under a gradient with none (L_02 = L_12 = L_20 = L_21 = 0):
+    plane strain (L_22 = 0) and axisymmetry without swirl (index 2 = theta, L_22 = v_r/r).
+
+    Those components stay exactly zero and sigma stays symmetric, so only (s00, s01, s11, s22)
+    [Pa] change: returns them. Same terms as :func:`jaumann_elastic` with W = w01 (e_01 - e_10)."""
+    e01, w01 = 0.5 * (l01 + l10), 0.5 * (l01 - l10)
+    lam = (K - 2.0 * G / 3.0) * (l00 + l11 + l22)
+    G2 = 2.0 * G
+    rot = 2.0 * w01 * s01
+    return (s00 + dt * (G2 * l00 + lam + rot),
+            s01 + dt * (G2 * e01 + w01 * (s11 - s00)),
+            s11 + dt * (G2 * l11 + lam - rot),
+            s22 + dt * (G2 * l22 + lam))
+
+
 @_jit
 def elastic_trial(sig, L, dt, G, K, out):
     """Jaumann elastic predictor sigma + dt [2G D' + K tr(D) 1 + W sigma - sigma W] into ``out``

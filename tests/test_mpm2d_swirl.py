@@ -174,6 +174,15 @@ def test_swirl_refusals():
         Simulation(ga, [sa])
     with pytest.raises(ValueError, match="swirl_flip"):
         Simulation(ga, [sa], swirl=True, swirl_flip=1.0)
+    # out-of-plane shear is carried only with swirl (the plane elastic update has none)
+    st = np.zeros((len(x), 3, 3))
+    st[:, 0, 2] = st[:, 2, 0] = 5.0
+    with pytest.raises(ValueError, match=r"set b: stress has out-of-plane shear .* 5 Pa\); valid: 0"):
+        Simulation(plane, [ParticleSet("b", LinearElastic(1000.0, K=1e6, G=1e6), x, area,
+                                       stress=st)])
+    gs = Grid(4, 4, h, origin=(0.01, 0.0), axisymmetric=True, boundaries=dict(xmin="noslip"))
+    Simulation(gs, [ParticleSet("b", LinearElastic(1000.0, K=1e6, G=1e6), xa, aa,
+                                axisymmetric=True, stress=st)], swirl=True)
 
 
 def test_front_helpers_on_a_known_profile():

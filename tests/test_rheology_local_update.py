@@ -228,6 +228,27 @@ def test_elastic_trial_is_the_jaumann_predictor():
         np.testing.assert_allclose(out, expect, rtol=1e-13, atol=1e-14)
 
 
+
+def test_plane_jaumann_is_the_full_predictor_without_out_of_plane_shear():
+    """jaumann_elastic_plane (mpm2d's elastic update in plane strain and axisymmetry without swirl)
+    equals the full predictor on a symmetric stress and a gradient with no out-of-plane shear, and
+    the full predictor keeps those components exactly zero."""
+    from rheology.local_update import jaumann_elastic, jaumann_elastic_plane
+    rng = np.random.default_rng(12)
+    for _ in range(200):
+        G, K, dt = 10.0 ** rng.uniform(3, 8), 10.0 ** rng.uniform(3, 8), 10.0 ** rng.uniform(-7, -3)
+        s00, s01, s11, s22 = rng.normal(size=4) * 10.0 ** rng.uniform(0, 5)
+        l00, l01, l10, l11, l22 = rng.normal(size=5) * 10.0 ** rng.uniform(-2, 3)
+        full = jaumann_elastic((s00, s01, 0.0, s01, s11, 0.0, 0.0, 0.0, s22),
+                               (l00, l01, 0.0, l10, l11, 0.0, 0.0, 0.0, l22), dt, G, K)
+        assert full[2] == full[5] == full[6] == full[7] == 0.0
+        plane = jaumann_elastic_plane(s00, s01, s11, s22, l00, l01, l10, l11, l22, dt, G, K)
+        scale = abs(s00) + abs(s01) + abs(s11) + abs(s22) + dt * (G + K) * (
+            abs(l00) + abs(l01) + abs(l10) + abs(l11) + abs(l22))
+        np.testing.assert_allclose(plane, (full[0], full[1], full[4], full[8]), rtol=0,
+                                   atol=1e-14 * scale)
+        assert abs(full[3] - full[1]) <= 1e-14 * scale       # symmetric to roundoff
+
 # ------------------------------------------------------------------ zero points, warm start, Newton
 def test_zero_points_give_empty_results():
     m = r.get_material("annular_shear")

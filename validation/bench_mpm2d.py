@@ -5,7 +5,7 @@ transfer timed on the same points and grid in the same process, with 2 threads (
 numba builds), median of at least 3 repetitions (each the median step time of a run of steps,
 interleaved step by step with the bare loop so load changes hit both):
 
-(a) single-phase linear elastic block (Jaumann update, rheology.local_update.elastic_trial):
+(a) single-phase linear elastic block (Jaumann update, rheology.local_update.jaumann_elastic_plane):
     >= 0.60 x bare;
 (b) two-phase suspension: granular points with the Table 8 law (rheology.local_update.update_point,
     homogeneous shear so most points take the dilatant shear-flow solve) and as many fluid points,

@@ -371,7 +371,9 @@ def contact_case(out: Path, quick: bool) -> Verdict:
     sim, blk, floor = _block_on_floor(h, gap=0.02, v0=0.5)
     T, F, gap = [], [], []
     while sim.t < 0.3:
-        gap.append(blk.x[:, 1].min() - h / 4 - 0.04)
+        # the gap as the contact sees it: a point is a square of side sqrt(V_p) (its current
+        # area, mpm2d.contact.touching), the floor's face at y = 0.04 (its points' squares)
+        gap.append(float(np.min(blk.x[:, 1] - 0.5 * np.sqrt(blk.V))) - 0.04)
         sim.step()
         T.append(sim.t)
         F.append(-floor.force[1])
