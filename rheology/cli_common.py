@@ -69,6 +69,10 @@ class Number:
         Whether the bounds are allowed.
     unit : str
         Appended to the range in the message.
+    shown_range : str
+        For an option whose bounds depend on the run (the material, phi) and are checked once
+        it is known: the range as the parse-time message states it (``lo``/``hi`` then None,
+        so that only finiteness is checked here), e.g. ``"(0, 0.1 sqrt(G/rho)]"``.
 
     Raises
     ------
@@ -77,14 +81,18 @@ class Number:
     """
 
     def __init__(self, name: str, lo=None, hi=None, *, integer: bool = False,
-                 lo_closed: bool = True, hi_closed: bool = True, unit: str = ""):
+                 lo_closed: bool = True, hi_closed: bool = True, unit: str = "",
+                 shown_range: str = ""):
+        if shown_range and (lo is not None or hi is not None):
+            raise ValueError(f"{name}: shown_range is for bounds checked later (lo = hi = None)")
         self.name, self.lo, self.hi, self.integer = name, lo, hi, integer
         self.lo_closed, self.hi_closed, self.unit = lo_closed, hi_closed, unit
+        self.shown_range = shown_range
         self.__name__ = "integer" if integer else "number"      # argparse's "invalid X value"
 
     @property
     def range_text(self) -> str:
-        text = valid_range(self.lo, self.hi, self.lo_closed, self.hi_closed)
+        text = self.shown_range or valid_range(self.lo, self.hi, self.lo_closed, self.hi_closed)
         return text + (f" {self.unit}" if self.unit else "")
 
     def contains(self, x: float) -> bool:

@@ -462,6 +462,24 @@ def settable_fields() -> list[str]:
     return sorted(FIELD_UNITS)
 
 
+def split_set_item(text: str, option: str = "--set"):
+    """``NAME=VALUE`` of one ``--set`` word as ``(name, value)`` (stripped text); ``none``/``null``
+    as the value gives None (an optional parameter unset).
+
+    Raises
+    ------
+    ValueError
+        One line when the word has no ``=`` or an empty name or value.
+    """
+    if "=" not in text:
+        raise ValueError(f"{option} expects NAME=VALUE, got {text!r}")
+    name, value = (s.strip() for s in text.split("=", 1))
+    if not name or not value:
+        raise ValueError(f"{option} {text!r}: empty name or value (NAME=VALUE; an optional "
+                         f"parameter is unset with NAME=none)")
+    return name, None if value.lower() in ("none", "null") else value
+
+
 def check_set_override(name: str, value, option: str = "--set"):
     """Validate one ``--set NAME=VALUE`` of a command line; return ``(name, value)``.
 

@@ -43,13 +43,10 @@ def _set_value(text: str):
     """``NAME=VALUE`` of ``--set``: a numeric parameter of the material (its text fields name,
     citation, units, notes are not settable) and a finite number, or ``none`` to unset an optional
     one (rheology.materials.check_set_override; the Material checks the value's range)."""
-    from rheology.materials import check_set_override
+    from rheology.materials import check_set_override, split_set_item
 
-    if "=" not in text:
-        raise argparse.ArgumentTypeError(f"--set expects NAME=VALUE, got {text!r}")
-    name, value = (s.strip() for s in text.split("=", 1))
     try:
-        return check_set_override(name, None if value.lower() in ("none", "null") else value)
+        return check_set_override(*split_set_item(text))
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
 

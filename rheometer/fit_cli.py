@@ -42,10 +42,12 @@ def _columns(text: str):
 def _set_value(text: str):
     """``NAME=VALUE`` of ``fit --set`` (checked in cmd_fit by rheology.materials.
     check_set_override: a numeric parameter, not a text field, held at a finite number)."""
-    if "=" not in text:
-        raise argparse.ArgumentTypeError(f"--set expects NAME=VALUE, got {text!r}")
-    name, value = (s.strip() for s in text.split("=", 1))
-    return name, value
+    from rheology.materials import split_set_item
+
+    try:
+        return split_set_item(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _read_options(p):
@@ -175,8 +177,8 @@ def cmd_fit(args) -> str:
 
     fixed = {}
     for k, v in args.set or []:
-        if v.lower() in ("none", "null"):
-            raise ValueError(f"--set {k} = {v}: fit --set holds a parameter at a number")
+        if v is None:
+            raise ValueError(f"--set {k} = none: fit --set holds a parameter at a number")
         name, x = check_set_override(k, v)
         if name in fixed:
             raise ValueError(f"--set {name} given twice; give each parameter once")

@@ -98,10 +98,12 @@ def _parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("couette", help="plane Couette start-up (speed- or stress-driven)")
     drive = c.add_mutually_exclusive_group(required=True)
-    drive.add_argument("--speed", type=Number("--speed", unit="m/s"),
+    drive.add_argument("--speed", type=Number("--speed", shown_range=(
+                           "(0, 0.1 sqrt(G/rho)] m/s for the run's material and phi")),
                        help=f"speed of the moving plate [m/s], in (0, 0.1 sqrt(G/rho)]: (0, "
                             f"{u_max:.6g}] for annular_shear at phi {m.phi0:g}")
-    drive.add_argument("--stress", type=Number("--stress", unit="Pa"),
+    drive.add_argument("--stress", type=Number("--stress", shown_range=(
+                           "(0, 0.1 G] Pa for the run's material")),
                        help=f"shear stress on the moving plate [Pa], in (0, 0.1 G]: (0, "
                             f"{ELASTIC_STRAIN_LIMIT * m.G:g}] for annular_shear")
     c.add_argument("--gap", type=Number("--gap", 0, 1.0, lo_closed=False, unit="m"), default=1e-2,

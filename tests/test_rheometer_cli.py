@@ -190,11 +190,17 @@ def test_unknown_and_unset_overrides_name_the_key(tmp_path, monkeypatch, capsys)
     monkeypatch.chdir(tmp_path)
     for arg, match in (("colour=3", "--set colour: unknown material parameter; settable: Delta"),
                        ("eta0=none", "--set eta0 = none: eta0 needs a number"),
-                       ("eta0=abc", "--set eta0 = 'abc' is not a number [Pa s]")):
-        with pytest.raises(SystemExit) as exc:
-            main(["flow-curve", "--set", arg])
-        err = capsys.readouterr().err
-        assert exc.value.code == 2 and err.count("\n") == 1 and match in err, err
+                       ("eta0=abc", "--set eta0 = 'abc' is not a number [Pa s]"),
+                       ("=5", "--set '=5': empty name or value"),
+                       ("K0=", "--set 'K0=': empty name or value"),
+                       ("K0", "--set expects NAME=VALUE, got 'K0'")):
+        # fit parses NAME=VALUE with the same function (it checks the key once files are read)
+        parse_only = arg in ("=5", "K0=", "K0")
+        for cmd in (["flow-curve"],) + ((["fit", "x.csv", "--phi", "0.4"],) if parse_only else ()):
+            with pytest.raises(SystemExit) as exc:
+                main([*cmd, "--set", arg])
+            err = capsys.readouterr().err
+            assert exc.value.code == 2 and err.count("\n") == 1 and match in err, err
     assert not any(tmp_path.iterdir())
 
 

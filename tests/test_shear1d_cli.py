@@ -100,6 +100,10 @@ def test_every_numeric_option_refuses_bad_values_with_one_line(tmp_path, capsys,
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and opt in err[0] and "Traceback" not in err[0], err
     assert not out.exists()
+    if opt in ("--speed", "--stress"):      # bounds of the run's material: stated, not (-inf, inf)
+        assert "inf)" not in err[0].split("valid range")[-1], err[0]
+        assert ("(0, 0.1 sqrt(G/rho)] m/s" if opt == "--speed" else "(0, 0.1 G] Pa") in err[0] \
+            or "outside the valid range (0, " in err[0], err[0]
 
 
 def test_the_options_have_physical_ranges():
