@@ -432,7 +432,9 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
         checkpoint()
         if complete:                         # the final state is whole: no fallback needed, and
             previous_checkpoint(ckpt_path).unlink(missing_ok=True)   # files match a fresh run
-    log(f"{'finished' if complete else 'stopped'} at t = {sim.t:.6g} s after {sim.step_count} "
-        f"steps; results in {out}")
+        log(f"{'finished' if complete else 'stopped'} at t = {sim.t:.6g} s after "
+            f"{sim.step_count} steps; results in {out}")
+        if stop.pending:                     # a signal while the last files were written
+            log(f"{stop.pending} received after the last step: every output is complete")
     return {"scene": scene, "history": history, "figures": figures, "manifest": manifest,
             "complete": complete}

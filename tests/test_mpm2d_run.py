@@ -283,3 +283,28 @@ def test_fresh_run_into_an_old_run_folder_leaves_none_of_its_snapshots(tmp_path)
     assert {p.name for p in (out / "frames").glob("frame_*.npz")} == listed
     vtus = {p.name for p in (out / "vtk").glob("*.vtu")}
     assert all(any(f"_{int(Path(n).stem.split('_')[1]):05d}" in v for n in listed) for v in vtus)
+
+
+def test_signal_while_the_last_files_are_written_completes_the_run(tmp_path, monkeypatch):
+    """A SIGTERM that arrives after the last step, while the report, manifest and final
+    checkpoint are written (it used to reach the command as 'interrupted', exit 130, though every
+    file was complete): the run finishes, says so, and its files equal an undisturbed run's."""
+    import mpm2d.run as runmod
+
+    params = dict(cells=8, t_end_T=0.05)
+    _run(terzaghi.setup, tmp_path / "full", params=params, vtk=False)
+    real, sent = runmod.write_manifest, []
+
+    def manifest_then_signal(out, manifest):
+        real(out, manifest)
+        if manifest.get("status") == "complete" and not sent:
+            sent.append(1)
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    monkeypatch.setattr(runmod, "write_manifest", manifest_then_signal)
+    lines = []
+    res = run_scene(terzaghi.setup, tmp_path / "late", params, progress=False, vtk=False,
+                    log=lines.append)
+    assert sent and res["complete"]
+    assert "SIGTERM received after the last step: every output is complete" in lines[-1]
+    assert assert_same_run(tmp_path / "full", tmp_path / "late") > 5
