@@ -81,9 +81,11 @@ def _common(p, phi_count, out_default):
                    help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
     p.add_argument("--phi", type=Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False),
                    nargs="+", default=None, metavar="PHI",
-                   help=f"volume fraction(s) (default: {len(phi_default)} from the material, "
-                        f"see 'rheometer materials'; {DEFAULT_MATERIAL} "
-                        f"{' '.join(f'{x:g}' for x in phi_default)})")
+                   help=("volume fraction(s) (default: "
+                         + ("the material's reference fraction" if len(phi_default) == 1 else
+                            f"{len(phi_default)} fractions around the material's reference")
+                         + f", see 'rheometer materials'; for {DEFAULT_MATERIAL}: "
+                         f"{' '.join(f'{x:g}' for x in phi_default)})"))
     p.set_defaults(_phi_count=len(phi_default))
     p.add_argument("--set", action="append", type=_set_value, metavar="NAME=VALUE",
                    help="override a numeric material parameter, e.g. --set eta0=0.01, or unset "

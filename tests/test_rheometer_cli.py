@@ -220,7 +220,7 @@ def test_phi_help_states_the_default_the_run_uses():
             continue
         helptext = next(a.help for a in sp._actions if "--phi" in a.option_strings)
         stated = [float(x) for x in
-                  re.search(rf"{DEFAULT_MATERIAL} ([0-9. ]+)\)", helptext).group(1).split()]
+                  re.search(rf"{DEFAULT_MATERIAL}: ([0-9. ]+)\)", helptext).group(1).split()]
         args = ap.parse_args([name, "x.txt"] if name == "program" else [name])
         _material(args)                                # fills args.phi with the defaults
         assert args.phi == pytest.approx(stated), (name, helptext, args.phi)
