@@ -85,7 +85,12 @@ off over ~10 mm (a low rate), so jamming spreads at about the same lab speed bot
 the model as the engine integrates it (rheology.local_update, mpm2d), not the front reading.
 At v0 = 0.175-0.2 m/s and phi0 <= 0.47 the bed does not jam within 20 ms (max f ~ 0.3 <
 f_jam = 0.66-0.76): ``jammed`` is false and the 'front' is the rod's near field, whereas the
-paper's Fig. 6 shows a plug at phi = 0.47, v0 = 0.175 m/s. The ten Fig. 7 cases (``mpm2d
+paper's Fig. 6 shows a plug at phi = 0.47, v0 = 0.175 m/s. Measured at that default: not jammed
+in two-phase mode either (k_l/k_t 1.86 against 1.80 locked, transverse R^2 0.87), nor with rod
+radii 6.35 or 12.7 mm (2.2, 1.4). The 0-D law at phi = 0.47 (``rheometer startup --material
+intruder --phi 0.47 --rate R --t-end 0.02``) shear-jams within 20 ms only above ~30 1/s (at
+11 ms for 40 1/s; 20 1/s reaches f = 0.11), while the rates the 1 mm grid resolves around the
+rod are 7-10 1/s (|D_rz|, |D_zz| at 20 ms; v0/R_rod = 55 1/s is spread over ~10 mm). The ten Fig. 7 cases (``mpm2d
 sweep intruder --set phi0=0.46,...,0.50 --set v0=0.2,0.5``): k_l/k_t = 1.74 and 1.69 (phi0 0.46,
 0.47 at 0.2 m/s, not jammed), 0.99, 0.81, 0.53, 0.86, 1.38, 1.27, 0.84, 1.61 (phi0 0.46 and 0.47
 at 0.5 m/s; 0.48 at 0.2, 0.5; 0.49 at 0.2, 0.5; 0.50 at 0.2, 0.5): mean 1.17, sd 0.40, three
