@@ -10,7 +10,7 @@ with the new grid velocities). The stress used by the next particle-to-grid tran
 - :class:`NewtonianFluid`: Table 8 fluid: p_f = kappa ln(rho_f/rho_0f), tau_f = eta0 (1 + 5/2 phi)
   (L + L^T - 2/3 tr L 1); true density from Table 8's law (n/rho_f) D rho_f/Dt = -div q,
   q = phi v_s + n v_f the mixture volume flux (q = v for a single fluid).
-- :class:`Suspension`: the Table 8 granular law through ``rheology.local_update.update_point``,
+- :class:`Suspension`: the Table 8 granular law through ``rheology.local_update.update_block``,
   never re-implemented. ``locked=True`` is the locked mixture (one velocity field): the points
   carry the mixture mass, and the stress sigma~ - p_f 1 + tau_f with the undrained pore pressure
   of their fluid (rho_f = fluid mass / pore volume).
@@ -26,8 +26,8 @@ import numpy as np
 from rheology import laws
 from rheology.checks import check_positive, check_range
 from rheology.flow_rule import invariants
-from rheology.local_update import (FAILED, NOUT, jaumann_elastic, jaumann_elastic_plane,
-                                   kernel_parameters, update_point)
+from rheology.local_update import (BLOCK, FAILED, NOUT, NWORK, jaumann_elastic,
+                                   jaumann_elastic_plane, kernel_parameters, update_block)
 from rheology.materials import Material
 from rheology.numba_cache import guard
 
@@ -40,38 +40,6 @@ _jit = nb.njit(cache=True, error_model="numpy")
 
 
 # ------------------------------------------------------------------ shared kernel pieces
-@_jit
-def _fill_L(L, p, Lm):
-    """3 x 3 velocity gradient of point p from its compact (xx, xy, yx, yy, thth) row."""
-    Lm[0, 0], Lm[0, 1], Lm[1, 0], Lm[1, 1], Lm[2, 2] = L[p, 0], L[p, 1], L[p, 2], L[p, 3], L[p, 4]
-
-
-@_jit
-def _fill_Lw(Lw, p, Lm):
-    """Swirl rows of the 3 x 3 gradient (index 2 = theta): L_theta_r, L_theta_z in the basis
-    turning with the point (mpm2d.transfer.g2p_swirl); nothing for a set without swirl (Lw of
-    shape (0, 2)). det(1 + dt L) is unchanged (lower-triangular entries)."""
-    if Lw.shape[0] > 0:
-        Lm[2, 0], Lm[2, 1] = Lw[p, 0], Lw[p, 1]
-
-
-@_jit
-def _get_stress(stress, p, s):
-    """s[:] = stress[p], element by element (a view stress[p] costs its reference counting,
-    about as much as an elastic update)."""
-    for i in range(3):
-        for j in range(3):
-            s[i, j] = stress[p, i, j]
-
-
-@_jit
-def _put_stress(stress, p, s):
-    """stress[p] = s, element by element (no slice assignment)."""
-    for i in range(3):
-        for j in range(3):
-            stress[p, i, j] = s[i, j]
-
-
 @_jit
 def _jacobian(L, p, dt):
     """det(1 + dt L) for the compact gradient row p."""
@@ -91,8 +59,8 @@ def _viscous(L, p, eta):
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p):
     """Jaumann linear-elastic update of point p in registers: with swirl
-    rheology.local_update.jaumann_elastic on the 3 x 3 L of :func:`_fill_L` and :func:`_fill_Lw`
-    (the swirl rows L_theta_r, L_theta_z, zeros above them); without, the plane form
+    rheology.local_update.jaumann_elastic on the 3 x 3 L of the compact row (xx, xy, yx, yy,
+    thth) and the swirl rows L_theta_r, L_theta_z (zeros above them); without, the plane form
     (jaumann_elastic_plane: no out-of-plane shear, which Simulation checks at the start, so the
     four in-plane and hoop components are the whole update)."""
     if Lw.shape[0] > 0:
@@ -169,7 +137,8 @@ def fluid_kernel(L, vol, m, rho, divq, n, dt, eta0, einstein, rho0, kappa, two_p
 @dual
 def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, kappa, eta0,
                       chunks, sp, pf, gdot, case, fail, Lw, spw):
-    """The Table 8 granular law at every point (rheology.local_update.update_point).
+    """The Table 8 granular law at every point (rheology.local_update.update_block, blocks of
+    BLOCK points of a chunk; the 3 x 3 gradient from the compact row and the swirl rows).
 
     phi = svol/V at the start of the step; f and stress advanced; V *= det(1 + dt L).
     Locked mixture: pore pressure p_f = kappa ln(rho_f/rho_0f) with rho_f = (m - rho_s svol) /
@@ -179,39 +148,53 @@ def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, 
     """
     sw = Lw.shape[0] > 0
     for c in nb.prange(chunks.shape[0] - 1):
-        Lm = np.zeros((3, 3))
-        s0 = np.empty((3, 3))
-        s = np.empty((3, 3))
-        out = np.empty(NOUT)
-        for p in range(chunks[c], chunks[c + 1]):
-            _fill_L(L, p, Lm)
-            _fill_Lw(Lw, p, Lm)
-            phi = svol[p] / vol[p]
-            _get_stress(stress, p, s0)
+        # the law on blocks of points (rheology.local_update.update_block: vectorised stages)
+        Lb = np.zeros((BLOCK, 3, 3))
+        so = np.empty((BLOCK, 3, 3))
+        ob = np.empty((BLOCK, NOUT))
+        phib = np.empty(BLOCK)
+        W = np.empty((NWORK, BLOCK))
+        s1, l1, so1, o1 = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(NOUT)
+        for lo in range(chunks[c], chunks[c + 1], BLOCK):
+            hi = min(lo + BLOCK, chunks[c + 1])
+            n = hi - lo
+            for k in range(n):
+                p = lo + k
+                Lb[k, 0, 0], Lb[k, 0, 1], Lb[k, 1, 0] = L[p, 0], L[p, 1], L[p, 2]
+                Lb[k, 1, 1], Lb[k, 2, 2] = L[p, 3], L[p, 4]
+                if sw:
+                    Lb[k, 2, 0], Lb[k, 2, 1] = Lw[p, 0], Lw[p, 1]
+                phib[k] = svol[p] / vol[p]
             # warm start of a jammed point's dilatant solve from its previous plastic rate
             # (gdot_p, checkpointed): same tolerance, a different starting point
-            update_point(s0, Lm, phi, f[p], dt, P, s, out, gdot[p])
-            if out[12] == FAILED:
-                fail[0] = p + 1
-            _put_stress(stress, p, s)
-            f[p] = out[0]
-            gdot[p] = out[1]
-            case[p] = out[12]
-            vol[p] *= _jacobian(L, p, dt)
-            pr = txx = txy = tyy = ttt = eta = 0.0
-            if locked:
-                phi = svol[p] / vol[p]
-                pr = laws.pore_pressure((m[p] - rho_s * svol[p]) / (vol[p] - svol[p]), rho_f0, kappa)
-                eta = laws.fluid_viscosity(phi, eta0)
-                txx, txy, tyy, ttt = _viscous(L, p, eta)
-            if sw:
-                spw[p, 0] = s[0, 2] + eta * Lw[p, 0]
-                spw[p, 1] = s[1, 2] + eta * Lw[p, 1]
-            pf[p] = pr
-            sp[p, 0] = s[0, 0] + txx - pr
-            sp[p, 1] = s[0, 1] + txy
-            sp[p, 2] = s[1, 1] + tyy - pr
-            sp[p, 3] = s[2, 2] + ttt - pr
+            update_block(stress[lo:hi], Lb[:n], phib[:n], f[lo:hi], gdot[lo:hi], dt, P, so[:n], ob[:n],
+                         W, s1, l1, so1, o1)
+            for k in range(n):
+                p = lo + k
+                if ob[k, 12] == FAILED:
+                    fail[0] = p + 1
+                for i in range(3):
+                    for j in range(3):
+                        stress[p, i, j] = so[k, i, j]
+                f[p] = ob[k, 0]
+                gdot[p] = ob[k, 1]
+                case[p] = ob[k, 12]
+                vol[p] *= _jacobian(L, p, dt)
+                pr = txx = txy = tyy = ttt = eta = 0.0
+                if locked:
+                    phi = svol[p] / vol[p]
+                    pr = laws.pore_pressure((m[p] - rho_s * svol[p]) / (vol[p] - svol[p]), rho_f0,
+                                            kappa)
+                    eta = laws.fluid_viscosity(phi, eta0)
+                    txx, txy, tyy, ttt = _viscous(L, p, eta)
+                if sw:
+                    spw[p, 0] = so[k, 0, 2] + eta * Lw[p, 0]
+                    spw[p, 1] = so[k, 1, 2] + eta * Lw[p, 1]
+                pf[p] = pr
+                sp[p, 0] = so[k, 0, 0] + txx - pr
+                sp[p, 1] = so[k, 0, 1] + txy
+                sp[p, 2] = so[k, 1, 1] + tyy - pr
+                sp[p, 3] = so[k, 2, 2] + ttt - pr
 
 
 _NO_SWIRL = np.zeros((0, 2))

@@ -53,8 +53,9 @@ def inv_eta_B(phi, phi_j, varphi1, alpha1, varphi2, alpha2):
 
 @register_jitable
 def hardening(taubar, tau_star):
-    """Eq. (6): H = (taubar/tau*)^(3/2) [-]."""
-    return (np.maximum(taubar, 0.0) / tau_star) ** 1.5
+    """Eq. (6): H = (taubar/tau*)^(3/2) [-] (as t sqrt(t): a square root instead of a pow)."""
+    t = np.maximum(taubar, 0.0) / tau_star
+    return t * np.sqrt(t)
 
 
 @register_jitable

@@ -435,6 +435,30 @@ def elastic_trial(sig, L, dt, G, K, out):
     out[2, 0], out[2, 1], out[2, 2] = r[6], r[7], r[8]
 
 
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _tail(f, phi, phim, a, g, p, Im, tau_tr, Gdt, P, dt):
+    """What follows the plastic correction of a point that is not separated: the equivalent
+    shear stress taubar = max(tau* - G dt gdot_p, 0), the deviator's scale factor taubar/tau*,
+    the structure's backward-Euler step and the outputs mu_p, I, I_v, phi_eq.
+    Returns (taubar, scale, f_new, mu_p, I, I_v, phi_eq)."""
+    phi_c, phi_j, mu1, mu2, b, tau_star, eta0 = P[0], P[1], P[4], P[5], P[6], P[7], P[8]
+    v1, al1, v2, al2, Delta, xi_eps, K0 = P[9], P[10], P[11], P[12], P[13], P[14], P[15]
+    rho_s, d = P[18], P[19]
+    taubar = max(tau_tr - Gdt * g, 0.0)
+    scale = taubar / tau_tr if tau_tr > 0.0 else 0.0
+    if p > 0.0:
+        Iv = eta0 * g / p
+        I = g * d * np.sqrt(rho_s / p)
+        mu = laws.friction(Iv, Im, phi, a, mu1, mu2, b)
+    else:
+        Iv, I, mu = np.inf, np.inf, np.inf
+    phieq = phim / (1.0 + a * Im) if np.isfinite(Im) else phi
+    fm = laws.f_max(phi, phi_c, phi_j, Delta)
+    invB = laws.inv_eta_B(phi, phi_j, v1, al1, v2, al2)
+    f1 = laws.structure_step(f, taubar, g, fm, tau_star, invB, K0, xi_eps, dt)
+    return taubar, scale, f1, mu, I, Iv, phieq
+
+
 @_jit
 def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
     """Advance one material point by dt [s] (see module docstring); writes sig_out and out[:NOUT].
@@ -538,55 +562,207 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
                 if iters < 0:
                     case = FAILED
 
-    taubar = tau_tr - Gdt * g
-    if case == SEPARATED or taubar < 0.0:
-        taubar = 0.0
-    scale = taubar / tau_tr if tau_tr > 0.0 else 0.0
+    taubar, scale, f1, mu, I, Iv, phieq = _tail(f, phi, phim, a, g, p, Im, tau_tr, Gdt, P, dt)
     for i in range(3):
         for j in range(3):
             dev = sig_out[i, j] + (p_tr if i == j else 0.0)
             sig_out[i, j] = scale * dev - (p if i == j else 0.0)
-
-    if p > 0.0:
-        Iv = eta0 * g / p
-        I = g * d * np.sqrt(rho_s / p)
-        mu = laws.friction(Iv, Im, phi, a, mu1, mu2, b)
-    else:
-        Iv, I, mu = np.inf, np.inf, np.inf
-    phieq = phim / (1.0 + a * Im) if np.isfinite(Im) else phi
-    fm = laws.f_max(phi, phi_c, phi_j, Delta)
-    invB = laws.inv_eta_B(phi, phi_j, v1, al1, v2, al2)
-    out[0] = laws.structure_step(f, taubar, g, fm, tau_star, invB, K0, xi_eps, dt)
-    out[1], out[2], out[3], out[4] = g, xi1, xi2, mu
+    out[0], out[1], out[2], out[3], out[4] = f1, g, xi1, xi2, mu
     out[5], out[6], out[7], out[8], out[9] = I, Iv, Im, beta, phieq
     out[10], out[11], out[12], out[13] = taubar, p, case, iters
 
 
+#: points per block of :func:`update_block` (its work arrays: (NWORK, BLOCK))
+BLOCK = 64
+NWORK = 16
+#: Newton steps on (beta, gdot_p) that :func:`update_block` takes in step for a whole block
+_LANE_NEWTON = 4
+
+
+@_jit
+def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1):
+    """:func:`update_point` on a block of n <= BLOCK points, the dilatant solve vectorised.
+
+    sig, L, sig_out: (n, 3, 3); phi, f, g_prev (warm starts, negative for none): (n,);
+    out: (n, NOUT); W: (NWORK, >= n) work; s1, l1, so1: (3, 3) and o1: (NOUT,) scratch.
+
+    The scalar update is a chain of dependent divisions and square roots per point (~240 ns for a
+    point in dilatant shear flow, three quarters of it in the solve and its residual check), so
+    it runs at the latency of that chain. Here the same arithmetic goes through the block one
+    stage at a time, each stage a branch-free loop over the points that the compiler turns into
+    SIMD instructions: (1) the elastic trial, its invariants and the critical-state estimates of
+    every point; (2) _LANE_NEWTON steps of the 2-D Newton of :func:`_newton_2d` (same equations)
+    from the same start (beta_c, gdot_c); (3) the residual R(beta) of :func:`_dilatant_flow`
+    (same formula) and its acceptance test |R| <= 2e-15 (tau* + mu_1 p*), unchanged. A point
+    below jamming (phi < phi_m) in shear flow + compaction (closed form) or in dilatant shear
+    flow whose solve passed that test is finished here (:func:`_tail`); every other point
+    (separated, jammed, a solve that left its bracket or missed the test) goes through
+    :func:`update_point` whole, so the results are those of update_point to its convergence
+    test (the two differ only in how many Newton steps led there).
+    """
+    n = phi.shape[0]
+    mu1, mu2, b, eta0 = P[4], P[5], P[6], P[8]
+    G, K, rho_s, d, K3 = P[16], P[17], P[18], P[19], P[20]
+    phi_c, phi_j, a0, ainf = P[0], P[1], P[2], P[3]
+    Gdt, Kdt, rd2 = G * dt, K * dt, rho_s * d * d
+    iK3 = 1.0 / K3
+    cV = 2.5 * eta0
+    # 1. trial stress, invariants, critical-state estimates and the solve's start
+    for k in range(n):
+        r = jaumann_elastic((sig[k, 0, 0], sig[k, 0, 1], sig[k, 0, 2], sig[k, 1, 0], sig[k, 1, 1],
+                             sig[k, 1, 2], sig[k, 2, 0], sig[k, 2, 1], sig[k, 2, 2]),
+                            (L[k, 0, 0], L[k, 0, 1], L[k, 0, 2], L[k, 1, 0], L[k, 1, 1],
+                             L[k, 1, 2], L[k, 2, 0], L[k, 2, 1], L[k, 2, 2]), dt, G, K)
+        sig_out[k, 0, 0], sig_out[k, 0, 1], sig_out[k, 0, 2] = r[0], r[1], r[2]
+        sig_out[k, 1, 0], sig_out[k, 1, 1], sig_out[k, 1, 2] = r[3], r[4], r[5]
+        sig_out[k, 2, 0], sig_out[k, 2, 1], sig_out[k, 2, 2] = r[6], r[7], r[8]
+        p_tr = -(r[0] + r[4] + r[8]) / 3.0
+        d0, d1, d2 = r[0] + p_tr, r[4] + p_tr, r[8] + p_tr
+        ss = (d0 * d0 + r[1] * r[1] + r[2] * r[2] + r[3] * r[3] + d1 * d1 + r[5] * r[5]
+              + r[6] * r[6] + r[7] * r[7] + d2 * d2)
+        W[0, k], W[1, k] = p_tr, 0.5 * ss
+    # ... and in a loop of its own (contiguous rows, no branches: SIMD) the rest of stage 1
+    for k in range(n):
+        p_tr = W[0, k]
+        tau_tr = np.sqrt(W[1, k])
+        ph = phi[k]
+        phim = laws.phi_m(f[k], phi_c, phi_j)
+        a = laws.dilatancy_a(f[k], a0, ainf)
+        y = phim - ph
+        ap2 = (a * ph) ** 2
+        mus = laws.critical_friction(ph, y, a, mu1, mu2, b)
+        A = mus * ap2 * rd2
+        B = eta0 * (2.0 * mus * ap2 + 2.5 * ph * ph * y) + Gdt * y * y
+        c = tau_tr * y * y
+        gc = 2.0 * c / (B + np.sqrt(B * B + 4.0 * A * c))
+        pc = laws.critical_pressure(gc, ph, y, a, eta0, d, rho_s)
+        beta_lo = max(0.0, K3 * (ph - phim))
+        beta_top = beta_lo + (K3 * ph - beta_lo) * (1.0 - 1e-15)
+        b0 = (pc - p_tr) / (Kdt * gc + 2.0 * pc * phim / (ph * y * K3))
+        W[0, k], W[1, k], W[2, k], W[3, k], W[4, k] = p_tr, tau_tr, phim, a, y
+        W[5, k], W[6, k], W[7, k], W[8, k], W[9, k] = gc, pc, b0, gc, beta_lo
+        W[10, k] = beta_top
+        # 1: compaction, 2: dilatant (if its solve passes), 0: update_point
+        below = (p_tr > 0.0) & (y > 0.0)
+        start = (gc > 0.0) & (beta_lo < b0) & (b0 < beta_top)
+        W[15, k] = 1.0 * (below & (pc <= p_tr)) + 2.0 * (below & start & (pc > p_tr))
+    # 2. Newton on (beta, gdot_p): the equations F1, F2 of _newton_2d, every point in step
+    for _ in range(_LANE_NEWTON):
+        for k in range(n):
+            beta, g = W[7, k], W[8, k]
+            phim, a = W[2, k], W[3, k]
+            x = phi[k] - beta * iK3
+            w = phim - x
+            ax = a * x
+            iax = 1.0 / ax
+            Im = w * iax
+            iIm = ax / w
+            p = W[0, k] + Kdt * beta * g
+            Ag = rd2 * g * g + 2.0 * eta0 * g
+            F1 = p * w * w - Ag * ax * ax
+            F1b = Kdt * g * w * w + 2.0 * (p * w + Ag * a * ax) * iK3
+            F1g = Kdt * beta * w * w - (2.0 * rd2 * g + 2.0 * eta0) * ax * ax
+            dIm = phim * a * iax * iax * iK3
+            ib = 1.0 / (Im + b)
+            M = mu1 + beta + (mu2 - mu1) * Im * ib
+            V = cV * phi[k] / a * iIm
+            F2 = W[1, k] - Gdt * g - M * p - V * g
+            F2b = -(1.0 + (mu2 - mu1) * b * ib * ib * dIm) * p - M * Kdt * g + V * g * dIm * iIm
+            F2g = -Gdt - M * Kdt * beta - V
+            idet = 1.0 / (F1b * F2g - F1g * F2b)
+            W[7, k] = beta + (F1g * F2 - F1 * F2g) * idet
+            W[8, k] = g + (F1 * F2b - F1b * F2) * idet
+    # 3. the residual of _dilatant_flow at the final beta, with gdot(beta) in closed form
+    for k in range(n):
+        beta, p_tr, tau_tr, phim, a = W[7, k], W[0, k], W[1, k], W[2, k], W[3, k]
+        x = phi[k] - beta * iK3
+        Im = (phim - x) / (a * x)
+        Im2 = Im * Im
+        bq = 2.0 * eta0 - Kdt * beta * Im2
+        cq = p_tr * Im2
+        sq = np.sqrt(bq * bq + 4.0 * rd2 * cq)
+        g = 2.0 * cq / (bq + sq) if bq > 0.0 else (-bq + sq) / (2.0 * rd2)
+        p = p_tr + Kdt * beta * g
+        R = tau_tr - Gdt * g - (laws.friction(eta0 * g / p, Im, phi[k], a, mu1, mu2, b)
+                                + beta) * p
+        ok = (abs(R) <= 2e-15 * (tau_tr + mu1 * p_tr) and W[9, k] < beta < W[10, k]
+              and 0.0 < g < np.inf)
+        W[11, k], W[12, k], W[13, k] = g, p, Im
+        if W[15, k] == 2.0 and not ok:
+            W[15, k] = 0.0
+    # 4. the points the block does not finish go through update_point whole
+    for k in range(n):
+        if W[15, k] == 0.0:
+            for i in range(3):
+                for j in range(3):
+                    s1[i, j] = sig[k, i, j]
+                    l1[i, j] = L[k, i, j]
+            update_point(s1, l1, phi[k], f[k], dt, P, so1, o1, g_prev[k])
+            for i in range(3):
+                for j in range(3):
+                    sig_out[k, i, j] = so1[i, j]
+            for i in range(NOUT):
+                out[k, i] = o1[i]
+    # 5. the others: shear flow + compaction (closed form) or the accepted dilatant solve
+    for k in range(n):
+        kind = W[15, k]
+        if kind == 0.0:
+            continue
+        p_tr, tau_tr, phim, a, y, ph = W[0, k], W[1, k], W[2, k], W[3, k], W[4, k], phi[k]
+        comp = kind == 1.0
+        g = W[5, k] if comp else W[11, k]
+        p = W[6, k] if comp else W[12, k]
+        Im = y / (a * ph) if comp else W[13, k]
+        beta = 0.0 if comp else W[7, k]
+        taubar, scale, f1, mu, I, Iv, phieq = _tail(f[k], ph, phim, a, g, p, Im, tau_tr, Gdt, P,
+                                                    dt)
+        for i in range(3):
+            for j in range(3):
+                sig_out[k, i, j] = (scale * (sig_out[k, i, j] + (p_tr if i == j else 0.0))
+                                    - (p if i == j else 0.0))
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3], out[k, 4] = f1, g, 0.0, 0.0, mu
+        if comp:
+            out[k, 3] = (p - p_tr) / Kdt
+        out[k, 5], out[k, 6], out[k, 7], out[k, 8], out[k, 9] = I, Iv, Im, beta, phieq
+        out[k, 10], out[k, 11] = taubar, p
+        out[k, 12], out[k, 13] = (COMPACTION, 0.0) if comp else (SHEAR_FLOW, 1.0)
+
+
 def _update_loop(sig, L, phi, f, dt, P, sig_out, out, g_prev=None, newton=True):
-    """Loop of :func:`update_point` over N points (arrays (N,3,3), (N,), out (N, NOUT)).
+    """Loop of the update over N points (arrays (N,3,3), (N,), out (N, NOUT)): blocks of
+    :func:`update_block`, or with ``newton=False`` :func:`update_point` by the bracket alone.
 
     ``g_prev`` (N,), optional: each point's plastic shear rate of the previous step, the warm
-    start (negative: none); it is not written (out[:, 1] holds the new rates). Each point goes
-    through small work arrays rather than views of the big ones (a view costs its reference
-    counting, ~30 ns a point, as much as the rest of an elastic exit).
+    start (negative: none); it is not written (out[:, 1] holds the new rates). Chunks of four
+    blocks run in parallel, each with its own work arrays.
     """
-    for c in nb.prange((phi.shape[0] + 255) // 256):
+    N = phi.shape[0]
+    for c in nb.prange((N + 4 * BLOCK - 1) // (4 * BLOCK)):
+        W = np.empty((NWORK, BLOCK))
         s = np.empty((3, 3))
         l = np.empty((3, 3))
         so = np.empty((3, 3))
         o = np.empty(NOUT)
-        for n in range(256 * c, min(256 * (c + 1), phi.shape[0])):
-            for i in range(3):
-                for j in range(3):
-                    s[i, j] = sig[n, i, j]
-                    l[i, j] = L[n, i, j]
-            g = -1.0 if g_prev is None else g_prev[n]
-            update_point(s, l, phi[n], f[n], dt, P, so, o, g, newton)
-            for i in range(3):
-                for j in range(3):
-                    sig_out[n, i, j] = so[i, j]
-            for k in range(NOUT):
-                out[n, k] = o[k]
+        gp = np.full(BLOCK, -1.0)
+        for lo in range(4 * BLOCK * c, min(4 * BLOCK * (c + 1), N), BLOCK):
+            hi = min(lo + BLOCK, N)
+            if newton:
+                if g_prev is not None:
+                    gp[:hi - lo] = g_prev[lo:hi]
+                update_block(sig[lo:hi], L[lo:hi], phi[lo:hi], f[lo:hi], gp[:hi - lo], dt, P,
+                             sig_out[lo:hi], out[lo:hi], W, s, l, so, o)
+                continue
+            for n in range(lo, hi):
+                for i in range(3):
+                    for j in range(3):
+                        s[i, j] = sig[n, i, j]
+                        l[i, j] = L[n, i, j]
+                update_point(s, l, phi[n], f[n], dt, P, so, o, -1.0, False)
+                for i in range(3):
+                    for j in range(3):
+                        sig_out[n, i, j] = so[i, j]
+                for k in range(NOUT):
+                    out[n, k] = o[k]
 
 
 #: Parallel (prange) loop over points: the entry point for large batches (MPM, 1-D grids).

@@ -335,6 +335,57 @@ def test_any_warm_start_gives_the_cold_answer(m, seed, g_prev):
     assert np.all(np.abs(f1[flowing]) <= 1e-9 * scale[flowing])
 
 
+
+@SET
+@given(materials(), st.integers(0, 2 ** 32 - 1))
+def test_block_update_equals_the_point_update(m, seed):
+    """update_block (the vectorised stages: trial, critical-state estimates, Newton on
+    (beta, gdot_p) for the whole block, the residual test) gives update_point's answer point by
+    point to the solver tolerance, case for case, on random states of every case."""
+    from rheology.local_update import BLOCK, NWORK, update_block, update_point
+    sig, L, phi, f, dt = random_states(m, seed, n=BLOCK)
+    m.require("G", "K", "K0")
+    P = kernel_parameters(m)
+    so, o = np.empty_like(sig), np.empty((BLOCK, NOUT))
+    W = np.empty((NWORK, BLOCK))
+    update_block(sig, L, phi, f, np.full(BLOCK, -1.0), dt, P, so, o, W, np.empty((3, 3)),
+                 np.empty((3, 3)), np.empty((3, 3)), np.empty(NOUT))
+    for k in range(BLOCK):
+        s1, o1 = np.empty((3, 3)), np.empty(NOUT)
+        update_point(sig[k], L[k], phi[k], f[k], dt, P, s1, o1)
+        assert o[k, 12] == o1[12], (k, o[k], o1)
+        scale = np.abs(sig[k]).max() + m.G * dt * np.abs(L[k]).max() + 1e-300
+        assert np.abs(so[k] - s1).max() <= 1e-8 * scale, k
+        assert o[k, 0] == pytest.approx(o1[0], rel=1e-8, abs=1e-12)
+        assert o[k, 1] == pytest.approx(o1[1], rel=1e-8, abs=1e-300)
+
+
+def test_block_update_finishes_a_sheared_batch_itself():
+    """On sheared batches the block's own path (not the point-by-point fallback) finishes the
+    flowing points below jamming that update_point solves at its first residual test (>= 95%: the
+    test asks for |R| at the roundoff floor, which an iterate one ulp away can miss; the others,
+    whose residual reaches the floor only after 4-10 evaluations, go through update_point too):
+    the speed of mpm2d's suspensions rests on it."""
+    from rheology.local_update import BLOCK, NWORK, update_block, update_point
+    m = r.get_material("annular_shear")
+    P = kernel_parameters(m)
+    easy = finished = 0
+    for seed in range(4):
+        sig, L, phi, f, g = _sheared_batch(m, BLOCK, seed)
+        dt = 2e-3 / np.median(L[:, 0, 1])
+        so, o = np.empty_like(sig), np.empty((BLOCK, NOUT))
+        W = np.empty((NWORK, BLOCK))
+        update_block(sig, L, phi, f, g, dt, P, so, o, W, np.empty((3, 3)), np.empty((3, 3)),
+                     np.empty((3, 3)), np.empty(NOUT))
+        below = (o[:, 12] == SHEAR_FLOW) & (phi < r.phi_m(f, m))
+        for k in np.flatnonzero(below):
+            s1, o1 = np.empty((3, 3)), np.empty(NOUT)
+            update_point(sig[k], L[k], phi[k], f[k], dt, P, s1, o1, g[k])
+            if o1[13] == 1:
+                easy += 1
+                finished += W[15, k] == 2.0
+    assert easy >= BLOCK // 2 and finished >= 0.95 * easy, (finished, easy)
+
 def test_jammed_yielding_points_solve_in_one_evaluation_and_agree_with_the_bracket():
     """Points just above phi_m sheared for ten steps (dilatancy builds the pressure): the Newton
     solve, cold and warm, lands where the bracket does, in a fraction of its evaluations."""
