@@ -43,6 +43,10 @@ from .simulation import Simulation
 
 #: temporary files of an atomic write (``.NAME.XXXXXXXX.suffix``) left by a killed run
 _TEMP = re.compile(r"^\..+\.[a-z0-9_]{8}\.(npz|tmp|vtu|pvd|png|csv|json)$")
+#: a run whose first stable step would need more steps than this to reach t_end is refused
+#: (a cfl of 1e-300 or a t_end of years: it would never end; 1e8 steps of the smallest scene
+#: take about a day on one core)
+MAX_STEPS = 1e8
 
 
 @dataclass
@@ -144,6 +148,20 @@ class _DeferredSignals:
         for sig, old in self._old.items():
             signal.signal(sig, old)
         return False
+
+
+def check_step_count(scene, name: str) -> None:
+    """Refuse (ValueError, one line) a run that needs more than MAX_STEPS steps at its first
+    stable step: the parameters that set it are named with their values (cfl, t_end, the
+    resolution) and the step count they imply."""
+    sim = scene.sim
+    dt = sim.user_dt if sim.user_dt is not None else sim.stable_dt()
+    steps = (scene.t_end - sim.t) / dt
+    if steps > MAX_STEPS:
+        knobs = f"cfl = {sim.cfl:g}, t_end = {scene.t_end:g} s, h = {sim.grid.h:g} m"
+        raise ValueError(f"scene {name}: {knobs} give a step of {dt:.3g} s, about "
+                         f"{steps:.3g} steps to t_end; valid: at most {MAX_STEPS:.0e} steps "
+                         "(raise cfl, shorten t_end or coarsen the grid)")
 
 
 def _remove_stale_temporaries(out: Path) -> list[str]:
@@ -304,6 +322,7 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     except KeyboardInterrupt:
         raise KeyboardInterrupt("during the scene's set-up, nothing written"
                                 + (f"; {ckpt_path} is as it was" if saved is not None else ""))
+    check_step_count(scene, name)
     if saved is None and (ckpt_path.exists() or ckpt_path.with_name("checkpoint.prev.npz").exists()):
         log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "
             "replaces it (--resume continues it instead)")

@@ -138,6 +138,10 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, gra
             q = (kgx * sx0 - wx[0] * hoop, -kgx * (sx0 + sx2) - wx[1] * hoop,
                  kgx * sx2 - wx[2] * hoop)
             r = (kgy * sy0, -kgy * (sy0 + sy2), kgy * sy2)
+            two = nf > V                             # two-phase fields: V, VS, FPX, FPY
+            pp = Vp * pf[p] * inv_h if has_p else 0.0
+            hoop_p = Vp * pf[p] / x[p, 0] if (has_p and axisym) else 0.0
+            sv = svol[p] if has_s else 0.0
             for a in range(3):
                 I = bx + a + PAD
                 rx = a - fx                          # (x_i - x_p)/h
@@ -153,19 +157,11 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, gra
                     G[I, J, MY] += w * (mya + c11 * ry)
                     G[I, J, FX] += q[a] * wy[b] - (sxx * gx + sxy * gy)
                     G[I, J, FY] += r[b] * wx[a] - (sxy * gx + syy * gy)
-            if nf > V:
-                pp = Vp * pf[p] * inv_h if has_p else 0.0
-                hoop_p = Vp * pf[p] / x[p, 0] if (has_p and axisym) else 0.0
-                sv = svol[p] if has_s else 0.0
-                for a in range(3):
-                    I = bx + a + PAD
-                    for b in range(3):
-                        J = by + b + PAD
-                        w = wx[a] * wy[b]
+                    if two:
                         G[I, J, V] += w * Vp
                         G[I, J, VS] += w * sv
-                        G[I, J, FPX] += pp * dx[a] * wy[b] + w * hoop_p
-                        G[I, J, FPY] += pp * wx[a] * dy[b]
+                        G[I, J, FPX] += pp * gx + w * hoop_p
+                        G[I, J, FPY] += pp * gy
             if has_f and (fext[p, 0] != 0.0 or fext[p, 1] != 0.0):
                 # a surface load acts on the point's face x_p + offset, where the particle
                 # quadrature of the internal force puts the boundary (exact for B-splines)

@@ -308,3 +308,17 @@ def test_signal_while_the_last_files_are_written_completes_the_run(tmp_path, mon
     assert sent and res["complete"]
     assert "SIGTERM received after the last step: every output is complete" in lines[-1]
     assert assert_same_run(tmp_path / "full", tmp_path / "late") > 5
+
+
+def test_a_run_that_would_never_end_is_refused_up_front(tmp_path, capsys):
+    """cfl = 1e-300 passed the range check (0, 1] and ran for ever (found by a fresh-user test):
+    a run needing more than MAX_STEPS steps at its first stable step is refused in one line
+    naming cfl, t_end and h, exit 2, nothing written."""
+    from mpm2d.run import MAX_STEPS
+
+    out = tmp_path / "o"
+    assert main(["run", "column", "--set", "cfl=1e-300", "--out", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cfl = 1e-300, t_end = 1.5 s, h = 0.001 m" in err[0], err
+    assert f"at most {MAX_STEPS:.0e} steps" in err[0]
+    assert not out.exists()

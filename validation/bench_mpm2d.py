@@ -19,7 +19,9 @@ remaining bookkeeping; the body force is added in the P2G reduction, and in plan
 runs such as (a) the nodal velocities too, so "grid update" is then the boundaries alone; a
 linear-elastic set's stress update is done in its G2P pass, so (a) has no "constitutive" share). For the suspension modes
 the Table 8 update is also timed alone on the run's points, with the bracket-only solve (the
-reference), the Newton solve from a cold start (what mpm2d calls) and from the previous plastic rate (warm start), with residual evaluations per point.
+reference), and the Newton solve (rheology.local_update.update_block's vectorised stages, what
+mpm2d calls) from a cold start and from the previous plastic rate (warm start), with residual
+evaluations per point.
 
 Peer: with the ``bench`` extra (``pip install -e ".[bench]"``: Taichi), Taichi's mpm88-style APIC
 step of a linear elastic block (written here, CPU backend, 2 threads, float64, fixed dt) on the same
