@@ -167,8 +167,8 @@ def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, 
                 phib[k] = svol[p] / vol[p]
             # warm start of a jammed point's dilatant solve from its previous plastic rate
             # (gdot_p, checkpointed): same tolerance, a different starting point
-            update_block(stress[lo:hi], Lb[:n], phib[:n], f[lo:hi], gdot[lo:hi], dt, P, so[:n], ob[:n],
-                         W, s1, l1, so1, o1)
+            update_block(stress[lo:hi], Lb[:n], phib[:n], f[lo:hi], gdot[lo:hi], dt, P, so[:n],
+                         ob[:n], W, s1, l1, so1, o1, False)
             for k in range(n):
                 p = lo + k
                 if ob[k, 12] == FAILED:
