@@ -12,6 +12,12 @@ same process. Each lives in a module ``validation/cases_<tier>.py`` or ``validat
 
 ``out`` is the folder for the case's files (figures go there, referenced by path); ``quick`` asks
 for the small sizes used by the test suite.
+
+``slow=True`` marks a case whose run is long and whose criteria hold at its full size only:
+``python -m validation report --quick`` skips it (listed as skipped in the console, the report and
+``results.json``) and refuses it when it is named with ``--only``. A case that passes at both
+sizes, however long, can stay ``slow=False``. Benchmarks are always ``slow``; they run at small
+sizes under ``--quick`` (``--no-bench`` leaves them out).
 """
 
 from __future__ import annotations
@@ -85,7 +91,10 @@ def _register(kind: str, tier: str, name: str, title: str, slow: bool):
 
 
 def case(tier: str, name: str, title: str, slow: bool = False):
-    """Register a validation case ``func(out: Path, quick: bool) -> Verdict``."""
+    """Register a validation case ``func(out: Path, quick: bool) -> Verdict``.
+
+    ``slow``: a long case judged at full size only (``report --quick`` skips it).
+    """
     return _register("case", tier, name, title, slow)
 
 
