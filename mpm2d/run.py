@@ -129,13 +129,22 @@ def coerce(params: dict, setup: Callable) -> dict:
 
 
 class _DeferredSignals:
-    """SIGINT/SIGTERM recorded instead of raised while a step runs (main thread only)."""
+    """SIGINT/SIGTERM recorded instead of raised while a step runs (main thread only).
+
+    Nested windows (a run whose report runs sub-runs, the wheel's other omegas) share what they
+    record: a signal that came while the outer run finished its last files stops the sub-run at
+    its first step, and one recorded by a sub-run is the outer run's too."""
+
+    _open: list = []
 
     def __init__(self):
         self.pending = None
         self._old = {}
 
     def __enter__(self):
+        if self._open:
+            self.pending = self._open[-1].pending
+        self._open.append(self)
         if threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGINT, signal.SIGTERM):
                 self._old[sig] = signal.signal(sig, self._record)
@@ -147,6 +156,9 @@ class _DeferredSignals:
     def __exit__(self, *exc):
         for sig, old in self._old.items():
             signal.signal(sig, old)
+        self._open.remove(self)
+        if self._open and self.pending:
+            self._open[-1].pending = self.pending
         return False
 
 
@@ -442,6 +454,10 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
             write_history(history)               # the report may read it
             write_manifest(out, manifest)        # the report reads the frames from it
             if scene.report is not None:
+                # the final state first: a report that runs sub-runs (the wheel's other omegas)
+                # can be interrupted, and the same command with --resume then finds this run
+                # complete, goes straight to its report and resumes the sub-run
+                checkpoint()
                 figures = [str(Path(f).relative_to(out)) if Path(f).is_relative_to(out)
                            else str(f) for f in scene.report(sim, history, out)]
             manifest["status"] = "complete"
