@@ -225,3 +225,31 @@ def test_surface_point_barely_reaching_a_node_gives_bounded_acceleration(offset)
     vmax = max(float(np.abs(v).max()) for v in sim.vg.values())
     assert vmax <= 4.0 * g * dt, vmax
     assert np.all(np.isfinite(ps.L)) and float(np.abs(ps.L).max()) <= 4.0 * g * dt / h
+
+
+def test_default_run_interrupted_in_its_omega_1_sub_run_resumes(both, tmp_path, monkeypatch):
+    """The default run's second omega runs inside the first's report; an interrupt there used to
+    leave no DIR/checkpoint.npz, so the same command with --resume was refused. Interrupted in
+    the sub-run (its checkpoint written), resumed from DIR: every table equals the
+    uninterrupted run's byte for byte."""
+    import mpm2d.run as runmod
+
+    real, calls = runmod.run_scene, []
+
+    def interrupted_sub_run(setup, out, params, **kw):
+        calls.append(out)
+        real(setup, out, params, **{**kw, "stop_after_steps": 20})
+        raise KeyboardInterrupt(f"checkpoint written to {out}/checkpoint.npz")
+
+    monkeypatch.setattr(runmod, "run_scene", interrupted_sub_run)
+    out = tmp_path / "both"
+    with pytest.raises(KeyboardInterrupt):
+        real(wheel.setup, out, TINY, progress=False, vtk=False, log=lambda m: None)
+    assert calls and (out / "checkpoint.npz").exists() and (out / "omega_1" / "checkpoint.npz").exists()
+    monkeypatch.setattr(runmod, "run_scene", real)
+    res = real(wheel.setup, out, TINY, resume=True, progress=False, vtk=False, log=lambda m: None)
+    assert res["manifest"]["status"] == "complete"
+    ref = both[0]
+    for name in ("hub.csv", "summary.json", "history.csv", "omega_1/history.csv",
+                 "omega_1/hub.csv", "omega_1/summary.json"):
+        assert (out / name).read_bytes() == (ref / name).read_bytes(), name
