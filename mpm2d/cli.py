@@ -106,7 +106,11 @@ def _command(args) -> None:
     if args.threads:
         import numba
 
-        numba.set_num_threads(min(args.threads, numba.config.NUMBA_NUM_THREADS))
+        cap = numba.config.NUMBA_NUM_THREADS
+        if args.threads > cap:
+            print(f"mpm2d {args.cmd}: --threads {args.threads}: numba is limited to {cap} "
+                  f"thread(s) here (NUMBA_NUM_THREADS); running with {cap}", flush=True)
+        numba.set_num_threads(min(args.threads, cap))
     from .run import run_scene
 
     params = _parse_set(args.set)

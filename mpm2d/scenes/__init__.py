@@ -26,7 +26,7 @@ SCENES = {
     "column": "two-phase settling column of a suspension under gravity",
     "piston": "rigid piston at prescribed velocity into an elastic bar (impact stress rho c V)",
     "rod_drop": "free rigid rod falling onto a suspension bed (axisymmetric, locked mixture)",
-    "wheel": "elastic wheel driven at a prescribed angular velocity (suspension bed)",
+    "wheel": "wheel driven at a prescribed angular velocity on a suspension bed (rigid; spokes=elastic)",
     "intruder": "rigid rod driven at constant speed into a suspension bed: jamming fronts (Figs. 6-7)",
     "impact": "free aluminium rod striking a suspension: impact-activated solidification (Figs. 4-5)",
     "annular": "annular shear cell with swirl (axisymmetric, locked mixture): jammed fronts (Fig. 3)",
