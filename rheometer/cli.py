@@ -22,6 +22,7 @@ Examples::
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -420,8 +421,9 @@ def _cmd_program(args) -> str:
                            text, dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points,
                                       elastic_limit=True),
                            every=args.checkpoint_every)
+    used = ck.path
     if args.resume:
-        ck.load(log=lambda msg: print(msg, file=sys.stderr))
+        used = _load_checkpoint(ck)
     df = ck.run(program)
     title = (f"{m.name}: program '{name}', phi = {', '.join(f'{p:g}' for p in args.phi)} "
              f"(G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})")
@@ -433,8 +435,26 @@ def _cmd_program(args) -> str:
                                             f"{k} = {v}" for k, v in osc.items())
     ck.remove()
     if args.resume:
-        msg += f"\nresumed from {ck.path}"
+        msg += f"\nresumed from {used}"
     return msg
+
+
+def _load_checkpoint(ck) -> Path:
+    """Load ``ck`` for --resume (its fallback notice on stderr) and return the file actually
+    read: rheology.io.load_checkpoint falls back to the previous checkpoint NAME.prev.npz when
+    NAME.npz is corrupt (and says so through ``log``) or absent (silently)."""
+    from rheology.io import previous_checkpoint
+
+    prev = previous_checkpoint(ck.path)
+    used = [prev if not ck.path.is_file() and prev.is_file() else ck.path]
+
+    def log(msg):
+        if str(prev) in msg:
+            used[0] = prev
+        print(msg, file=sys.stderr)
+
+    ck.load(log=log)
+    return used[0]
 
 
 def _cmd_material_point(args) -> str:
@@ -442,6 +462,7 @@ def _cmd_material_point(args) -> str:
     from .material_point import simple_shear_point
 
     _plot_path(args)
+    _check_update_count(args.rate, args.t_end, args.dt)
     m = _material(args)
     df = _per_phi(args, lambda ph: simple_shear_point(
         m, ph, args.rate, args.t_end, args.dt, control=args.control, pressure=args.pressure,
@@ -451,6 +472,43 @@ def _cmd_material_point(args) -> str:
              f"dt = {args.dt:g} s, phi0 = {', '.join(f'{p:g}' for p in args.phi)}")
     # every run, by its initial phi (phi itself evolves under pressure control)
     return _write(args, df, lambda: plots.material_point_figure(df, title))
+
+
+def _check_update_count(rate: float, t_end: float, dt: float) -> None:
+    """Refuse, before the run and naming the options that set it, a material point whose local
+    update count (rheometer.material_point.substeps: max(1, ceil(dt rate / x)) updates per step
+    of --dt, round(--t-end / --dt) steps, x = STRAIN_PER_SUBSTEP) passes MAX_SUBSTEPS, or a --dt
+    longer than --t-end. Two limits: the steps, set by --t-end / --dt (a longer --dt or a
+    shorter --t-end helps), and the strain per update, set by --rate x --t-end (no --dt helps:
+    a lower --rate or a shorter --t-end). ValueError with the valid values of each option."""
+    from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP as x
+
+    if dt > t_end:
+        raise ValueError(f"--dt = {dt:g} s is outside the valid range (0, {t_end:g}] s: the "
+                         f"step must not exceed the run, --t-end = {t_end:g} s")
+    steps = t_end / dt
+    per_step = max(1.0, math.ceil(dt * rate / x)) if rate > 0 else 1.0
+    count = per_step * round(steps)
+    if count <= MAX_SUBSTEPS:
+        return
+    strain = rate * t_end
+    if strain / x > MAX_SUBSTEPS:     # the strain alone needs too many updates: --dt cannot help
+        raise ValueError(
+            f"--t-end = {t_end:g} s at --rate = {rate:g} 1/s is a shear strain of {strain:.3g}: "
+            f"{strain / x:.3g} local updates at least whatever --dt (strain per update <= {x:g}, "
+            f"the explicit Jaumann spin's bound), more than the limit {MAX_SUBSTEPS:.0e}; valid: "
+            f"--t-end <= {MAX_SUBSTEPS * x / rate:.3g} s at this --rate, or --rate <= "
+            f"{MAX_SUBSTEPS * x / t_end:.3g} 1/s at this --t-end")
+    dt_min = t_end / MAX_SUBSTEPS
+    t_max = MAX_SUBSTEPS * dt / per_step
+    valid = (f"--dt >= {dt_min:.3g} s at this --t-end, or --t-end <= {t_max:.3g} s at this "
+             f"--dt" if dt < dt_min else     # else: the rounding up of the updates per step
+             f"--t-end <= {t_max:.3g} s at this --dt and --rate, or a lower --rate")
+    raise ValueError(
+        f"--dt = {dt:g} s gives {count:.3g} local updates to --t-end = {t_end:g} s "
+        f"({steps:.3g} steps" + (f" of {per_step:.0f} updates at --rate = {rate:g} 1/s"
+                                  if per_step > 1 else "") +
+        f"), more than the limit {MAX_SUBSTEPS:.0e}; valid: {valid}")
 
 
 _COMMANDS = {"materials": _cmd_materials, "flow-curve": _cmd_flow_curve,

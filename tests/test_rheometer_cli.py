@@ -120,7 +120,7 @@ def test_program_and_material_point_and_materials(tmp_path, monkeypatch, capsys)
     (["flow-curve", "--plot", "fig.xyz"], "--plot = 'fig.xyz': format 'xyz' is not one of"),
     (["program", "--resume"], "--resume: no checkpoint at program.checkpoint.npz"),
     (["program", "missing.txt"], "program file 'missing.txt' not found"),
-    (["material-point", "--dt", "5", "--t-end", "1"], "dt [s] = 5 is outside"),
+    (["material-point", "--dt", "5", "--t-end", "1"], "--dt = 5 s is outside"),
     (["flow-curve", "--out", "table.txt"], "--out = 'table.txt': format 'txt' is not one of csv"),
 ])
 def test_bad_input_gives_one_line_and_status_2(argv, match, tmp_path, monkeypatch, capsys):
@@ -291,3 +291,74 @@ def test_check_elastic_strain_unit():
     with pytest.raises(RuntimeError, match=r"p/K = 0.2 at t = 2 s .*from t ~ 1.5 s"):
         check_elastic_strain(np.array([0.0, 1.0, 2.0]), [0.0, 0.0, 2e3], 1e4, stress_name="p",
                              modulus_name="K")
+
+
+# ------------------------------------------------------------------ fresh-user faults 8 and 12
+@pytest.mark.parametrize("argv, first, valid", [
+    # the step count t_end/dt: named by --dt (its value) with the smallest valid --dt at this
+    # --t-end (10 s / 2e7 = 5e-7 s), and the longest --t-end at this --dt
+    (["--dt", "1e-7"], "--dt = 1e-07 s gives 1e+08 local updates to --t-end = 10 s",
+     "valid: --dt >= 5e-07 s at this --t-end, or --t-end <= 2 s at this --dt"),
+    (["--dt", "1e-300"], "--dt = 1e-300 s gives 1e+301 local updates", "--dt >= 5e-07 s"),
+    (["--dt", "1e-6", "--t-end", "100"], "--dt = 1e-06 s gives 1e+08 local updates to --t-end "
+     "= 100 s", "--dt >= 5e-06 s at this --t-end, or --t-end <= 20 s at this --dt"),
+    # the strain rate x t_end at <= 0.01 per update: no --dt helps; --t-end and --rate named
+    (["--rate", "1e6", "--t-end", "1000"], "--t-end = 1000 s at --rate = 1e+06 1/s is a shear "
+     "strain of 1e+09", "valid: --t-end <= 0.2 s at this --rate, or --rate <= 200 1/s"),
+    # a step longer than the run: named as --dt (was 'dt [s]')
+    (["--dt", "100"], "--dt = 100 s is outside the valid range (0, 10] s", "--t-end = 10 s"),
+])
+def test_material_point_update_count_names_its_options(argv, first, valid, tmp_path,
+                                                        monkeypatch, capsys):
+    """Fault 8: a too-small --dt was refused with a message about t_end's strain (whose
+    suggested limit was already satisfied); now the options that set the count are named, with
+    values that pass."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["material-point", *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and first in err[0] and valid in err[0], err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_material_point_suggested_dt_passes_the_check():
+    """The smallest --dt the refusal states is accepted, a slightly smaller one refused."""
+    from rheometer.cli import _check_update_count
+    from rheometer.material_point import MAX_SUBSTEPS, substeps
+
+    for t_end in (10.0, 3.7, 1e3):
+        dt = t_end / MAX_SUBSTEPS
+        _check_update_count(0.5, t_end, dt)
+        substeps(0.5, t_end, dt)                       # the solver's own count agrees
+        with pytest.raises(ValueError, match="--dt = "):
+            _check_update_count(0.5, t_end, dt / 1.01)
+
+
+def test_resume_names_the_checkpoint_actually_read(tmp_path, monkeypatch, capsys):
+    """Fault 12: with NAME.checkpoint.npz corrupt, the run resumes from NAME.checkpoint.prev.npz
+    (said on stderr) and the final message names that file, not the corrupt one."""
+    from rheometer.checkpoint import ProgramCheckpoint
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "p.txt").write_text("rest for 0.1 s\nrest for 0.1 s\nshear at 0.1 1/s for 0.1 s\n")
+    argv = ["program", "p.txt", "--phi", "0.48", "--plot", "none", "--out", "part.csv",
+            "--checkpoint-every", "1e-9"]
+    original, calls = ProgramCheckpoint._on_step, {"n": 0}
+
+    def on_step(self, progress):
+        original(self, progress)                        # saved after every step
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+    monkeypatch.setattr(ProgramCheckpoint, "_on_step", on_step)
+    assert main(argv) == 130
+    monkeypatch.undo()
+    monkeypatch.chdir(tmp_path)
+    assert (tmp_path / "part.checkpoint.prev.npz").is_file()
+    (tmp_path / "part.checkpoint.npz").write_bytes(b"not a zip")
+    capsys.readouterr()
+    assert main(argv + ["--resume"]) == 0
+    cap = capsys.readouterr()
+    assert "resuming from the previous checkpoint part.checkpoint.prev.npz" in cap.err
+    assert "resumed from part.checkpoint.prev.npz" in cap.out, cap.out
+    assert "resumed from part.checkpoint.npz" not in cap.out
+    assert pd.read_csv(tmp_path / "part.csv")["step"].max() == 3
