@@ -8,13 +8,18 @@
 
 Long runs show a progress bar of the simulated time (--quiet: none), keep a checkpoint in DIR
 (every --checkpoint-every seconds, and on Ctrl-C or SIGTERM) and continue with --resume.
-Bad input ends with one line on stderr and exit status 2, before anything is written; a solver
-failure with one line and status 1; an interrupt with status 130 and where the checkpoint is.
+Bad input ends with one line on stderr and exit status 2, before anything is written (an empty
+--out too: it would write into the current folder); a solver failure with one line and status 1
+(SUNDIALS' own error text, which sksundae prints on stdout, is kept off stdout and put on that
+line); an interrupt with status 130 and where the checkpoint is.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
+import re
 import sys
 
 from rheology.cli_common import Number, OneLineParser, run_command
@@ -25,6 +30,10 @@ from rheology.sample import add_mass_fraction_options
 #: continuum the model describes, and the explicit method's cost grows as cells^2 (hours there).
 MAX_CELLS = 20000
 MAX_OUTPUTS = 100000
+#: Upper bound of --time and --ramp-time [s]: 1e9 s (30 years), the bound the rheometer puts on
+#: its durations (rheometer.limits.TIME_MAX; the tiers do not import each other). Far past any
+#: experiment; it keeps the output times finite (1e300 s passed and failed in IDA after minutes).
+TIME_MAX = 1e9
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -84,7 +93,7 @@ def _parser() -> argparse.ArgumentParser:
                    help=f"bob surface speed(s) [m/s], in (0, 0.1 sqrt(G/rho)]: (0, {u_max:.6g}] "
                         f"for annular_shear at phi {m.phi0:g} (the model is a small-elastic-strain "
                         "law; default 0.00084 0.084)")
-    a.add_argument("--out", default="annular_shear_jamming", help="output folder")
+    a.add_argument("--out", default="annular_shear_jamming", help="output folder (not empty)")
     a.add_argument("--r-inner", type=Number("--r-inner", 0, 1.0, lo_closed=False, unit="m"),
                    default=R_INNER, help=f"bob radius [m] (default {R_INNER})")
     a.add_argument("--r-outer", type=Number("--r-outer", 0, 2.0, lo_closed=False, unit="m"),
@@ -92,8 +101,13 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--rotation", type=Number("--rotation", 0, 100.0, lo_closed=False,
                                              unit="rad"), default=ROTATION_END,
                    help=f"bob rotation to simulate [rad] (default {ROTATION_END})")
-    a.add_argument("--ramp-time", type=Number("--ramp-time", 0, None, unit="s"), default=0.0,
-                   help="start-up ramp of the bob [s] (default 0: impulsive)")
+    a.add_argument("--ramp-time", type=Number("--ramp-time", 0, TIME_MAX, unit="s"),
+                   default=0.0,
+                   help="start-up ramp of the bob [s] (default 0: impulsive), at most the "
+                        "rotation time --rotation x --r-inner / --u-inner at full speed (the "
+                        "fastest speed's; then the bob reaches full speed by half the rotation: "
+                        "a longer ramp would end the run before or just after the bob is up to "
+                        "speed, not the start-up of a shear at --u-inner)")
     numerics(a, 200, 310, MODES + ("both",))
 
     c = sub.add_parser("couette", help="plane Couette start-up (speed- or stress-driven)")
@@ -108,9 +122,10 @@ def _parser() -> argparse.ArgumentParser:
                             f"{ELASTIC_STRAIN_LIMIT * m.G:g}] for annular_shear")
     c.add_argument("--gap", type=Number("--gap", 0, 1.0, lo_closed=False, unit="m"), default=1e-2,
                    help="gap [m] (default 0.01)")
-    c.add_argument("--time", type=Number("--time", 0, None, lo_closed=False, unit="s"),
-                   default=1.0, help="duration [s] (default 1)")
-    c.add_argument("--out", default="plane_couette", help="output folder")
+    c.add_argument("--time", type=Number("--time", 0, TIME_MAX, lo_closed=False, unit="s"),
+                   default=1.0, help=f"duration [s], in (0, {TIME_MAX:g}] (30 years, the "
+                   "rheometer's bound; default 1); the computing time grows with it")
+    c.add_argument("--out", default="plane_couette", help="output folder (not empty)")
     numerics(c, 100, 200, MODES)
     return ap
 
@@ -194,15 +209,38 @@ def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
         check_material(material, phi)
 
 
+def _check_out(out: str) -> None:
+    """An empty --out (``--out ''``) would write into the current folder: refused by name
+    (rheology.io.check_output_dir, called by the scene, checks the rest before the run)."""
+    if not str(out).strip():
+        raise ValueError(f"--out = {out!r} is empty: give the output folder's name (use "
+                         "--out . for the current folder)")
+
+
+def _check_ramp(ramp_time: float, rotation: float, r_inner: float, speeds) -> None:
+    """--ramp-time at most the rotation time at full speed, rotation r_inner / u, of the fastest
+    --u-inner (see the option's help); ValueError naming it with the range."""
+    u = max(speeds)
+    top = rotation * r_inner / u
+    if ramp_time > top:
+        raise ValueError(f"--ramp-time = {ramp_time:g} s is outside the valid range [0, {top:.4g}] "
+                         f"s: at most the rotation time --rotation x --r-inner / --u-inner = "
+                         f"{rotation:g} x {r_inner:g} m / {u:g} m/s at full speed (a longer ramp "
+                         f"leaves the bob below full speed past half of --rotation: a slow "
+                         "start-up, not a shear at --u-inner); lower it, or raise --rotation")
+
+
 def _annular(args) -> None:
     from .scenes import R_OUTER, run_annular
 
+    _check_out(args.out)
     m, phi0 = _sample(args)
     default_outer = args.r_outer is None
     if default_outer:
         args.r_outer = R_OUTER
     _check_annulus(args.r_inner, args.r_outer, default_outer)
     _check_drive("--u-inner", args.u_inner, m, phi0)
+    _check_ramp(args.ramp_time, args.rotation, args.r_inner, args.u_inner)
     modes = _modes(args.mode, ("locked",) if args.method == "dae" else ("locked", "two-phase"))
     if args.method == "dae" and args.mode is None:
         print("shear1d: --method dae runs the locked mode only (no --mode given: locked)")
@@ -218,6 +256,7 @@ def _annular(args) -> None:
 def _couette(args) -> None:
     from .scenes import plane_couette, run_couette
 
+    _check_out(args.out)
     m, phi0 = _sample(args)
     if args.speed is not None:
         _check_drive("--speed", [args.speed], m, phi0)
@@ -231,11 +270,72 @@ def _couette(args) -> None:
                 progress=not args.quiet)
 
 
+class _SundialsFilter(io.TextIOBase):
+    """stdout without the error lines of sksundae's SUNDIALS error handler.
+
+    sksundae (1.2) prints every SUNDIALS error with ``print`` on stdout, e.g.
+    ``[IDASolve, Error: -22] At t = ..., ...`` between blank lines, besides returning the failed
+    status that shear1d turns into its own one-line RuntimeError. Those lines (and the blank lines
+    around them) are kept in ``caught`` instead, for that message; every other line passes
+    through unchanged."""
+
+    LINE = re.compile(r"^\[(IDA|CVode|CVODE|SUN)\w*, Error: -?\d+\] ")
+
+    def __init__(self, stream):
+        self.stream, self.caught = stream, []
+        self._part, self._blanks, self._after_error = "", 0, False
+
+    def writable(self):
+        return True
+
+    def write(self, text):
+        self._part += text
+        while "\n" in self._part:
+            line, self._part = self._part.split("\n", 1)
+            self._line(line)
+        return len(text)
+
+    def _line(self, line):
+        if not line.strip():
+            if not self._after_error:
+                self._blanks += 1
+            return
+        if self.LINE.match(line):
+            self.caught.append(line.strip())
+            self._blanks, self._after_error = 0, True
+            return
+        self.stream.write("\n" * self._blanks + line + "\n")
+        self._blanks, self._after_error = 0, False
+
+    def flush(self):
+        if self._part:
+            part, self._part = self._part, ""
+            if self.LINE.match(part):
+                self.caught.append(part.strip())
+            else:
+                self.stream.write("\n" * self._blanks + part)
+                self._blanks = 0
+        self.stream.flush()
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
-    return run_command(f"shear1d {args.cmd}", lambda: (_annular if args.cmd == "annular"
-                                                      else _couette)(args),
-                       on_interrupt="nothing was saved")
+
+    def body():
+        out = _SundialsFilter(sys.stdout)
+        try:
+            with contextlib.redirect_stdout(out):
+                (_annular if args.cmd == "annular" else _couette)(args)
+        except RuntimeError as exc:
+            if out.caught:               # SUNDIALS' own words, on the one line of the failure
+                raise RuntimeError(f"{exc} [SUNDIALS: {out.caught[-1].lstrip('[')}") from None
+            raise
+        finally:
+            out.flush()
+            if out._blanks and not out._after_error:
+                out.stream.write("\n" * out._blanks)
+
+    return run_command(f"shear1d {args.cmd}", body, on_interrupt="nothing was saved")
 
 
 if __name__ == "__main__":

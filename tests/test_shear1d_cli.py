@@ -232,3 +232,82 @@ def test_default_cup_radius_is_named_as_the_default(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "--r-outer = 0.036 (the default)" in err[0], err
     assert not (tmp_path / "o").exists()
+
+
+# ------------------------------------------------------------------ fresh-user faults 9, 10, 11
+@pytest.mark.parametrize("args, word", [
+    # fault 9: an empty --out wrote every file into the current folder
+    (["annular", "--u-inner", "0.084", "--cells", "20", "--quiet", "--out", ""],
+     "--out = '' is empty"),
+    (["couette", "--speed", "0.01", "--cells", "4", "--quiet", "--out", ""],
+     "--out = '' is empty"),
+    (["couette", "--speed", "0.01", "--cells", "4", "--quiet", "--out", "  "],
+     "is empty: give the output folder's name"),
+    # fault 10: --time had no upper bound (1e300 ran minutes, then IDA failed)
+    (["couette", "--speed", "0.01", "--time", "1e300", "--quiet", "--cells", "4"],
+     "--time = 1e300 is outside the valid range (0, 1e+09] s"),
+    # fault 11: --ramp-time had no upper bound; now at most the rotation time at full speed
+    (["annular", "--u-inner", "0.084", "--cells", "20", "--ramp-time", "1e9"],
+     "--ramp-time = 1e+09 s is outside the valid range [0, 0.04613] s"),
+    (["annular", "--u-inner", "0.00084", "0.084", "--cells", "20", "--ramp-time", "0.05"],
+     "--ramp-time = 0.05 s is outside the valid range [0, 0.04613] s"),
+    (["annular", "--u-inner", "0.084", "--cells", "20", "--ramp-time", "1e10"],
+     "--ramp-time = 1e10 is outside the valid range [0, 1e+09] s"),
+])
+def test_fresh_user_refusals_exit_2_one_line_nothing_written(args, word, tmp_path, monkeypatch,
+                                                              capsys):
+    monkeypatch.chdir(tmp_path)
+    try:
+        code = main(args)                  # refused at setup: main returns the status
+    except SystemExit as exc:              # refused by the parser
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and word in err[0] and "Traceback" not in err[0], err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_ramp_time_bound_is_the_rotation_time_of_the_fastest_speed():
+    from shear1d.cli import _check_ramp
+
+    top = 0.31 * 0.0125 / 0.084
+    _check_ramp(top, 0.31, 0.0125, [0.00084, 0.084])        # at the bound: accepted
+    _check_ramp(0.0, 0.31, 0.0125, [0.084])
+    with pytest.raises(ValueError, match=r"--ramp-time = 0\.0462 s .*\[0, 0\.04613\] s"):
+        _check_ramp(0.0462, 0.31, 0.0125, [0.00084, 0.084])
+
+
+def test_sundials_error_lines_stay_off_stdout(tmp_path, monkeypatch, capsys):
+    """Fault 10: sksundae prints SUNDIALS' errors on stdout ('[IDASolve, Error: -22] ...'). They
+    are kept off it and the failure's one line (exit 1) carries their words."""
+    import sksundae.ida
+
+    real = sksundae.ida.IDA
+
+    def few_steps(*a, **kw):                      # IDA gives up after 3 steps: a real failure
+        kw["max_num_steps"] = 3
+        return real(*a, **kw)
+    monkeypatch.setattr(sksundae.ida, "IDA", few_steps)
+    rc = main(["couette", "--speed", "0.01", "--cells", "4", "--time", "0.2", "--outputs", "2",
+               "--quiet", "--out", str(tmp_path / "o")])
+    cap = capsys.readouterr()
+    assert rc == 1
+    assert "Error: -22" not in cap.out and "IDASolve" not in cap.out, cap.out
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1 and "IDA failed at t = " in err[0], err
+    assert "[SUNDIALS: IDASolve, Error: -22] At t = " in err[0] and "mxstep" in err[0], err
+
+
+def test_sundials_filter_passes_every_other_line():
+    import io as _io
+
+    from shear1d.cli import _SundialsFilter
+
+    buf = _io.StringIO()
+    f = _SundialsFilter(buf)
+    for text in ("shear1d: run ...\n", "\n", "\n[IDASolve, Error: -22] At t = 1, mxstep.\n", "\n",
+                 "partial", " line\n", "\n", "end"):
+        f.write(text)
+    f.flush()
+    assert buf.getvalue() == "shear1d: run ...\npartial line\n\nend"
+    assert f.caught == ["[IDASolve, Error: -22] At t = 1, mxstep."]
