@@ -852,6 +852,10 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
         cov_full = s2 * (Vtf.T[:, okf] / svf[okf] ** 2) @ Vtf[okf]
         for k in np.flatnonzero(active):
             cov_t[k, k] = cov_full[k, k]
+            # a parameter that ran to a bound along a direction the data do not see (mu_c with
+            # a0, a_inf: Eq. 1 holds only mu_c a^2) is unidentifiable, not merely at a bound
+            if np.any(np.abs(Vtf[~okf, k]) > 0.1):
+                degenerate.add(free_list[k])
         cov_p = L @ cov_t @ L.T
         sd = np.sqrt(np.maximum(np.diag(cov_p), 0.0))
         with np.errstate(invalid="ignore", divide="ignore"):

@@ -182,10 +182,15 @@ def tensor_reference(material, phi: float, rate: float, t_end: float, *, control
     y[PP], y[FF], y[PHI] = -sig[0, 0], f, phi
     t0, rows, switches = float(times[0]), [], []
     dt_probe = 1e-9 * max(t_end, 1e-300)
+    ended = None                         # the regime whose switch event ended the last segment
     while True:
         s3 = _stress(y)
         regime, g_guess, e_guess = _probe(s3, y[PHI], y[FF], rate, dt_probe, ctrl, p_target, m,
                                           P)
+        if regime == ended:
+            # exactly at the switch (beta or xi_2 crossing 0) the one-step probe may land on
+            # either side; the event says the old regime's condition failed: take the other
+            regime = COMPACTING if ended == DILATANT else DILATANT
         y[GP], y[EE] = g_guess, e_guess
         if ctrl:
             y[PP] = p_target
@@ -226,6 +231,7 @@ def tensor_reference(material, phi: float, rate: float, t_end: float, *, control
         if which == 2:
             raise RuntimeError(f"tensor reference: the pressure vanishes at t = {t0:.6g} s")
         switches.append((t0, "compaction" if regime == DILATANT else "dilatant shear flow"))
+        ended = regime
     arr = np.array(rows)
     s = arr[:, 1:5]
     taubar = np.sqrt(0.5 * (s[:, 0] ** 2 + s[:, 1] ** 2 + s[:, 2] ** 2 + 2 * s[:, 3] ** 2))
