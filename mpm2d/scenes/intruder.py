@@ -90,7 +90,11 @@ in two-phase mode either (k_l/k_t 1.86 against 1.80 locked, transverse R^2 0.87)
 radii 6.35 or 12.7 mm (2.2, 1.4). The 0-D law at phi = 0.47 (``rheometer startup --material
 intruder --phi 0.47 --rate R --t-end 0.02``) shear-jams within 20 ms only above ~30 1/s (at
 11 ms for 40 1/s; 20 1/s reaches f = 0.11), while the rates the 1 mm grid resolves around the
-rod are 7-10 1/s (|D_rz|, |D_zz| at 20 ms; v0/R_rod = 55 1/s is spread over ~10 mm). The ten Fig. 7 cases (``mpm2d
+rod are 7-10 1/s (|D_rz|, |D_zz| at 20 ms; v0/R_rod = 55 1/s is spread over ~10 mm; max f/f_m
+0.28). At h = 0.5 mm the same default run grows a plug: max f/f_m 0.996, strain rate at its
+boundary, k_l = 2.02, k_t = 1.29, k_l/k_t = 1.56, R^2 0.99/0.98 (f only tends to f_m = f_jam
+with Delta = 0, so ``jammed`` stays false); phi0 = 0.50, v0 = 0.5 at 0.5 mm: 1.56 (R^2
+0.97/0.93, fit 0.5-2.7 ms). The ten Fig. 7 cases (``mpm2d
 sweep intruder --set phi0=0.46,...,0.50 --set v0=0.2,0.5``): k_l/k_t = 1.74 and 1.69 (phi0 0.46,
 0.47 at 0.2 m/s, not jammed), 0.99, 0.81, 0.53, 0.86, 1.38, 1.27, 0.84, 1.61 (phi0 0.46 and 0.47
 at 0.5 m/s; 0.48 at 0.2, 0.5; 0.49 at 0.2, 0.5; 0.50 at 0.2, 0.5): mean 1.17, sd 0.40, three
