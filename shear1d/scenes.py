@@ -292,9 +292,12 @@ MAX_CELL_STEPS = 1e12
 
 
 def precheck(problem: Couette, method: str, rtol: float, dt: float | None,
-             t_end: float | None = None) -> None:
+             t_end: float | None = None, duration: str = "--time") -> None:
     """Refuse a bad method, tolerance, an unstable explicit step or an explicit run longer than
-    MAX_CELL_STEPS before anything is written."""
+    MAX_CELL_STEPS before anything is written. The cell-step refusal names every option that
+    sets the count, cells x t_end / dt: --cells, ``duration`` (the option(s) that set t_end,
+    e.g. ``"--rotation / --u-inner"``), --dt (or its default, half the stability limit), with
+    the smallest --dt that fits when one within the stability limit does."""
     if method not in METHODS:
         raise ValueError(f"method = {method!r} must be one of {METHODS}")
     check_range("rtol", rtol, 1e-12, 1e-2)
@@ -307,13 +310,21 @@ def precheck(problem: Couette, method: str, rtol: float, dt: float | None,
                 raise ValueError(("--" + text if text.startswith("dt ") else text)
                                  .replace("method='ida'", "--method ida")) from None
         if t_end is not None:
-            step = dt if dt is not None else 0.5 * stable_time_step(problem)["dt"]
-            work = problem.grid.n * t_end / step
+            limit = stable_time_step(problem)["dt"]
+            step = dt if dt is not None else 0.5 * limit
+            n = problem.grid.n
+            work = n * t_end / step
             if work > MAX_CELL_STEPS:
-                raise ValueError(f"--method explicit: {problem.grid.n} cells over {t_end:.4g} s "
-                                 f"at dt = {step:.3g} s are {work:.2e} cell-steps (estimate), "
-                                 f"more than {MAX_CELL_STEPS:.0e} (hours); use fewer cells, a "
-                                 "shorter run or --method ida")
+                given = "" if dt is not None else " (the default, half the stability limit)"
+                need = n * t_end / MAX_CELL_STEPS
+                larger = (f"--dt >= {need:.3g} s (stability limit {limit:.3g} s), "
+                          if need <= limit else "")
+                raise ValueError(f"--method explicit: --cells {n} over t_end = {t_end:.4g} s "
+                                 f"({duration}) at --dt = {step:.3g} s{given} are {work:.2e} "
+                                 f"cell-steps (estimate), more than {MAX_CELL_STEPS:.0e} (hours); "
+                                 f"valid: {larger}{'fewer --cells, ' if n > 4 else ''}t_end <= "
+                                 f"{MAX_CELL_STEPS * step / n:.3g} s at these --cells and --dt "
+                                 f"(a smaller {duration}), or --method ida")
 
 
 def check_out_dir(out) -> Path:
@@ -375,7 +386,9 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
         raise ValueError(f"--u-inner {' '.join(f'{u:g}' for u in speeds)}: each speed (and "
                          "mode) once")
     for *_, problem, t_end in problems:
-        precheck(problem, method, rtol, dt, t_end)
+        precheck(problem, method, rtol, dt, t_end,
+                 duration="--rotation x --r-inner / --u-inner" + (" + --ramp-time/2"
+                                                                  if ramp_time else ""))
     check_memory("--cells x --outputs", f"{n_cells} x {n_out}",
                  memory_estimate(n_cells, n_out, runs=len(problems)))
     cks = {run_tag(u, mode): out / f"{run_tag(u, mode)}.checkpoint.npz" for u, mode, *_ in problems}

@@ -311,3 +311,26 @@ def test_sundials_filter_passes_every_other_line():
     f.flush()
     assert buf.getvalue() == "shear1d: run ...\npartial line\n\nend"
     assert f.caught == ["[IDASolve, Error: -22] At t = 1, mxstep."]
+
+
+@pytest.mark.parametrize("args, words", [
+    # the explicit cell-step count cells x t_end / dt: every option that sets it is named
+    (["couette", "--speed", "0.01", "--time", "1e5", "--cells", "4", "--method", "explicit",
+      "--dt", "1e-9"], ["--cells 4", "(--time)", "--dt = 1e-09 s", "--dt >= 4e-07 s",
+                        "t_end <= 250 s"]),
+    (["couette", "--speed", "0.01", "--time", "1e9", "--cells", "4", "--method", "explicit"],
+     ["--cells 4", "(--time)", "(the default, half the stability limit)", "--method ida"]),
+    (["annular", "--u-inner", "0.00084", "--rotation", "100", "--cells", "20000", "--method",
+      "explicit", "--outputs", "10"], ["--cells 20000", "--rotation x --r-inner / --u-inner",
+                                       "fewer --cells"]),
+])
+def test_explicit_cell_step_limit_names_every_option_that_sets_it(args, words, tmp_path, capsys):
+    out = tmp_path / "o"
+    assert main(args + ["--quiet", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cell-steps" in err[0], err
+    for w in words:
+        assert w in err[0], (w, err[0])
+    if "--time" in args and "1e9" in args:
+        assert "--dt >=" not in err[0]        # no step within the stability limit fits
+    assert not out.exists()
