@@ -98,7 +98,8 @@ def _command(args) -> None:
     if args.cmd == "sweep":
         from .sweep import parse_grid, run_sweep
 
-        table = run_sweep(args.scene, parse_grid(args.set), args.out or f"sweep_{args.scene}",
+        out = f"sweep_{args.scene}" if args.out is None else args.out      # '' is refused
+        table = run_sweep(args.scene, parse_grid(args.set), out,
                           scheduler=args.scheduler, workers=args.workers,
                           checkpoint_every=args.checkpoint_every, vtk=args.vtk,
                           progress=not args.quiet)
@@ -116,7 +117,7 @@ def _command(args) -> None:
     params = _parse_set(args.set)
     if args.mass_fraction is not None:
         _mass_fraction(args, get_spec(args.scene), params)
-    run_scene(get_setup(args.scene), args.out or args.scene, params,
+    run_scene(get_setup(args.scene), args.scene if args.out is None else args.out, params,
               resume=args.resume, progress=not args.quiet, vtk=False if args.no_vtk else None,
               frames=args.frames, checkpoint_every=args.checkpoint_every, scene_name=args.scene)
 

@@ -236,9 +236,12 @@ def check_output_dir(name: str, path) -> Path:
     Raises
     ------
     ValueError
-        ``"--out = 'x.csv' exists and is not a folder"`` or ``"--out = '/proc/x': cannot write
-        in /proc (...)"``.
+        ``"--out = 'x.csv' exists and is not a folder"``, ``"--out = '/proc/x': cannot write
+        in /proc (...)"``, or an empty name (which Path would read as the current folder).
     """
+    if not str(path).strip():
+        raise ValueError(f"{name} = {str(path)!r} is empty: give the output folder's name (use "
+                         f"{name} . for the current folder)")
     p = Path(str(path))
     if p.exists() and not p.is_dir():
         raise ValueError(f"--out = {str(path)!r} exists and is not a folder" if name == "--out"

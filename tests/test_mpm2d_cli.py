@@ -219,3 +219,14 @@ def test_bad_value_of_a_derived_bound_states_the_derived_range(capsys, tmp_path)
     assert main(["run", "column", "--set", "phi0=nan", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
     assert "valid range (0, 0.535) (phi_j of material 'rod_impact')" in err and "inf)" not in err
+
+
+@pytest.mark.parametrize("argv", [["run", "bar"], ["sweep", "bar", "--set", "cells=4,8"]])
+def test_empty_out_is_refused(argv, tmp_path, monkeypatch, capsys):
+    """--out '' ran the scene into its default folder (mpm2d) or the current one (shear1d):
+    refused by rheology.io.check_output_dir, one line, exit 2, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv + ["--out", ""]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--out = '' is empty" in err[0], err
+    assert not any(tmp_path.iterdir())
