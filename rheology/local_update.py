@@ -581,8 +581,9 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
     out[10], out[11], out[12], out[13] = taubar, p, case, iters
 
 
-#: points per block of :func:`update_block` (its work arrays: (NWORK, BLOCK))
-BLOCK = 128
+#: points per block of :func:`update_block` (its work arrays: (NWORK, BLOCK)); 256: the
+#: locked kernel 67 -> 63 ns a point serial against 128 (fewer block set-ups, W still in L2)
+BLOCK = 256
 NWORK = 16
 #: Newton steps on (beta, gdot_p) that :func:`update_block` takes in step for a whole block:
 #: three, as many as _newton_2d takes from the same start in MPM shear (the test then sees the
