@@ -231,6 +231,49 @@ _NEWTON2D_MAX = 8
 _NEWTON_MAX = 6
 
 
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _critical_state(tau_tr, phi, y, a, Gdt, mu1, mu2, b, eta0, rho_s, d):
+    """Shear flow + compaction at the critical state (beta = 0, phi = phi_eq, K4 = 0): the plastic
+    rate gdot_c for which f_1 = 0 under the trial stress tau* (A g^2 + B g = tau* y^2, with the
+    elastic relaxation G dt y^2 in B) and the pressure p_c = P3(gdot_c) (laws.critical_pressure);
+    y = phi_m - phi > 0. Returns (gdot_c, p_c). (Scalars, not the parameter array: loads from an
+    array inside update_block's loops would not be hoisted, and the loop would not vectorise.)"""
+    ap2 = (a * phi) ** 2
+    mus = laws.critical_friction(phi, y, a, mu1, mu2, b)
+    A = mus * ap2 * rho_s * d * d
+    B = eta0 * (2.0 * mus * ap2 + 2.5 * phi * phi * y) + Gdt * y * y
+    c = tau_tr * y * y
+    gc = 2.0 * c / (B + np.sqrt(B * B + 4.0 * A * c))
+    return gc, laws.critical_pressure(gc, phi, y, a, eta0, d, rho_s)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _newton_2d_step(beta, g, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, iK3, cV, mu1, mu2, b):
+    """One Newton step (d beta, d gdot_p) on the pair F1, F2 of :func:`_newton_2d` at (beta, g);
+    iK3 = 1/K3, cV = 5/2 phi eta0/a. Branch-free, so that update_block's loop over a block
+    becomes SIMD code."""
+    x = phi - beta * iK3
+    w = phim - x
+    ax = a * x
+    iax = 1.0 / ax
+    Im = w * iax
+    iIm = ax / w
+    p = p_tr + Kdt * beta * g
+    Ag = rd2 * g * g + 2.0 * eta0 * g
+    F1 = p * w * w - Ag * ax * ax
+    F1b = Kdt * g * w * w + 2.0 * (p * w + Ag * a * ax) * iK3
+    F1g = Kdt * beta * w * w - (2.0 * rd2 * g + 2.0 * eta0) * ax * ax
+    dIm = phim * a * iax * iax * iK3
+    ib = 1.0 / (Im + b)
+    M = mu1 + beta + (mu2 - mu1) * Im * ib
+    V = cV * iIm
+    F2 = tau_tr - Gdt * g - M * p - V * g
+    F2b = -(1.0 + (mu2 - mu1) * b * ib * ib * dIm) * p - M * Kdt * g + V * g * dIm * iIm
+    F2g = -Gdt - M * Kdt * beta - V
+    idet = 1.0 / (F1b * F2g - F1g * F2b)
+    return (F1g * F2 - F1 * F2g) * idet, (F1 * F2b - F1b * F2) * idet
+
+
 @_jit
 def _newton_2d(beta, g, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
                mu1, mu2, b):
@@ -250,27 +293,8 @@ def _newton_2d(beta, g, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
     cV = 2.5 * phi * eta0 / a
     r_prev = np.inf
     for _ in range(_NEWTON2D_MAX):
-        x = phi - beta * iK3
-        w = phim - x
-        ax = a * x
-        iax = 1.0 / ax
-        Im = w * iax
-        iIm = ax / w
-        p = p_tr + Kdt * beta * g
-        Ag = rd2 * g * g + 2.0 * eta0 * g
-        F1 = p * w * w - Ag * ax * ax
-        F1b = Kdt * g * w * w + 2.0 * (p * w + Ag * a * ax) * iK3
-        F1g = Kdt * beta * w * w - (2.0 * rd2 * g + 2.0 * eta0) * ax * ax
-        dIm = phim * a * iax * iax * iK3
-        ib = 1.0 / (Im + b)
-        M = mu1 + beta + (mu2 - mu1) * Im * ib
-        V = cV * iIm
-        F2 = tau_tr - Gdt * g - M * p - V * g
-        F2b = -(1.0 + (mu2 - mu1) * b * ib * ib * dIm) * p - M * Kdt * g + V * g * dIm * iIm
-        F2g = -Gdt - M * Kdt * beta - V
-        idet = 1.0 / (F1b * F2g - F1g * F2b)
-        db = (F1g * F2 - F1 * F2g) * idet
-        dg = (F1 * F2b - F1b * F2) * idet
+        db, dg = _newton_2d_step(beta, g, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, iK3,
+                                 cV, mu1, mu2, b)
         bn, gn = beta + db, g + dg
         if not (beta_lo < bn < beta_top and gn > 0.0 and gn < np.inf):
             return beta_lo
@@ -515,13 +539,7 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
         return
     else:
         if y > 0.0:                                           # try shear flow + compaction
-            ap2 = (a * phi) ** 2
-            mus = laws.critical_friction(phi, y, a, mu1, mu2, b)
-            A = mus * ap2 * rd2
-            B = eta0 * (2.0 * mus * ap2 + 2.5 * phi * phi * y) + Gdt * y * y
-            c = tau_tr * y * y
-            gc = 2.0 * c / (B + np.sqrt(B * B + 4.0 * A * c))
-            pc = laws.critical_pressure(gc, phi, y, a, eta0, d, rho_s)
+            gc, pc = _critical_state(tau_tr, phi, y, a, Gdt, mu1, mu2, b, eta0, rho_s, d)
             if pc <= p_tr:
                 case = COMPACTION
                 g, p, Im, beta = gc, pc, y / (a * phi), 0.0
@@ -644,13 +662,7 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
         phim = laws.phi_m(f[k], phi_c, phi_j)
         a = laws.dilatancy_a(f[k], a0, ainf)
         y = phim - ph
-        ap2 = (a * ph) ** 2
-        mus = laws.critical_friction(ph, y, a, mu1, mu2, b)
-        A = mus * ap2 * rd2
-        B = eta0 * (2.0 * mus * ap2 + 2.5 * ph * ph * y) + Gdt * y * y
-        c = tau_tr * y * y
-        gc = 2.0 * c / (B + np.sqrt(B * B + 4.0 * A * c))
-        pc = laws.critical_pressure(gc, ph, y, a, eta0, d, rho_s)
+        gc, pc = _critical_state(tau_tr, ph, y, a, Gdt, mu1, mu2, b, eta0, rho_s, d)
         beta_lo = max(0.0, K3 * (ph - phim))
         beta_top = beta_lo + (K3 * ph - beta_lo) * (1.0 - 1e-15)
         b0 = (pc - p_tr) / (Kdt * gc + 2.0 * pc * phim / (ph * y * K3))
@@ -664,29 +676,10 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
     # 2. Newton on (beta, gdot_p): the equations F1, F2 of _newton_2d, every point in step
     for _ in range(_LANE_NEWTON):
         for k in range(n):
-            beta, g = W[7, k], W[8, k]
-            phim, a = W[2, k], W[3, k]
-            x = phi[k] - beta * iK3
-            w = phim - x
-            ax = a * x
-            iax = 1.0 / ax
-            Im = w * iax
-            iIm = ax / w
-            p = W[0, k] + Kdt * beta * g
-            Ag = rd2 * g * g + 2.0 * eta0 * g
-            F1 = p * w * w - Ag * ax * ax
-            F1b = Kdt * g * w * w + 2.0 * (p * w + Ag * a * ax) * iK3
-            F1g = Kdt * beta * w * w - (2.0 * rd2 * g + 2.0 * eta0) * ax * ax
-            dIm = phim * a * iax * iax * iK3
-            ib = 1.0 / (Im + b)
-            M = mu1 + beta + (mu2 - mu1) * Im * ib
-            V = cV * phi[k] / a * iIm
-            F2 = W[1, k] - Gdt * g - M * p - V * g
-            F2b = -(1.0 + (mu2 - mu1) * b * ib * ib * dIm) * p - M * Kdt * g + V * g * dIm * iIm
-            F2g = -Gdt - M * Kdt * beta - V
-            idet = 1.0 / (F1b * F2g - F1g * F2b)
-            W[7, k] = beta + (F1g * F2 - F1 * F2g) * idet
-            W[8, k] = g + (F1 * F2b - F1b * F2) * idet
+            beta, g, a = W[7, k], W[8, k], W[3, k]
+            db, dg = _newton_2d_step(beta, g, phi[k], W[2, k], a, W[0, k], W[1, k], Gdt, Kdt,
+                                     eta0, rd2, iK3, 2.5 * phi[k] * eta0 / a, mu1, mu2, b)
+            W[7, k], W[8, k] = beta + db, g + dg
     # 3. the residual of _dilatant_flow at the final beta, with gdot(beta) in closed form
     for k in range(n):
         beta, p_tr, tau_tr, phim, a = W[7, k], W[0, k], W[1, k], W[2, k], W[3, k]
