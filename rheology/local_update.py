@@ -711,7 +711,10 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
                     sig_out[k, i, j] = so1[i, j]
             for i in range(NOUT):
                 out[k, i] = o1[i]
-    # 5. the others: shear flow + compaction (closed form) or the accepted dilatant solve
+    # 5. the others: shear flow + compaction (closed form) or the accepted dilatant solve; the
+    # parameters as a tuple (values: their loads are not redone after every store)
+    Pt = (P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[7], P[8], P[9], P[10], P[11], P[12],
+          P[13], P[14], P[15], P[16], P[17], P[18], P[19], P[20])
     for k in range(n):
         kind = W[15, k]
         if kind == 0.0:
@@ -722,7 +725,7 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
         p = W[6, k] if comp else W[12, k]
         Im = y / (a * ph) if comp else W[13, k]
         beta = 0.0 if comp else W[7, k]
-        taubar, scale, f1, mu, I, Iv, phieq = _tail(f[k], ph, phim, a, g, p, Im, tau_tr, Gdt, P,
+        taubar, scale, f1, mu, I, Iv, phieq = _tail(f[k], ph, phim, a, g, p, Im, tau_tr, Gdt, Pt,
                                                     dt, full)
         for i in range(3):
             for j in range(3):
