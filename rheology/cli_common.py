@@ -17,6 +17,8 @@ Every message is one line on stderr, never a traceback.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import math
 import re
 import signal
@@ -150,6 +152,54 @@ def _sigterm(signum, frame):
     raise KeyboardInterrupt
 
 
+class SundialsFilter(io.TextIOBase):
+    """stdout without the error lines of sksundae's SUNDIALS error handler.
+
+    sksundae (1.2) prints every SUNDIALS error with ``print`` on stdout, e.g.
+    ``[IDASolve, Error: -22] At t = ..., ...`` between blank lines, besides returning the failed
+    status that the tiers turn into their own one-line RuntimeError. Those lines (and the blank
+    lines around them) are kept in ``caught`` instead, for that message (:func:`run_command`
+    appends the last); every other line passes through unchanged."""
+
+    LINE = re.compile(r"^\[(IDA|CVode|CVODE|SUN)\w*, Error: -?\d+\] ")
+
+    def __init__(self, stream):
+        self.stream, self.caught = stream, []
+        self._part, self._blanks, self._after_error = "", 0, False
+
+    def writable(self):
+        return True
+
+    def write(self, text):
+        self._part += text
+        while "\n" in self._part:
+            line, self._part = self._part.split("\n", 1)
+            self._line(line)
+        return len(text)
+
+    def _line(self, line):
+        if not line.strip():
+            if not self._after_error:
+                self._blanks += 1
+            return
+        if self.LINE.match(line):
+            self.caught.append(line.strip())
+            self._blanks, self._after_error = 0, True
+            return
+        self.stream.write("\n" * self._blanks + line + "\n")
+        self._blanks, self._after_error = 0, False
+
+    def flush(self):
+        if self._part:
+            part, self._part = self._part, ""
+            if self.LINE.match(part):
+                self.caught.append(part.strip())
+            else:
+                self.stream.write("\n" * self._blanks + part)
+                self._blanks = 0
+        self.stream.flush()
+
+
 def run_command(prog: str, body: Callable[[], int | None], *, on_interrupt: str = "") -> int:
     """Run ``body`` and return the exit status (``body``'s return value, or 0).
 
@@ -167,17 +217,23 @@ def run_command(prog: str, body: Callable[[], int | None], *, on_interrupt: str 
         was really written (a body can raise ``KeyboardInterrupt("message")`` to replace it).
     """
     previous = signal.signal(signal.SIGTERM, _sigterm)
+    out = SundialsFilter(sys.stdout)
     try:
-        return int(body() or 0)
+        with contextlib.redirect_stdout(out):
+            return int(body() or 0)
     except ValueError as exc:
         print(f"{prog}: error: {one_line(exc)}", file=sys.stderr)
         return USAGE
     except (RuntimeError, OSError) as exc:
-        print(f"{prog}: failed: {one_line(exc)}", file=sys.stderr)
+        sundials = f" [SUNDIALS: {out.caught[-1].lstrip('[')}" if out.caught else ""
+        print(f"{prog}: failed: {one_line(exc)}{sundials}", file=sys.stderr)
         return FAILED
     except KeyboardInterrupt as exc:
         note = one_line(exc) if str(exc) else on_interrupt
         print(f"{prog}: interrupted{' (' + note + ')' if note else ''}", file=sys.stderr)
         return INTERRUPTED
     finally:
+        out.flush()
+        if out._blanks and not out._after_error:
+            out.stream.write("\n" * out._blanks)
         signal.signal(signal.SIGTERM, previous)

@@ -17,9 +17,6 @@ line); an interrupt with status 130 and where the checkpoint is.
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
-import re
 import sys
 
 from rheology.cli_common import Number, OneLineParser, run_command
@@ -270,70 +267,11 @@ def _couette(args) -> None:
                 progress=not args.quiet)
 
 
-class _SundialsFilter(io.TextIOBase):
-    """stdout without the error lines of sksundae's SUNDIALS error handler.
-
-    sksundae (1.2) prints every SUNDIALS error with ``print`` on stdout, e.g.
-    ``[IDASolve, Error: -22] At t = ..., ...`` between blank lines, besides returning the failed
-    status that shear1d turns into its own one-line RuntimeError. Those lines (and the blank lines
-    around them) are kept in ``caught`` instead, for that message; every other line passes
-    through unchanged."""
-
-    LINE = re.compile(r"^\[(IDA|CVode|CVODE|SUN)\w*, Error: -?\d+\] ")
-
-    def __init__(self, stream):
-        self.stream, self.caught = stream, []
-        self._part, self._blanks, self._after_error = "", 0, False
-
-    def writable(self):
-        return True
-
-    def write(self, text):
-        self._part += text
-        while "\n" in self._part:
-            line, self._part = self._part.split("\n", 1)
-            self._line(line)
-        return len(text)
-
-    def _line(self, line):
-        if not line.strip():
-            if not self._after_error:
-                self._blanks += 1
-            return
-        if self.LINE.match(line):
-            self.caught.append(line.strip())
-            self._blanks, self._after_error = 0, True
-            return
-        self.stream.write("\n" * self._blanks + line + "\n")
-        self._blanks, self._after_error = 0, False
-
-    def flush(self):
-        if self._part:
-            part, self._part = self._part, ""
-            if self.LINE.match(part):
-                self.caught.append(part.strip())
-            else:
-                self.stream.write("\n" * self._blanks + part)
-                self._blanks = 0
-        self.stream.flush()
-
-
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
 
     def body():
-        out = _SundialsFilter(sys.stdout)
-        try:
-            with contextlib.redirect_stdout(out):
-                (_annular if args.cmd == "annular" else _couette)(args)
-        except RuntimeError as exc:
-            if out.caught:               # SUNDIALS' own words, on the one line of the failure
-                raise RuntimeError(f"{exc} [SUNDIALS: {out.caught[-1].lstrip('[')}") from None
-            raise
-        finally:
-            out.flush()
-            if out._blanks and not out._after_error:
-                out.stream.write("\n" * out._blanks)
+        (_annular if args.cmd == "annular" else _couette)(args)
 
     return run_command(f"shear1d {args.cmd}", body, on_interrupt="nothing was saved")
 

@@ -301,7 +301,7 @@ def test_sundials_error_lines_stay_off_stdout(tmp_path, monkeypatch, capsys):
 def test_sundials_filter_passes_every_other_line():
     import io as _io
 
-    from shear1d.cli import _SundialsFilter
+    from rheology.cli_common import SundialsFilter as _SundialsFilter
 
     buf = _io.StringIO()
     f = _SundialsFilter(buf)
