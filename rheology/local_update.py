@@ -620,7 +620,7 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
     finishes are NaN (a caller that keeps only stress, f, gdot_p and the case, e.g. mpm2d).
 
     The scalar update is a chain of dependent divisions and square roots per point (~240 ns for a
-    point in dilatant shear flow, three quarters of it in the solve and its residual check), so
+    point in dilatant shear flow, half of it in the solve and its residual check), so
     it runs at the latency of that chain. Here the same arithmetic goes through the block one
     stage at a time, each stage a branch-free loop over the points that the compiler turns into
     SIMD instructions: (1) the elastic trial, its invariants and the critical-state estimates of
@@ -639,7 +639,6 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
     phi_c, phi_j, a0, ainf = P[0], P[1], P[2], P[3]
     Gdt, Kdt, rd2 = G * dt, K * dt, rho_s * d * d
     iK3 = 1.0 / K3
-    cV = 2.5 * eta0
     # 1. trial stress, invariants, critical-state estimates and the solve's start
     for k in range(n):
         r = jaumann_elastic((sig[k, 0, 0], sig[k, 0, 1], sig[k, 0, 2], sig[k, 1, 0], sig[k, 1, 1],
