@@ -30,6 +30,7 @@ number of points and grid beside (a); skipped with a note when Taichi is absent.
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
@@ -282,6 +283,11 @@ def taichi_elastic_rate(cells: int, steps: int, reps: int = 3):
     fixed dt (0.5 h / c), quadratic B-splines, APIC; CPU backend, 2 threads, float64. Returns
     (rate, note); rate None when Taichi is not installed.
     """
+    # Taichi wraps every kernel call with a print-buffer flush when sys.stdout is not the
+    # console's own (it is a filter under rheology.cli_common.run_command): a per-call cost
+    # that is not Taichi's speed (seen: 6.6 instead of 11-13 M point-steps/s). Our kernels
+    # do not print, so the buffer is off.
+    os.environ.setdefault("TI_ENABLE_PYBUF", "0")
     try:
         import taichi as ti
     except ImportError:
