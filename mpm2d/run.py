@@ -334,6 +334,13 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     except KeyboardInterrupt:
         raise KeyboardInterrupt("during the scene's set-up, nothing written"
                                 + (f"; {ckpt_path} is as it was" if saved is not None else ""))
+    except ArithmeticError as exc:
+        # a value inside its declared range whose set-up arithmetic still breaks down (a length
+        # of 1e-300, a modulus that overflows): the parameters given are the cause
+        given_text = ", ".join(f"{k} = {v}" for k, v in given.items()) or "the defaults"
+        raise ValueError(f"scene {name}: with {given_text} the set-up breaks down "
+                         f"({type(exc).__name__}: {exc}); valid: values away from the extremes "
+                         f"of their ranges ('mpm2d show {name}')") from None
     check_step_count(scene, name)
     if saved is None and (ckpt_path.exists() or ckpt_path.with_name("checkpoint.prev.npz").exists()):
         log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "

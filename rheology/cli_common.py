@@ -224,9 +224,12 @@ def run_command(prog: str, body: Callable[[], int | None], *, on_interrupt: str 
     except ValueError as exc:
         print(f"{prog}: error: {one_line(exc)}", file=sys.stderr)
         return USAGE
-    except (RuntimeError, OSError) as exc:
+    except (RuntimeError, OSError, ArithmeticError) as exc:
+        # ArithmeticError (overflow, division by zero in a library) is the last net under the
+        # tiers' own checks: one line, never a traceback
+        kind = "" if isinstance(exc, (RuntimeError, OSError)) else f"{type(exc).__name__}: "
         sundials = f" [SUNDIALS: {out.caught[-1].lstrip('[')}" if out.caught else ""
-        print(f"{prog}: failed: {one_line(exc)}{sundials}", file=sys.stderr)
+        print(f"{prog}: failed: {kind}{one_line(exc)}{sundials}", file=sys.stderr)
         return FAILED
     except KeyboardInterrupt as exc:
         note = one_line(exc) if str(exc) else on_interrupt

@@ -80,7 +80,8 @@ def check_finite(frame, where: str = "result", empty_ok: Iterable[str] = ()) -> 
             k = int(np.flatnonzero(bad)[0])
             context = ", ".join(f"{c} = {frame[c].iloc[k]}" for c in frame.columns[:3] if c != col)
             raise RuntimeError(f"{where}: column {col} has {int(bad.sum())} non-finite value(s) "
-                               f"(first {arr[k]} at row {k}: {context}); nothing was written")
+                               f"(first {arr[k]} at row {k}: {context}); {where} was not "
+                               "written")
 
 
 def strict_json(obj, where: str = "result", nullable: Iterable[str] = ()):

@@ -115,9 +115,10 @@ def add_subcommands(sub) -> dict:
     p.add_argument("--confidence", type=Number("--confidence", 0.5, 1.0, lo_closed=False,
                                                hi_closed=False), default=0.95,
                    help="confidence level of the intervals (0.95)")
-    p.add_argument("--f-scale", type=Number("--f-scale", 0.0, None, lo_closed=False),
-                   default=None, help="robust-loss scale in log10 viscosity (default: 3 robust "
-                                      "standard deviations of a first pass)")
+    p.add_argument("--f-scale", type=Number("--f-scale", 1e-6, 10.0, unit="decades"),
+                   default=None, help="robust-loss scale in log10 viscosity, in [1e-6, 10] "
+                                      "decades (default: 3 robust standard deviations of a first "
+                                      "pass)")
     p.add_argument("--no-profile", action="store_true",
                    help="skip the profile-likelihood intervals of phi_j and phi_c")
     p.add_argument("--transient-from", default=None, metavar="NAME|FILE.json",

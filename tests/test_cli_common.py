@@ -100,3 +100,16 @@ def test_extreme_rate_range_is_refused_not_a_traceback(capsys):
                "--plot", "none", "--out", "/nonexistent_dir_for_test/x.csv"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "not representable" in err[0], err
+
+
+def test_run_command_turns_an_arithmetic_error_into_one_failure_line(capsys):
+    """The last net under the tiers' checks: an OverflowError from a library (rheometer fit
+    --f-scale 1e300 reached scipy) is one 'failed' line, exit 1, no traceback."""
+    from rheology.cli_common import FAILED, run_command
+
+    def body():
+        raise OverflowError(34, "Numerical result out of range")
+
+    assert run_command("demo", body) == FAILED
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["demo: failed: OverflowError: (34, 'Numerical result out of range')"], err

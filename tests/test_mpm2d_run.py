@@ -322,3 +322,13 @@ def test_a_run_that_would_never_end_is_refused_up_front(tmp_path, capsys):
     assert len(err) == 1 and "cfl = 1e-300, t_end = 1.5 s, h = 0.001 m" in err[0], err
     assert f"at most {MAX_STEPS:.0e} steps" in err[0]
     assert not out.exists()
+
+
+def test_set_up_arithmetic_failure_names_the_parameters(tmp_path, capsys):
+    """d = 1e-300 is inside terzaghi's declared range (0, 0.1] but divides by zero in the set-up
+    (a traceback before): one line naming the parameter and value, exit 2, nothing written."""
+    out = tmp_path / "o"
+    assert main(["run", "terzaghi", "--set", "d=1e-300", "--out", str(out), "--quiet"]) == 2
+    err = [l for l in capsys.readouterr().err.strip().splitlines() if l]
+    assert len(err) == 1 and "with d = 1e-300 the set-up breaks down (ZeroDivisionError" in err[0]
+    assert not out.exists()
