@@ -82,7 +82,8 @@ def geostatic(sim, surface=None, K_lat=None, sets=None, relax=True, v_tol=None,
     """
     g = np.asarray(sim.gravity, float)
     if g[0] != 0.0 or g[1] >= 0.0:
-        raise ValueError(f"geostatic: gravity = {tuple(g)} must point along -y")
+        raise ValueError(f"geostatic: gravity = ({g[0]:g}, {g[1]:g}) m/s^2; valid: (0, -g) with "
+                         "g > 0 (a bed rests under gravity along -y)")
     gy = -g[1]
     if sim.step_count:
         raise ValueError("geostatic: call it before the first step")

@@ -366,7 +366,9 @@ def flip_alpha():
 
 
 def gravity(hi=1000.0):
-    return Param(0.0, hi, unit="m/s^2", doc="gravitational acceleration (downwards)")
+    """Gravity of a scene whose bed starts at rest under it (mpm2d.geostatic): > 0."""
+    return Param(0.0, hi, lo_closed=False, unit="m/s^2",
+                 doc="gravitational acceleration (downwards; the bed rests under it)")
 
 
 def scene_material_param(scene_set: str, doc: str = "steady-flow parameters") -> Param:
