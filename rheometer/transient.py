@@ -586,8 +586,15 @@ class Rheometer:
         where = (f"step {k + 1} ({step.label or step.control}) at phi = {self.phi:g}, "
                  f"G = {self.G:g} Pa, K0 = {self.K0:g}, rtol = {self.rtol:g}")
         f = model.structure_of_gap(y[:, GAP], self.P)
+        advice = ("impose a lower rate or stress or a shorter time (a shear-jammed sample under an "
+                  "imposed rate strains elastically by the imposed strain), or a stiffer "
+                  "skeleton (--G) under an imposed stress")
         if not sol.success:
             i = len(sol.t) - 1
+            if self.elastic_limit:
+                # a sample strained past the small-strain limit before IDA gave up: that is the
+                # cause to name (rate 1e9 1/s to t_end 1e9 s failed in IDA at taubar 1e20 Pa)
+                check_elastic_strain(sol.t, y[:, TAU], self.G, where=where, advice=advice)
             raise RuntimeError(f"IDA failed in {where} at t = {sol.t[i]:.6g} s: {sol.message} "
                                f"(state taubar = {y[i, TAU]:.6g} Pa, f = {f[i]:.6g}; "
                                f"{sol.nfev} residuals)")
@@ -609,11 +616,7 @@ class Rheometer:
                 f"tighten rtol")
         # the hypoelastic law holds for small elastic strains taubar/G only (rheology.elastic)
         if self.elastic_limit:
-            check_elastic_strain(sol.t, y[:, TAU], self.G, where=where,
-                                 advice="impose a lower rate or stress or a shorter time (a "
-                                        "shear-jammed sample under an imposed rate strains "
-                                        "elastically by the imposed strain), or a stiffer "
-                                        "skeleton (--G) under an imposed stress")
+            check_elastic_strain(sol.t, y[:, TAU], self.G, where=where, advice=advice)
 
     def _frame(self, pieces: list[_Piece], stats: RunStats, steps) -> pd.DataFrame:
         t = np.concatenate([p.t for p in pieces])

@@ -362,3 +362,15 @@ def test_resume_names_the_checkpoint_actually_read(tmp_path, monkeypatch, capsys
     assert "resumed from part.checkpoint.prev.npz" in cap.out, cap.out
     assert "resumed from part.checkpoint.npz" not in cap.out
     assert pd.read_csv(tmp_path / "part.csv")["step"].max() == 3
+
+
+def test_startup_far_past_the_elastic_limit_names_it_when_ida_gives_up(tmp_path, monkeypatch,
+                                                                       capsys):
+    """--rate 1e9 --t-end 1e9 (both in range): IDA gave up at taubar 1e20 Pa before the elastic
+    strain check ran, and the failure said only 'IDA failed'; the check now runs on the partial
+    solution first: one line naming the small-elastic-strain limit, exit 1, nothing written."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["startup", "--rate", "1e9", "--t-end", "1e9"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "exceeds the small-elastic-strain limit 0.1" in err[0], err
+    assert not any(tmp_path.iterdir())
