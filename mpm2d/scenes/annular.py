@@ -169,10 +169,22 @@ def front_fit(t, front, r_inner, r_outer, lo=FIT_LO, hi=FIT_HI) -> dict:
     return out
 
 
+def _u_inner_max(p) -> float:
+    """0.1 sqrt(G/rho) [m/s] of the run's material at phi0: the small-elastic-strain limit of
+    the hypoelastic law (rheology.elastic), the bound shear1d's --u-inner has on the same cell."""
+    from rheology.elastic import ELASTIC_STRAIN_LIMIT
+
+    m = scene_material("annular_shear", p["material"])
+    rho = p["phi0"] * m.rho_s + (1.0 - p["phi0"]) * m.rho_f
+    return ELASTIC_STRAIN_LIMIT * float(np.sqrt(m.G / rho))
+
+
 @spec.parameters_of(
     material=spec.scene_material_param("annular_shear"),
     phi0=spec.phi_below_jamming(doc="initial solid volume fraction"),
-    u_inner=spec.positive(10.0, "m/s", "bob surface speed u_i"),
+    u_inner=spec.Param(0.0, _u_inner_max, lo_closed=False, unit="m/s",
+                       doc="bob surface speed u_i",
+                       note="0.1 sqrt(G/rho): the small-elastic-strain limit, as shear1d's"),
     r_inner=spec.positive(1.0, "m", "bob radius R_i"),
     r_outer=spec.Param(lambda p: p["r_inner"], 10.0, lo_closed=False, unit="m",
                        doc="cup radius R_o", note="R_o > R_i"),
@@ -180,7 +192,9 @@ def front_fit(t, front, r_inner, r_outer, lo=FIT_LO, hi=FIT_HI) -> dict:
     rows=spec.count(2, 4096, "cells in z (periodic)"),
     ppc=spec.count(1, 4, "points per cell and direction"),
     rotation=spec.positive(100.0, "rad", "bob rotation to simulate"),
-    ramp_time=spec.Param(0.0, 100.0, unit="s", doc="linear start-up of the bob speed"),
+    ramp_time=spec.Param(0.0, lambda p: p["rotation"] * p["r_inner"] / p["u_inner"], unit="s",
+                         doc="linear start-up of the bob speed",
+                         note="at most the rotation time R_i rotation/u_i, as shear1d's"),
     p0=spec.Param(0.0, 1e6, unit="Pa", doc="initial isotropic granular pressure"),
     transfer=spec.transfer(),
     flip_alpha=spec.flip_alpha(),
