@@ -879,6 +879,13 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
                 method = "profile"
             if SCALE[p] == "log":
                 lo_, hi_ = float(np.exp(lo_)), float(np.exp(hi_))
+            else:
+                # a symmetric Jacobian interval may reach past the physical range (phi_c's to
+                # -0.007 on two fractions): reported within it (0 < phi_c < phi_j < 1,
+                # 0 <= Delta <= 1, alpha_i >= 0)
+                top = (final.phi_j if p == "phi_c" else 1.0) if p in ("phi_c", "phi_j", "Delta") \
+                    else np.inf
+                lo_, hi_ = max(lo_, 0.0), min(hi_, top)
             status, note = "fitted", ""
             half = tq * sd[k]
             wide = (half > np.log(2.0)) if SCALE[p] == "log" else (

@@ -182,3 +182,21 @@ def test_done_when_command_on_the_shared_fixtures(tmp_path, monkeypatch):
     assert p.loc["phi_j", "interval"] == "profile"
     assert main(["flow-curve", "--material", "fit/material.json", "--points", "10",
                  "--plot", "none"]) == 0
+
+
+
+@pytest.mark.skipif(len(FILES) != 5, reason="shared fixtures not present")
+def test_intervals_stay_in_the_physical_range(tmp_path):
+    """The fixtures at phi 0.47 and 0.50 with two eta_B terms (a fresh user's fit): phi_c is
+    unidentifiable there and its profile interval reached -0.0067, a negative volume fraction;
+    every interval is reported within 0 < phi_c < phi_j < 1 and contains its estimate."""
+    from rheometer.cli import main
+
+    files = [str(f) for f in FILES if "0.47" in f.name or "0.50" in f.name]
+    assert main(["fit", *files, "--phi", "0.47", "0.50", "--etaB-terms", "2", "--out",
+                 str(tmp_path / "fx")]) == 0
+    tab = pd.read_csv(tmp_path / "fx" / "parameters.csv").set_index("parameter")
+    assert (tab["lower"] <= tab["value"]).all() and (tab["value"] <= tab["upper"]).all()
+    phi_j = tab.loc["phi_j", "value"]
+    assert 0.0 <= tab.loc["phi_c", "lower"] and tab.loc["phi_c", "upper"] <= phi_j
+    assert 0.0 < tab.loc["phi_j", "lower"] and tab.loc["phi_j", "upper"] <= 1.0
