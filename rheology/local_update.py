@@ -599,6 +599,23 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
     out[10], out[11], out[12], out[13] = taubar, p, case, iters
 
 
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _update_row(sig, L, phi, f, dt, P, sig_out, out, k, g_prev, newton, s1, l1, so1, o1):
+    """:func:`update_point` on row k of the (n, 3, 3) / (n,) / (n, NOUT) arrays through the
+    small scratch arrays s1, l1, so1, o1 (element copies: a view of a row costs its reference
+    counting, as much as an elastic exit)."""
+    for i in range(3):
+        for j in range(3):
+            s1[i, j] = sig[k, i, j]
+            l1[i, j] = L[k, i, j]
+    update_point(s1, l1, phi[k], f[k], dt, P, so1, o1, g_prev, newton)
+    for i in range(3):
+        for j in range(3):
+            sig_out[k, i, j] = so1[i, j]
+    for i in range(NOUT):
+        out[k, i] = o1[i]
+
+
 #: points per block of :func:`update_block` (its work arrays: (NWORK, BLOCK)); 256: the
 #: locked kernel 67 -> 63 ns a point serial against 128 (fewer block set-ups, W still in L2)
 BLOCK = 256
@@ -700,16 +717,7 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
     # 4. the points the block does not finish go through update_point whole
     for k in range(n):
         if W[15, k] == 0.0:
-            for i in range(3):
-                for j in range(3):
-                    s1[i, j] = sig[k, i, j]
-                    l1[i, j] = L[k, i, j]
-            update_point(s1, l1, phi[k], f[k], dt, P, so1, o1, g_prev[k])
-            for i in range(3):
-                for j in range(3):
-                    sig_out[k, i, j] = so1[i, j]
-            for i in range(NOUT):
-                out[k, i] = o1[i]
+            _update_row(sig, L, phi, f, dt, P, sig_out, out, k, g_prev[k], True, s1, l1, so1, o1)
     # 5. the others: shear flow + compaction (closed form) or the accepted dilatant solve; the
     # parameters as a tuple (values: their loads are not redone after every store)
     Pt = (P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[7], P[8], P[9], P[10], P[11], P[12],
@@ -753,26 +761,16 @@ def _update_loop(sig, L, phi, f, dt, P, sig_out, out, g_prev=None, newton=True):
         l = np.empty((3, 3))
         so = np.empty((3, 3))
         o = np.empty(NOUT)
-        gp = np.full(BLOCK, -1.0)
+        none = np.full(BLOCK, -1.0)
         for lo in range(4 * BLOCK * c, min(4 * BLOCK * (c + 1), N), BLOCK):
             hi = min(lo + BLOCK, N)
             if newton:
-                if g_prev is not None:
-                    gp[:hi - lo] = g_prev[lo:hi]
-                update_block(sig[lo:hi], L[lo:hi], phi[lo:hi], f[lo:hi], gp[:hi - lo], dt, P,
+                gp = none[:hi - lo] if g_prev is None else g_prev[lo:hi]
+                update_block(sig[lo:hi], L[lo:hi], phi[lo:hi], f[lo:hi], gp, dt, P,
                              sig_out[lo:hi], out[lo:hi], W, s, l, so, o)
                 continue
             for n in range(lo, hi):
-                for i in range(3):
-                    for j in range(3):
-                        s[i, j] = sig[n, i, j]
-                        l[i, j] = L[n, i, j]
-                update_point(s, l, phi[n], f[n], dt, P, so, o, -1.0, False)
-                for i in range(3):
-                    for j in range(3):
-                        sig_out[n, i, j] = so[i, j]
-                for k in range(NOUT):
-                    out[n, k] = o[k]
+                _update_row(sig, L, phi, f, dt, P, sig_out, out, n, -1.0, False, s, l, so, o)
 
 
 #: Parallel (prange) loop over points: the entry point for large batches (MPM, 1-D grids).
