@@ -23,7 +23,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from rheology import laws
+from rheology import laws, vecmath
 from rheology.checks import check_positive, check_range
 from rheology.flow_rule import invariants
 from rheology.local_update import (BLOCK, FAILED, NOUT, NWORK, jaumann_elastic,
@@ -115,23 +115,33 @@ def fluid_kernel(L, vol, m, rho, divq, n, dt, eta0, einstein, rho0, kappa, two_p
     spw = eta (L_theta_r, L_theta_z) = (tau_r_theta, tau_theta_z).
     """
     sw = Lw.shape[0] > 0
-    for p in nb.prange(vol.shape[0]):
-        vol[p] *= _jacobian(L, p, dt)
+    N = vol.shape[0]
+    for c in nb.prange((N + BLOCK - 1) // BLOCK):
+        lo, hi = c * BLOCK, min((c + 1) * BLOCK, N)
+        for p in range(lo, hi):
+            vol[p] *= _jacobian(L, p, dt)
+        # density and pore pressure in loops of their own over the block's slices (indices from
+        # 0, so no negative-index wraparound: rheology.vecmath's log and exp compile to SIMD)
+        rc, vc, pc = rho[lo:hi], vol[lo:hi], pf[lo:hi]
         if two_phase:
-            rho[p] *= np.exp(-dt * divq[p] / n[p])
-            phi = 1.0 - n[p]
+            qc, nc = divq[lo:hi], n[lo:hi]
+            for k in range(hi - lo):
+                rc[k] *= vecmath.exp(-dt * qc[k] / nc[k])
         else:
-            rho[p] = m[p] / vol[p]
-            phi = 0.0
-        pr = laws.pore_pressure(rho[p], rho0, kappa)
-        pf[p] = pr
-        eta = laws.fluid_viscosity(phi, eta0) if einstein else eta0
-        txx, txy, tyy, ttt = _viscous(L, p, eta)
-        if sw:
-            spw[p, 0], spw[p, 1] = eta * Lw[p, 0], eta * Lw[p, 1]
-        if two_phase:
-            pr = 0.0                       # the pore pressure goes through pf (buoyancy split)
-        sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = txx - pr, txy, tyy - pr, ttt - pr
+            mc = m[lo:hi]
+            for k in range(hi - lo):
+                rc[k] = mc[k] / vc[k]
+        for k in range(hi - lo):
+            pc[k] = laws.pore_pressure(rc[k], rho0, kappa)
+        for p in range(lo, hi):
+            phi = 1.0 - n[p] if two_phase else 0.0
+            eta = laws.fluid_viscosity(phi, eta0) if einstein else eta0
+            txx, txy, tyy, ttt = _viscous(L, p, eta)
+            if sw:
+                spw[p, 0], spw[p, 1] = eta * Lw[p, 0], eta * Lw[p, 1]
+            # two phases: the pore pressure goes through pf (buoyancy split), not sp
+            pr = 0.0 if two_phase else pf[p]
+            sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = txx - pr, txy, tyy - pr, ttt - pr
 
 
 @dual
@@ -153,6 +163,7 @@ def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, 
         so = np.empty((BLOCK, 3, 3))
         ob = np.empty((BLOCK, NOUT))
         phib = np.empty(BLOCK)
+        prb = np.zeros(BLOCK)
         W = np.empty((NWORK, BLOCK))
         s1, l1, so1, o1 = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(NOUT)
         for lo in range(chunks[c], chunks[c + 1], BLOCK):
@@ -171,6 +182,14 @@ def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, 
                          ob[:n], W, s1, l1, so1, o1, False)
             for k in range(n):
                 p = lo + k
+                vol[p] *= _jacobian(L, p, dt)
+            if locked:      # the pore pressures in a loop of their own (rheology.vecmath: SIMD)
+                mc, sc, vc = m[lo:hi], svol[lo:hi], vol[lo:hi]
+                for k in range(n):
+                    prb[k] = laws.pore_pressure((mc[k] - rho_s * sc[k]) / (vc[k] - sc[k]),
+                                                rho_f0, kappa)
+            for k in range(n):
+                p = lo + k
                 if ob[k, 12] == FAILED:
                     fail[0] = p + 1
                 for i in range(3):
@@ -179,13 +198,10 @@ def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, 
                 f[p] = ob[k, 0]
                 gdot[p] = ob[k, 1]
                 case[p] = ob[k, 12]
-                vol[p] *= _jacobian(L, p, dt)
-                pr = txx = txy = tyy = ttt = eta = 0.0
+                pr = prb[k]
+                txx = txy = tyy = ttt = eta = 0.0
                 if locked:
-                    phi = svol[p] / vol[p]
-                    pr = laws.pore_pressure((m[p] - rho_s * svol[p]) / (vol[p] - svol[p]), rho_f0,
-                                            kappa)
-                    eta = laws.fluid_viscosity(phi, eta0)
+                    eta = laws.fluid_viscosity(svol[p] / vol[p], eta0)
                     txx, txy, tyy, ttt = _viscous(L, p, eta)
                 if sw:
                     spw[p, 0] = so[k, 0, 2] + eta * Lw[p, 0]

@@ -1,11 +1,12 @@
 """The model's point-wise laws, written once as plain arithmetic.
 
 Every function here takes numbers (scalars or broadcastable numpy arrays) and explicit scalar
-parameters, uses only arithmetic, ``np.sqrt``, ``np.maximum`` and ``np.minimum``, and has no
+parameters, uses only arithmetic, ``np.sqrt``, ``np.maximum``, ``np.minimum`` and the log and
+exp of :mod:`rheology.vecmath` (numpy's from Python, SIMD-friendly under numba), and has no
 branches, so the same source serves the public numpy API and, through ``register_jitable``, the
-numba local-update kernel (:mod:`rheology.local_update`). The public functions in :mod:`rheology.structure`,
-:mod:`rheology.steady` and :mod:`rheology.flow_rule` take a :class:`~rheology.materials.Material`,
-validate their input and call these.
+numba local-update kernel (:mod:`rheology.local_update`). The public functions in
+:mod:`rheology.structure`, :mod:`rheology.steady` and :mod:`rheology.flow_rule` take a
+:class:`~rheology.materials.Material`, validate their input and call these.
 
 Symbols (paper's Table 8): phi volume fraction, f structure, phi_m, a dilation parameters,
 taubar equivalent granular shear stress [Pa], p granular pressure [Pa], gdot_p plastic shear rate
@@ -16,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 from numba.extending import register_jitable
+
+from rheology import vecmath
 
 #: Smallest positive number used to keep 0/0 limits finite (e.g. I_v/I_m at rest).
 TINY = 1e-300
@@ -44,19 +47,21 @@ def f_max(phi, phi_c, phi_j, Delta):
     return np.minimum(1.0, np.maximum(Delta, (phi_j - phi) / (phi_j - phi_c)))
 
 
-@register_jitable
+@register_jitable(inline="always")     # inlined: a loop over points that calls it is SIMD
 def inv_eta_B(phi, phi_j, varphi1, alpha1, varphi2, alpha2):
     """Eq. (9): 1/eta_B = sum_i varphi_i (phi_j - phi)^alpha_i [1/(Pa s)]; 0 means eta_B = inf.
 
     The powers as exp(alpha_i ln x) with one logarithm for both (a third cheaper than two pow
     calls in the MPM's per-point update; relative difference < 1e-14), exact at x = 0 (phi >=
     phi_j): 0^alpha = 0 for alpha > 0, 1 for alpha = 0, without a branch (arrays and scalars).
+    Under numba the log and exp are :mod:`rheology.vecmath`'s (<= 1 ulp from libm), so a loop
+    over points that calls this compiles to SIMD.
     """
     x = np.maximum(phi_j - phi, 0.0)
-    lx = np.log(np.maximum(x, TINY))
+    lx = vecmath.log(np.maximum(x, TINY))
     pos, zero = x > 0.0, x <= 0.0
-    return (varphi1 * (pos * np.exp(alpha1 * lx) + zero * (alpha1 == 0.0))
-            + varphi2 * (pos * np.exp(alpha2 * lx) + zero * (alpha2 == 0.0)))
+    return (varphi1 * (pos * vecmath.exp(alpha1 * lx) + zero * (alpha1 == 0.0))
+            + varphi2 * (pos * vecmath.exp(alpha2 * lx) + zero * (alpha2 == 0.0)))
 
 
 @register_jitable
@@ -186,4 +191,4 @@ def fluid_viscosity(phi, eta0):
 @register_jitable
 def pore_pressure(rho_f, rho_0f, kappa):
     """Table 8 pore pressure kappa ln(rho_f/rho_0f) [Pa] from the true fluid density [kg/m^3]."""
-    return kappa * np.log(rho_f / rho_0f)
+    return kappa * vecmath.log(rho_f / rho_0f)

@@ -464,14 +464,15 @@ def elastic_trial(sig, L, dt, G, K, out):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _tail(f, phi, phim, a, g, p, Im, tau_tr, Gdt, P, dt, full=True):
+def _tail(f, phi, phim, a, g, p, Im, tau_tr, Gdt, P, dt, invB, full=True):
     """What follows the plastic correction of a point that is not separated: the equivalent
     shear stress taubar = max(tau* - G dt gdot_p, 0), the deviator's scale factor taubar/tau*,
     the structure's backward-Euler step and the outputs mu_p, I, I_v, phi_eq (NaN unless
     ``full``: a caller that reads only the state skips their divisions and square root).
+    ``invB`` = 1/eta_B(phi) (laws.inv_eta_B; a block computes it for all its points in a SIMD loop).
     Returns (taubar, scale, f_new, mu_p, I, I_v, phi_eq)."""
     phi_c, phi_j, mu1, mu2, b, tau_star, eta0 = P[0], P[1], P[4], P[5], P[6], P[7], P[8]
-    v1, al1, v2, al2, Delta, xi_eps, K0 = P[9], P[10], P[11], P[12], P[13], P[14], P[15]
+    Delta, xi_eps, K0 = P[13], P[14], P[15]
     rho_s, d = P[18], P[19]
     taubar = max(tau_tr - Gdt * g, 0.0)
     scale = taubar / tau_tr if tau_tr > 0.0 else 0.0
@@ -487,7 +488,6 @@ def _tail(f, phi, phim, a, g, p, Im, tau_tr, Gdt, P, dt, full=True):
     if full:
         phieq = phim / (1.0 + a * Im) if np.isfinite(Im) else phi
     fm = laws.f_max(phi, phi_c, phi_j, Delta)
-    invB = laws.inv_eta_B(phi, phi_j, v1, al1, v2, al2)
     f1 = laws.structure_step(f, taubar, g, fm, tau_star, invB, K0, xi_eps, dt)
     return taubar, scale, f1, mu, I, Iv, phieq
 
@@ -589,7 +589,9 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
                 if iters < 0:
                     case = FAILED
 
-    taubar, scale, f1, mu, I, Iv, phieq = _tail(f, phi, phim, a, g, p, Im, tau_tr, Gdt, P, dt)
+    invB = laws.inv_eta_B(phi, phi_j, v1, al1, v2, al2)
+    taubar, scale, f1, mu, I, Iv, phieq = _tail(f, phi, phim, a, g, p, Im, tau_tr, Gdt, P, dt,
+                                                invB)
     for i in range(3):
         for j in range(3):
             dev = sig_out[i, j] + (p_tr if i == j else 0.0)
@@ -714,6 +716,10 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
         W[11, k], W[12, k], W[13, k] = g, p, Im
         if W[15, k] == 2.0 and not ok:
             W[15, k] = 0.0
+    # 1/eta_B of every point (Eq. 9: a log and two exps, rheology.vecmath: SIMD)
+    v1, al1, v2, al2 = P[9], P[10], P[11], P[12]
+    for k in range(n):
+        W[14, k] = laws.inv_eta_B(phi[k], phi_j, v1, al1, v2, al2)
     # 4. the points the block does not finish go through update_point whole
     for k in range(n):
         if W[15, k] == 0.0:
@@ -733,7 +739,7 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
         Im = y / (a * ph) if comp else W[13, k]
         beta = 0.0 if comp else W[7, k]
         taubar, scale, f1, mu, I, Iv, phieq = _tail(f[k], ph, phim, a, g, p, Im, tau_tr, Gdt, Pt,
-                                                    dt, full)
+                                                    dt, W[14, k], full)
         for i in range(3):
             for j in range(3):
                 sig_out[k, i, j] = (scale * (sig_out[k, i, j] + (p_tr if i == j else 0.0))

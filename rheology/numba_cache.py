@@ -1,14 +1,15 @@
 """Keep numba's on-disk caches consistent with the sources their kernels use.
 
 numba's ``cache=True`` keys a cached kernel on its own source file only, not on the functions it
-calls or inlines from other files: the ``register_jitable`` laws (rheology/laws.py), the
-local-update kernel, or a sibling module's helpers (mpm2d.shape's B-spline stencil inside
-mpm2d.transfer's kernels). After editing those, a kernel cached earlier would silently keep the
-old code. Every module that compiles cached kernels calls :func:`guard` with its ``__file__``
-(and the files of other packages it calls into) before its first compile; the module's numba
-cache files are dropped whenever the shared rheology kernels or any module of those packages
-(the ``*.py`` files of their folders) changed since they were written. Installed copies are
-unaffected (their files do not change); this protects editable installs during development.
+calls or inlines from other files: the ``register_jitable`` laws (rheology/laws.py) with their
+log and exp (rheology/vecmath.py), the local-update kernel, or a sibling module's helpers
+(mpm2d.shape's B-spline stencil inside mpm2d.transfer's kernels). After editing those, a
+kernel cached earlier would silently keep the old code. Every module that compiles cached
+kernels calls :func:`guard` with its ``__file__`` (and the files of other packages it calls
+into) before its first compile; the module's numba cache files are dropped whenever the shared
+rheology kernels or any module of those packages (the ``*.py`` files of their folders) changed
+since they were written. Installed copies are unaffected (their files do not change); this
+protects editable installs during development.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pathlib import Path
 
 import numba
 
-_SOURCES = ("laws.py", "local_update.py")
+_SOURCES = ("laws.py", "local_update.py", "vecmath.py")
 
 
 def source_stamp(folders=()) -> str:

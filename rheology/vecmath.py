@@ -1,0 +1,147 @@
+"""Natural logarithm and exponential that compile to SIMD inside numba loops.
+
+numba calls libm's ``log`` and ``exp`` one value at a time (this llvmlite has no SVML), so a loop
+that takes a logarithm cannot be vectorised, and the Table 8 update spends a third of its time in
+them (1/eta_B of Eq. 9 and the pore pressure kappa ln(rho_f/rho_0f): 63 -> 43 ns a point in the
+MPM's locked-mixture kernel when they are removed, measured). :func:`log` and :func:`exp` here
+are branch-free (selects) double-precision implementations of the classical reductions (Tang
+1989; fdlibm's ``e_log.c`` form of the logarithm), so a loop that calls them compiles to SIMD
+instructions. Accuracy (tested against numpy on 2e6 values spread over the whole double range):
+at most 1 ulp apart from numpy's results; special values as IEEE-754 (log: 0 -> -inf, x < 0 or
+NaN -> NaN, inf -> inf, subnormals exact; exp: overflow -> inf, underflow -> 0 through the
+subnormals, NaN -> NaN).
+
+Called from Python (scalars or arrays) they are numpy's ``np.log`` / ``np.exp``; compiled by
+numba they are the polynomial versions (``numba.extending.overload``), so the same law function
+(rheology.laws) serves both.
+
+Method
+------
+log x: x = 2^e m with m in [sqrt(1/2), sqrt(2)) from the bits of x; with f = m - 1 (exact) and
+s = f/(2 + f), ln m = 2 atanh(s) = f - s (f - R(s^2)), R(z) = sum_k 2 z^k/(2k + 1) to k = 11
+(|s| <= 0.1716, truncation < 1e-19 relative); ln x = e ln2_hi + (e ln2_lo + ln m).
+exp y: n = round(y/ln2) by the 1.5 2^52 shift, r = y - n ln2 (two-part ln2, |r| <= 0.347), the
+Taylor series of e^r to degree 13 (truncation < 5e-18), times 2^n built from the exponent bits in
+two factors (so subnormal results and overflow to inf come out right).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic, overload, register_jitable
+
+__all__ = ["log", "exp"]
+
+
+@intrinsic
+def _bits(typingctx, x):
+    """The IEEE-754 bits of a float64 as an int64 (a bitcast: no conversion)."""
+    if x != types.float64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.IntType(64))
+    return types.int64(types.float64), codegen
+
+
+@intrinsic
+def _from_bits(typingctx, b):
+    """The float64 whose IEEE-754 bits are the int64 b (a bitcast)."""
+    if b != types.int64:
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+    return types.float64(types.int64), codegen
+
+
+_LN2_HI = 6.93147180369123816490e-01       # ln 2 to 32 bits (e ln2_hi exact for |e| < 2^20)
+_LN2_LO = 1.90821492927058770002e-10       # ln 2 - _LN2_HI
+_SQRT2 = 1.4142135623730951
+_MANTISSA = (1 << 52) - 1
+_ONE_BITS = 1023 << 52
+_SHIFT = 6755399441055744.0                # 1.5 2^52: adding it rounds to an integer
+_SHIFT_BITS = 0x4338000000000000
+_TWO52_BITS = 0x4330000000000000           # 2^52: its bits | k read k + 2^52 for k < 2^52
+_MIN_NORMAL = 2.2250738585072014e-308
+_TWO54 = 18014398509481984.0
+_INV_LN2 = 1.4426950408889634
+# R(z) = sum_k 2 z^k / (2k + 1), k = 1..11
+_L1, _L2, _L3, _L4 = 2.0 / 3.0, 2.0 / 5.0, 2.0 / 7.0, 2.0 / 9.0
+_L5, _L6, _L7, _L8 = 2.0 / 11.0, 2.0 / 13.0, 2.0 / 15.0, 2.0 / 17.0
+_L9, _L10, _L11 = 2.0 / 19.0, 2.0 / 21.0, 2.0 / 23.0
+# 1/k!, k = 2..13
+_E2, _E3, _E4, _E5 = 1.0 / 2.0, 1.0 / 6.0, 1.0 / 24.0, 1.0 / 120.0
+_E6, _E7, _E8, _E9 = 1.0 / 720.0, 1.0 / 5040.0, 1.0 / 40320.0, 1.0 / 362880.0
+_E10, _E11, _E12, _E13 = 1.0 / 3628800.0, 1.0 / 39916800.0, 1.0 / 479001600.0, 1.0 / 6227020800.0
+
+
+@register_jitable(inline="always")
+def _log_jit(x):
+    sub = x < _MIN_NORMAL
+    xs = x * _TWO54 if sub else x
+    b = _bits(xs)
+    eb = b >> 52                                           # biased exponent (x > 0)
+    m = _from_bits((b & _MANTISSA) | _ONE_BITS)           # [1, 2)
+    big = m > _SQRT2
+    m = 0.5 * m if big else m
+    e = (_from_bits(_TWO52_BITS | eb) - 4503599627370496.0) - 1023.0
+    e = e + (1.0 if big else 0.0) - (54.0 if sub else 0.0)
+    f = m - 1.0
+    s = f / (2.0 + f)
+    z = s * s
+    R = z * (_L1 + z * (_L2 + z * (_L3 + z * (_L4 + z * (_L5 + z * (_L6 + z * (
+        _L7 + z * (_L8 + z * (_L9 + z * (_L10 + z * _L11))))))))))
+    r = e * _LN2_HI + (e * _LN2_LO + (f - s * (f - R)))
+    r = -np.inf if x == 0.0 else r
+    r = x if x == np.inf else r
+    return np.nan if not x >= 0.0 else r
+
+
+@register_jitable(inline="always")
+def _exp_jit(y):
+    yc = min(max(y, -746.0), 710.0)
+    t = yc * _INV_LN2 + _SHIFT
+    nf = t - _SHIFT                                        # round(y / ln 2), as a float
+    n = _bits(t) - _SHIFT_BITS                             # the same, as an integer
+    r = (yc - nf * _LN2_HI) - nf * _LN2_LO
+    p = 1.0 + r * (1.0 + r * (_E2 + r * (_E3 + r * (_E4 + r * (_E5 + r * (_E6 + r * (
+        _E7 + r * (_E8 + r * (_E9 + r * (_E10 + r * (_E11 + r * (_E12 + r * _E13))))))))))))
+    n1 = min(max(n, -1022), 1023)
+    s1 = _from_bits((n1 + 1023) << 52)
+    s2 = _from_bits((n - n1 + 1023) << 52)                 # n - n1 in [-55, 2]
+    v = p * s1 * s2
+    return y + y if y != y else v
+
+
+def log(x):
+    """Natural logarithm: ``np.log`` from Python, the SIMD-friendly version under numba.
+
+    Parameters: x, float or array (float). Returns: ln x, same shape; see the module docstring
+    for accuracy (<= 1 ulp from numpy) and special values.
+    """
+    return np.log(x)
+
+
+def exp(y):
+    """Exponential: ``np.exp`` from Python, the SIMD-friendly version under numba (scalars).
+
+    Parameters: y, float or array (float). Returns: e^y, same shape; <= 1 ulp from numpy.
+    """
+    return np.exp(y)
+
+
+@overload(log, inline="always")
+def _log_overload(x):
+    if isinstance(x, types.Float):
+        return lambda x: _log_jit(float(x))
+    return lambda x: np.log(x)
+
+
+@overload(exp, inline="always")
+def _exp_overload(y):
+    if isinstance(y, types.Float):
+        return lambda y: _exp_jit(float(y))
+    return lambda y: np.exp(y)
