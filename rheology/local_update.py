@@ -464,32 +464,31 @@ def elastic_trial(sig, L, dt, G, K, out):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _tail(f, phi, phim, a, g, p, Im, tau_tr, Gdt, P, dt, invB, full=True):
+def _structure_tail(f, phi, g, tau_tr, Gdt, P, dt, invB):
     """What follows the plastic correction of a point that is not separated: the equivalent
-    shear stress taubar = max(tau* - G dt gdot_p, 0), the deviator's scale factor taubar/tau*,
-    the structure's backward-Euler step and the outputs mu_p, I, I_v, phi_eq (NaN unless
-    ``full``: a caller that reads only the state skips their divisions and square root).
-    ``invB`` = 1/eta_B(phi) (laws.inv_eta_B; a block computes it for all its points in a SIMD loop).
-    Returns (taubar, scale, f_new, mu_p, I, I_v, phi_eq)."""
-    phi_c, phi_j, mu1, mu2, b, tau_star, eta0 = P[0], P[1], P[4], P[5], P[6], P[7], P[8]
-    Delta, xi_eps, K0 = P[13], P[14], P[15]
-    rho_s, d = P[18], P[19]
+    shear stress taubar = max(tau* - G dt gdot_p, 0), the deviator's scale factor taubar/tau*
+    and the structure's backward-Euler step; ``invB`` = 1/eta_B(phi) (laws.inv_eta_B). Branch-free
+    (selects), so a block runs it for all its points as SIMD. Returns (taubar, scale, f_new)."""
+    phi_c, phi_j, tau_star, Delta, xi_eps, K0 = P[0], P[1], P[7], P[13], P[14], P[15]
     taubar = max(tau_tr - Gdt * g, 0.0)
     scale = taubar / tau_tr if tau_tr > 0.0 else 0.0
-    Iv = I = mu = phieq = np.nan
-    if not full:
-        pass
-    elif p > 0.0:
+    fm = laws.f_max(phi, phi_c, phi_j, Delta)
+    return taubar, scale, laws.structure_step(f, taubar, g, fm, tau_star, invB, K0, xi_eps, dt)
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _flow_outputs(phi, phim, a, g, p, Im, P):
+    """The diagnostic outputs of a point that is not separated: mu_p, I, I_v (inf where p = 0)
+    and phi_eq. Returns (mu_p, I, I_v, phi_eq)."""
+    mu1, mu2, b, eta0, rho_s, d = P[4], P[5], P[6], P[8], P[18], P[19]
+    if p > 0.0:
         Iv = eta0 * g / p
         I = g * d * np.sqrt(rho_s / p)
         mu = laws.friction(Iv, Im, phi, a, mu1, mu2, b)
     else:
         Iv, I, mu = np.inf, np.inf, np.inf
-    if full:
-        phieq = phim / (1.0 + a * Im) if np.isfinite(Im) else phi
-    fm = laws.f_max(phi, phi_c, phi_j, Delta)
-    f1 = laws.structure_step(f, taubar, g, fm, tau_star, invB, K0, xi_eps, dt)
-    return taubar, scale, f1, mu, I, Iv, phieq
+    phieq = phim / (1.0 + a * Im) if np.isfinite(Im) else phi
+    return mu, I, Iv, phieq
 
 
 @_jit
@@ -589,9 +588,9 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
                 if iters < 0:
                     case = FAILED
 
-    invB = laws.inv_eta_B(phi, phi_j, v1, al1, v2, al2)
-    taubar, scale, f1, mu, I, Iv, phieq = _tail(f, phi, phim, a, g, p, Im, tau_tr, Gdt, P, dt,
-                                                invB)
+    taubar, scale, f1 = _structure_tail(f, phi, g, tau_tr, Gdt, P, dt,
+                                        laws.inv_eta_B(phi, phi_j, v1, al1, v2, al2))
+    mu, I, Iv, phieq = _flow_outputs(phi, phim, a, g, p, Im, P)
     for i in range(3):
         for j in range(3):
             dev = sig_out[i, j] + (p_tr if i == j else 0.0)
@@ -635,8 +634,9 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
 
     sig, L, sig_out: (n, 3, 3); phi, f, g_prev (warm starts, negative for none): (n,);
     out: (n, NOUT); W: (NWORK, >= n) work; s1, l1, so1: (3, 3) and o1: (NOUT,) scratch.
-    ``full=False``: the outputs mu_p, I, I_v, phi_eq (columns 4-6, 9) of the points the block
-    finishes are NaN (a caller that keeps only stress, f, gdot_p and the case, e.g. mpm2d).
+    ``full=False``: of the points the block finishes only the stress and the out columns 0, 1
+    and 12 (f, gdot_p, the case) are written, the other columns are left as they were (a caller
+    that keeps only those, e.g. mpm2d: their divisions, square root and stores skipped).
 
     The scalar update is a chain of dependent divisions and square roots per point (~240 ns for a
     point in dilatant shear flow, half of it in the solve and its residual check), so
@@ -647,8 +647,8 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
     from the same start (beta_c, gdot_c); (3) the residual R(beta) of :func:`_dilatant_flow`
     (same formula) and its acceptance test |R| <= 2e-15 (tau* + mu_1 p*), unchanged. A point
     below jamming (phi < phi_m) in shear flow + compaction (closed form) or in dilatant shear
-    flow whose solve passed that test is finished here (:func:`_tail`); every other point
-    (separated, jammed, a solve that left its bracket or missed the test) goes through
+    flow whose solve passed that test is finished here (:func:`_structure_tail`); every other
+    point (separated, jammed, a solve that left its bracket or missed the test) goes through
     :func:`update_point` whole, so the results are those of update_point to its convergence
     test (the two differ only in how many Newton steps led there).
     """
@@ -724,32 +724,39 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
     for k in range(n):
         if W[15, k] == 0.0:
             _update_row(sig, L, phi, f, dt, P, sig_out, out, k, g_prev[k], True, s1, l1, so1, o1)
-    # 5. the others: shear flow + compaction (closed form) or the accepted dilatant solve; the
-    # parameters as a tuple (values: their loads are not redone after every store)
+    # 5. the others: shear flow + compaction (closed form) or the accepted dilatant solve. First
+    # taubar, the deviator's scale and the structure step of every point in a branch-free loop
+    # (SIMD; at a point update_point finished they are computed and not used), over rows of W
+    # that are no longer needed, then the stores. The parameters as a tuple: values, whose loads
+    # are not redone after every store (array loads would be, and keep the loop scalar)
     Pt = (P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[7], P[8], P[9], P[10], P[11], P[12],
           P[13], P[14], P[15], P[16], P[17], P[18], P[19], P[20])
+    for k in range(n):
+        # every operand loaded first, then selects (a load under a condition stays scalar)
+        comp, gc, pc, y, a, ph = W[15, k] == 1.0, W[5, k], W[6, k], W[4, k], W[3, k], phi[k]
+        gd, pd, Imd, tau_tr, invB, fk = W[11, k], W[12, k], W[13, k], W[1, k], W[14, k], f[k]
+        g = gc if comp else gd
+        W[11, k] = g                                                   # gdot_p
+        W[12, k] = pc if comp else pd                                  # p
+        W[13, k] = y / (a * ph) if comp else Imd                       # I_m
+        W[5, k], W[6, k], W[9, k] = _structure_tail(fk, ph, g, tau_tr, Gdt, Pt, dt, invB)
     for k in range(n):
         kind = W[15, k]
         if kind == 0.0:
             continue
-        p_tr, tau_tr, phim, a, y, ph = W[0, k], W[1, k], W[2, k], W[3, k], W[4, k], phi[k]
         comp = kind == 1.0
-        g = W[5, k] if comp else W[11, k]
-        p = W[6, k] if comp else W[12, k]
-        Im = y / (a * ph) if comp else W[13, k]
-        beta = 0.0 if comp else W[7, k]
-        taubar, scale, f1, mu, I, Iv, phieq = _tail(f[k], ph, phim, a, g, p, Im, tau_tr, Gdt, Pt,
-                                                    dt, W[14, k], full)
+        p_tr, g, p, scale = W[0, k], W[11, k], W[12, k], W[6, k]
         for i in range(3):
             for j in range(3):
                 sig_out[k, i, j] = (scale * (sig_out[k, i, j] + (p_tr if i == j else 0.0))
                                     - (p if i == j else 0.0))
-        out[k, 0], out[k, 1], out[k, 2], out[k, 3], out[k, 4] = f1, g, 0.0, 0.0, mu
-        if comp:
-            out[k, 3] = (p - p_tr) / Kdt
-        out[k, 5], out[k, 6], out[k, 7], out[k, 8], out[k, 9] = I, Iv, Im, beta, phieq
-        out[k, 10], out[k, 11] = taubar, p
-        out[k, 12], out[k, 13] = (COMPACTION, 0.0) if comp else (SHEAR_FLOW, 1.0)
+        out[k, 0], out[k, 1], out[k, 12] = W[9, k], g, COMPACTION if comp else SHEAR_FLOW
+        if full:
+            Im, beta = W[13, k], 0.0 if comp else W[7, k]
+            mu, I, Iv, phieq = _flow_outputs(phi[k], W[2, k], W[3, k], g, p, Im, P)
+            out[k, 2], out[k, 3], out[k, 4] = 0.0, (p - p_tr) / Kdt if comp else 0.0, mu
+            out[k, 5], out[k, 6], out[k, 7], out[k, 8], out[k, 9] = I, Iv, Im, beta, phieq
+            out[k, 10], out[k, 11], out[k, 13] = W[5, k], p, 0.0 if comp else 1.0
 
 
 def _update_loop(sig, L, phi, f, dt, P, sig_out, out, g_prev=None, newton=True):

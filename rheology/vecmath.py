@@ -83,7 +83,7 @@ def _log_jit(x):
     sub = x < _MIN_NORMAL
     xs = x * _TWO54 if sub else x
     b = _bits(xs)
-    eb = b >> 52                                           # biased exponent (x > 0)
+    eb = (b >> 52) & 0x7FF                                 # biased exponent (a logical shift)
     m = _from_bits((b & _MANTISSA) | _ONE_BITS)           # [1, 2)
     big = m > _SQRT2
     m = 0.5 * m if big else m
@@ -105,14 +105,15 @@ def _exp_jit(y):
     yc = min(max(y, -746.0), 710.0)
     t = yc * _INV_LN2 + _SHIFT
     nf = t - _SHIFT                                        # round(y / ln 2), as a float
-    n = _bits(t) - _SHIFT_BITS                             # the same, as an integer
     r = (yc - nf * _LN2_HI) - nf * _LN2_LO
     p = 1.0 + r * (1.0 + r * (_E2 + r * (_E3 + r * (_E4 + r * (_E5 + r * (_E6 + r * (
         _E7 + r * (_E8 + r * (_E9 + r * (_E10 + r * (_E11 + r * (_E12 + r * _E13))))))))))))
-    n1 = min(max(n, -1022), 1023)
-    s1 = _from_bits((n1 + 1023) << 52)
-    s2 = _from_bits((n - n1 + 1023) << 52)                 # n - n1 in [-55, 2]
-    v = p * s1 * s2
+    # 2^n = 2^n1 2^n2, n1 = floor(n/2): each factor a normal number, so subnormal results and
+    # overflow come out right; the integers from the shift trick (float and int64 adds only)
+    n1f = np.floor(0.5 * nf)
+    n1 = _bits(n1f + _SHIFT) - _SHIFT_BITS
+    n2 = _bits((nf - n1f) + _SHIFT) - _SHIFT_BITS
+    v = p * _from_bits((n1 + 1023) << 52) * _from_bits((n2 + 1023) << 52)
     return y + y if y != y else v
 
 
