@@ -53,7 +53,8 @@ def main(argv=None) -> int:
     run.add_argument("--frames", type=Number("--frames", 1, 100000, integer=True), default=None,
                      help="number of snapshots (default: the scene's)")
     run.add_argument("--no-vtk", action="store_true", help="skip the VTK snapshots")
-    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--quiet", action="store_true",
+                     help="no progress bar and no progress lines (errors still on stderr)")
     run.add_argument("--threads", type=Number("--threads", 1, ncpu, integer=True), default=None,
                      help=f"numba threads (1..{ncpu}; a resume needs the same number)")
     run.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0, 1e6,
@@ -72,7 +73,8 @@ def main(argv=None) -> int:
                                                       lo_closed=False, unit="s"),
                     default=60.0, help="wall seconds between a case's checkpoints")
     sw.add_argument("--vtk", action="store_true", help="write the VTK snapshots of every case")
-    sw.add_argument("--quiet", action="store_true", help="no progress bar")
+    sw.add_argument("--quiet", action="store_true",
+                    help="no progress bar and no progress lines (failed cases still on stderr)")
     args = ap.parse_args(argv)
     # a run stopped by a signal says where its checkpoint is (run_scene's KeyboardInterrupt)
     hint = ("rerun the same command to continue: completed cases are kept, the others resume "
@@ -102,7 +104,7 @@ def _command(args) -> None:
         table = run_sweep(args.scene, parse_grid(args.set), out,
                           scheduler=args.scheduler, workers=args.workers,
                           checkpoint_every=args.checkpoint_every, vtk=args.vtk,
-                          progress=not args.quiet)
+                          progress=not args.quiet, quiet=args.quiet)
         return 0 if (table["status"] != "failed").all() else 1
     if args.threads:
         import numba
@@ -110,7 +112,8 @@ def _command(args) -> None:
         cap = numba.config.NUMBA_NUM_THREADS
         if args.threads > cap:
             print(f"mpm2d {args.cmd}: --threads {args.threads}: numba is limited to {cap} "
-                  f"thread(s) here (NUMBA_NUM_THREADS); running with {cap}", flush=True)
+                  f"thread(s) here (NUMBA_NUM_THREADS); running with {cap}", flush=True,
+                  file=sys.stderr if args.quiet else sys.stdout)
         numba.set_num_threads(min(args.threads, cap))
     from .run import run_scene
 
@@ -119,7 +122,8 @@ def _command(args) -> None:
         _mass_fraction(args, get_spec(args.scene), params)
     run_scene(get_setup(args.scene), args.scene if args.out is None else args.out, params,
               resume=args.resume, progress=not args.quiet, vtk=False if args.no_vtk else None,
-              frames=args.frames, checkpoint_every=args.checkpoint_every, scene_name=args.scene)
+              frames=args.frames, checkpoint_every=args.checkpoint_every, scene_name=args.scene,
+              quiet=args.quiet)
 
 
 def _mass_fraction(args, spec, params: dict) -> None:
@@ -139,7 +143,7 @@ def _mass_fraction(args, spec, params: dict) -> None:
     m = get_material(spec.params[key].fraction_of(full))
     (phi,), note = mass_fraction_phi(args, m)
     params[key] = phi
-    print(f"mpm2d run: {note}: {key} = {phi:.6g}")
+    print(f"mpm2d run: {note}: {key} = {phi:.6g}")      # what ran: kept under --quiet too
 
 
 if __name__ == "__main__":

@@ -23,10 +23,12 @@ at once on SIGINT/SIGTERM, writing nothing.
 from __future__ import annotations
 
 import json
+import math
 import re
 import signal
 import threading
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -176,6 +178,23 @@ def check_step_count(scene, name: str) -> None:
                          "(raise cfl, shorten t_end or coarsen the grid)")
 
 
+def check_step_bound(spec, params: dict, name: str) -> None:
+    """The step-count refusal of :func:`check_step_count` before the scene's set-up (which takes
+    seconds to minutes: a bed's geostatic relaxation), where the parameters bound the stable step
+    (:meth:`mpm2d.scenes.spec.SceneSpec.step_bound`): a run that needs more than MAX_STEPS
+    steps even at that bound is refused at once, one line naming cfl, t_end and h."""
+    bound = spec.step_bound(params)
+    if bound is None:
+        return
+    dt, t_end, knobs = bound
+    with np.errstate(all="ignore"):
+        steps = t_end / dt if dt > 0 else math.inf
+    if steps > MAX_STEPS:
+        raise ValueError(f"scene {name}: {knobs} give a step of at most {dt:.3g} s, at least "
+                         f"{steps:.3g} steps to t_end; valid: at most {MAX_STEPS:.0e} steps "
+                         "(raise cfl, shorten t_end or coarsen the grid)")
+
+
 def _remove_stale_temporaries(out: Path) -> list[str]:
     """Delete the temporary files of atomic writes a killed run (SIGKILL, power loss) left."""
     gone = []
@@ -247,7 +266,7 @@ def command_line(name: str, params: dict, defaults: dict, frames, vtk: bool) -> 
 def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool = False,
               progress: bool = True, vtk: bool | None = None, frames: int | None = None,
               checkpoint_every: float = 60.0, log=None, stop_after_steps: int | None = None,
-              scene_name: str = "") -> dict:
+              scene_name: str = "", quiet: bool = False) -> dict:
     """Run a scene to its end time (or ``stop_after_steps`` steps, then checkpoint).
 
     Parameters
@@ -262,6 +281,9 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     checkpoint_every : wall-clock seconds between checkpoints (> 0)
     log : callable(str) for the run log (default: print to stdout)
     stop_after_steps : stop (with a checkpoint) after this many steps in this call
+    quiet : no progress bar and no log lines (set-up, notes, the closing line; ``mpm2d run
+        --quiet``); a run started inside a quiet run (the wheel report's other omegas) is quiet
+        too, whatever its own ``log`` and ``progress``. Errors are raised as always.
 
     Returns
     -------
@@ -278,7 +300,34 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
         SIGINT/SIGTERM: after the current step, a checkpoint is written (during the set-up:
         at once, nothing written).
     """
+    quiet = quiet or bool(_Quiet.depth)
+    if quiet:
+        log, progress = (lambda msg: None), False
     log = log or (lambda msg: print(msg, flush=True))
+    with _Quiet(quiet):
+        return _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_every,
+                          log, stop_after_steps, scene_name)
+
+
+class _Quiet:
+    """The quiet runs open now (a run inside one is quiet too)."""
+
+    depth = 0
+
+    def __init__(self, on: bool):
+        self.on = on
+
+    def __enter__(self):
+        _Quiet.depth += int(self.on)
+
+    def __exit__(self, *exc):
+        _Quiet.depth -= int(self.on)
+        return False
+
+
+def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_every, log,
+               stop_after_steps, scene_name) -> dict:
+    """:func:`run_scene` with its log and progress settled."""
     out = check_output_dir("--out", out)
     ckpt_path = out / "checkpoint.npz"
     spec = spec_of(setup)
@@ -325,23 +374,39 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     vtk = True if options["vtk"] is None else bool(options["vtk"])
     options["vtk"] = vtk
     params = spec.validate(given)
+    check_step_bound(spec, params, name)     # before the set-up where the parameters tell
     # the scene's set-up (a bed's geostatic relaxation can take minutes) is interrupted at once
     # by Ctrl-C or SIGTERM (there is nothing to save yet); nothing is written before it ends
     log(f"setting up scene {name}" + (" (then the checkpoint is loaded)" if saved is not None
                                        else "") + "...")
+    # numpy's warnings of the set-up (an overflow from a modulus of 1e-300) are held: a set-up
+    # that then fails is refused in one line that cites the first; one that succeeds shows them
+    held = []
     try:
-        scene = setup(**params)
+        with warnings.catch_warnings(record=True) as held:
+            warnings.simplefilter("always", RuntimeWarning)
+            scene = setup(**params)
     except KeyboardInterrupt:
         raise KeyboardInterrupt("during the scene's set-up, nothing written"
                                 + (f"; {ckpt_path} is as it was" if saved is not None else ""))
-    except ArithmeticError as exc:
+    except (ArithmeticError, ValueError) as exc:
         # a value inside its declared range whose set-up arithmetic still breaks down (a length
-        # of 1e-300, a modulus that overflows): the parameters given are the cause
+        # of 1e-300: a division by zero, or an area of 0 refused by the body it builds; a
+        # modulus that overflows): the parameters given are the cause. A set-up refusal that
+        # names a given parameter itself stands as it is.
+        if isinstance(exc, ValueError) and any(re.search(rf"\b{re.escape(k)}\b", str(exc))
+                                               for k in given):
+            raise
         given_text = ", ".join(f"{k} = {v}" for k, v in given.items()) or "the defaults"
+        first = next((w for w in held if issubclass(w.category, RuntimeWarning)), None)
+        after = f" after numpy's '{first.message}'" if first is not None else ""
         raise ValueError(f"scene {name}: with {given_text} the set-up breaks down "
-                         f"({type(exc).__name__}: {exc}); valid: values away from the extremes "
-                         f"of their ranges ('mpm2d show {name}')") from None
-    check_step_count(scene, name)
+                         f"({type(exc).__name__}: {exc}{after}); valid: values away from the "
+                         f"extremes of their ranges ('mpm2d show {name}')") from None
+    for w in held:                           # a set-up that succeeded: its warnings as they were
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    with np.errstate(all="ignore"):          # inf/0 steps are the check's to refuse
+        check_step_count(scene, name)
     if saved is None and (ckpt_path.exists() or ckpt_path.with_name("checkpoint.prev.npz").exists()):
         log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "
             "replaces it (--resume continues it instead)")

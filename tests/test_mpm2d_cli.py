@@ -145,7 +145,8 @@ def test_every_number_has_a_finite_range_and_the_default_inside(scene, key):
     (["run", "bar", "--set", "cellz=4"], "unknown parameter 'cellz' of scene bar"),
     (["run", "bar", "--set", "cells=4.5"], "cells = 4.5 is not an integer"),
     (["run", "bar", "--set", "transfer=mls"], "transfer = 'mls' is not one of apic, flip, pic"),
-    (["run", "wheel", "--set", "radius=5"], "with radius = 5"),
+    (["run", "wheel", "--set", "radius=5"], "radius = 5 is outside the valid range [0.0766667, "
+                                            "0.155455) m at the other parameters' values"),
     (["run", "disks", "--set", "cells=4096", "--set", "ppc=8"], "needs about"),
     (["run", "bar", "--frames", "-1"], "--frames = -1 is outside the valid range"),
     (["run", "bar", "--frames", "0"], "--frames = 0 is outside the valid range"),
@@ -230,3 +231,143 @@ def test_empty_out_is_refused(argv, tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--out = '' is empty" in err[0], err
     assert not any(tmp_path.iterdir())
+
+
+# ---------------------------------------------------------------- fresh-user findings (batch 2)
+def _ranges(text):
+    """Every numeric '[a, b]'-style range printed in ``text`` as (lo, hi)."""
+    import re
+
+    out = []
+    for lo, hi in re.findall(r"[\[(](-?[0-9.e+-]+|-inf), (-?[0-9.e+-]+|inf)[\])]", text):
+        out.append((float(lo), float(hi)))
+    return out
+
+
+@pytest.mark.parametrize("argv, words", [
+    # radius = 1e-300 was refused as the default hub_radius with the range [0.0133, -0.0267]
+    (["run", "wheel", "--set", "radius=1e-300"],
+     "radius = 1e-300 is outside the valid range [0.0766667, 0.155455) m at the other "
+     "parameters' values (hub_radius = 0.05 must be within one cell to the radius - 2 cells)"),
+    # E = 1e-300 was refused as the default v0: 1% strain, v0 <= 0.01 sqrt(E/rho), so E >= 10 Pa
+    (["run", "bar", "--set", "E=1e-300"], "E = 1e-300 is outside the valid range [10, 1e+12] Pa"),
+    # cells_per_mm = 0.1 left the default depth below 4 cells: 4e-3/cpm <= 0.035 -> 0.114..;
+    # the rod radius (one cell) and the bed radius (rod + 4 cells) bound it more
+    (["run", "intruder", "--set", "cells_per_mm=0.1"], "cells_per_mm = 0.1 is outside the valid "
+                                                       "range [0.314961, 20] 1/mm"),
+    # an own derived bound whose lower end is 0: not the smallest normal float
+    (["run", "intruder", "--set", "t_end=10"], "t_end = 10 is outside the valid range (0, 0.16] s"),
+])
+def test_cross_parameter_refusal_names_the_parameter_set(argv, words, tmp_path):
+    """A value inside its own declared range that makes another parameter's derived range
+    empty is refused as the parameter the user set, with its valid range at the others' values;
+    no printed range is inverted."""
+    out = tmp_path / "o"
+    rc, err = _call(argv + ["--out", str(out), "--quiet"])
+    assert rc == 2 and len(err) == 1 and words in err[0], err
+    assert all(lo <= hi for lo, hi in _ranges(err[0])), err
+    assert not out.exists()
+
+
+def test_valid_range_is_the_interval_of_the_checks():
+    """SceneSpec.valid_range: the bisection finds the bounds of a synthetic declaration exactly
+    (to the 6 digits printed), open or closed as declared; an empty derived range is never
+    printed and the message says which given parameter to change."""
+    from mpm2d.scenes.spec import Param, SceneSpec
+
+    spec = SceneSpec("toy", {"x": Param(0.0, 1.0, lo_closed=False),
+                             "y": Param(lambda p: p["x"], lambda p: p["z"] - p["x"],
+                                        note="x to z - x"),
+                             "z": Param(0.0, 2.0),
+                             "mode": Param(choices=("a", "b")),
+                             "w": Param(lambda p: 0.0 if p["mode"] == "a" else 1.0,
+                                        lambda p: 1.0 if p["mode"] == "a" else 0.0)},
+                     {"x": 0.1, "y": 0.3, "z": 2.0, "mode": "a", "w": 0.5}, None)
+    full = {"x": 0.8, "y": 0.3, "z": 2.0, "mode": "a", "w": 0.5}
+    rng = spec.valid_range("x", full)          # y >= x -> x <= 0.3; y <= z - x -> x <= 1.7
+    assert (rng.lo, rng.lo_closed, rng.hi, rng.hi_closed) == (0.0, False, 0.3, True)
+    with pytest.raises(ValueError) as exc:
+        spec.coerce({"x": 0.8})
+    assert str(exc.value).startswith("x = 0.8 is outside the valid range (0, 0.3] at the other "
+                                     "parameters' values (y = 0.3 must be within x to z - x)")
+    with pytest.raises(ValueError) as exc:
+        spec.coerce({"mode": "b"})               # w in [1, 0]: no number given to blame
+    text = str(exc.value)
+    assert "with mode = b, no value of w is valid" in text and "change mode" in text
+    assert "[1, 0]" not in text
+
+
+def test_run_quiet_prints_nothing(tmp_path, capsys):
+    """--quiet: no 'setting up scene' line, no description, no closing line (stdout and stderr
+    empty on success), the run's files written; a run inside a quiet run is quiet too (the
+    wheel report's sub-runs pass their own log=print)."""
+    out = tmp_path / "q"
+    assert main(["run", "bar", "--set", "cells=8", "--set", "ppc=1", "--set", "periods=0.05",
+                 "--no-vtk", "--quiet", "--out", str(out)]) == 0
+    cap = capsys.readouterr()
+    assert cap.out == "" and cap.err == "", cap
+    assert (out / "history.csv").is_file() and (out / "manifest.json").is_file()
+
+    from mpm2d.run import _Quiet, run_scene
+    from mpm2d.scenes import get_setup
+
+    with _Quiet(True):
+        run_scene(get_setup("bar"), tmp_path / "inner", {"cells": 8, "ppc": 1, "periods": 0.05},
+                  vtk=False, log=print, progress=True)
+    cap = capsys.readouterr()
+    assert cap.out == "" and cap.err == "", cap
+    assert main(["run", "bar", "--set", "cells=8", "--set", "ppc=1", "--set", "periods=0.05",
+                 "--no-vtk", "--out", str(tmp_path / "loud")]) == 0
+    assert "setting up scene bar" in capsys.readouterr().out      # the default still talks
+
+
+def test_step_count_is_refused_before_the_set_up(tmp_path):
+    """intruder --set cfl=1e-300 was refused only after its 12-17 s set-up: the parameters bound
+    the step (cfl h / c, c >= sqrt(G/rho) of its material) and the refusal comes first: the
+    set-up is never called, one line naming cfl, t_end and h, exit 2, nothing written."""
+    from mpm2d.run import run_scene
+    from mpm2d.scenes import get_setup
+
+    real = get_setup("intruder")
+
+    def setup(**params):
+        raise AssertionError("the set-up ran")
+
+    setup.spec = real.spec
+    out = tmp_path / "o"
+    with pytest.raises(ValueError) as exc:
+        run_scene(setup, out, {"cfl": "1e-300"}, log=lambda m: None, scene_name="intruder")
+    text = str(exc.value)
+    assert "cfl = 1e-300, t_end = 0.02 s, h = 0.001 m" in text and "at most 1e+08 steps" in text
+    assert not out.exists()
+    # the CLI: one line, exit 2
+    rc, err = _call(["run", "wheel", "--set", "cfl=1e-300", "--out", str(out), "--quiet"])
+    assert rc == 2 and len(err) == 1 and "cfl = 1e-300, t_end = 1 s, h = 0.0133333 m" in err[0]
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_step_bound_is_above_the_stable_step():
+    """The pre-set-up bound is an upper bound of the set-up's first stable step (so the early
+    refusal never refuses a run the later check would accept): intruder at its defaults."""
+    from mpm2d.scenes import get_setup, get_spec
+
+    spec = get_spec("intruder")
+    params = spec.validate({})
+    dt_max, t_end, _ = spec.step_bound(params)
+    sim = get_setup("intruder")(**params).sim
+    assert sim.stable_dt() <= dt_max and t_end == params["t_end"]
+
+
+def test_set_up_warnings_are_not_printed_before_the_refusal(tmp_path):
+    """column kappa = 1e-300: numpy's 'overflow encountered in exp' was printed before the
+    refusal; now the refusal is the only line and cites it."""
+    import warnings
+
+    out = tmp_path / "o"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")           # a warning that escaped would fail the run
+        rc, err = _call(["run", "column", "--set", "kappa=1e-300", "--out", str(out), "--quiet"])
+    assert rc == 2 and len(err) == 1, err
+    assert "with kappa = 1e-300 the set-up breaks down" in err[0] and "overflow" in err[0]
+    assert not out.exists()

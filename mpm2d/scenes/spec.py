@@ -29,6 +29,8 @@ from __future__ import annotations
 import functools
 import inspect
 import math
+import struct
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -195,6 +197,69 @@ def _is_real(value) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating))
 
 
+def _quiet_numpy():
+    """numpy's floating-point warnings off inside a check (an overflow or a division by zero in
+    a derived bound is the check's answer, not a line of its own before the refusal)."""
+    return np.errstate(all="ignore")
+
+
+def _empty(number: Number) -> bool:
+    """Whether a range admits no value (inverted, or a single point open on a side)."""
+    lo, hi = number.lo, number.hi
+    if lo is None or hi is None:
+        return False
+    return lo > hi or (lo == hi and not (number.lo_closed and number.hi_closed))
+
+
+_SIGN = 1 << 63
+
+
+def _ordered(x: float) -> int:
+    """An integer that orders the floats as they are ordered (adjacent floats differ by 1)."""
+    i = struct.unpack("<q", struct.pack("<d", x))[0]
+    return i if i >= 0 else -(i & (_SIGN - 1))
+
+
+def _float(k: int) -> float:
+    if k < 0:
+        k = (-k) | _SIGN
+        k -= 1 << 64
+    return struct.unpack("<d", struct.pack("<q", k))[0]
+
+
+def valid_interval(ok: Callable[[float], bool], x0: float) -> tuple:
+    """The interval of valid values around a valid ``x0`` of a one-parameter check ``ok``.
+
+    Each side is found by bisection over the ordered floats (64 evaluations at most), from
+    ``x0`` out to the largest float; the boundary is reported at 6 significant digits, closed
+    when that rounded value is valid and open otherwise (the interval is assumed connected,
+    which holds for the bounds of these declarations: monotone in each parameter).
+
+    Returns
+    -------
+    (lo, lo_closed, hi, hi_closed) with None for an unbounded side.
+    """
+    out = []
+    for far in (-sys.float_info.max, sys.float_info.max):
+        if ok(far):
+            out += [None, True]
+            continue
+        good, bad = _ordered(x0), _ordered(far)
+        while abs(bad - good) > 1:
+            mid = (good + bad) // 2
+            if ok(_float(mid)):
+                good = mid
+            else:
+                bad = mid
+        edge = float(f"{_float(bad):.6g}")
+        if not (min(_float(good), _float(bad)) <= edge <= max(_float(good), _float(bad))):
+            edge = float(f"{_float(good):.6g}")
+        if abs(edge) <= sys.float_info.min:  # the checks refuse subnormals: the bound is 0
+            edge = 0.0
+        out += [edge, ok(edge)]
+    return out[0], out[1], out[2], out[3]
+
+
 class SceneSpec:
     """The declared parameters of one scene: ``params`` (name -> :class:`Param`), ``defaults``
     (from the ``setup`` signature) and ``size`` (params -> (points, grid nodes), for the memory
@@ -219,6 +284,8 @@ class SceneSpec:
                     return exc
         try:
             text = p.range_text(others)
+            if _empty(p.number(key, others)):  # never print an empty or inverted range
+                return exc
         except Exception:                    # a bound that cannot be evaluated: keep the first
             return exc
         first = str(exc).split("; valid range")[0].split(" is outside")[0]
@@ -251,16 +318,149 @@ class SceneSpec:
         # keys first, so a bad value is named itself
         for k in [*out, *(k for k in self.params if k not in out)]:
             try:
-                full[k] = self.params[k].check_derived(k, full[k], full)
+                with _quiet_numpy():
+                    full[k] = self.params[k].check_derived(k, full[k], full)
             except ValueError as exc:
-                if k in out or not out:
-                    raise
-                given = ", ".join(f"{g} = {v}" for g, v in out.items())
-                raise ValueError(f"{exc}; with {given}") from None
+                raise self._explain(k, exc, full, out) from None
             if k in out:
                 out[k] = full[k]
         self.check_memory(full)
         return out
+
+    def _derived_ok(self, full: dict) -> bool:
+        """Whether every derived bound holds at ``full`` (arithmetic failures count as no)."""
+        try:
+            with _quiet_numpy():
+                for k, p in self.params.items():
+                    p.check_derived(k, full[k], full)
+        except (ValueError, ArithmeticError, TypeError):
+            return False
+        return True
+
+    def valid_range(self, key: str, full: dict) -> Number | None:
+        """The valid values of the number ``key`` with every other parameter as in ``full``:
+        its static range intersected with every derived bound it takes part in (its own, and
+        the others' that depend on it), as the :class:`Number` of the interval around the
+        declared default; None when the default itself is not valid there (no interval to
+        report) or ``key`` is not a number."""
+        p = self.params[key]
+        x0 = self.defaults.get(key)
+        if p.kind != "number" or not _is_real(x0) or isinstance(x0, bool):
+            return None
+        static = Param(None if callable(p.lo) else p.lo, None if callable(p.hi) else p.hi,
+                       False, p.lo_closed, p.hi_closed).number(key)
+
+        def ok(x):
+            return static.contains(x) and self._derived_ok({**full, key: x})
+
+        if not ok(float(x0)):
+            return None
+        lo, lo_closed, hi, hi_closed = valid_interval(ok, float(x0))
+        if p.integer:                        # the integers inside
+            lo = None if lo is None else float(math.ceil(lo) if lo_closed else math.floor(lo) + 1)
+            hi = None if hi is None else float(math.floor(hi) if hi_closed else math.ceil(hi) - 1)
+            lo_closed = hi_closed = True
+        return Number(key, lo, hi, integer=p.integer, lo_closed=lo_closed, hi_closed=hi_closed,
+                      unit=p.unit)
+
+    def _explain(self, key: str, exc: ValueError, full: dict, given: dict) -> ValueError:
+        """The refusal of a derived bound of ``key``, said about the parameter the user set.
+
+        A given number whose value lies outside its valid range at the other parameters
+        (:meth:`valid_range`) is named with that range (``--set radius=1e-300`` is refused as
+        radius, not as the default hub_radius that no longer fits); else, when the bound of
+        ``key`` is empty or inverted there, the message says so without printing it and names
+        the parameters to change; else the bound's own message (with the given values)."""
+        p = self.params[key]
+        for g in given:
+            if self.params[g].kind != "number" or full[g] is None:
+                continue
+            rng = self.valid_range(g, full)
+            if rng is None or rng.contains(float(full[g])) or _empty(rng):
+                continue
+            x = float(full[g])
+            shown = f"{x:.6g}" if float(f"{x:.6g}") == x else repr(x)
+            why = ""
+            if g != key:
+                note = p.note_text(full)
+                why = (f" at the other parameters' values ({key} = {full[key]}"
+                       + (f" must be within {note}" if note else " must stay valid") + ")")
+            else:
+                note = p.note_text(full)
+                try:
+                    own = p.number(key, full).range_text == rng.range_text
+                except Exception:
+                    own = False
+                others = "" if own else "the bounds of the others at their values"
+                why = "; ".join(filter(None, [note, others]))
+                why = f" ({why})" if why else ""
+            return ValueError(f"{g} = {shown} is outside the valid range {rng.range_text}{why}")
+        try:
+            rng = p.number(key, full)
+            empty = _empty(rng)
+        except Exception:
+            empty = True
+        if empty:
+            note = p.note_text(full)
+            what = ", ".join(f"{g} = {v}" for g, v in given.items()) or "the defaults"
+            change = ", ".join(given) or "the parameters it depends on"
+            return ValueError(f"with {what}, no value of {key} is valid"
+                              + (f" ({key}: {note})" if note else "")
+                              + f"; change {change} ('mpm2d show {self.name}' lists the ranges)")
+        if key in given or not given:
+            return exc
+        shown = ", ".join(f"{g} = {v}" for g, v in given.items())
+        return ValueError(f"{exc}; with {shown}")
+
+    def step_bound(self, params: dict) -> tuple | None:
+        """An upper bound of the run's first step from the parameters alone, before the set-up.
+
+        The explicit step is at most ``cfl h / c`` (the elastic wave limit; the advection and
+        viscous limits are smaller still), and the wave speed of the scene's suspension is at
+        least ``c = sqrt(G min(1, moduli_factor) / max(rho_s, rho_f))`` of its material (the P
+        wave, the pore fluid and the locked mixture's kappa only add to the modulus; a point's
+        V/m is at least 1/max(rho_s, rho_f)); a fixed ``dt`` is the step itself. Scenes whose
+        parameters do not give ``cfl``, ``t_end`` and the cell size (``h`` or ``cells_per_mm``)
+        and a suspension material with G and densities get None (the runner's check after the
+        set-up still applies).
+
+        Returns
+        -------
+        (dt_max [s], t_end [s], text naming the parameters and their values) or None.
+        """
+        t_end = params.get("t_end")
+        if not _is_real(t_end) or isinstance(t_end, bool) or t_end <= 0:
+            return None
+        if _is_real(params.get("dt")) and params["dt"] > 0:
+            return float(params["dt"]), float(t_end), f"dt = {params['dt']:g} s, t_end = " \
+                                                      f"{t_end:g} s"
+        cfl = params.get("cfl")
+        if "h" in params and _is_real(params["h"]):
+            h, h_text = float(params["h"]), f"h = {params['h']:g} m"
+        elif "cells_per_mm" in params and _is_real(params["cells_per_mm"]):
+            h = 1e-3 / float(params["cells_per_mm"])
+            h_text = f"h = {h:g} m (cells_per_mm = {params['cells_per_mm']:g})"
+        else:
+            return None
+        key = volume_fraction_key(self)
+        if not _is_real(cfl) or key is None:
+            return None
+        try:
+            from rheology import get_material
+
+            name = self.params[key].fraction_of(params)
+            m = get_material(name)
+            factor = min(1.0, float(params.get("moduli_factor", 1.0)))
+            rho = max(x for x in (m.rho_s, m.rho_f) if x is not None)
+            with _quiet_numpy():
+                c = math.sqrt(m.G * factor / rho)
+        except (ValueError, TypeError, ArithmeticError):   # no G or densities: no estimate
+            return None
+        if not (c > 0 and math.isfinite(c)):
+            return None
+        return (float(cfl) * h / c, float(t_end),
+                f"cfl = {cfl:g}, t_end = {t_end:g} s, {h_text} (the wave speed of material "
+                f"{name!r} is at least {c:.3g} m/s)")
 
     def validate(self, given: dict) -> dict:
         """Every parameter (defaults completed by ``given``), checked (see :meth:`coerce`)."""
