@@ -26,6 +26,7 @@ import itertools
 import os
 import re
 import shutil
+import sys
 import time
 from pathlib import Path
 
@@ -77,6 +78,38 @@ def case_name(params: dict) -> str:
         return "base"
     return "_".join(f"{_SAFE.sub('-', str(k))}={_SAFE.sub('-', str(v))}"
                     for k, v in params.items())
+
+
+def check_distinct_cases(grid: dict[str, list[str]], canonical: dict | None = None) -> None:
+    """Refuse a grid two of whose cases would be the same run or share a folder: one line naming
+    the ``--set`` key and its values that collide: a value given twice (``8,8``), two spellings
+    of one value (``0.001,1e-3``, ``apic,APIC``: ``canonical`` maps key -> {text: value as
+    the scene reads it}), or values that differ only in characters a folder name cannot hold
+    (``a b`` and ``a-b``: :func:`case_name`).
+
+    Raises
+    ------
+    ValueError
+        ``--set KEY: values 'A' and 'B' ...; give distinct values of KEY``.
+    """
+    for key, values in grid.items():
+        folders: dict[str, str] = {}
+        runs: dict = {}
+        for v in values:
+            folder = case_name({key: v})
+            value = (canonical or {}).get(key, {}).get(v, v)
+            if folder in folders and folders[folder] == v:
+                raise ValueError(f"--set {key}: value {v!r} is given twice; give distinct values "
+                                 f"of {key}")
+            first = runs.get(value)          # scene values: numbers, text, bools, None
+            if first is not None:
+                raise ValueError(f"--set {key}: values {first!r} and {v!r} are the same value "
+                                 f"({value}); give distinct values of {key}")
+            if folder in folders:
+                raise ValueError(f"--set {key}: values {folders[folder]!r} and {v!r} give the "
+                                 f"same case folder {folder!r}; give distinct values of {key}")
+            folders[folder] = v
+            runs.setdefault(value, v)
 
 
 def _complete(folder: Path) -> bool:
@@ -142,7 +175,7 @@ def _client(scheduler: str | None, workers: int | None):
 
 def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | None = None,
               workers: int | None = None, checkpoint_every: float = 60.0, vtk: bool = False,
-              progress: bool = True, log=print) -> pd.DataFrame:
+              progress: bool = True, log=print, quiet: bool = False) -> pd.DataFrame:
     """Run every case of ``grid`` for ``scene`` on Dask and write ``out/sweep.csv``.
 
     Parameters
@@ -157,6 +190,8 @@ def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | N
         Address of an existing Dask scheduler; default: a LocalCluster.
     workers : int, optional
         Workers of the LocalCluster (default: one per core).
+    quiet : bool
+        No progress bar and no log lines except the failed cases (on stderr).
 
     Returns
     -------
@@ -172,13 +207,17 @@ def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | N
     from .run import coerce
     from .scenes import get_setup
 
+    if quiet:
+        log, progress = (lambda msg: None), False
+
     setup = get_setup(scene)
     cases = expand(grid)
+    canonical: dict = {k: {} for k in grid}
     for params in cases:                     # bad input: refused before any work
-        coerce(dict(params), setup)
+        for k, v in coerce(dict(params), setup).items():
+            canonical[k][params[k]] = v
+    check_distinct_cases(grid, canonical)
     names = [case_name(p) for p in cases]
-    if len(set(names)) != len(names):
-        raise ValueError("two cases map to the same folder name; give distinct values")
     out = check_output_dir("--out", out)       # created once the cluster is reached
     rows = {n: {**p, "case": n, "status": "pending", "wall_s": 0.0, "error": ""}
             for n, p in zip(names, cases)}
@@ -195,7 +234,11 @@ def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | N
     atomic_write_csv(out / "sweep.csv", table)
     failed = table[table["status"] == "failed"]
     for _, r in failed.iterrows():
-        log(f"case {r['case']} failed: {r['error']}")
+        line = f"case {r['case']} failed: {r['error']}"
+        if quiet:
+            print(f"mpm2d sweep: {line}", file=sys.stderr, flush=True)
+        else:
+            log(line)
     module = __import__(setup.__module__, fromlist=["sweep_report"])
     report = getattr(module, "sweep_report", None)
     done = table[table["status"].isin(["done", "skipped"])]

@@ -62,3 +62,31 @@ def test_bad_input_refused_before_anything_is_written(tmp_path):
         run_sweep("bar", parse_grid(["nope=1,2"]), tmp_path / "x", workers=1, progress=False,
                   log=lambda m: None)
     assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("items, words", [
+    (["cells=8,8"], "--set cells: value '8' is given twice"),
+    (["cells=8,12", "v0=1e-3,0.001"], "--set v0: values '1e-3' and '0.001' are the same value"),
+    (["transfer=apic,APIC"], "--set transfer: values 'apic' and 'APIC' are the same value"),
+])
+def test_colliding_cases_name_the_key(items, words, tmp_path):
+    """Two cases that are one run (or share a folder) were refused without naming the key
+    (or, for apic/APIC, ran twice): the refusal names the --set key and its values, before the
+    cluster starts or anything is written."""
+    from mpm2d.cli import main
+
+    out = tmp_path / "sw"
+    with pytest.raises(ValueError, match=words.replace("(", r"\(")):
+        run_sweep("bar", parse_grid(items), out, workers=1, progress=False, log=lambda m: None)
+    assert not out.exists()
+    assert main(["sweep", "bar", *sum((["--set", i] for i in items), []), "--out", str(out)]) == 2
+    assert not out.exists()
+
+
+def test_folder_collision_names_the_key():
+    """Values that differ only in characters a folder name cannot hold share a case folder."""
+    from mpm2d.sweep import check_distinct_cases
+
+    with pytest.raises(ValueError, match="--set material: values 'a b' and 'a-b' give the same "
+                                         "case folder 'material=a-b'"):
+        check_distinct_cases({"material": ["a b", "a-b"]})
