@@ -52,6 +52,124 @@ def _set_value(text: str):
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+_SIGN = 1 << 63
+
+
+def _ordered(x: float) -> int:
+    """An integer that orders the floats as they are ordered (adjacent floats differ by 1)."""
+    import struct
+
+    i = struct.unpack("<q", struct.pack("<d", x))[0]
+    return i if i >= 0 else -(i & (_SIGN - 1))
+
+
+def _float(k: int) -> float:
+    import struct
+
+    if k < 0:
+        k = ((-k) | _SIGN) - (1 << 64)
+    return struct.unpack("<d", struct.pack("<q", k))[0]
+
+
+def valid_interval(ok, x0: float) -> tuple:
+    """The interval of valid values around a valid ``x0`` of a one-parameter check ``ok``
+    (bisection over the ordered floats, 64 evaluations a side at most; boundaries at 6
+    significant digits, closed when that rounded value is valid; 0 for a bound that falls on
+    the subnormals). Returns (lo, lo_closed, hi, hi_closed), None for an unbounded side.
+    (The same as mpm2d.scenes.spec.valid_interval: the tiers do not import each other.)"""
+    out = []
+    for far in (-sys.float_info.max, sys.float_info.max):
+        if ok(far):
+            out += [None, True]
+            continue
+        good, bad = _ordered(x0), _ordered(far)
+        while abs(bad - good) > 1:
+            mid = (good + bad) // 2
+            if ok(_float(mid)):
+                good = mid
+            else:
+                bad = mid
+        edge = float(f"{_float(bad):.6g}")
+        if not (min(_float(good), _float(bad)) <= edge <= max(_float(good), _float(bad))):
+            edge = float(f"{_float(good):.6g}")
+        if abs(edge) <= sys.float_info.min:
+            edge = 0.0
+        out += [edge, ok(edge)]
+    return tuple(out)
+
+
+def material_with(name, overrides: dict, option: str = "--set"):
+    """``rheology.get_material(name, **overrides)`` whose refusal names the parameter set.
+
+    The Material checks its fields together (phi_c < phi_j, a_inf >= a0, mu_2 >= mu_c, phi0 <
+    phi_j): ``--set phi_j=0.3`` was refused as ``phi_c = 0.436 is outside the valid range (0,
+    0.3)``, a parameter the user did not set. Here such a refusal is restated about the set
+    parameter with its valid range at the material's other values (found by bisection on the
+    Material's own checks, :func:`valid_interval`).
+
+    Raises
+    ------
+    ValueError
+        ``--set NAME = VALUE is outside the valid range R (with material M's other parameters:
+        <the check it breaks>)``, or the Material's own message when that already names a set
+        parameter with a range that holds.
+    """
+    import rheology
+    from rheology.materials import FIELD_UNITS
+
+    try:
+        return rheology.get_material(name, **overrides)
+    except ValueError as exc:
+        try:
+            base = rheology.get_material(name)
+        except ValueError:
+            raise exc from None
+        raise _about_set(base, overrides, exc, option, FIELD_UNITS) from None
+
+
+def _about_set(base, overrides: dict, exc: ValueError, option: str, units: dict) -> ValueError:
+    for key, v in overrides.items():
+        x0 = getattr(base, key, None)
+        if not isinstance(v, (int, float)) or isinstance(v, bool) or not isinstance(
+                x0, (int, float)):
+            continue
+
+        def ok(x, key=key):
+            try:
+                with np.errstate(all="ignore"):
+                    base.replace(**{**overrides, key: x})
+            except (ValueError, ArithmeticError):
+                return False
+            return True
+
+        if not ok(float(x0)):
+            continue
+        lo, lo_closed, hi, hi_closed = valid_interval(ok, float(x0))
+        unit = units.get(key, "-")
+        rng = Number(f"{option} {key}", lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
+                     unit="" if unit == "-" else unit)
+        if rng.contains(float(v)):
+            continue
+        import re
+
+        cause = str(exc)
+        # "phi_c = 0.436 is outside the valid range (0, 0.3) (material M; NOTE)": keep the
+        # parameter, its value and the note (the range printed there is phi_c's, not key's)
+        m = re.match(r"(\w+) = (\S+) is outside the valid range .*?(?:\(material [^;)]*"
+                     r"(?:; (.+))?\))?$", cause)
+        named, note = (m.group(1), m.group(3)) if m else (None, None)
+        if named == key:
+            why = f" ({note})" if note else ""
+        elif m:
+            why = (f" (with material {base.name}'s other parameters: {named} = {m.group(2)}"
+                   + (f"; {note}" if note else "") + ")")
+        else:
+            why = f" (with material {base.name}'s other parameters: {cause})"
+        return ValueError(f"{option} {key} = {v:g} is outside the valid range {rng.range_text}"
+                          f"{why}")
+    return exc
+
+
 def _material(args):
     import rheology
 
@@ -62,7 +180,7 @@ def _material(args):
     if twice:
         raise ValueError(f"--set {twice[0]} given twice; give each parameter once")
     overrides = dict(args.set or [])
-    m = rheology.get_material(args.material, **overrides)
+    m = material_with(args.material, overrides)
     resolve_sample(args, m)        # issue 15: --phi default per material, --mass-fraction, geometry
     return m
 

@@ -131,8 +131,44 @@ def add_subcommands(sub) -> dict:
     return {"read": cmd_read, "fit": cmd_fit}
 
 
+def check_files(args) -> None:
+    """Refuse, before anything is read or written, a data file given twice (the same resolved
+    path: it would be merged into the fit as two curves) and an option that would be ignored for
+    the files given: ``--columns`` maps the columns of CSV/TSV tables, a RheoCompass export's
+    columns are fixed by the export; ``--interval`` selects RheoCompass results, tables have
+    none. One line naming the file(s) and the option."""
+    from rheology.data import detect_format, read_text
+
+    seen: dict = {}
+    for f in args.files:
+        key = Path(f).resolve()
+        if key in seen:
+            both = "" if seen[key] == f else f" (as {seen[key]!r} and {f!r})"
+            raise ValueError(f"data file {f!r} is given twice{both}: it would be read as two "
+                             "curves; give each file once")
+        seen[key] = f
+    if not (args.columns or args.interval):
+        return
+    kinds = {}
+    for f in args.files:
+        if not Path(f).is_file():
+            return                           # the reader names the missing file
+        kinds[f] = args.format if args.format != "auto" else detect_format(read_text(f))
+    rheo = [f for f, k in kinds.items() if k == "rheocompass"]
+    if args.columns and rheo:
+        raise ValueError(f"--columns applies to CSV/TSV tables only: data file {rheo[0]!r} is a "
+                         "RheoCompass export, whose columns are fixed by the export (read by "
+                         "name); remove --columns or give tables only")
+    if args.interval and not rheo:
+        raise ValueError("--interval selects RheoCompass results by name: none of the data "
+                         "files is a RheoCompass export (a table's curves are split by its phi "
+                         "or interval column); remove --interval")
+
+
 def _read(args):
     from rheology.data import read_flow_curves
+
+    check_files(args)
 
     mass = None
     if args.mass_fraction:
@@ -173,6 +209,9 @@ def cmd_fit(args) -> str:
     from rheology.io import check_output_dir
 
     out = check_output_dir("--out", args.out)
+    if args.name is not None and not args.name.strip():
+        raise ValueError(f"--name = {args.name!r} is empty; valid: a non-empty name (default: "
+                         "the --out folder's name)")
     start = rheology.get_material(args.material)
     from rheology.materials import check_set_override
 
@@ -184,19 +223,40 @@ def cmd_fit(args) -> str:
         if name in fixed:
             raise ValueError(f"--set {name} given twice; give each parameter once")
         fixed[name] = x
-    if fixed:
-        start.replace(**fixed)
+    if fixed:                                # refused as the parameter set, with its range
+        from rheology.materials import FIELD_UNITS
+
+        from .cli import _about_set
+
+        try:
+            start.replace(**fixed)
+        except ValueError as exc:
+            raise _about_set(start, fixed, exc, "--set", FIELD_UNITS) from None
     donor = rheology.get_material(args.transient_from) if args.transient_from else None
     table = _read(args)
     print(describe(table))
     data = FlowData.from_table(table)
-    name = args.name or out.resolve().name
-    res = fit_flow_curves(data, start, fixed=fixed, free=args.free, etaB_terms=args.etaB_terms,
-                          confidence=args.confidence, profile=not args.no_profile,
-                          f_scale=args.f_scale, name=name,
-                          citation=f"fitted by 'rheometer fit' to {data.n_curves} flow curves "
-                                   f"({', '.join(sorted(set(table['source_file'])))}) starting "
-                                   f"from {start.name}")
+    name = args.name.strip() if args.name is not None else out.resolve().name
+    # numpy's warnings of the fit (a singular covariance at an extreme held value) are held: a
+    # failed fit cites the first in its one line, a finished one lists them as notes
+    import warnings
+
+    try:
+        with warnings.catch_warnings(record=True) as held:
+            warnings.simplefilter("always", RuntimeWarning)
+            res = fit_flow_curves(
+                data, start, fixed=fixed, free=args.free, etaB_terms=args.etaB_terms,
+                confidence=args.confidence, profile=not args.no_profile, f_scale=args.f_scale,
+                name=name, citation=f"fitted by 'rheometer fit' to {data.n_curves} flow curves "
+                                    f"({', '.join(sorted(set(table['source_file'])))}) "
+                                    f"starting from {start.name}")
+    except (RuntimeError, ArithmeticError, ValueError) as exc:
+        first = next((w for w in held if issubclass(w.category, RuntimeWarning)), None)
+        if first is None:
+            raise
+        raise type(exc)(f"{exc} (after numpy's '{first.message}')") from None
+    numpy_notes = sorted({f"numpy: {w.message}" for w in held
+                          if issubclass(w.category, RuntimeWarning)})
     m = res.material
     if args.transient_from:
         m = m.replace(**{k: getattr(donor, k) for k in TRANSIENT_FIELDS})
@@ -228,6 +288,23 @@ def cmd_fit(args) -> str:
     params_json = {p.name: {"value": p.value, "lower": p.lower, "upper": p.upper,
                             "interval": p.method, "stage": p.stage, "status": p.status}
                    for p in res.parameters}
+    # every output checked before the first is written (a non-finite value in the last one
+    # left the first four behind, with a message saying nothing was written)
+    from rheology.io import check_finite, strict_json
+    from rheology.materials import material_to_dict
+
+    try:
+        check_finite(table_to_csv_frame(table), "curves.csv", EMPTY_OK)
+        check_finite(fit_df, "fit.csv")
+        check_finite(ptable, "parameters.csv", ("lower", "upper", "std_error_reporting_coord"))
+        check_finite(corr_df, "correlation.csv")
+        strict_json({"material": material_to_dict(m), "provenance": provenance,
+                     "fit": {"confidence": res.confidence, "parameters": params_json,
+                             "correlation": {"names": names, "matrix": corr}}}, "material.json")
+    except RuntimeError as exc:
+        text = str(exc).replace("was not written", "and every other output were not written")
+        cause = f" (numpy during the fit: {numpy_notes[0][7:]})" if numpy_notes else ""
+        raise RuntimeError(f"{text}{cause}") from None
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_csv(out / "curves.csv", table_to_csv_frame(table), empty_ok=EMPTY_OK)
     atomic_write_csv(out / "fit.csv", fit_df)
@@ -248,7 +325,7 @@ def cmd_fit(args) -> str:
             continue
         lines.append(f"  {p.name:9s} = {p.value:<11.5g} [{p.lower:.5g}, {p.upper:.5g}] "
                      f"({p.method}, stage {p.stage}{', ' + p.status if p.status != 'fitted' else ''})")
-    lines += [f"  note: {msg}" for msg in res.messages]
+    lines += [f"  note: {msg}" for msg in [*res.messages, *numpy_notes]]
     lines.append(f"wrote {', '.join(str(out / w) for w in written)}")
     return "\n".join(lines)
 

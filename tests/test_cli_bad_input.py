@@ -162,3 +162,41 @@ def test_unwritable_outputs_are_refused_before_any_work(tmp_path):
         check_output_dir("--out", afile / "sub")
     assert check_output_dir("--out", tmp_path / "new" / "deeper") == tmp_path / "new" / "deeper"
     assert not (tmp_path / "new").exists() and sorted(tmp_path.iterdir()) == [afile]
+
+
+# ---------------------------------------------------------------- a --set the Material refuses
+@pytest.mark.parametrize("argv, words", [
+    # phi_j = 0.3 was refused as "phi_c = 0.436 is outside the valid range (0, 0.3)"
+    (["flow-curve", "--set", "phi_j=0.3"],
+     "--set phi_j = 0.3 is outside the valid range (0.436, 1)"),
+    (["materials", "--material", "hermes2016", "--set", "phi_j=0.3"],
+     "--set phi_j = 0.3 is outside the valid range (0.436, 1)"),
+    # the static bound found by the same search (0 < phi_j < 1), tightened by phi_c
+    (["flow-curve", "--set", "phi_j=1.5"], "--set phi_j = 1.5 is outside the valid range "
+                                           "(0.436, 1)"),
+    # a_inf >= a0 = 0.8 (closed), mu_2 >= mu_c
+    (["flow-curve", "--set", "a_inf=0.5"], "--set a_inf = 0.5 is outside the valid range [0.8, "
+                                           "inf)"),
+    (["startup", "--set", "mu_c=5", "--set", "mu_2=2"], "--set mu_c = 5 is outside the valid "
+                                                        "range (0, 2]"),
+])
+def test_rheometer_set_refusal_names_the_parameter_set(argv, words, tmp_path, monkeypatch,
+                                                       capsys):
+    """A --set the Material refuses through another parameter's bound is said about the
+    parameter set, with its valid range at the material's other values; nothing written."""
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+    assert not any(tmp_path.iterdir())
+
+
+def test_valid_interval_finds_the_bounds():
+    """rheometer.cli.valid_interval on checks with known bounds: open/closed, 0 and unbounded."""
+    from rheometer.cli import valid_interval
+
+    assert valid_interval(lambda x: 0.25 < x <= 0.75, 0.5) == (0.25, False, 0.75, True)
+    assert valid_interval(lambda x: x > 0, 3.0) == (0.0, False, None, True)
+    assert valid_interval(lambda x: -2.0 <= x < 1e300, 1.0) == (-2.0, True, 1e300, False)

@@ -200,3 +200,84 @@ def test_intervals_stay_in_the_physical_range(tmp_path):
     phi_j = tab.loc["phi_j", "value"]
     assert 0.0 <= tab.loc["phi_c", "lower"] and tab.loc["phi_c", "upper"] <= phi_j
     assert 0.0 < tab.loc["phi_j", "lower"] and tab.loc["phi_j", "upper"] <= 1.0
+
+
+# ---------------------------------------------------------------- fresh-user findings (batch 2)
+EX = Path(__file__).resolve().parents[1] / "rheometer" / "examples"
+RC = [str(EX / "rheocompass_phi_0.40.csv"), str(EX / "rheocompass_phi_0.42.csv")]
+TABLE = str(EX / "table_phi_column.csv")
+
+
+def _refused(argv, capsys, out):
+    from rheometer.cli import main
+
+    rc = main(argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert not Path(out).exists()
+    return err[0]
+
+
+@pytest.mark.parametrize("extra, words", [
+    # phi_j = 0.3 was refused as "phi_c = 0.436 is outside the valid range (0, 0.3)"
+    (["--set", "phi_j=0.3"], "--set phi_j = 0.3 is outside the valid range (0.436, 1) (with "
+                             "material hermes2016's other parameters: phi_c = 0.436"),
+    # a0 = 5 breaks a_inf >= a0 (a_inf = 0.8): a0's own range at the others is (0, 0.8]
+    (["--set", "a0=5"], "--set a0 = 5 is outside the valid range (0, 0.8]"),
+    (["--name", ""], "--name = '' is empty"),
+    (["--name", "   "], "is empty; valid: a non-empty name"),     # (spaces shown as one)
+])
+def test_fit_refusals_name_what_the_user_gave(extra, words, tmp_path, capsys):
+    out = tmp_path / "fit"
+    line = _refused(["fit", *RC, "--phi", "0.40", "0.42", "--out", str(out), "--no-plots",
+                     "--no-profile", *extra], capsys, out)
+    assert words in line, line
+
+
+@pytest.mark.parametrize("cmd", ["fit", "read"])
+def test_a_data_file_given_twice_is_refused(cmd, tmp_path, capsys):
+    """The same file twice (also through another spelling of its path) was merged silently as
+    two curves."""
+    out = tmp_path / ("fit" if cmd == "fit" else "c.csv")
+    other = str(EX / ".." / "examples" / "rheocompass_phi_0.40.csv")
+    line = _refused([cmd, *RC, other, "--phi", "0.40", "0.42", "0.40", "--out", str(out)],
+                    capsys, out)
+    assert f"data file {other!r} is given twice" in line and "rheocompass_phi_0.40.csv" in line
+
+
+@pytest.mark.parametrize("files, extra, words", [
+    (RC, ["--phi", "0.40", "0.42", "--columns", "stress=Shear Stress"],
+     "--columns applies to CSV/TSV tables only"),
+    ([TABLE], ["--interval", "flow"], "--interval selects RheoCompass results by name"),
+])
+def test_an_option_without_effect_on_the_files_is_refused(files, extra, words, tmp_path, capsys):
+    """--columns was silently ignored for RheoCompass exports (and --interval for tables)."""
+    out = tmp_path / "c.csv"
+    line = _refused(["read", *files, *extra, "--out", str(out)], capsys, out)
+    assert words in line, line
+
+
+def test_columns_still_map_a_table(tmp_path, capsys):
+    from rheometer.cli import main
+
+    out = tmp_path / "c.csv"
+    assert main(["read", TABLE, "--columns", "stress=Shear Stress [Pa]", "--out", str(out)]) == 0
+    assert len(pd.read_csv(out)) > 0
+
+
+def test_failed_fit_writes_nothing_and_prints_one_line(tmp_path, capsys):
+    """--set eta0=1e300: numpy's divide-by-zero warnings were printed, then four of the five
+    outputs were written before material.json failed with 'nothing was written'. Every output
+    is checked first: one failure line (citing numpy), exit 1, no folder."""
+    import warnings
+
+    from rheometer.cli import main
+
+    out = tmp_path / "fit"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")        # an escaped warning would fail the command
+        rc = main(["fit", *RC, "--phi", "0.40", "0.42", "--out", str(out), "--no-plots",
+                   "--no-profile", "--set", "eta0=1e300"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 1 and len(err) == 1 and "is not finite" in err[0] and "numpy" in err[0], err
+    assert not out.exists()
