@@ -209,6 +209,9 @@ def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | N
 
     if quiet:
         log, progress = (lambda msg: None), False
+    if scheduler is not None and not scheduler.strip():     # '' ran on a local cluster
+        raise ValueError(f"--scheduler = {scheduler!r} is empty; valid: the address of a Dask "
+                         "scheduler (tcp://host:8786), or no --scheduler for a local cluster")
 
     setup = get_setup(scene)
     cases = expand(grid)

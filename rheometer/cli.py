@@ -267,11 +267,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--control", choices=("stress", "mixture-stress", "rate"), default="stress")
     p.add_argument("--stress-range", type=Number("--stress-range", 0.0, STRESS_MAX,
                                                  lo_closed=False, unit="Pa"),
-                   nargs=2, default=[1e-3, 1e4], metavar=("LO", "HI"),
+                   nargs=2, default=None, metavar=("LO", "HI"),
                    help="stress range [Pa] (granular or mixture per --control; 1e-3 1e4)")
     p.add_argument("--rate-range", type=Number("--rate-range", 0.0, RATE_MAX, lo_closed=False,
                                                unit="1/s"),
-                   nargs=2, default=[1e-4, 1e3], metavar=("LO", "HI"),
+                   nargs=2, default=None, metavar=("LO", "HI"),
                    help="shear-rate range [1/s] for --control rate (1e-4 1e3)")
     p.add_argument("--points", type=Number("--points", 2, 10 ** 6, integer=True), default=200,
                    help="values, log-spaced (200)")
@@ -448,7 +448,15 @@ def _cmd_flow_curve(args) -> str:
     _plot_path(args)
     m = _material(args)
     n = int(args.points)
-    lo, hi = args.rate_range if args.control == "rate" else args.stress_range
+    # a range of the other control would be ignored: refused (defaults: 1e-3 1e4 Pa, 1e-4 1e3 1/s)
+    if args.control == "rate" and args.stress_range is not None:
+        raise ValueError("--stress-range is for --control stress or mixture-stress; --control "
+                         "rate takes --rate-range")
+    if args.control != "rate" and args.rate_range is not None:
+        raise ValueError(f"--rate-range is for --control rate; --control {args.control} takes "
+                         "--stress-range")
+    lo, hi = ((args.rate_range or [1e-4, 1e3]) if args.control == "rate" else
+              (args.stress_range or [1e-3, 1e4]))
     if not lo < hi:
         which = "--rate-range" if args.control == "rate" else "--stress-range"
         raise ValueError(f"{which} {lo:g} {hi:g} must satisfy 0 < LO < HI")

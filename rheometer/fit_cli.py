@@ -36,7 +36,33 @@ def _columns(text: str):
     if "=" not in text:
         raise argparse.ArgumentTypeError(f"--columns expects QUANTITY=NAME, got {text!r}")
     k, v = (s.strip() for s in text.split("=", 1))
+    if not k or not v:
+        raise argparse.ArgumentTypeError(f"--columns {text!r}: empty quantity or column name; "
+                                         "expects QUANTITY=NAME")
     return k.lower(), v
+
+
+def _text(option: str):
+    """argparse ``type`` of a text option: refuses an empty or blank value (``--interval ''``
+    matched every RheoCompass result, ``--transient-from ''`` was ignored)."""
+
+    def check(text: str) -> str:
+        if not text.strip():
+            raise argparse.ArgumentTypeError(f"{option} = {text!r} is empty; valid: a "
+                                             "non-empty value")
+        return text.strip()
+
+    check.__name__ = "text"
+    return check
+
+
+def _once(option: str, values) -> None:
+    """Refuse a value given twice to a list option (one line naming the option and value)."""
+    seen = []
+    for v in values or []:
+        if v in seen:
+            raise ValueError(f"{option} {v} is given twice; give each once")
+        seen.append(v)
 
 
 def _set_value(text: str):
@@ -59,7 +85,8 @@ def _read_options(p):
                         "phi=NAME (any two of stress [Pa], rate [1/s], viscosity [Pa s])")
     p.add_argument("--phi", nargs="+", type=_PHI, default=None, metavar="PHI",
                    help="volume fraction of each file, in order (files without a phi column)")
-    p.add_argument("--interval", action="append", default=None, metavar="NAME",
+    p.add_argument("--interval", action="append", type=_text("--interval"), default=None,
+                   metavar="NAME",
                    help="RheoCompass result names to keep (substring, repeatable; default "
                         "'viscosity curve', 'flow curve')")
     p.add_argument("--torque-floor", type=Number("--torque-floor", 0.0, None, lo_closed=False,
@@ -121,7 +148,8 @@ def add_subcommands(sub) -> dict:
                                       "pass)")
     p.add_argument("--no-profile", action="store_true",
                    help="skip the profile-likelihood intervals of phi_j and phi_c")
-    p.add_argument("--transient-from", default=None, metavar="NAME|FILE.json",
+    p.add_argument("--transient-from", type=_text("--transient-from"), default=None,
+                   metavar="NAME|FILE.json",
                    help="copy the parameters steady flow curves cannot give (G, K, K0, rho_s, "
                         "rho_f, d, K3, kappa, phi0) from this set into the fitted material, so "
                         "that shear1d and mpm2d scenes accept it (e.g. annular_shear)")
@@ -139,6 +167,8 @@ def check_files(args) -> None:
     none. One line naming the file(s) and the option."""
     from rheology.data import detect_format, read_text
 
+    _once("--columns", [k for k, _ in args.columns or []])       # a quantity mapped twice
+    _once("--interval", args.interval)
     seen: dict = {}
     for f in args.files:
         key = Path(f).resolve()
@@ -232,6 +262,7 @@ def cmd_fit(args) -> str:
             start.replace(**fixed)
         except ValueError as exc:
             raise _about_set(start, fixed, exc, "--set", FIELD_UNITS) from None
+    _once("--free", args.free)
     donor = rheology.get_material(args.transient_from) if args.transient_from else None
     table = _read(args)
     print(describe(table))

@@ -97,11 +97,20 @@ def resolve_sample(args, m) -> None:
         if args.phi is not None:
             raise ValueError("give --phi or --mass-fraction, not both")
         args.phi, args._mass_note = mass_fraction_phi(args, m)
+        twice = next((w for i, w in enumerate(args.mass_fraction)
+                      if float(w) in map(float, args.mass_fraction[:i])), None)
+        if twice is not None:
+            raise ValueError(f"--mass-fraction {float(twice):g} is given twice: its curves would "
+                             "repeat; give distinct mass fractions")
         args._mass = dict(zip(args.phi, map(float, args.mass_fraction)))
     elif args.phi is None:
         count = getattr(args, "_phi_count", 1)
         args.phi = geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]
     else:
+        twice = next((p for i, p in enumerate(args.phi) if p in args.phi[:i]), None)
+        if twice is not None:
+            raise ValueError(f"--phi {twice:g} is given twice: its curves would repeat; give "
+                             "distinct fractions")
         bad = [p for p in args.phi if p >= m.phi_j]
         if bad:
             raise ValueError(f"--phi = {bad[0]:g} is outside the valid range (0, {m.phi_j:g}) "

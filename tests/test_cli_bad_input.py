@@ -200,3 +200,21 @@ def test_valid_interval_finds_the_bounds():
     assert valid_interval(lambda x: 0.25 < x <= 0.75, 0.5) == (0.25, False, 0.75, True)
     assert valid_interval(lambda x: x > 0, 3.0) == (0.0, False, None, True)
     assert valid_interval(lambda x: -2.0 <= x < 1e300, 1.0) == (-2.0, True, 1e300, False)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["flow-curve", "--phi", "0.48", "0.48"], "--phi 0.48 is given twice"),
+    (["flow-curve", "--mass-fraction", "0.5", "0.5"], "--mass-fraction 0.5 is given twice"),
+    (["flow-curve", "--control", "rate", "--stress-range", "1", "10"],
+     "--stress-range is for --control stress or mixture-stress"),
+    (["flow-curve", "--rate-range", "1", "10"], "--rate-range is for --control rate"),
+])
+def test_rheometer_options_refused_not_ignored(argv, words, tmp_path, monkeypatch, capsys):
+    """A repeated fraction (its curves repeated) and a range of the other control (ignored)."""
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+    assert not any(tmp_path.iterdir())

@@ -281,3 +281,42 @@ def test_failed_fit_writes_nothing_and_prints_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 1 and len(err) == 1 and "is not finite" in err[0] and "numpy" in err[0], err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("files, extra, words", [
+    (RC, ["--phi", "0.40", "0.42", "--interval", " "], "--interval = ' ' is empty"),
+    ([TABLE], ["--columns", "stress=a", "stress=Shear Stress [Pa]"],
+     "--columns stress is given twice"),
+    ([TABLE], ["--columns", "=x"], "empty quantity or column name"),
+    (RC, ["--phi", "0.40", "0.42", "--interval", "viscosity", "--interval", "viscosity"],
+     "--interval viscosity is given twice"),
+])
+def test_read_options_refused_not_ignored(files, extra, words, tmp_path, capsys):
+    """The same kind as --columns on RheoCompass: an option value with no effect or a silent
+    choice (an empty --interval matched every result, the pre-shear included; a quantity
+    mapped twice kept the last)."""
+    out = tmp_path / "c.csv"
+    try:
+        line = _refused(["read", *files, *extra, "--out", str(out)], capsys, out)
+    except SystemExit as exc:                  # argparse type errors
+        assert exc.code == 2
+        line = capsys.readouterr().err
+        assert not out.exists()
+    assert words in line, line
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--transient-from", ""], "--transient-from = '' is empty"),
+    (["--free", "eta0", "eta0"], "--free eta0 is given twice"),
+])
+def test_fit_options_refused_not_ignored(extra, words, tmp_path, capsys):
+    """--transient-from '' was ignored (a material without its transient fields was written)."""
+    out = tmp_path / "fit"
+    try:
+        line = _refused(["fit", *RC, "--phi", "0.40", "0.42", "--out", str(out), "--no-plots",
+                         "--no-profile", *extra], capsys, out)
+    except SystemExit as exc:
+        assert exc.code == 2
+        line = capsys.readouterr().err
+        assert not out.exists()
+    assert words in line, line

@@ -90,3 +90,12 @@ def test_folder_collision_names_the_key():
     with pytest.raises(ValueError, match="--set material: values 'a b' and 'a-b' give the same "
                                          "case folder 'material=a-b'"):
         check_distinct_cases({"material": ["a b", "a-b"]})
+
+
+def test_empty_scheduler_is_refused(tmp_path):
+    """--scheduler '' ran on a local cluster as if no scheduler had been given."""
+    out = tmp_path / "sw"
+    with pytest.raises(ValueError, match="--scheduler = '' is empty"):
+        run_sweep("bar", parse_grid(["cells=8"]), out, scheduler="", progress=False,
+                  log=lambda m: None)
+    assert not out.exists()
