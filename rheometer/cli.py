@@ -588,6 +588,13 @@ def _cmd_material_point(args) -> str:
     from .material_point import simple_shear_point
 
     _plot_path(args)
+    # options another choice makes irrelevant are refused, not ignored
+    if args.control == "volume" and args.pressure is not None:
+        raise ValueError("--pressure is the imposed pressure of --control pressure; --control "
+                         "volume keeps phi: remove --pressure or give --control pressure")
+    if args.stress0 is not None and args.pressure0 is not None:
+        raise ValueError("give --stress0 (start from the steady state at that stress) or "
+                         "--pressure0 (start from rest under that pressure), not both")
     _check_update_count(args.rate, args.t_end, args.dt)
     m = _material(args)
     df = _per_phi(args, lambda ph: simple_shear_point(

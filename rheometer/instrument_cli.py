@@ -78,9 +78,69 @@ def geometry_of(args) -> geo.Geometry | None:
         raise ValueError(f"--{wrong[0].replace('_', '-')} is not a dimension of --geometry {kind} "
                          f"(its dimensions: "
                          f"{', '.join('--' + k.replace('_', '-') for k in own[kind])})")
-    return geo.Geometry.make(kind, cone_angle_deg=args.cone_angle, radius=args.radius,
-                             gap=args.gap, bob_radius=args.bob_radius,
-                             cup_radius=args.cup_radius, bob_length=args.bob_length)
+    dims = {k: getattr(args, k, None) for k in own[kind]}
+    try:
+        return _geometry(kind, dims)
+    except (ValueError, ArithmeticError) as exc:
+        raise _about_dimension(kind, dims, exc) from None
+
+
+#: the option's default among geometry.DEFAULTS, per geometry
+_DEFAULT_KEY = {("cone-plate", "radius"): "cone_radius", ("parallel-plate", "radius"):
+                "plate_radius", ("cone-plate", "cone_angle"): "cone_angle_deg"}
+
+
+def _geometry(kind: str, dims: dict) -> geo.Geometry:
+    """The geometry with its conversion factors checked: a dimension in its range whose factor
+    is not a finite positive number (a bob radius of 1e-300: 1/(2 pi R^2 L) divided by zero
+    after the run, in the table's instrument columns) is refused here, before the run."""
+    names = {"cone_angle": "cone_angle_deg"}
+    g = geo.Geometry.make(kind, **{names.get(k, k): v for k, v in dims.items()})
+    with np.errstate(all="ignore"):
+        factors = (g.stress_factor(), g.rate_factor())
+    bad = [f for f in factors if not (np.isfinite(f) and f > 0)]
+    if bad:
+        raise ValueError(f"{g.describe()}: its conversion factors (stress, rate) are "
+                         f"{factors[0]:g}, {factors[1]:g}, not finite positive numbers")
+    return g
+
+
+def _about_dimension(kind: str, dims: dict, exc: Exception) -> ValueError:
+    """A geometry refusal said about a dimension the user gave, with its valid range at the
+    other dimensions (bisection, :func:`rheometer.cli.valid_interval`): ``--cup-radius 1e-300``
+    or ``--bob-radius 1e-300`` (whose conversion factor divided by zero)."""
+    from .cli import valid_interval
+
+    limit = {"cone_angle": 10.0}
+    for key, v in dims.items():
+        if v is None:
+            continue
+        x0 = geo.DEFAULTS[_DEFAULT_KEY.get((kind, key), key)]
+        static = Number(f"--{key.replace('_', '-')}", 0.0, limit.get(key, LENGTH_MAX),
+                        lo_closed=False, unit="deg" if key == "cone_angle" else "m")
+
+        def ok(x, key=key, static=static):
+            if not static.contains(x):
+                return False
+            try:
+                _geometry(kind, {**dims, key: x})
+            except (ValueError, ArithmeticError):
+                return False
+            return True
+
+        if not ok(x0):
+            continue
+        lo, lo_closed, hi, hi_closed = valid_interval(ok, x0)
+        rng = Number(static.name, lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
+                     unit=static.unit)
+        if rng.contains(float(v)):
+            continue
+        others = ", ".join(f"--{k.replace('_', '-')} {dims[k] if dims[k] is not None else d:g}"
+                           for k, d in ((k, geo.DEFAULTS[_DEFAULT_KEY.get((kind, k), k)])
+                                        for k in dims) if k != key)
+        return ValueError(f"{static.name} = {v:g} is outside the valid range {rng.range_text} "
+                          f"(--geometry {kind} with {others}: {exc})")
+    return exc if isinstance(exc, ValueError) else ValueError(str(exc))
 
 
 # ------------------------------------------------------------------ hooks

@@ -218,3 +218,30 @@ def test_rheometer_options_refused_not_ignored(argv, words, tmp_path, monkeypatc
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0], err
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("argv, words", [
+    # the stress factor 1/(2 pi R_i^2 L) divided by zero after the run: exit 1, a traceback word
+    (["flow-curve", "--geometry", "couette", "--bob-radius", "1e-300", "--points", "5"],
+     "--bob-radius = 1e-300 is outside the valid range (1.48772e-154, 0.01446) m"),
+    (["flow-curve", "--geometry", "parallel-plate", "--radius", "1e-300", "--points", "5"],
+     "--radius = 1e-300 is outside the valid range [1.52425e-103, 10] m"),
+    # named as the option, with the range its own check and the bob's leave
+    (["flow-curve", "--geometry", "couette", "--cup-radius", "1e-300", "--points", "5"],
+     "--cup-radius = 1e-300 is outside the valid range (0.01333, 10] m"),
+    (["material-point", "--control", "volume", "--pressure", "2", "--t-end", "0.01"],
+     "--pressure is the imposed pressure of --control pressure"),
+    (["material-point", "--stress0", "1", "--pressure0", "2", "--t-end", "0.01"],
+     "give --stress0 (start from the steady state at that stress) or --pressure0"),
+])
+def test_rheometer_geometry_and_control_refusals(argv, words, tmp_path, monkeypatch, capsys):
+    """A dimension whose conversion factor is not finite is refused before the run, named as
+    the option with its valid range at the other dimensions; options another choice makes
+    irrelevant are refused, not ignored."""
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+    assert not any(tmp_path.iterdir())
