@@ -8,6 +8,9 @@ everywhere: ``phi = 0.7 is outside the valid range (0, 0.535) (phi_j of hermes20
 from __future__ import annotations
 
 import math
+import struct
+import sys
+from typing import Callable
 
 import numpy as np
 
@@ -118,3 +121,54 @@ def check_memory(name: str, value, nbytes: float, fraction: float = 0.5) -> None
         raise ValueError(f"{name} = {value} needs about {nbytes / 1e9:.3g} GB (estimate), more "
                          f"than {fraction:.0%} of the {avail / 1e9:.3g} GB available; choose a "
                          "smaller size")
+
+
+_SIGN = 1 << 63
+
+
+def _ordered(x: float) -> int:
+    """An integer that orders the floats as they are ordered (adjacent floats differ by 1)."""
+    i = struct.unpack("<q", struct.pack("<d", x))[0]
+    return i if i >= 0 else -(i & (_SIGN - 1))
+
+
+def _float(k: int) -> float:
+    """The float of an :func:`_ordered` integer."""
+    if k < 0:
+        k = ((-k) | _SIGN) - (1 << 64)
+    return struct.unpack("<d", struct.pack("<q", k))[0]
+
+
+def valid_interval(ok: Callable[[float], bool], x0: float) -> tuple:
+    """The interval of valid values around a valid ``x0`` of a one-parameter check ``ok``.
+
+    For a refusal that depends on other parameters (phi_c < phi_j of a material, a scene's hub
+    inside its wheel): the range of the parameter the user set, at the others' values. Each side
+    is found by bisection over the ordered floats (64 evaluations at most), from ``x0`` out to
+    the largest float; the boundary is reported at 6 significant digits, closed when that rounded
+    value is valid and open otherwise, 0 for a bound on the subnormals (the checks refuse them).
+    The interval is assumed connected (the bounds checked are monotone in the parameter).
+
+    Returns
+    -------
+    (lo, lo_closed, hi, hi_closed) with None for an unbounded side.
+    """
+    out = []
+    for far in (-sys.float_info.max, sys.float_info.max):
+        if ok(far):
+            out += [None, True]
+            continue
+        good, bad = _ordered(x0), _ordered(far)
+        while abs(bad - good) > 1:
+            mid = (good + bad) // 2
+            if ok(_float(mid)):
+                good = mid
+            else:
+                bad = mid
+        edge = float(f"{_float(bad):.6g}")
+        if not (min(_float(good), _float(bad)) <= edge <= max(_float(good), _float(bad))):
+            edge = float(f"{_float(good):.6g}")
+        if abs(edge) <= sys.float_info.min:
+            edge = 0.0
+        out += [edge, ok(edge)]
+    return out[0], out[1], out[2], out[3]

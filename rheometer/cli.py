@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from rheology.checks import valid_interval
 from rheology.cli_common import Number, OneLineParser, run_command
 
 DEFAULT_MATERIAL = "hermes2016"
@@ -50,52 +51,6 @@ def _set_value(text: str):
         return check_set_override(*split_set_item(text))
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-_SIGN = 1 << 63
-
-
-def _ordered(x: float) -> int:
-    """An integer that orders the floats as they are ordered (adjacent floats differ by 1)."""
-    import struct
-
-    i = struct.unpack("<q", struct.pack("<d", x))[0]
-    return i if i >= 0 else -(i & (_SIGN - 1))
-
-
-def _float(k: int) -> float:
-    import struct
-
-    if k < 0:
-        k = ((-k) | _SIGN) - (1 << 64)
-    return struct.unpack("<d", struct.pack("<q", k))[0]
-
-
-def valid_interval(ok, x0: float) -> tuple:
-    """The interval of valid values around a valid ``x0`` of a one-parameter check ``ok``
-    (bisection over the ordered floats, 64 evaluations a side at most; boundaries at 6
-    significant digits, closed when that rounded value is valid; 0 for a bound that falls on
-    the subnormals). Returns (lo, lo_closed, hi, hi_closed), None for an unbounded side.
-    (The same as mpm2d.scenes.spec.valid_interval: the tiers do not import each other.)"""
-    out = []
-    for far in (-sys.float_info.max, sys.float_info.max):
-        if ok(far):
-            out += [None, True]
-            continue
-        good, bad = _ordered(x0), _ordered(far)
-        while abs(bad - good) > 1:
-            mid = (good + bad) // 2
-            if ok(_float(mid)):
-                good = mid
-            else:
-                bad = mid
-        edge = float(f"{_float(bad):.6g}")
-        if not (min(_float(good), _float(bad)) <= edge <= max(_float(good), _float(bad))):
-            edge = float(f"{_float(good):.6g}")
-        if abs(edge) <= sys.float_info.min:
-            edge = 0.0
-        out += [edge, ok(edge)]
-    return tuple(out)
 
 
 def material_with(name, overrides: dict, option: str = "--set"):

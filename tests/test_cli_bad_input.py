@@ -194,8 +194,8 @@ def test_rheometer_set_refusal_names_the_parameter_set(argv, words, tmp_path, mo
 
 
 def test_valid_interval_finds_the_bounds():
-    """rheometer.cli.valid_interval on checks with known bounds: open/closed, 0 and unbounded."""
-    from rheometer.cli import valid_interval
+    """rheology.checks.valid_interval on checks with known bounds: open/closed, 0 and unbounded."""
+    from rheology.checks import valid_interval
 
     assert valid_interval(lambda x: 0.25 < x <= 0.75, 0.5) == (0.25, False, 0.75, True)
     assert valid_interval(lambda x: x > 0, 3.0) == (0.0, False, None, True)

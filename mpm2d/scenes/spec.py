@@ -29,14 +29,12 @@ from __future__ import annotations
 import functools
 import inspect
 import math
-import struct
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from rheology.checks import check_memory
+from rheology.checks import check_memory, valid_interval
 from rheology.cli_common import Number
 
 #: memory estimate: bytes per material point (kinematic arrays ~40 float64, material state,
@@ -209,55 +207,6 @@ def _empty(number: Number) -> bool:
     if lo is None or hi is None:
         return False
     return lo > hi or (lo == hi and not (number.lo_closed and number.hi_closed))
-
-
-_SIGN = 1 << 63
-
-
-def _ordered(x: float) -> int:
-    """An integer that orders the floats as they are ordered (adjacent floats differ by 1)."""
-    i = struct.unpack("<q", struct.pack("<d", x))[0]
-    return i if i >= 0 else -(i & (_SIGN - 1))
-
-
-def _float(k: int) -> float:
-    if k < 0:
-        k = (-k) | _SIGN
-        k -= 1 << 64
-    return struct.unpack("<d", struct.pack("<q", k))[0]
-
-
-def valid_interval(ok: Callable[[float], bool], x0: float) -> tuple:
-    """The interval of valid values around a valid ``x0`` of a one-parameter check ``ok``.
-
-    Each side is found by bisection over the ordered floats (64 evaluations at most), from
-    ``x0`` out to the largest float; the boundary is reported at 6 significant digits, closed
-    when that rounded value is valid and open otherwise (the interval is assumed connected,
-    which holds for the bounds of these declarations: monotone in each parameter).
-
-    Returns
-    -------
-    (lo, lo_closed, hi, hi_closed) with None for an unbounded side.
-    """
-    out = []
-    for far in (-sys.float_info.max, sys.float_info.max):
-        if ok(far):
-            out += [None, True]
-            continue
-        good, bad = _ordered(x0), _ordered(far)
-        while abs(bad - good) > 1:
-            mid = (good + bad) // 2
-            if ok(_float(mid)):
-                good = mid
-            else:
-                bad = mid
-        edge = float(f"{_float(bad):.6g}")
-        if not (min(_float(good), _float(bad)) <= edge <= max(_float(good), _float(bad))):
-            edge = float(f"{_float(good):.6g}")
-        if abs(edge) <= sys.float_info.min:  # the checks refuse subnormals: the bound is 0
-            edge = 0.0
-        out += [edge, ok(edge)]
-    return out[0], out[1], out[2], out[3]
 
 
 class SceneSpec:
