@@ -353,6 +353,8 @@ def _write(args, df: pd.DataFrame, fig_maker) -> str:
         msg += f"\nevents: {shown}" + (f"; ... ({len(events)} in all)" if len(events) > 5 else "")
     if df.attrs.get("substeps_note"):
         msg += f"\n{df.attrs['substeps_note']}"
+    for note in df.attrs.get("notes") or []:
+        msg += f"\nnote: {note}"
     return msg + extra_outputs(args, df, plot)
 
 
@@ -418,6 +420,18 @@ def _cmd_flow_curve(args) -> str:
     values = np.logspace(np.log10(lo), np.log10(hi), n)
     df = (flow_curve(m, args.phi, rate=values, control="rate") if args.control == "rate" else
           flow_curve(m, args.phi, stress=values, control=args.control))
+    if args.control == "rate":      # rates without a steady state leave no row: say which
+        notes = []
+        for ph in np.atleast_1d(args.phi if args.phi is not None else df["phi"].unique()):
+            hit = set(df.loc[np.isclose(df["phi"], ph), "index"].astype(int))
+            missing = [values[k] for k in range(n) if k not in hit]
+            if missing:
+                why = (f"shear-jammed: phi > phi_c = {m.phi_c:g}, the structure takes "
+                       "phi_m(f) down to phi" if ph > m.phi_c else "no flowing state")
+                notes.append(f"phi = {ph:g}: no steady state at {len(missing)} of {n} rates "
+                             f"({min(missing):.4g}-{max(missing):.4g} 1/s; {why}); --control "
+                             "stress shows the whole S-shaped curve")
+        df.attrs["notes"] = notes
     return _write(args, df, lambda: plots.flow_curve_figure(df, m))
 
 

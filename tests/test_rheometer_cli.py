@@ -58,6 +58,26 @@ def test_flow_curve_rate_control_lists_branches(tmp_path, monkeypatch):
     assert not (tmp_path / "flow_curve.png").exists()
 
 
+def test_flow_curve_rate_control_names_the_rates_without_a_steady_state(tmp_path, monkeypatch,
+                                                                         capsys):
+    """Rate control above the DST/jamming rate has no steady state (the rows are absent): the
+    command says at how many rates and why, and every imposed rate is either a row or counted."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["flow-curve", "--phi", "0.48", "0.52", "--control", "rate", "--rate-range", "1",
+                 "10", "--points", "5", "--plot", "none"]) == 0
+    df = pd.read_csv("flow_curve.csv")
+    out = capsys.readouterr().out
+    for ph in (0.48, 0.52):
+        rows = int(df.loc[np.isclose(df["phi"], ph), "index"].nunique())
+        missing = 5 - rows
+        assert missing > 0                                  # both jam within 1-10 1/s
+        assert f"phi = {ph:g}: no steady state at {missing} of 5 rates" in out
+        assert f"phi_c = {HERMES.phi_c:g}" in out
+        # a rate without a row is above every rate with one (jamming at high rates only)
+        if rows:
+            assert df.loc[np.isclose(df["phi"], ph), "shear_rate_per_s"].max() < 10.0
+
+
 def test_relax_issue_command(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main(["relax", "--material", "hermes2016", "--phi", "0.52", "--stress", "10", "--G",
