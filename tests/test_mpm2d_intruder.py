@@ -108,6 +108,15 @@ def test_analysis_recovers_known_front_speeds():
     assert res["k_t"] == pytest.approx(v_ft / v0, rel=1e-9)
     assert res["k_l_over_k_t"] == pytest.approx(2.0, rel=1e-9)
     assert res["r2_longitudinal"] == pytest.approx(1.0) and res["r2_transverse"] == pytest.approx(1.0)
+    assert res["fit_note"].startswith("the bed did not jam")      # no max_f given
+    # fronts that cross fewer than two cells over the window: speeds not resolved, so
+    # undefined with the reason (v0 = 1e-300 gave k_l ~ -1e302 from a 4.6 us window)
+    short = front[front["time_s"] <= 0.0015]         # the transverse front moves 0.7 mm
+    res_short = analyse(short, tip[:len(short)], params, h)
+    assert math.isnan(res_short["k_l"]) and math.isnan(res_short["k_t"])
+    assert "less than two cells" in res_short["fit_note"]
+    res_ok = analyse(front, tip, dict(params, v0=0.2), h, max_f=np.ones_like(t))
+    assert res_ok["fit_note"] == "" and math.isfinite(res_ok["k_l"])
     # no front at all: undefined, not garbage
     none = analyse(front.assign(longitudinal_m=np.nan), tip, params, h)
     assert math.isnan(none["k_l"]) and math.isnan(none["k_t"])
