@@ -87,13 +87,14 @@ def front_fit(t: np.ndarray, front: np.ndarray, grid: Grid, lo: float = 0.1,
     passes ``hi`` or reaches its largest position, whichever comes first (a kinematic front stalls
     short of the no-slip outer wall and falls back once the flow stops; NaN positions - no front
     - end it too). Returns speed [m/s],
-    intercept [m], r2, t_start, t_end [s] and the number of points.
+    intercept [m], r2, t_start, t_end [s], the number of points and ``gap_reached``, the largest
+    gap fraction of the fitted stretch (below ``hi``: the speed is over part of the gap).
     """
     t, front = np.asarray(t, dtype=float), np.asarray(front, dtype=float)
     x = (front - grid.inner) / grid.gap
     start = np.flatnonzero(np.isfinite(x) & (x >= lo))
     out = dict(speed=float("nan"), intercept=float("nan"), r2=float("nan"),
-               t_start=float("nan"), t_end=float("nan"), points=0)
+               t_start=float("nan"), t_end=float("nan"), points=0, gap_reached=float("nan"))
     if start.size == 0:
         return out
     i0 = int(start[0])
@@ -111,4 +112,4 @@ def front_fit(t: np.ndarray, front: np.ndarray, grid: Grid, lo: float = 0.1,
     ss = np.sum((ff - ff.mean()) ** 2)
     r2 = 1.0 - np.sum(resid ** 2) / ss if ss > 0 else float("nan")
     return dict(speed=float(slope), intercept=float(icpt), r2=float(r2), t_start=float(tt[0]),
-                t_end=float(tt[-1]), points=int(tt.size))
+                t_end=float(tt[-1]), points=int(tt.size), gap_reached=float(np.max(x[sel])))

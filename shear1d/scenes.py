@@ -139,9 +139,9 @@ def band_front(result: Result) -> np.ndarray:
 #: crossed 10 % of the gap (the slow case, or a run stopped early) or fewer than 3 outputs fell in
 #: the crossing; the band rigidity and the largest front position when no band formed.
 NULLABLE = ("front_speed_m_per_s", "front_speed_over_u_inner", "front_fit_r2",
-            "front_fit_intercept_m", "front_fit_rotation_rad", "structure_front_speed_m_per_s",
-            "structure_front_fit_r2", "band_rigidity_mean", "band_rigidity_min",
-            "max_front_position_m")
+            "front_fit_gap_reached", "front_fit_intercept_m", "front_fit_rotation_rad",
+            "structure_front_speed_m_per_s", "structure_front_fit_r2", "band_rigidity_mean",
+            "band_rigidity_min", "max_front_position_m")
 
 
 def summarize(result: Result) -> dict:
@@ -188,6 +188,8 @@ def summarize(result: Result) -> dict:
         front_fit_r2=fit["r2"], front_fit_intercept_m=fit["intercept"],
         front_fit_rotation_rad=[float(rotation_of(result, fit["t_start"])),
                                 float(rotation_of(result, fit["t_end"]))],
+        front_fit_gap_reached=fit["gap_reached"],
+        front_crossed_gap=bool(fit["gap_reached"] >= analysis.WALL_FRACTION),
         structure_front_speed_m_per_s=sfit["speed"], structure_front_fit_r2=sfit["r2"],
         band_rigidity_mean=float(np.mean(rigid)) if rigid else nan,
         band_rigidity_min=float(np.min(rigid)) if rigid else nan,

@@ -193,6 +193,9 @@ def test_front_helpers_on_a_known_profile():
     fr = RI + 0.01 * t + (RO - RI) * 0.05
     fit = annular.front_fit(t, fr, RI, RO)
     assert abs(fit["speed"] - 0.01) < 1e-12 and fit["r2"] > 0.999999
+    # the fit says how far across the gap its stretch went (here 5 % + 10 mm of 23.5 mm)
+    assert fit["gap_reached"] == pytest.approx(0.05 + 0.01 / (RO - RI))
+    assert fit["gap_reached"] < annular.FIT_HI
 
 
 def annular_front_speed(**params):

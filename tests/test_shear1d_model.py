@@ -141,6 +141,9 @@ def test_front_measures_on_synthetic_profiles():
     t = np.linspace(0, 1, 50)
     fit = analysis.front_fit(t, g.inner + 0.5 * g.gap * t + 0.1 * g.gap, g)
     assert fit["speed"] == pytest.approx(0.5 * g.gap) and fit["r2"] == pytest.approx(1.0)
+    assert fit["gap_reached"] == pytest.approx(0.6) and fit["gap_reached"] < analysis.WALL_FRACTION
+    full = analysis.front_fit(t, g.inner + 0.95 * g.gap * t, g)      # crosses 10-90 %
+    assert full["gap_reached"] >= analysis.WALL_FRACTION
 
 
 def test_summary_reports_newtonian_slow_case():

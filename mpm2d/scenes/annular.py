@@ -144,12 +144,14 @@ def front_position(r, vtheta, r_inner, r_outer, u_inner):
 
 def front_fit(t, front, r_inner, r_outer, lo=FIT_LO, hi=FIT_HI) -> dict:
     """Least-squares speed [m/s] of the front while it crosses [lo, hi] of the gap (from the
-    first time past lo to the first past hi or its largest position); NaN if < 3 points."""
+    first time past lo to the first past hi or its largest position); NaN if < 3 points.
+    ``gap_reached``: the largest gap fraction the fitted stretch reaches (below ``hi``: the
+    front stalled or the run ended before it crossed, and the speed is over part of the gap)."""
     t, front = np.asarray(t, float), np.asarray(front, float)
     x = (front - r_inner) / (r_outer - r_inner)
     start = np.flatnonzero(np.isfinite(x) & (x >= lo))
     out = dict(speed=float("nan"), r2=float("nan"), t_start=float("nan"), t_end=float("nan"),
-               points=0)
+               points=0, gap_reached=float("nan"))
     if start.size == 0:
         return out
     i0 = int(start[0])
@@ -165,7 +167,8 @@ def front_fit(t, front, r_inner, r_outer, lo=FIT_LO, hi=FIT_HI) -> dict:
     res = ff - np.polyval(c, tt)
     ss = float(np.sum((ff - ff.mean()) ** 2))
     out.update(speed=float(c[0]), r2=1.0 - float(np.sum(res ** 2)) / ss if ss > 0 else 1.0,
-               t_start=float(tt[0]), t_end=float(tt[-1]), points=int(tt.size))
+               t_start=float(tt[0]), t_end=float(tt[-1]), points=int(tt.size),
+               gap_reached=float(np.max(x[i0:i1 + 1])))
     return out
 
 
@@ -261,6 +264,8 @@ def summarise(params, hist) -> dict:
             "front_speed_over_u_inner": fit["speed"] / u, "front_fit_r2": fit["r2"],
             "fit_t_start_s": fit["t_start"], "fit_t_end_s": fit["t_end"],
             "fit_points": fit["points"], "band_formed": bool(band.any()),
+            "front_fit_gap_reached": fit["gap_reached"],
+            "front_crossed_gap": bool(fit["gap_reached"] >= FIT_HI),
             "cells": params["cells"], "h_m": (params["r_outer"] - params["r_inner"])
             / params["cells"]}
 
@@ -268,7 +273,7 @@ def summarise(params, hist) -> dict:
 def report(out, params, hist):
     s = summarise(params, hist)
     nullable = ("front_speed_m_per_s", "front_speed_over_u_inner", "front_fit_r2",
-                "fit_t_start_s", "fit_t_end_s")
+                "fit_t_start_s", "fit_t_end_s", "front_fit_gap_reached")
     atomic_write_json(out / "annular_summary.json", s, nullable=nullable)
     cols = ["time_s", "rotation_rad", "front_m", "f_bob", "vtheta_mid_over_u"]
     atomic_write_csv(out / "annular_front.csv", hist[cols])
