@@ -34,6 +34,7 @@ from rheology.cli_common import Number, OneLineParser, run_command
 
 DEFAULT_MATERIAL = "hermes2016"
 #: Upper bounds of the numeric options: rheometer.limits (shared with the program parser).
+from . import limits  # noqa: E402
 from .limits import K0_MAX, RATE_MAX, STRESS_MAX, TIME_MAX  # noqa: E402
 _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
            "skeleton; 'mixture shear stress' = granular + eta0 (1 + 5/2 phi) gdot is what a "
@@ -183,7 +184,7 @@ def _k0():
 
 
 def _t_end():
-    return Number("--t-end", 0.0, TIME_MAX, lo_closed=False, unit="s")
+    return limits.duration("--t-end")
 
 
 def _transient_options(p, t_end=None):
@@ -277,7 +278,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rate", type=Number("--rate", 0.0, RATE_MAX, unit="1/s"), default=0.5,
                    help="shear rate [1/s] (0.5)")
     p.add_argument("--t-end", type=_t_end(), default=10.0, help="duration [s] (10)")
-    p.add_argument("--dt", type=Number("--dt", 0.0, TIME_MAX, lo_closed=False, unit="s"),
+    p.add_argument("--dt", type=limits.duration("--dt"),
                    default=1e-3, help="largest time step [s] (1e-3; sub-stepped where the rate "
                                       "needs it)")
     p.add_argument("--control", choices=("volume", "pressure"), default="volume")
@@ -586,7 +587,8 @@ def _check_update_count(rate: float, t_end: float, dt: float) -> None:
     from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP as x
 
     if dt > t_end:
-        raise ValueError(f"--dt = {dt:g} s is outside the valid range (0, {t_end:g}] s: the "
+        raise ValueError(f"--dt = {dt:g} s is outside the valid range [{limits.TIME_MIN:g}, "
+                         f"{t_end:g}] s: the "
                          f"step must not exceed the run, --t-end = {t_end:g} s")
     steps = t_end / dt
     per_step = max(1.0, math.ceil(dt * rate / x)) if rate > 0 else 1.0

@@ -5,12 +5,24 @@ Upper bounds (physical, and what the solvers are verified for): stresses and mod
 more), shear rates <= 1e9 1/s (well past impact and ultrasonic rheometry), times <= 1e9 s
 (30 years), K0 <= 1e6 (the paper's sets use 0.06-1), oscillation cycles <= 1e5 per step (each
 cycle is sampled at least 32 times: 3.2e6 rows), strains <= 1e6.
+
+Lower bound of every duration (``--t-end``, material-point's ``--dt``, a program step):
+TIME_MIN = 1e-12 s. A picosecond is the molecular relaxation time of the suspending liquid (water
+~1 ps): below it the Newtonian fluid of the model, and so the continuum suspension, has no meaning.
+It also keeps IDA well clear of its own limit: IDA refuses a stop time whose products with the
+step underflow, ``(tstop - t)(tout - t) <= 0`` at t = 0, i.e. any duration below ~1.5e-154 s
+(``--t-end 1e-300`` failed as "tstop = 1e-300 is behind current t = 0"). A program step must in
+addition be resolvable by the run's clock where it starts (IDA's t is one double through the whole
+program): duration >= CLOCK_RESOLUTION = 1e-9 times its start time, i.e. >= ~4.5e6 ulps of t, room
+for the step's output rows and IDA's internal steps ('rest for 1e-6 s' after 1e6 s of shear made
+an output grid that was not increasing).
 """
 
 from rheology.cli_common import Number
 
 STRESS_MAX, RATE_MAX, TIME_MAX, K0_MAX = 1e12, 1e9, 1e9, 1e6
 CYCLES_MAX, STRAIN_MAX = 1e5, 1e6
+TIME_MIN, CLOCK_RESOLUTION = 1e-12, 1e-9
 
 #: the checks of a program line's numbers (``Number.check`` raises ValueError naming them)
 PROGRAM_RATE = Number("rate", 0.0, RATE_MAX, unit="1/s")
@@ -18,6 +30,16 @@ PROGRAM_STRESS = Number("stress", 0.0, STRESS_MAX, unit="Pa")
 PROGRAM_AMPLITUDE_STRESS = Number("stress amplitude", 0.0, STRESS_MAX, lo_closed=False,
                                   unit="Pa")
 PROGRAM_AMPLITUDE_STRAIN = Number("strain amplitude", 0.0, STRAIN_MAX, lo_closed=False)
-PROGRAM_DURATION = Number("duration", 0.0, TIME_MAX, lo_closed=False, unit="s")
+PROGRAM_DURATION = Number("duration", TIME_MIN, TIME_MAX, unit="s")
 PROGRAM_STRAIN = Number("strain", 0.0, STRAIN_MAX, lo_closed=False)
 PROGRAM_CYCLES = Number("cycles", 0.0, CYCLES_MAX, lo_closed=False)
+
+
+def duration(name: str) -> Number:
+    """The ``type=`` of a duration option: [TIME_MIN, TIME_MAX] s (see the module docstring)."""
+    return Number(name, TIME_MIN, TIME_MAX, unit="s")
+
+
+def clock_floor(t_start: float) -> float:
+    """Shortest duration [s] of a step starting at ``t_start`` [s] of the run's clock."""
+    return max(TIME_MIN, CLOCK_RESOLUTION * float(t_start))

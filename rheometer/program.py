@@ -182,6 +182,7 @@ def parse_program(text: str) -> Program:
         ``program line N: ...`` naming the line and what was expected; or an empty program.
     """
     start, steps = Start(), []
+    t_start = 0.0           # the earliest time the next step can start (strain steps: 0 s long)
     for lineno, raw in enumerate(str(text).splitlines(), start=1):
         line = raw.split("#", 1)[0].strip()
         if not line:
@@ -238,6 +239,13 @@ def parse_program(text: str) -> Program:
                             float(b) * scale, ramp=ramp, duration=float(T) * _TIME[tu.lower()],
                             label=line)
             _check_step(step)
+            if step.duration is not None and step.duration < limits.clock_floor(t_start):
+                raise ValueError(
+                    f"program line {lineno}: duration = {step.duration:g} s is too short for the "
+                    f"run's clock where the step starts (t >= {t_start:g} s): valid range "
+                    f"[{limits.clock_floor(t_start):g}, {limits.TIME_MAX:g}] s there "
+                    f"({limits.CLOCK_RESOLUTION:g} of the start time; rheometer.limits)")
+            t_start += step.duration if step.strain is None else 0.0
         except ValueError as exc:
             msg = str(exc)
             raise ValueError(msg if msg.startswith("program line") else

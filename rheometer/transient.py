@@ -42,7 +42,7 @@ from rheology.checks import check_nonnegative, check_positive, check_range
 from rheology.elastic import check_elastic_strain
 from rheology.materials import Material
 
-from . import model
+from . import limits, model
 from .model import GAP, GD, GP, NEVENTS, NVAR, STRAIN, TAU
 
 #: Defaults for materials without G or K0 (see module docstring).
@@ -473,9 +473,17 @@ class Rheometer:
         C = self.control_of(step, st)
         # an oscillation: at most 1/16 period per IDA step, as in rheometer.oscillation
         max_step = 1.0 / (16.0 * step.frequency) if step.oscillation else None
+        if step.t_max < limits.clock_floor(st.t):
+            # the program parser checks this at the earliest start; a strain step that ran
+            # longer can still bring a later step here
+            raise RuntimeError(f"step {k + 1} ({step.label or step.control}) lasts "
+                               f"{step.t_max:g} s, too short for the run's clock at t = "
+                               f"{st.t:.6g} s (IDA's t is one double: at least "
+                               f"{limits.clock_floor(st.t):.3g} s there, rheometer.limits)")
         t_stop = st.t + step.t_max
         grid = st.t + self.output_times(step, step.t_max, points)
         grid[-1] = t_stop
+        grid = np.unique(grid)           # output times that round to one value of the clock
         scale = self.scales(step, st)
         restarts = 0
         while True:

@@ -1,0 +1,69 @@
+"""Input limits of the rheometer that a fresh user found missing (rheometer.limits): durations
+below what the model and IDA's clock resolve, tiny flow-curve ranges, --set parameters."""
+
+import os
+
+import numpy as np
+import pytest
+
+from rheometer import Step, parse_program
+from rheometer import limits
+from rheometer.cli import main
+from rheometer.transient import Rheometer
+
+
+def _refused(capsys, argv, *words):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    err = capsys.readouterr().err.strip()
+    assert exc.value.code == 2, err
+    assert len(err.splitlines()) == 1, err
+    for w in words:
+        assert w in err, err
+    return err
+
+
+@pytest.mark.parametrize("argv", [
+    ["startup", "--rate", "0.5", "--t-end", "1e-300"],
+    ["creep", "--stress", "10", "--t-end", "1e-13"],
+    ["relax", "--stress", "10", "--t-end", "1e-300"],
+    ["material-point", "--t-end", "1e-300"],
+    ["material-point", "--dt", "1e-300"],
+])
+def test_durations_below_a_picosecond_are_refused_before_the_solver(argv, tmp_path, monkeypatch,
+                                                                    capsys):
+    """Before: IDA failed ('tstop = 1e-300 is behind current t = 0', exit 1)."""
+    monkeypatch.chdir(tmp_path)
+    _refused(capsys, argv, argv[-2], "[1e-12, 1e+09] s")
+    assert os.listdir(tmp_path) == []
+
+
+def test_the_shortest_duration_runs(tmp_path, monkeypatch, capsys):
+    """--t-end = TIME_MIN integrates: start-up at rate r from rest loads the skeleton
+    elastically, taubar <= G r t (= 5e-9 Pa at G = 1e4 Pa, r = 0.5 1/s, t = 1e-12 s)."""
+    monkeypatch.chdir(tmp_path)
+    main(["startup", "--rate", "0.5", "--t-end", "1e-12", "--plot", "none", "--out", "s.csv"])
+    import pandas as pd
+    df = pd.read_csv(tmp_path / "s.csv")
+    assert df["time_s"].iloc[-1] == pytest.approx(1e-12, rel=1e-12)
+    tau = df["granular_shear_stress_Pa"].to_numpy()
+    assert np.all(np.isfinite(tau)) and np.all(tau >= 0) and tau[-1] <= 1e4 * 0.5 * 1e-12 * 1.001
+
+
+def test_program_step_durations_checked_against_the_clock():
+    """Before: 'rest for 1e-300 s' reached IDA (exit 1); 'rest for 1e-6 s' after 1e6 s gave
+    "'tspan' must stictly increase" (an output grid the clock could not resolve)."""
+    with pytest.raises(ValueError, match=r"program line 1: duration = 1e-300 .*\[1e-12, 1e\+09\]"):
+        parse_program("rest for 1e-300 s")
+    with pytest.raises(ValueError, match=r"program line 2: duration = 1e-06 s .*\[0.001, 1e\+09\]"):
+        parse_program("shear at 0.01 1/s for 1e6 s\nrest for 1e-6 s")
+    prog = parse_program("shear at 0.01 1/s for 1e6 s\nrest for 1e-3 s")
+    assert prog.steps[1].duration == pytest.approx(limits.clock_floor(1e6))
+
+
+def test_a_step_the_clock_cannot_resolve_after_a_strain_step_fails_with_diagnostics():
+    """A strain-ended step's length is known only when it ran: the run checks again."""
+    rh = Rheometer("hermes2016", 0.40)
+    steps = [Step("rate", 1.0, duration=2e4), Step("rate", 0.0, duration=1e-9)]
+    with pytest.raises(RuntimeError, match=r"step 2 .* too short for the run's clock at t = 20000"):
+        rh.run(steps, points=5)
