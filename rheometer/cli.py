@@ -221,11 +221,11 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=_EPILOG)
     _common(p, 3, "flow_curve")
     p.add_argument("--control", choices=("stress", "mixture-stress", "rate"), default="stress")
-    p.add_argument("--stress-range", type=Number("--stress-range", 0.0, STRESS_MAX,
-                                                 lo_closed=False, unit="Pa"),
+    p.add_argument("--stress-range", type=Number("--stress-range", limits.STRESS_MIN, STRESS_MAX,
+                                                 unit="Pa"),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="stress range [Pa] (granular or mixture per --control; 1e-3 1e4)")
-    p.add_argument("--rate-range", type=Number("--rate-range", 0.0, RATE_MAX, lo_closed=False,
+    p.add_argument("--rate-range", type=Number("--rate-range", limits.RATE_MIN, RATE_MAX,
                                                unit="1/s"),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="shear-rate range [1/s] for --control rate (1e-4 1e3)")

@@ -16,6 +16,14 @@ addition be resolvable by the run's clock where it starts (IDA's t is one double
 program): duration >= CLOCK_RESOLUTION = 1e-9 times its start time, i.e. >= ~4.5e6 ulps of t, room
 for the step's output rows and IDA's internal steps ('rest for 1e-6 s' after 1e6 s of shear made
 an output grid that was not increasing).
+
+Lower ends of flow-curve's ranges: a steady state is reached after a strain of order one (the
+structure f and the skeleton's elastic strain relax over strains ~1/K0 and taubar/G), so a shear
+rate below RATE_MIN = 1/TIME_MAX = 1e-9 1/s has no steady state within the longest time the
+rheometer models (30 years); STRESS_MIN = 1e-12 Pa is the stress the suspending liquid alone
+(water, 1e-3 Pa s) carries at RATE_MIN. The steady solver brackets its states on a grid of 40
+points a decade of taubar from the imposed value to 1e8 tau*: --rate-range 1e-200 1 meant ~12000
+grid points per rate (minutes, with no steady state to find); at 1e-9 1/s it is ~1000.
 """
 
 from rheology.cli_common import Number
@@ -23,6 +31,7 @@ from rheology.cli_common import Number
 STRESS_MAX, RATE_MAX, TIME_MAX, K0_MAX = 1e12, 1e9, 1e9, 1e6
 CYCLES_MAX, STRAIN_MAX = 1e5, 1e6
 TIME_MIN, CLOCK_RESOLUTION = 1e-12, 1e-9
+RATE_MIN, STRESS_MIN = 1e-9, 1e-12
 
 #: the checks of a program line's numbers (``Number.check`` raises ValueError naming them)
 PROGRAM_RATE = Number("rate", 0.0, RATE_MAX, unit="1/s")

@@ -67,3 +67,40 @@ def test_a_step_the_clock_cannot_resolve_after_a_strain_step_fails_with_diagnost
     steps = [Step("rate", 1.0, duration=2e4), Step("rate", 0.0, duration=1e-9)]
     with pytest.raises(RuntimeError, match=r"step 2 .* too short for the run's clock at t = 20000"):
         rh.run(steps, points=5)
+
+
+@pytest.mark.parametrize("argv, option, shown", [
+    (["--control", "rate", "--rate-range", "1e-300", "1"], "--rate-range", "[1e-09, 1e+09] 1/s"),
+    (["--control", "rate", "--rate-range", "1e-200", "1"], "--rate-range", "[1e-09, 1e+09] 1/s"),
+    (["--stress-range", "1e-300", "1"], "--stress-range", "[1e-12, 1e+12] Pa"),
+    (["--control", "mixture-stress", "--stress-range", "1e-13", "1"], "--stress-range",
+     "[1e-12, 1e+12] Pa"),
+])
+def test_flow_curve_range_below_its_floor_is_refused_at_once(argv, option, shown, tmp_path,
+                                                              monkeypatch, capsys):
+    """Before: --rate-range 1e-300 1 was refused after 77 s naming 'taubar' (the steady solver's
+    bracketing grid spans every decade down to the rate), 1e-200 ran for minutes; now argparse
+    refuses it, the steady solvers are never called."""
+    import rheology
+
+    def never(*a, **k):
+        raise AssertionError("the steady solver was called")
+    for name in ("steady_states_rate", "steady_states_mixture_stress", "steady_state_stress"):
+        monkeypatch.setattr(rheology, name, never)
+    monkeypatch.chdir(tmp_path)
+    _refused(capsys, ["flow-curve", *argv], option, shown)
+    assert os.listdir(tmp_path) == []
+
+
+def test_flow_curve_at_the_lowest_rate_is_the_newtonian_plateau(tmp_path, monkeypatch):
+    """At RATE_MIN the steady state exists and is the low-rate Newtonian limit: the viscosity is
+    the same at 1e-9 and 1e-8 1/s, and stress = viscosity x rate."""
+    import pandas as pd
+    monkeypatch.chdir(tmp_path)
+    assert main(["flow-curve", "--control", "rate", "--rate-range", "1e-9", "1e-8", "--phi",
+                 "0.3", "--points", "3", "--plot", "none", "--out", "fc.csv"]) == 0
+    df = pd.read_csv("fc.csv")
+    assert len(df) == 3 and df["shear_rate_per_s"].iloc[0] == pytest.approx(1e-9, rel=1e-9)
+    eta = df["viscosity_Pa_s"].to_numpy()
+    assert np.ptp(eta) <= 1e-6 * eta[0]
+    assert np.allclose(df["shear_stress_Pa"], eta * df["shear_rate_per_s"], rtol=1e-9)
