@@ -73,6 +73,7 @@ def material_with(name, overrides: dict, option: str = "--set"):
     import rheology
     from rheology.materials import FIELD_UNITS
 
+    limits.check_set(overrides, option)
     try:
         return rheology.get_material(name, **overrides)
     except ValueError as exc:

@@ -253,6 +253,9 @@ def cmd_fit(args) -> str:
         if name in fixed:
             raise ValueError(f"--set {name} given twice; give each parameter once")
         fixed[name] = x
+    from .limits import check_set
+
+    check_set(fixed)                         # the scales' ranges (rheometer.limits.SET_RANGES)
     if fixed:                                # refused as the parameter set, with its range
         from rheology.materials import FIELD_UNITS
 

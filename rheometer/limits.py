@@ -24,6 +24,14 @@ rheometer models (30 years); STRESS_MIN = 1e-12 Pa is the stress the suspending 
 (water, 1e-3 Pa s) carries at RATE_MIN. The steady solver brackets its states on a grid of 40
 points a decade of taubar from the imposed value to 1e8 tau*: --rate-range 1e-200 1 meant ~12000
 grid points per rate (minutes, with no steady state to find); at 1e-9 1/s it is ~1000.
+
+Ranges of the material's scales given with ``--set`` (SET_RANGES; the Material itself only asks
+them to be positive). tau* in [1e-8, 1e8] Pa: the DST transition spans taubar ~ 1e-4..1e4 tau*
+(the structure f from ~1e-6 to ~1) and must lie within the rheometer's stresses [STRESS_MIN,
+STRESS_MAX]; the paper's sets have 0.1-423 Pa (--set tau_star=1e-300 was refused as 'taubar =
+0.001 is outside [0, 1e-200]'). eta0 in [1e-5, 1e6] Pa s: from the thinnest liquids (~1e-4 Pa s)
+with a decade to spare to molten polymers; the paper's sets have 9e-4-1 Pa s (eta0 = 1e-300
+reached a CSV with NaN pressures). G, K, kappa: as --G, (0, STRESS_MAX] Pa.
 """
 
 from rheology.cli_common import Number
@@ -52,3 +60,21 @@ def duration(name: str) -> Number:
 def clock_floor(t_start: float) -> float:
     """Shortest duration [s] of a step starting at ``t_start`` [s] of the run's clock."""
     return max(TIME_MIN, CLOCK_RESOLUTION * float(t_start))
+
+
+#: numeric --set parameters whose range the rheometer states (see the module docstring)
+SET_RANGES = {
+    "tau_star": (1e-8, 1e8, "Pa"),
+    "eta0": (1e-5, 1e6, "Pa s"),
+    "G": (0.0, STRESS_MAX, "Pa"),
+    "K": (0.0, STRESS_MAX, "Pa"),
+    "kappa": (0.0, STRESS_MAX, "Pa"),
+}
+
+
+def check_set(overrides: dict, option: str = "--set") -> None:
+    """ValueError naming ``option NAME`` for an override outside :data:`SET_RANGES`."""
+    for key, value in overrides.items():
+        if key in SET_RANGES and value is not None:
+            lo, hi, unit = SET_RANGES[key]
+            Number(f"{option} {key}", lo, hi, lo_closed=lo > 0.0, unit=unit).check(value)

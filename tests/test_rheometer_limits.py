@@ -13,10 +13,12 @@ from rheometer.transient import Rheometer
 
 
 def _refused(capsys, argv, *words):
-    with pytest.raises(SystemExit) as exc:
-        main(argv)
+    try:                          # argparse exits, a later check returns the status
+        rc = main(argv)
+    except SystemExit as exc:
+        rc = exc.code
     err = capsys.readouterr().err.strip()
-    assert exc.value.code == 2, err
+    assert rc == 2, err
     assert len(err.splitlines()) == 1, err
     for w in words:
         assert w in err, err
@@ -104,3 +106,45 @@ def test_flow_curve_at_the_lowest_rate_is_the_newtonian_plateau(tmp_path, monkey
     eta = df["viscosity_Pa_s"].to_numpy()
     assert np.ptp(eta) <= 1e-6 * eta[0]
     assert np.allclose(df["shear_stress_Pa"], eta * df["shear_rate_per_s"], rtol=1e-9)
+
+
+@pytest.mark.parametrize("cmd", ["flow-curve", "startup", "creep", "relax", "program",
+                                 "material-point", "oscillation", "materials"])
+@pytest.mark.parametrize("item, words", [
+    ("tau_star=1e-300", "--set tau_star = 1e-300 is outside the valid range [1e-08, 1e+08] Pa"),
+    ("eta0=1e-300", "--set eta0 = 1e-300 is outside the valid range [1e-05, 1e+06] Pa s"),
+    ("phi_j=0.4", "--set phi_j = 0.4 is outside the valid range (0.436, 1)"),
+    ("a0=1e300", "--set a0 = 1e+300 is outside the valid range (0, 0.8]"),
+])
+def test_every_command_names_the_set_parameter_with_its_range(cmd, item, words, tmp_path,
+                                                              monkeypatch, capsys):
+    """Before: flow-curve --set tau_star=1e-300 -> 'taubar = 0.001 is outside the valid range
+    [0, 1e-200]' (neither tau_star nor a range of it); startup --set eta0=1e-300 failed on a
+    CSV with NaN pressures (exit 1)."""
+    monkeypatch.chdir(tmp_path)
+    extra = ["--material", "hermes2016"] if cmd == "materials" else []
+    _refused(capsys, [cmd, *extra, "--set", item], words)
+    assert os.listdir(tmp_path) == []
+
+
+def test_set_scales_at_their_bounds_give_the_scaled_flow_curve():
+    """tau* at both ends of its range: the stress-controlled curve is self-similar in
+    taubar/tau* (Eqs. 1-2 depend on the stress only through it), so the viscosity at
+    taubar = x tau* is the same function of x at tau* = 1e-8 and 1e8 Pa."""
+    from rheometer.cli import material_with
+    from rheometer.protocols import flow_curve
+
+    x = np.logspace(-3, 3, 7)
+    eta = [flow_curve(material_with("hermes2016", {"tau_star": t}), 0.45,
+                      stress=x * t)["viscosity_Pa_s"].to_numpy() for t in (1e-8, 1e8)]
+    assert np.allclose(eta[0], eta[1], rtol=1e-9)
+
+
+def test_fit_set_is_checked_against_the_same_ranges(tmp_path, capsys):
+    from pathlib import Path
+    ex = Path(__file__).resolve().parents[1] / "rheometer" / "examples"
+    out = tmp_path / "fit"
+    _refused(capsys, ["fit", str(ex / "rheocompass_phi_0.40.csv"), "--phi", "0.40", "--out",
+                      str(out), "--set", "tau_star=1e-300"],
+             "--set tau_star = 1e-300 is outside the valid range [1e-08, 1e+08] Pa")
+    assert not out.exists()
