@@ -60,7 +60,12 @@ def main(argv=None) -> int:
     run.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0, 1e6,
                                                        lo_closed=False, unit="s"),
                      default=60.0, help="wall seconds between checkpoints (default 60)")
-    add_mass_fraction_options(run, nargs=None)
+    add_mass_fraction_options(run, nargs="+")
+    for action in run._actions:              # one run, one fraction (a sweep takes several)
+        if action.dest == "mass_fraction":
+            action.help = ("grain mass fraction m_grain/(m_grain + m_liquid), converted to the "
+                           "scene's volume fraction by Eq. 20; one value per run (several: "
+                           "mpm2d sweep with --set on the volume fraction)")
     sw = sub.add_parser("sweep", help="run a scene over a grid of parameters (Dask)")
     sw.add_argument("scene")
     sw.add_argument("--set", action="append", metavar="KEY=V1[,V2...]", default=[],
@@ -75,7 +80,10 @@ def main(argv=None) -> int:
     sw.add_argument("--vtk", action="store_true", help="write the VTK snapshots of every case")
     sw.add_argument("--quiet", action="store_true",
                     help="no progress bar and no progress lines (failed cases still on stderr)")
-    args = ap.parse_args(argv)
+    args, extra = ap.parse_known_args(argv)
+    if extra:                                # said by the subcommand's parser: 'mpm2d run: ...'
+        {"list": sub.choices["list"], "show": show, "run": run, "sweep": sw}[args.cmd].error(
+            f"unrecognized arguments: {' '.join(extra)}")
     # a run stopped by a signal says where its checkpoint is (run_scene's KeyboardInterrupt)
     hint = ("rerun the same command to continue: completed cases are kept, the others resume "
             "from their checkpoints" if args.cmd == "sweep" else "")
@@ -119,6 +127,11 @@ def _command(args) -> None:
 
     params = _parse_set(args.set)
     if args.mass_fraction is not None:
+        if len(args.mass_fraction) != 1:
+            raise ValueError(f"--mass-fraction takes one value per run, got "
+                             f"{len(args.mass_fraction)} ({' '.join(f'{w:g}' for w in args.mass_fraction)}); "
+                             "run each separately or use mpm2d sweep")
+        args.mass_fraction = args.mass_fraction[0]
         _mass_fraction(args, get_spec(args.scene), params)
     run_scene(get_setup(args.scene), args.scene if args.out is None else args.out, params,
               resume=args.resume, progress=not args.quiet, vtk=False if args.no_vtk else None,

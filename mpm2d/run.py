@@ -82,6 +82,10 @@ class Scene:
         History columns that may be undefined by construction at some rows (NaN, written as an
         empty cell), e.g. a stress behind a front before the front has formed; every other
         history value must be finite (else the run fails with diagnostics).
+    min_steps : int
+        The fewest steps the run (and the scene's analysis) needs: a run whose end time is
+        shorter than ``min_steps`` first stable steps is refused before anything is written
+        (at least one step, else the results would be made up from the initial state).
     """
 
     sim: Simulation
@@ -95,6 +99,7 @@ class Scene:
     frame_times: tuple = ()
     notes: str = ""
     undefined: tuple = ()
+    min_steps: int = 1
 
 
 def history_row(sim: Simulation, scene: Scene) -> dict:
@@ -164,35 +169,228 @@ class _DeferredSignals:
         return False
 
 
-def check_step_count(scene, name: str) -> None:
-    """Refuse (ValueError, one line) a run that needs more than MAX_STEPS steps at its first
-    stable step: the parameters that set it are named with their values (cfl, t_end, the
-    resolution) and the step count they imply."""
+def _first_step(scene) -> tuple[float, float]:
+    """(first step [s], number of steps to t_end at it) of a freshly set-up scene (inf/0 steps
+    and NaN are returned, not raised)."""
     sim = scene.sim
-    dt = sim.user_dt if sim.user_dt is not None else sim.stable_dt()
-    steps = (scene.t_end - sim.t) / dt
-    if steps > MAX_STEPS:
-        knobs = f"cfl = {sim.cfl:g}, t_end = {scene.t_end:g} s, h = {sim.grid.h:g} m"
-        raise ValueError(f"scene {name}: {knobs} give a step of {dt:.3g} s, about "
-                         f"{steps:.3g} steps to t_end; valid: at most {MAX_STEPS:.0e} steps "
-                         "(raise cfl, shorten t_end or coarsen the grid)")
+    with np.errstate(all="ignore"):
+        dt = sim.user_dt if sim.user_dt is not None else sim.stable_dt()
+        steps = (scene.t_end - sim.t) / dt if dt > 0 else math.inf
+    return float(dt), float(steps)
 
 
-def check_step_bound(spec, params: dict, name: str) -> None:
+def _steps_ok(scene) -> bool:
+    _, steps = _first_step(scene)
+    return bool(max(1, int(scene.min_steps)) <= steps <= MAX_STEPS)
+
+
+def check_step_count(scene, name: str) -> None:
+    """Refuse (ValueError, one line) a run that needs more than MAX_STEPS steps, or fewer than
+    the scene's ``min_steps`` (at least one: an end time below one stable step), at its first
+    stable step. Without the set-up function the parameters cannot be blamed one by one: the
+    message names the step and the end time (:func:`run_scene` names the parameter set)."""
+    dt, steps = _first_step(scene)
+    need = max(1, int(scene.min_steps))
+    if steps > MAX_STEPS or not steps >= need:
+        raise ValueError(f"scene {name}: a step of {dt:.3g} s to t_end = {scene.t_end:.3g} s is "
+                         f"{steps:.3g} steps; valid: {need} to {MAX_STEPS:.0e} steps")
+
+
+#: a set-up taking longer than this [wall s] is announced ('setting up scene X...'); a fast one
+#: is not, so that a refusal after it is the only output
+SETUP_NOTICE_S = 2.0
+#: wall seconds the search for the parameter that makes a run too long/short may take (set-ups
+#: of bed scenes take seconds each: the bound found so far is reported, a conservative one)
+BLAME_BUDGET_S = 20.0
+
+
+def _build(setup, params: dict):
+    """The scene of ``params`` or None when its set-up fails (numpy quiet)."""
+    try:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            return setup(**params)
+    except (ArithmeticError, ValueError, RuntimeError, TypeError):
+        return None
+
+
+def _shown(x) -> str:
+    if isinstance(x, float):
+        return f"{x:.6g}" if float(f"{x:.6g}") == x else repr(x)
+    return str(x)
+
+
+def _round_toward(x: float, good_side_up: bool) -> float:
+    """``x`` to 3 significant digits, rounded away from the invalid side."""
+    if x == 0 or not math.isfinite(x):
+        return x
+    e = math.floor(math.log10(abs(x))) - 2
+    m = x / 10.0 ** e
+    m = math.ceil(m) if good_side_up else math.floor(m)
+    return float(f"{m * 10.0 ** e:.3g}")
+
+
+def _bisect(ok, bad: float, good: float, deadline: float) -> float:
+    """The valid end of [bad, good] nearest the transition (log-spaced when both are > 0)."""
+    log = bad > 0 and good > 0
+    for _ in range(60):
+        if time.perf_counter() > deadline:
+            break
+        mid = math.sqrt(bad * good) if log else 0.5 * (bad + good)
+        if mid in (bad, good) or (log and abs(math.log(good / bad)) < 0.02) or \
+                (not log and abs(good - bad) <= 1e-3 * max(abs(good), abs(bad))):
+            break
+        if ok(mid):
+            good = mid
+        else:
+            bad = mid
+    return good
+
+
+def refuse_step_count(setup, scene, params: dict, given: dict, name: str) -> None:
+    """Raise the one-line ValueError of a run needing more than MAX_STEPS steps or fewer than the
+    scene's ``min_steps`` at its first stable step, said about the parameter the user set.
+
+    Each given parameter is put back to its default in turn (a new set-up): those whose default
+    makes the step count valid are named, with their valid bound at the others' values found by
+    bisection between the value given and the default (a fixed ``dt`` exactly: the step is dt);
+    when no single one does, every given parameter is named. The search is limited to
+    BLAME_BUDGET_S wall seconds (the bound found so far is a valid one)."""
+    dt, steps = _first_step(scene)
+    need = max(1, int(scene.min_steps))
+    if need <= steps <= MAX_STEPS:
+        return
+    long = not steps < need
+    spec = spec_of(setup)
+    duration = scene.t_end - scene.sim.t
+    what = (f"a step of {dt:.3g} s to t_end = {scene.t_end:.3g} s is {steps:.3g} steps, more "
+            f"than {MAX_STEPS:.0e}" if long else
+            f"t_end = {scene.t_end:.3g} s is {steps:.3g} of its first stable steps ({dt:.3g} s); "
+            f"the run needs at least {need}")
+    deadline = time.perf_counter() + BLAME_BUDGET_S
+    spec_changed = [k for k, v in given.items() if v != spec.defaults.get(k)]
+    if not spec_changed:
+        raise ValueError(f"scene {name}: {what} with its defaults")
+    special = {}
+    if "dt" in spec_changed and scene.sim.user_dt is not None:
+        bound = duration / (MAX_STEPS if long else need)
+        special["dt"] = (f"dt {'>=' if long else '<='} {_round_toward(bound, long):.3g} s at the "
+                         "other values, or dt = none (the stable step)")
+    raise blame(setup, params, given, name, _steps_ok,
+                f"makes the run too {'long' if long else 'short'} ({what})", deadline, special)
+
+
+def blame(setup, params: dict, given: dict, name: str, ok: Callable, why: str,
+          deadline: float, special: dict | None = None) -> ValueError:
+    """The one-line ValueError for a set of parameters whose scene fails ``ok(scene)``, said
+    about the given parameter(s) responsible: each changed one is put back to its default in
+    turn (a new set-up); those whose default passes are named with their valid bound at the
+    others' values, found by bisection between the value and the default (``special``: a
+    ready bound text per key); when no single one is responsible, all are named."""
+    spec = spec_of(setup)
+    special = special or {}
+    changed = [k for k, v in given.items() if v != spec.defaults.get(k)]
+
+    def ok_at(k, x):
+        probe = _build(setup, {**params, k: x})
+        return probe is not None and ok(probe)
+
+    culprits = [k for k in changed if time.perf_counter() < deadline
+                and ok_at(k, spec.defaults[k])]
+    if not culprits:
+        shown = ", ".join(f"{k} = {_shown(params[k])}" for k in changed) or "the defaults"
+        return ValueError(f"scene {name}: {shown} {why}; valid: move them toward their "
+                          f"defaults ('mpm2d show {name}' lists the ranges)")
+    parts = []
+    for k in culprits:
+        v, d = params[k], spec.defaults[k]
+        head = f"{k} = {_shown(v)} {why}"
+        if k in special:
+            parts.append(f"{head}; valid: {special[k]}")
+            continue
+        p = spec.params[k]
+        numeric = p.kind == "number" and isinstance(v, (int, float)) and \
+            isinstance(d, (int, float)) and not isinstance(d, bool)
+        if not numeric:
+            parts.append(f"{head}; valid: e.g. the default {k} = {d}")
+            continue
+        good = _bisect(lambda x: ok_at(k, x), float(v), float(d), deadline)
+        up = good > v
+        good = _round_toward(good, up)
+        if p.integer:
+            good = float(math.ceil(good) if up else math.floor(good))
+        if not ok_at(k, good):              # rounding crossed the transition
+            good = float(d)
+        unit = f" {p.unit}" if p.unit else ""
+        parts.append(f"{head}; valid: {k} {'>=' if up else '<='} {good:.3g}{unit} at the "
+                     "other values")
+    return ValueError(f"scene {name}: " + "; ".join(parts))
+
+
+def first_step_ok(scene) -> tuple[bool, str]:
+    """Whether one step of a copy of the freshly set-up scene succeeds with finite energies
+    (the scene itself is untouched: bit-for-bit runs); (False, reason) otherwise."""
+    import copy
+
+    try:
+        with warnings.catch_warnings(record=True) as held, np.errstate(all="warn"):
+            warnings.simplefilter("always", RuntimeWarning)
+            probe = copy.deepcopy(scene.sim)
+            probe.step()
+            e = probe.energies()
+    except (RuntimeError, ArithmeticError, ValueError) as exc:
+        first = next((w for w in held if issubclass(w.category, RuntimeWarning)), None)
+        after = f" after numpy's '{first.message}'" if first is not None else ""
+        return False, f"{type(exc).__name__}: {exc}{after}"
+    bad = [k for k, x in e.items() if not np.isfinite(x)]
+    if bad:
+        first = next((w for w in held if issubclass(w.category, RuntimeWarning)), None)
+        after = f" after numpy's '{first.message}'" if first is not None else ""
+        return False, f"non-finite {', '.join(bad)}{after}"
+    return True, ""
+
+
+def check_step_bound(spec, params: dict, name: str, given: dict | None = None) -> None:
     """The step-count refusal of :func:`check_step_count` before the scene's set-up (which takes
     seconds to minutes: a bed's geostatic relaxation), where the parameters bound the stable step
     (:meth:`mpm2d.scenes.spec.SceneSpec.step_bound`): a run that needs more than MAX_STEPS
-    steps even at that bound is refused at once, one line naming cfl, t_end and h."""
+    steps even at that bound is refused at once, one line naming the parameters among dt, cfl,
+    t_end and the cell size that the user set (``given``), each with its bound at the others'
+    values (the step is proportional to dt, cfl and h, the step count to t_end)."""
     bound = spec.step_bound(params)
     if bound is None:
         return
     dt, t_end, knobs = bound
     with np.errstate(all="ignore"):
         steps = t_end / dt if dt > 0 else math.inf
-    if steps > MAX_STEPS:
-        raise ValueError(f"scene {name}: {knobs} give a step of at most {dt:.3g} s, at least "
-                         f"{steps:.3g} steps to t_end; valid: at most {MAX_STEPS:.0e} steps "
-                         "(raise cfl, shorten t_end or coarsen the grid)")
+    if not steps > MAX_STEPS:
+        return
+    given = given or {}
+    r = steps / MAX_STEPS
+    fixed = isinstance(params.get("dt"), (int, float)) and params["dt"] is not None
+    limits = []
+    with np.errstate(all="ignore"):
+        if fixed and "dt" in given:
+            limits.append(f"dt >= {_round_toward(t_end / MAX_STEPS, True):.3g} s (or dt = none)")
+        if not fixed and "cfl" in given:
+            lim = params["cfl"] * r
+            limits.append(f"cfl >= {_round_toward(lim, True):.3g}" if lim < 1 else
+                          f"cfl = {params['cfl']:g} cannot help (it would need > 1)")
+        if "t_end" in given:
+            limits.append(f"t_end <= {_round_toward(t_end / r, False):.3g} s")
+        if not fixed and "h" in given:
+            limits.append(f"h >= {_round_toward(params['h'] * r, True):.3g} m")
+        if not fixed and "cells_per_mm" in given:
+            limits.append(f"cells_per_mm <= {_round_toward(params['cells_per_mm'] / r, False):.3g}")
+    shown = ", ".join(f"{k} = {_shown(v)}" for k, v in given.items()) or "the defaults"
+    head = f"scene {name}: {shown} make the run too long: {knobs} give a step of at most " \
+           f"{dt:.3g} s, at least {steps:.3g} steps to t_end, more than {MAX_STEPS:.0e}"
+    if limits:
+        raise ValueError(f"{head}; valid (each at the others' values): {', '.join(limits)}")
+    raise ValueError(head + ("; valid: dt >= " f"{_round_toward(t_end / MAX_STEPS, True):.3g} s"
+                             if fixed else "; valid: the values that set the wave speed "
+                             f"back toward their defaults, or cfl >= "
+                             f"{_round_toward(params['cfl'] * r, True):.3g}"))
 
 
 def _remove_stale_temporaries(out: Path) -> list[str]:
@@ -207,29 +405,96 @@ def _remove_stale_temporaries(out: Path) -> list[str]:
     return gone
 
 
-_FRAME = re.compile(r"frame_\d+\.npz$")
+_FRAME = re.compile(r"frame_\d{5}\.npz$")
 
 
-def _remove_previous_run(out: Path) -> list[str]:
-    """Delete what an earlier run wrote into ``out`` that a fresh run would not overwrite in
-    full: its snapshots (frames/frame_N.npz, vtk/*.vtu, *.pvd), checkpoints, history, manifest
-    and the figures its manifest lists (a fresh run with fewer frames left the old ones beside
-    its own). The scene's result tables are rewritten by the new run at its end."""
-    gone = []
+def _our_manifest(out: Path) -> dict | None:
+    """The manifest of a previous run of ours in ``out`` (scene, params, frames), else None."""
     man = out / "manifest.json"
-    figures = []
-    if man.is_file():
-        try:
-            figures = [str(f) for f in json.loads(man.read_text()).get("figures", [])]
-        except (ValueError, OSError, AttributeError):
-            figures = []
-    files = [out / "frames" / f.name for f in (out / "frames").glob("frame_*.npz")
-             if _FRAME.match(f.name)] if (out / "frames").is_dir() else []
+    if not man.is_file():
+        return None
+    try:
+        m = json.loads(man.read_text())
+    except (ValueError, OSError, UnicodeDecodeError):
+        return None
+    if not (isinstance(m, dict) and isinstance(m.get("scene"), str)
+            and isinstance(m.get("params"), dict) and isinstance(m.get("frames"), list)):
+        return None
+    return m
+
+
+def _inside(out: Path, rel) -> Path | None:
+    """``out/rel`` when ``rel`` is a plain relative path inside ``out`` (top level, frames/ or
+    vtk/), else None (a manifest is never trusted to name a file elsewhere)."""
+    if not isinstance(rel, str) or not rel or "\\" in rel:
+        return None
+    parts = Path(rel).parts
+    if Path(rel).is_absolute() or ".." in parts or len(parts) > 2 or \
+            (len(parts) == 2 and parts[0] not in ("frames", "vtk")):
+        return None
+    return out / rel
+
+
+def _is_empty(out: Path) -> bool:
+    """No entry besides empty frames/ and vtk/ folders and temporaries of our atomic writes."""
+    for f in out.iterdir():
+        if f.is_dir() and f.name in ("frames", "vtk") and not any(f.iterdir()):
+            continue
+        if f.is_file() and _TEMP.match(f.name):
+            continue
+        return False
+    return True
+
+
+def previous_run_files(out: Path) -> list[Path]:
+    """The files a previous run of ours wrote into ``out``, which a fresh run removes: those its
+    manifest lists (snapshots, their VTK files and .pvd series, figures and result tables), its
+    checkpoints, history and manifest, and the snapshots written after its last manifest
+    (``frames/frame_NNNNN.npz``, ``vtk/SET_NNNNN.vtu`` of its sets). Nothing else is touched.
+
+    Raises
+    ------
+    ValueError
+        ``out`` is a non-empty folder without the manifest of a run of ours (a folder of the
+        user's: nothing in it is removed or overwritten), before anything is written.
+    """
+    if not out.is_dir() or _is_empty(out):
+        return []
+    m = _our_manifest(out)
+    if m is None:
+        raise ValueError(f"--out = {str(out)!r} is a non-empty folder that holds no mpm2d run "
+                         "(no manifest.json of ours): give a new or empty folder, nothing of "
+                         "yours is overwritten")
+    files, names = [], set()
+    for f in m["frames"]:
+        if not isinstance(f, dict):
+            continue
+        files.append(_inside(out, f.get("npz")))
+        for n, v in (f.get("vtu") or {}).items():
+            files.append(_inside(out, v))
+            names.add(str(n))
+    if (out / "frames").is_dir():
+        files += [f for f in (out / "frames").iterdir() if _FRAME.match(f.name)]
     if (out / "vtk").is_dir():
-        files += [f for f in (out / "vtk").iterdir() if f.suffix in (".vtu", ".pvd")]
+        files += [f for f in (out / "vtk").iterdir()
+                  if re.fullmatch(r"(.+)_\d{5}\.vtu", f.name)
+                  and re.fullmatch(r"(.+)_\d{5}\.vtu", f.name).group(1) in names]
+        files += [out / "vtk" / f"{n}.pvd" for n in names if "/" not in n]
     files += [out / n for n in ("checkpoint.npz", "checkpoint.prev.npz", "history.csv",
                                 "manifest.json")]
-    files += [out / f for f in figures if "/" not in f and "\\" not in f]
+    files += [_inside(out, f) for f in m.get("figures", []) or []]
+    files += [_inside(out, f) for f in m.get("results", []) or []]
+    seen, keep = set(), []
+    for f in files:
+        if f is not None and f not in seen and f.is_file():
+            seen.add(f)
+            keep.append(f)
+    return keep
+
+
+def _remove_previous_run(out: Path, files: list[Path]) -> list[str]:
+    """Delete ``files`` (:func:`previous_run_files`) and return their names relative to out."""
+    gone = []
     for f in files:
         if f.is_file():
             f.unlink()
@@ -343,7 +608,24 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         if not ckpt_path.exists() and not ckpt_path.with_name("checkpoint.prev.npz").exists():
             raise ValueError(f"--resume: no checkpoint at {ckpt_path}; run without --resume to "
                              "start")
-        saved = load_checkpoint(ckpt_path, required=("run.params", "t", "step"), log=log)
+        used = [ckpt_path if ckpt_path.is_file() else previous_checkpoint(ckpt_path)]
+
+        def fallback(msg):                   # load_checkpoint fell back to the kept one
+            used[0] = previous_checkpoint(ckpt_path)
+            log(msg)
+
+        saved = load_checkpoint(ckpt_path, required=("run.params", "t", "step"), log=fallback)
+        if "chunks" in saved:
+            import numba
+
+            chunks, threads = int(saved["chunks"]), numba.get_num_threads()
+            if chunks != threads:
+                cap = numba.config.NUMBA_NUM_THREADS
+                more = (f" (NUMBA_NUM_THREADS = {cap} here allows at most {cap}: raise it)"
+                        if chunks > cap else "")
+                raise ValueError(f"--resume: the checkpoint in {out} was written with --threads "
+                                 f"{chunks}, this run has {threads}; resume with --threads "
+                                 f"{chunks} to continue bit-for-bit{more}")
         stored_name = str(saved["run.scene"]) if "run.scene" in saved else None
         stored = json.loads(str(saved["run.params"]))
         if stored_name is not None and stored_name != name:
@@ -368,17 +650,31 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         old = json.loads(str(saved["run.options"])) if "run.options" in saved else {}
         for k, v in old.items():
             if options.get(k) is not None and options[k] != v:
-                raise ValueError(f"--resume: {'--frames' if k == 'frames' else '--no-vtk'} "
-                                 f"differs from the interrupted run's ({k} = {v})")
+                if k == "frames":
+                    theirs = ("the scene's default number of snapshots" if v is None
+                              else f"--frames {v}")
+                    raise ValueError(f"--resume: --frames {options[k]} differs from the "
+                                     f"interrupted run's ({theirs}); resume without --frames")
+                raise ValueError("--resume: --no-vtk differs from the interrupted run's (it "
+                                 f"{'wrote' if v else 'did not write'} VTK); resume "
+                                 f"{'without' if v else 'with'} --no-vtk")
             options[k] = v if options.get(k) is None else options[k]
     vtk = True if options["vtk"] is None else bool(options["vtk"])
     options["vtk"] = vtk
     params = spec.validate(given)
-    check_step_bound(spec, params, name)     # before the set-up where the parameters tell
+    check_step_bound(spec, params, name, given)   # before the set-up where the parameters tell
+    # a fresh run removes only what a previous run of ours wrote; a folder of the user's is
+    # refused here, before the set-up and before anything is written
+    previous = previous_run_files(out) if saved is None else []
     # the scene's set-up (a bed's geostatic relaxation can take minutes) is interrupted at once
     # by Ctrl-C or SIGTERM (there is nothing to save yet); nothing is written before it ends
-    log(f"setting up scene {name}" + (" (then the checkpoint is loaded)" if saved is not None
-                                       else "") + "...")
+    # the set-up line only when the set-up is slow (a bed's relaxation): a refusal of a fast
+    # scene is then the only output
+    announce = threading.Timer(SETUP_NOTICE_S, log, args=(f"setting up scene {name}" + (
+        " (then the checkpoint is loaded)" if saved is not None else "") + "...",))
+    announce.daemon = True
+    if threading.current_thread() is threading.main_thread():
+        announce.start()
     # numpy's warnings of the set-up (an overflow from a modulus of 1e-300) are held: a set-up
     # that then fails is refused in one line that cites the first; one that succeeds shows them
     held = []
@@ -387,9 +683,11 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
             warnings.simplefilter("always", RuntimeWarning)
             scene = setup(**params)
     except KeyboardInterrupt:
+        announce.cancel()
         raise KeyboardInterrupt("during the scene's set-up, nothing written"
                                 + (f"; {ckpt_path} is as it was" if saved is not None else ""))
     except (ArithmeticError, ValueError) as exc:
+        announce.cancel()
         # a value inside its declared range whose set-up arithmetic still breaks down (a length
         # of 1e-300: a division by zero, or an area of 0 refused by the body it builds; a
         # modulus that overflows): the parameters given are the cause. A set-up refusal that
@@ -403,10 +701,22 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         raise ValueError(f"scene {name}: with {given_text} the set-up breaks down "
                          f"({type(exc).__name__}: {exc}{after}); valid: values away from the "
                          f"extremes of their ranges ('mpm2d show {name}')") from None
-    for w in held:                           # a set-up that succeeded: its warnings as they were
-        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    announce.cancel()
+    if saved is None:
+        # too many steps, or fewer than the scene's analysis needs (an end time below one
+        # stable step): refused naming the parameter set, with its bound (new set-ups)
+        refuse_step_count(setup, scene, params, given, name)
+        # values for which the scene's equations break down at once (a point thrown off the
+        # grid, an energy that overflows in the first step) are bad input, not a failed run
+        fine, reason = first_step_ok(scene)
+        if not fine:
+            raise blame(setup, params, given, name, lambda sc: first_step_ok(sc)[0],
+                        f"breaks the first step ({reason})",
+                        time.perf_counter() + BLAME_BUDGET_S)
     with np.errstate(all="ignore"):          # inf/0 steps are the check's to refuse
         check_step_count(scene, name)
+    for w in held:                           # a set-up that succeeded: its warnings as they were
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     if saved is None and (ckpt_path.exists() or ckpt_path.with_name("checkpoint.prev.npz").exists()):
         log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "
             "replaces it (--resume continues it instead)")
@@ -415,7 +725,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         for f in _remove_stale_temporaries(out):
             log(f"removed {f}, a temporary file of an interrupted write")
         if saved is None:
-            gone = _remove_previous_run(out)
+            gone = _remove_previous_run(out, previous)
             if gone:
                 log(f"removed the earlier run's {len(gone)} files in {out} (snapshots, VTK, "
                     "checkpoints, history, manifest, figures); its result tables are replaced "
@@ -440,7 +750,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
             rows = _history_rows(saved)
             manifest["frames"] = json.loads(str(saved["run.frames"]))
             next_times = saved["run.next_times"]
-            log(f"resumed from {ckpt_path} at t = {sim.t:.6g} s, step {sim.step_count}")
+            log(f"resumed from {used[0]} at t = {sim.t:.6g} s, step {sim.step_count}")
         log(sim.describe())
         log(f"mode: {sim.mode}")
         if not rows:
@@ -470,70 +780,92 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
             write_history(pd.DataFrame(rows))        # a non-finite value fails here, after the save
             write_manifest(out, manifest)
 
-        complete = True
-        bar = Progress(sim.t, t_end, sim.step_count, label=name) if progress else None
+        held_run = []
         try:
-            while sim.t < t_end * (1.0 - 1e-12):
-                if stop.pending:
-                    raise KeyboardInterrupt
-                if stop_after_steps is not None and steps_here >= stop_after_steps:
-                    complete = False
-                    break
-                if scene.before_step is not None:
-                    scene.before_step(sim)
-                sim.step()
-                steps_here += 1
-                if sim.t >= next_rec * (1.0 - 1e-9) or sim.t >= t_end * (1.0 - 1e-12):
-                    row = history_row(sim, scene)
-                    if not np.isfinite(row["total_J"]):
-                        checkpoint()
-                        raise RuntimeError(f"non-finite energy at t = {sim.t:.6g} s (step "
-                                           f"{sim.step_count}): the run diverged; see {out}")
-                    rows.append(row)
-                    next_rec += rec_dt
-                regular = sim.t >= next_frame * (1.0 - 1e-9)
-                event = bool(events) and sim.t >= events[0] * (1.0 - 1e-9)
-                while events and sim.t >= events[0] * (1.0 - 1e-9):
-                    events.pop(0)
-                if regular or event:             # one snapshot per step, tagged event if asked
-                    manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim, vtk,
-                                                          tag="event" if event else "frame"))
-                if regular:
-                    next_frame += frame_dt
-                if bar is not None:
-                    bar.update(sim.t, sim.step_count)
-                if time.perf_counter() - last_ckpt > checkpoint_every:
+            with warnings.catch_warnings(record=True) as held_run:
+                warnings.simplefilter("always", RuntimeWarning)
+                complete = True
+                bar = Progress(sim.t, t_end, sim.step_count, label=name) if progress else None
+                try:
+                    while sim.t < t_end * (1.0 - 1e-12):
+                        if stop.pending:
+                            raise KeyboardInterrupt
+                        if stop_after_steps is not None and steps_here >= stop_after_steps:
+                            complete = False
+                            break
+                        if scene.before_step is not None:
+                            scene.before_step(sim)
+                        sim.step()
+                        steps_here += 1
+                        if sim.t >= next_rec * (1.0 - 1e-9) or sim.t >= t_end * (1.0 - 1e-12):
+                            row = history_row(sim, scene)
+                            if not np.isfinite(row["total_J"]):
+                                checkpoint()
+                                raise RuntimeError(f"non-finite energy at t = {sim.t:.6g} s (step "
+                                                   f"{sim.step_count}): the run diverged; see {out}")
+                            rows.append(row)
+                            next_rec += rec_dt
+                        regular = sim.t >= next_frame * (1.0 - 1e-9)
+                        event = bool(events) and sim.t >= events[0] * (1.0 - 1e-9)
+                        while events and sim.t >= events[0] * (1.0 - 1e-9):
+                            events.pop(0)
+                        if regular or event:             # one snapshot per step, tagged event if asked
+                            manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim, vtk,
+                                                                  tag="event" if event else "frame"))
+                        if regular:
+                            next_frame += frame_dt
+                        if bar is not None:
+                            bar.update(sim.t, sim.step_count)
+                        if time.perf_counter() - last_ckpt > checkpoint_every:
+                            checkpoint()
+                            last_ckpt = time.perf_counter()
+                except KeyboardInterrupt:
+                    if bar is not None:
+                        bar.close(sim.t, sim.step_count)
                     checkpoint()
-                    last_ckpt = time.perf_counter()
-        except KeyboardInterrupt:
-            if bar is not None:
-                bar.close(sim.t, sim.step_count)
-            checkpoint()
-            log(f"interrupted ({stop.pending or 'KeyboardInterrupt'}) at t = {sim.t:.6g} s "
-                f"(step {sim.step_count}); checkpoint written to {ckpt_path}: continue with "
-                "--resume")
-            raise KeyboardInterrupt(f"checkpoint written to {ckpt_path}: rerun with --resume "
-                                    "to continue") from None
-        if bar is not None:
-            bar.close(sim.t, sim.step_count)
-        history = pd.DataFrame(rows)
-        figures = []
-        if complete:
-            if manifest["frames"][-1]["step"] != sim.step_count:
-                manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim, vtk))
-            if vtk:
-                write_pvds(out, manifest["frames"])
-            write_history(history)               # the report may read it
-            write_manifest(out, manifest)        # the report reads the frames from it
-            if scene.report is not None:
-                # the final state first: a report that runs sub-runs (the wheel's other omegas)
-                # can be interrupted, and the same command with --resume then finds this run
-                # complete, goes straight to its report and resumes the sub-run
-                checkpoint()
-                figures = [str(Path(f).relative_to(out)) if Path(f).is_relative_to(out)
-                           else str(f) for f in scene.report(sim, history, out)]
-            manifest["status"] = "complete"
-            manifest["figures"] = figures
+                    log(f"interrupted ({stop.pending or 'KeyboardInterrupt'}) at t = {sim.t:.6g} s "
+                        f"(step {sim.step_count}); checkpoint written to {ckpt_path}: continue with "
+                        "--resume")
+                    raise KeyboardInterrupt(f"checkpoint written to {ckpt_path}: rerun with --resume "
+                                            "to continue") from None
+                if bar is not None:
+                    bar.close(sim.t, sim.step_count)
+                history = pd.DataFrame(rows)
+                figures = []
+                if complete:
+                    if manifest["frames"][-1]["step"] != sim.step_count:
+                        manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim, vtk))
+                    if vtk:
+                        write_pvds(out, manifest["frames"])
+                    write_history(history)               # the report may read it
+                    write_manifest(out, manifest)        # the report reads the frames from it
+                    if scene.report is not None:
+                        # the final state first: a report that runs sub-runs (the wheel's other omegas)
+                        # can be interrupted, and the same command with --resume then finds this run
+                        # complete, goes straight to its report and resumes the sub-run
+                        checkpoint()
+                        figures = [str(Path(f).relative_to(out)) if Path(f).is_relative_to(out)
+                                   else str(f) for f in scene.report(sim, history, out)]
+                    manifest["status"] = "complete"
+                    manifest["figures"] = figures
+        except (RuntimeError, ArithmeticError, ValueError) as exc:
+            # a run that fails mid-way: its files stay for the diagnosis and the manifest
+            # says so (numpy's warnings of the run are cited, not printed before)
+            first = next((w for w in held_run if issubclass(w.category, RuntimeWarning)),
+                         None)
+            after = f" (after numpy's '{first.message}')" if first is not None else ""
+            message = f"{exc}{after}"
+            manifest["status"] = "failed"
+            manifest["error"] = message
+            manifest["steps"] = sim.step_count
+            try:
+                write_manifest(out, manifest)
+            except (RuntimeError, ValueError, OSError):
+                pass
+            raise RuntimeError(f"{message}; the run's files are in {out} (manifest status "
+                               "failed)") from None
+        for w in held_run:                   # a run that succeeded: its warnings as they were
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         manifest["history"] = "history.csv"
         manifest["steps"] = sim.step_count
         checkpoint()

@@ -6,6 +6,7 @@ collections without repeated timesteps."""
 from __future__ import annotations
 
 import json
+import re
 import os
 import signal
 import subprocess
@@ -128,14 +129,14 @@ def test_real_sigterm_twice_terzaghi_cli(tmp_path):
 
 def test_resume_of_another_scene_or_parameters_is_refused(tmp_path, capsys):
     out = str(tmp_path / "o")
-    assert main(["run", "bar", "--set", "periods=0.1", "--set", "cells=8", "--out", out,
+    assert main(["run", "bar", "--set", "periods=0.05", "--set", "cells=8", "--out", out,
                  "--quiet", "--no-vtk"]) == 0
     before = {k: p.read_bytes() for k, p in _files(Path(out)).items()}
     capsys.readouterr()
     for argv, words in ((["run", "disks", "--resume"], "of scene 'bar', not 'disks'"),
                         (["run", "bar", "--resume", "--set", "cells=16"],
                          "cells = 16 differs from the checkpoint's cells = 8"),
-                        (["run", "bar", "--resume", "--frames", "3"], "--frames differs")):
+                        (["run", "bar", "--resume", "--frames", "3"], "--frames 3 differs")):
         assert main(argv + ["--out", out, "--quiet"]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and words in err[0], err
@@ -313,14 +314,19 @@ def test_signal_while_the_last_files_are_written_completes_the_run(tmp_path, mon
 def test_a_run_that_would_never_end_is_refused_up_front(tmp_path, capsys):
     """cfl = 1e-300 passed the range check (0, 1] and ran for ever (found by a fresh-user test):
     a run needing more than MAX_STEPS steps at its first stable step is refused in one line
-    naming cfl, t_end and h, exit 2, nothing written."""
+    naming cfl with the bound that makes it end, exit 2, nothing written."""
     from mpm2d.run import MAX_STEPS
 
     out = tmp_path / "o"
     assert main(["run", "column", "--set", "cfl=1e-300", "--out", str(out), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "cfl = 1e-300, t_end = 1.5 s, h = 0.001 m" in err[0], err
-    assert f"at most {MAX_STEPS:.0e} steps" in err[0]
+    assert len(err) == 1 and "cfl = 1e-300 makes the run too long" in err[0], err
+    assert f"more than {MAX_STEPS:.0e}" in err[0]
+    bound = float(re.search(r"valid: cfl >= (\S+) at the other values", err[0]).group(1))
+    # the bound is the transition: the step is proportional to cfl, 1.5 s / (dt(0.5) cfl/0.5)
+    from mpm2d.scenes import column
+    dt05 = column.setup().sim.stable_dt()
+    assert bound == pytest.approx(1.5 / MAX_STEPS / dt05 * 0.5, rel=0.05)
     assert not out.exists()
 
 
@@ -332,3 +338,151 @@ def test_set_up_arithmetic_failure_names_the_parameters(tmp_path, capsys):
     err = [l for l in capsys.readouterr().err.strip().splitlines() if l]
     assert len(err) == 1 and "with d = 1e-300 the set-up breaks down (ZeroDivisionError" in err[0]
     assert not out.exists()
+
+
+# ---------------------------------------------------------------- fresh-user faults (round 2)
+def _cli(argv, capsys):
+    rc = main(argv)
+    cap = capsys.readouterr()
+    return rc, cap.out.strip().splitlines(), [l for l in cap.err.strip().splitlines() if l]
+
+
+def test_end_time_below_the_steps_the_analysis_needs_is_refused(tmp_path, capsys):
+    """bar periods=1e-300 (an end time of 1e-301 s, far below one stable step) ran one step and
+    fitted omega from two samples, exit 0. Refused: one line naming periods, its value and the
+    smallest valid value (the run must span bar.MIN_SAMPLES first stable steps: periods >=
+    MIN_SAMPLES dt / T, T = 2 pi / omega the period), nothing on stdout, nothing written."""
+    out = tmp_path / "x1"
+    rc, so, err = _cli(["run", "bar", "--set", "periods=1e-300", "--out", str(out)], capsys)
+    assert rc == 2 and so == [] and len(err) == 1, (so, err)
+    assert "periods = 1e-300 makes the run too short" in err[0]
+    lo = float(re.search(r"valid: periods >= (\S+) at the other values", err[0]).group(1))
+    sc = bar.setup()
+    period = sc.t_end / 2.0                              # default: 2 periods
+    assert lo == pytest.approx(bar.MIN_SAMPLES * sc.sim.stable_dt() / period, rel=0.03)
+    assert not out.exists()
+    # the bound it states runs (and analyses) without a refusal
+    res = _run(bar.setup, out, params=dict(periods=lo), vtk=False)
+    assert res["complete"] and len(res["history"]) >= bar.MIN_SAMPLES + 1
+
+
+@pytest.mark.parametrize("argv, key, bound", [
+    (["bar", "--set", "dt=1e-300"], "dt", r"dt >= (\S+) s"),
+    (["column", "--set", "phi0=1e-300"], "phi0", r"phi0 >= (\S+) at"),
+    (["annular", "--set", "u_inner=1e-300"], "u_inner", r"u_inner >= (\S+) m/s"),
+])
+def test_step_count_refusal_names_the_parameter_set(tmp_path, capsys, argv, key, bound):
+    """The too-many-steps refusal named cfl, t_end and h whatever the user set (dt=1e-300 was
+    told to raise cfl; annular has no t_end) and printed 'setting up scene X...' first. Now the
+    only output is one line naming the parameter set, its value and its bound, and the bound
+    is the transition (the value at the bound runs within MAX_STEPS, 10x beyond it does not)."""
+    from mpm2d.run import MAX_STEPS, _first_step
+    from mpm2d.scenes import get_setup
+
+    out = tmp_path / "o"
+    rc, so, err = _cli(["run", *argv, "--out", str(out)], capsys)
+    assert rc == 2 and so == [] and len(err) == 1, (so, err)
+    assert f"{key} = 1e-300 makes the run too long" in err[0] and "raise cfl" not in err[0]
+    assert "setting up" not in err[0] and not out.exists()
+    lim = float(re.search(bound, err[0]).group(1))
+    setup = get_setup(argv[0])
+    assert _first_step(setup(**{key: lim}))[1] <= MAX_STEPS
+    assert _first_step(setup(**{key: lim / 10}))[1] > MAX_STEPS
+
+
+def test_resume_with_another_thread_count_names_threads(tmp_path, monkeypatch):
+    """A resume with another --threads said 'set the same chunks' (not an option): it names
+    --threads with the checkpoint's count, before the set-up, nothing written."""
+    import numba
+
+    out = tmp_path / "o"
+    _run(bar.setup, out, params=dict(cells=8), stop_after_steps=3, vtk=False)
+    before = {k: p.read_bytes() for k, p in _files(out).items()}
+    monkeypatch.setattr(numba, "get_num_threads", lambda: 2)
+    with pytest.raises(ValueError) as exc:
+        _run(bar.setup, out, params=dict(cells=8), resume=True)
+    assert "resume with --threads 1" in str(exc.value) and "chunks" not in str(exc.value)
+    assert {k: p.read_bytes() for k, p in _files(out).items()} == before
+
+
+def test_a_run_failing_mid_way_marks_its_manifest_and_prints_no_numpy_warnings(tmp_path,
+                                                                              capsys):
+    """disks speed=1e-300: three numpy RuntimeWarnings, then 'energy_loss non-finite' with a
+    manifest still 'running'. Now: exit 1, one line on stderr (numpy's first warning cited in
+    it, none printed), the files kept for the diagnosis and the manifest says failed."""
+    out = tmp_path / "d"
+    rc, so, err = _cli(["run", "disks", "--set", "speed=1e-300", "--set", "cells=8",
+                        "--set", "t_end=0.3", "--out", str(out), "--quiet", "--no-vtk"], capsys)
+    assert rc == 1 and len(err) == 1 and "energy_loss" in err[0], err
+    assert "RuntimeWarning" not in err[0] and "failed" in err[0]
+    man = json.loads((out / "manifest.json").read_text())
+    assert man["status"] == "failed" and "energy_loss" in man["error"]
+    assert (out / "history.csv").is_file() and (out / "checkpoint.npz").is_file()
+
+
+def test_values_breaking_the_first_step_are_refused_up_front(tmp_path, capsys):
+    """column d=1e-300 failed with 'a point left the grid at t = 0' and left empty frames/ and
+    vtk/: a value with which the first step itself fails is bad input, refused naming it with
+    the bound (found on the first step of a copy), nothing written."""
+    out = tmp_path / "c"
+    rc, so, err = _cli(["run", "column", "--set", "d=1e-300", "--set", "t_end=0.05", "--set",
+                        "cells=8", "--out", str(out)], capsys)
+    assert rc == 2 and so == [] and len(err) == 1, err
+    assert "d = 1e-300 breaks the first step" in err[0] and "valid: d >= " in err[0]
+    assert not out.exists()
+
+
+def _user_folder(path: Path) -> dict:
+    (path / "vtk").mkdir(parents=True)
+    (path / "frames").mkdir()
+    files = {"vtk/paper.vtu": b"<VTKFile/>", "history.csv": b"a,b\n1,2\n",
+             "frames/mine.npz": b"npz", "notes.txt": b"my notes"}
+    for k, v in files.items():
+        (path / k).write_bytes(v)
+    return files
+
+
+def test_a_folder_of_the_users_is_refused_not_overwritten(tmp_path, capsys):
+    """--out into an existing folder that is not a run of ours deleted vtk/paper.vtu and
+    overwrote history.csv silently: refused in one line (exit 2), every file as it was."""
+    out = tmp_path / "userdir"
+    files = _user_folder(out)
+    rc, so, err = _cli(["run", "bar", "--set", "cells=8", "--out", str(out)], capsys)
+    assert rc == 2 and so == [] and len(err) == 1 and "no manifest.json of ours" in err[0]
+    assert {k: p.read_bytes() for k, p in _files(out).items()} == files
+    # an empty folder (even with empty frames/ and vtk/) is fine
+    empty = tmp_path / "empty"
+    (empty / "frames").mkdir(parents=True)
+    assert _run(bar.setup, empty, params=dict(cells=8, periods=0.05), vtk=False)["complete"]
+
+
+def test_a_fresh_run_removes_only_what_the_previous_run_wrote(tmp_path):
+    """In a folder of an earlier run, the user's own files (notes, a paper.vtu) survive a fresh
+    run; the earlier run's snapshots are gone."""
+    out = tmp_path / "o"
+    _run(bar.setup, out, params=dict(cells=8, periods=0.1), frames=6)
+    (out / "notes.txt").write_text("mine")
+    (out / "vtk" / "paper.vtu").write_text("<VTKFile/>")
+    res = _run(bar.setup, out, params=dict(cells=8, periods=0.05), frames=2)
+    assert (out / "notes.txt").read_text() == "mine"
+    assert (out / "vtk" / "paper.vtu").read_text() == "<VTKFile/>"
+    listed = {Path(f["npz"]).name for f in res["manifest"]["frames"]}
+    assert {p.name for p in (out / "frames").glob("*.npz")} == listed
+
+
+def test_resume_messages_name_what_was_used(tmp_path, capsys):
+    """--resume --frames 5 said '(frames = None)'; a corrupt checkpoint.npz fell back to
+    checkpoint.prev.npz but said 'resumed from .../checkpoint.npz'."""
+    out = tmp_path / "o"
+    params = dict(cells=8, periods=0.5)
+    _run(bar.setup, out, params=params, stop_after_steps=3, vtk=False, checkpoint_every=1e-9)
+    with pytest.raises(ValueError) as exc:
+        _run(bar.setup, out, params=params, resume=True, frames=5)
+    assert "--frames 5 differs" in str(exc.value) and "None" not in str(exc.value)
+    assert (out / "checkpoint.prev.npz").is_file()
+    (out / "checkpoint.npz").write_bytes(b"corrupt")
+    lines = []
+    run_scene(bar.setup, out, params, resume=True, progress=False, log=lines.append,
+              stop_after_steps=1)
+    resumed = [l for l in lines if l.startswith("resumed from")]
+    assert len(resumed) == 1 and "checkpoint.prev.npz" in resumed[0], lines

@@ -36,6 +36,11 @@ from ..run import Scene
 from ..simulation import Simulation
 
 
+#: the fewest steps (history samples) a run takes: the oscillation fit (analyse) has 3
+#: unknowns (amplitude, phase, frequency), so at least 3 samples
+MIN_SAMPLES = 3
+
+
 @spec.parameters_of(
     length=spec.positive(1e3, "m", "bar length L"),
     cells=spec.count(2, 100000, "cells along L"),
@@ -72,8 +77,10 @@ def setup(length=1.0, cells=32, ppc=2, E=1.0e6, rho=1000.0, v0=1.0e-3, periods=2
         return {"v_cm_m_per_s": vc, "t_velocity_s": t_half,
                 "v_cm_exact_m_per_s": float(analytic.bar_mode1(t_half, v0, length, c)[0])}
 
+    # the fit of amplitude, frequency and phase (analyse) needs samples beyond its 3 unknowns:
+    # a run of fewer than MIN_SAMPLES steps (one history row per step) is refused
     return Scene(sim, periods * 2 * np.pi / omega, params, frames=8, history_rows=100000,
-                 record=record, report=lambda sim, hist, out: report(hist, params, out))
+                 min_steps=MIN_SAMPLES, record=record, report=lambda sim, hist, out: report(hist, params, out))
 
 
 def analyse(history: pd.DataFrame, params: dict) -> dict:
