@@ -36,10 +36,28 @@ def _parse_set(items) -> dict:
     return {k: v[0] for k, v in parse_grid(items, lists=False).items()}
 
 
+class _TopParser(OneLineParser):
+    """``mpm2d``'s parser: arguments left over by a subcommand are refused by that subcommand's
+    parser (``mpm2d run: error: unrecognized arguments: 0.6``), not as ``mpm2d: error``."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        ns, extra = super().parse_known_args(args, namespace)
+        self._cmd = getattr(ns, "cmd", None)
+        return ns, extra
+
+    def error(self, message):
+        sub = getattr(self, "_subparsers_action", None)
+        cmd = getattr(self, "_cmd", None)
+        if sub is not None and cmd in sub.choices and message.startswith("unrecognized"):
+            sub.choices[cmd].error(message)
+        super().error(message)
+
+
 def main(argv=None) -> int:
-    ap = OneLineParser(prog="mpm2d", description=__doc__,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = _TopParser(prog="mpm2d", description=__doc__,
+                    formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True, parser_class=OneLineParser)
+    ap._subparsers_action = sub
     sub.add_parser("list", help="list the scenes")
     show = sub.add_parser("show", help="a scene's equations, parameters (valid ranges), command")
     show.add_argument("scene")
@@ -80,10 +98,7 @@ def main(argv=None) -> int:
     sw.add_argument("--vtk", action="store_true", help="write the VTK snapshots of every case")
     sw.add_argument("--quiet", action="store_true",
                     help="no progress bar and no progress lines (failed cases still on stderr)")
-    args, extra = ap.parse_known_args(argv)
-    if extra:                                # said by the subcommand's parser: 'mpm2d run: ...'
-        {"list": sub.choices["list"], "show": show, "run": run, "sweep": sw}[args.cmd].error(
-            f"unrecognized arguments: {' '.join(extra)}")
+    args = ap.parse_args(argv)
     # a run stopped by a signal says where its checkpoint is (run_scene's KeyboardInterrupt)
     hint = ("rerun the same command to continue: completed cases are kept, the others resume "
             "from their checkpoints" if args.cmd == "sweep" else "")

@@ -375,3 +375,17 @@ def test_set_up_warnings_are_not_printed_before_the_refusal(tmp_path):
     assert rc == 2 and len(err) == 1, err
     assert "with kappa = 1e-300 the set-up breaks down" in err[0] and "overflow" in err[0]
     assert not out.exists()
+
+
+def test_run_takes_one_mass_fraction_and_says_leftovers_as_run(tmp_path):
+    """'mpm2d run column --mass-fraction 0.5 0.6' said 'mpm2d: error: unrecognized arguments:
+    0.6' while the help said 'mass fraction(s)': several values are refused by mpm2d run with
+    what to do, a leftover argument is said by 'mpm2d run:', nothing written."""
+    out = tmp_path / "o"
+    rc, err = _call(["run", "column", "--mass-fraction", "0.5", "0.6", "--out", str(out)])
+    assert rc == 2 and len(err) == 1 and err[0].startswith("mpm2d run: error: --mass-fraction "
+                                                           "takes one value per run"), err
+    rc, err = _call(["run", "column", "--set", "t_end=0.01", "0.6", "--out", str(out)])
+    assert rc == 2 and len(err) == 1, err
+    assert err[0].startswith("mpm2d run: error: unrecognized arguments: 0.6")
+    assert not out.exists()
