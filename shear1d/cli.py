@@ -23,8 +23,9 @@ from rheology.cli_common import Number, OneLineParser, run_command
 from rheology.sample import add_mass_fraction_options
 
 #: Size bounds of --cells and --outputs (a memory estimate is checked as well, before the run).
-#: 20000 cells on the Fig. 3 gap are 1.2 um, a fifth of a grain diameter: far beyond the
-#: continuum the model describes, and the explicit method's cost grows as cells^2 (hours there).
+#: The explicit method's cost grows as cells^2 (hours at 20000). The grain size bounds the cells
+#: too, per run: a cell holds at least one grain (shear1d.geometry.CELL_MIN_GRAINS; 4100 cells
+#: on the Fig. 3 gap of annular_shear), checked with the gap (_check_lengths).
 MAX_CELLS = 20000
 MAX_OUTPUTS = 100000
 #: Upper bound of --time and --ramp-time [s]: 1e9 s (30 years), the bound the rheometer puts on
@@ -227,6 +228,59 @@ def _check_ramp(ramp_time: float, rotation: float, r_inner: float, speeds) -> No
                          "start-up, not a shear at --u-inner); lower it, or raise --rotation")
 
 
+def _check_lengths(material, option: str, value: float, hi: float, cells: int,
+                   base: float = 0.0, r_inner: float | None = None) -> None:
+    """Lengths against the grain size d of the material (shear1d.geometry): the gap ``value -
+    base`` holds ``cells`` cells of at least CELL_MIN_GRAINS grains each (``option`` is --gap, or
+    --r-outer with ``base`` = --r-inner), the bob's radius ``r_inner`` R_INNER_MIN_GRAINS grains.
+    ValueError naming the option with its range at the other options' values."""
+    from .geometry import CELL_MIN_GRAINS, R_INNER_MIN_GRAINS, min_gap
+
+    d = getattr(material, "d", None)
+    if not d or d <= 0:
+        return
+    grains = f"d = {d:g} m of {material.name}"
+    if r_inner is not None and r_inner < R_INNER_MIN_GRAINS * d:
+        raise ValueError(f"--r-inner = {r_inner:g} m is outside the valid range "
+                         f"[{R_INNER_MIN_GRAINS * d:.4g}, 1] m: the bob must be a continuum wall, "
+                         f"a radius of at least {R_INNER_MIN_GRAINS:g} grain diameters ({grains})")
+    gap, lo = value - base, min_gap(cells, d)
+    if gap < lo * (1.0 - 1e-12):
+        most = int(gap / (CELL_MIN_GRAINS * d))
+        at = f" at --r-inner = {base:g} m and" if base else " at"
+        alt = f"; or at most {most} --cells at this gap" if most >= 4 else ""
+        raise ValueError(f"{option} = {value:g} m is outside the valid range [{base + lo:.4g}, "
+                         f"{hi:g}] m{at} --cells = {cells}: each cell of the gap must hold at "
+                         f"least {CELL_MIN_GRAINS:g} grain ({grains}), the continuum the model "
+                         f"describes{alt}")
+
+
+def _check_resume(paths) -> None:
+    """With --resume: read each checkpoint that is there before the run starts, so that a corrupt
+    one is refused (exit 2) before anything is printed or written (rheology.io.load_checkpoint:
+    CorruptCheckpoint names the file; a readable previous checkpoint is the run's fallback)."""
+    from rheology.io import load_checkpoint, previous_checkpoint
+
+    for ck in paths:
+        if ck.is_file() or previous_checkpoint(ck).is_file():
+            load_checkpoint(ck, log=lambda *a, **k: None)
+
+
+def _in_out(out: str, run) -> None:
+    """Run ``run()``; if it fails or is refused and leaves the --out folder that it created
+    empty, the folder is removed (a run that wrote nothing leaves nothing)."""
+    from pathlib import Path
+
+    path = Path(out)
+    existed = path.exists()
+    try:
+        run()
+    except BaseException:
+        if not existed and path.is_dir() and not any(path.iterdir()):
+            path.rmdir()
+        raise
+
+
 def _annular(args) -> None:
     from .scenes import R_OUTER, run_annular
 
@@ -242,12 +296,21 @@ def _annular(args) -> None:
     if args.method == "dae" and args.mode is None:
         print("shear1d: --method dae runs the locked mode only (no --mode given: locked)")
     _check_dae(args.method, modes, m, phi0)
-    run_annular(args.out, tuple(args.u_inner), modes,
+    _check_lengths(m, "--r-outer" + (" (the default)" if default_outer else ""), args.r_outer,
+                   2.0, args.cells, base=args.r_inner, r_inner=args.r_inner)
+    if args.resume:
+        from pathlib import Path
+
+        from .scenes import run_tag
+
+        _check_resume([Path(args.out) / f"{run_tag(u, mode)}.checkpoint.npz"
+                       for u in args.u_inner for mode in modes])
+    _in_out(args.out, lambda: run_annular(args.out, tuple(args.u_inner), modes,
                 n_cells=args.cells, method=args.method, rtol=args.rtol, dt=args.dt,
                 n_out=args.outputs, r_inner=args.r_inner, r_outer=args.r_outer,
                 rotation=args.rotation, ramp_time=args.ramp_time, resume=args.resume,
                 checkpoint_every=args.checkpoint_every, progress=not args.quiet,
-                material=m, phi0=phi0)
+                material=m, phi0=phi0))
 
 
 def _couette(args) -> None:
@@ -260,11 +323,17 @@ def _couette(args) -> None:
     else:
         _check_drive("--stress", [args.stress], m, phi0, stress=True)
     _check_dae(args.method, _modes(args.mode, ("locked",)), m, phi0)
+    _check_lengths(m, "--gap", args.gap, 1.0, args.cells)
+    if args.resume:
+        from pathlib import Path
+
+        _check_resume([Path(args.out) / "couette.checkpoint.npz"])
     pb = plane_couette(args.speed, stress=args.stress, gap=args.gap, n_cells=args.cells,
                        mode=_modes(args.mode, ("locked",))[0], phi0=phi0, material=m)
-    run_couette(args.out, pb, args.time, method=args.method, n_out=args.outputs, rtol=args.rtol,
-                dt=args.dt, resume=args.resume, checkpoint_every=args.checkpoint_every,
-                progress=not args.quiet)
+    _in_out(args.out, lambda: run_couette(
+        args.out, pb, args.time, method=args.method, n_out=args.outputs, rtol=args.rtol,
+        dt=args.dt, resume=args.resume, checkpoint_every=args.checkpoint_every,
+        progress=not args.quiet))
 
 
 def main(argv=None) -> int:

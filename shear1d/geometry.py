@@ -28,6 +28,20 @@ from rheology.checks import check_range
 
 KINDS = ("plane", "annular")
 
+#: Smallest cell, in grain diameters d: a finite-volume cell holds averages over grains (phi, f,
+#: the granular stress), which mean nothing in a cell narrower than one grain; so the gap must be
+#: at least ``n_cells`` d (``--gap 1e-300`` gave f = nan in the first Table 8 update). At the
+#: defaults (10 mm gap, 100 cells; Fig. 3's 24 mm, 200 cells) a cell is 17-20 grains of 5.85 um.
+CELL_MIN_GRAINS = 1.0
+#: Smallest bob radius, in grain diameters: the bob is a continuum wall only if its curvature
+#: radius is many grains (``--r-inner 1e-300`` gave t_end = 4e-298 s and a failed first update).
+R_INNER_MIN_GRAINS = 10.0
+
+
+def min_gap(n_cells: int, d: float) -> float:
+    """Smallest gap [m] for ``n_cells`` cells of grains of diameter ``d`` [m] (CELL_MIN_GRAINS)."""
+    return CELL_MIN_GRAINS * float(d) * int(n_cells)
+
 
 @dataclass(frozen=True)
 class Grid:

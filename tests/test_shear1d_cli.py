@@ -139,8 +139,8 @@ def test_the_options_have_physical_ranges():
     (["annular", "--material", "nosuch.json"], "nosuch.json"),
     (["couette", "--speed", "0.01", "--mode", "both"], "--mode"),
     (["annular", "--u-inner", "0.084", "0.084"], "once"),
-    (["annular", "--u-inner", "0.00084", "--rotation", "100", "--cells", "20000", "--method",
-      "explicit", "--outputs", "10"], "cell-steps"),
+    (["annular", "--u-inner", "0.00084", "--rotation", "100", "--cells", "20000", "--r-outer",
+      "0.2", "--method", "explicit", "--outputs", "10"], "cell-steps"),
 ])
 def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, args, word):
     out = tmp_path / "out"
@@ -158,7 +158,8 @@ def test_a_run_too_large_for_memory_is_refused_with_its_estimate(tmp_path, capsy
 
     monkeypatch.setattr(checks, "available_memory", lambda: 2e9)
     out = tmp_path / "big"
-    assert main(["annular", "--cells", "20000", "--outputs", "1000", "--out", str(out)]) == 2
+    assert main(["annular", "--cells", "20000", "--r-outer", "0.2", "--outputs", "1000", "--out",
+                 str(out)]) == 2
     err = capsys.readouterr().err
     assert "GB (estimate)" in err and "--cells" in err and not out.exists()
 
@@ -320,9 +321,9 @@ def test_sundials_filter_passes_every_other_line():
                         "t_end <= 250 s"]),
     (["couette", "--speed", "0.01", "--time", "1e9", "--cells", "4", "--method", "explicit"],
      ["--cells 4", "(--time)", "(the default, half the stability limit)", "--method ida"]),
-    (["annular", "--u-inner", "0.00084", "--rotation", "100", "--cells", "20000", "--method",
-      "explicit", "--outputs", "10"], ["--cells 20000", "--rotation x --r-inner / --u-inner",
-                                       "fewer --cells"]),
+    (["annular", "--u-inner", "0.00084", "--rotation", "100", "--cells", "20000", "--r-outer",
+      "0.2", "--method", "explicit", "--outputs", "10"],
+     ["--cells 20000", "--rotation x --r-inner / --u-inner", "fewer --cells"]),
 ])
 def test_explicit_cell_step_limit_names_every_option_that_sets_it(args, words, tmp_path, capsys):
     out = tmp_path / "o"
@@ -334,3 +335,85 @@ def test_explicit_cell_step_limit_names_every_option_that_sets_it(args, words, t
     if "--time" in args and "1e9" in args:
         assert "--dt >=" not in err[0]        # no step within the stability limit fits
     assert not out.exists()
+
+
+# ---------------------------------------------------------------- lengths against the grain size
+@pytest.mark.parametrize("args, words", [
+    # before: f = nan in the first Table 8 update, exit 1, an empty folder left
+    (["couette", "--speed", "0.01", "--gap", "1e-300"],
+     ["--gap = 1e-300 m is outside the valid range [0.000585, 1] m at --cells = 100",
+      "d = 5.85e-06 m"]),
+    (["couette", "--speed", "0.01", "--gap", "1e-4"],
+     ["--gap = 0.0001 m", "at most 17 --cells at this gap"]),
+    # before: t_end = 4e-298 s and a failed first update
+    (["annular", "--r-inner", "1e-300", "--r-outer", "0.01"],
+     ["--r-inner = 1e-300 m is outside the valid range [5.85e-05, 1] m"]),
+    (["annular", "--cells", "8000"],
+     ["--r-outer (the default) = 0.036 m is outside the valid range [0.0593, 2] m at --r-inner "
+      "= 0.0125 m and --cells = 8000", "at most 4017 --cells"]),
+])
+def test_lengths_below_the_grain_size_are_refused_up_front(args, words, tmp_path, capsys):
+    out = tmp_path / "o"
+    assert main(args + ["--quiet", "--out", str(out)]) == 2
+    cap = capsys.readouterr()
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1 and cap.out == "", cap
+    for w in words:
+        assert w in err[0], (w, err[0])
+    assert not out.exists()
+
+
+def test_smallest_gap_runs_the_newtonian_startup(tmp_path):
+    """At the smallest gap (one grain per cell, 4 cells) the run is well-posed: at phi0 = 0.2
+    (no jamming) the momentum diffusion time H^2 rho/eta ~ 3e-8 s << 1e-3 s, so the wall stress
+    is the steady mixture stress at the rate U/H (rheology's steady solver)."""
+    import pandas as pd
+
+    import rheology
+    from rheology.materials import scene_material
+    from shear1d.geometry import min_gap
+    gap = min_gap(4, 5.85e-6)
+    steady = rheology.steady_states_rate(1e-4 / gap, 0.2, scene_material("annular_shear",
+                                                                          "annular_shear"))
+    out = tmp_path / "o"
+    assert main(["couette", "--speed", "1e-4", "--gap", repr(gap), "--cells", "4", "--phi", "0.2",
+                 "--time", "1e-3", "--outputs", "4", "--quiet", "--out", str(out)]) == 0
+    wall = pd.read_csv(out / "couette_wall.csv")
+    assert wall["wall_shear_stress_Pa"].iloc[-1] == pytest.approx(float(steady.shear_stress[0]),
+                                                                  rel=1e-3)
+
+
+def test_a_run_failing_at_start_leaves_no_folder(tmp_path, monkeypatch, capsys):
+    import shear1d.scenes as scenes
+
+    def fail(*a, **k):
+        raise RuntimeError("solver failed at t = 0")
+    monkeypatch.setattr(scenes, "solve", fail)
+    for args in (["couette", "--speed", "0.01", "--cells", "8"],
+                 ["annular", "--u-inner", "0.084", "--mode", "locked", "--cells", "8"]):
+        out = tmp_path / args[0]
+        assert main(args + ["--quiet", "--out", str(out)]) == 1
+        assert "solver failed" in capsys.readouterr().err
+        assert not out.exists()
+    kept = tmp_path / "kept"                  # a folder the user had is never removed
+    kept.mkdir()
+    assert main(["couette", "--speed", "0.01", "--cells", "8", "--quiet", "--out", str(kept)]) == 1
+    assert kept.is_dir()
+
+
+@pytest.mark.parametrize("args, name", [
+    (["couette", "--speed", "0.01", "--cells", "8"], "couette.checkpoint.npz"),
+    (["annular", "--u-inner", "0.084", "--mode", "locked", "--cells", "8"],
+     "u84mm_s_locked.checkpoint.npz"),
+])
+def test_resume_from_a_corrupt_checkpoint_prints_only_the_refusal(args, name, tmp_path, capsys):
+    """Before: annular printed 'resuming from ...' on stdout, then the refusal."""
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / name).write_text("garbage")
+    assert main(args + ["--quiet", "--resume", "--out", str(out)]) == 2
+    cap = capsys.readouterr()
+    assert cap.out == "", cap.out
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1 and f"{name} is corrupt" in err[0], err
+    assert sorted(p.name for p in out.iterdir()) == [name]
