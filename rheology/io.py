@@ -157,8 +157,15 @@ def atomic_write_json(path, obj, *, nullable: Iterable[str] = (), indent: int = 
 
 def atomic_write_csv(path, frame, *, empty_ok: Iterable[str] = (), **kwargs) -> Path:
     """Write a pandas DataFrame to CSV atomically (``index=False`` unless given), after
-    :func:`check_finite` (NaN allowed only in ``empty_ok`` columns, written as empty cells)."""
+    :func:`check_finite` (NaN allowed only in ``empty_ok`` columns, written as empty cells).
+    Negative zeros of float columns are written as 0.0 (``x + 0.0``; ``shear1d couette --speed
+    1e-300`` wrote f_mean = -0.0); ``frame`` itself is not changed."""
     check_finite(frame, Path(path).name, empty_ok)
+    floats = [i for i, dt in enumerate(frame.dtypes) if dt.kind == "f"]
+    if floats:                                   # by position: duplicate column names are kept
+        frame = frame.copy()
+        for i in floats:
+            frame.isetitem(i, frame.iloc[:, i] + 0.0)
     kwargs.setdefault("index", False)
     return _atomic(path, lambda tmp: frame.to_csv(tmp, **kwargs), ".tmp")
 

@@ -417,3 +417,24 @@ def test_resume_from_a_corrupt_checkpoint_prints_only_the_refusal(args, name, tm
     err = cap.err.strip().splitlines()
     assert len(err) == 1 and f"{name} is corrupt" in err[0], err
     assert sorted(p.name for p in out.iterdir()) == [name]
+
+
+def test_csv_writes_no_negative_zero(tmp_path):
+    """rheology.io.atomic_write_csv writes -0.0 as 0.0 in every float column (shear1d couette
+    --speed 1e-300 wrote f_mean = -0.0), NaN still empty where allowed, the frame unchanged."""
+    import numpy as np
+
+    from rheology.io import atomic_write_csv
+
+    df = pd.DataFrame({"a": [-0.0, 1.5, -2.0], "b": np.array([-0.0, 0.0, np.nan], np.float32),
+                       "n": [0, -1, 2], "s": ["-0.0", "x", "y"]})
+    atomic_write_csv(tmp_path / "z.csv", df, empty_ok=("b",))
+    text = (tmp_path / "z.csv").read_text()
+    assert text.splitlines() == ["a,b,n,s", "0.0,0.0,0,-0.0", "1.5,0.0,-1,x", "-2.0,,2,y"], text
+    assert math.copysign(1.0, df["a"][0]) == -1.0       # the caller's frame is not changed
+    out = tmp_path / "sp"
+    assert main(["couette", "--speed", "1e-300", "--cells", "8", "--time", "0.01", "--outputs",
+                 "4", "--quiet", "--out", str(out)]) == 0
+    for f in out.glob("*.csv"):
+        x = pd.read_csv(f).select_dtypes("number").to_numpy(float)
+        assert not np.any((x == 0) & np.signbit(x)), f.name
