@@ -291,6 +291,7 @@ def add_subcommands(sub) -> dict:
     """Add ``oscillation`` to the ``rheometer`` subparsers; return its command function."""
     from . import oscillation as osc
     from .cli import RATE_MAX, STRESS_MAX, _common, _k0, _modulus
+    from .limits import FREQUENCY_MIN
 
     p = sub.add_parser(
         "oscillation", help="oscillatory shear: amplitude and frequency sweeps (G', G'', I3/I1, "
@@ -315,7 +316,7 @@ def add_subcommands(sub) -> dict:
                    nargs="+", default=None, metavar="S",
                    help="mixture-stress amplitude(s) [Pa] for --control stress (default 10 "
                         "values 0.01..10 tau*)")
-    p.add_argument("--frequency", type=Number("--frequency", 0.0, RATE_MAX, lo_closed=False,
+    p.add_argument("--frequency", type=Number("--frequency", FREQUENCY_MIN, RATE_MAX,
                                               unit="Hz"),
                    nargs="+", default=[1.0], metavar="F",
                    help="frequency(ies) [Hz] (several: a frequency sweep; 1)")

@@ -40,6 +40,8 @@ STRESS_MAX, RATE_MAX, TIME_MAX, K0_MAX = 1e12, 1e9, 1e9, 1e6
 CYCLES_MAX, STRAIN_MAX = 1e5, 1e6
 TIME_MIN, CLOCK_RESOLUTION = 1e-12, 1e-9
 RATE_MIN, STRESS_MIN = 1e-9, 1e-12
+#: oscillation frequencies from 1/TIME_MAX: a period longer than the longest duration is none
+FREQUENCY_MIN = 1.0 / TIME_MAX
 
 #: the checks of a program line's numbers (``Number.check`` raises ValueError naming them)
 PROGRAM_RATE = Number("rate", 0.0, RATE_MAX, unit="1/s")

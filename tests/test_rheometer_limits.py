@@ -148,3 +148,13 @@ def test_fit_set_is_checked_against_the_same_ranges(tmp_path, capsys):
                       str(out), "--set", "tau_star=1e-300"],
              "--set tau_star = 1e-300 is outside the valid range [1e-08, 1e+08] Pa")
     assert not out.exists()
+
+
+def test_oscillation_period_within_the_longest_duration(tmp_path, monkeypatch, capsys):
+    """--frequency 1e-300 Hz (a period of 1e300 s, past TIME_MAX) ran; now refused by name."""
+    monkeypatch.chdir(tmp_path)
+    _refused(capsys, ["oscillation", "--frequency", "1e-300"], "--frequency = 1e-300",
+             "[1e-09, 1e+09] Hz")
+    with pytest.raises(ValueError, match=r"duration = 1e-299 is outside the valid range \[1e-12"):
+        parse_program("oscillate at 1e300 Hz with strain 0.01 for 10 cycles")
+    assert os.listdir(tmp_path) == []
