@@ -86,6 +86,12 @@ class Scene:
         The fewest steps the run (and the scene's analysis) needs: a run whose end time is
         shorter than ``min_steps`` first stable steps is refused before anything is written
         (at least one step, else the results would be made up from the initial state).
+    divides_by : tuple of str
+        History columns whose initial value the scene's analysis divides by (the disks' energy
+        loss is relative to the initial energy): with parameters that make one of them zero or
+        non-finite at t = 0 (speed = 1e-300: the kinetic energy underflows to 0) the analysis is
+        undefined and the run is refused before anything is written, naming the parameter set
+        with its bound.
     """
 
     sim: Simulation
@@ -100,6 +106,7 @@ class Scene:
     notes: str = ""
     undefined: tuple = ()
     min_steps: int = 1
+    divides_by: tuple = ()
 
 
 def history_row(sim: Simulation, scene: Scene) -> dict:
@@ -236,7 +243,7 @@ def _bisect(ok, bad: float, good: float, deadline: float) -> float:
     for _ in range(60):
         if time.perf_counter() > deadline:
             break
-        mid = math.sqrt(bad * good) if log else 0.5 * (bad + good)
+        mid = math.exp(0.5 * (math.log(bad) + math.log(good))) if log else 0.5 * (bad + good)
         if mid in (bad, good) or (log and abs(math.log(good / bad)) < 0.02) or \
                 (not log and abs(good - bad) <= 1e-3 * max(abs(good), abs(bad))):
             break
@@ -276,7 +283,7 @@ def refuse_step_count(setup, scene, params: dict, given: dict, name: str) -> Non
         bound = duration / (MAX_STEPS if long else need)
         special["dt"] = (f"dt {'>=' if long else '<='} {_round_toward(bound, long):.3g} s at the "
                          "other values, or dt = none (the stable step)")
-    raise blame(setup, params, given, name, _steps_ok,
+    raise blame(setup, params, given, name, acceptable,
                 f"makes the run too {'long' if long else 'short'} ({what})", deadline, special)
 
 
@@ -325,6 +332,27 @@ def blame(setup, params: dict, given: dict, name: str, ok: Callable, why: str,
         parts.append(f"{head}; valid: {k} {'>=' if up else '<='} {good:.3g}{unit} at the "
                      "other values")
     return ValueError(f"scene {name}: " + "; ".join(parts))
+
+
+def initial_values_ok(scene) -> tuple[bool, str]:
+    """Whether the history columns the scene's analysis divides by (``Scene.divides_by``) are
+    finite and non-zero at the start (record is called on the fresh scene's state)."""
+    if not scene.divides_by:
+        return True, ""
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        row = history_row(scene.sim, scene)
+    bad = [k for k in scene.divides_by if not (np.isfinite(row[k]) and row[k] != 0)]
+    if bad:
+        return False, ", ".join(f"{k} = {row[k]:g} at t = 0" for k in bad)
+    return True, ""
+
+
+def acceptable(scene) -> bool:
+    """Every check of a fresh scene before its run: the step count (:func:`_steps_ok`), the
+    initial values its analysis divides by and the first step (on a copy). The bounds a refusal
+    states are the bounds of this (a value at the bound is not refused for another reason)."""
+    return _steps_ok(scene) and initial_values_ok(scene)[0] and first_step_ok(scene)[0]
 
 
 def first_step_ok(scene) -> tuple[bool, str]:
@@ -708,9 +736,14 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         refuse_step_count(setup, scene, params, given, name)
         # values for which the scene's equations break down at once (a point thrown off the
         # grid, an energy that overflows in the first step) are bad input, not a failed run
+        fine, reason = initial_values_ok(scene)
+        if not fine:
+            raise blame(setup, params, given, name, acceptable,
+                        f"leaves the scene's analysis undefined ({reason}; it divides by it)",
+                        time.perf_counter() + BLAME_BUDGET_S)
         fine, reason = first_step_ok(scene)
         if not fine:
-            raise blame(setup, params, given, name, lambda sc: first_step_ok(sc)[0],
+            raise blame(setup, params, given, name, acceptable,
                         f"breaks the first step ({reason})",
                         time.perf_counter() + BLAME_BUDGET_S)
     with np.errstate(all="ignore"):          # inf/0 steps are the check's to refuse

@@ -405,19 +405,50 @@ def test_resume_with_another_thread_count_names_threads(tmp_path, monkeypatch):
     assert {k: p.read_bytes() for k, p in _files(out).items()} == before
 
 
-def test_a_run_failing_mid_way_marks_its_manifest_and_prints_no_numpy_warnings(tmp_path,
-                                                                              capsys):
-    """disks speed=1e-300: three numpy RuntimeWarnings, then 'energy_loss non-finite' with a
-    manifest still 'running'. Now: exit 1, one line on stderr (numpy's first warning cited in
-    it, none printed), the files kept for the diagnosis and the manifest says failed."""
-    out = tmp_path / "d"
-    rc, so, err = _cli(["run", "disks", "--set", "speed=1e-300", "--set", "cells=8",
-                        "--set", "t_end=0.3", "--out", str(out), "--quiet", "--no-vtk"], capsys)
-    assert rc == 1 and len(err) == 1 and "energy_loss" in err[0], err
-    assert "RuntimeWarning" not in err[0] and "failed" in err[0]
+def test_a_run_failing_mid_way_marks_its_manifest_and_prints_no_numpy_warnings(tmp_path):
+    """A run failing after its set-up (here its analysis, after a numpy warning; disks
+    speed=1e-300 printed three RuntimeWarnings, then failed with a manifest still 'running'):
+    a RuntimeError citing numpy's first warning, none emitted, the files kept for the diagnosis
+    and the manifest says failed with the message."""
+    import warnings
+
+    def setup(**p):
+        sc = bar.setup(**p)
+
+        def report(sim, hist, out):
+            np.float64(1.0) / np.float64(0.0)
+            raise RuntimeError("the analysis broke down")
+
+        sc.report = report
+        return sc
+
+    setup.spec = bar.setup.spec
+    out = tmp_path / "o"
+    with warnings.catch_warnings(record=True) as seen, pytest.raises(RuntimeError) as exc:
+        warnings.simplefilter("always")
+        _run(setup, out, params=dict(cells=8, periods=0.05), vtk=False)
+    assert "the analysis broke down" in str(exc.value) and "divide by zero" in str(exc.value)
+    assert not [w for w in seen if issubclass(w.category, RuntimeWarning)]
     man = json.loads((out / "manifest.json").read_text())
-    assert man["status"] == "failed" and "energy_loss" in man["error"]
+    assert man["status"] == "failed" and "the analysis broke down" in man["error"]
     assert (out / "history.csv").is_file() and (out / "checkpoint.npz").is_file()
+
+
+def test_values_leaving_the_analysis_undefined_are_refused_up_front(tmp_path, capsys):
+    """disks speed=1e-300: the initial energy underflows to 0 and the energy loss (relative to
+    it) was NaN after the whole run. Refused before anything is written (Scene.divides_by),
+    naming speed with its bound; at the bound the initial energy is positive."""
+    from mpm2d.scenes import disks
+
+    out = tmp_path / "d"
+    rc, so, err = _cli(["run", "disks", "--set", "speed=1e-300", "--out", str(out)], capsys)
+    assert rc == 2 and so == [] and len(err) == 1, err
+    assert "speed = 1e-300 leaves the scene's analysis undefined (total_J = 0" in err[0]
+    lo = float(re.search(r"valid: speed >= (\S+) m/s", err[0]).group(1))
+    sc = disks.setup(speed=lo)
+    assert sc.sim.energies()["total_J"] > 0
+    assert disks.setup(speed=lo / 1.2).sim.energies()["total_J"] == 0
+    assert not out.exists()
 
 
 def test_values_breaking_the_first_step_are_refused_up_front(tmp_path, capsys):

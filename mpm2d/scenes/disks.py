@@ -79,8 +79,9 @@ def setup(cells=32, ppc=2, E=1000.0, nu=0.3, rho=1000.0, radius=0.2, speed=0.1, 
         return {"angular_momentum_kg_m2_per_s": sim.angular_momentum(),
                 "null_space_J": null_space_energy(sim)}
 
+    # the report's energy loss and gains are relative to the initial energy: it must not be 0
     return Scene(sim, t_end, params, frames=12, history_rows=300, record=record,
-                 report=lambda sim, hist, out: report(sim, hist, out))
+                 divides_by=("total_J",), report=lambda sim, hist, out: report(sim, hist, out))
 
 
 def null_space_energy(sim) -> float:
