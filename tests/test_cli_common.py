@@ -92,14 +92,17 @@ def test_number_refuses_subnormals_and_shows_values_unrounded():
 
 
 def test_extreme_rate_range_is_refused_not_a_traceback(capsys):
-    """--rate-range 1e-300 1 overflowed hi/lo in the steady solver's grid (OverflowError): now the
-    steady states that double precision cannot hold are refused with one line."""
+    """--rate-range 1e-300 1 overflowed hi/lo in the steady solver's grid (OverflowError), later
+    ran for minutes: now refused at once while the options are read, naming the option and its
+    range (rheometer.limits: no steady state below 1e-9 1/s within TIME_MAX)."""
     from rheometer.cli import main
 
-    rc = main(["flow-curve", "--control", "rate", "--rate-range", "1e-300", "1", "--points", "5",
-               "--plot", "none", "--out", "/nonexistent_dir_for_test/x.csv"])
+    with pytest.raises(SystemExit) as exc:
+        main(["flow-curve", "--control", "rate", "--rate-range", "1e-300", "1", "--points", "5",
+              "--plot", "none", "--out", "/nonexistent_dir_for_test/x.csv"])
     err = capsys.readouterr().err.strip().splitlines()
-    assert rc == 2 and len(err) == 1 and "not representable" in err[0], err
+    assert exc.value.code == 2 and len(err) == 1, err
+    assert "--rate-range = 1e-300" in err[0] and "[1e-09" in err[0], err
 
 
 def test_run_command_turns_an_arithmetic_error_into_one_failure_line(capsys):

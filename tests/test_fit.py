@@ -266,9 +266,10 @@ def test_columns_still_map_a_table(tmp_path, capsys):
 
 
 def test_failed_fit_writes_nothing_and_prints_one_line(tmp_path, capsys):
-    """--set eta0=1e300: numpy's divide-by-zero warnings were printed, then four of the five
-    outputs were written before material.json failed with 'nothing was written'. Every output
-    is checked first: one failure line (citing numpy), exit 1, no folder."""
+    """--set eta0=1e300 (now outside --set's range; 1e6 fails the same way): numpy's
+    divide-by-zero warnings were printed, then four of the five outputs were written before
+    material.json failed with 'nothing was written'. Every output is checked first: one failure
+    line (citing numpy), exit 1, no folder."""
     import warnings
 
     from rheometer.cli import main
@@ -277,7 +278,7 @@ def test_failed_fit_writes_nothing_and_prints_one_line(tmp_path, capsys):
     with warnings.catch_warnings():
         warnings.simplefilter("error")        # an escaped warning would fail the command
         rc = main(["fit", *RC, "--phi", "0.40", "0.42", "--out", str(out), "--no-plots",
-                   "--no-profile", "--set", "eta0=1e300"])
+                   "--no-profile", "--set", "eta0=1e6"])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 1 and len(err) == 1 and "is not finite" in err[0] and "numpy" in err[0], err
     assert not out.exists()
