@@ -517,3 +517,33 @@ def test_resume_messages_name_what_was_used(tmp_path, capsys):
               stop_after_steps=1)
     resumed = [l for l in lines if l.startswith("resumed from")]
     assert len(resumed) == 1 and "checkpoint.prev.npz" in resumed[0], lines
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["bar", "--set", "v0=1e-300"], "v0 = 1e-300 is outside the valid range [3.16228e-08"),
+    (["terzaghi", "--set", "load=1e-300"], "load = 1e-300 is outside the valid range [0.001"),
+    (["column", "--set", "eta0=1e-300"], "eta0 = 1e-300 is outside the valid range [1e-06"),
+])
+def test_values_lost_in_rounding_are_refused_with_their_range(tmp_path, capsys, argv, words):
+    """bar v0=1e-300 fitted omega at the edge of its window (frequency error 0.2), terzaghi
+    load=1e-300 reported a settlement error of 1, column eta0=1e-300 failed mid-run with an
+    infinite Reynolds number, all accepted: their declared ranges now exclude them."""
+    out = tmp_path / "o"
+    rc, so, err = _cli(["run", *argv, "--out", str(out)], capsys)
+    assert rc == 2 and so == [] and len(err) == 1 and words in err[0], err
+    assert not out.exists()
+
+
+def test_bar_at_its_smallest_amplitude_is_as_accurate_as_the_default(tmp_path):
+    """At the lower bound of v0 (strain amplitude 1e-9) the bar's fitted frequency and
+    amplitude errors are those of the default amplitude (linear elasticity: the errors do not
+    depend on v0 while the motion is resolved)."""
+    spec = bar.setup.spec
+    lo = spec.params["v0"].number("v0", spec.defaults).lo
+    small = bar.analyse(_run(bar.setup, tmp_path / "s", params=dict(v0=lo, cells=16),
+                             vtk=False)["history"], {**spec.defaults, "v0": lo, "cells": 16})
+    ref = bar.analyse(_run(bar.setup, tmp_path / "r", params=dict(cells=16), vtk=False)["history"],
+                      {**spec.defaults, "cells": 16})
+    assert small["frequency_error"] == pytest.approx(ref["frequency_error"], rel=0.01)
+    assert small["amplitude_error"] == pytest.approx(ref["amplitude_error"], rel=0.01, abs=1e-6)
+    assert small["frequency_error"] < 0.01

@@ -47,8 +47,12 @@ MIN_SAMPLES = 3
     ppc=spec.count(1, 8, "points per cell and direction"),
     E=spec.modulus("Young's modulus"),
     rho=spec.density(),
-    v0=spec.Param(0.0, lambda p: 0.01 * (p["E"] / p["rho"]) ** 0.5, lo_closed=False, unit="m/s",
-                  doc="mode-1 velocity amplitude", note="1% strain: v0 <= 0.01 c, c = sqrt(E/rho)"),
+    v0=spec.Param(lambda p: 1e-9 * (p["E"] / p["rho"]) ** 0.5,
+                  lambda p: 0.01 * (p["E"] / p["rho"]) ** 0.5, unit="m/s",
+                  doc="mode-1 velocity amplitude",
+                  note="strain amplitude 1e-9 <= v0/c <= 0.01, c = sqrt(E/rho): a smaller motion "
+                       "is lost in the rounding of the positions (v0 = 1e-300 fitted omega at the "
+                       "edge of its window), a larger one is not linear"),
     periods=spec.positive(1000.0, "", "run length in periods"),
     transfer=spec.transfer(), flip_alpha=spec.flip_alpha(), cfl=spec.cfl(),
     dt=spec.Param(0.0, 1.0, lo_closed=False, optional=True, unit="s",

@@ -74,7 +74,10 @@ def constants(params: dict) -> dict:
     eta0=spec.positive(1e6, "Pa s", "fluid viscosity"),
     d=spec.positive(0.1, "m", "grain diameter (sets the drag)"),
     kappa=spec.modulus("fluid bulk modulus"),
-    load=spec.positive(1e9, "Pa", "load q on the drained top"),
+    load=spec.Param(lambda p: 1e-9 * (p["K"] + 4.0 * p["G"] / 3.0), 1e9, unit="Pa",
+                    doc="load q on the drained top",
+                    note="settlement strain q/(K + 4G/3) >= 1e-9: a smaller one is lost in the "
+                         "rounding of the positions (load = 1e-300 gave a settlement error of 1)"),
     ramp=spec.positive(10.0, "", "load ramp T_r = cv t_r/H^2"),
     t_end_T=spec.positive(100.0, "", "end time as T = cv t/H^2"),
     cfl=spec.cfl(), transfer=spec.transfer(),
