@@ -18,6 +18,18 @@ an uninterrupted run's. A resume of another scene, with other parameters or othe
 is refused by name. The scene's set-up (a bed's geostatic relaxation can take minutes at paper
 size; a resume repeats it, then loads the checkpoint) runs before anything is written and stops
 at once on SIGINT/SIGTERM, writing nothing.
+
+Refusals before anything is written (ValueError, one line, the only output): a run needing more
+than MAX_STEPS steps or fewer than the scene's ``min_steps`` at its first stable step; history
+values the scene's analysis divides by that are zero at t = 0 (``Scene.divides_by``); a first
+step that fails (tried on a copy). Each names the parameter the user set that causes it, with
+its bound at the other values (:func:`blame`: each given key put back to its default, then a
+bisection between value and default over new set-ups). A fresh run into a folder removes only
+the files a previous run of ours wrote (:func:`previous_run_files`, from its manifest); a
+non-empty folder without our manifest is refused. A run that fails after it started (a
+diverging step, a report that cannot be written) keeps its files, marks ``manifest.json``
+``status: failed`` with the message, and raises RuntimeError citing numpy's first warning
+(numpy's warnings of the run are held, shown only when the run succeeds).
 """
 
 from __future__ import annotations
@@ -585,10 +597,12 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     Raises
     ------
     ValueError
-        Bad input (a parameter, a resume that does not match the checkpoint), before anything
-        is written.
+        Bad input (a parameter, a run too long or too short, values breaking the first step or
+        the analysis, a resume that does not match the checkpoint or its --threads, an output
+        folder that is not empty and not a run of ours), before anything is written.
     RuntimeError
-        The run diverged (non-finite energy); a checkpoint is written first.
+        The run diverged (non-finite energy; a checkpoint is written first) or its report
+        failed: the manifest is marked ``failed`` with the message, the files stay.
     KeyboardInterrupt
         SIGINT/SIGTERM: after the current step, a checkpoint is written (during the set-up:
         at once, nothing written).
