@@ -34,6 +34,13 @@ USAGE, FAILED, INTERRUPTED = 2, 1, 130
 NEGATIVE_NUMBER = re.compile(r"^-(?:(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|inf|infinity|nan)$",
                              re.IGNORECASE)
 
+#: Durations every tier accepts [s] (a run's end time, a step, a program line): from TIME_MIN = 1
+#: ps, the molecular relaxation time of the suspending liquid (water ~1 ps; below it the model's
+#: Newtonian fluid, and so the continuum suspension, has no meaning; it also keeps SUNDIALS IDA
+#: clear of its stop-time underflow below ~1.5e-154 s), to TIME_MAX = 1e9 s (30 years, past any
+#: experiment; it keeps the output times finite: 1e300 s ran for minutes, then failed in IDA).
+TIME_MIN, TIME_MAX = 1e-12, 1e9
+
 
 class OneLineParser(argparse.ArgumentParser):
     """argparse whose usage errors are one line (no usage block) with status 2, and which reads

@@ -19,7 +19,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rheology.cli_common import Number, OneLineParser, run_command
+from rheology.cli_common import TIME_MAX, TIME_MIN, Number, OneLineParser, run_command
 from rheology.sample import add_mass_fraction_options
 
 #: Size bounds of --cells and --outputs (a memory estimate is checked as well, before the run).
@@ -28,10 +28,6 @@ from rheology.sample import add_mass_fraction_options
 #: on the Fig. 3 gap of annular_shear), checked with the gap (_check_lengths).
 MAX_CELLS = 20000
 MAX_OUTPUTS = 100000
-#: Upper bound of --time and --ramp-time [s]: 1e9 s (30 years), the bound the rheometer puts on
-#: its durations (rheometer.limits.TIME_MAX; the tiers do not import each other). Far past any
-#: experiment; it keeps the output times finite (1e300 s passed and failed in IDA after minutes).
-TIME_MAX = 1e9
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -120,9 +116,10 @@ def _parser() -> argparse.ArgumentParser:
                             f"{ELASTIC_STRAIN_LIMIT * m.G:g}] for annular_shear")
     c.add_argument("--gap", type=Number("--gap", 0, 1.0, lo_closed=False, unit="m"), default=1e-2,
                    help="gap [m] (default 0.01)")
-    c.add_argument("--time", type=Number("--time", 0, TIME_MAX, lo_closed=False, unit="s"),
-                   default=1.0, help=f"duration [s], in (0, {TIME_MAX:g}] (30 years, the "
-                   "rheometer's bound; default 1); the computing time grows with it")
+    c.add_argument("--time", type=Number("--time", TIME_MIN, TIME_MAX, unit="s"),
+                   default=1.0, help=f"duration [s], in [{TIME_MIN:g}, {TIME_MAX:g}] (1 ps to 30 "
+                   "years, the durations of every tier; default 1); the computing time grows "
+                   "with it")
     c.add_argument("--out", default="plane_couette", help="output folder (not empty)")
     numerics(c, 100, 200, MODES)
     return ap

@@ -246,7 +246,10 @@ def test_default_cup_radius_is_named_as_the_default(tmp_path, capsys):
      "is empty: give the output folder's name"),
     # fault 10: --time had no upper bound (1e300 ran minutes, then IDA failed)
     (["couette", "--speed", "0.01", "--time", "1e300", "--quiet", "--cells", "4"],
-     "--time = 1e300 is outside the valid range (0, 1e+09] s"),
+     "--time = 1e300 is outside the valid range [1e-12, 1e+09] s"),
+    # --time had no lower bound (1e-300 ran and wrote its files): the shared durations
+    (["couette", "--speed", "0.01", "--time", "1e-300", "--quiet", "--cells", "4"],
+     "--time = 1e-300 is outside the valid range [1e-12, 1e+09] s"),
     # fault 11: --ramp-time had no upper bound; now at most the rotation time at full speed
     (["annular", "--u-inner", "0.084", "--cells", "20", "--ramp-time", "1e9"],
      "--ramp-time = 1e+09 s is outside the valid range [0, 0.04613] s"),
