@@ -802,6 +802,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         log(f"mode: {sim.mode}")
         if not rows:
             rows.append(history_row(sim, scene))
+        if saved is None:                    # the folder is marked as a run of ours before its
+            write_manifest(out, manifest)    # first file (a run killed now can be replaced)
         if not manifest["frames"]:
             manifest["frames"].append(write_frame(out, 0, sim, vtk))
         if saved is not None:

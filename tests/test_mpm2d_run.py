@@ -547,3 +547,26 @@ def test_bar_at_its_smallest_amplitude_is_as_accurate_as_the_default(tmp_path):
     assert small["frequency_error"] == pytest.approx(ref["frequency_error"], rel=0.01)
     assert small["amplitude_error"] == pytest.approx(ref["amplitude_error"], rel=0.01, abs=1e-6)
     assert small["frequency_error"] < 0.01
+
+
+def test_a_run_killed_before_its_first_checkpoint_leaves_a_folder_that_can_be_replaced(
+        tmp_path, monkeypatch):
+    """The manifest marks the folder as ours before the first snapshot: a run killed (here: an
+    error while writing snapshot 0) leaves a folder a fresh run may replace, not one it refuses
+    as the user's."""
+    import mpm2d.run as runmod
+
+    out = tmp_path / "o"
+    real = runmod.write_frame
+
+    def killed(*a, **k):
+        real(*a, **k)
+        raise KeyboardInterrupt("killed")
+
+    monkeypatch.setattr(runmod, "write_frame", killed)
+    with pytest.raises(KeyboardInterrupt):
+        _run(bar.setup, out, params=dict(cells=8, periods=0.05), vtk=False)
+    assert (out / "frames" / "frame_00000.npz").is_file()
+    monkeypatch.setattr(runmod, "write_frame", real)
+    res = _run(bar.setup, out, params=dict(cells=8, periods=0.05), vtk=False)
+    assert res["complete"] and res["manifest"]["status"] == "complete"
