@@ -423,7 +423,8 @@ def check_step_bound(spec, params: dict, name: str, given: dict | None = None) -
         if not fixed and "cells_per_mm" in given:
             limits.append(f"cells_per_mm <= {_round_toward(params['cells_per_mm'] / r, False):.3g}")
     shown = ", ".join(f"{k} = {_shown(v)}" for k, v in given.items()) or "the defaults"
-    head = f"scene {name}: {shown} make the run too long: {knobs} give a step of at most " \
+    verb = "makes" if len(given) == 1 else "make"
+    head = f"scene {name}: {shown} {verb} the run too long: {knobs} give a step of at most " \
            f"{dt:.3g} s, at least {steps:.3g} steps to t_end, more than {MAX_STEPS:.0e}"
     if limits:
         raise ValueError(f"{head}; valid (each at the others' values): {', '.join(limits)}")

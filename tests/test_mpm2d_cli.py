@@ -339,13 +339,13 @@ def test_step_count_is_refused_before_the_set_up(tmp_path):
     with pytest.raises(ValueError) as exc:
         run_scene(setup, out, {"cfl": "1e-300"}, log=lambda m: None, scene_name="intruder")
     text = str(exc.value)
-    assert text.startswith("scene intruder: cfl = 1e-300 make the run too long")
+    assert text.startswith("scene intruder: cfl = 1e-300 makes the run too long")
     assert "t_end = 0.02 s, h = 0.001 m" in text and "more than 1e+08" in text
     assert "cfl >= 3.07e-05" in text
     assert not out.exists()
     # the CLI: one line, exit 2
     rc, err = _call(["run", "wheel", "--set", "cfl=1e-300", "--out", str(out), "--quiet"])
-    assert rc == 2 and len(err) == 1 and "cfl = 1e-300 make the run too long" in err[0]
+    assert rc == 2 and len(err) == 1 and "cfl = 1e-300 makes the run too long" in err[0]
     assert "cfl >= " in err[0]
     assert not out.exists()
 
