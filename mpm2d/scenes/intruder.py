@@ -97,8 +97,9 @@ with Delta = 0, so ``jammed`` stays false); phi0 = 0.50, v0 = 0.5 at 0.5 mm: 1.5
 0.97/0.93, fit 0.5-2.7 ms). At h = 0.25 mm (``cells_per_mm=4``, 39 min on one thread) the
 default jams at 2.6 ms: k_l = 1.98, k_t = 1.84, k_l/k_t = 1.07 (R^2 0.98/0.95). So k_l converges
 (1.08, 2.02, 1.98 at 1, 0.5, 0.25 mm) while k_t grows as the plug's side shear band is resolved
-(0.60, 1.29, 1.84): refinement takes the ratio away from 2 (1.80, 1.56, 1.07); phi0 = 0.50,
-v0 = 0.5 at 0.25 mm (5 ms): k_l = 6.44, k_t = 3.55, 1.82 (1.61, 1.56 at 1, 0.5 mm), so the grid
+(0.60, 1.29, 1.84): refinement takes the ratio away from 2 (1.80, 1.56, 1.07); at v0 = 0.5
+and 0.25 mm (5 ms runs) phi0 = 0.47, 0.48, 0.50 give 1.03, 1.67, 1.82 (k_l 4.17, 7.59, 6.44; k_t
+4.06, 4.55, 3.55), against 0.81, 0.86, 1.61 at 1 mm and 1.31, 1.10, 1.56 at 0.5 mm: the grid
 dependence differs from case to case. The ten Fig. 7
 cases at 1 mm (``mpm2d sweep intruder --set phi0=0.46,...,0.50 --set v0=0.2,0.5``; at 0.5 mm, with
 ``--set cells_per_mm=2``: mean 1.24, one of ten in range): k_l/k_t = 1.74 and 1.69 (phi0 0.46,
