@@ -140,6 +140,29 @@ def test_sweep_report_table_and_scatter(tmp_path):
     assert df["jammed"].tolist() == [False, True]
 
 
+def test_sweep_figure_of_one_phi0_has_a_real_colour_range(tmp_path, monkeypatch):
+    """A sweep over v0 at one phi0 drew a zero-width colour bar (ticks 0-0.8 with an offset
+    label 1e-9 + 0.47): the range is widened to phi0 +- 0.005."""
+    from mpm2d import plots
+    from mpm2d.scenes import intruder
+
+    rows = []
+    for v0 in (0.2, 0.5):
+        case = f"v0={v0}"
+        (tmp_path / case).mkdir()
+        (tmp_path / case / "summary.json").write_text(json.dumps(
+            {"phi0": 0.47, "v0_m_per_s": v0, "k_l": 3.0, "k_t": 1.5, "k_l_over_k_t": 2.0,
+             "r2_longitudinal": 0.99, "r2_transverse": 0.98, "jammed": True}))
+        rows.append({"phi0": 0.47, "v0": v0, "case": case, "status": "done"})
+    figs = []
+    save = plots.save
+    monkeypatch.setattr(intruder.plots, "save", lambda fig, path: (figs.append(fig),
+                                                                   save(fig, path))[1])
+    sweep_report(pd.DataFrame(rows), tmp_path)
+    lo, hi = figs[0].axes[1].get_ylim()                 # the colour bar's axis
+    assert lo == pytest.approx(0.465) and hi == pytest.approx(0.475)
+
+
 @pytest.mark.parametrize("item", ["phi0=0.6", "phi0=nan", "v0=-0.1", "v0=inf", "t_end=1",
                                   "mode=drained", "rod_contact=glue", "cells_per_mm=0",
                                   "rod_radius=0.2", "fit_margin=0.03", "speed=1"])

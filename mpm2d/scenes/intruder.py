@@ -483,6 +483,11 @@ def sweep_report(table, out) -> list:
     paths = [atomic_write_csv(out / "fronts.csv", df, empty_ok=undefined)]
     fig, ax = plots.plt.subplots(figsize=(5.5, 4.5))
     ok = df.dropna(subset=["k_l", "k_t"])
+    # colour range of phi0: a single phi0 gets a +-0.005 band (a zero-width range drew a
+    # degenerate colour bar with an offset label)
+    lo, hi = float(df["phi0"].min()), float(df["phi0"].max())
+    if hi - lo < 1e-6:
+        lo, hi = lo - 0.005, hi + 0.005
     for v0, mk in zip(sorted(ok["v0_m_per_s"].unique()), "osD^v"):
         for jam in (True, False):
             sel = ok[(ok["v0_m_per_s"] == v0) & (ok["jammed"] == jam)]
@@ -491,8 +496,7 @@ def sweep_report(table, out) -> list:
             # a case whose bed never jammed (the 'front' is the rod's viscous near field, not a
             # plug): open marker
             sc = ax.scatter(sel["k_t"], sel["k_l"], c=sel["phi0"], cmap="coolwarm", marker=mk,
-                            vmin=df["phi0"].min(),
-                            vmax=max(df["phi0"].max(), df["phi0"].min() + 1e-9),
+                            vmin=lo, vmax=hi,
                             edgecolors="k", linewidths=1.0 if jam else 2.0,
                             alpha=1.0 if jam else 0.35,
                             label=f"v0 = {v0:g} m/s" + ("" if jam else ", not jammed"))
