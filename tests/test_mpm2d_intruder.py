@@ -117,6 +117,13 @@ def test_analysis_recovers_known_front_speeds():
     assert "less than two cells" in res_short["fit_note"]
     res_ok = analyse(front, tip, dict(params, v0=0.2), h, max_f=np.ones_like(t))
     assert res_ok["fit_note"] == "" and math.isfinite(res_ok["k_l"])
+    # each front on its own: over the window (from the contact transient to 2.5 ms) the
+    # longitudinal front crosses more than two cells, the transverse one about one
+    one = front[front["time_s"] <= 0.0025]
+    res_one = analyse(one, tip[:len(one)], params, h, max_f=np.ones(len(one)))
+    assert res_one["k_l"] == pytest.approx(v_fl / v0 - 1.0) and math.isnan(res_one["k_t"])
+    assert "the transverse front advances only" in res_one["fit_note"]
+    assert "longitudinal" not in res_one["fit_note"]
     # no front at all: undefined, not garbage
     none = analyse(front.assign(longitudinal_m=np.nan), tip, params, h)
     assert math.isnan(none["k_l"]) and math.isnan(none["k_t"])

@@ -325,28 +325,33 @@ def analyse(front: pd.DataFrame, tip_depth, params, h, max_f=None) -> dict:
                         h=h, margin=params["fit_margin"], t_min=t_min)
     v0 = params["v0"]
     nan = float("nan")
-    note = "" if jammed else ("the bed did not jam: the fronts are the rod's near field, "
+    near = "" if jammed else ("the bed did not jam: the fronts are the rod's near field, "
                               "not a jammed plug")
-    if math.isfinite(t0):
-        # a speed needs the front to cross cells: each front must advance at least 2 h over
-        # the fit window, else the speeds are not resolved by the grid (a window of a few us
-        # gave k_l ~ -1e302 at v0 = 1e-300)
-        ts = np.asarray(front["time_s"], float)
-        sel = (ts >= t0) & (ts <= t1)
-        travel = min(float(np.nanmax(c[sel]) - np.nanmin(c[sel])) if np.isfinite(c[sel]).any()
-                     else 0.0 for c in (np.asarray(front["longitudinal_m"], float),
-                                        np.asarray(front["transverse_m"], float)))
+    fits, short = {}, []
+    for key, name in (("longitudinal_m", "longitudinal"), ("transverse_m", "transverse")):
+        fits[key] = {"speed": nan, "r2": nan, "points": 0, "intercept": nan}
+        if not math.isfinite(t0):
+            continue
+        # a speed needs the front to cross cells: at least 2 h over the fit window, else it is
+        # not resolved by the grid (a window of a few us gave k_l ~ -1e302 at v0 = 1e-300)
+        ts, c = np.asarray(front["time_s"], float), np.asarray(front[key], float)
+        sel = (ts >= t0) & (ts <= t1) & np.isfinite(c)
+        travel = float(c[sel].max() - c[sel].min()) if sel.any() else 0.0
         if travel < 2.0 * h:
-            note = (f"not measured: a front advances only {travel:.3g} m over the fit window "
-                    f"[{t0:.4g}, {t1:.4g}] s, less than two cells (h = {h:g} m); run longer "
-                    "(t_end) or on a finer grid")
-            t0 = t1 = nan
-    if math.isfinite(t0):
-        fl = fit_speed(front["time_s"], front["longitudinal_m"], t0, t1)
-        ft = fit_speed(front["time_s"], front["transverse_m"], t0, t1)
+            short.append(f"the {name} front advances only {travel:.3g} m")
+        else:
+            fits[key] = fit_speed(front["time_s"], front[key], t0, t1)
+    fl, ft = fits["longitudinal_m"], fits["transverse_m"]
+    if not math.isfinite(t0):
+        why = ("not measured: no stretch after the contact transient "
+               f"({set_up_time(params):.3g} s) where both fronts exist and grow")
+    elif short:
+        why = (f"not measured: {' and '.join(short)} over the fit window [{t0:.4g}, {t1:.4g}] s, "
+               f"less than two cells (h = {h:g} m); run longer (t_end), faster (v0) or on a "
+               "finer grid")
     else:
-        fl = ft = {"speed": nan, "r2": nan, "points": 0, "intercept": nan}
-        note = note or "not measured: no stretch where both fronts exist and grow"
+        why = ""
+    note = "; ".join(x for x in (why, near) if x)
     k_l = fl["speed"] / v0 - 1.0
     k_t = ft["speed"] / v0
     ratio = k_l / k_t if (math.isfinite(k_t) and k_t != 0) else nan
