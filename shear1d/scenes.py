@@ -32,6 +32,7 @@ import pandas as pd
 
 import rheology
 from rheology.checks import check_memory, check_positive, check_range
+from rheology.cli_common import TIME_MAX, TIME_MIN
 from rheology.io import atomic_write_csv, atomic_write_json, check_output_dir, previous_checkpoint
 
 from . import analysis
@@ -57,6 +58,14 @@ def annular_shear_jamming(u_inner: float = 0.084, *, n_cells: int = 200, mode: s
 
     ``overrides`` replace material parameters (e.g. K=8.3e6); t_end = rotation R_i/u_inner
     (+ ramp_time/2 with a start-up ramp), the time at which the bob has turned ``rotation``.
+
+    Raises
+    ------
+    ValueError
+        A parameter out of its range, or a t_end outside the durations of every tier
+        [TIME_MIN, TIME_MAX] (rheology.cli_common: 1 ps to 30 years), naming u_inner and rotation
+        with their ranges at the other's value (u_inner = 1e-300 asked for 3.9e297 s and failed
+        in the law; rotation = 1e-300 ran 1.5e-301 s and wrote its files).
     """
     check_positive("u_inner", u_inner, note="m/s, bob surface speed")
     check_positive("rotation", rotation, note="rad of bob rotation to simulate")
@@ -64,7 +73,16 @@ def annular_shear_jamming(u_inner: float = 0.084, *, n_cells: int = 200, mode: s
     grid = Grid("annular", float(r_inner), float(r_outer), n_cells)
     problem = Couette(m, grid, mode=mode, wall_speed=float(u_inner), ramp_time=ramp_time,
                       phi0=phi0)
-    return problem, float(rotation) * grid.inner / float(u_inner) + 0.5 * float(ramp_time)
+    t_end = float(rotation) * grid.inner / float(u_inner) + 0.5 * float(ramp_time)
+    if not TIME_MIN <= t_end <= TIME_MAX:
+        arc = grid.inner / float(u_inner)           # s per rad of rotation
+        raise ValueError(
+            f"u_inner = {u_inner:g} m/s and rotation = {rotation:g} rad make a run of "
+            f"{t_end:.4g} s, outside the valid durations [{TIME_MIN:g}, {TIME_MAX:g}] s: at "
+            f"rotation = {rotation:g} rad, u_inner in [{rotation * grid.inner / TIME_MAX:.6g}, "
+            f"{rotation * grid.inner / TIME_MIN:.6g}] m/s; at u_inner = {u_inner:g} m/s, rotation "
+            f"in [{TIME_MIN / arc:.6g}, {TIME_MAX / arc:.6g}] rad")
+    return problem, t_end
 
 
 def plane_couette(speed: float | None = None, *, stress: float | None = None, gap: float = 1e-2,

@@ -151,3 +151,19 @@ def test_summary_reports_newtonian_slow_case():
     s = summarize(solve(pb, t_end, n_out=31))
     assert max(s["newtonian_deviation_max_over_u"].values()) < 0.01
     assert s["f_max"] < 0.01 * s["f_jam"]
+
+
+@pytest.mark.parametrize("kw", [dict(u_inner=1e-300), dict(u_inner=0.084, rotation=1e-300)])
+def test_annular_duration_outside_the_tiers_durations_is_refused(kw):
+    """u_inner = 1e-300 asked for a 3.9e297 s run (it failed in the law); rotation = 1e-300 ran
+    1.5e-301 s: t_end must lie in rheology.cli_common's [TIME_MIN, TIME_MAX], and the message
+    gives both parameters' ranges, which hold (a value at the edge is accepted)."""
+    from rheology.cli_common import TIME_MAX, TIME_MIN
+
+    with pytest.raises(ValueError, match=r"outside the valid durations \[1e-12, 1e\+09\] s"):
+        annular_shear_jamming(n_cells=8, **kw)
+    ri = 12.5e-3                                          # shear1d's default bob radius [m]
+    slowest = 0.31 * ri / TIME_MAX * 1.001                # the lower edge of u_inner's range
+    assert annular_shear_jamming(slowest, n_cells=8)[1] <= TIME_MAX
+    least = TIME_MIN * 0.084 / ri * 1.001                 # the lower edge of rotation's range
+    assert annular_shear_jamming(0.084, rotation=least, n_cells=8)[1] >= TIME_MIN
