@@ -188,19 +188,26 @@ class _DeferredSignals:
         return False
 
 
-def _first_step(scene) -> tuple[float, float]:
-    """(first step [s], number of steps to t_end at it) of a freshly set-up scene (inf/0 steps
-    and NaN are returned, not raised)."""
+def _first_step(scene) -> tuple[float, float, int]:
+    """(first step [s], number of steps to t_end at it, the fewest steps the scene needs) of a
+    freshly set-up scene (inf/0 steps and NaN are returned, not raised)."""
     sim = scene.sim
     with np.errstate(all="ignore"):
         dt = sim.user_dt if sim.user_dt is not None else sim.stable_dt()
         steps = (scene.t_end - sim.t) / dt if dt > 0 else math.inf
-    return float(dt), float(steps)
+    return float(dt), float(steps), max(1, int(scene.min_steps))
 
 
 def _steps_ok(scene) -> bool:
-    _, steps = _first_step(scene)
-    return bool(max(1, int(scene.min_steps)) <= steps <= MAX_STEPS)
+    _, steps, need = _first_step(scene)
+    return bool(need <= steps <= MAX_STEPS)
+
+
+def _after_numpy(held) -> str:
+    """" after numpy's 'MESSAGE'" for the first RuntimeWarning among ``held`` (warnings recorded
+    by ``warnings.catch_warnings(record=True)``), "" when there is none."""
+    first = next((w for w in held if issubclass(w.category, RuntimeWarning)), None)
+    return f" after numpy's '{first.message}'" if first is not None else ""
 
 
 def check_step_count(scene, name: str) -> None:
@@ -208,8 +215,7 @@ def check_step_count(scene, name: str) -> None:
     the scene's ``min_steps`` (at least one: an end time below one stable step), at its first
     stable step. Without the set-up function the parameters cannot be blamed one by one: the
     message names the step and the end time (:func:`run_scene` names the parameter set)."""
-    dt, steps = _first_step(scene)
-    need = max(1, int(scene.min_steps))
+    dt, steps, need = _first_step(scene)
     if steps > MAX_STEPS or not steps >= need:
         raise ValueError(f"scene {name}: a step of {dt:.3g} s to t_end = {scene.t_end:.3g} s is "
                          f"{steps:.3g} steps; valid: {need} to {MAX_STEPS:.0e} steps")
@@ -275,8 +281,7 @@ def refuse_step_count(setup, scene, params: dict, given: dict, name: str) -> Non
     bisection between the value given and the default (a fixed ``dt`` exactly: the step is dt);
     when no single one does, every given parameter is named. The search is limited to
     BLAME_BUDGET_S wall seconds (the bound found so far is a valid one)."""
-    dt, steps = _first_step(scene)
-    need = max(1, int(scene.min_steps))
+    dt, steps, need = _first_step(scene)
     if need <= steps <= MAX_STEPS:
         return
     long = not steps < need
@@ -379,14 +384,10 @@ def first_step_ok(scene) -> tuple[bool, str]:
             probe.step()
             e = probe.energies()
     except (RuntimeError, ArithmeticError, ValueError) as exc:
-        first = next((w for w in held if issubclass(w.category, RuntimeWarning)), None)
-        after = f" after numpy's '{first.message}'" if first is not None else ""
-        return False, f"{type(exc).__name__}: {exc}{after}"
+        return False, f"{type(exc).__name__}: {exc}{_after_numpy(held)}"
     bad = [k for k, x in e.items() if not np.isfinite(x)]
     if bad:
-        first = next((w for w in held if issubclass(w.category, RuntimeWarning)), None)
-        after = f" after numpy's '{first.message}'" if first is not None else ""
-        return False, f"non-finite {', '.join(bad)}{after}"
+        return False, f"non-finite {', '.join(bad)}{_after_numpy(held)}"
     return True, ""
 
 
@@ -447,6 +448,7 @@ def _remove_stale_temporaries(out: Path) -> list[str]:
 
 
 _FRAME = re.compile(r"frame_\d{5}\.npz$")
+_VTU = re.compile(r"(.+)_\d{5}\.vtu")
 
 
 def _our_manifest(out: Path) -> dict | None:
@@ -518,8 +520,7 @@ def previous_run_files(out: Path) -> list[Path]:
         files += [f for f in (out / "frames").iterdir() if _FRAME.match(f.name)]
     if (out / "vtk").is_dir():
         files += [f for f in (out / "vtk").iterdir()
-                  if re.fullmatch(r"(.+)_\d{5}\.vtu", f.name)
-                  and re.fullmatch(r"(.+)_\d{5}\.vtu", f.name).group(1) in names]
+                  if (v := _VTU.fullmatch(f.name)) is not None and v.group(1) in names]
         files += [out / "vtk" / f"{n}.pvd" for n in names if "/" not in n]
     files += [out / n for n in ("checkpoint.npz", "checkpoint.prev.npz", "history.csv",
                                 "manifest.json")]
@@ -739,11 +740,9 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                                                for k in given):
             raise
         given_text = ", ".join(f"{k} = {v}" for k, v in given.items()) or "the defaults"
-        first = next((w for w in held if issubclass(w.category, RuntimeWarning)), None)
-        after = f" after numpy's '{first.message}'" if first is not None else ""
         raise ValueError(f"scene {name}: with {given_text} the set-up breaks down "
-                         f"({type(exc).__name__}: {exc}{after}); valid: values away from the "
-                         f"extremes of their ranges ('mpm2d show {name}')") from None
+                         f"({type(exc).__name__}: {exc}{_after_numpy(held)}); valid: values "
+                         f"away from the extremes of their ranges ('mpm2d show {name}')") from None
     announce.cancel()
     if saved is None:
         # too many steps, or fewer than the scene's analysis needs (an end time below one
@@ -901,10 +900,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         except (RuntimeError, ArithmeticError, ValueError) as exc:
             # a run that fails mid-way: its files stay for the diagnosis and the manifest
             # says so (numpy's warnings of the run are cited, not printed before)
-            first = next((w for w in held_run if issubclass(w.category, RuntimeWarning)),
-                         None)
-            after = f" (after numpy's '{first.message}')" if first is not None else ""
-            message = f"{exc}{after}"
+            after = _after_numpy(held_run)
+            message = f"{exc} ({after.strip()})" if after else str(exc)
             manifest["status"] = "failed"
             manifest["error"] = message
             manifest["steps"] = sim.step_count
