@@ -53,6 +53,7 @@ from rheology.io import (atomic_write_csv, check_output_dir, load_checkpoint,
 
 from .output import write_frame, write_manifest, write_pvds
 from .progress import Progress
+from .scenes.spec import shown_value
 from .simulation import Simulation
 
 #: temporary files of an atomic write (``.NAME.XXXXXXXX.suffix``) left by a killed run
@@ -239,12 +240,6 @@ def _build(setup, params: dict):
         return None
 
 
-def _shown(x) -> str:
-    if isinstance(x, float):
-        return f"{x:.6g}" if float(f"{x:.6g}") == x else repr(x)
-    return str(x)
-
-
 def _round_toward(x: float, good_side_up: bool) -> float:
     """``x`` to 3 significant digits, rounded away from the invalid side."""
     if x == 0 or not math.isfinite(x):
@@ -322,13 +317,13 @@ def blame(setup, params: dict, given: dict, name: str, ok: Callable, why: str,
     culprits = [k for k in changed if time.perf_counter() < deadline
                 and ok_at(k, spec.defaults[k])]
     if not culprits:
-        shown = ", ".join(f"{k} = {_shown(params[k])}" for k in changed) or "the defaults"
+        shown = ", ".join(f"{k} = {shown_value(params[k])}" for k in changed) or "the defaults"
         return ValueError(f"scene {name}: {shown} {why}; valid: move them toward their "
                           f"defaults ('mpm2d show {name}' lists the ranges)")
     parts = []
     for k in culprits:
         v, d = params[k], spec.defaults[k]
-        head = f"{k} = {_shown(v)} {why}"
+        head = f"{k} = {shown_value(v)} {why}"
         if k in special:
             parts.append(f"{head}; valid: {special[k]}")
             continue
@@ -423,7 +418,7 @@ def check_step_bound(spec, params: dict, name: str, given: dict | None = None) -
             limits.append(f"h >= {_round_toward(params['h'] * r, True):.3g} m")
         if not fixed and "cells_per_mm" in given:
             limits.append(f"cells_per_mm <= {_round_toward(params['cells_per_mm'] / r, False):.3g}")
-    shown = ", ".join(f"{k} = {_shown(v)}" for k, v in given.items()) or "the defaults"
+    shown = ", ".join(f"{k} = {shown_value(v)}" for k, v in given.items()) or "the defaults"
     verb = "makes" if len(given) == 1 else "make"
     head = f"scene {name}: {shown} {verb} the run too long: {knobs} give a step of at most " \
            f"{dt:.3g} s, at least {steps:.3g} steps to t_end, more than {MAX_STEPS:.0e}"

@@ -195,6 +195,14 @@ def _is_real(value) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating))
 
 
+def shown_value(x) -> str:
+    """A parameter value as a refusal shows it: a float at 6 significant digits when that is
+    exact, else in full (repr); anything else as str."""
+    if isinstance(x, float):
+        return f"{x:.6g}" if float(f"{x:.6g}") == x else repr(x)
+    return str(x)
+
+
 def _quiet_numpy():
     """numpy's floating-point warnings off inside a check (an overflow or a division by zero in
     a derived bound is the check's answer, not a line of its own before the refusal)."""
@@ -327,15 +335,12 @@ class SceneSpec:
             rng = self.valid_range(g, full)
             if rng is None or rng.contains(float(full[g])) or _empty(rng):
                 continue
-            x = float(full[g])
-            shown = f"{x:.6g}" if float(f"{x:.6g}") == x else repr(x)
-            why = ""
+            shown = shown_value(float(full[g]))
+            note = p.note_text(full)
             if g != key:
-                note = p.note_text(full)
                 why = (f" at the other parameters' values ({key} = {full[key]}"
                        + (f" must be within {note}" if note else " must stay valid") + ")")
             else:
-                note = p.note_text(full)
                 try:
                     own = p.number(key, full).range_text == rng.range_text
                 except Exception:
