@@ -759,7 +759,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         check_step_count(scene, name)
     for w in held:                           # a set-up that succeeded: its warnings as they were
         warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
-    if saved is None and (ckpt_path.exists() or ckpt_path.with_name("checkpoint.prev.npz").exists()):
+    if saved is None and (ckpt_path.exists()
+                          or ckpt_path.with_name("checkpoint.prev.npz").exists()):
         log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "
             "replaces it (--resume continues it instead)")
     with _DeferredSignals() as stop:         # from here on, a signal stops between steps
@@ -845,17 +846,19 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                             row = history_row(sim, scene)
                             if not np.isfinite(row["total_J"]):
                                 checkpoint()
-                                raise RuntimeError(f"non-finite energy at t = {sim.t:.6g} s (step "
-                                                   f"{sim.step_count}): the run diverged; see {out}")
+                                raise RuntimeError(f"non-finite energy at t = {sim.t:.6g} s "
+                                                   f"(step {sim.step_count}): the run diverged; "
+                                                   f"see {out}")
                             rows.append(row)
                             next_rec += rec_dt
                         regular = sim.t >= next_frame * (1.0 - 1e-9)
                         event = bool(events) and sim.t >= events[0] * (1.0 - 1e-9)
                         while events and sim.t >= events[0] * (1.0 - 1e-9):
                             events.pop(0)
-                        if regular or event:             # one snapshot per step, tagged event if asked
-                            manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim, vtk,
-                                                                  tag="event" if event else "frame"))
+                        if regular or event:    # one snapshot per step, tagged event if asked
+                            manifest["frames"].append(write_frame(
+                                out, len(manifest["frames"]), sim, vtk,
+                                tag="event" if event else "frame"))
                         if regular:
                             next_frame += frame_dt
                         if bar is not None:
@@ -867,26 +870,28 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                     if bar is not None:
                         bar.close(sim.t, sim.step_count)
                     checkpoint()
-                    log(f"interrupted ({stop.pending or 'KeyboardInterrupt'}) at t = {sim.t:.6g} s "
-                        f"(step {sim.step_count}); checkpoint written to {ckpt_path}: continue with "
-                        "--resume")
-                    raise KeyboardInterrupt(f"checkpoint written to {ckpt_path}: rerun with --resume "
-                                            "to continue") from None
+                    log(f"interrupted ({stop.pending or 'KeyboardInterrupt'}) at t = "
+                        f"{sim.t:.6g} s (step {sim.step_count}); checkpoint written to "
+                        f"{ckpt_path}: continue with --resume")
+                    raise KeyboardInterrupt(f"checkpoint written to {ckpt_path}: rerun with "
+                                            "--resume to continue") from None
                 if bar is not None:
                     bar.close(sim.t, sim.step_count)
                 history = pd.DataFrame(rows)
                 figures = []
                 if complete:
                     if manifest["frames"][-1]["step"] != sim.step_count:
-                        manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim, vtk))
+                        manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim,
+                                                              vtk))
                     if vtk:
                         write_pvds(out, manifest["frames"])
                     write_history(history)               # the report may read it
                     write_manifest(out, manifest)        # the report reads the frames from it
                     if scene.report is not None:
-                        # the final state first: a report that runs sub-runs (the wheel's other omegas)
-                        # can be interrupted, and the same command with --resume then finds this run
-                        # complete, goes straight to its report and resumes the sub-run
+                        # the final state first: a report that runs sub-runs (the wheel's other
+                        # omegas) can be interrupted, and the same command with --resume then
+                        # finds this run complete, goes straight to its report and resumes the
+                        # sub-run
                         checkpoint()
                         figures = [str(Path(f).relative_to(out)) if Path(f).is_relative_to(out)
                                    else str(f) for f in scene.report(sim, history, out)]
