@@ -127,5 +127,5 @@ def mark_end(ax, x: float, text: str, *, vertical: bool = True, color: str = "cr
                     textcoords="offset points")
     else:
         ax.annotate(text, (0.02, x), xycoords=("axes fraction", "data"), fontsize=7,
-                    color=color, ha="left", va="bottom", xytext=(0, 2),
+                    color=color, ha="left", va="top", xytext=(0, -2),
                     textcoords="offset points")

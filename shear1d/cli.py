@@ -9,9 +9,13 @@
 Long runs show a progress bar of the simulated time (--quiet: none), keep a checkpoint in DIR
 (every --checkpoint-every seconds, and on Ctrl-C or SIGTERM) and continue with --resume.
 Bad input ends with one line on stderr and exit status 2, before anything is written (an empty
---out too: it would write into the current folder); a solver failure with one line and status 1
+--out too: it would write into the current folder). A run that ends early (a cell's elastic
+strain taubar/G or p/K past 0.1, a solver or local-update failure, an unphysical state) keeps its
+outputs up to the end: its files and figures are written from them, its summary JSON (annular)
+or couette.json says where and why (status, ends), one line per run on stderr, exit status 3
 (SUNDIALS' own error text, which sksundae prints on stdout, is kept off stdout and put on that
-line); an interrupt with status 130 and where the checkpoint is.
+line). A run failing before its second output: one line, status 1. An interrupt: status 130 and
+where the checkpoint is.
 """
 
 from __future__ import annotations

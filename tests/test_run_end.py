@@ -6,6 +6,7 @@ unlimited run computes at the same times, the imposed ramp), the end record, the
 the exit status 3 and the mark on the figure."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -20,27 +21,30 @@ TAU_LIMIT = ELASTIC_STRAIN_LIMIT * G
 
 @pytest.fixture
 def figures(monkeypatch):
-    """The figures the commands save (through rheology.io.atomic_savefig), by path."""
+    """The figures the commands save (rheology.io.atomic_savefig, also as shear1d.plots'), by
+    file name: per axes its lines' (x, y) data and its texts."""
     import rheology.io
+    import shear1d.plots
 
     saved, real = {}, rheology.io.atomic_savefig
 
     def keep(fig, path, **kw):
-        saved[str(path)] = [(ax.get_xlabel(), [ln.get_xdata() for ln in ax.lines],
-                             [t.get_text() for t in ax.texts]) for ax in fig.axes]
+        saved[Path(path).name] = [([(ln.get_xdata(), ln.get_ydata()) for ln in ax.lines],
+                                   [t.get_text() for t in ax.texts]) for ax in fig.axes]
         return real(fig, path, **kw)
 
     monkeypatch.setattr(rheology.io, "atomic_savefig", keep)
+    monkeypatch.setattr(shear1d.plots, "atomic_savefig", keep)
     return saved
 
 
-def _marked(axes, x: float, words: str) -> int:
-    """How many axes carry a vertical line at x and a text with ``words``."""
+def _marked(axes, x: float, words: str, vertical: bool = True) -> int:
+    """How many axes carry a line at x (vertical, else horizontal) and a text with ``words``."""
     n = 0
-    for _, lines, texts in axes:
-        vertical = any(len(d) == 2 and np.allclose(np.asarray(d, float), x, rtol=1e-12)
-                       for d in lines)
-        n += vertical and any(words in t for t in texts)
+    for lines, texts in axes:
+        at = any(len(d) == 2 and np.allclose(np.asarray(d, float), x, rtol=1e-12)
+                 for d in (xy[0 if vertical else 1] for xy in lines))
+        n += at and any(words in t for t in texts)
     return n
 
 
@@ -222,3 +226,141 @@ def test_mark_end_draws_a_line_and_its_label():
     assert list(ax.lines[2].get_ydata()) == [0.7, 0.7]
     assert [t.get_text() for t in ax.texts] == ["ended: solver failure", "ended: limit"]
     plt.close(fig)
+
+
+# ------------------------------------------------------------------ shear1d
+COUETTE = ["couette", "--speed", "1.5", "--gap", "0.001", "--cells", "8", "--time", "3e-4",
+           "--outputs", "15", "--method", "explicit", "--quiet"]
+
+
+def test_shear1d_couette_ends_at_the_first_output_past_the_elastic_limit(tmp_path, capsys,
+                                                                         figures):
+    """A 1 mm plane Couette gap driven impulsively at 0.1 c_s (its largest speed) jams and its
+    skeleton strains past taubar/G = 0.1 at ~0.27 ms: the run ends at the output before; its
+    outputs are those of the unlimited run (the explicit scheme, bit for bit), within the limit,
+    the next one past it; couette.json says so, couette.png marks it, exit 3."""
+    from shear1d.cli import main
+    from shear1d.integrate import elastic_strains, solve
+    from shear1d.scenes import plane_couette
+
+    out = tmp_path / "c"
+    assert main(COUETTE + ["--out", str(out)]) == ENDED_EARLY
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("shear1d couette: couette: ended early at t = ")
+    assert "elastic strain taubar/G" in err[0] and "limit 0.1" in err[0]
+    rec = json.loads((out / "couette.json").read_text())
+    (end,) = rec["ends"]
+    assert rec["status"] == "ended_early" and end["kind"] == "validity_limit"
+    wall = pd.read_csv(out / "couette_wall.csv")
+    n = len(wall)
+    assert rec["outputs"] == n and wall["time_s"].iloc[-1] == end["time_s"] == rec["t_end_s"]
+    ref = solve(plane_couette(1.5, gap=1e-3, n_cells=8), 3e-4, method="explicit", n_out=15)
+    assert n < len(ref.t) and wall["time_s"].to_numpy() == pytest.approx(ref.t[:n], abs=0)
+    assert wall["wall_shear_stress_Pa"].to_numpy() == pytest.approx(
+        np.abs(ref.field("shear_stress"))[:n, 0], rel=1e-12)
+    strains = np.array([elastic_strains(ref.problem, t, y)[0] for t, y in zip(ref.t, ref.y)])
+    assert strains[:n].max() <= 0.1 < strains[n]
+    assert end["value"] == pytest.approx(strains[n], rel=1e-12) and end["past_s"] == ref.t[n]
+    assert _marked(figures["couette.png"], end["time_s"], "elastic strain taubar/G > 0.1") == 1
+    assert not list(out.glob("*.npz"))                      # checkpoints removed
+
+
+def test_shear1d_annular_law_failure_keeps_the_outputs_before_it(tmp_path, monkeypatch, capsys,
+                                                                  figures):
+    """The Table 8 rate turned to NaN past 5 ms (a forced failure): the local update refuses
+    the state inside IDA's residual; the run's outputs before it are written (front, profiles,
+    fields, summary with status ended_early and the diagnostics) and agree with the unforced
+    run's; the figures are drawn, exit 3."""
+    from shear1d.cli import main
+    from shear1d.model import Couette
+
+    argv = ["annular", "--u-inner", "0.084", "--mode", "locked", "--cells", "16",
+            "--rotation", "0.06", "--outputs", "12", "--quiet"]
+    assert main(argv + ["--out", str(tmp_path / "ref")]) == 0
+    real = Couette.rhs
+
+    def rhs(self, t, y, out, delta, diag=None):
+        real(self, t, y, out, delta, diag)
+        if t > 5e-3:
+            out[:] = np.nan
+
+    monkeypatch.setattr(Couette, "rhs", rhs)
+    out = tmp_path / "run"
+    assert main(argv + ["--out", str(out)]) == ENDED_EARLY
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("shear1d annular: u84mm_s_locked: ended early")
+    assert "Table 8 local update failed" in err[0] and "in IDA's residual" in err[0]
+    tag = "u84mm_s_locked"
+    s = json.loads((out / f"{tag}_summary.json").read_text())
+    (end,) = s["ends"]
+    assert s["status"] == "ended_early" and end["kind"] == "law_failure"
+    assert end["time_s"] <= 5e-3 and s["t_end_s"] == end["time_s"]
+    front, ref = pd.read_csv(out / f"{tag}_front.csv"), pd.read_csv(tmp_path / "ref" /
+                                                                    f"{tag}_front.csv")
+    n = len(front)
+    assert 2 <= n < len(ref) and front["time_s"].iloc[-1] == end["time_s"]
+    for col in ("time_s", "bob_shear_stress_Pa", "bulk_speed_over_u_inner"):
+        assert front[col].to_numpy() == pytest.approx(ref[col].to_numpy()[:n], rel=1e-6)
+    for name in ("velocity_profiles.png", "front_position.png", f"{tag}_fields.png"):
+        assert (out / name).stat().st_size > 10_000
+    rot = front["rotation_rad"].iloc[-1]
+    assert _marked(figures["front_position.png"], rot, "ended: law failure") == 1
+    assert _marked(figures[f"{tag}_fields.png"], rot, "ended: law failure", vertical=False) == 4
+
+
+# ------------------------------------------------------------------ mpm2d
+def test_mpm2d_run_whose_step_fails_ends_there_with_its_history(tmp_path, capsys, monkeypatch):
+    """A step failing mid-run (forced at t > 40 % of t_end, the bar scene): the run ends there;
+    history.csv holds the rows recorded up to it, equal to an uninterrupted run's; the
+    manifest's status is ended_early with the end; one line, exit 3."""
+    import mpm2d.scenes
+    from mpm2d.cli import main
+    from mpm2d.scenes import bar
+
+    argv = ["run", "bar", "--set", "cells=8", "--set", "periods=0.5", "--no-vtk", "--quiet"]
+    assert main(argv + ["--out", str(tmp_path / "ref")]) == 0
+
+    def setup(**p):
+        sc = bar.setup(**p)
+
+        def before_step(sim, t_fail=0.4 * sc.t_end):
+            if sim.t > t_fail:
+                raise RuntimeError(f"the local update failed at t = {sim.t:.6g} s (forced)")
+
+        sc.before_step = before_step
+        return sc
+
+    setup.spec = bar.setup.spec
+    monkeypatch.setattr(mpm2d.scenes, "get_setup", lambda name: setup)
+    out = tmp_path / "run"
+    assert main(argv + ["--out", str(out)]) == ENDED_EARLY
+    err = [line for line in capsys.readouterr().err.splitlines() if line]
+    assert len(err) == 1 and err[0].startswith("mpm2d run: ended early at t = ")
+    assert "the local update failed" in err[0] and str(out) in err[0]
+    man = json.loads((out / "manifest.json").read_text())
+    (end,) = man["ends"]
+    assert man["status"] == "ended_early" and end["kind"] == "solver_failure"
+    hist, ref = pd.read_csv(out / "history.csv"), pd.read_csv(tmp_path / "ref" / "history.csv")
+    n = len(hist)
+    assert 1 < n < len(ref) and hist["time_s"].iloc[-1] == end["time_s"]
+    t_end = json.loads((tmp_path / "ref" / "manifest.json").read_text())["t_end_s"]
+    assert end["past_s"] == end["time_s"] > 0.4 * t_end > hist["time_s"].iloc[-2]
+    pd.testing.assert_frame_equal(hist, ref.iloc[:n])
+
+
+def test_shear1d_ida_failure_at_the_first_output_fails_and_leaves_nothing(tmp_path, capsys,
+                                                                          monkeypatch):
+    """IDA allowed 5 steps cannot reach the first output: nothing to keep, so the run fails
+    (exit 1, IDA's diagnostics) and leaves no folder, no checkpoint."""
+    import sksundae.ida
+
+    from shear1d.cli import main
+
+    real = sksundae.ida.IDA
+    monkeypatch.setattr(sksundae.ida, "IDA", lambda *a, **k: real(*a, **{**k,
+                                                                         "max_num_steps": 5}))
+    out = tmp_path / "c"
+    assert main(COUETTE[:-3] + ["--quiet", "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "shear1d couette: failed: IDA failed at t = " in err[0]
+    assert "max_num_steps" in err[0] and not out.exists()
