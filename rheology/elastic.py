@@ -6,7 +6,8 @@ The elastic shear strain of the skeleton is taubar/G (and its volumetric strain 
 which it grows past :data:`ELASTIC_STRAIN_LIMIT` (10 %) uses the law outside its range: its
 stresses (up to G times any strain the drive imposes) mean nothing. ``shear1d`` bounds its wall
 speed to 0.1 c_s and its wall stress to 0.1 G for this reason (an impulsively moved wall sends a
-shear wave of elastic strain u/c_s); the rheometer checks the strain reached.
+shear wave of elastic strain u/c_s); the rheometer and the shear1d scene runs check the strain
+reached.
 
 :func:`past_elastic_limit` finds the first row of a run past the limit and describes it as the
 run's end (:class:`rheology.run_end.RunEnd`: the run keeps its rows before it, see

@@ -2,7 +2,10 @@
 
 Every subcommand runs on a default material (hermes2016, the cornstarch fit of Hermes et al. 2016)
 with no options and writes a CSV and a PNG named after it (flow_curve.csv, flow_curve.png, ...)
-in the current folder.
+in the current folder. A transient also writes its run record (startup.json, ...): a run that
+reaches the elastic-strain limit 0.1 or whose solver fails ends there, its rows up to the end
+written, the record's status and ends saying where and why; exit status 3 (0 complete, 1 failed,
+2 bad input, 130 interrupted).
 
 Examples::
 
