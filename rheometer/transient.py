@@ -578,11 +578,14 @@ class Rheometer:
         last piece's rows after that output and returns the state at the limit; None (rows kept
         as they are) when the resolve does not end on the limit or fails a check."""
         p = pieces[-1] if pieces else None
-        if p is None or p.step != k or p.t.size < 2:
+        if p is None or p.step != k:
             return None
-        t_lim = p.t[-1]
-        st0 = State(float(p.t[-2]), float(p.y[-2, TAU]), float(p.y[-2, GAP]),
-                    float(p.y[-2, STRAIN]))
+        t_lim, skip = p.t[-1], int(p.t.size < 2)
+        if skip:             # the solve's only row: from its start, the last row before it
+            st0 = st_solve
+        else:
+            st0 = State(float(p.t[-2]), float(p.y[-2, TAU]), float(p.y[-2, GAP]),
+                        float(p.y[-2, STRAIN]))
         fine = np.append(np.linspace(st0.t, t_lim, END_ROWS + 1)[:-1], grid[grid > t_lim][0])
         sol = self.integrate(fine, st0, C, scale, max_step=max_step)
         stats.count(sol)
@@ -592,8 +595,8 @@ class Rheometer:
                and sol.i_events[-1][NEVENTS] and sol.t_events[-1] == sol.t[-1])
         if end is not None or not hit:
             return None
-        pieces[-1] = _Piece(np.concatenate([p.t[:-2], sol.t]), np.concatenate([p.y[:-2], y]),
-                            k)
+        pieces[-1] = _Piece(np.concatenate([p.t[:-2], sol.t[skip:]]),
+                            np.concatenate([p.y[:-2], y[skip:]]), k)
         return State(float(sol.t[-1]), float(y[-1, TAU]), float(y[-1, GAP]),
                      float(y[-1, STRAIN]), float(model.structure_of_gap(y[-1, GAP], self.P)))
 

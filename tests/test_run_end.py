@@ -364,3 +364,33 @@ def test_shear1d_ida_failure_at_the_first_output_fails_and_leaves_nothing(tmp_pa
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "shear1d couette: failed: IDA failed at t = " in err[0]
     assert "max_num_steps" in err[0] and not out.exists()
+
+
+def test_resampling_the_end_from_a_restart_point():
+    """After a jamming restart the solve that reaches the limit may hold one row (the limit):
+    the interval is resolved again from the solve's start (the restart point, the last row of
+    the piece before): 32 rows after it, the last on the limit, the same root."""
+    import rheometer.transient as tr
+
+    r = tr.Rheometer("hermes2016", 0.5, elastic_limit=True)
+    r._points = 300
+    step = tr.Step("rate", 10.0, duration=60.0)
+    with pytest.raises(EndedEarly) as exc:
+        r.run([step])
+    df = exc.value.partial
+    t_lim = df["time_s"].iloc[-1]
+    a = df.iloc[-40]                                       # a restart point before the limit
+    st = tr.State(float(a["time_s"]), float(a["granular_shear_stress_Pa"]),
+                  float(a["jamming_gap"]), float(a["strain"]))
+    last = df.iloc[-1]
+    y_lim = np.array([[last["granular_shear_stress_Pa"], last["jamming_gap"],
+                       last["plastic_shear_rate_per_s"], last["shear_rate_per_s"],
+                       last["strain"]]])
+    pieces = [tr._Piece(np.array([t_lim]), y_lim, 0)]
+    grid = np.array([st.t, 2 * t_lim, 60.0])
+    end = r._resample_end(pieces, step, 0, st, r.control_of(step, r.rest()), r.scales(step, st),
+                          grid, None, tr.RunStats())
+    t = pieces[0].t
+    assert t.size == tr.END_ROWS and t[0] > st.t and end.t == pytest.approx(t_lim, rel=1e-6)
+    assert pieces[0].y[-1, tr.TAU] == pytest.approx(TAU_LIMIT, rel=1e-9)
+    assert np.all(np.diff(t) > 0)
