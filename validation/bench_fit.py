@@ -1,4 +1,4 @@
-"""Speed of the fitter: a 5-curve, 30-points-per-curve fit (the issue's size).
+"""Speed of the fitter: a 5-curve, 30-points-per-curve fit (a typical measured set).
 
 The reference is one model evaluation (all 150 points through the mixture-stress steady state),
 timed in the same process; the fit's cost is reported as wall time, number of model evaluations

@@ -5,7 +5,8 @@
    log-normal noise on the rate and the artefacts of real files (torque-floor readings, a
    repeated reading, a blank cell, wall slip on the densest curve), fitted from a start 20-300%
    off: phi_j, phi_c to 0.005; a0, a_inf, tau* to 10%; gdot_DST at the data's phi to 10%.
-2. Calibration: the 95% intervals over >= 50 noise seeds (guy2015_b, every parameter interior).
+2. Calibration: the 95% intervals over 150 noise seeds (guy2015_b, every parameter interior; at
+   50 seeds a coverage's sampling sd is ~0.04, enough to put a 0.91 coverage under 0.85).
 3. The paper's own numbers: stages 1-3 on the model curves of Table 1(a) at Fig. 1's ten volume
    fractions give back Table 1(a).
 4. The shipped example exports (rheometer/examples), read as files and fitted: RheoCompass, and
@@ -110,11 +111,11 @@ def fit_recovery(out: Path, quick: bool) -> Verdict:
 
 
 @case("rheology", "fit_calibration_intervals",
-      "Fit: 95% intervals over 50 noise seeds contain the truth (guy2015_b)", slow=True)
+      "Fit: 95% intervals over 150 noise seeds contain the truth (guy2015_b)", slow=True)
 def fit_calibration(out: Path, quick: bool) -> Verdict:
     m = r.get_material("guy2015_b")
     phis = recovery_phis(m)
-    n = 6 if quick else 50
+    n = 6 if quick else 150
     hits: dict[str, list[bool]] = {}
     flags: dict[str, int] = {}
     times = []
@@ -145,8 +146,10 @@ def fit_calibration(out: Path, quick: bool) -> Verdict:
     return Verdict(
         criterion=f"over {n} seeds (3% noise, artefacts), the 95% interval of every identifiable "
                   f"parameter contains the true value in >= {need:.0%} of the fits"
-                  + (" (quick run: 85% needs the full 50 seeds)" if quick else ""),
+                  + (" (quick run: 85% needs the full 150 seeds)" if quick else ""),
         measured=", ".join(f"{k} {cover[k]:.2f}" for k in cover)
+                 + ("; over the first 50 seeds alone: " + ", ".join(
+                     f"{k} {np.mean(v[:50]):.2f}" for k, v in hits.items()) if n > 50 else "")
                  + f"; median fit time {np.median(times):.2f} s (profile intervals on)",
         passed=bool(identifiable) and worst >= need, figures=[png])
 
@@ -236,7 +239,9 @@ RELAX_PHI = 0.52
 RELAX_STRESSES = (1e3, 300.0)
 
 
-def _relaxation_curves(G: float, K0: float, seed: int, t_end=None, stresses=RELAX_STRESSES):
+def _relaxation_curves(G: float, K0: float, seed: int, record=None, stresses=RELAX_STRESSES):
+    """Curves at each taubar0; ``record``: the record's length in units of eta_g/G (None: until
+    the stress reaches the 1e-3 taubar0 floor)."""
     from rheometer.relaxation_fit import synthetic_relaxation
 
     m = r.get_material("hermes2016")
@@ -244,7 +249,8 @@ def _relaxation_curves(G: float, K0: float, seed: int, t_end=None, stresses=RELA
     for i, tau0 in enumerate(stresses):
         eta = tau0 / float(r.steady_state_stress(tau0, RELAX_PHI, m).shear_rate)
         out.append(synthetic_relaxation(m, RELAX_PHI, tau0, G=G, K0=K0, offset=0.02 * eta / G,
-                                        seed=seed + 7 * i, t_end=t_end))
+                                        seed=seed + 7 * i,
+                                        t_end=None if record is None else record * eta / G))
     return out
 
 
@@ -257,14 +263,16 @@ def fit_relaxation_recovery(out: Path, quick: bool) -> Verdict:
 
     m = r.get_material("hermes2016")
     settings = [(G, K0, None) for G in (1e3, 1e4, 1e5) for K0 in (0.1, 1.0, 10.0)]
-    settings.append((1e4, 1.0, 0.02))          # a record that ends before it decays
+    settings.append((1e4, 1.0, 0.3))           # a record that ends before it decays
     rows, ok_all = [], True
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for i, (G, K0, t_end) in enumerate(settings):
-        curves = _relaxation_curves(G, K0, seed=20 + i, t_end=t_end,
+        curves = _relaxation_curves(G, K0, seed=20 + i, record=t_end,
                                     stresses=RELAX_STRESSES[:1] if t_end else RELAX_STRESSES)
         res = fit_relaxation(curves, m)
-        row = {"G_Pa": G, "K0": K0, "record_s": t_end or float("nan"), "runs": res.n_runs,
+        row = {"G_Pa": G, "K0": K0, "record_eta_over_G": t_end or float("nan"),
+               "last_stress_over_taubar0": float(curves[0].stress[-1] / curves[0].stress0),
+               "runs": res.n_runs,
                "seconds": res.seconds}
         verdicts = []
         for p, truth in (("G", G), ("K0", K0)):
@@ -285,9 +293,9 @@ def fit_relaxation_recovery(out: Path, quick: bool) -> Verdict:
     png = atomic_savefig(fig, out / "relaxation_recovery.png")
     plt.close(fig)
     df = pd.DataFrame(rows)
-    atomic_write_csv(out / "relaxation_recovery.csv", df, empty_ok=("record_s",))
-    full = df[df["record_s"].isna()]
-    short = df[df["record_s"].notna()].iloc[0]
+    atomic_write_csv(out / "relaxation_recovery.csv", df, empty_ok=("record_eta_over_G",))
+    full = df[df["record_eta_over_G"].isna()]
+    short = df[df["record_eta_over_G"].notna()].iloc[0]
     return Verdict(
         criterion="phi = 0.52, G in 1e3-1e5 Pa x K0 in 0.1-10 (two taubar0 each, fitted jointly, "
                   "3% noise, record starting late): G and K0 within 5% of the truth or flagged "
@@ -296,7 +304,8 @@ def fit_relaxation_recovery(out: Path, quick: bool) -> Verdict:
         measured=f"max |error| over the 9 settings: G {full['G_error'].abs().max():.2%}, K0 "
                  f"{full['K0_error'].abs().max():.2%} (verdicts: "
                  + ", ".join(f"{v}" for v in full["G_verdict"] + "/" + full["K0_verdict"])
-                 + f"); short record (0.02 s, one curve): G {short['G_error']:+.1%} "
+                 + f"); short record (0.3 eta_g/G, one curve ending at "
+                   f"{short['last_stress_over_taubar0']:.2f} taubar0): G {short['G_error']:+.1%} "
                    f"({short['G_verdict']}), K0 {short['K0_error']:+.1%} ({short['K0_verdict']}:"
                    f" {short['K0_note'] or '-'}); median fit {df['seconds'].median():.1f} s",
         passed=bool(ok_all), figures=[png])
