@@ -16,7 +16,7 @@ bounds :data:`G_RANGE`, :data:`K0_RANGE`, t0 within the record's first time minu
 plus half its span); the Jacobian in ln G, ln K0 by central differences, in t0 exactly (the
 model's slope). Start: G from the record's decay time (the frozen-structure time eta_g/G with
 eta_g = taubar0/gdot0 of the steady state), the best of K0 in 0.01..100 and G in 0.3..3 times that,
-t0 extrapolated from the first reading.
+t0 where that start's model passes the first reading.
 
 Intervals and flags as :mod:`rheology.fit` (:func:`rheology.fit.jacobian_covariance`,
 Student-t; ln G and ln K0 the reporting coordinates): ``at_bound`` (K0 at its floor is the law's
@@ -25,6 +25,8 @@ wider than a factor 2 for G and K0, unbounded or undefined (null), |r| > 0.99 be
 K0; the offsets t0 trade with G by the model's form and their marginal intervals carry it),
 ``converged``. The reason is named where the data cause it: a curve that ends before it decays
 (its last stress above taubar0/e), a structure that barely changes (K0 acts only through f).
+A residual sd above :data:`MISFIT_LOG10` is a problem of its own (the model does not describe
+the data: a wrong taubar0, phi or steady material).
 """
 
 from __future__ import annotations
@@ -51,6 +53,9 @@ K0_RANGE = (1e-6, K0_MAX)
 POINTS = 1000
 #: Reporting coordinate of each parameter (t0_i: "lin").
 SCALE = {"G": "log", "K0": "log"}
+#: Residual sd [log10 stress] beyond which the fit does not describe the data (a factor 2 rms;
+#: a rheometer's noise is a few percent, 0.01-0.02).
+MISFIT_LOG10 = 0.3
 UNITS = {"G": "Pa", "K0": "-"}
 
 
@@ -251,10 +256,14 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
 
     def start_theta(G, k0):
         th = [np.log(G)] + [np.log(k0)] * fit_k0
-        if fit_t0:          # frozen-structure exponential through the first reading
-            th += [c.time[0] - max(np.log(c.stress0 / c.stress[0]), 0.0) * eg / G
-                   for c, eg in zip(curves, eta_g)]
-        return np.clip(np.array(th, float), lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+        if fit_t0:          # cessation where the model passes the first reading
+            for c, eg in zip(curves, eta_g):
+                runs[0] += 1
+                probe = relax(m, c.phi, c.stress0, 50.0 * eg / G, G=G, K0=k0, points=400)
+                s = probe["granular_shear_stress_Pa"].to_numpy()
+                k = int(np.argmax(s <= c.stress[0])) if (s <= c.stress[0]).any() else s.size - 1
+                th.append(c.time[0] - float(probe["time_s"].iloc[k]))
+        return np.clip(np.array(th, float), lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo))
 
     best = None
 
@@ -356,6 +365,12 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
     if not converged:
         problems.append("the fit stopped at its evaluation limit before converging: its values "
                         "are not an optimum")
+    sigma = float(np.sqrt(np.sum(r ** 2) / dof)) / np.log(10.0)
+    if sigma > MISFIT_LOG10:
+        problems.append(f"the model misses the records by a factor {10 ** min(sigma, 300):.3g} "
+                        f"rms (sd {sigma:.3g} in log10 stress, more than {MISFIT_LOG10:g}): it "
+                        "does not describe these data; check --stress0 (the steady stress "
+                        "before cessation), --phi and --material of each curve")
     from rheology.elastic import ELASTIC_STRAIN_LIMIT
 
     strain = max(c.stress0 for c in curves) / G
@@ -368,7 +383,6 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
                        notes=(m.notes + "; " if m.notes else "") + "G and K0 fitted by "
                        "rheometer.relaxation_fit to stress relaxation (Eqs. 35-37)")
     model = [np.exp(np.log(c.stress) - e[0]) for c, e in zip(curves, ev)]
-    sigma = float(np.sqrt(np.sum(r ** 2) / dof)) / np.log(10.0)
     return RelaxationFit(fitted, params, curves, model,
                          [e[0] / np.log(10.0) for e in ev], np.asarray(t0s, float), delta_f,
                          sigma, converged, confidence, (names, corr), problems, messages,

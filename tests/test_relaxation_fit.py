@@ -191,3 +191,20 @@ def test_rerun_into_a_used_folder_holds_only_this_runs_files(tmp_path, capsys):
     assert rc == 2 and "holds files no fit writes (notes.txt)" in err
     assert sorted(p.name for p in out.iterdir()) == ["fit.csv", "material.json", "notes.txt",
                                                      "parameters.csv"]
+
+
+def test_an_unphysical_relaxation_fit_exits_1_and_keeps_its_results(tmp_path, capsys):
+    """--stress0 300x the record's stress: the fit stopped on xtol at a misfit of 44 decades,
+    its cessation time near a bound, and was reported converged. A residual sd beyond
+    MISFIT_LOG10 is a problem of its own: exit 1, the paragraph names --stress0; the material is
+    written as material_rejected.json."""
+    out = tmp_path / "bad"
+    rc, _, err = _run(["fit-relaxation", TRIOS, "--material", "hermes2016", "--phi", "0.52",
+                       "--stress0", "1e4", "--interval", "relaxation - 4", "--K0", "1",
+                       "--out", str(out), "--no-plots"], capsys)
+    assert rc == 1 and len(err.strip().splitlines()) == 1, err
+    assert "the model misses the records" in err and "--stress0" in err
+    assert sorted(p.name for p in out.iterdir()) == ["fit.csv", "material_rejected.json",
+                                                     "parameters.csv"]
+    doc = json.loads((out / "material_rejected.json").read_text())
+    assert doc["fit"]["accepted"] is False and len(doc["fit"]["problems"]) >= 1
