@@ -32,6 +32,10 @@ f_n:
      Table 8's f_3 <= 0 needs gdot_p > 0 at any p > 0 below jamming (``rules = "table8"``, the
      default). That is the only difference between the two (the author's separation bound is
      the one above); a flowing point never meets it (mu_p + beta >= mu_1 on the yield surface).
+     The cone is a discontinuity of the mpm_3d update below jamming: across it p jumps from p*
+     (elastic) to the compaction or dilatant pressure of the flowing point, for a loose point
+     at rest far below p* (no rate gives a pressure between them: pressure control cannot hold
+     a loose mpm_3d point on the cone).
    - dilatant shear flow (f_1 = 0, xi_2 = 0): for a given beta, I_m follows from
      phi_eq = phi - beta/K3, then p I_m^2 = rho_s d^2 gdot^2 + 2 eta0 gdot with p = p* + K dt beta gdot
      is a quadratic with one positive root gdot(beta); the remaining scalar equation
