@@ -85,4 +85,5 @@ def test_rheometer_material_point_under_each_rule(tmp_path):
     assert main(["material-point", "--material", "hermes2016", "--phi", "0.45", "--rate", "5",
                  "--t-end", "0.05", "--pressure0", "0", "--out", str(out)]) == 0
     df = pd.read_csv(out)
-    assert df["granular_pressure_Pa"].iloc[0] == 0 and np.all(df["granular_pressure_Pa"].iloc[1:] > 0)
+    p = df["granular_pressure_Pa"]
+    assert p.iloc[0] == 0 and np.all(p.iloc[1:] > 0)

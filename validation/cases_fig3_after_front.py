@@ -15,10 +15,11 @@ is at the wall and what makes it move again:
 
 Measured for each: the rotation where the bulk speed (mean |v|/u_i beyond 20 % of the gap)
 first falls below 0.1 after its largest value (the band, rotating with the bob, has reached the
-wall: the flow "stops"), where it next exceeds 0.1 (it "restarts"), the structure at the bob, the bob's shear stress and the distance of the profile
-from the steady Newtonian one A r + B/r at 0.31 rad. The annulus driven by a no-slip bob cannot
-come to rest: an elastic solid and a uniform-viscosity fluid both move as A r + B/r there, so a
-profile near the Newtonian one is no evidence of unjamming. This module may import the tiers.
+wall: the flow "stops"), where it next exceeds 0.1 (it "restarts"), the structure at the bob,
+the bob's shear stress and the distance of the profile from the steady Newtonian one A r + B/r
+at 0.31 rad. The annulus driven by a no-slip bob cannot come to rest: an elastic solid and a
+uniform-viscosity fluid both move as A r + B/r there, so a profile near the Newtonian one is no
+evidence of unjamming. This module may import the tiers.
 """
 
 from __future__ import annotations
