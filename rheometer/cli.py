@@ -292,9 +292,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--stress0", type=Number("--stress0", 0.0, STRESS_MAX, lo_closed=False,
                                             unit="Pa"), default=None,
                    help="start from the steady state at this granular shear stress [Pa]")
-    p.add_argument("--pressure0", type=Number("--pressure0", 0.0, STRESS_MAX, lo_closed=False,
-                                              unit="Pa"), default=None,
-                   help="contact pressure at rest [Pa] (default 1e-3 tau*)")
+    p.add_argument("--pressure0", type=Number("--pressure0", 0.0, STRESS_MAX, unit="Pa"),
+                   default=None, help="contact pressure at rest [Pa] (default 1e-3 tau*; 0: "
+                                      "stress free)")
     p.add_argument("--f0", type=Number("--f0", 0.0, 1.0), default=None,
                    help="initial structure f")
     p.add_argument("--G", type=_modulus("--G"), default=None,

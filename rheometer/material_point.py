@@ -39,8 +39,8 @@ A run that would need more than :data:`MAX_SUBSTEPS` (2e7) updates is refused up
 strain gdot t_end <= 2e5) or ends at the step that needs them (its rows before kept,
 :mod:`rheology.run_end`).
 
-Start from a steady state (``stress0``) or from rest with a small isotropic contact pressure
-(``pressure0``): a point at exactly zero pressure sheared isochorically stays separated.
+Start from a steady state (``stress0``) or from rest under an isotropic contact pressure
+(``pressure0`` >= 0; 0 is the stress-free point, which shear sets flowing through its dilatancy).
 """
 
 from __future__ import annotations
@@ -282,7 +282,8 @@ def point_parameters(m: Material, G=None, K=None, K0=None) -> tuple[Material, np
 
 def initial_point(m: Material, phi: float, *, stress0=None, f0=None, pressure0=None):
     """Initial (stress 3x3, f): the steady state at granular shear stress ``stress0`` [Pa], or
-    rest under isotropic contact pressure ``pressure0`` [Pa] (default 1e-3 tau*) with f0 (0)."""
+    rest under isotropic contact pressure ``pressure0`` >= 0 [Pa] (default 1e-3 tau*; 0: stress
+    free) with f0 (0)."""
     sig = np.zeros((3, 3))
     if stress0 is not None:
         st = rheology.steady_state_stress(float(check_positive("stress0 [Pa]", stress0)), phi, m)
@@ -291,8 +292,8 @@ def initial_point(m: Material, phi: float, *, stress0=None, f0=None, pressure0=N
         sig[0, 1] = sig[1, 0] = float(stress0)
     else:
         f = 0.0 if f0 is None else float(check_range("f0", f0, 0.0, 1.0))
-        p = float(check_positive("pressure0 [Pa]", pressure0 if pressure0 is not None
-                                 else 1e-3 * m.tau_star))
+        p = float(check_nonnegative("pressure0 [Pa]", pressure0 if pressure0 is not None
+                                    else 1e-3 * m.tau_star))
     sig[0, 0] = sig[1, 1] = sig[2, 2] = -p
     return sig, f
 
@@ -324,7 +325,8 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     f0 : float, optional
         Initial structure (default: steady f, or 0 from rest).
     pressure0 : float, optional
-        Contact pressure at rest [Pa] (default 1e-3 tau*, or ``pressure`` under pressure control).
+        Contact pressure at rest [Pa], >= 0 (default 1e-3 tau*, or ``pressure`` under pressure
+        control; 0: stress free).
     G, K, K0 : float, optional
         Moduli [Pa] and structure rate; default the material's, else 1e4 Pa, (8.3/3.8) G, 1.
     points : int

@@ -36,6 +36,7 @@ MAX_OUTPUTS = 100000
 
 def _parser() -> argparse.ArgumentParser:
     import rheology
+    from rheology.materials import set_argument
 
     from .model import ELASTIC_STRAIN_LIMIT, MODES, max_wall_speed
     from .integrate import METHODS
@@ -76,6 +77,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="steady-flow parameters: a set name or a material file (e.g. "
                             "fit/material.json from 'rheometer fit'); the moduli, densities, d "
                             "and K0 it leaves unset come from Table 4 (annular_shear, default)")
+        p.add_argument("--set", action="append", type=set_argument, metavar="NAME=VALUE",
+                       help="a parameter of the material (repeatable), e.g. rules=mpm_3d (the "
+                            "yield rules of the author's code) or K0=0.1")
         p.add_argument("--phi", type=Number("--phi", 0, 1, lo_closed=False, hi_closed=False),
                        default=None, help="volume fraction, below the material's phi_j (default: "
                                           "Table 4's phi0 = 0.505)")
@@ -140,10 +144,10 @@ def _modes(mode: str | None, default: tuple[str, ...]) -> tuple[str, ...]:
 def _sample(args):
     """The material (the user's steady fit on Table 4's moduli) and phi0 (from --phi or
     --mass-fraction, else the material's), with the conversion printed."""
-    from rheology.materials import scene_material
+    from rheology.materials import scene_material, set_overrides
     from rheology.sample import mass_fraction_phi
 
-    m = scene_material("annular_shear", args.material)
+    m = scene_material("annular_shear", args.material, **set_overrides(args.set))
     if args.phi is not None and args.mass_fraction is not None:
         raise ValueError("give --phi or --mass-fraction, not both")
     phis, note = mass_fraction_phi(args, m)

@@ -191,17 +191,17 @@ def _points(p) -> float:
     fit_margin=spec.Param(0.0, lambda p: 0.5 * min(p["depth"], p["radius"]), unit="m",
                           doc="fronts fitted until within this distance of the floor or wall",
                           note="at most half the bed depth and radius"),
-    gravity=spec.gravity(), cfl=spec.cfl(),
+    gravity=spec.gravity(), rules=spec.rules(), cfl=spec.cfl(),
     size=lambda p: (_points(p), (p["radius"] * p["cells_per_mm"] * 1e3 + 5)
                     * (p["depth"] * p["cells_per_mm"] * 1e3 + _headroom_cells(p) + 5)))
 def setup(phi0=0.47, v0=0.175, t_end=0.02, radius=0.05, depth=0.035, cells_per_mm=1.0,
           rod_radius=3.175e-3, rod_contact="noslip", mode="locked mixture", fit_margin=5e-3,
-          gravity=9.81, cfl=0.5):
+          gravity=9.81, rules="table8", cfl=0.5):
     params = dict(phi0=phi0, v0=v0, t_end=t_end, radius=radius, depth=depth,
                   cells_per_mm=cells_per_mm, rod_radius=rod_radius, rod_contact=rod_contact,
-                  mode=mode, fit_margin=fit_margin, gravity=gravity, cfl=cfl)
+                  mode=mode, fit_margin=fit_margin, gravity=gravity, rules=rules, cfl=cfl)
     h = 1e-3 / cells_per_mm
-    m = get_material("intruder")
+    m = get_material("intruder", rules=rules)
     nx = int(round(radius / h))
     nz = int(round(depth / h)) + _headroom_cells(params)
     grid = Grid(nx, nz, h, axisymmetric=True,
