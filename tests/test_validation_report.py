@@ -242,6 +242,8 @@ def test_resume_reruns_changed_code_and_raised_entries_and_merges(registry, caps
     # changed code and an entry that raised run again; entries new to the report are added
     assert ran == ["planted_case", "planted_bench", "raising_case", "undefined_bench"]
     assert "planted_case ... (again: its code changed)" in out
+    assert "raising_case ... (again: it raised)" in out
+    assert "planted_bench ...\n" in out and "undefined_bench ...\n" in out    # new: no note
     ran.clear()
     code, out, _ = _report(capsys, "--only", "undefined_bench", "--resume")
     assert ran == []                                 # done: kept; the rest of the report too

@@ -152,6 +152,8 @@ def load_all() -> dict[str, Entry]:
 
 NOTE = "_note"     #: suffix of a row's key giving why that row's value of a column is null
 UNEXPECTED = "unexpected: not a result (the entry fails)"
+#: why a convergence table's observed order is null on its first row
+NO_COARSER = "the coarsest grid: no coarser one to give an observed order"
 
 
 def clean(result) -> tuple[dict, list[str]]:

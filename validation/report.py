@@ -424,7 +424,8 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
                 kept.append(e.name)
                 pending.remove(e.name)
                 continue
-            again = " (again: its code changed)" if old and old.get("fingerprint") != fp else ""
+            again = ("" if old is None or old["skipped"] is not None else " (again: it raised)"
+                     if old["error"] else " (again: its code changed)")
             log(f"[{e.tier}] {e.kind} {e.name} ...{again}", flush=True)
             o = run_entry(e, root, quick)
             log(f"    {'PASS' if o.passed else 'FAIL (' + o.reason + ')'} in {o.seconds:.1f} s"
