@@ -178,7 +178,8 @@ def test_a_failed_write_loses_no_entry(registry, capsys, tmp_path, monkeypatch):
     monkeypatch.setattr(report_mod, "atomic_write_json", flaky)
     code, out, err = _report(capsys, "--tier", "rheology")
     assert "could not write the report ([Errno 28] No space left on device); " in out
-    assert "keeps the 1 entries written before; trying again after the next entry" in out
+    assert ("keeps the report written before (1 finished entries); trying again after the "
+            "next entry") in out
     doc = _strict(tmp_path / "rep" / "results.json")
     assert doc["complete"] and [r["name"] for r in doc["entries"]] == [
         "clean_case", "planted_case", "planted_bench"]
@@ -196,7 +197,7 @@ def test_a_failed_last_write_is_status_1_naming_what_is_kept(registry, capsys, t
     monkeypatch.setattr(report_mod, "atomic_write_json", full_at_end)
     code, out, err = _report(capsys, "--tier", "rheology", "--no-bench")
     assert code == 1 and len(err) == 1
-    assert "failed: could not write the report" in err[0] and "holds 2 entries" in err[0]
+    assert "failed: could not write the report" in err[0] and "holds 2 finished entries" in err[0]
     assert _strict(tmp_path / "rep" / "results.json")["status"] == "running"
 
 
@@ -251,6 +252,15 @@ def test_resume_reruns_changed_code_and_raised_entries_and_merges(registry, caps
     names = ["clean_case", "planted_case", "planted_bench", "raising_case", "undefined_bench"]
     assert [r["name"] for r in doc["entries"]] == names
     assert doc["kept_from_earlier_runs"] == sorted(names) and doc["complete"] is True
+    assert doc["code_changed_since"] == []
+    # an entry outside the selection whose code has changed since is kept and named
+    monkeypatch.setattr(report_mod, "fingerprint", lambda e, q: real(e, q) + (
+        "-edited" if e.name in ("planted_case", "clean_case") else ""))
+    _report(capsys, "--only", "undefined_bench", "--resume")
+    doc = _strict(tmp_path / "rep" / "results.json")
+    assert ran == [] and doc["code_changed_since"] == ["clean_case"]
+    assert "Their code has changed since for: clean_case" in (
+        tmp_path / "rep" / "report.html").read_text()
 
 
 @pytest.mark.parametrize("setup, words", [
@@ -258,6 +268,7 @@ def test_resume_reruns_changed_code_and_raised_entries_and_merges(registry, caps
     ("{\"entries\": [], \"quick\": NaN}", ["--resume", "not a report", "NaN"]),
     ("[]", ["--resume", "not a report this version can resume"]),
     ("{\"entries\": [], \"quick\": true}", ["--resume", "written with --quick"]),
+    ("{\"entries\": [{\"name\": \"x\"}], \"quick\": false}", ["--resume", "entry 'x' has no tier"]),
 ])
 def test_resume_refusals_are_one_line_status_2(registry, capsys, tmp_path, setup, words):
     reg, ran = registry

@@ -277,33 +277,39 @@ def _package_files(name: str) -> tuple[Path, ...]:
                         and p.suffix not in (".pyc", ".nbi", ".nbc")))
 
 
-def _sources(module_file: Path, seen: set[Path]) -> set[Path]:
-    """``module_file``, the ``validation`` modules it imports (recursively) and every file of
-    the other project packages it imports anywhere (also inside functions)."""
-    if module_file in seen or not module_file.is_file():
-        return set()
-    seen.add(module_file)
-    files = {module_file}
+@lru_cache(maxsize=None)
+def _imports(module_file: Path, mtime_ns: int) -> tuple[str, ...]:
+    """The dotted names a module imports anywhere (also inside functions), relative imports
+    made absolute; cached per file version."""
+    names: list[str] = []
     for node in ast.walk(ast.parse(module_file.read_bytes())):
         if isinstance(node, ast.Import):
-            dotted = [a.name for a in node.names]
+            names += [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom):
             base = module_file.parent
             for _ in range(max(node.level - 1, 0)):
                 base = base.parent
             pkg = ".".join(base.relative_to(ROOT).parts) if node.level else ""
             head = ".".join(filter(None, [pkg, node.module]))
-            dotted = [head] + [f"{head}.{a.name}" for a in node.names]
-        else:
+            names += [head] + [f"{head}.{a.name}" for a in node.names]
+    return tuple(names)
+
+
+def _sources(module_file: Path, seen: set[Path]) -> set[Path]:
+    """``module_file``, the ``validation`` modules it imports (recursively) and every file of
+    the other project packages it imports."""
+    if module_file in seen or not module_file.is_file():
+        return set()
+    seen.add(module_file)
+    files = {module_file}
+    for name in _imports(module_file, module_file.stat().st_mtime_ns):
+        top, *rest = name.split(".")
+        if top != "validation":
+            files.update(_package_files(top))
             continue
-        for name in dotted:
-            top, *rest = name.split(".")
-            if top != "validation":
-                files.update(_package_files(top))
-                continue
-            for f in (ROOT.joinpath(top, *rest).with_suffix(".py"),
-                      ROOT.joinpath(top, *rest, "__init__.py")):
-                files |= _sources(f, seen)
+        for f in (ROOT.joinpath(top, *rest).with_suffix(".py"),
+                  ROOT.joinpath(top, *rest, "__init__.py")):
+            files |= _sources(f, seen)
     return files
 
 

@@ -301,6 +301,9 @@ def _record(e: Entry, run: str, quick: bool, fp: str | None, o: Outcome | None =
             "quick": quick, "fingerprint": fp, "run": run}
 
 
+_KEYS = tuple(_record(Entry("case", TIERS[0], "", "", print), "", False, None))
+
+
 def _order(r: dict):
     tier = TIERS.index(r["tier"]) if r["tier"] in TIERS else len(TIERS)
     return tier, r["kind"] != "case", r["name"]
@@ -327,6 +330,10 @@ def _earlier(root: Path, out, quick: bool) -> dict[str, dict]:
         doc = json.loads(path.read_text(encoding="utf-8"), parse_constant=_reject_constant)
         entries = {r["name"]: r for r in doc["entries"]}
         was_quick = bool(doc["quick"])
+        for r in entries.values():
+            missing = [k for k in _KEYS if k not in r]
+            if missing:
+                raise KeyError(f"entry {r['name']!r} has no {', '.join(missing)}")
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"--resume: {path} is not a report this version can resume "
                          f"({type(exc).__name__}: {' '.join(str(exc).split())[:120]}); run "
@@ -392,9 +399,10 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
     run, t0 = time.strftime("%Y-%m-%d %H:%M:%S"), time.perf_counter()
     html_path, json_path = root / "report.html", root / "results.json"
     reg = load_all()
-    earlier = [n for n in records if n not in {e.name for e in todo.run}]
-    changed = [n for n in earlier if n in reg and records[n]["skipped"] is None
-               and records[n].get("fingerprint") != fingerprint(reg[n], quick)]
+    earlier = [n for n, r in records.items() if r["skipped"] is None
+               and n not in {e.name for e in todo.run}]
+    changed = [n for n in earlier
+               if n in reg and records[n]["fingerprint"] != fingerprint(reg[n], quick)]
     for e, why in todo.skipped:
         log(f"[{e.tier}] {e.kind} {e.name}: skipped: {why}", flush=True)
         if records.get(e.name, {}).get("skipped", "") is not None:     # keep an earlier result
@@ -412,7 +420,7 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
                "entries": sorted(records.values(), key=_order)}
         atomic_write_json(json_path, doc)               # strict JSON: no NaN/Infinity tokens
         atomic_write_text(html_path, _render(doc, root))
-        written = len(doc["entries"])
+        written = sum(r["skipped"] is None for r in doc["entries"])
 
     try:
         for e in todo.run:
@@ -436,8 +444,9 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
                 write("running")
             except OSError as exc:
                 log(f"    could not write the report ({one_line(exc)}); "
-                    + (f"{json_path} keeps the {written} entries written before" if written
-                       else "nothing written yet") + "; trying again after the next entry",
+                    + (f"{json_path} keeps the report written before ({written} finished "
+                       "entries)" if written else "nothing written yet")
+                    + "; trying again after the next entry",
                     flush=True)
     except KeyboardInterrupt:
         done = len(todo.run) - len(pending)
@@ -452,7 +461,8 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
                     "--resume runs the rest")
         except OSError as exc:
             what = (f"could not write the report ({one_line(exc)}); "
-                    + (f"{json_path} holds {written} entries" if written else "none written"))
+                    + (f"{json_path} holds {written} finished entries" if written
+                       else "none written"))
         finally:
             for s, h in ignored.items():
                 signal.signal(s, h)
@@ -461,6 +471,6 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
         write("complete")
     except OSError as exc:
         raise RuntimeError(f"could not write the report in {root} ({one_line(exc)}); "
-                           + (f"{json_path} holds {written} entries, marked incomplete" if written
-                              else "nothing was written")) from None
+                           + (f"{json_path} holds {written} finished entries, marked incomplete"
+                              if written else "nothing was written")) from None
     return Report(sorted(records.values(), key=_order), html_path, json_path, kept)
