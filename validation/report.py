@@ -265,9 +265,12 @@ def _render(doc: dict, root: Path) -> str:
     return (f"<!doctype html><html><head><meta charset='utf-8'><title>Validation report</title>"
             f"<style>{style}</style></head><body><h1>Dense-suspension toolkit: validation report"
             f"</h1>{state}<p>Baumgarten &amp; Kamrin model. {sum(r['passed'] for r in cases)}/"
-            f"{len(cases)} cases pass; {sum(r['passed'] for r in benches)}/{len(benches)} "
-            f"benchmarks meet their targets.{note}{sizes}{kept_note} Run started "
-            f"{doc['started']}, {doc['seconds']:.0f} s so far, on {_esc(doc['machine'])}.</p>"
+            f"{len(cases)} cases pass" + (f"; {sum(r['passed'] for r in benches)}/"
+                                          f"{len(benches)} benchmarks meet their targets"
+                                          if benches else "")
+            + f".{note}{sizes}{kept_note} Run started "
+            f"{doc['started']}, {doc['seconds']:.0f} s{'' if doc['complete'] else ' so far'}, on "
+            f"{_esc(doc['machine'])}.</p>"
             f"<table><tr><th>tier</th><th>kind</th><th>name</th><th>criterion / target</th>"
             f"<th>measured</th><th>verdict</th><th>s</th></tr>{''.join(rows)}</table>"
             + "\n<hr>\n".join(_section(r, root) for r in ran) + "</body></html>")
