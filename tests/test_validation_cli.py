@@ -166,7 +166,8 @@ def test_quick_skips_slow_cases_and_says_so(in_tmp, capsys, fake_registry):
     assert "1/1 pass" in last and "skipped 1" in last and "slow_one" in last
     page = (in_tmp / "rep" / "report.html").read_text()
     assert "SKIPPED" in page and "slow_one" in page and "run without --quick" in page
-    rows = {r["name"]: r for r in json.loads((in_tmp / "rep" / "results.json").read_text())}
+    rows = {r["name"]: r
+            for r in json.loads((in_tmp / "rep" / "results.json").read_text())["entries"]}
     assert rows["fast_one"]["passed"] is True and rows["fast_one"]["skipped"] is None
     assert rows["slow_one"]["passed"] is None
     assert rows["slow_one"]["skipped"] == "slow case, run without --quick"
@@ -199,9 +200,11 @@ def test_interrupt_says_what_was_written(in_tmp, capsys, fake_registry):
     code, out, err = _run(["report", "--tier", "rheology", "shear1d", "--out", "rep"], capsys)
     assert code == 130
     assert len(err) == 1 and "interrupted" in err[0]
-    assert "2 of 3 entries finished" in err[0] and "results.json not written" in err[0]
-    assert (in_tmp / "rep" / "report.html").exists()
-    assert not (in_tmp / "rep" / "results.json").exists()
+    assert "2 of 3 selected entries finished, marked incomplete" in err[0] and "--resume" in err[0]
+    doc = json.loads((in_tmp / "rep" / "results.json").read_text())
+    assert (doc["complete"], doc["status"], doc["pending"]) == (False, "interrupted", ["stop_one"])
+    assert [r["name"] for r in doc["entries"]] == ["fast_one", "slow_one"]
+    assert "INCOMPLETE" in (in_tmp / "rep" / "report.html").read_text()
 
 
 # ---------------------------------------------------------------- a real (cheap) run
@@ -211,8 +214,9 @@ def test_real_case_writes_what_it_claims(in_tmp, capsys):
     assert code == 0, (out, err)
     last = out.strip().splitlines()[-1]
     assert last.startswith(f"wrote {Path('rep') / 'report.html'} and results.json: 1/1 pass")
-    rows = json.loads((in_tmp / "rep" / "results.json").read_text())
-    assert [(r["name"], r["passed"]) for r in rows] == [("fig10_steady_structure", True)]
+    doc = json.loads((in_tmp / "rep" / "results.json").read_text())
+    assert doc["complete"] is True and doc["status"] == "complete"
+    assert [(r["name"], r["passed"]) for r in doc["entries"]] == [("fig10_steady_structure", True)]
     assert "fig10_steady_structure" in (in_tmp / "rep" / "report.html").read_text()
 
 

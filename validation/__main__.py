@@ -4,10 +4,16 @@ Subcommands:
   report   run cases and benchmarks, write DIR/report.html and DIR/results.json
   list     list every case and benchmark with its tier (slow cases marked)
 
+DIR/results.json and DIR/report.html are rewritten after every entry, marked incomplete until
+the run ends; an entry that raises, or reports a value that is not a result (NaN, inf, a null
+without its reason), fails alone and the report goes on. Ctrl-C or SIGTERM writes what finished
+(marked incomplete); --resume then runs only what is missing or whose code changed.
+
 Bad input (an unknown tier or name, --only or --tier with nothing after it, a selection with
-nothing to run, an --out that is a file or cannot be written) is refused with one line and
-status 2 before anything is written. Status 1: a case or benchmark failed (each is named with
-its criterion and measured value); 130: interrupted (Ctrl-C or SIGTERM).
+nothing to run, an --out that is a file or cannot be written, --resume without a report there)
+is refused with one line and status 2 before anything is written. Status 1: a case or
+benchmark failed (each is named with its criterion and measured value), or the report could not
+be written; 130: interrupted (Ctrl-C or SIGTERM).
 """
 
 from __future__ import annotations
@@ -38,6 +44,13 @@ def build_parser() -> OneLineParser:
                      help="only these cases/benchmarks, by name (see 'list')")
     rep.add_argument("--quick", action="store_true", help=_QUICK_HELP)
     rep.add_argument("--no-bench", action="store_true", help="skip the benchmarks")
+    rep.add_argument("--no-slow", action="store_true",
+                     help="skip the slow cases (listed as skipped) and run the rest at full size")
+    rep.add_argument("--resume", action="store_true",
+                     help="continue the report in --out: keep its entries run with the same "
+                          "sizes and the same source code (a hash of rheology, the entry's tier "
+                          "package and its validation module) that did not raise; run the rest "
+                          "of the selection and merge (entries outside it are kept)")
     sub.add_parser("list", help="list the cases and benchmarks")
     return ap
 
@@ -54,16 +67,18 @@ def _list() -> int:
 def _report(args) -> int:
     from .report import write_report
 
-    rep = write_report(args.out, args.tier, args.only, args.quick, not args.no_bench)
-    failed = [o for o in rep.outcomes if not o.passed]
-    for o in failed:
-        print(f"FAIL {o.entry.name}: {o.reason}")
-    skipped = (f"; skipped {len(rep.skipped)} ({rep.skipped[0][1]}): "
-               f"{', '.join(e.name for e, _ in rep.skipped)}" if rep.skipped else "")
-    print(f"wrote {rep.html} and {rep.json.name}: {len(rep.outcomes) - len(failed)}/"
-          f"{len(rep.outcomes)} pass"
-          + (f"; failing: {', '.join(o.entry.name for o in failed)}" if failed else "")
-          + skipped)
+    rep = write_report(args.out, args.tier, args.only, args.quick, not args.no_bench,
+                       not args.no_slow, args.resume)
+    ran = [r for r in rep.entries if r["skipped"] is None]
+    failed = [r for r in ran if not r["passed"]]
+    skipped = [r for r in rep.entries if r["skipped"] is not None]
+    for r in failed:
+        print(f"FAIL {r['name']}: {r['reason']}")
+    print(f"wrote {rep.html} and {rep.json.name}: {len(ran) - len(failed)}/{len(ran)} pass"
+          + (f"; failing: {', '.join(r['name'] for r in failed)}" if failed else "")
+          + (f"; skipped {len(skipped)} ({skipped[0]['skipped']}): "
+             f"{', '.join(r['name'] for r in skipped)}" if skipped else "")
+          + (f"; {len(rep.kept)} kept from the earlier run" if rep.kept else ""))
     return 1 if failed else 0
 
 

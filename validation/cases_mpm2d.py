@@ -21,7 +21,7 @@ from mpm2d.scenes import (bar, column, couette, cylinder, disks, piston, shear, 
                           terzaghi)
 from rheology.io import atomic_savefig, atomic_write_csv  # noqa: E402
 
-from .framework import Verdict, case  # noqa: E402
+from .framework import NO_COARSER, Verdict, case  # noqa: E402
 
 
 def _run(setup, out: Path, **params):
@@ -67,7 +67,8 @@ def bar_convergence(out: Path, quick: bool) -> Verdict:
         measured="; ".join(f"{k}: " + ", ".join(f"{o:.2f}" for o in v) for k, v in orders.items())
                  + f"; finest frequency error {df['frequency_error'].iloc[-1]:.2e}, amplitude "
                  f"error {df['amplitude_error'].iloc[-1]:.2e}",
-        passed=bool(ok), figures=[fig], details=df.round(8).to_string())
+        passed=bool(ok), figures=[fig], rows=df.round(8).to_dict("records"),
+        notes={f"order_{k}": NO_COARSER for k in orders})
 
 
 @case("mpm2d", "mpm2d_axisym_cylinder", "mpm2d: axisymmetric radial vibration (J1 mode), error vs h")
@@ -81,7 +82,8 @@ def axisym_cylinder(out: Path, quick: bool) -> Verdict:
         criterion="exact solution v_r = v0 J1(k r) cos(omega t): observed orders of the frequency "
                   "and max modal-amplitude errors > 1.9 (hoop stress, L_thth = v_r/r, axis)",
         measured="; ".join(f"{k}: " + ", ".join(f"{o:.2f}" for o in v) for k, v in orders.items()),
-        passed=bool(ok), figures=[fig], details=df.round(8).to_string())
+        passed=bool(ok), figures=[fig], rows=df.round(8).to_dict("records"),
+        notes={f"order_{k}": NO_COARSER for k in orders})
 
 
 @case("mpm2d", "mpm2d_disks_energy", "mpm2d: two elastic disks, energy histories by transfer")
@@ -495,7 +497,7 @@ def contact_case(out: Path, quick: bool) -> Verdict:
                   "within one step; the impact-time error is bounded by dt ~ h: first order "
                   "(observed orders per halving in the details)",
         measured="; ".join(f"{r['check']}: {r['value']:.4g}" for r in rows),
-        passed=bool(ok), figures=[fig_path], details=df.to_string())
+        passed=bool(ok), figures=[fig_path], rows=rows)
 
 
 def _axis_bed(mode, h, nx, nz, axi=True):

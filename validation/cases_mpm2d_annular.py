@@ -22,7 +22,7 @@ from mpm2d.run import run_scene  # noqa: E402
 from mpm2d.scenes import annular  # noqa: E402
 from rheology.io import atomic_savefig, atomic_write_csv  # noqa: E402
 
-from .framework import Verdict, case  # noqa: E402
+from .framework import NO_COARSER, Verdict, case  # noqa: E402
 
 #: the paper's grid mapped onto the gap: 24 cells of 23.5/24 mm (see mpm2d.scenes.annular)
 PAPER_CELLS = 24
@@ -58,7 +58,8 @@ def swirl_newtonian(out: Path, quick: bool) -> Verdict:
         measured=f"max error {paper:.2e} u_i at 24 cells; by h: "
                  + ", ".join(f"{n}: {e:.2e}" for n, e in zip(df['cells'], df['max_error']))
                  + "; observed orders " + ", ".join(f"{o:.2f}" for o in orders),
-        passed=ok, figures=[fig_path], details=df.to_string())
+        passed=ok, figures=[fig_path], rows=df.to_dict("records"),
+        notes={"order_max_error": NO_COARSER})
 
 
 def _shear1d_front(u_inner: float, n_cells: int) -> dict:
@@ -182,4 +183,9 @@ def annular_front(out: Path, quick: bool) -> Verdict:
                  + f" ({finest} cells vs shear1d 200: {100 * converged:+.1f} %); kappa = 10 K: "
                  f"{incomp:.4g} ({100 * incomp_vs_fine:+.1f} % vs shear1d 200)" + inc_note
                  + apic_note,
-        passed=ok, figures=[fig_path], details=table.to_string())
+        passed=ok, figures=[fig_path], rows=table.to_dict("records"),
+        notes={**{c: "shear1d row: no MPM step, transfer or fluid modulus (its locked mode "
+                     "holds phi fixed)" for c in ("cfl", "swirl_flip", "kappa_Pa", "dt_s")},
+               **{c: "no jammed front to fit (none formed or crossed 10-90 % of the gap): "
+                     "the case fails" for c in ("front_speed_m_per_s",
+                                                "front_speed_over_u_inner", "front_fit_r2")}})
