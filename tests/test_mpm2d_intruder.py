@@ -170,9 +170,57 @@ def test_sweep_figure_of_one_phi0_has_a_real_colour_range(tmp_path, monkeypatch)
     assert lo == pytest.approx(0.465) and hi == pytest.approx(0.475)
 
 
+def test_mpm_3d_layout_is_the_authors_scene():
+    """layout=mpm_3d (GenerateMixture2D_v2.py, GenerateBlock2D_v2.py at mpm_3d 9aa6448): the
+    50 x 35 grid of 1 mm, the bed r 0-50 mm x z 0-30 mm at 2 x 2 points per cell, grains (mass
+    rho_s phi V) and fluid (rho_f (1 - phi) V, volume V) on the same points, V = r h^2/4 per
+    radian, the rod the block r 0-3 mm x z 32-35 mm moving at exactly -v0, classic contact."""
+    sim = get_setup("intruder")(layout="mpm_3d", phi0=0.47).sim
+    g, h = sim.grid, 1e-3
+    assert (g.nx, g.ny, g.h, g.axisymmetric) == (50, 35, h, True) and sim.mode == "two-phase"
+    grains, fluid = sim.sets
+    assert len(grains) == len(fluid) == 4 * 50 * 30
+    assert np.array_equal(grains.x, fluid.x)
+    for k, n in ((0, 50), (1, 30)):
+        assert np.allclose(np.unique(grains.x[:, k]), (np.arange(2 * n) + 0.5) * h / 2)
+    r, a = grains.x[:, 0], h * h / 4
+    assert grains.V == pytest.approx(r * a, rel=1e-9) and fluid.V == pytest.approx(r * a, rel=1e-9)
+    assert grains.m == pytest.approx(1620.0 * 0.47 * r * a, rel=1e-12)
+    # the fluid's density carries its hydrostatic compression p/kappa < 1e-5
+    assert fluid.m == pytest.approx(1620.0 * 0.53 * r * a, rel=1e-5)
+    rod = sim.bodies[0]
+    assert len(rod.x) == 36 and rod.contact == "mass" and not rod.free.any()
+    assert rod.x[:, 0].max() + h / 4 == pytest.approx(3e-3)
+    assert (rod.x[:, 1].min() - h / 4, rod.x[:, 1].max() + h / 4) == pytest.approx((0.032, 0.035))
+    assert tuple(rod.velocity) == (0.0, -0.175)
+
+
+def test_mpm_3d_contact_acts_at_overlapping_nodes_only_on_approach():
+    """At t = 0 the rod (lowest points at z = 32.25 mm) and the bed (highest at 29.75 mm) share
+    the node row z = 31 mm, where each weighs 1/32 (quadratic B-splines reach 1.5 h): the classic
+    rule acts there from the first step while the rod approaches: the row moves at -v0 (no slip)
+    and the bed's top points under the rod at -v0/32, in both phases; a rod moving away leaves
+    the bed at rest, and contact=touch waits for the surfaces to meet."""
+    v0, out = 0.175, {}
+    for name, v, contact in (("down", -v0, "auto"), ("up", v0, "auto"), ("touch", -v0, "touch")):
+        sim = get_setup("intruder")(layout="mpm_3d", radius=0.01, v0=v0, contact=contact).sim
+        sim.bodies[0].velocity = np.array([0.0, v])
+        sim.step()
+        out[name] = sim
+    grains = out["down"].sets[0]
+    under = (grains.x[:, 1] > 0.0295) & (grains.x[:, 0] < 3.5e-3)
+    for s in out["down"].sets:
+        assert s.v[under, 1] == pytest.approx(-v0 / 32, rel=1e-6)
+    assert out["down"].bodies[0].contact_nodes == 2 * 5          # r = 0-4 mm, two fields
+    for name in ("up", "touch"):
+        assert out[name].bodies[0].contact_nodes == 0
+        assert all(np.abs(s.v).max() < 1e-9 for s in out[name].sets)
+
+
 @pytest.mark.parametrize("item", ["phi0=0.6", "phi0=nan", "v0=-0.1", "v0=inf", "t_end=1",
                                   "mode=drained", "rod_contact=glue", "cells_per_mm=0",
-                                  "rod_radius=0.2", "fit_margin=0.03", "speed=1"])
+                                  "rod_radius=0.2", "fit_margin=0.03", "speed=1",
+                                  "layout=paper", "contact=glue"])
 def test_bad_values_are_refused(tmp_path, capsys, item):
     out = tmp_path / "never"
     assert main(["run", "intruder", "--set", item, "--out", str(out), "--quiet"]) == 2
