@@ -6,9 +6,10 @@ plane strain; in axisymmetry only the axial translation V_z exists). Each step t
 every particle field through :mod:`mpm2d.contact`: contact only where the body's surface touches
 the material's (``contact="touch"``: gap criterion from the points' extents; ``"mass"``: wherever
 both have nodal mass, Bardenhagen et al. 2000), only while they approach along the normal, with
-Coulomb friction ``mu_w`` (0 frictionless, ``inf`` no-slip) and free separation (no tension). Fields listed in ``bonded_to`` (e.g. the elastic spokes of a wheel on its rigid
-hub) are glued instead: every node the body covers (sum_p N_ip A_p >= h^2/2) moves rigidly with
-it. The body's velocity and the contact impulses are solved together, implicitly in the body
+Coulomb friction ``mu_w`` (0 frictionless, ``inf`` no-slip) and free separation (no tension).
+Fields listed in ``bonded_to`` (e.g. the elastic spokes of a wheel on its rigid hub) are glued
+instead: every node the body covers (sum_p N_ip A_p >= h^2/2) moves rigidly with it. The
+body's velocity and the contact impulses are solved together, implicitly in the body
 mass (no added-mass limit on dt), and momentum is exchanged exactly:
 
     M q^{n+1} = M (q^n + dt g) - sum_k J_k^T lambda_k,   F = -sum_k lambda_k / dt

@@ -213,8 +213,9 @@ def _compare(out: Path, variants: dict, tol: float, title: str, png: str):
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for (name, _), c in zip(variants.items(), "br"):
         f = pd.read_csv(out / name / "front.csv")
-        ax.plot(f["time_s"] * 1e3, f["longitudinal_m"] * 1e3, c + "-", label=f"{name}: longitudinal")
-        ax.plot(f["time_s"] * 1e3, f["transverse_m"] * 1e3, c + "--", label=f"{name}: transverse")
+        t = f["time_s"] * 1e3
+        ax.plot(t, f["longitudinal_m"] * 1e3, c + "-", label=f"{name}: longitudinal")
+        ax.plot(t, f["transverse_m"] * 1e3, c + "--", label=f"{name}: transverse")
     ax.set_xlabel("t [ms]")
     ax.set_ylabel("front position [mm]")
     ax.set_title(f"{title}: k_l differs {100 * dl:.1f}%, k_t {100 * dt:.1f}%", fontsize=9)

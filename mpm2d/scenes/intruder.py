@@ -77,7 +77,9 @@ Fronts (Han et al. 2016, mpm2d.fronts): the vertical velocity of the bed's (gran
 binned to the grid's cells (mass-weighted); the longitudinal front is the depth below the
 initial surface where u_z/(-v0) falls below 1/2 on the axis column below the rod's tip (linear
 interpolation between cell centres), the transverse front the radius where it does on the row of
-cells just below the tip, searched outward from the rod's represented radius. Fit: straight
+cells just below the tip, searched outward from the rod's represented radius; both are read from
+the bed's face under the rod (the tip, or the top of the highest filled axis cell below it where
+contact ``mass`` pushes the bed from a distance; ``face_depth_m`` in history.csv). Fit: straight
 lines over the stretch from the first record after the contact transient (four acoustic
 crossings of the bed) and after the bed first jams (a point's f reaches f_jam, phi_m(f_jam) =
 phi0; ``jammed`` in summary.json says whether it did) where both fronts exist and the
@@ -251,13 +253,18 @@ def setup(layout="default", phi0=0.47, v0=0.175, t_end=0.02, radius=None, depth=
         uz = cell_field(bed.x, bed.v[:, 1], bed.m, (0.0, 0.0), h, (nx, nz))
         rc = (np.arange(nx) + 0.5) * h
         zc = (np.arange(nz) + 0.5) * h
-        zl = longitudinal_front(uz, rc, zc, tip, v, FRONT_FRACTION)
-        rt = transverse_front(uz, rc, zc, tip, rod_r, v, FRONT_FRACTION)
-        return tip, zl, rt
+        # the fronts are read from the bed's face under the rod: the tip, or the top of the
+        # highest filled axis cell below it where the bed is pushed from a distance (mass)
+        filled = np.flatnonzero(np.isfinite(uz[0]) & (zc < tip))
+        face = min(tip, zc[filled[-1]] + 0.5 * h) if filled.size else tip
+        zl = longitudinal_front(uz, rc, zc, face, v, FRONT_FRACTION)
+        rt = transverse_front(uz, rc, zc, face, rod_r, v, FRONT_FRACTION)
+        return tip, face, zl, rt
 
     def record(sim):
-        tip, zl, rt = fronts_now(sim)
-        return {"tip_depth_m": depth - tip, "longitudinal_m": depth - zl, "transverse_m": rt,
+        tip, face, zl, rt = fronts_now(sim)
+        return {"tip_depth_m": depth - tip, "face_depth_m": depth - face,
+                "longitudinal_m": depth - zl, "transverse_m": rt,
                 "max_f": float(np.max(sim.sets[0].f)),
                 "max_phi": float(np.max(sim.sets[0].svol / sim.sets[0].V))}
 
@@ -504,7 +511,8 @@ def fields_figure(sim, out, params, rod_r, path):
 # ---------------------------------------------------------------- sweeps (Fig. 7)
 SWEEP_COLUMNS = ("phi0", "v0_m_per_s", "k_l", "k_t", "k_l_over_k_t", "r2_longitudinal",
                  "r2_transverse")
-#: fronts.csv's columns after ``jammed`` (from summary.json): first jamming time [s], largest f/f_jam
+#: fronts.csv's columns after ``jammed`` (from summary.json): first jamming time [s], largest
+#: f/f_jam
 _JAM_COLUMNS = ("t_jam_s", "max_f_over_f_jam")
 #: equivalent shear strain per unit axial strain of an isochoric axial compression
 #: (gdot = sqrt(2 D':D')): planar 2, axisymmetric sqrt(3)
@@ -540,9 +548,9 @@ def reference_lines(ax, kt_max):
 def sweep_report(table, out) -> list:
     """``out/fronts.csv`` (one row per complete case: phi0, v0_m_per_s, k_l, k_t, k_l_over_k_t,
     r2_longitudinal, r2_transverse, jammed (whether the bed jammed during the run), t_jam_s,
-    max_f_over_f_jam (from summary.json), case) and ``out/fronts.png`` (k_l against k_t with the line k_l = 2 k_t and
-    the single-onset-strain curves (:func:`reference_lines`), Fig. 7; a case that never jammed
-    drawn faint), from each case's ``summary.json``."""
+    max_f_over_f_jam (from summary.json), case) and ``out/fronts.png`` (k_l against k_t with
+    the line k_l = 2 k_t and the single-onset-strain curves (:func:`reference_lines`), Fig. 7;
+    a case that never jammed drawn faint), from each case's ``summary.json``."""
     out = Path(out)
     rows = []
     for _, r in table.iterrows():
