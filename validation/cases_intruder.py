@@ -170,8 +170,9 @@ def _scatter(df: pd.DataFrame, path: Path) -> Path:
         for v0, mk in ((0.2, "o"), (0.5, "s")):
             sel = ok[(ok["rules"] == rules) & (ok["layout"] == layout)
                      & np.isclose(ok["v0_m_per_s"], v0)]
-            ax.scatter(sel["k_t"], sel["k_l"], color=c, marker=mk, edgecolors="k",
-                       label=f"rules {rules}, layout {layout}, v0 {v0:g} m/s")
+            if len(sel):
+                ax.scatter(sel["k_t"], sel["k_l"], color=c, marker=mk, edgecolors="k",
+                           label=f"rules {rules}, layout {layout}, v0 {v0:g} m/s")
     if len(ok) and ok["k_t"].max() > 0:
         reference_lines(ax, 1.1 * ok["k_t"].max())
     ax.set_xlabel("k_t = v_ft/v0")
