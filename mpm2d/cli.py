@@ -13,9 +13,11 @@ Examples::
 
 Bad input (an unknown scene or parameter, a value out of its range, a run too large for the
 memory, a step beyond stability, a resume of another scene or other parameters) exits with
-status 2 and one line ``mpm2d run: error: ...`` on stderr, before anything is written; a failed
-run with status 1. Ctrl-C or SIGTERM stops after the current step, writes a checkpoint and exits
-with status 130; ``--resume`` continues bit-for-bit.
+status 2 and one line ``mpm2d run: error: ...`` on stderr, before anything is written; a run
+whose step fails ends there with its files and history up to it, the manifest's status
+ended_early and ends saying where and why, status 3; a run failing after its last step with
+status 1. Ctrl-C or SIGTERM stops after the current step, writes a checkpoint and exits with
+status 130; ``--resume`` continues bit-for-bit.
 """
 
 from __future__ import annotations

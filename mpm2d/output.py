@@ -2,7 +2,9 @@
 
 Layout of a run folder ``DIR`` (every file written atomically through :mod:`rheology.io`)::
 
-    DIR/manifest.json          scene, parameters, mode, grid, sets, fields with units, frames
+    DIR/manifest.json          scene, parameters, mode, grid, sets, fields with units, frames,
+                               ``status`` (running, complete, ended_early, failed) and ``ends``
+                               (where and why a run ended early, rheology.run_end)
                                (strict JSON; ``command`` is the canonical command of the run,
                                without the output folder, so a resumed run writes the same file)
     DIR/history.csv            one row per record: time_s, step (integer), dt_s, energies [J],

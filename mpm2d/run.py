@@ -26,9 +26,12 @@ step that fails (tried on a copy). Each names the parameter the user set that ca
 its bound at the other values (:func:`blame`: each given key put back to its default, then a
 bisection between value and default over new set-ups). A fresh run into a folder removes only
 the files a previous run of ours wrote (:func:`previous_run_files`, from its manifest); a
-non-empty folder without our manifest is refused. A run that fails after it started (a
-diverging step, a report that cannot be written) keeps its files, marks ``manifest.json``
-``status: failed`` with the message, and raises RuntimeError citing numpy's first warning
+non-empty folder without our manifest is refused. A run whose step fails (a diverging step, a
+failed local update, a point off the grid) ends there (:mod:`rheology.run_end`): it keeps its
+files, writes its history up to the last recorded row, marks ``manifest.json`` ``status:
+ended_early`` with ``ends`` (where and why) and raises :class:`rheology.run_end.EndedEarly`
+(exit status 3); one that fails after its last step (a report that cannot be written) marks it
+``status: failed`` with the message and raises RuntimeError. Both cite numpy's first warning
 (numpy's warnings of the run are held, shown only when the run succeeds).
 """
 
@@ -50,6 +53,7 @@ import pandas as pd
 
 from rheology.io import (atomic_write_csv, check_output_dir, load_checkpoint,
                          previous_checkpoint, save_checkpoint)
+from rheology.run_end import EndedEarly, RunEnd, run_record
 
 from .output import write_frame, write_manifest, write_pvds
 from .progress import Progress
@@ -786,7 +790,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                              "origin_m": list(sim.grid.origin),
                              "axisymmetric": sim.grid.axisymmetric,
                              "boundaries": sim.grid.boundaries},
-                    "t_end_s": t_end, "notes": scene.notes, "frames": [], "status": "running"}
+                    "t_end_s": t_end, "notes": scene.notes, "frames": [], "status": "running",
+                    "ends": []}
         rows: list[dict] = []
         if saved is not None:
             sim.load_state({k: v for k, v in saved.items() if not k.startswith("run.")})
@@ -829,7 +834,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         try:
             with warnings.catch_warnings(record=True) as held_run:
                 warnings.simplefilter("always", RuntimeWarning)
-                complete = True
+                complete = stepping = True
                 bar = Progress(sim.t, t_end, sim.step_count, label=name) if progress else None
                 try:
                     while sim.t < t_end * (1.0 - 1e-12):
@@ -875,6 +880,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                         f"{ckpt_path}: continue with --resume")
                     raise KeyboardInterrupt(f"checkpoint written to {ckpt_path}: rerun with "
                                             "--resume to continue") from None
+                stepping = False
                 if bar is not None:
                     bar.close(sim.t, sim.step_count)
                 history = pd.DataFrame(rows)
@@ -902,13 +908,21 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
             # says so (numpy's warnings of the run are cited, not printed before)
             after = _after_numpy(held_run)
             message = f"{exc} ({after.strip()})" if after else str(exc)
-            manifest["status"] = "failed"
-            manifest["error"] = message
-            manifest["steps"] = sim.step_count
+            # failing in a step, the run ended there (rheology.run_end): its history up to the
+            # last recorded row is written, the manifest's status and ends say where and why
+            end = RunEnd("solver_failure", f"{message}; the run's files up to there are in "
+                         f"{out}", float(rows[-1]["time_s"]), past_s=float(sim.t)) \
+                if stepping else None
+            manifest.update(status="failed", error=message, steps=sim.step_count)
             try:
+                if end is not None:
+                    write_history(pd.DataFrame(rows))
+                    manifest.update(run_record([end]))
                 write_manifest(out, manifest)
             except (RuntimeError, ValueError, OSError):
-                pass
+                end = None
+            if end is not None:
+                raise EndedEarly([end], written=[str(out)]) from None
             raise RuntimeError(f"{message}; the run's files are in {out} (manifest status "
                                "failed)") from None
         for w in held_run:                   # a run that succeeded: its warnings as they were

@@ -4,7 +4,9 @@ path for every option, one-line errors and one mapping from exceptions to exit s
 - bad input (``ValueError``, a usage error): ``PROG: error: ...``, status 2, nothing written;
 - a solver or file failure (``RuntimeError``, ``OSError``): ``PROG: failed: ...``, status 1;
 - Ctrl-C or SIGTERM: ``PROG: interrupted ...``, status 130 (SIGTERM is turned into the same
-  ``KeyboardInterrupt`` as Ctrl-C, so every long run saves its checkpoint on both).
+  ``KeyboardInterrupt`` as Ctrl-C, so every long run saves its checkpoint on both);
+- a run that ended early at a validity limit or a solver failure, its rows up to there written
+  (:class:`rheology.run_end.EndedEarly`): ``PROG: ended early at t = ...`` per run, status 3.
 
 Every numeric option is declared with :class:`Number` (``type=Number("--t-end", 0, None,
 lo_closed=False)``): a NaN, an inf, a value out of range or not a number is refused with
@@ -24,6 +26,8 @@ import re
 import signal
 import sys
 from collections.abc import Callable
+
+from .run_end import ENDED_EARLY, EndedEarly
 
 USAGE, FAILED, INTERRUPTED = 2, 1, 130
 
@@ -218,7 +222,8 @@ def run_command(prog: str, body: Callable[[], int | None], *, on_interrupt: str 
     prog : str
         Prefix of the messages, e.g. ``"shear1d annular"``.
     body : callable
-        The command; raises ValueError for bad input, RuntimeError or OSError on failure.
+        The command; raises ValueError for bad input, RuntimeError or OSError on failure, and
+        :class:`~rheology.run_end.EndedEarly` with the files it wrote for a run that ended early.
     on_interrupt : str
         Added to the interruption message, e.g. how to resume. Say it only where a checkpoint
         was really written (a body can raise ``KeyboardInterrupt("message")`` to replace it).
@@ -236,6 +241,11 @@ def run_command(prog: str, body: Callable[[], int | None], *, on_interrupt: str 
         # tiers' own checks: one line, never a traceback
         kind = "" if isinstance(exc, (RuntimeError, OSError)) else f"{type(exc).__name__}: "
         sundials = f" [SUNDIALS: {out.caught[-1].lstrip('[')}" if out.caught else ""
+        if isinstance(exc, EndedEarly) and exc.written:
+            for end in exc.ends:
+                tail = sundials if end.kind == "solver_failure" else ""
+                print(f"{prog}: {one_line(end.line())}{tail}", file=sys.stderr)
+            return ENDED_EARLY
         print(f"{prog}: failed: {kind}{one_line(exc)}{sundials}", file=sys.stderr)
         return FAILED
     except KeyboardInterrupt as exc:

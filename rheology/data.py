@@ -1,30 +1,49 @@
-"""Measured flow curves from rheometer files: readers, cleaning, and one tidy table.
+"""Measured curves from rheometer files: readers, cleaning, and one tidy table.
 
-One entry point, :func:`read_flow_curves`, reads any number of files into one tidy table (one
-row per measured point) with the columns of :data:`COLUMNS`::
+Two entry points read any number of files (any mix of formats) into one tidy table, one row per
+measured point, every point kept with ``kept`` and, where it is dropped, a ``dropped_reason``
+(:data:`DROP_REASONS`; nothing is dropped silently, :func:`drop_counts` counts them):
 
-    source_file, interval, phi, point, time_s, shear_rate_per_s, shear_stress_Pa,
-    viscosity_Pa_s, kept, dropped_reason
+- :func:`read_flow_curves`: steady flow curves, columns :data:`COLUMNS`;
+- :func:`read_relaxation_curves`: stress relaxation after cessation of shear, columns
+  :data:`RELAXATION_COLUMNS`.
 
-Every point is kept in the table; the bad ones have ``kept = False`` and a ``dropped_reason``
-(:data:`DROP_REASONS`), so nothing is dropped silently (:func:`drop_counts` counts them).
+Every format is a parser of *blocks* (an interval, procedure step or action: a name, column names,
+units and rows) registered in :data:`READERS` with a detector on the decoded content (never the
+file name's extension). A block becomes a curve by the name of its columns (:data:`ALIASES`,
+units converted by :func:`unit_factor`: Pa, mPa, kPa, MPa; Pa s, mPa s, cP; 1/s, s-1; s, min, ms;
+mN m, uN m, N m; %), and is read as a flow curve or a relaxation by its name (:func:`step_kind`);
+the others are listed in ``table.attrs["skipped"]`` with the reason. Layouts, as this module
+assumes them (the vendors publish no specification; each reader tolerates blank lines, extra
+columns and missing units):
 
-Formats are one reader function each, registered in :data:`READERS` with a content detector, so a
-TRIOS or Malvern reader is one more function and one more line:
-
-- ``rheocompass``: Anton Paar RheoCompass text export (UTF-16 or UTF-8, tab separated, several
-  ``Result:`` / ``Interval data:`` blocks per file, a units row, status flags, blank cells,
-  exponent notation, decimal commas). The viscosity-curve intervals are selected by name
-  (default: names containing "viscosity curve" or "flow curve"); pre-shear and the rest are
-  kept out.
-- ``csv``: a plain delimited table (comma, semicolon or tab; sniffed) with a header of any column
-  names, mapped with ``columns={"stress": NAME, "rate": NAME, "viscosity": NAME, "phi": NAME}``
-  (any two of stress [Pa], rate [1/s] and viscosity [Pa s]; a phi column optional). Without a
-  mapping, common names are recognised (``shear_stress_Pa``, ``Shear Stress``, ``stress``, ...).
+- ``rheocompass``: Anton Paar RheoCompass text export (UTF-16 or UTF-8, tab separated):
+  ``Result:`` names, ``Interval and data points:``, ``Interval data:`` rows of column names, a
+  units row (``[Pa]``), the points (first cell empty), a ``Status`` column whose ``ME-`` flag marks
+  readings below the torque range.
+- ``trios``: TA Instruments TRIOS "Export to LIMS" text (tab separated, any 8-bit or Unicode
+  encoding): ``key<TAB>value`` header lines grouped in bracketed sections (``[Sample]``,
+  ``[Geometry]``, ``[Procedure]``; the geometry's ``Stress constant`` with its unit, e.g. ``59683.1
+  Pa/N.m``, converts torque to stress), then one ``[step]`` block per procedure step: the step's
+  name (``Flow sweep - 3``), optionally ``Number of points<TAB>N``, a row of column names
+  (``Stress``, ``Shear rate``, ``Viscosity``, ``Step time``, ``Torque``, ...), a row of units
+  (``Pa``, ``1/s``, ``Pa.s``, ``s``, ``µN.m``) and the points, up to a blank line or the next
+  bracketed line.
+- ``trios-csv``: a TRIOS CSV export: the same content comma separated, the header as ``key,value``
+  rows (sections optional), each step introduced by a row holding only its name (or a ``[step]``
+  row and then its name).
+- ``rspace``: a Malvern rSpace (Kinexus) CSV export: ``key,value`` preamble rows (sample,
+  sequence, geometry), then one table whose column names carry their units in parentheses
+  (``Shear stress(Pa)``, ``Shear rate(s-¹)``, ``Shear viscosity(Pa s)``, ``Time(s)``, ``Torque(µN
+  m)``) and whose ``Action Name`` column names the sequence action of each row (consecutive rows
+  of one action are one block); comma or semicolon separated, decimal point or comma.
+- ``csv``: a plain delimited table (comma, semicolon or tab; sniffed) with a header row of any
+  column names, mapped with ``columns={"stress": NAME, "rate": NAME, ...}`` (keys of
+  :data:`ALIASES`) or recognised among common names; an ``interval`` or ``phi`` column splits it
+  into curves. Tried last: a file in none of these layouts is refused in one line naming them.
 
 Volume fractions: from a phi column, else ``phi=[...]`` one per file in order; mass fractions are
-converted with Eq. (20) of the Supplement (:func:`rheology.steady.phi_from_mass_fraction`) when
-``mass_fraction`` densities are given.
+converted with Eq. (20) of the Supplement (:func:`rheology.steady.phi_from_mass_fraction`).
 """
 
 from __future__ import annotations
@@ -33,55 +52,109 @@ import csv
 import io
 import re
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-#: Columns of the tidy table, in order (units in the names).
+#: Columns of the tidy flow-curve table, in order (units in the names).
 COLUMNS: tuple[str, ...] = ("source_file", "interval", "phi", "point", "time_s",
                             "shear_rate_per_s", "shear_stress_Pa", "viscosity_Pa_s", "kept",
                             "dropped_reason")
 
+#: Columns of the tidy relaxation table (``interval``: the block's name; ``curve``: 0, 1, ... in
+#: order of reading; ``time_s``: the block's own clock).
+RELAXATION_COLUMNS: tuple[str, ...] = ("source_file", "interval", "curve", "point", "time_s",
+                                       "shear_stress_Pa", "kept", "dropped_reason")
+
 #: Why a point is dropped (checked in this order; the first that applies is recorded).
 DROP_REASONS: dict[str, str] = {
-    "missing_value": "a blank or non-numeric stress, rate or viscosity",
+    "missing_value": "a blank or non-numeric stress, rate, viscosity or time",
     "below_torque_floor": "flagged by the instrument (status ME-) or torque below --torque-floor",
     "nonpositive_rate": "shear rate <= 0",
     "nonpositive_stress": "shear stress <= 0",
     "nonpositive_viscosity": "viscosity <= 0",
-    "duplicate": "the same stress as an earlier point of the curve (repeated reading)",
-    "non_monotone": "breaks the curve's stress ramp (a step against the ramp's direction)",
+    "below_stress_floor": "stress below --stress-floor (relaxation: the instrument's noise)",
+    "duplicate": "the same stress (flow curve) or time (relaxation) as an earlier point",
+    "non_monotone": "breaks the curve's stress ramp or clock (a step against its direction)",
 }
 
-#: Names of the two RheoCompass results kept by default (matched case-insensitively in the
-#: ``Result:`` name).
+#: Names of the RheoCompass results read by default as flow curves (case-insensitive
+#: substrings); every name :func:`step_kind` calls a flow curve is read too.
 DEFAULT_INTERVALS: tuple[str, ...] = ("viscosity curve", "flow curve")
 
-_UNITS = {  # unit text (lower case, no spaces, '·' and '*' removed) -> factor to SI
-    "stress": {"pa": 1.0, "mpa": 1e-3, "kpa": 1e3, "": 1.0},
-    "viscosity": {"pas": 1.0, "mpas": 1e-3, "cp": 1e-3, "p": 0.1, "": 1.0},
-    "rate": {"1/s": 1.0, "s-1": 1.0, "s^-1": 1.0, "1/min": 1 / 60.0, "": 1.0},
+#: Unit text (spaces, dots, '·' removed; superscripts as digits) -> factor to SI, per quantity.
+#: Exact case first ("MPa" is mega, "mPa" milli), then case-insensitively (lower case: milli).
+_UNITS = {
+    "stress": {"Pa": 1.0, "mPa": 1e-3, "kPa": 1e3, "MPa": 1e6, "": 1.0},
+    "viscosity": {"Pas": 1.0, "mPas": 1e-3, "cP": 1e-3, "P": 0.1, "": 1.0},
+    "rate": {"1/s": 1.0, "s-1": 1.0, "1/min": 1 / 60.0, "": 1.0},
     "time": {"s": 1.0, "min": 60.0, "h": 3600.0, "ms": 1e-3, "": 1.0},
-    "torque": {"mnm": 1.0, "µnm": 1e-3, "unm": 1e-3, "nm": 1e3, "": 1.0},   # to mN m
+    "torque": {"mNm": 1.0, "µNm": 1e-3, "uNm": 1e-3, "Nm": 1e3, "nNm": 1e-6, "": 1.0},  # mN m
+    "fraction": {"": 1.0, "-": 1.0, "%": 1e-2},
+    "stress_constant": {"Pa/Nm": 1.0, "Pa/(Nm)": 1.0, "1/m3": 1.0, "m-3": 1.0,      # Pa/(N m)
+                        "Pa/mNm": 1e3, "Pa/µNm": 1e6, "Pa/uNm": 1e6},
 }
 
-_ALIASES = {  # recognised header names (lower case, units stripped) for the csv reader
-    "stress": ("shear_stress_pa", "shear stress", "shear_stress", "stress", "tau", "sigma"),
-    "rate": ("shear_rate_per_s", "shear rate", "shear_rate", "rate", "gdot", "gamma_dot"),
-    "viscosity": ("viscosity_pa_s", "viscosity", "eta", "apparent viscosity"),
+#: Recognised column names (lower case, unit stripped), per quantity, in order of preference.
+ALIASES: dict[str, tuple[str, ...]] = {
+    "stress": ("shear stress", "stress", "shear_stress_pa", "shear_stress", "tau", "sigma"),
+    "rate": ("shear rate", "shear_rate_per_s", "shear_rate", "rate", "gdot", "gamma_dot"),
+    "viscosity": ("viscosity", "shear viscosity", "viscosity_pa_s", "apparent viscosity", "eta"),
     "phi": ("phi", "volume_fraction", "volume fraction"),
-    "time": ("time_s", "time", "t"),
-    "point": ("point", "point no.", "point no", "index"),
+    "time": ("step time", "time", "time_s", "t", "interval time", "test time"),
+    "point": ("point no.", "point", "point no", "index"),
     "torque": ("torque", "torque_mnm"),
     "interval": ("interval",),
+    "status": ("status",),
 }
+_KIND = {"stress": "stress", "rate": "rate", "viscosity": "viscosity", "time": "time",
+         "torque": "torque", "phi": "fraction"}
+
+#: How a block's name decides what it is: (kind, words, reason); the first match decides.
+_STEP_KINDS = (
+    ("skip", ("amplitude", "frequency", "oscillat", "time sweep"),
+     "an oscillatory test (moduli, not a steady flow curve)"),
+    ("relaxation", ("relaxation",), "a stress relaxation (read by rheometer fit-relaxation)"),
+    ("skip", ("temperature",), "a temperature ramp at one rate, not a flow curve"),
+    ("flow", ("flow sweep", "flow ramp", "flow curve", "viscosity curve", "steady state flow",
+              "stepped flow", "shear rate ramp", "shear stress ramp", "shear rate table",
+              "shear stress table", "viscometry", "ramp"), ""),
+    ("skip", ("peak hold", "constant", "creep", "recovery", "start-up", "startup"),
+     "a transient at one rate or stress, not a flow curve"),
+    ("skip", ("pre-shear", "preshear", "conditioning", "equilibrat", "soak"),
+     "conditioning or pre-shear"),
+)
+
+
+def step_kind(name: str) -> tuple[str, str]:
+    """``(kind, reason)`` of a block from its name: kind ``"flow"`` (flow sweep or ramp, viscosity
+    curve, shear rate/stress ramp or table), ``"relaxation"`` or ``"skip"`` with the reason."""
+    low = name.lower()
+    for kind, words, reason in _STEP_KINDS:
+        if any(w in low for w in words):
+            return kind, reason
+    return "skip", ("not recognised as a flow curve (flow sweep or ramp, viscosity curve, shear "
+                    "rate or stress ramp); --interval NAME reads it as one")
+
+
+@dataclass
+class Block:
+    """One block of a file (an interval, procedure step or action) as read: the column names
+    (units stripped) and units as in the file, the rows as text cells, and the file's header
+    (lower-case keys) for constants such as TRIOS's stress constant."""
+
+    name: str
+    header: list[str]
+    units: list[str]
+    rows: list[list[str]]
+    meta: dict = field(default_factory=dict)
 
 
 @dataclass
 class Curve:
-    """One measured curve as read from a file, before cleaning.
+    """One measured flow curve as read from a file, before cleaning.
 
     Arrays are float (NaN for blank or non-numeric cells), SI units; ``flagged`` marks points the
     instrument flagged as below its torque range; ``phi`` is None when the file carries none.
@@ -116,12 +189,10 @@ def read_text(path) -> str:
         return raw.decode("utf-16-le")
     if len(raw) > 3 and raw[0:1] == b"\x00" and raw[2:3] == b"\x00":
         return raw.decode("utf-16-be")
-    for enc in ("utf-8-sig", "latin-1"):
-        try:
-            return raw.decode(enc)
-        except UnicodeDecodeError:
-            continue
-    raise ValueError(f"data file {str(path)!r} is not text")  # pragma: no cover (latin-1 decodes all)
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        return raw.decode("latin-1")              # decodes every byte
 
 
 _NUM = re.compile(r"^[+-]?(\d+([.,]\d*)?|[.,]\d+)([eE][+-]?\d+)?$")
@@ -136,17 +207,32 @@ def to_number(cell) -> float:
 
 
 def _unit_key(text: str) -> str:
-    return (text.strip().strip("[]").lower().replace("·", "").replace("*", "").replace(" ", "")
-            .replace("\u00b7", "").replace("⁻¹", "^-1"))
+    s = text.strip()
+    s = s[1:-1] if re.match(r"^(\[.*\]|\(.*\))$", s) else s
+    s = s.replace("μ", "µ").replace("⁻", "-").replace("¹", "1")
+    s = s.replace("³", "3").replace("^", "")
+    return re.sub(r"[\s·*.\u00b7]", "", s)
 
 
-def _factor(kind: str, unit: str, where: str) -> float:
-    key = _unit_key(unit)
-    table = _UNITS[kind]
-    if key not in table:
-        raise ValueError(f"{where}: unit [{unit.strip('[]')}] of the {kind} column is not "
-                         f"understood; known: {', '.join(k for k in table if k)}")
-    return table[key]
+def unit_factor(kind: str, unit: str, where: str) -> float:
+    """Factor from ``unit`` to SI for a quantity kind of ``_UNITS`` (torque: to mN m; a stress
+    constant: to Pa/(N m)). Raises ValueError naming ``where`` and the known units."""
+    key, table = _unit_key(unit), _UNITS[kind]
+    if key in table:
+        return table[key]
+    low = {k.lower(): v for k, v in reversed(list(table.items()))}   # 'mpa' -> milli
+    if key.lower() in low:
+        return low[key.lower()]
+    raise ValueError(f"{where}: unit [{unit.strip('[]()')}] of the {kind.replace('_', ' ')} "
+                     f"column is not understood; known: {', '.join(k for k in table if k)}")
+
+
+def _cells(text: str, delim: str) -> list[list[str]]:
+    return [[c.strip() for c in row] for row in csv.reader(io.StringIO(text), delimiter=delim)]
+
+
+def _numeric(row) -> bool:
+    return any(np.isfinite(to_number(c)) for c in row)
 
 
 # ------------------------------------------------------------------ RheoCompass
@@ -155,44 +241,18 @@ def is_rheocompass(text: str) -> bool:
     return "Interval data:" in text
 
 
-def read_rheocompass(path, text: str | None = None, *,
-                     intervals: Sequence[str] | None = None) -> list[Curve]:
-    """Read the selected intervals of an Anton Paar RheoCompass text export.
+_RC_HEADS = ("Result:", "Interval data:", "Interval and data points:", "Test:", "Project:")
 
-    Parameters
-    ----------
-    path : path-like
-        The export (UTF-16 as written by RheoCompass, or UTF-8).
-    text : str, optional
-        Its decoded content (read from ``path`` if None).
-    intervals : sequence of str, optional
-        Substrings (case-insensitive) of the ``Result:`` names to keep; default
-        :data:`DEFAULT_INTERVALS`. Every other block (pre-shear, ...) is kept out.
 
-    Returns
-    -------
-    list of Curve
-        One per selected block, in file order (interval = the result name and its interval
-        number, e.g. ``"Viscosity curve 1 (interval 2)"``).
-
-    Raises
-    ------
-    ValueError
-        No block matches (the message lists the blocks found), a block without its columns or
-        with a unit not understood.
-    """
-    path = Path(path)
-    text = read_text(path) if text is None else text
-    wanted = [w.lower() for w in (intervals or DEFAULT_INTERVALS)]
+def rheocompass_blocks(text: str) -> list[Block]:
+    """The ``Interval data:`` blocks of a RheoCompass export, named ``"<Result> (interval N)"``."""
     lines = text.splitlines()
-    blocks, result, number = [], "", ""
-    i = 0
+    blocks, result, number, i = [], "", "", 0
     while i < len(lines):
         cells = lines[i].split("\t")
         head = cells[0].strip()
         if head == "Result:":
-            result = cells[1].strip() if len(cells) > 1 else ""
-            number = ""
+            result, number = (cells[1].strip() if len(cells) > 1 else ""), ""
         elif head == "Interval and data points:":
             number = cells[1].strip() if len(cells) > 1 else ""
         elif head == "Interval data:":
@@ -200,9 +260,7 @@ def read_rheocompass(path, text: str | None = None, *,
             units, rows, j = None, [], i + 1
             while j < len(lines):
                 c = lines[j].split("\t")
-                first = c[0].strip()
-                if first in ("Result:", "Interval data:", "Interval and data points:", "Test:",
-                             "Project:"):
+                if c[0].strip() in _RC_HEADS:
                     break
                 body = [x.strip() for x in c[1:]]
                 if units is None and any(x.startswith("[") for x in body):
@@ -214,58 +272,234 @@ def read_rheocompass(path, text: str | None = None, *,
                     break
                 j += 1
             name = result + (f" (interval {number})" if number else "")
-            blocks.append((result, name, names, units or [""] * len(names), rows))
+            blocks.append(Block(name, names, units or [""] * len(names), rows))
             i = j
             continue
         i += 1
-    if not blocks:
-        raise ValueError(f"data file {path.name!r}: no 'Interval data:' block found "
-                         "(not a RheoCompass export?)")
-    chosen = [b for b in blocks if any(w in b[0].lower() for w in wanted)]
-    if not chosen:
-        found = "; ".join(repr(b[1]) for b in blocks)
-        raise ValueError(f"data file {path.name!r}: no interval named like "
-                         f"{' or '.join(map(repr, wanted))}; found {found} (choose with "
-                         "--interval NAME)")
-    curves = []
-    for result, name, names, units, rows in chosen:
-        where = f"data file {path.name!r}, {name}"
-        low = [n.lower() for n in names]
+    return blocks
 
-        def col(label, kind=None, required=True):
-            if label not in low:
-                if required:
-                    raise ValueError(f"{where}: no '{label}' column (columns: {', '.join(names)})")
-                return None
-            k = low.index(label)
-            vals = np.array([to_number(r[k]) if k < len(r) else np.nan for r in rows])
-            if kind is not None:
-                vals = vals * _factor(kind, units[k] if k < len(units) else "", where)
-            return vals
 
-        n = len(rows)
-        stress = col("shear stress", "stress", required=False)
-        rate = col("shear rate", "rate", required=False)
-        visc = col("viscosity", "viscosity", required=False)
-        stress, rate, visc = _complete(stress, rate, visc, where)
-        point = col("point no.", required=False)
-        time = col("time", "time", required=False)
-        torque = col("torque", "torque", required=False)
-        status = (np.array([r[low.index("status")] if low.index("status") < len(r) else ""
-                            for r in rows]) if "status" in low else np.array([""] * n))
-        flagged = np.array([any(s.strip().upper().startswith("ME") for s in str(st).split(","))
-                            for st in status], dtype=bool)
-        curves.append(Curve(str(path), name,
-                            point if point is not None else np.arange(1.0, n + 1),
-                            time if time is not None else np.full(n, np.nan), rate, stress, visc,
-                            torque, flagged))
-    return curves
+# ------------------------------------------------------------------ TRIOS (text and CSV)
+_TRIOS_KEYS = ("filename", "instrument serial number", "instrument name", "instrument type",
+               "geometry name", "stress constant", "proceduresegments")
+
+
+def is_trios(text: str) -> bool:
+    """A TRIOS "Export to LIMS" text file: a ``[step]`` line, tab separated."""
+    return re.search(r"^\s*\[step\]\s*$", text, re.I | re.M) is not None and "\t" in text
+
+
+def is_trios_csv(text: str) -> bool:
+    """A TRIOS CSV export: a TRIOS header key (``Filename``, ``Geometry name``, ``Stress
+    constant``, ...) as a ``key,value`` row and a row of TRIOS column names."""
+    head = re.search(r"^\ufeff?\"?(" + "|".join(_TRIOS_KEYS) + r")\"?\s*,", text, re.I | re.M)
+    return head is not None and re.search(r"(^|,)\"?(shear rate|step time)\"?(,|$)", text,
+                                          re.I | re.M) is not None
+
+
+def _is_header(row) -> bool:
+    """A row of column names: no number, and three names or more, or two of which one is a
+    known quantity (a ``key,value`` header row has two cells)."""
+    names = [c.lower() for c in row if c]
+    known = {a for q in ("stress", "rate", "viscosity", "time", "torque") for a in ALIASES[q]}
+    return (not _numeric(row) and len(names) >= 2
+            and (len(names) >= 3 or any(n in known for n in names)))
+
+
+def trios_blocks(text: str, delim: str = "\t") -> list[Block]:
+    """The procedure steps of a TRIOS export (``[step]`` blocks, or in a CSV a row holding only
+    the step's name followed by column names and units); the header's ``key value`` rows are
+    each block's ``meta`` (a value and its unit in two cells are joined)."""
+    rows = _cells(text.replace("\ufeff", ""), delim)
+    meta: dict[str, str] = {}
+    blocks: list[Block] = []
+    i, n = 0, len(rows)
+
+    def next_row(k):
+        while k < n and not any(rows[k]):
+            k += 1
+        return k
+
+    while i < n:
+        full = [c for c in rows[i] if c]
+        if not full:
+            i += 1
+            continue
+        name = None
+        if len(full) == 1 and full[0].lower() == "[step]":
+            k = next_row(i + 1)
+            name, i = (rows[k][0] if k < n else ""), k + 1
+        elif len(full) == 1 and not full[0].startswith("["):
+            k = next_row(i + 1)
+            if k < n and rows[k][:1] == ["Number of points"]:
+                k = next_row(k + 1)
+            if k < n and _is_header(rows[k]):
+                name, i = full[0], i + 1
+        if name is None:
+            if len(full) >= 2 and not full[0].startswith("["):
+                meta[full[0].lower()] = " ".join(full[1:])
+            i += 1
+            continue
+        i = next_row(i)
+        if i < n and rows[i][:1] == ["Number of points"]:
+            i = next_row(i + 1)
+        header = rows[i] if i < n else []
+        i += 1
+        units = [""] * len(header)
+        if i < n and any(rows[i]) and not _numeric(rows[i]):
+            units, i = rows[i], i + 1
+        data = []
+        while i < n and any(rows[i]) and not rows[i][0].startswith("["):
+            if not _numeric(rows[i]):
+                break                             # the next step's name (CSV)
+            data.append(rows[i])
+            i += 1
+        blocks.append(Block(name, header, units, data, meta))
+    return blocks
+
+
+def trios_csv_blocks(text: str) -> list[Block]:
+    return trios_blocks(text, ",")
+
+
+def stress_constant(meta: dict, where: str) -> float:
+    """TRIOS's geometry stress constant [Pa/(N m)] from the header (``Stress constant``, value
+    and unit). Raises ValueError saying why torque cannot be converted when it is absent."""
+    text = meta.get("stress constant")
+    if not text:
+        raise ValueError(f"{where} records torque but no stress: the file's header gives no "
+                         "'Stress constant' (TRIOS geometry section) to convert it; export the "
+                         "Stress column, or give a table of time and stress")
+    m = re.match(r"^\s*(\S+)\s*(.*)$", text)
+    value = to_number(m.group(1)) if m else float("nan")
+    if not (np.isfinite(value) and value > 0):
+        raise ValueError(f"{where}: the header's stress constant {text!r} is not a positive "
+                         "number")
+    return value * unit_factor("stress_constant", m.group(2) or "Pa/N.m", where)
+
+
+# ------------------------------------------------------------------ rSpace
+_UNIT_IN_NAME = re.compile(r"^(.*?)\s*[\[(]([^\])]*)[\])]\s*$")
+
+
+def is_rspace(text: str) -> bool:
+    """A Malvern rSpace CSV export: a header row of names with units in parentheses that has an
+    ``Action Name`` column, a ``Shear viscosity`` column or an ``s-¹`` unit (or rSpace/Kinexus in
+    its preamble)."""
+    top = text[:20000]
+    if not re.search(r"shear (stress|rate|viscosity)\s*\(", top, re.I):
+        return False
+    return bool(re.search(r"action name|shear viscosity|s-¹|s⁻¹|rspace|kinexus", top, re.I))
+
+
+def rspace_blocks(text: str) -> list[Block]:
+    """The actions of an rSpace table (consecutive rows of one ``Action Name``; the whole table
+    when it has no such column), the preamble's ``key,value`` rows as ``meta``."""
+    text = text.replace("\ufeff", "")
+    best = (0, None, None)
+    for delim in (",", ";"):
+        rows = _cells(text, delim)
+        k = next((i for i, r in enumerate(rows)
+                  if sum(bool(_UNIT_IN_NAME.match(c)) for c in r) >= 2), None)
+        if k is not None and len(rows[k]) > best[0]:
+            best = (len(rows[k]), rows, k)
+    _, rows, k = best
+    if rows is None:
+        return []
+    meta = {r[0].lower(): " ".join(c for c in r[1:] if c) for r in rows[:k] if len(r) >= 2 and r[0]}
+    split = [_UNIT_IN_NAME.match(c) for c in rows[k]]
+    header = [s.group(1).strip() if s else c for s, c in zip(split, rows[k])]
+    units = [s.group(2).strip() if s else "" for s in split]
+    low = [h.lower() for h in header]
+    act = next((low.index(a) for a in ("action name", "action", "step name") if a in low), None)
+    runs: list[tuple[str, list]] = []
+    for r in rows[k + 1:]:
+        if not any(r):
+            continue
+        name = (r[act] if act is not None and act < len(r) else "") or meta.get("sequence", "table")
+        if not runs or runs[-1][0] != name:
+            runs.append((name, []))
+        runs[-1][1].append(r)
+    seen: dict[str, int] = {}
+    blocks = []
+    for name, data in runs:
+        seen[name] = seen.get(name, 0) + 1
+        label = name if seen[name] == 1 else f"{name} ({seen[name]})"
+        blocks.append(Block(label, header, units, data, meta))
+    return blocks
+
+
+# ------------------------------------------------------------------ plain tables
+def is_table(text: str) -> bool:
+    """A delimited table: a header row with a comma, semicolon or tab, then a row holding a
+    number."""
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if len(lines) < 2:
+        return False
+    delim = max(("\t", ";", ","), key=lines[0].count)
+    return lines[0].count(delim) > 0 and any(_numeric(ln.split(delim)) for ln in lines[1:6])
+
+
+def table_blocks(text: str, columns: dict[str, str] | None = None) -> list[Block]:
+    """A delimited table as blocks: one per (interval, phi) group when it has such columns
+    (located as :func:`column_index` does, with the same ``columns`` mapping)."""
+    body = "\n".join(ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#"))
+    first = body.splitlines()[0]
+    delim = max(("\t", ";", ","), key=first.count)
+    rows = _cells(body, delim)
+    split = [_UNIT_IN_NAME.match(h) for h in rows[0]]
+    header = [s.group(1).strip() if s else h for s, h in zip(split, rows[0])]
+    units = [s.group(2) if s else "" for s, h in zip(split, rows[0])]
+    probe = Block("table", header, units, rows[1:], {"_full": rows[0]})
+    k_int = column_index(probe, "interval", columns)
+    k_phi = column_index(probe, "phi", columns)
+    groups: dict[tuple, list] = {}
+    for r in rows[1:]:
+        key = tuple(r[k] if k is not None and k < len(r) else "" for k in (k_int, k_phi))
+        groups.setdefault(key, []).append(r)
+    return [Block(key[0] or "table", header, units, g, {"_full": rows[0]})
+            for key, g in groups.items()]
+
+
+# ------------------------------------------------------------------ columns of a block
+def column_index(block: Block, quantity: str, columns: dict[str, str] | None = None,
+                 where: str = "") -> int | None:
+    """Index of a quantity's column: the mapped name (``columns``, matched with or without its
+    unit) or the first of :data:`ALIASES` present; None if absent. A mapped name that is not a
+    column raises ValueError listing the columns."""
+    bare = [h.strip().lower() for h in block.header]
+    full = [h.strip().lower() for h in block.meta.get("_full", block.header)]
+    if columns and quantity in columns:
+        name = columns[quantity].strip().lower()
+        for cand in (full, bare):
+            if name in cand:
+                return cand.index(name)
+        raise ValueError(f"{where or 'data file'}: --columns {quantity}={columns[quantity]!r} is "
+                         f"not a column; columns: {', '.join(block.meta.get('_full', block.header))}")
+    for alias in ALIASES[quantity]:
+        for cand in (full, bare):
+            if alias in cand:
+                return cand.index(alias)
+    return None
+
+
+def block_values(block: Block, quantity: str, where: str,
+                 columns: dict[str, str] | None = None) -> np.ndarray | None:
+    """A quantity's column in SI (torque in mN m; a fraction as a fraction), NaN for blank or
+    text cells; None if the block has no such column."""
+    k = column_index(block, quantity, columns, where)
+    if k is None:
+        return None
+    v = np.array([to_number(r[k]) if k < len(r) else np.nan for r in block.rows], dtype=float)
+    kind = _KIND.get(quantity)
+    if kind is not None:
+        v = v * unit_factor(kind, block.units[k] if k < len(block.units) else "", where)
+    return v
 
 
 def _complete(stress, rate, visc, where):
     """Fill the third of (stress, rate, viscosity) from the other two; require two."""
-    have = [x is not None for x in (stress, rate, visc)]
-    if sum(have) < 2:
+    if sum(x is not None for x in (stress, rate, visc)) < 2:
         raise ValueError(f"{where}: needs two of shear stress, shear rate and viscosity "
                          "(map them with --columns stress=NAME rate=NAME viscosity=NAME)")
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -278,137 +512,94 @@ def _complete(stress, rate, visc, where):
     return stress, rate, visc
 
 
-# ------------------------------------------------------------------ plain tables
-def read_table(path, text: str | None = None, *, columns: dict[str, str] | None = None,
-               intervals: Sequence[str] | None = None) -> list[Curve]:
-    """Read a delimited table (comma, semicolon or tab) with a header row.
+def block_curve(block: Block, source: str, columns: dict[str, str] | None = None) -> Curve:
+    """A block as a flow curve (SI); ValueError naming the file and block when it lacks two of
+    stress, rate and viscosity or has a unit not understood."""
+    where = f"data file {Path(source).name!r}, {block.name}"
+    n = len(block.rows)
 
-    Parameters
-    ----------
-    columns : dict, optional
-        ``{"stress": NAME, "rate": NAME, "viscosity": NAME, "phi": NAME}`` (also ``time``,
-        ``point``, ``torque``, ``interval``): the file's column for each quantity, in SI units
-        (Pa, 1/s, Pa s, s, mN m). Unmapped quantities are looked up among common names; a unit in
-        brackets or parentheses after a name (``Shear Stress [mPa]``) is converted.
-    intervals : ignored (tables have no named intervals; an ``interval`` column splits curves).
+    def get(q):
+        return block_values(block, q, where, columns)
 
-    Returns
-    -------
-    list of Curve
-        One per (interval, phi) group, in order of appearance.
-
-    Raises
-    ------
-    ValueError
-        A mapped column missing (the message lists the columns), fewer than two of stress, rate
-        and viscosity, no rows.
-    """
-    path = Path(path)
-    text = read_text(path) if text is None else text
-    body = "\n".join(ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#"))
-    if not body:
-        raise ValueError(f"data file {path.name!r} has no rows")
-    first = body.splitlines()[0]
-    delim = max(("\t", ";", ","), key=first.count)
-    if first.count(delim) == 0:
-        raise ValueError(f"data file {path.name!r}: the header {first[:60]!r} has no comma, "
-                         "semicolon or tab")
-    reader = csv.reader(io.StringIO(body), delimiter=delim)
-    rows = list(reader)
-    header = [h.strip() for h in rows[0]]
-    data = rows[1:]
-    if not data:
-        raise ValueError(f"data file {path.name!r} has a header but no rows")
-
-    def split(h):
-        m = re.match(r"^(.*?)\s*[\[(]([^\])]*)[\])]\s*$", h)
-        return (m.group(1), m.group(2)) if m else (h, "")
-
-    bare = [split(h)[0].strip().lower() for h in header]
-    units = [split(h)[1] for h in header]
-    full = [h.lower() for h in header]
-    columns = dict(columns or {})
-    unknown = set(columns) - set(_ALIASES)
-    if unknown:
-        raise ValueError(f"--columns: unknown quantity {sorted(unknown)}; valid: "
-                         f"{', '.join(_ALIASES)}")
-    where = f"data file {path.name!r}"
-
-    def find(q):
-        if q in columns:
-            name = columns[q].strip().lower()
-            for cand in (full, bare):
-                if name in cand:
-                    return cand.index(name)
-            raise ValueError(f"{where}: --columns {q}={columns[q]!r} is not a column; columns: "
-                             f"{', '.join(header)}")
-        for alias in _ALIASES[q]:
-            for cand in (full, bare):
-                if alias in cand:
-                    return cand.index(alias)
-        return None
-
-    def values(q, kind=None):
-        k = find(q)
-        if k is None:
-            return None
-        v = np.array([to_number(r[k]) if k < len(r) else np.nan for r in data])
-        if kind is not None:
-            unit = units[k]
-            if not unit and header[k].lower().endswith(("_pa", "_pa_s", "_per_s", "_s")):
-                unit = ""           # our own tidy names are SI
-            v = v * _factor(kind, unit, where)
-        return v
-
-    stress, rate, visc = _complete(values("stress", "stress"), values("rate", "rate"),
-                                   values("viscosity", "viscosity"), where)
-    n = len(data)
-    phi = values("phi")
-    time = values("time", "time")
-    point = values("point")
-    torque = values("torque", "torque")
-    k_int = find("interval")
-    labels = np.array([r[k_int].strip() if k_int is not None and k_int < len(r) else ""
-                       for r in data])
-    keys = list(zip(labels, phi if phi is not None else [None] * n))
-    order: list = []
-    for key in keys:
-        if key not in order and not (key[1] is not None and np.isnan(key[1])):
-            order.append(key)
-    curves = []
-    for lab, ph in order:
-        sel = np.array([k == (lab, ph) for k in keys])
-        curves.append(Curve(str(path), lab or "table",
-                            point[sel] if point is not None else np.arange(1.0, sel.sum() + 1),
-                            time[sel] if time is not None else np.full(sel.sum(), np.nan),
-                            rate[sel], stress[sel], visc[sel],
-                            torque[sel] if torque is not None else None, None,
-                            None if ph is None else np.full(sel.sum(), float(ph))))
-    if phi is not None and np.isnan(phi).any():
-        bad = int(np.isnan(phi).sum())
-        raise ValueError(f"{where}: the phi column has {bad} blank or non-numeric cell(s)")
-    return curves
+    stress, rate, visc = _complete(get("stress"), get("rate"), get("viscosity"), where)
+    k = column_index(block, "status")
+    flagged = np.array([k is not None and k < len(r) and any(
+        s.strip().upper().startswith("ME") for s in r[k].split(",")) for r in block.rows], bool)
+    point, time = get("point"), get("time")
+    return Curve(source, block.name, point if point is not None else np.arange(1.0, n + 1),
+                 time if time is not None else np.full(n, np.nan), rate, stress, visc,
+                 get("torque"), flagged, get("phi"))
 
 
-# ------------------------------------------------------------------ registry and entry point
-#: format name -> (detector on decoded text, reader); detectors are tried in order, the last is
-#: the fallback.
-READERS: dict[str, tuple[Callable[[str], bool], Callable[..., list[Curve]]]] = {
-    "rheocompass": (is_rheocompass, read_rheocompass),
-    "csv": (lambda text: True, read_table),
+# ------------------------------------------------------------------ registry
+#: format name -> (detector on decoded text, block parser(text, columns)), tried in order.
+READERS: dict[str, tuple[Callable[[str], bool], Callable[..., list[Block]]]] = {
+    "rheocompass": (is_rheocompass, lambda text, columns=None: rheocompass_blocks(text)),
+    "trios": (is_trios, lambda text, columns=None: trios_blocks(text)),
+    "trios-csv": (is_trios_csv, lambda text, columns=None: trios_csv_blocks(text)),
+    "rspace": (is_rspace, lambda text, columns=None: rspace_blocks(text)),
+    "csv": (is_table, table_blocks),
 }
+_LAYOUTS = ("RheoCompass text export", "TRIOS 'Export to LIMS' text", "TRIOS CSV export",
+            "rSpace CSV export", "plain table (a header row, then rows of numbers)")
 
 
-def detect_format(text: str) -> str:
-    """The first format of :data:`READERS` whose detector accepts the decoded text."""
-    for name, (detect, _) in READERS.items():
+def detect_format(text: str, name: str = "") -> str:
+    """The first format of :data:`READERS` whose detector accepts the decoded text; ValueError
+    (one line naming the layouts tried) when none does."""
+    for fmt, (detect, _) in READERS.items():
         if detect(text):
-            return name
-    return "csv"  # pragma: no cover
+            return fmt
+    raise ValueError(f"data file {name!r} is in none of the known layouts (tried: "
+                     f"{'; '.join(_LAYOUTS)})")
 
 
+def read_blocks(path, *, fmt: str = "auto", columns: dict[str, str] | None = None,
+                text: str | None = None) -> tuple[str, list[Block]]:
+    """``(format, blocks)`` of one file (format detected from the content unless given)."""
+    text = read_text(path) if text is None else text
+    kind = detect_format(text, Path(path).name) if fmt == "auto" else fmt
+    blocks = READERS[kind][1](text, columns=columns)
+    if not blocks:
+        raise ValueError(f"data file {Path(path).name!r}: no data block found in its {kind} "
+                         "layout")
+    return kind, blocks
+
+
+def select_blocks(blocks: list[Block], kind: str, intervals: Sequence[str] | None, fmt: str,
+                  name: str) -> tuple[list[Block], list[tuple[str, str]]]:
+    """The blocks to read as ``kind`` ("flow" or "relaxation") and ``(name, reason)`` of the
+    others: chosen by ``intervals`` (substrings of the name) if given, else by
+    :func:`step_kind` (RheoCompass flow curves also by :data:`DEFAULT_INTERVALS`); every block of
+    a plain table. ValueError listing the blocks and reasons when none is chosen."""
+    if fmt == "csv":
+        return blocks, []
+    chosen, skipped = [], []
+    wanted = [w.lower() for w in intervals or []]
+    for b in blocks:
+        k, why = step_kind(b.name)
+        low = b.name.lower()
+        if wanted:
+            ok = any(w in low for w in wanted)
+            why = f"not named like {' or '.join(map(repr, wanted))}"
+        else:
+            ok = k == kind or (kind == "flow" and any(w in low for w in DEFAULT_INTERVALS))
+            if k == "flow" and not ok:
+                why = "a flow curve (read by rheometer read and fit)"
+        if ok and not b.rows:
+            ok, why = False, "no data rows"
+        (chosen.append(b) if ok else skipped.append((b.name, why)))
+    if not chosen:
+        what = "flow curve" if kind == "flow" else "stress relaxation"
+        found = "; ".join(f"{n!r} ({w})" for n, w in skipped)
+        raise ValueError(f"data file {name!r} has no {what} block; found {found} (choose with "
+                         "--interval NAME)")
+    return chosen, skipped
+
+
+# ------------------------------------------------------------------ cleaning
 def clean(curve: Curve, torque_floor: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Flag the bad points of one curve.
+    """Flag the bad points of one flow curve.
 
     Returns
     -------
@@ -419,42 +610,69 @@ def clean(curve: Curve, torque_floor: float | None = None) -> tuple[np.ndarray, 
     repeats a previous stress (to 1e-9 relative) is a ``duplicate``, one that steps against the
     ramp past the running extreme is ``non_monotone``.
     """
-    n = curve.shear_stress.size
-    reason = np.array([""] * n, dtype=object)
-
-    def mark(mask, why):
-        sel = mask & (reason == "")
-        reason[sel] = why
-
     s, r, v = curve.shear_stress, curve.shear_rate, curve.viscosity
-    mark(~(np.isfinite(s) & np.isfinite(r) & np.isfinite(v)), "missing_value")
-    floor = np.zeros(n, dtype=bool)
-    if curve.flagged is not None:
-        floor |= curve.flagged
-    if torque_floor is not None and curve.torque_mNm is not None:
-        floor |= np.abs(np.nan_to_num(curve.torque_mNm, nan=np.inf)) < torque_floor
-    mark(floor, "below_torque_floor")
-    with np.errstate(invalid="ignore"):
-        mark(r <= 0, "nonpositive_rate")
-        mark(s <= 0, "nonpositive_stress")
-        mark(v <= 0, "nonpositive_viscosity")
-    ok = np.flatnonzero(reason == "")
-    if ok.size >= 2:
-        steps = np.diff(np.log(s[ok]))
-        direction = 1.0 if np.median(steps) >= 0 else -1.0
-        seen: list[float] = []
-        extreme = None
-        for k in ok:
-            x = direction * np.log(s[k])
-            if any(abs(x - y) <= 1e-9 for y in seen):
-                reason[k] = "duplicate"
-                continue
-            if extreme is not None and x < extreme:
-                reason[k] = "non_monotone"
-                continue
-            seen.append(x)
-            extreme = x
+    reason = _reasons(s.size, [
+        ("missing_value", ~(np.isfinite(s) & np.isfinite(r) & np.isfinite(v))),
+        ("below_torque_floor", _below_floor(curve.flagged, curve.torque_mNm, torque_floor, s.size)),
+        ("nonpositive_rate", r <= 0), ("nonpositive_stress", s <= 0),
+        ("nonpositive_viscosity", v <= 0)])
+    _monotone(np.log(np.where(reason == "", s, 1.0)), reason)
     return reason == "", reason
+
+
+def _reasons(n: int, checks) -> np.ndarray:
+    reason = np.array([""] * n, dtype=object)
+    with np.errstate(invalid="ignore"):
+        for why, mask in checks:
+            reason[np.asarray(mask, bool) & (reason == "")] = why
+    return reason
+
+
+def _below_floor(flagged, torque, floor, n) -> np.ndarray:
+    out = np.zeros(n, dtype=bool) if flagged is None else np.asarray(flagged, bool).copy()
+    if floor is not None and torque is not None:
+        out |= np.abs(np.nan_to_num(torque, nan=np.inf)) < floor
+    return out
+
+
+def _monotone(x: np.ndarray, reason: np.ndarray, direction: float | None = None) -> None:
+    """Mark repeats (``duplicate``) and steps against the run's direction past its running
+    extreme (``non_monotone``) among the points still kept; direction from the median step
+    unless given."""
+    ok = np.flatnonzero(reason == "")
+    if ok.size < 2:
+        return
+    if direction is None:
+        direction = 1.0 if np.median(np.diff(x[ok])) >= 0 else -1.0
+    import bisect
+
+    seen: list[float] = []                # accepted values, increasing
+    for k in ok:
+        y = direction * x[k]
+        j = bisect.bisect_left(seen, y)
+        if any(abs(y - seen[i]) <= 1e-9 * max(1.0, abs(y)) for i in (j - 1, j)
+               if 0 <= i < len(seen)):
+            reason[k] = "duplicate"
+        elif seen and y < seen[-1]:
+            reason[k] = "non_monotone"
+        else:
+            seen.append(y)
+
+
+# ------------------------------------------------------------------ entry points
+def _check_paths(paths, fmt, per_file, label):
+    paths = [Path(p) for p in paths]
+    if not paths:
+        raise ValueError("no data files given")
+    if fmt != "auto" and fmt not in READERS:
+        raise ValueError(f"--format = {fmt!r} must be auto or one of {', '.join(READERS)}")
+    if per_file is not None and len(per_file) != len(paths):
+        raise ValueError(f"{label} has {len(per_file)} value(s) for {len(paths)} file(s): give "
+                         "one per file, in order")
+    for p in paths:
+        if not p.is_file():
+            raise ValueError(f"data file {str(p)!r} not found")
+    return paths
 
 
 def read_flow_curves(paths: Sequence, *, fmt: str = "auto", columns: dict[str, str] | None = None,
@@ -470,12 +688,13 @@ def read_flow_curves(paths: Sequence, *, fmt: str = "auto", columns: dict[str, s
     fmt : str
         ``"auto"`` (detect from the content) or a key of :data:`READERS`.
     columns : dict, optional
-        Column mapping for the csv reader (see :func:`read_table`).
+        Column mapping for plain tables (keys of :data:`ALIASES`, values column names).
     phi : sequence of float, optional
         One volume fraction per file, in order, for files that carry none (a phi column wins
         where present; giving both for such a file is an error).
     intervals : sequence of str, optional
-        RheoCompass result names to keep (substrings; default :data:`DEFAULT_INTERVALS`).
+        Block names to read (substrings, case-insensitive); default: every flow-curve block
+        (:func:`step_kind`; RheoCompass also :data:`DEFAULT_INTERVALS`).
     torque_floor : float, optional
         Readings with |torque| below this [mN m] are dropped as ``below_torque_floor``
         (instrument-flagged ME- readings are always dropped).
@@ -489,44 +708,35 @@ def read_flow_curves(paths: Sequence, *, fmt: str = "auto", columns: dict[str, s
     Returns
     -------
     pandas.DataFrame
-        The tidy table; ``attrs["formats"]`` maps each file to the format read.
+        The tidy table; ``attrs["formats"]`` maps each file to the format read,
+        ``attrs["skipped"]`` lists ``(file, block, reason)`` of the blocks not read.
 
     Raises
     ------
     ValueError
-        A file missing, unreadable or with no usable curve (named), a --phi count that does not
-        match the files, a phi outside (0, 1).
+        A file missing, unreadable, in no known layout or with no usable curve (named), a --phi
+        count that does not match the files, a phi outside (0, 1).
     """
     from .checks import check_range
     from .steady import phi_from_mass_fraction
 
-    paths = [Path(p) for p in paths]
-    if not paths:
-        raise ValueError("no data files given")
-    if fmt != "auto" and fmt not in READERS:
-        raise ValueError(f"--format = {fmt!r} must be auto or one of {', '.join(READERS)}")
-    if phi is not None and len(phi) != len(paths):
-        raise ValueError(f"--phi has {len(phi)} value(s) for {len(paths)} file(s): give one per "
-                         "file, in order")
-    for p in paths:
-        if not p.is_file():
-            raise ValueError(f"data file {str(p)!r} not found")
-    frames, formats = [], {}
+    paths = _check_paths(paths, fmt, phi, "--phi")
+    frames, formats, skipped = [], {}, []
     for i, p in enumerate(paths):
-        text = read_text(p)
-        kind = detect_format(text) if fmt == "auto" else fmt
+        kind, blocks = read_blocks(p, fmt=fmt, columns=columns)
         formats[str(p)] = kind
-        reader = READERS[kind][1]
-        kwargs = dict(intervals=intervals)
-        if kind == "csv":
-            kwargs["columns"] = columns
-        curves = reader(p, text, **kwargs)
+        chosen, skip = select_blocks(blocks, "flow", intervals, kind, p.name)
+        skipped += [(p.name, n, why) for n, why in skip]
         usable = 0
-        for c in curves:
+        for b in chosen:
+            c = block_curve(b, str(p), columns)
             if c.phi is not None and phi is not None:
                 raise ValueError(f"data file {p.name!r} has a phi column and --phi was given too: "
                                  "use one")
             if c.phi is not None:
+                if np.isnan(c.phi).any():
+                    raise ValueError(f"data file {p.name!r}: the phi column has "
+                                     f"{int(np.isnan(c.phi).sum())} blank or non-numeric cell(s)")
                 ph = c.phi
             elif phi is not None:
                 ph = np.full(c.shear_stress.size, float(phi[i]))
@@ -550,9 +760,76 @@ def read_flow_curves(paths: Sequence, *, fmt: str = "auto", columns: dict[str, s
                 "kept": kept, "dropped_reason": why}))
         if usable == 0:
             raise ValueError(f"data file {p.name!r} has no usable flow curve (fewer than 3 good "
-                             "points in every interval read)")
+                             "points in every block read)")
     out = pd.concat(frames, ignore_index=True)[list(COLUMNS)]
-    out.attrs["formats"] = formats
+    out.attrs.update(formats=formats, skipped=skipped)
+    return out
+
+
+def read_relaxation_curves(paths: Sequence, *, fmt: str = "auto",
+                           columns: dict[str, str] | None = None,
+                           intervals: Sequence[str] | None = None,
+                           torque_floor: float | None = None,
+                           stress_floor: float | None = None) -> pd.DataFrame:
+    """Read stress-relaxation curves (stress against time after cessation of shear) into one
+    tidy table (:data:`RELAXATION_COLUMNS`).
+
+    A block gives its stress column, else its torque converted with the file's geometry stress
+    constant (TRIOS ``Stress constant``: :func:`stress_constant`), and its time column (TRIOS
+    ``Step time`` first). Blocks are chosen as for flow curves (:func:`select_blocks`, kind
+    "relaxation"; every block of a plain table). Dropped: blank cells, readings below the torque
+    floor, stress <= 0 or below ``stress_floor`` [Pa], repeated times, times running backwards.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``attrs["formats"]`` and ``attrs["skipped"]`` as :func:`read_flow_curves`.
+
+    Raises
+    ------
+    ValueError
+        A file missing or in no known layout, a block without time, or with torque and no stress
+        constant, fewer than 3 good points in a curve (each named).
+    """
+    paths = _check_paths(paths, fmt, None, "")
+    frames, formats, skipped = [], {}, []
+    for p in paths:
+        kind, blocks = read_blocks(p, fmt=fmt, columns=columns)
+        formats[str(p)] = kind
+        chosen, skip = select_blocks(blocks, "relaxation", intervals, kind, p.name)
+        skipped += [(p.name, n, why) for n, why in skip]
+        for b in chosen:
+            where = f"data file {p.name!r}, {b.name}"
+            t = block_values(b, "time", where, columns)
+            s = block_values(b, "stress", where, columns)
+            torque = block_values(b, "torque", where, columns)
+            if t is None:
+                raise ValueError(f"{where}: no time column (columns: {', '.join(b.header)})")
+            if s is None and torque is None:
+                raise ValueError(f"{where}: no stress or torque column (columns: "
+                                 f"{', '.join(b.header)})")
+            if s is None:
+                s = torque * 1e-3 * stress_constant(b.meta, where)
+            k = column_index(b, "status")
+            flagged = [k is not None and k < len(r) and "ME" in r[k].upper() for r in b.rows]
+            reason = _reasons(t.size, [
+                ("missing_value", ~(np.isfinite(t) & np.isfinite(s))),
+                ("below_torque_floor", _below_floor(flagged, torque, torque_floor, t.size)),
+                ("nonpositive_stress", s <= 0),
+                ("below_stress_floor", s < (stress_floor or 0.0))])
+            _monotone(np.where(reason == "", t, 0.0), reason, direction=1.0)
+            if (reason == "").sum() < 3:
+                why = ", ".join(f"{w}: {int((reason == w).sum())}" for w in DROP_REASONS
+                                if (reason == w).any())
+                raise ValueError(f"{where}: fewer than 3 good points ({why or 'no rows'})")
+            point = block_values(b, "point", where, columns)
+            frames.append(pd.DataFrame({
+                "source_file": p.name, "interval": b.name, "curve": len(frames),
+                "point": point if point is not None else np.arange(1.0, t.size + 1),
+                "time_s": t, "shear_stress_Pa": s, "kept": reason == "",
+                "dropped_reason": reason}))
+    out = pd.concat(frames, ignore_index=True)[list(RELAXATION_COLUMNS)]
+    out.attrs.update(formats=formats, skipped=skipped)
     return out
 
 
@@ -564,14 +841,18 @@ def drop_counts(table: pd.DataFrame) -> dict[str, int]:
 
 
 def describe(table: pd.DataFrame) -> str:
-    """A short text: curves read, points kept, dropped per reason."""
-    groups = table.groupby(["source_file", "interval", "phi"], sort=False, dropna=False)
+    """A short text: curves read, points kept, dropped per reason; then one line per block
+    skipped, with the reason."""
+    keys = ["source_file", "interval"] + (["phi"] if "phi" in table else [])
+    groups = table.groupby(keys, sort=False, dropna=False)
     kept = int(table["kept"].sum())
     counts = drop_counts(table)
     text = (f"read {groups.ngroups} curve(s) from {table['source_file'].nunique()} file(s): "
             f"{kept} point(s) kept, {len(table) - kept} dropped")
     if counts:
         text += " (" + ", ".join(f"{k}: {v}" for k, v in counts.items()) + ")"
+    for f, name, why in table.attrs.get("skipped", []):
+        text += f"\n  skipped {f} {name!r}: {why}"
     return text
 
 
@@ -579,19 +860,24 @@ def table_to_csv_frame(table: pd.DataFrame) -> pd.DataFrame:
     """The tidy table ready for :func:`rheology.io.atomic_write_csv` (non-finite numbers of
     dropped points blanked; empty-ok columns listed in :data:`EMPTY_OK`)."""
     out = table.copy()
-    for c in ("phi", "point", "time_s", "shear_rate_per_s", "shear_stress_Pa", "viscosity_Pa_s"):
-        v = out[c].to_numpy(dtype=float)
-        out[c] = np.where(np.isfinite(v), v, np.nan)
+    for c in EMPTY_OK:
+        if c in out:
+            v = out[c].to_numpy(dtype=float)
+            out[c] = np.where(np.isfinite(v), v, np.nan)
     return out
 
 
-#: Columns of the tidy table that may be empty (unknown phi or time, a blank cell of a dropped
+#: Columns of the tidy tables that may be empty (unknown phi or time, a blank cell of a dropped
 #: point).
 EMPTY_OK: tuple[str, ...] = ("phi", "point", "time_s", "shear_rate_per_s", "shear_stress_Pa",
                              "viscosity_Pa_s")
 
 
 # ------------------------------------------------------------------ writing (examples, tests)
+def _g(x) -> str:
+    return "" if not np.isfinite(x) else f"{x:.6g}"
+
+
 def write_rheocompass(path, curves: Iterable[dict], *, project: str = "synthetic",
                       test: str = "flow curve") -> Path:
     """Write curves in the layout of a RheoCompass text export (UTF-16 LE with BOM, CRLF).
@@ -600,6 +886,8 @@ def write_rheocompass(path, curves: Iterable[dict], *, project: str = "synthetic
     ``status`` (list of str, e.g. ``"Dy_auto,ME-"``), ``time`` [s]. Used for the shipped example
     exports and the tests of the reader. Written atomically.
     """
+    from .io import atomic_write_bytes
+
     lines = [f"Project:\t{project}", "", f"Test:\t{test}", ""]
     head = ("Interval data:\tPoint No.\tTime\tShear Rate\tShear Stress\tViscosity\tTorque\t"
             "Normal Force\tGap\tTemperature\tStatus")
@@ -610,15 +898,65 @@ def write_rheocompass(path, curves: Iterable[dict], *, project: str = "synthetic
         t = np.arange(1, s.size + 1) * 6.0 if t is None else np.asarray(t, float)
         lines += [f"Result:\t{c['name']}", "", f"Interval and data points:\t{k}\t{s.size}", head,
                   "\t" * 10, "\t\t[s]\t[1/s]\t[Pa]\t[Pa·s]\t[mN·m]\t[N]\t[mm]\t[°C]\t"]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            v = np.where(r != 0, s / np.where(r != 0, r, 1.0), np.nan)
         for i in range(s.size):
-            def g(x):
-                return "" if not np.isfinite(x) else f"{x:.5g}"
-            lines.append(f"\t{i + 1}\t{g(t[i])}\t{g(r[i])}\t{g(s[i])}\t"
-                         f"{g(s[i] / r[i] if r[i] != 0 else np.nan)}\t{g(s[i] * 0.0368)}\t-0.03\t"
-                         f"1.000\t20\t{status[i]}")
+            lines.append(f"\t{i + 1}\t{_g(t[i])}\t{_g(r[i])}\t{_g(s[i])}\t{_g(v[i])}\t"
+                         f"{_g(s[i] * 0.0368)}\t-0.03\t1.000\t20\t{status[i]}")
         lines.append("")
-    path = Path(path)
     text = "\r\n".join(lines) + "\r\n"
+    return atomic_write_bytes(path, b"\xff\xfe" + text.encode("utf-16-le"))
+
+
+def write_export(path, layout: str, steps: Iterable[dict], header: dict) -> Path:
+    """Write steps in one of the layouts this module reads (``"trios"``, ``"trios-csv"``,
+    ``"rspace"``), for the shipped examples and the tests (written atomically).
+
+    Parameters
+    ----------
+    steps : iterable of dict
+        ``name`` (step or action name) and ``columns``: a list of ``(name, unit, values)``.
+    header : dict
+        ``{section: {key: value}}`` (section ``""`` before the first bracketed one; rSpace and
+        TRIOS CSV write the keys without sections).
+
+    The TRIOS text is Latin-1 with CRLF line ends, the CSVs UTF-8 with a BOM.
+    """
     from .io import atomic_write_bytes
 
-    return atomic_write_bytes(path, b"\xff\xfe" + text.encode("utf-16-le"))
+    steps = list(steps)
+    if layout in ("trios", "trios-csv"):
+        d = "\t" if layout == "trios" else ","
+        lines = []
+        for section, items in header.items():
+            if section and layout == "trios":
+                lines.append(f"[{section}]")
+            lines += [f"{k}{d}{v}" for k, v in items.items()]
+        for st in steps:
+            cols = st["columns"]
+            n = len(cols[0][2])
+            lines += (["[step]"] if layout == "trios" else [""]) + [st["name"],
+                                                                      f"Number of points{d}{n}"]
+            lines += [d.join(c[0] for c in cols), d.join(c[1] for c in cols)]
+            lines += [d.join(_g(c[2][i]) for c in cols) for i in range(n)]
+        text = "\r\n".join(lines) + "\r\n"
+        data = text.encode("latin-1") if layout == "trios" else b"\xef\xbb\xbf" + text.encode()
+        return atomic_write_bytes(path, data)
+    if layout != "rspace":
+        raise ValueError(f"layout = {layout!r} must be trios, trios-csv or rspace")
+    names: list[str] = []
+    for st in steps:
+        names += [f"{c[0]}({c[1]})" for c in st["columns"] if f"{c[0]}({c[1]})" not in names]
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\r\n")
+    for items in header.values():
+        for k, v in items.items():
+            w.writerow([k, v])
+    w.writerow([])
+    w.writerow(["Action Name", *names])
+    for st in steps:
+        cols = {f"{c[0]}({c[1]})": c[2] for c in st["columns"]}
+        n = len(next(iter(cols.values())))
+        for i in range(n):
+            w.writerow([st["name"], *(_g(cols[k][i]) if k in cols else "" for k in names)])
+    return atomic_write_bytes(path, b"\xef\xbb\xbf" + out.getvalue().encode())

@@ -6,10 +6,12 @@ The elastic shear strain of the skeleton is taubar/G (and its volumetric strain 
 which it grows past :data:`ELASTIC_STRAIN_LIMIT` (10 %) uses the law outside its range: its
 stresses (up to G times any strain the drive imposes) mean nothing. ``shear1d`` bounds its wall
 speed to 0.1 c_s and its wall stress to 0.1 G for this reason (an impulsively moved wall sends a
-shear wave of elastic strain u/c_s); the rheometer checks the strain reached.
+shear wave of elastic strain u/c_s); the rheometer and the shear1d scene runs check the strain
+reached.
 
-:func:`check_elastic_strain` raises ``RuntimeError`` (a solver-side failure: exit status 1 on the
-command line; the command writes no result) naming the limit, the strain reached, the time and what to change.
+:func:`past_elastic_limit` finds the first row of a run past the limit and describes it as the
+run's end (:class:`rheology.run_end.RunEnd`: the run keeps its rows before it, see
+:mod:`rheology.run_end`), naming the limit, the strain reached, the time and what to change.
 """
 
 from __future__ import annotations
@@ -28,9 +30,10 @@ def elastic_strain_limit_stress(modulus: float) -> float:
     return ELASTIC_STRAIN_LIMIT * float(modulus)
 
 
-def check_elastic_strain(t, stress, modulus: float, *, stress_name: str = "taubar",
-                         modulus_name: str = "G", where: str = "", advice: str = "") -> None:
-    """Raise ``RuntimeError`` if ``|stress|/modulus`` exceeds :data:`ELASTIC_STRAIN_LIMIT`.
+def past_elastic_limit(t, stress, modulus: float, *, stress_name: str = "taubar",
+                       modulus_name: str = "G", where: str = "", advice: str = ""):
+    """The first row where ``|stress|/modulus`` exceeds :data:`ELASTIC_STRAIN_LIMIT`, as the end
+    of the run: ``(index, RunEnd)``, or None when every row is within the limit.
 
     Parameters
     ----------
@@ -43,22 +46,26 @@ def check_elastic_strain(t, stress, modulus: float, *, stress_name: str = "tauba
     stress_name, modulus_name : str
         Names in the message (``"taubar"``, ``"G"``; ``"p"``, ``"K"``).
     where : str
-        What ran (e.g. ``"startup at 1e9 1/s, phi = 0.5"``), put in front of the message.
+        What ran (e.g. ``"startup at 1e9 1/s, phi = 0.5"``), put in front of the reason.
     advice : str
         What to change (e.g. ``"lower --rate or --t-end, or raise --G"``).
 
-    Raises
-    ------
-    RuntimeError
-        One line: the limit, the strain and stress reached at the first row past it, its time,
-        the modulus, and ``advice``.
+    Returns
+    -------
+    (int, RunEnd) or None
+        The index of the first row past the limit and the end (kind ``"validity_limit"``):
+        ``time_s`` of the row before it (None for the first row), ``value`` its strain,
+        ``past_s`` its time; the reason is one line with the limit, the strain and stress
+        reached, the time the limit was crossed (linear interpolation), the modulus, ``advice``.
     """
+    from .run_end import RunEnd
+
     t = np.asarray(t, dtype=float).ravel()
     s = np.abs(np.asarray(stress, dtype=float).ravel())
     strain = s / float(modulus)
     over = np.flatnonzero(strain > ELASTIC_STRAIN_LIMIT * (1.0 + MARGIN))
     if over.size == 0:
-        return
+        return None
     i = int(over[0])
     head = f"{where}: " if where else ""
     crossed = ""
@@ -66,9 +73,12 @@ def check_elastic_strain(t, stress, modulus: float, *, stress_name: str = "tauba
         a, b = strain[i - 1], strain[i]
         tc = t[i - 1] + (t[i] - t[i - 1]) * (ELASTIC_STRAIN_LIMIT - a) / (b - a)
         crossed = f", past the limit from t ~ {tc:.4g} s"
-    raise RuntimeError(
+    reason = (
         f"{head}elastic strain {stress_name}/{modulus_name} = {strain[i]:.3g} at t = {t[i]:.6g} s "
         f"({stress_name} = {s[i]:.4g} Pa, {modulus_name} = {float(modulus):.4g} Pa{crossed}) "
         f"exceeds the small-elastic-strain limit {ELASTIC_STRAIN_LIMIT:g} of the hypoelastic law "
         f"({stress_name} <= {elastic_strain_limit_stress(modulus):.4g} Pa)"
         + (f"; {advice}" if advice else ""))
+    return i, RunEnd("validity_limit", reason, float(t[i - 1]) if i > 0 else None,
+                     f"elastic strain {stress_name}/{modulus_name}", float(strain[i]),
+                     ELASTIC_STRAIN_LIMIT, float(t[i]))

@@ -3,7 +3,9 @@
 Stages (Baumgarten & Kamrin, Supplement, Figs. 11-13):
 
 1. (Fig. 11, Eq. 24) the low-stress viscosity plateau of each curve (its minimum, after a 3-point
-   running mean in log viscosity against noise) -> ``a0, phi_j``, with ``mu_c`` and ``eta0`` held.
+   running mean in log viscosity against noise) -> ``a0, phi_j``, with ``mu_c`` held, and
+   ``eta0`` (the suspending liquid's viscosity: the plateaus' dilute limit, eta_r -> 1 + 5/2 phi
+   as phi -> 0) unless it is given (``fixed``); needs three curves when eta0 is estimated.
 2. (Fig. 12, Eq. 25) the high-stress plateau of the curves that have one (the viscosity flattens
    at the top of the ramp: local log-log slope < 0.3, and it has thickened) -> ``a_inf, phi_c``.
 3. (Fig. 13, Eqs. 33-34) the DST rates of the curves whose shear rate saturates at the top of the
@@ -18,13 +20,23 @@ Stages (Baumgarten & Kamrin, Supplement, Figs. 11-13):
    by plain least squares on the rest, which defines the confidence intervals.
 
 Uncertainty: the covariance from the Jacobian at the optimum (s^2 (J^T J)^-1, in the
-coordinates of :data:`SCALE`: log for scale parameters, linear for fractions and exponents),
-Student-t intervals; for phi_j and phi_c also the profile likelihood (refits at fixed values until
-the sum of squares has grown by s^2 t^2), which replaces the Jacobian interval when it is computed.
-A parameter is flagged unidentifiable when its interval is wider than a factor of 2 (scale
-parameters) or +-0.02 (fractions) or +-1 (exponents), when it is correlated with another beyond
-|r| = 0.99 (except varphi_i with alpha_i, correlated by the form of Eq. 34), or when it lies in
-a direction of (numerically) zero curvature.
+coordinates of :data:`SCALE`: log for scale parameters, linear for fractions and exponents;
+:func:`jacobian_covariance`), Student-t intervals; for phi_j and phi_c also the profile likelihood
+(refits at fixed values until the sum of squares has grown by s^2 t^2), which replaces the
+Jacobian interval when it is computed. Three distinct flags per parameter:
+
+- ``at_bound``: it ended on a bound of the search (one-sided interval); a bound that is a limit of
+  the law itself (a_inf = a0, alpha_i = 0, Delta = 0 or 1) is a result, any other is a problem;
+- ``unidentifiable``: its interval is wider than a factor of 2 (scale parameters), +-0.02
+  (fractions), +-1 (exponents), unbounded or undefined (written as null), it is correlated with
+  another beyond |r| = 0.99 (except the pairs correlated by the equations' form: varphi_i with
+  alpha_i, eta0 with a0 and a_inf), or
+  it lies in a direction of (numerically) zero curvature;
+- ``converged``: the optimiser stopped on its tolerances, not on its evaluation limit.
+
+:func:`assess` lists what makes a result unphysical (phi_c far below phi_j, a0 or a_inf outside
+the range of the paper's sets, a search bound reached, the evaluation limit hit, an estimated eta0
+not identified), in words a user can act on.
 
 Everything is SI. The model is the viscous limit of Eq. (1) (grain inertia neglected, as in the
 paper's fits); the material's mu_2 and b are honoured.
@@ -63,12 +75,22 @@ OPTIONAL_FREE: tuple[str, ...] = ("eta0", "mu_c", "Delta", "varphi2", "alpha2")
 
 #: |correlation| beyond which both parameters are flagged unidentifiable.
 CORR_FLAG = 0.99
-#: Pairs correlated by the form of Eq. (34) alone (varphi x^alpha pivots at x = 1, far outside
-#: the data's phi_j - phi ~ 0.01-0.1): not flagged for their mutual correlation.
-_PIVOT_PAIRS = ({"varphi1", "alpha1"}, {"varphi2", "alpha2"})
+#: Pairs correlated by the form of the equations alone, not flagged for their mutual correlation
+#: (their marginal intervals carry it): varphi_i with alpha_i (Eq. 34: varphi x^alpha pivots at
+#: x = 1, far outside the data's phi_j - phi ~ 0.01-0.1), eta0 with a0 and a_inf (Eqs. 24-25:
+#: near jamming the plateaus fix eta0 a^2 mu_c, the dilute terms 1 + 5/2 phi phi_m/(phi_m - phi)
+#: separate them).
+_PIVOT_PAIRS = ({"varphi1", "alpha1"}, {"varphi2", "alpha2"}, {"eta0", "a0"}, {"eta0", "a_inf"})
 
 STAGE_OF = {"phi_j": "1", "a0": "1", "phi_c": "2", "a_inf": "2", "varphi1": "3", "alpha1": "3",
-            "varphi2": "3", "alpha2": "3", "tau_star": "4", "eta0": "4", "mu_c": "4", "Delta": "4"}
+            "varphi2": "3", "alpha2": "3", "tau_star": "4", "eta0": "1", "mu_c": "4", "Delta": "4"}
+
+#: The paper's fitted sets (Tables 1-3), whose span :func:`assess` takes as the plausible range.
+PAPER_SETS: tuple[str, ...] = ("singh2018_a", "singh2018_b", "dhaene1993", "frith1996",
+                               "guy2015_a", "guy2015_b", "fall2015", "hermes2016")
+#: How far beyond the paper's span a0 and a_inf (factor) and phi_j - phi_c (factor) may go
+#: before :func:`assess` calls them unphysical.
+PLAUSIBLE_FACTOR = 2.0
 
 guard(__file__)
 
@@ -349,24 +371,33 @@ def curve_features(data: FlowData, *, plateau_slope: float = 0.3, dst_slope: flo
     return out
 
 
-def _plateau_fit(phi, eta_r, mu_c, p0, bounds, fixed_a=None):
-    """Least squares in log eta_r of eta_r = 1 + 5/2 phi pm/(pm - phi) + 2 mu_c (a phi/(pm - phi))^2
-    (Eq. 24 with pm = phi_j, a = a0; Eq. 25 with pm = phi_c, a = a_inf). Returns (pm, a)."""
-    phi, eta_r = np.asarray(phi, float), np.asarray(eta_r, float)
+def _plateau_fit(phi, eta, mu_c, pm, a, pm_range, a_range, *, fit_pm=True, fit_a=True,
+                 eta0=1.0):
+    """Least squares in log viscosity of eta = eta0 [1 + 5/2 phi pm/(pm - phi) + 2 mu_c (a phi /
+    (pm - phi))^2] (Eq. 24 with pm = phi_j, a = a0; Eq. 25 with pm = phi_c, a = a_inf), from the
+    start (pm, a), each fitted or held; ``eta0=None`` estimates eta0 too (the mean log misfit,
+    profiled out). Returns (pm, a, eta0)."""
+    phi, eta = np.asarray(phi, float), np.asarray(eta, float)
 
-    def model(pm, a):
-        y = pm - phi
-        return 1 + 2.5 * phi * pm / y + 2 * mu_c * (a * phi / y) ** 2
+    def unpack(x):
+        return (x[0] if fit_pm else pm), (np.exp(x[-1]) if fit_a else a)
 
-    if fixed_a is not None:
-        res = least_squares(lambda x: np.log(model(x[0], fixed_a)) - np.log(eta_r), [p0[0]],
-                            bounds=([bounds[0][0]], [bounds[1][0]]), x_scale=[0.01])
-        return float(res.x[0]), float(fixed_a)
-    res = least_squares(lambda x: np.log(model(x[0], np.exp(x[1]))) - np.log(eta_r),
-                        [p0[0], np.log(p0[1])],
-                        bounds=([bounds[0][0], np.log(bounds[0][1])],
-                                [bounds[1][0], np.log(bounds[1][1])]), x_scale=[0.01, 0.1])
-    return float(res.x[0]), float(np.exp(res.x[1]))
+    def log_ratio(x):                     # ln(eta_r of the model / eta measured)
+        p, q = unpack(x)
+        y = p - phi
+        return np.log(1 + 2.5 * phi * p / y + 2 * mu_c * (q * phi / y) ** 2) - np.log(eta)
+
+    def misfit(x):
+        r = log_ratio(x)
+        return r - r.mean() if eta0 is None else r + np.log(eta0)
+
+    x = np.array([pm] * fit_pm + [np.log(a)] * fit_a, float)
+    if x.size:
+        lo = [pm_range[0]] * fit_pm + [np.log(a_range[0])] * fit_a
+        hi = [pm_range[1]] * fit_pm + [np.log(a_range[1])] * fit_a
+        x = least_squares(misfit, x, bounds=(lo, hi), x_scale=[0.01] * fit_pm + [0.1] * fit_a).x
+    p, q = unpack(x)
+    return float(p), float(q), float(eta0 if eta0 is not None else np.exp(-log_ratio(x).mean()))
 
 
 def _clip_inside(x, lo, hi):
@@ -385,7 +416,10 @@ class _Params:
     def __init__(self, base: Material, free: list[str], phi_max: float):
         self.base, self.free, self.phi_max = base, list(free), phi_max
         names, lo, hi = [], [], []
+        phys = []                # (low, high) bound is a limit of the law itself, not the search's
         for p in self.free:
+            phys.append((p in ("a_inf", "alpha1", "alpha2", "Delta") and
+                         (p != "a_inf" or "a0" in self.free), p == "Delta"))
             if p == "phi_j":
                 names.append("phi_j")
                 lo.append(max(phi_max, 0.0 if "phi_c" in self.free else base.phi_c) + 1e-5)
@@ -428,6 +462,8 @@ class _Params:
             else:  # pragma: no cover
                 raise ValueError(f"cannot fit {p}")
         self.names, self.lo, self.hi = names, np.array(lo), np.array(hi)
+        self.physical_lo = np.array([a for a, _ in phys], bool)
+        self.physical_hi = np.array([b for _, b in phys], bool)
 
     def values(self, theta) -> dict[str, float]:
         v = {}
@@ -469,15 +505,104 @@ class _Params:
 # ============================================================================ results
 @dataclass
 class ParameterEstimate:
+    """One parameter of a fit: value, interval (NaN where unbounded or undefined: written as
+    null), its standard error in the reporting coordinate (ln for log-scale parameters), the
+    interval's method ("jacobian", "profile", "fixed", "none"), stage, the three flags (module
+    docstring) and a note on them. ``status`` summarises: "fixed", "fitted" or the raised flags
+    joined by "+" ("at_bound", "unidentifiable", "not_converged")."""
+
     name: str
     value: float
     lower: float
     upper: float
-    std_error: float          # in the reporting coordinate (ln for log-scale parameters)
-    method: str               # "jacobian", "profile", "fixed", "start"
+    std_error: float
+    method: str
     stage: str
-    status: str               # "fitted", "fixed", "at_bound", "unidentifiable"
+    status: str = ""
     note: str = ""
+    at_bound: bool = False
+    unidentifiable: bool = False
+    converged: bool = True
+    bound: str = ""           # at_bound: "law" (a limit of the law itself) or "search"
+
+    def __post_init__(self):
+        if self.status not in ("fixed", "stages 1-3"):
+            flags = [f for f, on in (("at_bound", self.at_bound),
+                                     ("unidentifiable", self.unidentifiable),
+                                     ("not_converged", not self.converged)) if on]
+            self.status = "+".join(flags) or "fitted"
+
+
+def parameter_table(params, scale: dict[str, str], units: dict[str, str]):
+    """parameters.csv of a fit as a DataFrame: ``parameter, value, unit, lower, upper,
+    std_error_reporting_coord, reporting_coord, interval, stage, status, at_bound,
+    unidentifiable, converged, note`` (non-finite lower, upper, std_error as NaN: empty cells)."""
+    import pandas as pd
+
+    def fin(x):
+        return float(x) if np.isfinite(x) else float("nan")
+
+    return pd.DataFrame([{"parameter": p.name, "value": p.value, "unit": units.get(p.name, "-"),
+                          "lower": fin(p.lower), "upper": fin(p.upper),
+                          "std_error_reporting_coord": fin(p.std_error),
+                          "reporting_coord": scale.get(p.name, "lin"), "interval": p.method,
+                          "stage": p.stage, "status": p.status, "at_bound": p.at_bound,
+                          "unidentifiable": p.unidentifiable, "converged": p.converged,
+                          "note": p.note} for p in params])
+
+
+#: Columns of :func:`parameter_table` that may be empty (an interval unbounded or undefined).
+PARAMETER_EMPTY_OK = ("lower", "upper", "std_error_reporting_coord")
+
+
+def jacobian_covariance(J: np.ndarray, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                        s2: float, rcond: float = 1e-9):
+    """Covariance of least-squares estimates from the Jacobian at the optimum.
+
+    Parameters
+    ----------
+    J : (n_points, n_parameters) array
+        Jacobian of the residuals in the optimiser's coordinates theta.
+    theta, lo, hi : (n_parameters,) arrays
+        Optimum and box bounds.
+    s2 : float
+        Residual variance (sum of squares / degrees of freedom).
+
+    Returns
+    -------
+    cov : (n, n) array
+        s^2 (J^T J)^-1 over the interior parameters (pseudo-inverse: singular values below
+        ``rcond`` times the largest dropped), and for parameters at a bound their variance from
+        the pseudo-inverse of the full J.
+    active : bool array
+        At a bound (within 1e-7 of its span).
+    degenerate : bool array
+        Loading (> 0.1) on a direction of no curvature (dropped singular value).
+    """
+    n = theta.size
+    span = hi - lo
+    active = (theta - lo < 1e-7 * span) | (hi - theta < 1e-7 * span)
+    cov = np.zeros((n, n))
+    degenerate = np.zeros(n, bool)
+    keep = ~active
+    if keep.any():
+        _, sv, Vt = np.linalg.svd(J[:, keep], full_matrices=False)
+        tiny = ~(sv >= rcond * sv[0]) if sv[0] > 0 else np.ones_like(sv, bool)
+        inv_s2 = np.where(tiny, 0.0, 1.0 / np.where(tiny, 1.0, sv) ** 2)
+        idx = np.flatnonzero(keep)
+        cov[np.ix_(idx, idx)] = s2 * (Vt.T * inv_s2) @ Vt
+        for row in Vt[tiny]:
+            degenerate[idx[np.abs(row) > 0.1]] = True
+    _, svf, Vtf = np.linalg.svd(J, full_matrices=False)
+    okf = svf > rcond * svf[0] if svf[0] > 0 else np.zeros_like(svf, bool)
+    cov_full = s2 * (Vtf.T[:, okf] / svf[okf] ** 2) @ Vtf[okf]
+    for k in np.flatnonzero(active):
+        cov[k, k] = cov_full[k, k]
+        # a parameter that ran to a bound along a direction the data do not see (mu_c with a0,
+        # a_inf: Eq. 1 holds only mu_c a^2) is unidentifiable, not merely at a bound
+        if np.any(np.abs(Vtf[~okf, k]) > 0.1):
+            degenerate[k] = True
+    return cov, active, degenerate
 
 
 @dataclass
@@ -495,6 +620,8 @@ class FitResult:
     n_evaluations : model evaluations (one = all points through mixture_steady_state)
     seconds : wall time of the fit
     messages : warnings for the user (unidentifiable parameters, stages skipped)
+    converged : the global fit stopped on its tolerances (not its evaluation limit)
+    problems : what makes the result unphysical (:func:`assess`); empty for a trustworthy fit
     """
 
     material: Material
@@ -510,6 +637,8 @@ class FitResult:
     seconds: float
     messages: list[str]
     confidence: float
+    converged: bool = True
+    problems: list[str] = field(default_factory=list)
 
     def parameter(self, name: str) -> ParameterEstimate:
         for p in self.parameters:
@@ -518,16 +647,10 @@ class FitResult:
         raise KeyError(name)
 
     def table(self):
-        """parameters.csv as a DataFrame."""
-        import pandas as pd
+        """parameters.csv as a DataFrame (:func:`parameter_table`)."""
         from .materials import FIELD_UNITS
 
-        return pd.DataFrame([{"parameter": p.name, "value": p.value,
-                              "unit": FIELD_UNITS.get(p.name, "-"), "lower": p.lower,
-                              "upper": p.upper, "std_error_reporting_coord": p.std_error,
-                              "reporting_coord": SCALE.get(p.name, "lin"), "interval": p.method,
-                              "stage": p.stage, "status": p.status, "note": p.note}
-                             for p in self.parameters])
+        return parameter_table(self.parameters, SCALE, FIELD_UNITS)
 
 
 # ============================================================================ the fitter
@@ -543,9 +666,11 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     data : FlowData
         Kept points of the measured curves (at least 2 curves for stage 1).
     start : Material or str
-        Starting point and source of the held parameters (mu_c, eta0, Delta, alpha2 by default).
+        Starting point and source of the held parameters (mu_c, Delta, alpha2 by default).
     fixed : dict, optional
         Parameters fixed at the given values (``--set NAME=VALUE``), applied to ``start`` first.
+        ``eta0`` (the suspending liquid's viscosity) is estimated from the data unless fixed
+        here; the start's eta0 is never used silently.
     free : list of str, optional
         Parameters of :data:`OPTIONAL_FREE` also to fit (``--free``).
     etaB_terms : int, optional
@@ -567,8 +692,9 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     Raises
     ------
     ValueError
-        Fewer than two curves, a parameter name not fittable, fixed values out of range,
-        a volume fraction at or above the start's bounds that no fit can reach.
+        Fewer than two curves (three when eta0 is estimated), a parameter name not fittable,
+        fixed values out of range, a volume fraction at or above the start's bounds that no fit
+        can reach.
     RuntimeError
         The optimiser fails (its message).
     """
@@ -590,6 +716,12 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     if data.n_curves < 2:
         raise ValueError(f"{data.n_curves} flow curve(s): the fit needs at least 2 volume "
                          "fractions (stage 1 fits two parameters to one plateau per curve)")
+    estimate_eta0 = "eta0" not in fixed
+    if estimate_eta0 and data.n_curves < 3:
+        raise ValueError(f"eta0 (the suspending liquid's viscosity) is estimated with phi_j and a0 "
+                         f"from one low-stress plateau per curve: {data.n_curves} curves cannot "
+                         "give three parameters; give it with --set eta0=VALUE (Pa s, measured "
+                         "on the liquid alone) or add curves")
     counts = np.bincount(data.curve)
     if counts.min() < 3:
         raise ValueError(f"curve {data.labels[int(np.argmin(counts))]} has {counts.min()} kept "
@@ -606,21 +738,21 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
 
     # ---------------------------------------------------------------- stage 1 (Eq. 24)
     feats = curve_features(data)
-    mu_c, eta0 = base.mu_c, base.eta0
-    eta_r_min = np.array([f.eta_min for f in feats]) / eta0
+    mu_c = base.mu_c
+    eta_min = np.array([f.eta_min for f in feats])
     pj0 = base.phi_j if base.phi_j > phi_max else phi_max + 0.02
     phi_j, a0 = base.phi_j, base.a0
-    if "phi_j" in fixed and "a0" in fixed:
+    if "phi_j" in fixed and "a0" in fixed and not estimate_eta0:
         messages.append("stage 1 skipped: phi_j and a0 both fixed")
-    elif "phi_j" in fixed:
-        a0 = _fit_a_only(phis, eta_r_min, mu_c, base.phi_j, base.a0)
-    else:
-        phi_j, a0 = _plateau_fit(phis, eta_r_min, mu_c, [_clip_inside(pj0, phi_max, 0.9999),
-                                                          base.a0],
-                                 ([phi_max + 1e-5, 1e-3], [0.9999, 100.0]),
-                                 fixed_a=base.a0 if "a0" in fixed else None)
-    stage1 = {"phi": phis, "eta_min": eta_r_min * eta0, "stress_min": [f.stress_min for f in feats],
-              "phi_j": phi_j, "a0": a0, "mu_c": mu_c, "eta0": eta0}
+    phi_j, a0, eta0 = _plateau_fit(
+        phis, eta_min, mu_c, base.phi_j if "phi_j" in fixed else _clip_inside(pj0, phi_max, 0.9999),
+        base.a0, (phi_max + 1e-5, 0.9999), (1e-3, 100.0), fit_pm="phi_j" not in fixed,
+        fit_a="a0" not in fixed, eta0=None if estimate_eta0 else base.eta0)
+    base = base.replace(eta0=eta0)
+    eta_r_min = eta_min / eta0
+    stage1 = {"phi": phis, "eta_min": eta_min, "stress_min": [f.stress_min for f in feats],
+              "phi_j": phi_j, "a0": a0, "mu_c": mu_c, "eta0": eta0,
+              "eta0_estimated": estimate_eta0}
 
     # ---------------------------------------------------------------- stage 2 (Eq. 25)
     plat = [i for i, f in enumerate(feats) if f.kind == "plateau"]
@@ -633,22 +765,22 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     if "phi_c" in fixed:
         phi_c = base.phi_c
         if len(plat) >= 1 and "a_inf" not in fixed:
-            a_inf = max(a0, _fit_a_only(phis[plat], eta_r_max, mu_c, phi_c, a_inf))
+            a_inf = max(a0, _plateau_fit(phis[plat], eta_r_max, mu_c, phi_c, a_inf, (0, 1),
+                                         (1e-3, 1e3), fit_pm=False)[1])
         if not plat:
             messages.append("stage 2: phi_c fixed, no high-stress plateau to fit a_inf")
     elif len(plat) >= 2 and "a_inf" not in fixed:
         lo = float(max(phis[plat])) + 1e-5
         hi = max(phi_c_hi, lo + 2e-5)
-        phi_c, a_inf = _plateau_fit(phis[plat], eta_r_max, mu_c, [_clip_inside(phi_c, lo, hi),
-                                                                   max(a_inf, a0 * 1.0001)],
-                                    ([lo, a0], [hi, 100.0]))
+        phi_c, a_inf, _ = _plateau_fit(phis[plat], eta_r_max, mu_c, _clip_inside(phi_c, lo, hi),
+                                       max(a_inf, a0 * 1.0001), (lo, hi), (a0, 100.0))
     elif len(plat) >= 1:
         lo = float(max(phis[plat])) + 1e-5
         hi = max(phi_c_hi, lo + 2e-5)
         if "a_inf" in fixed:
             a_inf = base.a_inf
-        phi_c, _ = _plateau_fit(phis[plat], eta_r_max, mu_c, [_clip_inside(phi_c, lo, hi)],
-                                ([lo], [hi]), fixed_a=a_inf)
+        phi_c = _plateau_fit(phis[plat], eta_r_max, mu_c, _clip_inside(phi_c, lo, hi), a_inf,
+                             (lo, hi), (a0, 100.0), fit_a=False)[0]
         messages.append(f"stage 2: one high-stress plateau only: a_inf starts at {a_inf:.4g} "
                         "(the start's a_inf/a0) and only phi_c is fitted here"
                         + ("; a_inf stays fixed" if "a_inf" in fixed else
@@ -726,8 +858,8 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
               "varphi1": v1, "alpha1": al1, "varphi2": v2, "alpha2": m.alpha2,
               "tau_star_first": tau_star, "curves": dst_ok,
               "kinds": [f.kind for f in feats], "top_slopes": [f.top_slope for f in feats]}
+    stage3["material"] = m               # the set after stages 1-3 (the stage plots' values)
     stages = {"1": stage1, "2": stage2, "3": stage3}
-    stage3_material = m
 
     # ---------------------------------------------------------------- stage 4
     free_list = [p for p in DEFAULT_FREE if p not in fixed]
@@ -737,14 +869,15 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         free_list = [p for p in free_list if p != "alpha1"]
     if etaB_terms == 2 and m.varphi2 > 0 and "varphi2" not in fixed and len(dst_ok) >= 2:
         free_list.append("varphi2")
-    for p in free_extra:
+    for p in free_extra + (["eta0"] if estimate_eta0 else []):
         if p not in free_list and p not in fixed:
             free_list.append(p)
     if m.a0 == m.a_inf and "a_inf" in free_list:
         m = dataclasses.replace(m, a_inf=m.a0 * (1 + 1e-6))
     if stages_only:
         out = _finish(data, m, base, [], free_list, np.zeros(data.stress.size, bool), stages,
-                      messages, n_eval, t0, confidence, None, None, name, citation, model)
+                      messages, n_eval, t0, confidence, None, None, name, citation, model,
+                      fixed=fixed)
         return out
     P = _Params(m, free_list, phi_max)
     th0 = P.theta(m)
@@ -772,25 +905,13 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         raise RuntimeError(f"stage 4 failed: {r3.message}")
     if r3.status == 0:
         messages.append(f"stage 4 stopped at its evaluation limit ({r3.nfev} in the polish; "
-                        f"optimality {r3.optimality:.2g}): the optimum may not be reached; check "
-                        "the held parameters (eta0, mu_c) and the residual plot")
+                        f"optimality {r3.optimality:.2g}): the optimum may not be reached")
     stages["4"] = {"soft_l1_f_scale": fs, "outliers": int(outlier.sum()),
                    "nfev": int(r1.nfev + r2.nfev + r3.nfev), "message": r3.message}
     return _finish(data, P.material(r3.x), base, P, free_list, outlier, stages, messages, n_eval,
                    t0, confidence, r3, resid, name, citation, model,
                    profile=profile and r3.status > 0,       # no profile around a non-optimum
-                   stage3_material=stage3_material)
-
-
-def _fit_a_only(phi, eta_r, mu_c, pm, a_start):
-    """Eq. (24)/(25) fitted for a alone at a fixed jamming fraction pm."""
-    phi, eta_r = np.asarray(phi, float), np.asarray(eta_r, float)
-    y = pm - phi
-
-    def r(x):
-        return np.log(1 + 2.5 * phi * pm / y + 2 * mu_c * (np.exp(x[0]) * phi / y) ** 2) - np.log(eta_r)
-
-    return float(np.exp(least_squares(r, [np.log(a_start)]).x[0]))
+                   fixed=fixed)
 
 
 def _central_jacobian(fun, theta, lo, hi, h=1e-6):
@@ -806,13 +927,15 @@ def _central_jacobian(fun, theta, lo, hi, h=1e-6):
 
 
 def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, confidence, res,
-            resid, name, citation, model, profile=False, stage3_material=None):
+            resid, name, citation, model, profile=False, fixed=()):
     """Intervals, correlations, flags, the fitted Material."""
     final = dataclasses.replace(m, name=name, citation=citation or
                                 f"fit of Baumgarten & Kamrin's model to {data.n_curves} measured "
                                 f"flow curves, starting from {base.name}",
                                 notes="fitted by rheology.fit (stages 1-4 of the Supplement); "
-                                      "eta0, mu_c held unless freed")
+                                      "mu_c held unless freed; eta0 " + (
+                                          "estimated from the data" if "eta0" in free_list
+                                          else "given"))
     final = final.replace()       # validate
     st = model(final)
     r_all = np.log10(data.viscosity) - st["log10_viscosity"]
@@ -827,35 +950,11 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
         L = _central_jacobian(P.psi, theta, P.lo - 1, P.hi + 1, h=1e-7)
         psi = P.psi(theta)
         span = P.hi - P.lo
-        active = (theta - P.lo < 1e-7 * span) | (P.hi - theta < 1e-7 * span)
         dof = max(n_in - len(theta), 1)
         s2 = float(np.sum(res.fun ** 2)) / dof
         tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
-        keep = ~active
-        cov_t = np.zeros((theta.size, theta.size))
-        degenerate = set()
-        if keep.any():
-            Jk = J[:, keep]
-            U, sv, Vt = np.linalg.svd(Jk, full_matrices=False)
-            tiny = sv < 1e-9 * sv[0]
-            inv_s2 = np.where(tiny, 0.0, 1.0 / np.where(tiny, 1.0, sv) ** 2)
-            ck = s2 * (Vt.T * inv_s2) @ Vt
-            idx = np.flatnonzero(keep)
-            cov_t[np.ix_(idx, idx)] = ck
-            for row in Vt[tiny]:
-                for k in np.flatnonzero(np.abs(row) > 0.1):
-                    degenerate.add(free_list[idx[k]])
-        # parameters at a bound: their spread from the full (pseudo-inverse) covariance,
-        # one-sided intervals
-        Uf, svf, Vtf = np.linalg.svd(J, full_matrices=False)
-        okf = svf > 1e-9 * svf[0]
-        cov_full = s2 * (Vtf.T[:, okf] / svf[okf] ** 2) @ Vtf[okf]
-        for k in np.flatnonzero(active):
-            cov_t[k, k] = cov_full[k, k]
-            # a parameter that ran to a bound along a direction the data do not see (mu_c with
-            # a0, a_inf: Eq. 1 holds only mu_c a^2) is unidentifiable, not merely at a bound
-            if np.any(np.abs(Vtf[~okf, k]) > 0.1):
-                degenerate.add(free_list[k])
+        cov_t, active, degen = jacobian_covariance(J, theta, P.lo, P.hi, s2)
+        degenerate = {free_list[k] for k in np.flatnonzero(degen)}
         cov_p = L @ cov_t @ L.T
         sd = np.sqrt(np.maximum(np.diag(cov_p), 0.0))
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -870,68 +969,143 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
                     k = free_list.index(p)
                     prof[p] = _profile(data, final, free_list, p, psi[k], sd[k], tq, s2,
                                        float(np.sum(res.fun ** 2)), inl, P.phi_max, base, model)
+        converged = res.status > 0
         for k, p in enumerate(free_list):
             val = getattr(final, p)
-            lo_, hi_ = psi[k] - tq * sd[k], psi[k] + tq * sd[k]
+            flat = p in degenerate or not np.isfinite(sd[k]) or sd[k] <= 1e-12 * max(
+                1.0, abs(psi[k]))
+            lo_, hi_ = (np.nan, np.nan) if flat else (psi[k] - tq * sd[k], psi[k] + tq * sd[k])
             method = "jacobian"
             if p in prof and prof[p] is not None:
                 lo_, hi_ = prof[p]
-                method = "profile"
-            if SCALE[p] == "log":
-                lo_, hi_ = float(np.exp(lo_)), float(np.exp(hi_))
-            else:
-                # a symmetric Jacobian interval may reach past the physical range (phi_c's to
-                # -0.007 on two fractions): reported within it (0 < phi_c < phi_j < 1,
-                # 0 <= Delta <= 1, alpha_i >= 0)
-                top = (final.phi_j if p == "phi_c" else 1.0) if p in ("phi_c", "phi_j", "Delta") \
-                    else np.inf
-                lo_, hi_ = max(lo_, 0.0), min(hi_, top)
-            status, note = "fitted", ""
+                method, flat = "profile", False
+            with np.errstate(over="ignore", invalid="ignore"):
+                if SCALE[p] == "log":    # an end at 0 or inf: unbounded in ln
+                    lo_, hi_ = (float(x) if 0 < x < np.inf else np.nan
+                                for x in np.exp([lo_, hi_]))
+                else:
+                    # a symmetric Jacobian interval may reach past the physical range (phi_c's
+                    # to -0.007 on two fractions): reported within it (0 < phi_c < phi_j < 1,
+                    # 0 <= Delta <= 1, alpha_i >= 0)
+                    top = ((final.phi_j if p == "phi_c" else 1.0)
+                           if p in ("phi_c", "phi_j", "Delta") else np.inf)
+                    lo_, hi_ = float(np.maximum(lo_, 0.0)), float(np.minimum(hi_, top))
+            why = []
             half = tq * sd[k]
-            wide = (half > np.log(2.0)) if SCALE[p] == "log" else (
-                half > (0.02 if p.startswith("phi") else 1.0 if p.startswith("alpha") else 0.2))
+            wide = not flat and ((half > np.log(2.0)) if SCALE[p] == "log" else (
+                half > (0.02 if p.startswith("phi") else 1.0 if p.startswith("alpha") else 0.2)))
             partners = [free_list[j] for j in range(len(free_list))
                         if j != k and abs(corr[k, j]) > CORR_FLAG and not active[j]
-                        and {p, free_list[j]} not in _PIVOT_PAIRS]
+                        and {p, free_list[j]} not in _PIVOT_PAIRS and not active[k]]
             if active[k]:
-                status, note = "at_bound", "at a bound of its physical range: one-sided interval"
                 at_low = theta[k] - P.lo[k] < 1e-7 * span[k]
+                physical = P.physical_lo[k] if at_low else P.physical_hi[k]
+                why.append(("at a limit of the law (" + {"a_inf": "a_inf = a0", "Delta": "Delta "
+                            "at 0 or 1"}.get(p, f"{p} = 0") + ")" if physical else
+                            f"at the fitter's {'lower' if at_low else 'upper'} search bound "
+                            f"{val:.4g}, not a physical limit") + ": one-sided interval")
                 if at_low:
-                    lo_ = val
+                    lo_ = float(val)
                 else:
-                    hi_ = val
-                partners = []
-            if p in degenerate or wide or partners:
-                status = "unidentifiable"
-                why = []
-                if p in degenerate:
-                    why.append("no curvature of the misfit along it")
-                if wide:
-                    why.append("interval wider than " + ("a factor 2" if SCALE[p] == "log" else
-                                                         "the identifiability width"))
-                if partners:
-                    why.append(f"correlation > {CORR_FLAG} with " + ", ".join(partners))
-                note = "; ".join(why)
+                    hi_ = float(val)
+                bound = "law" if physical else "search"
+            else:
+                bound = ""
+            unbounded = not flat and not (np.isfinite(lo_) and np.isfinite(hi_))
+            if p in degenerate:
+                why.append("no curvature of the misfit along it")
+            if wide:
+                why.append("interval wider than " + ("a factor 2" if SCALE[p] == "log" else
+                                                     "the identifiability width"))
+            if partners:
+                why.append(f"correlation > {CORR_FLAG} with " + ", ".join(partners))
+            if flat or unbounded:
+                why.append("interval " + ("undefined" if flat else "unbounded") + " (null)")
+            unident = bool(p in degenerate or wide or partners or flat or unbounded)
+            lo_, hi_ = (x if np.isfinite(x) else np.nan for x in (lo_, hi_))
+            if not converged:
+                why.append("the optimiser stopped at its evaluation limit")
+            note = "; ".join(why)
+            if unident:
                 messages.append(f"{p} is not identified by these data ({note})")
-            params.append(ParameterEstimate(p, float(val), float(lo_), float(hi_), float(sd[k]),
-                                            method, STAGE_OF[p], status, note))
+            params.append(ParameterEstimate(
+                p, float(val), float(lo_), float(hi_), float(sd[k]) if np.isfinite(sd[k])
+                else float("nan"), method, STAGE_OF[p], note=note, at_bound=bool(active[k]),
+                unidentifiable=unident, converged=bool(converged), bound=bound))
         stages.setdefault("4", {})["sigma_log10"] = sigma
     else:
+        converged = True
         params += [ParameterEstimate(p, float(getattr(final, p)), float("nan"), float("nan"),
                                      float("nan"), "none", STAGE_OF[p], "stages 1-3")
                    for p in free_list]
     held = [p for p in SCALE if p not in free_list]
     for p in held:
-        reason = "held (not fitted by default)" if p in OPTIONAL_FREE else "held (fixed or no data)"
+        reason = ("held at the given value" if p in fixed else "held (not fitted by default)"
+                  if p in OPTIONAL_FREE else "held (no data for it)")
         params.append(ParameterEstimate(p, float(getattr(final, p)), float(getattr(final, p)),
                                         float(getattr(final, p)), 0.0, "fixed", "fixed", "fixed",
                                         reason))
-    return FitResult(material=final, parameters=params, correlation=(names_corr, corr),
-                     stages=stages, residual_log10=r_all, outlier=outlier,
-                     model_viscosity=st["viscosity"], model_rate=st["shear_rate"],
-                     sigma_log10=sigma, n_evaluations=n_eval[0],
-                     seconds=time.perf_counter() - t0, messages=[x for x in messages if x],
-                     confidence=confidence)
+    out = FitResult(material=final, parameters=params, correlation=(names_corr, corr),
+                    stages=stages, residual_log10=r_all, outlier=outlier,
+                    model_viscosity=st["viscosity"], model_rate=st["shear_rate"],
+                    sigma_log10=sigma, n_evaluations=n_eval[0],
+                    seconds=time.perf_counter() - t0, messages=[x for x in messages if x],
+                    confidence=confidence, converged=bool(converged))
+    if P:
+        out.problems = assess(out, eta0_estimated=stages["1"].get("eta0_estimated", False))
+    return out
+
+
+def paper_span() -> dict[str, tuple[float, float]]:
+    """The range of a0, a_inf and phi_j - phi_c over the paper's sets (:data:`PAPER_SETS`)."""
+    ms = [get_material(n) for n in PAPER_SETS]
+    return {k: (min(f(m) for m in ms), max(f(m) for m in ms)) for k, f in (
+        ("a0", lambda m: m.a0), ("a_inf", lambda m: m.a_inf),
+        ("phi_j - phi_c", lambda m: m.phi_j - m.phi_c))}
+
+
+def assess(res: FitResult, eta0_estimated: bool = False) -> list[str]:
+    """What makes a fit's result unphysical: one sentence each, naming the parameter, its value,
+    why, and what to do (empty when nothing is).
+
+    Checked: phi_j - phi_c wider than :data:`PLAUSIBLE_FACTOR` times the widest gap of the paper's
+    sets (phi_c far below phi_j's neighbourhood); a0 or a_inf outside the paper's span widened
+    by that factor each way (:func:`paper_span`); a parameter ended on a search bound (not a
+    limit of the law); the optimiser's evaluation limit hit; an estimated eta0 not identified.
+    """
+    m, span, F = res.material, paper_span(), PLAUSIBLE_FACTOR
+    out = []
+    gap = m.phi_j - m.phi_c
+    top = F * span["phi_j - phi_c"][1]
+    if gap > top:
+        out.append(f"phi_c = {m.phi_c:.4g} lies {gap:.3g} below phi_j = {m.phi_j:.4g}, more than "
+                   f"{top:.3g} ({F:g}x the widest gap of the paper's sets): these curves do not "
+                   "place phi_c (add curves that reach a high-stress plateau or thicken "
+                   "discontinuously, or hold it with --set phi_c=VALUE)")
+    for p in ("a0", "a_inf"):
+        lo, hi = span[p][0] / F, span[p][1] * F
+        v = getattr(m, p)
+        if not lo <= v <= hi:
+            out.append(f"{p} = {v:.4g} is outside [{lo:.3g}, {hi:.3g}] (the paper's sets span "
+                       f"{span[p][0]:g}-{span[p][1]:g}, widened {F:g}x): it scales the viscosity "
+                       "with mu_c and eta0 (Eqs. 24-25), so check those held or estimated values "
+                       "(--set eta0=VALUE with the liquid's measured viscosity)")
+    for q in res.parameters:
+        if q.at_bound and q.bound == "search":
+            out.append(f"{q.name} = {q.value:.4g} ended on the fitter's search bound, so the bound "
+                       f"and not the data sets it: hold it with --set {q.name}=VALUE, or hold or "
+                       "free the parameters it trades with")
+    if not res.converged:
+        out.append("the global fit stopped at its evaluation limit before converging: its "
+                   "values are not an optimum (check the held parameters and the residuals)")
+    if eta0_estimated:
+        e = res.parameter("eta0")
+        if e.unidentifiable:
+            out.append(f"eta0 = {e.value:.4g} Pa s, estimated from the low-stress plateaus, is "
+                       f"not identified by these curves ({e.note}): give the suspending liquid's "
+                       "viscosity with --set eta0=VALUE (measured on the liquid alone), or add "
+                       "curves at lower phi")
+    return out
 
 
 def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max, base, model):

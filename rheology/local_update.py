@@ -11,13 +11,31 @@ f_n:
    with gdot_p >= 0, xi_1 >= 0, xi_2 <= 0 chosen by the yield rules f_1, f_2, f_3 of Table 8.
    The cases, tried in this order:
 
-   - separation (p* <= 0): the skeleton is stress free, f_2 = 0 (xi_1 = -p*/(K dt)); without
-     contacts there is no dilatancy (beta = 0), so a point sheared at exactly zero pressure stays
-     separated: a 0-D test must start with some contact pressure.
+   - separation (p* + (K/G) tau* K3 phi <= 0): the skeleton is stress free, f_2 = 0
+     (xi_1 = -p*/(K dt), beta = 0, gdot_p = tau*/(G dt)). The bound is the largest pressure
+     dilatancy can make, beta -> K3 phi at gdot_p -> tau*/(G dt). Where it is positive, a
+     flowing solution with p > 0 exists for any p* (below): with gdot_p as the variable,
+     beta(gdot_p) is the one root of F(beta) = (rho_s d^2 g^2 + 2 eta0 g)(a x)^2 -
+     (phi_m - x)^2 (p* + K dt beta g), x = phi - beta/K3 (F decreases where p > 0), for
+     g > g_min = max(0, -p*/(K dt K3 phi)); as g -> g_min+, beta -> K3 phi, I_m -> inf,
+     p -> 0+ and (mu_p + beta) p -> 0, so R -> tau* - G dt g_min > 0, while R(tau*/(G dt)) < 0.
+     That solution is the limit p* -> 0+ (a stress-free point that is sheared flows with the
+     critical-state particle pressure it builds by dilatancy, Boyer, Guazzelli & Pouliquen 2011)
+     and tends to the separated one at the bound, so the update is continuous in p* for loose
+     and jammed points alike.
    - shear flow + compaction (phi < phi_m): f_1 = f_3 = 0. With K4 = 0, f_3 = 0 is exactly
      phi = phi_eq (beta = 0) and p = P3(gdot_p), so f_1 = 0 is a quadratic in gdot_p
      (closed form); valid when P3 <= p* (xi_2 <= 0).
-   - elastic (phi >= phi_m and f_1(sigma*) <= 0): gdot_p = 0.
+   - elastic (phi >= phi_m and f_1(sigma*) <= 0): gdot_p = 0. With ``rules = "mpm_3d"`` (the
+     author's code, aaronbaumgarten/mpm_3d ``cornstarch.cpp``) also below jamming:
+     p* >= 0 and tau* <= (mu_1 + K3 (phi - phi_m)) p* stays elastic, tried before compaction;
+     Table 8's f_3 <= 0 needs gdot_p > 0 at any p > 0 below jamming (``rules = "table8"``, the
+     default). That is the only difference between the two (the author's separation bound is
+     the one above); a flowing point never meets it (mu_p + beta >= mu_1 on the yield surface).
+     The cone is a discontinuity of the mpm_3d update below jamming: across it p jumps from p*
+     (elastic) to the compaction or dilatant pressure of the flowing point, for a loose point
+     at rest far below p* (no rate gives a pressure between them: pressure control cannot hold
+     a loose mpm_3d point on the cone).
    - dilatant shear flow (f_1 = 0, xi_2 = 0): for a given beta, I_m follows from
      phi_eq = phi - beta/K3, then p I_m^2 = rho_s d^2 gdot^2 + 2 eta0 gdot with p = p* + K dt beta gdot
      is a quadratic with one positive root gdot(beta); the remaining scalar equation
@@ -34,10 +52,12 @@ f_n:
      all of it), gdot(beta) is too steep to resolve in double precision; the residual is then
      checked and, if not converged, the same equations are solved with gdot as the bracketed
      variable (on [gdot(beta_lo), tau*/(G dt)]) and beta from a monotone polynomial for each gdot.
-     A point that still misses the yield surface is FAILED. The tolerance is that of the
-     bracket-only solve (``newton=False``, kept as the reference): the Newton path changes the
-     work (residual evaluations per flowing point: ~1 instead of 5-12 in MPM shear), not the
-     answer beyond the convergence test.
+     For p* <= 0 gdot(beta) is not single-valued and the solve is :func:`_dilatant_tension`
+     (gdot_p - g_min bracketed, every quantity formed without cancellation, so it is resolved up
+     to the separation bound). A point that still misses the yield surface is FAILED. The
+     tolerance is that of the bracket-only solve (``newton=False``, kept as the reference): the
+     Newton path changes the work (residual evaluations per flowing point: ~1 instead of 5-12 in
+     MPM shear), not the answer beyond the convergence test.
 
 3. The structure takes a backward-Euler step with the new (taubar, gdot_p) (staggered, first order):
    f_{n+1} = (f_n + dt K0 H gdot f_m)/(1 + dt K0 (H gdot + gdot + taubar/eta_B + xi_eps)),
@@ -123,12 +143,21 @@ def _beta_of_rate(g, phi, phim, a, p_tr, Kdt, eta0, rd2, K3, lo, hi):
 @_jit
 def _residual(mode, x, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b, blo, bhi):
     """R = tau* - G dt gdot - (mu_p + beta) p on the dilatant branch, parametrised by beta (mode 0,
-    closed form, fast) or by gdot (mode 1, inner solve for beta, well conditioned when p* << p)."""
+    closed form, fast), by gdot (mode 1, inner solve for beta, well conditioned when p* << p) or,
+    for p* <= 0, by h = gdot - g_min (mode 2, :func:`_dilatant_tension`)."""
     if mode == 0:
         beta = x
         g, p, Im = _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
         if not np.isfinite(g):
             return -np.inf
+    elif mode == 2:                      # x = h, blo = g_min, bhi = h_max (_dilatant_tension)
+        xe, p, g = _tension_state(x, blo, phi, phim, a, Kdt, eta0, rd2, K3)
+        if not p > 0.0:                  # p below the smallest double: the limit p -> 0+
+            return Gdt * (bhi - x)
+        Iv = eta0 * g / p
+        Im = (phim - xe) / (a * xe)
+        return Gdt * (bhi - x) - (laws.friction(Iv, Im, phi, a, mu1, mu2, b)
+                                  + (p - p_tr) / (Kdt * g)) * p
     else:
         g = x
         beta = _beta_of_rate(g, phi, phim, a, p_tr, Kdt, eta0, rd2, K3, blo, bhi)
@@ -328,10 +357,13 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, ta
     beta_max = K3 * phi
     beta_top = beta_lo + (beta_max - beta_lo) * (1.0 - 1e-15)
     # converged: |R| small against the final stress, above the roundoff floor of tau* - G dt gdot
-    floor = 2e-15 * (tau_tr + mu1 * p_tr)
+    floor = 2e-15 * (tau_tr + mu1 * abs(p_tr))
     n = 0
     lo, hi, r_hi = beta_lo, beta_top, 0.0
     hi_known = False
+    if p_tr <= 0.0:
+        return _dilatant_tension(phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2,
+                                 b, floor)
     if newton and beta_lo < beta_start < beta_top:
         x = beta_start
         for _ in range(_NEWTON_MAX):
@@ -403,6 +435,80 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, ta
     if it < 0 or abs(r) > 1e-10 * (tau_tr - Gdt * g + mu1 * p) + 10.0 * floor:
         return beta, g, p, (phim - xe) / (a * xe), -1
     return beta, g, p, (phim - xe) / (a * xe), n
+
+
+@_jit
+def _tension_state(h, g_min, phi, phim, a, Kdt, eta0, rd2, K3):
+    """The dilatant branch at p* <= 0 for gdot_p = g_min + h, g_min = -p*/(K dt K3 phi):
+    returns (x, p, gdot_p) with x = phi_eq = phi - beta/K3.
+
+    There p* + K dt beta gdot_p = K dt K3 (phi h - x gdot_p), so the I_m relation
+    F(x) = A_g (a x)^2 - (phi_m - x)^2 K dt K3 (phi h - x gdot_p) = 0, A_g = rd2 g^2 + 2 eta0 g,
+    is increasing on [0, min(phi_m, phi h/gdot_p)] from F(0) < 0 to F > 0: one root, found by a
+    safeguarded Newton from the root of its small-x quadratic. p = A_g (a x)^2/(phi_m - x)^2 then
+    follows from the I_m relation without the cancellation of p* + K dt beta gdot_p (p can be
+    a vanishing part of |p*| near separation), and beta = (p - p*)/(K dt gdot_p), a sum of
+    positive terms, without that of K3 (phi - x) (beta can be a vanishing part of K3 phi).
+    """
+    g = g_min + h
+    Ag = rd2 * g * g + 2.0 * eta0 * g
+    A2 = Ag * a * a
+    kg = Kdt * K3 * g
+    c = Kdt * K3 * phi * h
+    lo, hi = 0.0, min(phim, phi * h / g)
+    B, C = phim * phim * kg, phim * phim * c
+    x = 2.0 * C / (B + np.sqrt(B * B + 4.0 * A2 * C))
+    if not lo < x < hi:
+        x = 0.5 * hi
+    for _ in range(200):
+        w = phim - x
+        lin = c - kg * x
+        F = A2 * x * x - w * w * lin
+        if F > 0.0:
+            hi = x
+        else:
+            lo = x
+        if F == 0.0 or hi - lo <= 4e-16 * hi:
+            break
+        xn = x - F / (2.0 * A2 * x + 2.0 * w * lin + w * w * kg)
+        if lo < xn < hi:
+            if abs(xn - x) <= 1e-15 * x:
+                x = xn
+                break
+            x = xn
+        else:
+            x = 0.5 * (lo + hi)
+    w = phim - x
+    return x, Ag * (a * x) ** 2 / (w * w), g
+
+
+@_jit
+def _dilatant_tension(phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b, floor):
+    """The dilatant solve at p* <= 0, p* + (K/G) tau* K3 phi > 0: returns what
+    :func:`_dilatant_flow` returns.
+
+    For p* <= 0, gdot_p(beta) is not single-valued, but beta(gdot_p) is (:func:`_tension_state`);
+    a flowing solution needs p* + K dt beta gdot_p > 0, i.e. gdot_p > g_min = -p*/(K dt K3 phi).
+    With h = gdot_p - g_min, R(h) = G dt (h_max - h) - (mu_p + beta) p (h_max = tau*/(G dt) -
+    g_min) tends to G dt h_max > 0 as h -> 0 (beta -> K3 phi, I_m -> inf, p -> 0 and
+    (mu_p + beta) p -> 0) and is negative at h_max: Brent's method on (0, h_max) (mode 2 of
+    :func:`_residual`). Every quantity is formed without cancellation, so the solve is resolved
+    up to the separation boundary, where the solution tends to the separated one
+    (taubar <= G dt h_max, p <= taubar/mu_1).
+    """
+    g_min = -p_tr / (Kdt * K3 * phi)
+    h_max = (p_tr + Kdt * tau_tr / Gdt * K3 * phi) / (Kdt * K3 * phi)   # > 0: not separated
+    r1 = _residual(2, h_max, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
+                   g_min, h_max)
+    if not r1 < 0.0:
+        return K3 * phi, tau_tr / Gdt, 0.0, np.inf, -1
+    h, r, it = _brent(2, 0.0, h_max, Gdt * h_max, r1, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0,
+                      rd2, K3, mu1, mu2, b, g_min, h_max, floor)
+    x, p, g = _tension_state(h, g_min, phi, phim, a, Kdt, eta0, rd2, K3)
+    n = max(it, 0) + 1
+    if it < 0 or not p > 0.0 or abs(r) > 1e-10 * (Gdt * (h_max - h) + mu1 * p) + 10.0 * floor:
+        n = -1
+    return (p - p_tr) / (Kdt * g), g, p, (phim - x) / (a * x), n
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
@@ -491,6 +597,21 @@ def _flow_outputs(phi, phim, a, g, p, Im, P):
     return mu, I, Iv, phieq
 
 
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _separated(f, p_tr, tau_tr, phi, Gdt, Kdt, tau_star, K0, xi_eps, dt, sig_out, out):
+    """The separated point (f_2 = 0, xi_1 = -p*/(K dt), beta = 0): stress free, gdot_p =
+    tau*/(G dt); friction and inertial numbers undefined (inf); taubar = 0 and H(0) gdot = 0
+    leave f_m and 1/eta_B out of the structure step (passed as 0)."""
+    g = tau_tr / Gdt
+    for i in range(3):
+        for j in range(3):
+            sig_out[i, j] = 0.0
+    out[0] = laws.structure_step(f, 0.0, g, 0.0, tau_star, 0.0, K0, xi_eps, dt)
+    out[1], out[2], out[3], out[4] = g, -p_tr / Kdt, 0.0, np.inf
+    out[5], out[6], out[7], out[8], out[9] = np.inf, np.inf, np.inf, 0.0, phi
+    out[10], out[11], out[12], out[13] = 0.0, 0.0, SEPARATED, 0
+
+
 @_jit
 def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
     """Advance one material point by dt [s] (see module docstring); writes sig_out and out[:NOUT].
@@ -524,18 +645,13 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
     beta_guess, beta_c, gc = 0.0, 0.0, 0.0
     p, Im, beta = p_tr, 0.0, 0.0
     y = phim - phi
-    if p_tr <= 0.0:                                           # separation: stress free
-        # no contacts: no dilatancy, friction and inertial numbers undefined (inf); taubar = 0
-        # and H(0) gdot = 0 leave f_m and 1/eta_B out of the structure step (passed as 0)
-        g = tau_tr / Gdt
-        for i in range(3):
-            for j in range(3):
-                sig_out[i, j] = 0.0
-        out[0] = laws.structure_step(f, 0.0, g, 0.0, tau_star, 0.0, K0, xi_eps, dt)
-        out[1], out[2], out[3], out[4] = g, -p_tr / Kdt, 0.0, np.inf
-        out[5], out[6], out[7], out[8], out[9] = np.inf, np.inf, np.inf, 0.0, phi
-        out[10], out[11], out[12], out[13] = 0.0, 0.0, SEPARATED, 0
+    # the largest pressure dilatancy can give: beta -> K3 phi at gdot_p = tau*/(G dt)
+    p_dil = Kdt * tau_tr / Gdt * K3 * phi
+    if p_tr + p_dil <= 0.0:                                   # separation: stress free
+        _separated(f, p_tr, tau_tr, phi, Gdt, Kdt, tau_star, K0, xi_eps, dt, sig_out, out)
         return
+    elif P[21] == 1.0 and y > 0.0 and p_tr >= 0.0 and tau_tr <= (mu1 - K3 * y) * p_tr:
+        beta = -K3 * y                  # mpm_3d: admissible below jamming too, elastic
     else:
         if y > 0.0:                                           # try shear flow + compaction
             gc, pc = _critical_state(tau_tr, phi, y, a, Gdt, mu1, mu2, b, eta0, rho_s, d)
@@ -578,7 +694,7 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
                 if not beta_lo < b0 < beta_top:
                     b0 = beta_lo + 1e-3 * (beta_top - beta_lo)
                 beta_start = beta_lo
-                if newton and g0 > 0.0:
+                if newton and g0 > 0.0 and p_tr > 0.0:
                     beta_start = _newton_2d(b0, g0, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr,
                                             Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b)
                     # no settled start (far from the solution): straight to the bracket
@@ -658,6 +774,7 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
     phi_c, phi_j, a0, ainf = P[0], P[1], P[2], P[3]
     Gdt, Kdt, rd2 = G * dt, K * dt, rho_s * d * d
     iK3 = 1.0 / K3
+    table8 = P[21] != 1.0
     # 1. trial stress, invariants, critical-state estimates and the solve's start
     for k in range(n):
         r = jaumann_elastic((sig[k, 0, 0], sig[k, 0, 1], sig[k, 0, 2], sig[k, 1, 0], sig[k, 1, 1],
@@ -687,8 +804,9 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
         W[0, k], W[1, k], W[2, k], W[3, k], W[4, k] = p_tr, tau_tr, phim, a, y
         W[5, k], W[6, k], W[7, k], W[8, k], W[9, k] = gc, pc, b0, gc, beta_lo
         W[10, k] = beta_top
-        # 1: compaction, 2: dilatant (if its solve passes), 0: update_point
-        below = (p_tr > 0.0) & (y > 0.0)
+        # 1: compaction, 2: dilatant (if its solve passes), 0: update_point (the mpm_3d rules'
+        # elastic points below jamming among them)
+        below = (p_tr > 0.0) & (y > 0.0) & (table8 | (tau_tr > (mu1 - K3 * y) * p_tr))
         start = (gc > 0.0) & (beta_lo < b0) & (b0 < beta_top)
         W[15, k] = 1.0 * (below & (pc <= p_tr)) + 2.0 * (below & start & (pc > p_tr))
     # 2. Newton on (beta, gdot_p): the equations F1, F2 of _newton_2d, every point in step

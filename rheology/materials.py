@@ -48,10 +48,16 @@ FIELD_UNITS: dict[str, str] = {
     "rho_s": "kg/m^3", "rho_f": "kg/m^3", "d": "m", "K3": "-", "K4": "-", "kappa": "Pa", "phi0": "-",
 }
 
-#: Order of the numeric fields in :meth:`Material.kernel_array` (read by the numba kernels).
+#: The variants of the local update's yield rules (field ``rules``; its kernel code is the
+#: index): ``table8``, the published Table 8, and ``mpm_3d``, the rules of the author's code
+#: (:mod:`rheology.local_update`).
+RULES: tuple[str, ...] = ("table8", "mpm_3d")
+
+#: Order of the fields in :meth:`Material.kernel_array` (read by the numba kernels): the numeric
+#: fields, then the code of ``rules`` (its index in :data:`RULES`).
 KERNEL_FIELDS: tuple[str, ...] = (
     "phi_c", "phi_j", "a0", "a_inf", "mu_c", "mu_2", "b", "tau_star", "eta0", "varphi1", "alpha1",
-    "varphi2", "alpha2", "Delta", "xi_eps", "K0", "G", "K", "rho_s", "d", "K3",
+    "varphi2", "alpha2", "Delta", "xi_eps", "K0", "G", "K", "rho_s", "d", "K3", "rules",
 )
 
 
@@ -100,6 +106,10 @@ class Material:
         Fluid bulk modulus [Pa] (pore pressure kappa ln(rho_f/rho_0f)); not given by the paper.
     phi0 : float or None
         Initial volume fraction of a scene.
+    rules : str
+        Yield rules of the local update, one of :data:`RULES`: ``"table8"`` (default, the
+        published law) or ``"mpm_3d"`` (the author's code: elastic admissibility below jamming
+        too; see :mod:`rheology.local_update`). Steady states do not depend on it.
     notes : str
         Choices we made where the paper is silent.
     """
@@ -131,6 +141,7 @@ class Material:
     K4: float = 0.0
     kappa: float | None = None
     phi0: float | None = None
+    rules: str = "table8"
     units: str = "SI"
     notes: str = field(default="", compare=False)
 
@@ -138,6 +149,9 @@ class Material:
         n = f"material {self.name}"
         if self.units not in ("SI", "normalised"):
             raise ValueError(f"units = {self.units!r} must be 'SI' or 'normalised' ({n})")
+        if self.rules not in RULES:
+            raise ValueError(f"rules = {self.rules!r} must be one of "
+                             f"{', '.join(map(repr, RULES))} ({n})")
         check_range("phi_j", self.phi_j, 0.0, 1.0, lo_closed=False, hi_closed=False, note=n)
         check_range("phi_c", self.phi_c, 0.0, self.phi_j, lo_closed=False, hi_closed=False,
                     note=f"{n}; phi_c must be below phi_j = {self.phi_j}")
@@ -194,8 +208,10 @@ class Material:
                                  f"{self.name} (the paper gives none): set it, e.g. {k}=...")
 
     def kernel_array(self) -> np.ndarray:
-        """Numeric fields in :data:`KERNEL_FIELDS` order for the numba kernels (None -> NaN)."""
-        vals = [self.mu2 if k == "mu_2" else getattr(self, k) for k in KERNEL_FIELDS]
+        """Fields in :data:`KERNEL_FIELDS` order for the numba kernels (None -> NaN; ``rules``
+        as its index in :data:`RULES`)."""
+        vals = [self.mu2 if k == "mu_2" else RULES.index(self.rules) if k == "rules"
+                else getattr(self, k) for k in KERNEL_FIELDS]
         arr = np.array([np.nan if v is None else float(v) for v in vals])
         if self.rho_s is None:
             arr[KERNEL_FIELDS.index("rho_s")] = 0.0
@@ -357,7 +373,7 @@ def material_from_dict(data: dict, source: str = "material file") -> Material:
         raise ValueError(f"{source}: missing material field(s) {missing}")
     values = {}
     for k, v in data.items():
-        if k in ("name", "citation", "units", "notes"):
+        if k in ("name", "citation", "units", "notes", "rules"):
             if not isinstance(v, str):
                 raise ValueError(f"{source}: {k} = {v!r} must be a string")
         elif v is None:
@@ -450,16 +466,17 @@ def get_material(name: str | Material, **overrides) -> Material:
     return base.replace(**overrides) if overrides else base
 
 
-#: Text (metadata) fields of a Material: never set from the command line (``--set``).
+#: Text (metadata) fields of a Material: never set from the command line (``--set``); the
+#: text field ``rules`` is a model choice and is settable.
 TEXT_FIELDS: tuple[str, ...] = ("name", "citation", "units", "notes")
 #: Numeric fields that may be unset (None); ``--set NAME=none`` unsets them.
 OPTIONAL_FIELDS: tuple[str, ...] = ("mu_2", "K0", "G", "K", "rho_s", "rho_f", "kappa", "phi0")
 
 
 def settable_fields() -> list[str]:
-    """The parameters ``--set NAME=VALUE`` may change: every numeric field (:data:`FIELD_UNITS`),
-    sorted; the text fields (:data:`TEXT_FIELDS`) are not settable."""
-    return sorted(FIELD_UNITS)
+    """The parameters ``--set NAME=VALUE`` may change: every numeric field (:data:`FIELD_UNITS`)
+    and ``rules``, sorted; the text fields (:data:`TEXT_FIELDS`) are not settable."""
+    return sorted([*FIELD_UNITS, "rules"])
 
 
 def split_set_item(text: str, option: str = "--set"):
@@ -483,8 +500,9 @@ def split_set_item(text: str, option: str = "--set"):
 def check_set_override(name: str, value, option: str = "--set"):
     """Validate one ``--set NAME=VALUE`` of a command line; return ``(name, value)``.
 
-    ``value`` is a number, None (``none``: only for :data:`OPTIONAL_FIELDS`) or text as typed.
-    The value's range is checked by the Material when it is built.
+    ``value`` is a number, None (``none``: only for :data:`OPTIONAL_FIELDS`) or text as typed;
+    ``rules`` takes one of :data:`RULES` (returned as text). A number's range is checked by the
+    Material when it is built.
 
     Raises
     ------
@@ -497,8 +515,13 @@ def check_set_override(name: str, value, option: str = "--set"):
     if name in TEXT_FIELDS:
         raise ValueError(f"{option} {name}: {name} is a text field of the material, not a settable "
                          f"parameter; settable: {valid}")
-    if name not in FIELD_UNITS:
+    if name not in FIELD_UNITS and name != "rules":
         raise ValueError(f"{option} {name}: unknown material parameter; settable: {valid}")
+    if name == "rules":
+        if not isinstance(value, str) or value.strip().lower() not in RULES:
+            shown = "none" if value is None else repr(value)
+            raise ValueError(f"{option} rules = {shown} is not one of {', '.join(RULES)}")
+        return name, value.strip().lower()
     if value is None:
         if name not in OPTIONAL_FIELDS:
             raise ValueError(f"{option} {name} = none: {name} needs a number (only "
@@ -513,6 +536,27 @@ def check_set_override(name: str, value, option: str = "--set"):
     if isinstance(value, bool) or not np.isfinite(value):
         raise ValueError(f"{option} {name} = {value}: must be finite")
     return name, float(value)
+
+
+def set_argument(text: str):
+    """``type=`` of a command line's ``--set NAME=VALUE`` (argparse): :func:`split_set_item` then
+    :func:`check_set_override`; a refusal is one ``argparse.ArgumentTypeError`` line."""
+    import argparse
+
+    try:
+        return check_set_override(*split_set_item(text))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def set_overrides(items, option: str = "--set") -> dict:
+    """The ``(name, value)`` pairs of repeated ``--set`` words as a dict; ValueError naming a
+    parameter given twice."""
+    names = [k for k, _ in items or []]
+    twice = sorted({k for k in names if names.count(k) > 1})
+    if twice:
+        raise ValueError(f"{option} {twice[0]} given twice; give each parameter once")
+    return dict(items or [])
 
 
 #: Fields a steady flow curve cannot determine: a scene's own (moduli, densities, grain size,

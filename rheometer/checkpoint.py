@@ -6,8 +6,9 @@ SIGTERM (which :func:`rheology.cli_common.run_command` turns into ``KeyboardInte
 checkpoint ``<out>.checkpoint.npz`` is written atomically (:func:`rheology.io.save_checkpoint`,
 which keeps the previous one): the rows of the finished volume fractions, the rows of the
 completed steps of the current one, the exact state (t, taubar, jamming gap, strain) at the end of
-the last completed step, the events and solver counts, and a fingerprint of the material, the
-volume fractions, the program text and the options.
+the last completed step, the events and solver counts, the ends of the fractions that ended early
+(:mod:`rheology.run_end`), and a fingerprint of the material, the volume fractions, the program
+text and the options.
 
 On ``--resume`` the fingerprint must match (else the resume is refused, naming what differs) and
 the run continues with the next step from the stored state. Every IDA solve of a step starts from
@@ -31,10 +32,11 @@ import numpy as np
 import pandas as pd
 
 from rheology.io import load_checkpoint, previous_checkpoint, save_checkpoint
+from rheology.run_end import EndedEarly, RunEnd
 
 from .program import Program
 from .protocols import run_program
-from .transient import Progress, State
+from .transient import COLUMNS, Progress, State
 
 _REQUIRED = ("fingerprint", "done_phi", "done_rows", "done_columns", "t", "y", "step", "state",
              "next_step", "events", "counts")
@@ -72,6 +74,7 @@ class ProgramCheckpoint:
         self.key = fingerprint(material, phis, text, options)
         self.every = float(every)
         self.done: list[pd.DataFrame] = []
+        self.ends: list[RunEnd] = []        # of the volume fractions that ended early
         self.progress: Progress | None = None
         self.attrs: dict = {}
         self._last = time.monotonic()
@@ -94,6 +97,8 @@ class ProgramCheckpoint:
             table["step"] = table["step"].astype(int)
             self.done = [table[table["phi"] == ph].reset_index(drop=True)
                          for ph in self.phis[:ndone]]
+        if "ends" in data:
+            self.ends = [RunEnd(**e) for e in json.loads(str(data["ends"]))]
         nxt = int(data["next_step"])
         if nxt > 0:
             s = data["state"]
@@ -120,7 +125,8 @@ class ProgramCheckpoint:
                              pr.state.f]) if pr else empty),
             next_step=np.array(pr.next_step if pr else 0),
             events=np.array(json.dumps([list(e) for e in pr.events] if pr else [])),
-            counts=np.array([pr.solves, pr.nfev, pr.njev] if pr else [0, 0, 0]))
+            counts=np.array([pr.solves, pr.nfev, pr.njev] if pr else [0, 0, 0]),
+            ends=np.array(json.dumps([e.record() for e in self.ends])))
         self._last = time.monotonic()
 
     def remove(self) -> None:
@@ -144,8 +150,10 @@ class ProgramCheckpoint:
     def run(self, program: Program) -> pd.DataFrame:
         """Run (or continue) the program at every phi; the rows of all, column ``phi`` first.
 
-        Raises KeyboardInterrupt("checkpoint written to ...; rerun with --resume ...") after
-        saving, when interrupted.
+        A phi whose run ends early (:class:`rheology.run_end.EndedEarly`) keeps its rows up to
+        the end and the next phi runs; ``attrs["ends"]`` lists those ends (each ``run`` "phi =
+        ..."). Raises RuntimeError if no phi has a row, and KeyboardInterrupt("checkpoint
+        written to ...; rerun with --resume ...") after saving, when interrupted.
         """
         self._stop = False
         handlers = {}
@@ -154,10 +162,15 @@ class ProgramCheckpoint:
                         for sig in (signal.SIGINT, signal.SIGTERM)}
         try:
             for ph in self.phis[len(self.done):]:
-                df = run_program(self.material, ph, program, resume=self.progress,
-                                 on_step=self._on_step, **self.options)
+                try:
+                    df = run_program(self.material, ph, program, resume=self.progress,
+                                     on_step=self._on_step, **self.options)
+                except EndedEarly as exc:
+                    self.ends.append(exc.ends[0].replace(run=f"phi = {ph:g}"))
+                    df = (exc.partial if exc.partial is not None
+                          else pd.DataFrame(columns=list(COLUMNS), dtype=float))
                 df.insert(0, "phi", ph)
-                self.attrs = dict(df.attrs)
+                self.attrs = dict(df.attrs) or self.attrs
                 self.done.append(df)
                 self.progress = None
         except KeyboardInterrupt:
@@ -170,6 +183,10 @@ class ProgramCheckpoint:
         finally:
             for sig, h in handlers.items():
                 signal.signal(sig, h)
-        out = pd.concat(self.done, ignore_index=True)
+        out = pd.concat([d for d in self.done if len(d)], ignore_index=True) if any(
+            len(d) for d in self.done) else None
+        if out is None:
+            raise RuntimeError(self.ends[0].reason)
         out.attrs.update(self.attrs or {})
+        out.attrs["ends"] = list(self.ends)
         return out

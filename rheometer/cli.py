@@ -2,7 +2,10 @@
 
 Every subcommand runs on a default material (hermes2016, the cornstarch fit of Hermes et al. 2016)
 with no options and writes a CSV and a PNG named after it (flow_curve.csv, flow_curve.png, ...)
-in the current folder.
+in the current folder. A transient also writes its run record (startup.json, ...): a run that
+reaches the elastic-strain limit 0.1 or whose solver fails ends there, its rows up to the end
+written, the record's status and ends saying where and why; exit status 3 (0 complete, 1 failed,
+2 bad input, 130 interrupted).
 
 Examples::
 
@@ -289,9 +292,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--stress0", type=Number("--stress0", 0.0, STRESS_MAX, lo_closed=False,
                                             unit="Pa"), default=None,
                    help="start from the steady state at this granular shear stress [Pa]")
-    p.add_argument("--pressure0", type=Number("--pressure0", 0.0, STRESS_MAX, lo_closed=False,
-                                              unit="Pa"), default=None,
-                   help="contact pressure at rest [Pa] (default 1e-3 tau*)")
+    p.add_argument("--pressure0", type=Number("--pressure0", 0.0, STRESS_MAX, unit="Pa"),
+                   default=None, help="contact pressure at rest [Pa] (default 1e-3 tau*; 0: "
+                                      "stress free)")
     p.add_argument("--f0", type=Number("--f0", 0.0, 1.0), default=None,
                    help="initial structure f")
     p.add_argument("--G", type=_modulus("--G"), default=None,
@@ -326,29 +329,46 @@ def _plot_path(args):
     return plot
 
 
-def _write(args, df: pd.DataFrame, fig_maker) -> str:
-    from rheology.io import atomic_savefig, atomic_write_csv
+def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=None) -> str:
+    """Write the CSV and the figure; with ``record`` (the transients) also the run record
+    ``<out>.json`` (rheology.run_end: status and the ends in ``df.attrs["ends"]``, those in
+    ``marked``, default all, marked on the figure); a run that ended early is then raised by
+    :func:`main` after the message (exit status 3)."""
+    from rheology.io import atomic_savefig, atomic_write_csv, atomic_write_json
+    from rheology.run_end import EndedEarly, run_record
 
     from .instrument_cli import extra_outputs, finish_table
 
     plot = _plot_path(args)
+    ends = list(df.attrs.get("ends") or []) if record else []
     table, empty_ok = finish_table(args, df, EMPTY_OK)   # issue 15: instrument, mass, units
     atomic_write_csv(args.out, table, empty_ok=empty_ok)
+    written = [args.out]
     msg = f"wrote {args.out} ({len(df)} rows)"
     if plot is not None:
         import matplotlib.pyplot as plt
 
+        from .plots import mark_ends, normalise_units
+
         fig = fig_maker()
+        mark_ends(fig, ends if marked is None else marked)
         m = getattr(args, "_material_obj", None)
         if m is not None and m.units == "normalised":
-            from .plots import normalise_units
-
             normalise_units(fig)
         try:
             atomic_savefig(fig, plot)
         finally:
             plt.close(fig)
         msg += f" and {plot}"
+        written.append(plot)
+    if record:
+        path = Path(args.out).with_suffix(".json")
+        atomic_write_json(path, run_record(ends, command=f"rheometer {args.cmd}",
+                                           csv=Path(args.out).name, rows=len(df)))
+        written.append(str(path))
+        msg += f" and {path}"
+        if ends:
+            args._ended = EndedEarly(ends, partial=df, written=written)
     events = df.attrs.get("events") or []
     if events:
         shown = "; ".join(f"t = {t:.6g} s (step {k}): {what}" for t, k, what in events[:5])
@@ -361,13 +381,26 @@ def _write(args, df: pd.DataFrame, fig_maker) -> str:
 
 
 def _per_phi(args, run) -> pd.DataFrame:
-    frames = []
+    """``run(phi)`` at every --phi, concatenated; a run that ends early keeps its rows up to the
+    end (rheology.run_end), its end in ``attrs["ends"]``; RuntimeError when no run has a row."""
+    from rheology.run_end import EndedEarly
+
+    frames, ends = [], []
     for ph in args.phi:
-        df = run(ph)
+        try:
+            df = run(ph)
+        except EndedEarly as exc:
+            ends.append(exc.ends[0].replace(run=f"phi = {ph:g}"))
+            df = exc.partial
+            if df is None:
+                continue
         df.insert(0, "phi0" if "phi" in df.columns else "phi", ph)
         frames.append(df)
+    if not frames:
+        raise RuntimeError(ends[0].reason)
     out = pd.concat(frames, ignore_index=True)
     out.attrs.update(frames[0].attrs)
+    out.attrs["ends"] = ends
     return out
 
 
@@ -475,7 +508,8 @@ def _transient(args, kind: str) -> str:
         what = f"relaxation from steady granular stress {args.stress:g} Pa"
     title = f"{m.name}: {what} (G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})"
     frames = {f"phi = {ph:g}": d for ph, d in df.groupby("phi", sort=False)}
-    return _write(args, df, lambda: plots.transient_figure(frames, title, log_time=True))
+    return _write(args, df, lambda: plots.transient_figure(frames, title, log_time=True),
+                  record=True)
 
 
 def read_program_file(name: str) -> tuple[str, str]:
@@ -524,9 +558,11 @@ def _cmd_program(args) -> str:
     df = ck.run(program)
     title = (f"{m.name}: program '{name}', phi = {', '.join(f'{p:g}' for p in args.phi)} "
              f"(G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})")
-    first = df[df["phi"] == args.phi[0]]
+    drawn = float(df["phi"].iloc[0])           # the first phi with rows
+    first = df[df["phi"] == drawn]
     first.attrs.update(df.attrs)
-    msg = _write(args, df, lambda: plots.program_figure(first, title))
+    msg = _write(args, df, lambda: plots.program_figure(first, title), record=True,
+                 marked=[e for e in df.attrs["ends"] if e.run == f"phi = {drawn:g}"])
     for osc in df.attrs.get("oscillations") or []:
         msg += "\noscillation " + ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else
                                             f"{k} = {v}" for k, v in osc.items())
@@ -575,7 +611,7 @@ def _cmd_material_point(args) -> str:
     title = (f"{m.name}: material point, {args.control} control, rate {args.rate:g} 1/s, "
              f"dt = {args.dt:g} s, phi0 = {', '.join(f'{p:g}' for p in args.phi)}")
     # every run, by its initial phi (phi itself evolves under pressure control)
-    return _write(args, df, lambda: plots.material_point_figure(df, title))
+    return _write(args, df, lambda: plots.material_point_figure(df, title), record=True)
 
 
 def _check_update_count(rate: float, t_end: float, dt: float) -> None:
@@ -630,6 +666,8 @@ def main(argv=None) -> int:
         msg = _COMMANDS[args.cmd](args)
         if msg:
             print(msg)
+        if getattr(args, "_ended", None) is not None:   # written up to its end: status 3
+            raise args._ended
 
     return run_command(f"rheometer {args.cmd}", body)
 

@@ -1,17 +1,28 @@
-"""``rheometer read`` and ``rheometer fit``: measured flow curves in, a fitted Material out.
+"""``rheometer read``, ``rheometer fit`` and ``rheometer fit-relaxation``: measured curves in, a
+fitted Material out.
 
 Examples::
 
     rheometer read export_*.csv --phi 0.38 0.41 0.44 --out curves.csv
     rheometer read table.csv --columns stress="Shear Stress" rate="Shear Rate" phi=phi
     rheometer fit rheometer/examples/rheocompass_phi_*.csv --phi 0.40 0.42 0.45 0.48 0.51 --out fit
+    rheometer fit-relaxation rheometer/examples/trios_relaxation_phi_0.52.txt \\
+        --material fit/material.json --phi 0.52 --stress0 100 30 --out relaxation
     rheometer flow-curve --material fit/material.json
 
 ``fit`` writes DIR/material.json (the fitted Material with the data's provenance; every
-``--material`` accepts it), DIR/parameters.csv (value, interval, stage, status), DIR/fit.csv (data,
+``--material`` accepts it), DIR/parameters.csv (value, interval, stage, flags), DIR/fit.csv (data,
 model and residual_log10 per point), DIR/correlation.csv, DIR/curves.csv (what was read, with the
 dropped points and why), and the figures DIR/fit_curves.png, DIR/residuals.png,
 DIR/stage1_low_plateau.png, DIR/stage2_high_plateau.png, DIR/stage3_dst.png (Figs. 11-13).
+``fit-relaxation`` writes DIR/material.json (the steady material with G and K0 added),
+DIR/parameters.csv, DIR/fit.csv (every point read, model where kept) and DIR/relaxation.png.
+
+A fit whose result is unphysical (:func:`rheology.fit.assess`, a search bound reached, the
+evaluation limit hit) exits with status 1 and one paragraph naming the parameters, why and what
+to do; its outputs are written, the material as DIR/material_rejected.json instead of
+material.json, unless ``--accept``. The --out folder holds only the run's files: the files of a
+previous fit there are replaced or removed, a folder holding any other file is refused.
 """
 
 from __future__ import annotations
@@ -30,6 +41,12 @@ _PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
 
 #: What steady flow curves cannot determine (copied by --transient-from).
 TRANSIENT_FIELDS = ("G", "K", "K0", "rho_s", "rho_f", "d", "K3", "kappa", "phi0")
+
+#: Every file the fit commands write in their --out folder (with their temporary ``.NAME.*``).
+OUTPUTS = ("material.json", "material_rejected.json", "parameters.csv", "fit.csv",
+           "correlation.csv", "curves.csv", "fit_curves.png", "residuals.png",
+           "stage1_low_plateau.png", "stage2_high_plateau.png", "stage3_dst.png",
+           "relaxation.png")
 
 
 def _columns(text: str):
@@ -76,23 +93,33 @@ def _set_value(text: str):
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def _read_options(p):
-    p.add_argument("files", nargs="+", metavar="FILE", help="rheometer exports or tables")
-    p.add_argument("--format", default="auto", choices=("auto", "rheocompass", "csv"),
-                   help="file format (default: detected from the content)")
+def _file_options(p, *, relaxation: bool = False):
+    from rheology.data import READERS
+
+    p.add_argument("files", nargs="+", metavar="FILE",
+                   help="rheometer exports (RheoCompass, TRIOS text or CSV, rSpace CSV) or tables")
+    p.add_argument("--format", default="auto", choices=("auto", *READERS),
+                   help="file layout (default: detected from the content)")
     p.add_argument("--columns", nargs="+", type=_columns, default=None, metavar="QUANTITY=NAME",
-                   help="column names of a table: stress=NAME rate=NAME viscosity=NAME "
-                        "phi=NAME (any two of stress [Pa], rate [1/s], viscosity [Pa s])")
-    p.add_argument("--phi", nargs="+", type=_PHI, default=None, metavar="PHI",
-                   help="volume fraction of each file, in order (files without a phi column)")
+                   help="column names of a table: " + (
+                       "time=NAME stress=NAME (or torque=NAME) [s, Pa, mN m]" if relaxation else
+                       "stress=NAME rate=NAME viscosity=NAME phi=NAME (any two of stress [Pa], "
+                       "rate [1/s], viscosity [Pa s])") + "; a unit in brackets is converted")
     p.add_argument("--interval", action="append", type=_text("--interval"), default=None,
                    metavar="NAME",
-                   help="RheoCompass result names to keep (substring, repeatable; default "
-                        "'viscosity curve', 'flow curve')")
+                   help="names of the intervals, steps or actions to read (substring, "
+                        "repeatable; default: every " + ("stress relaxation" if relaxation else
+                                                         "flow-curve") + " block)")
     p.add_argument("--torque-floor", type=Number("--torque-floor", 0.0, None, lo_closed=False,
                                                  unit="mN m"), default=None, metavar="MNM",
                    help="drop readings with |torque| below this [mN m] (instrument-flagged "
                         "ME- readings are always dropped)")
+
+
+def _read_options(p):
+    _file_options(p)
+    p.add_argument("--phi", nargs="+", type=_PHI, default=None, metavar="PHI",
+                   help="volume fraction of each file, in order (files without a phi column)")
     p.add_argument("--mass-fraction", action="store_true",
                    help="the phi values are mass fractions: convert with Eq. (20) (needs "
                         "--rho-cs and --rho-l)")
@@ -109,13 +136,37 @@ def _read_options(p):
                    help="beta of Eq. (20) (0.1)")
 
 
+def _result_options(p, what: str):
+    p.add_argument("--out", default=what, metavar="DIR", help=f"output folder (default {what}); "
+                   "a previous fit's files there are replaced, other files refuse it")
+    p.add_argument("--confidence", type=Number("--confidence", 0.5, 1.0, lo_closed=False,
+                                               hi_closed=False), default=0.95,
+                   help="confidence level of the intervals (0.95)")
+    p.add_argument("--accept", action="store_true",
+                   help="write material.json even when the result is unphysical (a parameter at "
+                        "a search bound, ...; without it such a fit exits 1 and writes "
+                        "material_rejected.json)")
+    p.add_argument("--transient-from", type=_text("--transient-from"), default=None,
+                   metavar="NAME|FILE.json",
+                   help="copy the parameters the data cannot give (" + (
+                       "rho_s, rho_f, d, K3, kappa, phi0" if what == "relaxation" else
+                       "G, K, K0, rho_s, rho_f, d, K3, kappa, phi0") + ") from this set into the "
+                       "fitted material, so that shear1d and mpm2d scenes take it as it is "
+                       "(e.g. annular_shear)")
+    p.add_argument("--name", default=None, help="name of the fitted material (default: the "
+                                                "--out folder's name)")
+    p.add_argument("--no-plots", action="store_true", help="no PNG figures")
+
+
 def add_subcommands(sub) -> dict:
-    """Add ``read`` and ``fit`` to the ``rheometer`` subparsers; return their command functions."""
+    """Add ``read``, ``fit`` and ``fit-relaxation`` to the ``rheometer`` subparsers; return their
+    command functions."""
     p = sub.add_parser("read", help="read rheometer exports into one tidy CSV (no fitting)",
-                       description="Read measured flow curves (RheoCompass exports, CSV/TSV "
-                                   "tables) into one tidy CSV: source_file, interval, phi, "
-                                   "point, time_s, shear_rate_per_s, shear_stress_Pa, "
-                                   "viscosity_Pa_s, kept, dropped_reason.")
+                       description="Read measured flow curves (RheoCompass, TRIOS text or CSV and "
+                                   "rSpace CSV exports, CSV/TSV tables) into one tidy CSV: "
+                                   "source_file, interval, phi, point, time_s, shear_rate_per_s, "
+                                   "shear_stress_Pa, viscosity_Pa_s, kept, dropped_reason. "
+                                   "Blocks that are not flow curves are listed with the reason.")
     _read_options(p)
     p.add_argument("--out", default="curves.csv", metavar="FILE.csv",
                    help="output CSV (default curves.csv)")
@@ -124,47 +175,72 @@ def add_subcommands(sub) -> dict:
                                    "11-13, then a global fit)",
                        description="Fit Baumgarten & Kamrin's model to measured steady flow "
                                    "curves: stages 1-3 of the Supplement (Figs. 11-13: low "
-                                   "plateau -> a0, phi_j; high plateau -> a_inf, phi_c; DST "
-                                   "rates -> eta_B), then all parameters at once (robust, log "
+                                   "plateau -> a0, phi_j and eta0; high plateau -> a_inf, phi_c; "
+                                   "DST rates -> eta_B), then all parameters at once (robust, log "
                                    "viscosity). Writes DIR/material.json (accepted by every "
                                    "--material), parameters.csv, fit.csv, correlation.csv, "
                                    "curves.csv and PNG figures.")
     _read_options(p)
-    p.add_argument("--out", default="fit", metavar="DIR", help="output folder (default fit)")
+    _result_options(p, "fit")
     p.add_argument("--material", default="hermes2016", metavar="NAME|FILE.json",
-                   help="starting point and held parameters (default hermes2016)")
+                   help="starting point and held parameters (default hermes2016; its eta0 is not "
+                        "used: eta0 is estimated from the curves unless --set eta0=VALUE)")
     p.add_argument("--set", action="append", type=_set_value, default=None,
-                   metavar="NAME=VALUE", help="fix a parameter at a value (repeatable)")
+                   metavar="NAME=VALUE", help="fix a parameter at a value (repeatable), e.g. "
+                                              "eta0=1.2 (the liquid's measured viscosity, Pa s)")
     p.add_argument("--free", nargs="+", default=None, metavar="NAME",
-                   help="also fit parameters normally held: eta0, mu_c, Delta, varphi2, alpha2")
+                   help="also fit parameters normally held: mu_c, Delta, varphi2, alpha2")
     p.add_argument("--etaB-terms", type=Number("--etaB-terms", 1, 2, integer=True), default=None,
                    help="terms of Eq. (34) (default: as many as --material has)")
-    p.add_argument("--confidence", type=Number("--confidence", 0.5, 1.0, lo_closed=False,
-                                               hi_closed=False), default=0.95,
-                   help="confidence level of the intervals (0.95)")
     p.add_argument("--f-scale", type=Number("--f-scale", 1e-6, 10.0, unit="decades"),
                    default=None, help="robust-loss scale in log10 viscosity, in [1e-6, 10] "
                                       "decades (default: 3 robust standard deviations of a first "
                                       "pass)")
     p.add_argument("--no-profile", action="store_true",
                    help="skip the profile-likelihood intervals of phi_j and phi_c")
-    p.add_argument("--transient-from", type=_text("--transient-from"), default=None,
-                   metavar="NAME|FILE.json",
-                   help="copy the parameters steady flow curves cannot give (G, K, K0, rho_s, "
-                        "rho_f, d, K3, kappa, phi0) from this set into the fitted material, so "
-                        "that shear1d and mpm2d scenes accept it (e.g. annular_shear)")
-    p.add_argument("--name", default=None, help="name of the fitted material (default: the "
-                                                "--out folder's name)")
-    p.add_argument("--no-plots", action="store_true", help="no PNG figures")
-    return {"read": cmd_read, "fit": cmd_fit}
+
+    from .cli import STRESS_MAX, _k0
+
+    p = sub.add_parser(
+        "fit-relaxation", help="fit G and K0 to stress relaxation after cessation of steady "
+                               "shear (Supplement, Eqs. 35-37)",
+        description="Fit the granular shear modulus G and the structure-rate scale K0 (and each "
+                    "curve's cessation time on its clock) to measured stress relaxations after "
+                    "steady shear at --stress0, the steady parameters held at --material (a "
+                    "steady fit): least squares on log stress against rheometer relax's model. "
+                    "Several curves (several --stress0 or --phi) are fitted jointly with one G "
+                    "and K0. Writes DIR/material.json (--material with G and K0), "
+                    "parameters.csv, fit.csv and relaxation.png.")
+    _file_options(p, relaxation=True)
+    _result_options(p, "relaxation")
+    p.add_argument("--material", required=True, metavar="NAME|FILE.json",
+                   help="the steady fit (e.g. fit/material.json from rheometer fit)")
+    p.add_argument("--phi", nargs="+", type=_PHI, required=True, metavar="PHI",
+                   help="volume fraction: one for every curve, or one per curve in order")
+    p.add_argument("--stress0", nargs="+", required=True, metavar="TAU0",
+                   type=Number("--stress0", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"),
+                   help="steady granular shear stress before cessation [Pa] (the measured "
+                        "stress less eta0 (1 + 5/2 phi) gdot, negligible when dense): one for "
+                        "every curve, or one per curve in order")
+    p.add_argument("--K0", type=_k0(), default=None, help="hold K0 at this value (fit G only)")
+    p.add_argument("--time-offset", type=Number("--time-offset", -1e9, 1e9, unit="s"),
+                   default=None, metavar="SECONDS",
+                   help="hold each curve's cessation time at this time on its clock (default: "
+                        "fitted per curve)")
+    p.add_argument("--stress-floor", type=Number("--stress-floor", 0.0, STRESS_MAX,
+                                                 lo_closed=False, unit="Pa"), default=None,
+                   metavar="PA", help="drop readings below this stress [Pa] (the instrument's "
+                                      "noise)")
+    return {"read": cmd_read, "fit": cmd_fit, "fit-relaxation": cmd_fit_relaxation}
 
 
+# ------------------------------------------------------------------ files and folders
 def check_files(args) -> None:
     """Refuse, before anything is read or written, a data file given twice (the same resolved
     path: it would be merged into the fit as two curves) and an option that would be ignored for
-    the files given: ``--columns`` maps the columns of CSV/TSV tables, a RheoCompass export's
-    columns are fixed by the export; ``--interval`` selects RheoCompass results, tables have
-    none. One line naming the file(s) and the option."""
+    the files given: ``--columns`` maps the columns of CSV/TSV tables, an instrument export's
+    columns are fixed by the export; ``--interval`` selects an export's named intervals, steps
+    or actions, tables have none. One line naming the file(s) and the option."""
     from rheology.data import detect_format, read_text
 
     _once("--columns", [k for k, _ in args.columns or []])       # a quantity mapped twice
@@ -183,23 +259,49 @@ def check_files(args) -> None:
     for f in args.files:
         if not Path(f).is_file():
             return                           # the reader names the missing file
-        kinds[f] = args.format if args.format != "auto" else detect_format(read_text(f))
-    rheo = [f for f, k in kinds.items() if k == "rheocompass"]
-    if args.columns and rheo:
-        raise ValueError(f"--columns applies to CSV/TSV tables only: data file {rheo[0]!r} is a "
-                         "RheoCompass export, whose columns are fixed by the export (read by "
-                         "name); remove --columns or give tables only")
-    if args.interval and not rheo:
-        raise ValueError("--interval selects RheoCompass results by name: none of the data "
-                         "files is a RheoCompass export (a table's curves are split by its phi "
-                         "or interval column); remove --interval")
+        kinds[f] = args.format if args.format != "auto" else detect_format(read_text(f), f)
+    export = [f for f, k in kinds.items() if k != "csv"]
+    if args.columns and export:
+        raise ValueError(f"--columns applies to CSV/TSV tables only: data file {export[0]!r} is a "
+                         f"{kinds[export[0]]} export, whose columns are fixed by the export "
+                         "(read by name); remove --columns or give tables only")
+    if args.interval and not export:
+        raise ValueError("--interval selects an export's intervals, steps or actions by name: "
+                         "none of the data files is an instrument export (a table's curves are "
+                         "split by its phi or interval column); remove --interval")
+
+
+def prepare_out(option: str, path) -> Path:
+    """The --out folder, checked before any work: writable, and holding no file but a previous
+    fit's (:data:`OUTPUTS` and their temporaries), which this run replaces or removes. ValueError
+    naming the foreign files otherwise."""
+    from rheology.io import check_output_dir
+
+    out = check_output_dir(option, path)
+    if out.is_dir():
+        other = sorted(p.name for p in out.iterdir() if not _ours(p.name))
+        if other:
+            shown = ", ".join(other[:4]) + (f" and {len(other) - 4} more" if len(other) > 4 else "")
+            raise ValueError(f"{option} = {str(path)!r} holds files no fit writes ({shown}): the "
+                             "folder must hold only this run's files; give a new or empty folder")
+    return out
+
+
+def _ours(name: str) -> bool:
+    return name in OUTPUTS or any(name.startswith(f".{o}.") for o in OUTPUTS)
+
+
+def remove_stale(out: Path, written) -> None:
+    """Remove the previous fits' files this run did not write (and stale temporaries)."""
+    for p in out.iterdir():
+        if _ours(p.name) and p.name not in written:
+            p.unlink()
 
 
 def _read(args):
     from rheology.data import read_flow_curves
 
     check_files(args)
-
     mass = None
     if args.mass_fraction:
         if args.rho_cs is None or args.rho_l is None:
@@ -214,7 +316,7 @@ def _read(args):
 
 
 def cmd_read(args) -> str:
-    """``rheometer read``: write the tidy table; print the drop counts."""
+    """``rheometer read``: write the tidy table; print the drop counts and skipped blocks."""
     from rheology.data import EMPTY_OK, describe, table_to_csv_frame
     from rheology.io import atomic_write_csv, check_output_path
 
@@ -228,23 +330,80 @@ def _sha256(path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
+def _files_provenance(args, formats) -> list[dict]:
+    return [{"file": str(f), "sha256": _sha256(f), "format": formats.get(str(Path(f)), "?")}
+            for f in args.files]
+
+
+def _params_json(params) -> dict:
+    return {p.name: {"value": p.value, "lower": p.lower, "upper": p.upper,
+                     "std_error": p.std_error, "interval": p.method, "stage": p.stage,
+                     "status": p.status, "at_bound": p.at_bound,
+                     "unidentifiable": p.unidentifiable, "converged": p.converged,
+                     "note": p.note} for p in params}
+
+
+def _summary(params, skip_fixed=True) -> list[str]:
+    def g(x):
+        return "null" if not np.isfinite(x) else f"{x:.5g}"
+
+    return [f"  {p.name:9s} = {p.value:<11.5g} [{g(p.lower)}, {g(p.upper)}] ({p.method}, "
+            f"stage {p.stage}{', ' + p.status if p.status != 'fitted' else ''})"
+            for p in params if not (skip_fixed and p.status == "fixed")]
+
+
+def _write_results(out: Path, tables: dict, material, doc: dict, problems, accept: bool,
+                   figures) -> list[str]:
+    """Check every output, write them, the material as material.json (or material_rejected.json
+    for an unphysical result without --accept), remove a previous fit's other files. Returns the
+    names written."""
+    from rheology.io import atomic_write_csv, atomic_write_json, check_finite, strict_json
+    from rheology.materials import MATERIAL_FILE_FORMAT, material_to_dict
+
+    nullable = ("lower", "upper", "std_error")
+    for name, (frame, empty) in tables.items():
+        check_finite(frame, name, empty)
+    strict_json({"material": material_to_dict(material), **doc}, "material.json", nullable)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, (frame, empty) in tables.items():
+        atomic_write_csv(out / name, frame, empty_ok=empty)
+        written.append(name)
+    mat = "material.json" if (accept or not problems) else "material_rejected.json"
+    atomic_write_json(out / mat, {"format": MATERIAL_FILE_FORMAT, "version": 1,
+                                  "material": material_to_dict(material), **doc},
+                      nullable=nullable)
+    written.append(mat)
+    written += figures()
+    remove_stale(out, written)
+    return written
+
+
+def _verdict(problems, out: Path, accept: bool) -> str:
+    """The paragraph of an unphysical result (empty when there is none)."""
+    if not problems:
+        return ""
+    what = "; ".join(f"({i + 1}) {p}" for i, p in enumerate(problems))
+    if accept:
+        return f"WARNING: the result is unphysical (--accept: material.json written): {what}"
+    return (f"the result is unphysical: {what}. Its outputs are in {out}, the material as "
+            "material_rejected.json (not material.json); act on the above and fit again, or "
+            "rerun with --accept to write material.json as it is")
+
+
+# ------------------------------------------------------------------ rheometer fit
 def cmd_fit(args) -> str:
     """``rheometer fit``: read, fit, write DIR/material.json, CSVs and figures."""
     import rheology
     from rheology.data import EMPTY_OK, describe, drop_counts, table_to_csv_frame
-    from rheology.fit import SCALE, FlowData, fit_flow_curves
-    from rheology.io import atomic_write_csv
-    from rheology.materials import save_material
+    from rheology.fit import PARAMETER_EMPTY_OK, FlowData, fit_flow_curves
+    from rheology.materials import check_set_override
 
-    from rheology.io import check_output_dir
-
-    out = check_output_dir("--out", args.out)
+    out = prepare_out("--out", args.out)
     if args.name is not None and not args.name.strip():
         raise ValueError(f"--name = {args.name!r} is empty; valid: a non-empty name (default: "
                          "the --out folder's name)")
     start = rheology.get_material(args.material)
-    from rheology.materials import check_set_override
-
     fixed = {}
     for k, v in args.set or []:
         if v is None:
@@ -266,6 +425,9 @@ def cmd_fit(args) -> str:
         except ValueError as exc:
             raise _about_set(start, fixed, exc, "--set", FIELD_UNITS) from None
     _once("--free", args.free)
+    if "eta0" in (args.free or []):
+        raise ValueError("--free eta0: eta0 is estimated from the curves by default; hold it "
+                         "with --set eta0=VALUE instead")
     donor = rheology.get_material(args.transient_from) if args.transient_from else None
     table = _read(args)
     print(describe(table))
@@ -301,7 +463,6 @@ def cmd_fit(args) -> str:
         "shear_rate_per_s": kept["shear_rate_per_s"], "viscosity_Pa_s": kept["viscosity_Pa_s"],
         "model_shear_rate_per_s": res.model_rate, "model_viscosity_Pa_s": res.model_viscosity,
         "residual_log10": res.residual_log10, "outlier": res.outlier})
-    ptable = res.table()
     names, corr = res.correlation
     corr_df = pd.DataFrame(corr, columns=names)
     corr_df.insert(0, "parameter", names)
@@ -309,64 +470,57 @@ def cmd_fit(args) -> str:
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "command": "rheometer fit",
         "start_material": start.name, "fixed": fixed, "freed": args.free or [],
+        "eta0": "given (--set)" if "eta0" in fixed else "estimated from the curves",
         "transient_from": donor.name if donor else None,
-        "files": [{"file": str(f), "sha256": _sha256(f),
-                   "format": table.attrs.get("formats", {}).get(str(Path(f)), "?")}
-                  for f in args.files],
+        "files": _files_provenance(args, table.attrs.get("formats", {})),
+        "skipped_blocks": [list(x) for x in table.attrs.get("skipped", [])],
         "curves": [{"label": lab, "phi": float(p), "points_kept": int(np.sum(data.curve == c))}
                    for c, (lab, p) in enumerate(zip(data.labels, data.curve_phi()))],
         "points_kept": int(len(kept)), "points_dropped": int((~table["kept"]).sum()),
         "dropped_by_reason": drop_counts(table), "outliers": int(res.outlier.sum()),
         "sigma_log10": res.sigma_log10, "model_evaluations": res.n_evaluations,
         "fit_seconds": res.seconds, "messages": res.messages}
-    params_json = {p.name: {"value": p.value, "lower": p.lower, "upper": p.upper,
-                            "interval": p.method, "stage": p.stage, "status": p.status}
-                   for p in res.parameters}
-    # every output checked before the first is written (a non-finite value in the last one
-    # left the first four behind, with a message saying nothing was written)
-    from rheology.io import check_finite, strict_json
-    from rheology.materials import material_to_dict
-
+    doc = {"provenance": provenance,
+           "fit": {"confidence": res.confidence, "converged": res.converged,
+                   "problems": res.problems, "accepted": not res.problems or args.accept,
+                   "parameters": _params_json(res.parameters),
+                   "correlation": {"names": names, "matrix": corr}}}
+    tables = {"curves.csv": (table_to_csv_frame(table), EMPTY_OK), "fit.csv": (fit_df, ()),
+              "parameters.csv": (res.table(), PARAMETER_EMPTY_OK),
+              "correlation.csv": (corr_df, ())}
     try:
-        check_finite(table_to_csv_frame(table), "curves.csv", EMPTY_OK)
-        check_finite(fit_df, "fit.csv")
-        check_finite(ptable, "parameters.csv", ("lower", "upper", "std_error_reporting_coord"))
-        check_finite(corr_df, "correlation.csv")
-        strict_json({"material": material_to_dict(m), "provenance": provenance,
-                     "fit": {"confidence": res.confidence, "parameters": params_json,
-                             "correlation": {"names": names, "matrix": corr}}}, "material.json")
+        written = _write_results(out, tables, m, doc, res.problems, args.accept,
+                                 lambda: [] if args.no_plots else write_figures(out, data, res))
     except RuntimeError as exc:
         text = str(exc).replace("was not written", "and every other output were not written")
         cause = f" (numpy during the fit: {numpy_notes[0][7:]})" if numpy_notes else ""
         raise RuntimeError(f"{text}{cause}") from None
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write_csv(out / "curves.csv", table_to_csv_frame(table), empty_ok=EMPTY_OK)
-    atomic_write_csv(out / "fit.csv", fit_df)
-    atomic_write_csv(out / "parameters.csv", ptable, empty_ok=("lower", "upper",
-                                                                "std_error_reporting_coord"))
-    atomic_write_csv(out / "correlation.csv", corr_df)
-    save_material(out / "material.json", m, provenance=provenance,
-                  fit={"confidence": res.confidence, "parameters": params_json,
-                       "correlation": {"names": names, "matrix": corr}})
-    written = ["material.json", "parameters.csv", "fit.csv", "correlation.csv", "curves.csv"]
-    if not args.no_plots:
-        written += write_figures(out, data, res)
     lines = [f"fitted {m.name} in {res.seconds:.2f} s ({res.n_evaluations} model evaluations; "
              f"residual sd {res.sigma_log10:.3g} in log10 viscosity; {int(res.outlier.sum())} "
-             f"outlier(s))"]
-    for p in res.parameters:
-        if p.status == "fixed":
-            continue
-        lines.append(f"  {p.name:9s} = {p.value:<11.5g} [{p.lower:.5g}, {p.upper:.5g}] "
-                     f"({p.method}, stage {p.stage}{', ' + p.status if p.status != 'fitted' else ''})")
+             f"outlier(s); {'converged' if res.converged else 'NOT converged'})"]
+    lines += _summary(res.parameters)
     lines += [f"  note: {msg}" for msg in [*res.messages, *numpy_notes]]
     lines.append(f"wrote {', '.join(str(out / w) for w in written)}")
-    return "\n".join(lines)
+    return _finish_message(lines, res.problems, out, args.accept)
+
+
+def _finish_message(lines, problems, out, accept) -> str:
+    verdict = _verdict(problems, out, accept)
+    if problems and not accept:
+        print("\n".join(lines))
+        raise RuntimeError(verdict)
+    return "\n".join(lines + ([verdict] if verdict else []))
 
 
 # ------------------------------------------------------------------ figures
+def _legend(ax, **kw):
+    """A legend beside the axes (never over the data)."""
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, **kw)
+
+
 def write_figures(out: Path, data, res) -> list[str]:
-    """The fit's figures (data vs model per phi, residuals, stages 1-3 as Figs. 11-13)."""
+    """The fit's figures (data vs model per phi, residuals, stages 1-3 as Figs. 11-13). The
+    stage figures show each stage's own values and, dashed, the final (stage 4) ones."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -385,26 +539,27 @@ def write_figures(out: Path, data, res) -> list[str]:
         plt.close(fig)
         names.append(name)
 
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
     for c in range(data.n_curves):
         s, v, r = data.sorted_curve(c)
         sel = data.curve == c
         ax[0].loglog(s, v, "o", ms=3.5, color=colours[c], label=f"phi = {phis[c]:.4g}")
         ax[0].loglog(data.stress[sel & res.outlier], data.viscosity[sel & res.outlier], "x",
                      color="r", ms=7)
-        ax[1].loglog(r, s, "o", ms=3.5, color=colours[c])
+        ax[1].loglog(r, s, "o", ms=3.5, color=colours[c], label=f"phi = {phis[c]:.4g}")
         grid = np.logspace(np.log10(s.min()), np.log10(s.max()), 200)
         if phis[c] < m.phi_j:
             st = mixture_steady_state(grid, phis[c], m)
-            ax[0].loglog(grid, st["viscosity"], "-", color=colours[c])
-            ax[1].loglog(st["shear_rate"], grid, "-", color=colours[c])
+            near = st["viscosity"] < 1e3 * v.max()      # not the ~1e300 of a jammed state
+            ax[0].loglog(grid[near], st["viscosity"][near], "-", color=colours[c])
+            ax[1].loglog(st["shear_rate"][near], grid[near], "-", color=colours[c])
     ax[0].set(xlabel="shear stress [Pa]", ylabel="viscosity [Pa s]",
-              title=f"data (markers) and fitted model (lines); x: outliers")
+              title="data (markers) and fitted model (lines); x: outliers")
     ax[1].set(xlabel="shear rate [1/s]", ylabel="shear stress [Pa]", title=m.name)
-    ax[0].legend(fontsize=7)
+    _legend(ax[1])
     save(fig, "fit_curves.png")
 
-    fig, ax = plt.subplots(figsize=(6, 3.8))
+    fig, ax = plt.subplots(figsize=(7, 3.8), constrained_layout=True)
     for c in range(data.n_curves):
         sel = data.curve == c
         ax.semilogx(data.stress[sel], res.residual_log10[sel], "o-", ms=3, color=colours[c],
@@ -414,48 +569,54 @@ def write_figures(out: Path, data, res) -> list[str]:
         ax.axhline(k * res.sigma_log10, color="k", ls=":", lw=0.8)
     ax.set(xlabel="shear stress [Pa]", ylabel="log10(measured / model viscosity)",
            title=f"residuals (sd {res.sigma_log10:.3g}; dotted: +-2 sd)")
-    ax.legend(fontsize=7)
+    _legend(ax)
     save(fig, "residuals.png")
 
     st1, st2, st3 = res.stages["1"], res.stages["2"], res.stages["3"]
-    eta0, mu_c = m.eta0, m.mu_c
+    mu_c = m.mu_c
 
     def eq(phi, pm, a):
         return 1 + 2.5 * phi * pm / (pm - phi) + 2 * mu_c * (a * phi / (pm - phi)) ** 2
 
-    for stage, key, pm, a, title, fname, sel in (
-            ("1", "eta_min", st1["phi_j"], st1["a0"], "Stage 1 (Fig. 11, Eq. 24): low-stress "
-             "plateau -> a0, phi_j", "stage1_low_plateau.png", range(data.n_curves)),
-            ("2", "eta_max", st2["phi_c"], st2["a_inf"], "Stage 2 (Fig. 12, Eq. 25): high-stress "
-             "plateau -> a_inf, phi_c", "stage2_high_plateau.png", st2["curves"])):
-        fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
-        st = res.stages[stage]
+    for stage, key, pm, a, fin_pm, fin_a, sym, title, fname in (
+            ("1", "eta_min", st1["phi_j"], st1["a0"], m.phi_j, m.a0, ("phi_j", "a0", "24"),
+             "Stage 1 (Fig. 11, Eq. 24): low-stress plateau -> a0, phi_j", "stage1_low_plateau.png"),
+            ("2", "eta_max", st2["phi_c"], st2["a_inf"], m.phi_c, m.a_inf, ("phi_c", "a_inf", "25"),
+             "Stage 2 (Fig. 12, Eq. 25): high-stress plateau -> a_inf, phi_c",
+             "stage2_high_plateau.png")):
+        fig, ax = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
+        eta0 = st1["eta0"]
         for c in range(data.n_curves):
             s, v, _ = data.sorted_curve(c)
             ax[0].loglog(s, v / eta0, "-", color=colours[c], lw=1, label=f"phi = {phis[c]:.4g}")
         xs = st1["stress_min"] if stage == "1" else st2["stress_max"]
-        ys = np.asarray(st[key]) / eta0
+        ys = np.asarray(res.stages[stage][key]) / eta0
         ax[0].loglog(xs, ys, "ko", ms=6)
-        ax[0].set(xlabel="shear stress [Pa]", ylabel="eta / eta0",
-                  title="curves; black: " + ("minimum" if stage == "1" else "maximum") +
-                        " viscosity")
-        ax[0].legend(fontsize=7)
-        ph = np.asarray(st["phi"]) if stage == "2" else np.asarray(st1["phi"])
+        ax[0].set(xlabel="shear stress [Pa]", ylabel=f"eta / eta0 (eta0 = {eta0:.4g} Pa s, "
+                  "stage 1)", title="curves; black: " + ("minimum" if stage == "1" else
+                                                          "maximum") + " viscosity")
+        _legend(ax[0])
+        ph = np.asarray(st1["phi"] if stage == "1" else st2["phi"])
         if ph.size:
             ax[1].semilogy(ph, ys, "o", color="C0", label="plateaus")
             grid = np.linspace(min(ph.min(), 0.9 * pm) * 0.98, pm - 1e-3 * pm, 200)
             grid = grid[grid > 0]
-            ax[1].semilogy(grid, eq(grid, pm, a), "r-", label=f"Eq. ({'24' if stage == '1' else '25'})")
-            ax[1].axvline(pm, color="k", ls="--", label=f"{'phi_j' if stage == '1' else 'phi_c'}"
-                                                         f" = {pm:.4g}")
-            ax[1].legend(fontsize=8)
+            ax[1].semilogy(grid, eq(grid, pm, a), "r-", label=f"Eq. ({sym[2]}), stage {stage}: "
+                           f"{sym[0]} = {pm:.4g}, {sym[1]} = {a:.4g}")
+            ax[1].axvline(pm, color="r", ls="--", lw=0.8)
+            g2 = grid[grid < fin_pm * (1 - 1e-3)]
+            ax[1].semilogy(g2, eq(g2, fin_pm, fin_a) * m.eta0 / eta0, "k--",
+                           label=f"final (stage 4): {sym[0]} = {fin_pm:.4g}, {sym[1]} = "
+                                 f"{fin_a:.4g}" + (f", eta0 = {m.eta0:.4g}" if stage == "1"
+                                                   else ""))
+            _legend(ax[1])
         else:
             ax[1].text(0.5, 0.5, "no curve with a high-stress plateau", ha="center",
                        transform=ax[1].transAxes)
         ax[1].set(xlabel="phi", ylabel="eta_r", title=title)
         save(fig, fname)
 
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
     for c in range(data.n_curves):
         s, v, r = data.sorted_curve(c)
         ax[0].loglog(r, s, "-", color=colours[c], lw=1, label=f"phi = {phis[c]:.4g}")
@@ -463,19 +624,150 @@ def write_figures(out: Path, data, res) -> list[str]:
         ax[0].loglog([g, g], [lo, hi], "ko-", ms=5)
     ax[0].set(xlabel="shear rate [1/s]", ylabel="shear stress [Pa]",
               title="curves; black: DST region and rate")
-    ax[0].legend(fontsize=7)
+    _legend(ax[0])
     top = min(m.phi_star, m.phi_j) - 1e-4 * m.phi_j
     if len(st3["phi"]) and top > m.phi_c:
         from rheology.steady import gdot_dst
 
         ax[1].semilogy(st3["phi"], st3["gdot_dst"], "o", label="DST rates (stage 3)")
-        grid = np.linspace(max(m.phi_c, min(st3["phi"]) - 0.02), top, 200)
-        ax[1].semilogy(grid, gdot_dst(grid, m), "r-", label="Eq. (33), fitted material")
-        ax[1].axvline(m.phi_j, color="k", ls="--", label=f"phi_j = {m.phi_j:.4g}")
-        ax[1].legend(fontsize=8)
+        for mm, style, what in ((st3["material"], "r-", "stage 3"), (m, "k--", "final")):
+            hi = min(mm.phi_star, mm.phi_j) - 1e-4 * mm.phi_j
+            if hi > mm.phi_c:
+                grid = np.linspace(max(mm.phi_c, min(st3["phi"]) - 0.02), hi, 200)
+                ax[1].semilogy(grid, gdot_dst(grid, mm), style,
+                               label=f"Eq. (33), {what}: varphi1 = {mm.varphi1:.3g}, alpha1 = "
+                                     f"{mm.alpha1:.3g}, tau* = {mm.tau_star:.3g}")
+        ax[1].axvline(m.phi_j, color="k", ls=":", label=f"phi_j = {m.phi_j:.4g} (final)")
+        _legend(ax[1])
     else:
         ax[1].text(0.5, 0.5, "no DST curve", ha="center", transform=ax[1].transAxes)
     ax[1].set(xlabel="phi", ylabel="gdot_DST [1/s]",
               title="Stage 3 (Fig. 13, Eq. 33): DST rates -> eta_B(phi)")
     save(fig, "stage3_dst.png")
     return names
+
+
+# ------------------------------------------------------------------ rheometer fit-relaxation
+def _per_curve(option: str, values, n: int) -> list[float]:
+    if len(values) == 1:
+        return list(values) * n
+    if len(values) != n:
+        raise ValueError(f"{option} has {len(values)} values for {n} relaxation curve(s): give one "
+                         "for every curve, or one per curve in order")
+    return list(values)
+
+
+def cmd_fit_relaxation(args) -> str:
+    """``rheometer fit-relaxation``: read relaxations, fit G and K0, write DIR/material.json,
+    parameters.csv, fit.csv and relaxation.png."""
+    import rheology
+    from rheology.data import EMPTY_OK, describe, read_relaxation_curves
+    from rheology.fit import PARAMETER_EMPTY_OK, parameter_table
+    from rheology.materials import FIELD_UNITS
+
+    from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
+
+    out = prepare_out("--out", args.out)
+    if args.name is not None and not args.name.strip():
+        raise ValueError(f"--name = {args.name!r} is empty; valid: a non-empty name (default: "
+                         "the --out folder's name)")
+    m = rheology.get_material(args.material)
+    donor = rheology.get_material(args.transient_from) if args.transient_from else None
+    check_files(args)
+    table = read_relaxation_curves(args.files, fmt=args.format,
+                                   columns=dict(args.columns) if args.columns else None,
+                                   intervals=args.interval, torque_floor=args.torque_floor,
+                                   stress_floor=args.stress_floor)
+    print(describe(table))
+    n = int(table["curve"].max()) + 1
+    phis = _per_curve("--phi", args.phi, n)
+    tau0 = _per_curve("--stress0", args.stress0, n)
+    curves = []
+    several = table["source_file"].nunique() > 1
+    for i, (c, d) in enumerate(table[table["kept"]].groupby("curve", sort=True)):
+        label = (f"{d['source_file'].iloc[0]} " if several else "") + str(d["interval"].iloc[0])
+        curves.append(RelaxationCurve(label, d["time_s"].to_numpy(float),
+                                      d["shear_stress_Pa"].to_numpy(float), phis[i], tau0[i]))
+    name = args.name.strip() if args.name is not None else out.resolve().name
+    res = fit_relaxation(curves, m, K0=args.K0, t0=args.time_offset,
+                         confidence=args.confidence, name=name)
+    fitted = res.material
+    if donor is not None:
+        fitted = fitted.replace(**{k: getattr(donor, k) for k in TRANSIENT_FIELDS
+                                   if k not in ("G", "K", "K0")})
+    fit_df = table.reset_index(drop=True)
+    fit_df.insert(3, "phi", [phis[int(k)] for k in fit_df["curve"]])
+    fit_df.insert(4, "stress0_Pa", [tau0[int(k)] for k in fit_df["curve"]])
+    extra = ("time_after_cessation_s", "model_shear_stress_Pa", "residual_log10")
+    for col in extra:
+        fit_df[col] = np.nan
+    for i, c in enumerate(curves):             # kept rows of curve i, in the order read
+        rows = fit_df.index[(fit_df["curve"] == i) & fit_df["kept"]]
+        fit_df.loc[rows, list(extra)] = np.column_stack(
+            [c.time - res.t0[i], res.model_stress[i], res.residual_log10[i]])
+    for col in ("point", "time_s", "shear_stress_Pa"):
+        v = fit_df[col].to_numpy(float)
+        fit_df[col] = np.where(np.isfinite(v), v, np.nan)
+    provenance = {
+        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "command": "rheometer fit-relaxation", "steady_material": m.name,
+        "transient_from": donor.name if donor else None,
+        "files": _files_provenance(args, table.attrs.get("formats", {})),
+        "skipped_blocks": [list(x) for x in table.attrs.get("skipped", [])],
+        "curves": [{"label": c.label, "phi": c.phi, "stress0_Pa": c.stress0,
+                    "points_kept": int(c.time.size), "t0_s": float(res.t0[i]),
+                    "delta_f": float(res.delta_f[i])} for i, c in enumerate(curves)],
+        "K": f"K = {fitted.K:.6g} Pa keeps K/G of " + (m.name if m.K is not None and m.G else
+                                                        "the paper's Tables 4-7"),
+        "sigma_log10": res.sigma_log10, "model_runs": res.n_runs, "fit_seconds": res.seconds,
+        "messages": res.messages}
+    doc = {"provenance": provenance,
+           "fit": {"confidence": res.confidence, "converged": res.converged,
+                   "problems": res.problems, "accepted": not res.problems or args.accept,
+                   "parameters": _params_json(res.parameters),
+                   "correlation": {"names": res.correlation[0], "matrix": res.correlation[1]}}}
+    units = {**FIELD_UNITS, **{p.name: "s" for p in res.parameters if p.name.startswith("t0")}}
+    tables = {"fit.csv": (fit_df, (*EMPTY_OK, *extra)),
+              "parameters.csv": (parameter_table(res.parameters, SCALE, units),
+                                 PARAMETER_EMPTY_OK)}
+    written = _write_results(out, tables, fitted, doc, res.problems, args.accept,
+                             lambda: [] if args.no_plots else [relaxation_figure(out, res)])
+    lines = [f"fitted G and K0 of {fitted.name} to {len(curves)} relaxation curve(s) in "
+             f"{res.seconds:.2f} s ({res.n_runs} model runs; residual sd {res.sigma_log10:.3g} "
+             f"in log10 stress; {'converged' if res.converged else 'NOT converged'})"]
+    lines += _summary(res.parameters)
+    lines += [f"  note: {msg}" for msg in res.messages]
+    lines.append(f"wrote {', '.join(str(out / w) for w in written)}")
+    return _finish_message(lines, res.problems, out, args.accept)
+
+
+def relaxation_figure(out: Path, res) -> str:
+    """relaxation.png: data and model against the time after cessation (log-log), residuals."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rheology.io import atomic_savefig
+
+    fig, ax = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True, constrained_layout=True,
+                           gridspec_kw={"height_ratios": [3, 1]})
+    colours = plt.cm.viridis(np.linspace(0, 0.85, len(res.curves)))
+    for i, (c, col) in enumerate(zip(res.curves, colours)):
+        t = c.time - res.t0[i]
+        pos = t > 0
+        o = np.argsort(t[pos])
+        ax[0].loglog(t[pos], c.stress[pos], "o", ms=3, color=col,
+                     label=f"{c.label}: taubar0 = {c.stress0:g} Pa, phi = {c.phi:g}")
+        ax[0].loglog(t[pos][o], res.model_stress[i][pos][o], "-", color=col, lw=1.5)
+        ax[1].semilogx(t[pos], res.residual_log10[i][pos], "o", ms=3, color=col)
+    G, K0 = res.parameter("G").value, res.parameter("K0").value
+    ax[0].set(ylabel="shear stress [Pa]",
+              title=f"relaxation after cessation: data (markers), model (lines): G = {G:.4g} Pa, "
+                    f"K0 = {K0:.4g}")
+    _legend(ax[0])
+    ax[1].axhline(0.0, color="k", lw=0.8)
+    ax[1].set(xlabel="time after cessation t - t0 [s]", ylabel="log10(data/model)")
+    atomic_savefig(fig, out / "relaxation.png")
+    plt.close(fig)
+    return "relaxation.png"

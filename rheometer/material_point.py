@@ -36,10 +36,11 @@ Sub-stepping (safe at any rate). Each step dt is split into n equal local update
   many sub-steps.
 
 A run that would need more than :data:`MAX_SUBSTEPS` (2e7) updates is refused up front (the
-strain gdot t_end <= 2e5) or stops with a RuntimeError naming the step.
+strain gdot t_end <= 2e5) or ends at the step that needs them (its rows before kept,
+:mod:`rheology.run_end`).
 
-Start from a steady state (``stress0``) or from rest with a small isotropic contact pressure
-(``pressure0``): a point at exactly zero pressure sheared isochorically stays separated.
+Start from a steady state (``stress0``) or from rest under an isotropic contact pressure
+(``pressure0`` >= 0; 0 is the stress-free point, which shear sets flowing through its dilatancy).
 """
 
 from __future__ import annotations
@@ -50,11 +51,12 @@ import pandas as pd
 
 import rheology
 from rheology.checks import check_nonnegative, check_positive, check_range
-from rheology.elastic import check_elastic_strain
+from rheology.elastic import past_elastic_limit
 from rheology.local_update import (CASE_NAMES, COMPACTION, ELASTIC, FAILED, NOUT, OUT_FIELDS,
                                    SHEAR_FLOW, update_point)
 from rheology.materials import Material
 from rheology.numba_cache import guard
+from rheology.run_end import EndedEarly, RunEnd
 
 from .transient import DEFAULT_G, DEFAULT_K0
 
@@ -280,7 +282,8 @@ def point_parameters(m: Material, G=None, K=None, K0=None) -> tuple[Material, np
 
 def initial_point(m: Material, phi: float, *, stress0=None, f0=None, pressure0=None):
     """Initial (stress 3x3, f): the steady state at granular shear stress ``stress0`` [Pa], or
-    rest under isotropic contact pressure ``pressure0`` [Pa] (default 1e-3 tau*) with f0 (0)."""
+    rest under isotropic contact pressure ``pressure0`` >= 0 [Pa] (default 1e-3 tau*; 0: stress
+    free) with f0 (0)."""
     sig = np.zeros((3, 3))
     if stress0 is not None:
         st = rheology.steady_state_stress(float(check_positive("stress0 [Pa]", stress0)), phi, m)
@@ -289,8 +292,8 @@ def initial_point(m: Material, phi: float, *, stress0=None, f0=None, pressure0=N
         sig[0, 1] = sig[1, 0] = float(stress0)
     else:
         f = 0.0 if f0 is None else float(check_range("f0", f0, 0.0, 1.0))
-        p = float(check_positive("pressure0 [Pa]", pressure0 if pressure0 is not None
-                                 else 1e-3 * m.tau_star))
+        p = float(check_nonnegative("pressure0 [Pa]", pressure0 if pressure0 is not None
+                                    else 1e-3 * m.tau_star))
     sig[0, 0] = sig[1, 1] = sig[2, 2] = -p
     return sig, f
 
@@ -322,13 +325,14 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     f0 : float, optional
         Initial structure (default: steady f, or 0 from rest).
     pressure0 : float, optional
-        Contact pressure at rest [Pa] (default 1e-3 tau*, or ``pressure`` under pressure control).
+        Contact pressure at rest [Pa], >= 0 (default 1e-3 tau*, or ``pressure`` under pressure
+        control; 0: stress free).
     G, K, K0 : float, optional
         Moduli [Pa] and structure rate; default the material's, else 1e4 Pa, (8.3/3.8) G, 1.
     points : int
         Approximate number of output rows.
     elastic_limit : bool
-        Refuse (``RuntimeError``) a run whose elastic strain taubar/G or p/K passes
+        End the run where its elastic strain taubar/G or p/K passes
         :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT` (0.1): the command line always sets it; the
         default False lets tests follow the Jaumann algebra to large strains.
 
@@ -345,10 +349,11 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     ValueError
         Bad input (including a time step so large that the run would have fewer than one step,
         or a strain gdot t_end needing more than 2e7 local updates, with the longest t_end).
-    RuntimeError
+    rheology.run_end.EndedEarly (a RuntimeError)
         The local update or the pressure solve failed even with 1e9 sub-steps per step, or the
         state became non-finite (with the step, time and state), or (``elastic_limit``) the
-        elastic strain taubar/G or p/K passed the small-strain limit 0.1 (:mod:`rheology.elastic`).
+        elastic strain taubar/G or p/K passed the small-strain limit 0.1 (:mod:`rheology.elastic`):
+        ``partial`` holds the rows before (:mod:`rheology.run_end`; None if there are none).
 
     ``attrs``: ``substeps`` (local updates in all), ``max_substeps_per_step``, ``retries``.
     """
@@ -379,6 +384,7 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     code, n, rows = _run(sig0, phi, f_init, rate, dt, nsteps, every,
                          0 if control == "volume" else 1, pressure or 0.0, m.K, m.G, P, rec,
                          n_min, x_el, MAX_SUBSTEPS, stats)
+    end = None
     if code != OK:
         what = {UPDATE_FAILED: "the local update's bracketed solve failed",
                 PRESSURE_FAILED: "no dilation rate gives the imposed pressure (p(e) jumps over "
@@ -393,10 +399,12 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
         state = (f"last recorded t = {last[0]:.6g} s: sigma_xy = {last[4]:.6g} Pa, "
                  f"p = {last[_OF['pressure']]:.6g} Pa, f = {last[_OF['f']]:.6g}, "
                  f"phi = {last[5]:.6g}" if last is not None else "before the first output row")
-        raise RuntimeError(f"material point ({control} control, phi0 = {phi:g}, rate = {rate:g} "
-                           f"1/s, dt = {dt:g} s): {what} at step {n + 1} (t = {(n + 1) * dt:.6g} "
-                           f"s) even with {int(stats[1])} sub-steps per step ({int(stats[0])} in "
-                           f"all); {state}")
+        kind = ("law_failure" if code in (UPDATE_FAILED, PRESSURE_FAILED, YIELD_VIOLATED)
+                else "solver_failure")
+        end = RunEnd(kind, f"material point ({control} control, phi0 = {phi:g}, rate = "
+                           f"{rate:g} 1/s, dt = {dt:g} s): {what} at step {n + 1} (t = "
+                           f"{(n + 1) * dt:.6g} s) even with {int(stats[1])} sub-steps per step "
+                           f"({int(stats[0])} in all); {state}", past_s=(n + 1) * dt)
     df = _frame(np.vstack([_initial_row(sig0, phi, f_init, m, stress0), rec[:rows]]), rate)
     df.attrs.update(substeps=int(stats[0]), max_substeps_per_step=int(stats[1]),
                     retries=int(stats[2]), strain_per_substep_max=x_max)
@@ -409,11 +417,40 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
              f"G = {m.G:g} Pa, K = {m.K:g} Pa)")
     advice = ("impose a lower rate, pressure or initial stress or a shorter time, or stiffer "
               "moduli (--G, --K)")
-    if elastic_limit:
-        check_elastic_strain(df["time_s"], df["granular_shear_stress_Pa"], m.G, where=where,
-                             advice=advice)
-        check_elastic_strain(df["time_s"], df["granular_pressure_Pa"], m.K, stress_name="p",
-                             modulus_name="K", where=where, advice=advice)
+
+    def first_past(d):
+        """(first row past the elastic limit, its RunEnd) of taubar/G and p/K, or None."""
+        found = [past_elastic_limit(d["time_s"], d[col], mod, stress_name=s_name,
+                                    modulus_name=m_name, where=where, advice=advice)
+                 for col, mod, s_name, m_name in (("granular_shear_stress_Pa", m.G, "taubar", "G"),
+                                                  ("granular_pressure_Pa", m.K, "p", "K"))]
+        found = [c for c in found if c is not None]
+        return min(found, key=lambda c: c[0]) if found else None
+
+    keep = len(df)
+    cut = first_past(df) if elastic_limit else None
+    if cut is not None and cut[0] < keep:
+        keep, end = cut
+        if 0 < keep and every > 1:   # the output interval of the crossing, again step by step
+            r = df.iloc[keep - 1]
+            sig = np.diag([r["normal_stress_xx_Pa"], r["normal_stress_yy_Pa"],
+                           r["normal_stress_zz_Pa"]])
+            sig[0, 1] = sig[1, 0] = r["shear_stress_Pa"]
+            n_fine = int(round((df["time_s"].iloc[keep] - r["time_s"]) / dt))
+            rec = np.empty((n_fine + 2, _REC + NOUT))
+            _, _, rows = _run(sig, r["phi"], r["f"], rate, dt, n_fine, 1,
+                              0 if control == "volume" else 1, pressure or 0.0, m.K, m.G, P,
+                              rec, n_min, x_el, MAX_SUBSTEPS, np.zeros(3, dtype=np.int64))
+            rec[:rows, 0] += r["time_s"]
+            fine = pd.concat([df.iloc[:keep], _frame(rec[:rows], rate)], ignore_index=True)
+            cut = first_past(fine)
+            if cut is not None:
+                df, (keep, end) = fine, cut
+    if end is not None:           # the rows before the end (rheology.run_end)
+        df = df.iloc[:keep]
+        end = end.replace(time_s=float(df["time_s"].iloc[-1]) if keep else None)
+        df.attrs["end"] = end
+        raise EndedEarly([end], partial=df if keep else None)
     return df
 
 

@@ -394,3 +394,16 @@ def normalise_units(fig) -> None:
         ax.set_xlabel(fix(ax.get_xlabel()))
         ax.set_ylabel(fix(ax.get_ylabel()))
         ax.set_title(fix(ax.get_title()))
+
+
+def mark_ends(fig, ends) -> None:
+    """Mark where runs ended early (:class:`rheology.run_end.RunEnd`, at the time of the last
+    row written) on every time axis of ``fig``: a dashed line and the end's label."""
+    from rheology.run_end import mark_end
+
+    for ax in fig.axes:
+        if not ax.get_xlabel().startswith("time"):
+            continue
+        for end in ends:
+            if end.time_s is not None and (end.time_s > 0 or ax.get_xscale() != "log"):
+                mark_end(ax, end.time_s, f"ended: {end.label}")

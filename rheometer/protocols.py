@@ -18,6 +18,7 @@ import pandas as pd
 
 import rheology
 from rheology.checks import check_positive, check_range
+from rheology.run_end import EndedEarly
 
 from .program import Program, Start, parse_program
 from .transient import Rheometer, State, Step
@@ -158,6 +159,12 @@ def run_program(material, phi: float, program, *, G=None, K0=None, points: int =
         program = Program(Start(), tuple(program))
     r = _rheometer(material, phi, G, K0, options)
     start = None if resume is not None else initial_state(r, program.start)
-    df = r.run(program.steps, start, points=points, resume=resume, on_step=on_step)
-    df.attrs["start"] = f"{program.start.kind} {program.start.value:g}"
+    where = f"{program.start.kind} {program.start.value:g}"
+    try:
+        df = r.run(program.steps, start, points=points, resume=resume, on_step=on_step)
+    except EndedEarly as exc:                    # the rows up to the end (rheology.run_end)
+        if exc.partial is not None:
+            exc.partial.attrs["start"] = where
+        raise
+    df.attrs["start"] = where
     return df

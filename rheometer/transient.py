@@ -10,11 +10,12 @@ whatever state the previous step left. A step is one IDA solve of the DAE of
 it), started from a consistent state (the algebraic unknowns solved, every derivative exact), and
 restarted at each event (jamming/unjamming, which changes the smoothness of the law) so that the
 BDF order is rebuilt from a clean point. After every solve the state is checked (finite,
-``0 <= f <= max(f0, f_m)``, the plastic rate of the stress's sign) and a violation raises
-``RuntimeError`` with the time, state and IDA statistics: a loose tolerance can return "success"
-with a blown-up state. With ``elastic_limit=True`` (every command line run) so does an elastic
-strain taubar/G past the small-strain limit of the hypoelastic law
-(:data:`rheology.elastic.ELASTIC_STRAIN_LIMIT`, 10 %; shear1d's bound too).
+``0 <= f <= max(f0, f_m)``, the plastic rate of the stress's sign): a loose tolerance can return
+"success" with a blown-up state. A violation, a failed IDA solve and, with ``elastic_limit=True``
+(every command line run), an elastic strain taubar/G past the small-strain limit of the
+hypoelastic law (:data:`rheology.elastic.ELASTIC_STRAIN_LIMIT`, 10 %; shear1d's bound too) end
+the run there: :class:`rheology.run_end.EndedEarly` (a RuntimeError) with the time, state and IDA
+statistics and the rows before the first bad one (:mod:`rheology.run_end`).
 
 An oscillation step samples every cycle at the same phases (``max(32, points/cycles)`` per
 cycle, rounded up); the harmonic analysis of its last full cycle (first-harmonic G', G'', the
@@ -39,8 +40,10 @@ from sksundae.ida import IDA
 import rheology
 from rheology import laws
 from rheology.checks import check_nonnegative, check_positive, check_range
-from rheology.elastic import check_elastic_strain
+from rheology.elastic import (ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress,
+                              past_elastic_limit)
 from rheology.materials import Material
+from rheology.run_end import EndedEarly, RunEnd
 
 from . import limits, model
 from .model import GAP, GD, GP, NEVENTS, NVAR, STRAIN, TAU
@@ -51,6 +54,12 @@ DEFAULT_K0 = 1.0
 #: Longest time a step "until strain ..." may run when it gives no limit [s].
 DEFAULT_MAX_TIME = 1.0e4
 
+#: Rows of the output interval in which a run reaches the elastic-strain limit (resolved again).
+END_ROWS = 32
+#: What to change when a run ends at the elastic-strain limit.
+_ADVICE = ("impose a lower rate or stress or a shorter time (a shear-jammed sample under an "
+           "imposed rate strains elastically by the imposed strain), or a stiffer skeleton (--G) "
+           "under an imposed stress")
 #: Output columns of every transient (units in the names).
 COLUMNS = ("time_s", "step", "strain", "shear_rate_per_s", "shear_stress_Pa",
            "granular_shear_stress_Pa", "plastic_shear_rate_per_s", "f", "granular_pressure_Pa",
@@ -274,6 +283,12 @@ class RunStats:
     seconds: float = 0.0
     events: list = field(default_factory=list)
 
+    def count(self, sol) -> None:
+        """Add an IDA solve's counts."""
+        self.solves += 1
+        self.nfev += int(sol.nfev)
+        self.njev += int(sol.njev)
+
 
 class Rheometer:
     """A virtual rheometer loaded with one material at one volume fraction.
@@ -301,10 +316,11 @@ class Rheometer:
         Jamming/unjamming events after which a step stops restarting at events (and only records
         them), against chatter.
     elastic_limit : bool
-        Refuse (``RuntimeError``) a solution whose elastic strain taubar/G passes
-        :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT` (0.1), beyond which the hypoelastic law is
-        used outside its range. The command line always sets it; the default False lets tests
-        and validation follow the law's algebra to large strains.
+        End the run (:class:`rheology.run_end.EndedEarly`, the rows before it kept) where the
+        elastic strain taubar/G passes :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT` (0.1),
+        beyond which the hypoelastic law is used outside its range. The command line always
+        sets it; the default False lets tests and validation follow the law's algebra to large
+        strains.
     """
 
     def __init__(self, material, phi: float, *, G: float | None = None, K0: float | None = None,
@@ -358,6 +374,14 @@ class Rheometer:
         (the rows so far, the state, the next step): what a checkpoint stores. ``resume`` (such
         a Progress) continues from it: every step starts from the exact state at the end of the
         previous one, so a resumed run's rows are identical to the uninterrupted run's.
+
+        Raises
+        ------
+        rheology.run_end.EndedEarly
+            The run ended before its last step's end (:meth:`_check_solution`: IDA failed or
+            returned an unphysical state, or with ``elastic_limit`` the elastic strain passed
+            0.1): ``partial`` is the DataFrame of the rows up to there (None if there were
+            none), ``ends[0]`` the :class:`~rheology.run_end.RunEnd`, also in its attrs["end"].
         """
         steps = list(steps)
         if not steps:
@@ -380,10 +404,19 @@ class Rheometer:
         if not (np.isfinite(st.gap) and np.isfinite(st.taubar) and np.isfinite(st.strain)):
             raise ValueError(f"initial state {st} must be finite")
         t0 = time.perf_counter()
-        for k in range(first, len(steps)):
-            st = self._run_step(k, steps[k], st, points, pieces, stats)
-            if on_step is not None:
-                on_step(Progress.of(pieces, st, k + 1, stats))
+        try:
+            for k in range(first, len(steps)):
+                st = self._run_step(k, steps[k], st, points, pieces, stats)
+                if on_step is not None:
+                    on_step(Progress.of(pieces, st, k + 1, stats))
+        except EndedEarly as exc:        # the rows up to the end, the end in attrs["end"]
+            stats.seconds = time.perf_counter() - t0
+            end = exc.ends[0] if pieces else exc.ends[0].replace(time_s=None)
+            exc.ends[0] = end
+            exc.partial = self._frame(pieces, stats, steps) if pieces else None
+            if exc.partial is not None:
+                exc.partial.attrs["end"] = end
+            raise
         stats.seconds = time.perf_counter() - t0
         return self._frame(pieces, stats, steps)
 
@@ -489,27 +522,43 @@ class Rheometer:
         while True:
             sol = self.integrate(grid, st, C, scale, jam_events=self._may_jam(st),
                                  terminal_jam=restarts < self.max_restarts, max_step=max_step)
-            stats.solves += 1
-            stats.nfev += int(sol.nfev)
-            stats.njev += int(sol.njev)
+            stats.count(sol)
             y = self._full(sol.t, sol.y, C)
-            self._check_solution(sol, y, step, k, st)
+            keep, end = self._check_solution(sol, y, step, k, st)
+            st_solve = st
             first = 1 if restarts else 0                 # a restart repeats the event point
-            pieces.append(_Piece(sol.t[first:], y[first:], k))
+            if keep > first:
+                pieces.append(_Piece(sol.t[first:keep], y[first:keep], k))
+            if end is not None:
+                raise EndedEarly([end])
             st = State(float(sol.t[-1]), float(y[-1, TAU]), float(y[-1, GAP]),
                        float(y[-1, STRAIN]), float(model.structure_of_gap(y[-1, GAP], self.P)))
+            at_limit = False
             for t_ev, i_ev in zip(sol.t_events if sol.t_events is not None else (),
                                   sol.i_events if sol.i_events is not None else ()):
+                if len(i_ev) > NEVENTS and i_ev[NEVENTS]:
+                    at_limit = True                    # the run's end, not an event
+                    continue
                 what = ("strain reached" if i_ev[1] else
                         "jammed" if i_ev[0] < 0 else "unjammed")
                 stats.events.append((float(t_ev), k + 1, what))
             stopped = (sol.t_events is not None and sol.t_events[-1] == sol.t[-1]
                        and st.t < t_stop)
+            if stopped and at_limit:
+                st = self._resample_end(pieces, step, k, st_solve, C, scale, grid, max_step,
+                                        stats) or st
+                strain = abs(st.taubar) / self.G
+                raise EndedEarly([RunEnd("validity_limit", (
+                    f"{self._where(step, k)}: elastic strain taubar/G reached {strain:.3g} at t "
+                    f"= {st.t:.6g} s (taubar = {abs(st.taubar):.4g} Pa, G = {self.G:.4g} Pa), the "
+                    f"small-elastic-strain limit {ELASTIC_STRAIN_LIMIT:g} of the hypoelastic law; "
+                    f"{_ADVICE}"), st.t, "elastic strain taubar/G", strain,
+                    ELASTIC_STRAIN_LIMIT, st.t)])
             if not stopped:
                 if st.t < t_stop * (1 - 1e-12) - 1e-300:
-                    raise RuntimeError(f"step {k + 1} ({step.label or step.control}): IDA stopped "
-                                       f"at t = {st.t:.6g} s before t = {t_stop:.6g} s: "
-                                       f"{sol.message}")
+                    raise EndedEarly([RunEnd("solver_failure", (
+                        f"step {k + 1} ({step.label or step.control}): IDA stopped at t = "
+                        f"{st.t:.6g} s before t = {t_stop:.6g} s: {sol.message}"), st.t)])
                 if step.strain is not None:
                     stats.events.append((st.t, k + 1, f"strain {step.strain:g} not reached "
                                                       f"within {step.t_max:g} s"))
@@ -520,6 +569,36 @@ class Rheometer:
             grid = np.concatenate([[st.t], grid[grid > st.t * (1 + 1e-14) + 1e-300]])
             if grid.size < 2:
                 return st
+
+    def _resample_end(self, pieces, step: Step, k: int, st_solve: State, C, scale, grid,
+                      max_step, stats) -> State | None:
+        """The output interval in which the elastic limit was reached (a jam can take the stress
+        from tens of Pa to the limit within it), again with :data:`END_ROWS` even rows up to the
+        limit: solved from the state of the output before it to the same root. Replaces the
+        last piece's rows after that output and returns the state at the limit; None (rows kept
+        as they are) when the resolve does not end on the limit or fails a check."""
+        p = pieces[-1] if pieces else None
+        if p is None or p.step != k:
+            return None
+        t_lim, skip = p.t[-1], int(p.t.size < 2)
+        if skip:             # the solve's only row: from its start, the last row before it
+            st0 = st_solve
+        else:
+            st0 = State(float(p.t[-2]), float(p.y[-2, TAU]), float(p.y[-2, GAP]),
+                        float(p.y[-2, STRAIN]))
+        fine = np.append(np.linspace(st0.t, t_lim, END_ROWS + 1)[:-1], grid[grid > t_lim][0])
+        sol = self.integrate(fine, st0, C, scale, max_step=max_step)
+        stats.count(sol)
+        y = self._full(sol.t, sol.y, C)
+        keep, end = self._check_solution(sol, y, step, k, st_solve)
+        hit = (sol.i_events is not None and len(sol.i_events)
+               and sol.i_events[-1][NEVENTS] and sol.t_events[-1] == sol.t[-1])
+        if end is not None or not hit:
+            return None
+        pieces[-1] = _Piece(np.concatenate([p.t[:-2], sol.t[skip:]]),
+                            np.concatenate([p.y[:-2], y[skip:]]), k)
+        return State(float(sol.t[-1]), float(y[-1, TAU]), float(y[-1, GAP]),
+                     float(y[-1, STRAIN]), float(model.structure_of_gap(y[-1, GAP], self.P)))
 
     def _may_jam(self, st: State) -> bool:
         """Whether the gap can cross zero in this run: jammed now, or f can exceed f_jam.
@@ -555,17 +634,22 @@ class Rheometer:
         def jacfn(t, yy, yyp, res, cj, JJ):
             jac_k(t, yy, yyp, cj, JJ, P, C)
 
+        # with elastic_limit a third root, |taubar| - 0.1 G: the run ends on the limit itself
+        limit = elastic_strain_limit_stress(self.G) if self.elastic_limit else None
+
         def eventsfn(t, yy, yyp, ev):
             ev_k(t, yy, ev, P, C)
+            if limit is not None:
+                ev[NEVENTS] = abs(yy[TAU]) - limit
 
         events = {}
-        if jam_events or np.isfinite(C[6]):
+        if jam_events or np.isfinite(C[6]) or limit is not None:
             # a switched-off root function is held at -1 (never crosses); see model.events
-            eventsfn.terminal = [bool(terminal_jam), True]
-            eventsfn.direction = [1 if st.gap <= 0.0 else -1, 1]
+            eventsfn.terminal = [bool(terminal_jam), True] + [True] * (limit is not None)
+            eventsfn.direction = [1 if st.gap <= 0.0 else -1, 1] + [1] * (limit is not None)
             if not jam_events:
                 eventsfn.terminal[0], eventsfn.direction[0] = False, 0
-            events = dict(eventsfn=eventsfn, num_events=NEVENTS)
+            events = dict(eventsfn=eventsfn, num_events=len(eventsfn.terminal))
         if max_step is not None:
             events["max_step"] = float(max_step)
         solver = IDA(resfn, rtol=self.rtol, atol=self.atol * atol,
@@ -590,41 +674,56 @@ class Rheometer:
         return out
 
     # ------------------------------------------------------------------ checks and output
-    def _check_solution(self, sol, y, step: Step, k: int, st0: State) -> None:
-        where = (f"step {k + 1} ({step.label or step.control}) at phi = {self.phi:g}, "
-                 f"G = {self.G:g} Pa, K0 = {self.K0:g}, rtol = {self.rtol:g}")
+    def _where(self, step: Step, k: int) -> str:
+        return (f"step {k + 1} ({step.label or step.control}) at phi = {self.phi:g}, "
+                f"G = {self.G:g} Pa, K0 = {self.K0:g}, rtol = {self.rtol:g}")
+
+    def _check_solution(self, sol, y, step: Step, k: int, st0: State):
+        """(rows of this solve to keep, RunEnd or None): the rows before the first that fails a
+        check, and the end it makes. A failed solve keeps its rows at the output times (its last
+        row is where IDA stopped); then, from the first row on: an unphysical state (non-finite,
+        f outside [0, max(f0, f_m)], a plastic rate against the stress) and, with
+        ``elastic_limit``, an elastic strain taubar/G past the limit. The earliest row decides."""
+        where = self._where(step, k)
         f = model.structure_of_gap(y[:, GAP], self.P)
-        advice = ("impose a lower rate or stress or a shorter time (a shear-jammed sample under an "
-                  "imposed rate strains elastically by the imposed strain), or a stiffer "
-                  "skeleton (--G) under an imposed stress")
-        if not sol.success:
-            i = len(sol.t) - 1
-            if self.elastic_limit:
-                # a sample strained past the small-strain limit before IDA gave up: that is the
-                # cause to name (rate 1e9 1/s to t_end 1e9 s failed in IDA at taubar 1e20 Pa)
-                check_elastic_strain(sol.t, y[:, TAU], self.G, where=where, advice=advice)
-            raise RuntimeError(f"IDA failed in {where} at t = {sol.t[i]:.6g} s: {sol.message} "
-                               f"(state taubar = {y[i, TAU]:.6g} Pa, f = {f[i]:.6g}; "
-                               f"{sol.nfev} residuals)")
+        cuts = []                                           # (row, RunEnd), earliest wins
+        n = len(sol.t)
+        if not sol.success:        # where IDA stopped is not an output time: not written
+            n -= 1
+            cuts.append((n, RunEnd("solver_failure", (
+                f"IDA failed in {where} at t = {sol.t[n]:.6g} s: {sol.message} (state taubar = "
+                f"{y[n, TAU]:.6g} Pa, f = {f[n]:.6g}; {sol.nfev} residuals)"),
+                past_s=float(sol.t[n]))))
         f_hi = max(float(model.structure_of_gap(st0.gap, self.P)), self.f_m)
         tol_f = 10 * self.rtol
         # the plastic rate has the sign of the stress (signed law, rheometer.model), to the
         # tolerance the algebraic pair (gdot_p, gdot) is solved to: relative to the step's rate
         # scale (near jamming the flow rule hardly constrains gdot_p: a recoiling sample at a
         # positive stress may show |gdot_p| ~ 1e-5 1/s of the wrong sign at gdot ~ 65 1/s)
-        tol_gp = 10 * self.rtol * max(1e-300, float(np.max(np.abs(y[:, [GP, GD]]))))
-        bad = (~np.all(np.isfinite(y), axis=1) | (f < -tol_f) | (f > f_hi + tol_f)
-               | (y[:, GP] * np.where(y[:, TAU] >= 0, 1.0, -1.0) < -tol_gp))
+        yy, ff = y[:n], f[:n]
+        tol_gp = 10 * self.rtol * max(1e-300, float(np.max(np.abs(yy[:, [GP, GD]]),
+                                                            initial=0.0)))
+        bad = (~np.all(np.isfinite(yy), axis=1) | (ff < -tol_f) | (ff > f_hi + tol_f)
+               | (yy[:, GP] * np.where(yy[:, TAU] >= 0, 1.0, -1.0) < -tol_gp))
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
-            raise RuntimeError(
+            cuts.append((i, RunEnd("solver_failure", (
                 f"unphysical state in {where} at t = {sol.t[i]:.6g} s: taubar = {y[i, TAU]:.6g} "
                 f"Pa, f = {f[i]:.6g} (valid [0, {f_hi:.6g}]), gdot_p = {y[i, GP]:.6g} 1/s (of "
                 f"the stress's sign); IDA reported '{sol.message}' after {sol.nfev} residuals: "
-                f"tighten rtol")
-        # the hypoelastic law holds for small elastic strains taubar/G only (rheology.elastic)
-        if self.elastic_limit:
-            check_elastic_strain(sol.t, y[:, TAU], self.G, where=where, advice=advice)
+                f"tighten rtol"), past_s=float(sol.t[i]))))
+        # the hypoelastic law holds for small elastic strains taubar/G only (rheology.elastic);
+        # checked on every row, where IDA stopped included: a sample strained past it before IDA
+        # gave up names that as the cause (rate 1e9 1/s to t_end 1e9 s failed at taubar 1e20 Pa)
+        past = (past_elastic_limit(sol.t, y[:, TAU], self.G, where=where, advice=_ADVICE)
+                if self.elastic_limit else None)
+        if past is not None:
+            cuts.insert(0, past)
+        cut = min(cuts, key=lambda c: c[0]) if cuts else None
+        if cut is None:
+            return n, None
+        i, end = cut
+        return i, end.replace(time_s=float(sol.t[i - 1]) if i > 0 else st0.t)
 
     def _frame(self, pieces: list[_Piece], stats: RunStats, steps) -> pd.DataFrame:
         t = np.concatenate([p.t for p in pieces])

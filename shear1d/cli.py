@@ -9,9 +9,13 @@
 Long runs show a progress bar of the simulated time (--quiet: none), keep a checkpoint in DIR
 (every --checkpoint-every seconds, and on Ctrl-C or SIGTERM) and continue with --resume.
 Bad input ends with one line on stderr and exit status 2, before anything is written (an empty
---out too: it would write into the current folder); a solver failure with one line and status 1
+--out too: it would write into the current folder). A run that ends early (a cell's elastic
+strain taubar/G or p/K past 0.1, a solver or local-update failure, an unphysical state) keeps its
+outputs up to the end: its files and figures are written from them, its summary JSON (annular)
+or couette.json says where and why (status, ends), one line per run on stderr, exit status 3
 (SUNDIALS' own error text, which sksundae prints on stdout, is kept off stdout and put on that
-line); an interrupt with status 130 and where the checkpoint is.
+line). A run failing before its second output: one line, status 1. An interrupt: status 130 and
+where the checkpoint is.
 """
 
 from __future__ import annotations
@@ -32,6 +36,7 @@ MAX_OUTPUTS = 100000
 
 def _parser() -> argparse.ArgumentParser:
     import rheology
+    from rheology.materials import set_argument
 
     from .model import ELASTIC_STRAIN_LIMIT, MODES, max_wall_speed
     from .integrate import METHODS
@@ -72,6 +77,9 @@ def _parser() -> argparse.ArgumentParser:
                        help="steady-flow parameters: a set name or a material file (e.g. "
                             "fit/material.json from 'rheometer fit'); the moduli, densities, d "
                             "and K0 it leaves unset come from Table 4 (annular_shear, default)")
+        p.add_argument("--set", action="append", type=set_argument, metavar="NAME=VALUE",
+                       help="a parameter of the material (repeatable), e.g. rules=mpm_3d (the "
+                            "yield rules of the author's code) or K0=0.1")
         p.add_argument("--phi", type=Number("--phi", 0, 1, lo_closed=False, hi_closed=False),
                        default=None, help="volume fraction, below the material's phi_j (default: "
                                           "Table 4's phi0 = 0.505)")
@@ -136,10 +144,10 @@ def _modes(mode: str | None, default: tuple[str, ...]) -> tuple[str, ...]:
 def _sample(args):
     """The material (the user's steady fit on Table 4's moduli) and phi0 (from --phi or
     --mass-fraction, else the material's), with the conversion printed."""
-    from rheology.materials import scene_material
+    from rheology.materials import scene_material, set_overrides
     from rheology.sample import mass_fraction_phi
 
-    m = scene_material("annular_shear", args.material)
+    m = scene_material("annular_shear", args.material, **set_overrides(args.set))
     if args.phi is not None and args.mass_fraction is not None:
         raise ValueError("give --phi or --mass-fraction, not both")
     phis, note = mass_fraction_phi(args, m)

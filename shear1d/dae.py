@@ -117,7 +117,10 @@ X_SCALE = 1e-1
 def check_material(m, phi0: float) -> None:
     """Raise ValueError (one line) where the smooth form does not apply to material ``m`` at
     volume fraction ``phi0`` (see the module docstring): mu_1 + K3 (phi0 - phi_j) <= 0, or b = 0
-    with mu_2 != mu_1."""
+    with mu_2 != mu_1, or the ``mpm_3d`` rules (the smooth form is Table 8's)."""
+    if m.rules != "table8":
+        raise ValueError(f"method 'dae' is the smooth form of the table8 rules, got rules = "
+                         f"{m.rules!r} for {m.name}; use method 'ida' or 'explicit'")
     if m.mu_c + m.K3 * (phi0 - m.phi_j) <= 0.0:
         raise ValueError(f"method 'dae' needs mu_1 + K3 (phi0 - phi_j) > 0 (a positive yield "
                          f"ratio at rest), got {m.mu_c:g} + {m.K3:g} ({phi0:g} - {m.phi_j:g}) <= 0 "

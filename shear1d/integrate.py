@@ -19,13 +19,18 @@ Three methods on the same finite-volume grid and the same Table 8 law:
   (:mod:`shear1d.dae`: the plastic state algebraic with the flow rule as its equation, compaction
   by Table 8's rule with a regularising K4 > 0), whose cost grows about linearly with the cells.
 
-All three write results at the requested output times, check the physics there (finite state,
-0 <= f <= 1, 0 < phi < 1, p >= 0) and raise with diagnostics if it breaks, and can checkpoint to an
-``.npz`` file and resume from it (:mod:`rheology.io`, atomic).
+All three write results at the requested output times and check the physics there (finite
+state, 0 <= f <= 1, 0 < phi < 1, p >= 0; with ``elastic_limit`` the elastic strains taubar/G and
+p/K of every cell within :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT`). An output that breaks a
+check, a failed IDA step or a failed local update ends the run there:
+:class:`rheology.run_end.EndedEarly` with the diagnostics and the :class:`Result` of the outputs
+before it (``Result.end`` says where and why, :mod:`rheology.run_end`). Runs can checkpoint to an
+``.npz`` file and resume from it (:mod:`rheology.io`, atomic; an ended run resumes as ended).
 """
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -35,7 +40,10 @@ import numpy as np
 
 from rheology import f_jam
 from rheology.checks import check_positive, check_range
+from rheology.elastic import past_elastic_limit
+from rheology.flow_rule import invariants
 from rheology.io import CorruptCheckpoint, load_checkpoint, save_checkpoint
+from rheology.run_end import EndedEarly, RunEnd
 
 from . import analysis, kernels
 from .model import STRESS_COMPONENTS, Couette
@@ -61,6 +69,7 @@ class Result:
     events : dict name -> list of times [s] (``front_at_wall``, ``flow_stopped``)
     wall_time : float, seconds spent integrating (this process; excludes a resumed part)
     stats : dict (IDA: nfev, njev, rtol; explicit: steps, dt, dt_stable)
+    end : RunEnd or None, where and why the run ended early (None: it reached its end time)
     """
 
     problem: Couette
@@ -71,6 +80,7 @@ class Result:
     events: dict = field(default_factory=dict)
     wall_time: float = 0.0
     stats: dict = field(default_factory=dict)
+    end: RunEnd | None = None
 
     def field(self, name: str) -> np.ndarray:
         """A field over (output time, position): ``v`` (faces), ``f``, ``phi``, ``sigma_rth``,
@@ -231,6 +241,35 @@ def check_state(problem: Couette, t: float, y: np.ndarray, diag: np.ndarray,
                            f"max |sigma| = {np.nanmax(np.abs(st['sigma'])):.6g} Pa")
 
 
+def elastic_strains(problem: Couette, t: float, y: np.ndarray) -> tuple[float, float]:
+    """The largest elastic strains (taubar/G, p/K) over the cells of a state (Eq. 11 invariants
+    of the cell stresses; p/K of a compression, 0 in tension)."""
+    sig = problem.unpack(y, t)["sigma"]
+    rr, thth, zz, rth = (sig[:, STRESS_COMPONENTS.index(c)] for c in
+                         ("sigma_rr", "sigma_thth", "sigma_zz", "sigma_rth"))
+    full = np.zeros((sig.shape[0], 3, 3))
+    full[:, 0, 0], full[:, 1, 1], full[:, 2, 2] = rr, thth, zz
+    full[:, 0, 1] = full[:, 1, 0] = rth
+    taubar, p = invariants(full)
+    m = problem.material
+    return float(np.max(taubar)) / m.G, max(float(np.max(p)), 0.0) / m.K
+
+
+def _stored_end(ck) -> RunEnd | None:
+    """The end a checkpoint of an ended run holds (None: none, or an older checkpoint)."""
+    rec = json.loads(str(ck["end"])) if "end" in ck else None
+    return RunEnd(**rec) if rec else None
+
+
+def _resumed_finished(ck, result: "Result") -> "Result":
+    """A finished run read back from its checkpoint: returned, or raised again as ended early."""
+    end = _stored_end(ck)
+    if end is None:
+        return result
+    result.end = end
+    raise EndedEarly([end], partial=result)
+
+
 # ----------------------------------------------------------------------------- checkpoints
 #: Arrays every checkpoint holds (a file without one of them is named as corrupt).
 CHECKPOINT_ARRAYS = ("signature", "t_out", "Y", "D", "event_names", "event_times", "counters",
@@ -257,8 +296,10 @@ class _Outputs:
     which restarts from that output, finds them again.
     """
 
-    def __init__(self, problem, method, times, setting, checkpoint, checkpoint_every, events):
+    def __init__(self, problem, method, times, setting, checkpoint, checkpoint_every, events,
+                 elastic_limit=False):
         self.pb, self.method, self.times = problem, method, times
+        self.elastic_limit = bool(elastic_limit)
         self.sig = _signature(problem, method, times, setting)
         self.path = None if checkpoint is None else Path(checkpoint)
         self.every = float(checkpoint_every)
@@ -281,7 +322,7 @@ class _Outputs:
         D = np.array([r[2] for r in self.rows])
         return T, Y, D
 
-    def save(self, finished: bool = False, wall: float = 0.0) -> Path | None:
+    def save(self, finished: bool = False, wall: float = 0.0, end: RunEnd | None = None):
         if self.path is None:
             return None
         rows = list(self.rows)
@@ -294,7 +335,8 @@ class _Outputs:
         extra = rows[-1][4] or {}
         save_checkpoint(self.path, signature=np.array(self.sig), t_out=T, Y=Y, D=D,
                         event_names=names, event_times=times, counters=rows[-1][3],
-                        finished=np.array(bool(finished)), wall=np.array(wall), **extra)
+                        finished=np.array(bool(finished)), wall=np.array(wall),
+                        end=np.array(json.dumps(end.record() if end else None)), **extra)
         self.last_save = time.perf_counter()
         return self.path
 
@@ -322,6 +364,42 @@ class _Outputs:
             self.events.times[str(name)].append(float(te))
         self.wall_before = float(ck["wall"]) if "wall" in ck else 0.0
         return ck
+
+    def end_at(self, t: float, y: np.ndarray, diag: np.ndarray, f_tol: float = 1e-6):
+        """The end an output at t makes, or None: an unphysical state (:func:`check_state`) and,
+        with ``elastic_limit``, an elastic strain taubar/G or p/K past the limit in a cell (the
+        largest over the cells, against the last output's)."""
+        try:
+            check_state(self.pb, t, y, diag, f_tol)
+        except RuntimeError as exc:
+            return RunEnd("solver_failure", str(exc), past_s=float(t))
+        if not self.elastic_limit:
+            return None
+        m, g = self.pb.material, self.pb.grid
+        where = (f"{g.kind} cell, {g.n} cells, mode {self.pb.mode}, largest over the cells at "
+                 f"G = {m.G:g} Pa, K = {m.K:g} Pa")
+        advice = ("a lower wall speed or stress, a shorter run, or a stiffer skeleton (G, K of "
+                  "the material)")
+        times = [r[0] for r in self.rows[-1:]] + [t]         # the last output and this one
+        strains = [elastic_strains(self.pb, *r[:2]) for r in self.rows[-1:]]
+        strains.append(elastic_strains(self.pb, t, y))
+        for k, (mod, s_name, m_name) in enumerate(((m.G, "taubar", "G"), (m.K, "p", "K"))):
+            past = past_elastic_limit(times, [e[k] * mod for e in strains], mod,
+                                      stress_name=s_name, modulus_name=m_name, where=where,
+                                      advice=advice)
+            if past is not None:
+                return past[1]
+        return None
+
+    def ended(self, end: RunEnd, result: "Result", wall: float) -> EndedEarly:
+        """Save the checkpoint as finished with ``end`` (a run with outputs past t = 0 only: one
+        that ends at its start has nothing to resume) and return the EndedEarly of ``result``
+        (the outputs so far, ``end`` with the time of the last one)."""
+        end = end.replace(time_s=self.t_last)
+        if len(self.rows) > 1:
+            self.save(finished=True, wall=wall, end=end)
+        result.end = end
+        return EndedEarly([end], partial=result)
 
     def interrupted(self, wall: float) -> KeyboardInterrupt:
         """Save the checkpoint (if any) and return the KeyboardInterrupt that says so."""
@@ -388,7 +466,7 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
           t_out=None, rtol: float = 1e-4, dt: float | None = None, check_stability: bool = True,
           stop_on=(), checkpoint=None, checkpoint_every: float = 60.0, resume: bool = False,
           max_step: float = 0.0, max_order: int = 2, progress: bool = False, label: str = "",
-          stop_hook=None, log=None) -> Result:
+          stop_hook=None, log=None, elastic_limit: bool = False) -> Result:
     """Integrate a Couette problem from rest.
 
     Parameters
@@ -440,6 +518,10 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
         run at a given output by raising KeyboardInterrupt).
     log : callable, optional
         Told when a corrupt checkpoint is replaced by its predecessor.
+    elastic_limit : bool
+        End the run at an output where a cell's elastic strain taubar/G or p/K passes
+        :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT` (the scenes' command lines set it; the
+        default False lets validation follow the law's algebra).
 
     Returns
     -------
@@ -450,8 +532,11 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     ------
     ValueError
         Bad input (method, times, rtol, an unstable dt, a missing or foreign checkpoint).
-    RuntimeError
-        The integration failed or produced an unphysical state (with diagnostics).
+    rheology.run_end.EndedEarly (a RuntimeError)
+        The integration failed (IDA, the explicit scheme, the local update), produced an
+        unphysical state or, with ``elastic_limit``, passed the elastic-strain limit (with
+        diagnostics): ``partial`` is the Result of the outputs before (its ``end`` says where
+        and why), saved to the checkpoint as finished.
     KeyboardInterrupt
         Interrupted; the message says where the checkpoint is (or that nothing was saved).
     """
@@ -476,7 +561,7 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
             raise ValueError("method 'dae' is for mode 'locked' only; use method 'ida' or "
                              "'explicit' for two-phase")
         outs = _Outputs(problem, method, times, float(rtol), checkpoint, checkpoint_every,
-                        events)
+                        events, elastic_limit)
         ck = outs.load(log) if resume else None
         bar = _Progress(progress, times[-1], label)
         try:
@@ -495,7 +580,8 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
         check_time_step(problem, dt)
     else:
         check_positive("dt", dt, note="s")
-    outs = _Outputs(problem, "explicit", times, float(dt), checkpoint, checkpoint_every, events)
+    outs = _Outputs(problem, "explicit", times, float(dt), checkpoint, checkpoint_every, events,
+                    elastic_limit)
     ck = outs.load(log) if resume else None
     bar = _Progress(progress, times[-1], label)
     try:
@@ -634,8 +720,9 @@ def _run_ida(problem, method, times, rtol, stop_on, outs, ck, max_step, max_orde
 
     Raises
     ------
-    RuntimeError
-        IDA failed (``failure``'s message) or a state is unphysical (:func:`check_state`).
+    rheology.run_end.EndedEarly (a RuntimeError)
+        IDA failed (``failure``'s message) or an output fails :meth:`_Outputs.end_at`; the
+        Result of the outputs before it (:meth:`_Outputs.ended`).
     KeyboardInterrupt
         Interrupted; the checkpoint is saved and the message says where
         (:meth:`_Outputs.interrupted`).
@@ -654,7 +741,7 @@ def _run_ida(problem, method, times, rtol, stop_on, outs, ck, max_step, max_orde
         base = np.asarray(ck["counters"], dtype=float)
         outs.rows[-1] = outs.rows[-1][:4] + (dict(y=y0, yp=yp0),)
         if bool(ck["finished"]):
-            return _result(problem, method, outs, wall0, stats(base))
+            return _resumed_finished(ck, _result(problem, method, outs, wall0, stats(base)))
     t0 = outs.t_last
     i_next = int(np.searchsorted(times, t0, side="right"))
     opts = dict(rtol=rtol, linsolver="band", max_num_steps=500000, max_step=max_step,
@@ -664,12 +751,17 @@ def _run_ida(problem, method, times, rtol, stop_on, outs, ck, max_step, max_orde
     solver = IDA(residual, **opts)
     solver.init_step(t0, y0, yp0)
     bar.to(t0)
-    seen, stopped = 0, False
+    seen, stopped, end = 0, False, None
     counters = base.copy()
     try:
         for t_target in times[i_next:]:
             while True:
-                sol = solver.step(float(t_target))
+                try:
+                    sol = solver.step(float(t_target))
+                except RuntimeError as exc:      # the law failed inside a residual
+                    end = RunEnd("law_failure", f"{' '.join(str(exc).split())} (in IDA's "
+                                                f"residual, stepping to t = {t_target:.6g} s)")
+                    break
                 counters = base + np.array([sol.nfev, sol.njev, 0.0])
                 if sol.status == _IDA_ROOT_RETURN:
                     seen, fired = events.record_roots(sol, seen)
@@ -678,11 +770,16 @@ def _run_ida(problem, method, times, rtol, stop_on, outs, ck, max_step, max_orde
                         break
                     continue
                 if not sol.success:
-                    raise RuntimeError(failure(sol, t_target))
+                    end = RunEnd("solver_failure", failure(sol, t_target), past_s=float(sol.t))
                 break
-            t_now = float(sol.t)
-            yc, diag = convert(t_now, sol.y)
-            check_state(problem, t_now, yc, diag, f_tol=100 * rtol)
+            if end is None:
+                t_now = float(sol.t)
+                yc, diag = convert(t_now, sol.y)
+                end = outs.end_at(t_now, yc, diag, f_tol=100 * rtol)
+            if end is not None:          # the outputs so far are the run (rheology.run_end)
+                wall = outs.wall_before + time.perf_counter() - wall0
+                raise outs.ended(end, _result(problem, method, outs, wall0, stats(counters)),
+                                 wall)
             outs.add(t_now, yc, diag, counters, dict(y=sol.y.copy(), yp=sol.yp.copy()))
             bar.to(t_now)
             last = stopped or t_target == times[-1]
@@ -712,7 +809,7 @@ def _solve_explicit(problem, times, dt, lim, stop_on, outs, ck, bar, stop_hook):
     else:
         steps = int(ck["counters"][0])
         if bool(ck["finished"]):
-            return _result(problem, "explicit", outs, wall0, stats(steps))
+            return _resumed_finished(ck, _result(problem, "explicit", outs, wall0, stats(steps)))
     t_last, y_last = outs.rows[-1][0], outs.rows[-1][1]
     st = problem.unpack(y_last, t_last)
     v, S, f, phi = st["v"].copy(), st["sigma"].copy(), st["f"].copy(), st["phi"].copy()
@@ -732,15 +829,23 @@ def _solve_explicit(problem, times, dt, lim, stop_on, outs, ck, bar, stop_hook):
                 nsub, t0, h, problem.drive_amplitude, problem.ramp_time, problem.stress_driven, v,
                 S, f, phi, *common, m.eta0, m.d, m.rho_s, m.rho_f, P, problem.contact_pressure,
                 diag, problem.two_phase)
+            t_bad = t0 + did * h
             if bad >= 0:
-                raise RuntimeError(f"Table 8 local update failed in cell {bad} at t = "
-                                   f"{t0 + did * h:.6g} s (explicit, dt = {h:.3g} s)")
-            if did < nsub or not np.all(np.isfinite(v)):
-                raise RuntimeError(f"explicit scheme diverged at t = {t0 + did * h:.6g} s with dt"
-                                   f" = {h:.6g} s (stability limit {lim['dt']:.6g} s)")
-            y = problem.pack(v, S, f, phi)
-            dg = problem.diagnostics(float(t1), y, dt)
-            check_state(problem, float(t1), y, dg)
+                end = RunEnd("law_failure", f"Table 8 local update failed in cell {bad} at t = "
+                                            f"{t_bad:.6g} s (explicit, dt = {h:.3g} s)",
+                             past_s=t_bad)
+            elif did < nsub or not np.all(np.isfinite(v)):
+                end = RunEnd("solver_failure", f"explicit scheme diverged at t = {t_bad:.6g} s "
+                                               f"with dt = {h:.6g} s (stability limit "
+                                               f"{lim['dt']:.6g} s)", past_s=t_bad)
+            else:
+                y = problem.pack(v, S, f, phi)
+                dg = problem.diagnostics(float(t1), y, dt)
+                end = outs.end_at(float(t1), y, dg)
+            if end is not None:          # the outputs so far are the run (rheology.run_end)
+                wall = outs.wall_before + time.perf_counter() - wall0
+                raise outs.ended(end, _result(problem, "explicit", outs, wall0, stats(steps)),
+                                 wall)
             fired = events.sample(float(t1), y) if events.active else []
             stopped = any(name in stop_on for name in fired)
             outs.add(float(t1), y, dg, (steps + did,))

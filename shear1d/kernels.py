@@ -120,9 +120,10 @@ def local_updates(S, f, phi, gdot, drr, dtt, dt, P, p_floor, S_out, f_out, diag)
     """Advance every cell's granular state by dt with the shared Table 8 local update.
 
     A cell whose pressure falls below ``p_floor`` [Pa] (separation, or compaction at rest) is
-    given the isotropic contact pressure p_floor: the local update treats p = 0 as stress free
-    and absorbing under shear, whereas the continuous law rebuilds contact from p -> 0+ (there
-    beta -> K3 phi and the dilatancy K beta gdot_p is finite).
+    given the isotropic contact pressure p_floor, the floor the rate form of the IDA method
+    needs (its pressure, a rate over delta, can overshoot below zero); the local update itself
+    is continuous at p = 0 (a sheared stress-free cell flows with the pressure its dilatancy
+    builds).
     Returns the index of the first cell whose update failed, or -1.
     """
     sig = np.zeros((3, 3))

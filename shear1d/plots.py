@@ -10,6 +10,7 @@ import numpy as np  # noqa: E402
 
 import rheology  # noqa: E402
 from rheology.io import atomic_savefig  # noqa: E402
+from rheology.run_end import mark_end  # noqa: E402
 
 from .analytic import annular_steady  # noqa: E402
 
@@ -25,6 +26,16 @@ def _finish(fig, path):
 def _label(run) -> str:
     s = run.summary
     return f"u_i = {s['u_inner_m_per_s'] * 1e3:g} mm/s, {s['mode']}"
+
+
+def _end_rotation(run):
+    """(bob rotation [rad] at the last output, label) of a run that ended early, else None."""
+    from .scenes import rotation_of
+
+    end = run.result.end
+    if end is None:
+        return None
+    return float(rotation_of(run.result, end.time_s)), f"ended: {end.label}"
 
 
 def velocity_profiles(path, runs, rotations=(0.0, 0.1, 0.2, 0.31)):
@@ -44,7 +55,10 @@ def velocity_profiles(path, runs, rotations=(0.0, 0.1, 0.2, 0.31)):
         u = res.problem.drive_amplitude
         rot = rotation_of(res, res.t)
         v = res.field("v")
-        for target, c in zip(rotations, plt.cm.viridis(np.linspace(0, 0.9, len(rotations)))):
+        ended = _end_rotation(run)
+        # a run that ended early: the rotations it reached, then its last profile
+        shown = rotations if not ended else [x for x in rotations if x < rot[-1]] + [rot[-1]]
+        for target, c in zip(shown, plt.cm.viridis(np.linspace(0, 0.9, len(rotations)))):
             k = int(np.argmin(np.abs(rot - target)))
             ax.plot(g.faces * 1e3, v[k] / u, color=c, lw=1.8, label=f"{rot[k]:.2f} rad")
         ax.plot(g.faces * 1e3, annular_steady(g.faces, g.inner, g.outer, u) / u, "k--", lw=1,
@@ -54,7 +68,9 @@ def velocity_profiles(path, runs, rotations=(0.0, 0.1, 0.2, 0.31)):
                     max(1.6, float(np.nanmax(v / u)) + 0.05))
         ax.set_xlabel("r [mm]")
         ax.set_ylabel("v / u_i")
-        ax.set_title(_label(run), fontsize=10)
+        ax.set_title(_label(run) + (f"\n{ended[1]} at {ended[0]:.3g} rad (the last profile)"
+                                    if ended else ""), fontsize=10,
+                     color="crimson" if ended else "k")
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
     fig.suptitle("Annular shear: velocity profiles after 0, 0.1, 0.2, 0.31 rad of bob rotation")
@@ -87,6 +103,9 @@ def front_positions_figure(runs):
                               ("flow_stopped_rotation_rad", "-.", "flow stopped")):
             if s[key] is not None:
                 ax.axvline(s[key], color=c, ls=ls, lw=0.8, label=f"  {what}")
+        ended = _end_rotation(run)
+        if ended:
+            mark_end(ax, ended[0], f"{_label(run)}: {ended[1]}")
     if not runs:
         ax.text(0.5, 0.5, "no run jammed (f < f_jam/2 everywhere): no front", ha="center",
                 transform=ax.transAxes)
@@ -136,6 +155,9 @@ def run_fields_figure(run):
         fig.colorbar(im, ax=ax)
         ax.set_title(title, fontsize=10)
         ax.set_xlabel("r [mm]")
+        ended = _end_rotation(run)
+        if ended:
+            mark_end(ax, ended[0], ended[1], vertical=False)
     if band.any():
         axes[0].legend(fontsize=7, loc="upper right", facecolor="0.4", labelcolor="w")
     axes[0].set_ylabel("bob rotation [rad]")
@@ -163,10 +185,13 @@ def mode_comparison(path, runs):
                      label=_label(run))
         axes[1].plot(g.centres * 1e3, res.field("phi")[-1] - res.problem.phi0, ls, color=c,
                      label=_label(run))
+        ended = _end_rotation(run)
+        if ended:
+            mark_end(axes[0], ended[0], f"{_label(run)}: {ended[1]}")
     axes[0].set_xlabel("bob rotation [rad]")
     axes[0].set_ylabel("front - R_i [mm]")
     axes[1].set_xlabel("r [mm]")
-    axes[1].set_ylabel("phi - phi0 at the end")
+    axes[1].set_ylabel("phi - phi0 at the end (of a run that ended early: its last output)")
     for ax in axes:
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
@@ -203,6 +228,8 @@ def couette_figure(res, idx):
         bottom = min(0.0, float(np.min(data))) if data.size else 0.0
         ax.set_ylim(1.08 * bottom, 1.08 * top if top > 0 else 1.0)
     axes[1].legend(l1 + l2, [ln.get_label() for ln in l1 + l2], fontsize=8, loc="lower right")
+    if res.end is not None:
+        mark_end(axes[1], res.end.time_s, f"ended: {res.end.label}")
     for ax in axes:
         ax.grid(alpha=0.3)
     drive = (f"plate speed {res.problem.drive_amplitude:g} m/s" if not res.problem.stress_driven

@@ -34,6 +34,7 @@ import rheology
 from rheology.checks import check_memory, check_positive, check_range
 from rheology.cli_common import TIME_MAX, TIME_MIN
 from rheology.io import atomic_write_csv, atomic_write_json, check_output_dir, previous_checkpoint
+from rheology.run_end import EndedEarly, run_record
 
 from . import analysis
 from .analytic import annular_steady
@@ -163,7 +164,8 @@ NULLABLE = ("front_speed_m_per_s", "front_speed_over_u_inner", "front_fit_r2",
 
 
 def summarize(result: Result) -> dict:
-    """Front speed and linearity, rigidity, events, conservation and Newtonian deviation.
+    """Front speed and linearity, rigidity, events, conservation and Newtonian deviation, and
+    how the run ended (``status``, ``ends``: :func:`rheology.run_end.run_record`).
 
     Values undefined by construction are NaN (written as null: see :data:`NULLABLE`). The wall
     time is not part of the summary (it is printed): a resumed run's files are the same bytes as
@@ -220,6 +222,7 @@ def summarize(result: Result) -> dict:
         solid_volume_drift=float(np.max(np.abs(solids - solids[0])) / solids[0]),
         bob_shear_stress_max_Pa=float(np.max(tau[:, 0] * (g.centres[0] / g.inner) ** 2)),
         granular_pressure_max_Pa=float(result.field("pressure").max()),
+        **run_record([result.end] if result.end else []),
     )
 
 
@@ -353,6 +356,20 @@ def check_out_dir(out) -> Path:
     return check_output_dir("--out", out)
 
 
+def _solve_to_end(problem, t_end, ends: list, tag: str, **options) -> Result:
+    """:func:`shear1d.integrate.solve` with the elastic-strain limit on; a run that ends early
+    (rheology.run_end) is returned with its outputs so far, its end added to ``ends`` as
+    ``tag``'s; one that ended before its second output fails (RuntimeError)."""
+    try:
+        return solve(problem, t_end, elastic_limit=True, **options)
+    except EndedEarly as exc:
+        res = exc.partial
+        if res is None or len(res.t) < 2:
+            raise RuntimeError(exc.ends[0].reason) from None
+        ends.append(res.end.replace(run=tag))
+        return res
+
+
 def _checkpoint_files(ck: Path) -> list[Path]:
     return [p for p in (ck, previous_checkpoint(ck)) if p.is_file()]
 
@@ -384,12 +401,19 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
     runs in ``out`` is refused (ValueError). Every parameter and the memory the runs need are
     checked before the first run.
 
+    A run that ends early (a solver or local-update failure, an unphysical state, a cell's
+    elastic strain past 0.1: :mod:`rheology.run_end`) keeps its outputs up to the end: its files
+    and figures are written from them (the end in its summary's ``status``/``ends`` and marked
+    on its figures) and the next run starts.
+
     Raises
     ------
     ValueError
         Bad input, not enough memory (estimate stated), nothing to resume.
+    rheology.run_end.EndedEarly
+        After every file is written, when a run ended early (``partial``: the runs).
     RuntimeError
-        A solver failure or a non-finite result (nothing written for that run).
+        A run that failed before its second output (nothing written for it).
     KeyboardInterrupt
         Interrupted; the message names the checkpoints kept (or says nothing was saved).
     """
@@ -422,7 +446,7 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
         for ck in cks.values():              # stale checkpoints of an earlier run
             for p in _checkpoint_files(ck):
                 p.unlink()
-    runs = []
+    runs, ends = [], []
     try:
         for u, mode, problem, t_end in problems:
             tag = run_tag(u, mode)
@@ -430,9 +454,10 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
             again = resume and bool(_checkpoint_files(ck))
             log(f"shear1d: {tag}: {n_cells} cells, {method}, to {rotation:g} rad (t_end = "
                 f"{t_end:.4g} s){' resuming from ' + str(ck) if again else ''} ...", flush=True)
-            res = solve(problem, t_end, method=method, n_out=n_out, rtol=rtol, dt=dt,
-                        checkpoint=ck, checkpoint_every=checkpoint_every, resume=again,
-                        progress=progress, label=tag, stop_hook=stop_hook, log=log)
+            res = _solve_to_end(problem, t_end, ends, tag, method=method, n_out=n_out,
+                                rtol=rtol, dt=dt, checkpoint=ck,
+                                checkpoint_every=checkpoint_every, resume=again,
+                                progress=progress, label=tag, stop_hook=stop_hook, log=log)
             run = SceneRun(tag, res, summarize(res))
             write_run(out, run)
             plots.run_fields(out / f"{tag}_fields.png", run)
@@ -448,6 +473,8 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
         for p in _checkpoint_files(ck):
             p.unlink()
     log(f"shear1d: wrote {out}/ (" + ", ".join(p.name for p in figs) + " and per-run CSV/JSON)")
+    if ends:
+        raise EndedEarly(ends, partial=runs, written=[str(out)])
     return runs
 
 
@@ -473,9 +500,11 @@ def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_o
                 rtol: float = 1e-4, dt: float | None = None, resume: bool = False,
                 checkpoint_every: float = 60.0, progress: bool = False, stop_hook=None,
                 log=print) -> Result:
-    """Solve a plane Couette start-up and write couette_profiles.csv, couette_wall.csv and
-    couette.png into ``out`` (checkpoint ``couette.checkpoint.npz`` until the files are written;
-    same resume rules as :func:`run_annular`)."""
+    """Solve a plane Couette start-up and write couette_profiles.csv, couette_wall.csv,
+    couette.png and the run record couette.json (:func:`rheology.run_end.run_record`) into
+    ``out`` (checkpoint ``couette.checkpoint.npz`` until the files are written; same resume rules
+    as :func:`run_annular`). A run that ends early writes them from its outputs so far and then
+    raises :class:`rheology.run_end.EndedEarly` (``partial``: the Result)."""
     from . import plots
 
     out = check_out_dir(out)
@@ -490,21 +519,27 @@ def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_o
     if not resume:
         for p in _checkpoint_files(ck):
             p.unlink()
+    ends = []
     try:
-        res = solve(problem, t_end, method=method, n_out=n_out, rtol=rtol, dt=dt, checkpoint=ck,
-                    checkpoint_every=checkpoint_every, resume=resume, progress=progress,
-                    label="couette", stop_hook=stop_hook, log=log)
+        res = _solve_to_end(problem, t_end, ends, "couette", method=method, n_out=n_out,
+                            rtol=rtol, dt=dt, checkpoint=ck, checkpoint_every=checkpoint_every,
+                            resume=resume, progress=progress, label="couette",
+                            stop_hook=stop_hook, log=log)
         prof, wall = couette_frames(res)
         atomic_write_csv(out / "couette_profiles.csv", prof)
         atomic_write_csv(out / "couette_wall.csv", wall)
         png = plots.couette(out / "couette.png", res, couette_profile_outputs(res))
+        atomic_write_json(out / "couette.json", run_record(ends, t_end_s=float(res.t[-1]),
+                                                           outputs=len(res.t)))
     except KeyboardInterrupt as exc:
         raise _interrupted(exc, [ck]) from None
     for p in _checkpoint_files(ck):
         p.unlink()
     g = problem.grid
     log(f"shear1d: plane Couette, {g.n} cells, {res.method}, {res.wall_time:.2f} s; wrote "
-        f"{out}/couette_profiles.csv, couette_wall.csv, {png.name}")
+        f"{out}/couette_profiles.csv, couette_wall.csv, {png.name}, couette.json")
+    if ends:
+        raise EndedEarly(ends, partial=res, written=[str(out)])
     return res
 
 

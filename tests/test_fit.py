@@ -194,9 +194,13 @@ def test_intervals_stay_in_the_physical_range(tmp_path):
 
     files = [str(f) for f in FILES if "0.47" in f.name or "0.50" in f.name]
     assert main(["fit", *files, "--phi", "0.47", "0.50", "--etaB-terms", "2", "--out",
-                 str(tmp_path / "fx")]) == 0
+                 str(tmp_path / "fx"), "--set", "eta0=0.006", "--accept"]) == 0
     tab = pd.read_csv(tmp_path / "fx" / "parameters.csv").set_index("parameter")
-    assert (tab["lower"] <= tab["value"]).all() and (tab["value"] <= tab["upper"]).all()
+    # an undefined interval is null (empty), never a crash or an inf
+    assert (tab["lower"].isna() | (tab["lower"] <= tab["value"])).all()
+    assert (tab["upper"].isna() | (tab["value"] <= tab["upper"])).all()
+    assert (tab["lower"].isna() == tab["upper"].isna()).all()
+    assert tab.loc[tab["lower"].isna(), "unidentifiable"].all()
     phi_j = tab.loc["phi_j", "value"]
     assert 0.0 <= tab.loc["phi_c", "lower"] and tab.loc["phi_c", "upper"] <= phi_j
     assert 0.0 < tab.loc["phi_j", "lower"] and tab.loc["phi_j", "upper"] <= 1.0
@@ -230,7 +234,7 @@ def _refused(argv, capsys, out):
 def test_fit_refusals_name_what_the_user_gave(extra, words, tmp_path, capsys):
     out = tmp_path / "fit"
     line = _refused(["fit", *RC, "--phi", "0.40", "0.42", "--out", str(out), "--no-plots",
-                     "--no-profile", *extra], capsys, out)
+                     "--no-profile", "--set", "eta0=0.006", *extra], capsys, out)
     assert words in line, line
 
 
@@ -248,7 +252,8 @@ def test_a_data_file_given_twice_is_refused(cmd, tmp_path, capsys):
 @pytest.mark.parametrize("files, extra, words", [
     (RC, ["--phi", "0.40", "0.42", "--columns", "stress=Shear Stress"],
      "--columns applies to CSV/TSV tables only"),
-    ([TABLE], ["--interval", "flow"], "--interval selects RheoCompass results by name"),
+    ([TABLE], ["--interval", "flow"], "--interval selects an export's intervals, steps or "
+                                      "actions by name"),
 ])
 def test_an_option_without_effect_on_the_files_is_refused(files, extra, words, tmp_path, capsys):
     """--columns was silently ignored for RheoCompass exports (and --interval for tables)."""
@@ -265,23 +270,32 @@ def test_columns_still_map_a_table(tmp_path, capsys):
     assert len(pd.read_csv(out)) > 0
 
 
-def test_failed_fit_writes_nothing_and_prints_one_line(tmp_path, capsys):
-    """--set eta0=1e300 (now outside --set's range; 1e6 fails the same way): numpy's
-    divide-by-zero warnings were printed, then four of the five outputs were written before
-    material.json failed with 'nothing was written'. Every output is checked first: one failure
-    line (citing numpy), exit 1, no folder."""
+def test_unphysical_fit_exits_1_with_one_paragraph_and_keeps_its_results(tmp_path, capsys):
+    """--set eta0=1e6 (a held liquid viscosity 1e8x too high): numpy's warnings were printed,
+    then an infinite interval failed the writing ('column upper has non-finite values'). Now the
+    unbounded intervals are null, and the unphysical result (a0 driven to its search bound) exits
+    1 with one line naming the parameters and what to do; the outputs are written, the material
+    as material_rejected.json; --accept writes material.json."""
     import warnings
 
     from rheometer.cli import main
 
     out = tmp_path / "fit"
+    argv = ["fit", *RC, "--phi", "0.40", "0.42", "--out", str(out), "--no-plots", "--no-profile",
+            "--set", "eta0=1e6"]
     with warnings.catch_warnings():
         warnings.simplefilter("error")        # an escaped warning would fail the command
-        rc = main(["fit", *RC, "--phi", "0.40", "0.42", "--out", str(out), "--no-plots",
-                   "--no-profile", "--set", "eta0=1e6"])
+        rc = main(argv)
     err = capsys.readouterr().err.strip().splitlines()
-    assert rc == 1 and len(err) == 1 and "is not finite" in err[0] and "numpy" in err[0], err
-    assert not out.exists()
+    assert rc == 1 and len(err) == 1 and "the result is unphysical" in err[0], err
+    assert "a0 = " in err[0] and "--accept" in err[0] and "--set" in err[0]
+    assert sorted(p.name for p in out.iterdir()) == [
+        "correlation.csv", "curves.csv", "fit.csv", "material_rejected.json", "parameters.csv"]
+    doc = json.loads((out / "material_rejected.json").read_text())
+    assert doc["fit"]["accepted"] is False and doc["fit"]["problems"]
+    assert main(argv + ["--accept"]) == 0
+    assert (out / "material.json").is_file() and not (out / "material_rejected.json").exists()
+    assert "WARNING: the result is unphysical" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("files, extra, words", [
@@ -315,9 +329,170 @@ def test_fit_options_refused_not_ignored(extra, words, tmp_path, capsys):
     out = tmp_path / "fit"
     try:
         line = _refused(["fit", *RC, "--phi", "0.40", "0.42", "--out", str(out), "--no-plots",
-                         "--no-profile", *extra], capsys, out)
+                         "--no-profile", "--set", "eta0=0.006", *extra], capsys, out)
     except SystemExit as exc:
         assert exc.code == 2
         line = capsys.readouterr().err
         assert not out.exists()
     assert words in line, line
+
+
+# ---------------------------------------------------------------- trustworthy defaults
+def _glycerol_like():
+    """hermes2016 in a liquid 200x as viscous (1.2 Pa s), eta_B scaled with it (the same
+    suspension in reduced units): the real cornstarch data set's solvent."""
+    h = r.get_material("hermes2016")
+    return h.replace(eta0=200 * h.eta0, varphi1=h.varphi1 / 200, varphi2=h.varphi2 / 200)
+
+
+def _table_file(tmp_path, m, phis, name="curves.csv"):
+    t = synthetic_table(m, phis, points=20, seed=4)
+    p = tmp_path / name
+    t[["phi", "shear_stress_Pa", "shear_rate_per_s"]].to_csv(p, index=False)
+    return p
+
+
+def test_eta0_is_estimated_from_the_curves_not_taken_from_the_start(tmp_path, capsys):
+    """Solvent 200x the default's: the fit held eta0 at the start's 6 mPa s and returned
+    a0 = 40, phi_c far below phi_j, exit 0. Now eta0 is estimated (within 5%) and the rest
+    recovered; holding the wrong eta0 is caught as unphysical (exit 1, a0 named)."""
+    from rheometer.cli import main
+
+    m = _glycerol_like()
+    phis = [0.10, 0.25, 0.35, 0.40, 0.45, 0.48, 0.51]
+    res = fit_flow_curves(FlowData.from_table(synthetic_table(m, phis, points=20, seed=4)),
+                          "hermes2016", profile=False)
+    e = recovery_errors(res, m, phis)
+    assert abs(res.material.eta0 / m.eta0 - 1) < 0.05 and res.problems == []
+    assert e["phi_j"] < 0.005 and e["phi_c"] < 0.005 and max(e["a0"], e["tau_star"]) < 0.1
+    held = fit_flow_curves(FlowData.from_table(synthetic_table(m, phis, points=20, seed=4)),
+                           "hermes2016", fixed={"eta0": 0.006}, profile=False)
+    assert any(p.startswith("a0 = ") for p in held.problems)
+    f = _table_file(tmp_path, m, phis)
+    out = tmp_path / "fit"
+    assert main(["fit", str(f), "--out", str(out), "--no-plots", "--no-profile"]) == 0
+    assert abs(r.get_material(str(out / "material.json")).eta0 / 1.2 - 1) < 0.05
+    capsys.readouterr()
+    assert main(["fit", str(f), "--out", str(out), "--no-plots", "--no-profile", "--set",
+                 "eta0=0.006"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "a0 = " in err[0] and "--set eta0=VALUE" in err[0]
+    assert not (out / "material.json").exists() and (out / "material_rejected.json").is_file()
+
+
+def test_eta0_needs_three_curves_or_must_be_given():
+    m = r.get_material("hermes2016")
+    d = FlowData.from_table(synthetic_table(m, [0.40, 0.45], points=10, artefacts=False))
+    with pytest.raises(ValueError, match="eta0 .*2 curves cannot give three parameters.*--set "
+                                         "eta0=VALUE"):
+        fit_flow_curves(d, m)
+    res = fit_flow_curves(d, m, fixed={"eta0": m.eta0}, profile=False)
+    assert res.parameter("eta0").status == "fixed"
+
+
+def test_unidentified_intervals_are_null_with_a_flag_never_a_crash(tmp_path, capsys):
+    """The 200x liquid with the paper's eta_B (eta0 eta_g/eta_B >> 1 at every phi): tau* and
+    varphi_i are not identified; their intervals were inf and crashed the writing. They are
+    null (empty cells, JSON null), flagged unidentifiable, and the run succeeds."""
+    from rheometer.cli import main
+
+    h = r.get_material("hermes2016")
+    f = _table_file(tmp_path, h.replace(eta0=1.2), [0.10, 0.20, 0.30, 0.38, 0.42, 0.45, 0.48,
+                                                    0.51])
+    out = tmp_path / "fit"
+    assert main(["fit", str(f), "--out", str(out), "--no-plots", "--no-profile"]) == 0
+    p = pd.read_csv(out / "parameters.csv").set_index("parameter")
+    assert p.loc["tau_star", "unidentifiable"] and np.isnan(p.loc["tau_star", "upper"])
+    doc = json.loads((out / "material.json").read_text())
+    assert doc["fit"]["parameters"]["tau_star"]["upper"] is None
+    assert "interval" in doc["fit"]["parameters"]["tau_star"]["note"]
+
+
+def test_an_overflowing_interval_is_null_and_flagged(monkeypatch):
+    """The mechanism itself: a Jacobian variance so large that exp(ln value + t sd) overflows
+    (the real data's tau* upper = inf) gives a null interval flagged 'unbounded'."""
+    import rheology.fit as fit
+
+    real = fit.jacobian_covariance
+
+    def huge(J, theta, lo, hi, s2, **kw):
+        cov, active, degen = real(J, theta, lo, hi, s2, **kw)
+        cov = cov.copy()
+        k = 4                                         # tau_star (DEFAULT_FREE order)
+        cov[k, k] = 1e6
+        return cov, active, degen
+
+    monkeypatch.setattr(fit, "jacobian_covariance", huge)
+    m = r.get_material("hermes2016")
+    phis = m.phi_c + (m.phi_j - m.phi_c) * np.array([-0.6, -0.25, 0.15, 0.45, 0.75])
+    res = fit_flow_curves(FlowData.from_table(synthetic_table(m, phis, points=15, seed=2)), m,
+                          fixed={"eta0": m.eta0}, profile=False)
+    t = res.parameter("tau_star")
+    assert np.isnan(t.lower) and np.isnan(t.upper) and np.isfinite(t.std_error)
+    assert t.unidentifiable and "unbounded (null)" in t.note
+    assert res.table().set_index("parameter").loc["tau_star", ["lower", "upper"]].isna().all()
+
+
+def test_at_bound_unidentifiable_and_converged_are_distinct_flags():
+    """a0 driven to the fitter's lower bound by a held eta0 1e8x too high: at_bound (a search
+    bound, so a problem), with its own unidentifiable flag; a_inf = a0 of hermes2016 is at a
+    limit of the law: at_bound but no problem."""
+    m = r.get_material("hermes2016")
+    phis = m.phi_c + (m.phi_j - m.phi_c) * np.array([-0.6, -0.25, 0.15, 0.45, 0.75])
+    d = FlowData.from_table(synthetic_table(m, phis, points=15, seed=2))
+    bad = fit_flow_curves(d, m, fixed={"eta0": 1e6}, profile=False)
+    a0 = bad.parameter("a0")
+    assert a0.at_bound and a0.bound == "search" and a0.status.startswith("at_bound")
+    assert any(p.startswith("a0 = ") and "search bound" in p for p in bad.problems)
+    good = fit_flow_curves(d, m, fixed={"eta0": m.eta0}, profile=False)
+    ai = good.parameter("a_inf")
+    assert ai.at_bound and ai.bound == "law" and not ai.unidentifiable and ai.converged
+    assert good.converged and good.problems == []
+    tab = good.table()
+    assert {"at_bound", "unidentifiable", "converged"} <= set(tab.columns)
+
+
+def test_stage_figures_label_stage_and_final_values_and_legends_sit_outside(tmp_path,
+                                                                          monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import rheology.io
+    from rheometer.fit_cli import write_figures
+
+    figs = {}
+    monkeypatch.setattr(rheology.io, "atomic_savefig",
+                        lambda fig, path, **kw: figs.setdefault(Path(path).name, fig))
+    m = r.get_material("hermes2016")
+    phis = m.phi_c + (m.phi_j - m.phi_c) * np.array([-0.6, -0.25, 0.15, 0.45, 0.75])
+    d = FlowData.from_table(synthetic_table(m, phis, points=15, seed=2))
+    res = fit_flow_curves(d, m.replace(phi_j=0.56), fixed={"eta0": m.eta0}, profile=False)
+    write_figures(tmp_path, d, res)
+    texts = [t.get_text() for t in figs["stage1_low_plateau.png"].axes[1].get_legend().get_texts()]
+    st1 = res.stages["1"]["phi_j"]
+    assert any(f"stage 1: phi_j = {st1:.4g}" in t for t in texts)
+    assert any(f"final (stage 4): phi_j = {res.material.phi_j:.4g}" in t for t in texts)
+    for name, fig in figs.items():
+        fig.canvas.draw()
+        for ax in fig.axes:
+            leg = ax.get_legend()
+            if leg is not None:        # the legend box starts right of the axes' data area
+                assert leg.get_window_extent().x0 >= ax.get_window_extent().x1 - 1, name
+
+
+def test_rerun_into_a_used_folder_holds_only_this_runs_files(tmp_path, capsys):
+    """A rerun with --no-plots left the old PNGs beside the new CSVs."""
+    from rheometer.cli import main
+
+    out = tmp_path / "fit"
+    argv = ["fit", *RC, "--phi", "0.40", "0.42", "--set", "eta0=0.006", "--no-profile",
+            "--out", str(out)]
+    assert main(argv) == 0 and (out / "fit_curves.png").is_file()
+    assert main(argv + ["--no-plots"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["correlation.csv", "curves.csv", "fit.csv",
+                                                     "material.json", "parameters.csv"]
+    (out / "my_notes.txt").write_text("mine")
+    capsys.readouterr()
+    assert main(argv) == 2
+    assert "holds files no fit writes (my_notes.txt)" in capsys.readouterr().err
+    assert not (out / "fit_curves.png").exists()

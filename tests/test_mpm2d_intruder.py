@@ -15,8 +15,11 @@ from mpm2d.run import run_scene
 from mpm2d.scenes import get_setup
 from mpm2d.scenes.intruder import SWEEP_COLUMNS, analyse, fit_window, sweep_report
 
-#: a small, short case (h = 1 mm, a 20 mm x 16 mm bed, 2 ms at 0.5 m/s): a few seconds
-SMALL = dict(radius=0.02, depth=0.016, v0=0.5, t_end=0.002, fit_margin=0.002)
+#: a small, short case (h = 1 mm, a 20 mm x 16 mm bed, 2 ms at 0.5 m/s): a few seconds. At
+#: cfl 0.25: at the default 0.5 the near field of so small a bed is not resolved in time (the
+#: front ahead of the tip is lost for 25 us at 0.35 ms; its k_l is 10.1 at cfl 0.5, 8.2 at 0.25,
+#: 6.4 at 0.125, where the stress-free bed's dilatancy carries pressure)
+SMALL = dict(radius=0.02, depth=0.016, v0=0.5, t_end=0.002, fit_margin=0.002, cfl=0.25)
 
 
 def _strict(text):

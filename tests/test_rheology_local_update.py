@@ -337,13 +337,16 @@ def test_any_warm_start_gives_the_cold_answer(m, seed, g_prev):
 
 
 @SET
-@given(materials(), st.integers(0, 2 ** 32 - 1))
-def test_block_update_equals_the_point_update(m, seed):
+@given(materials(), st.integers(0, 2 ** 32 - 1), st.sampled_from(r.materials.RULES))
+def test_block_update_equals_the_point_update(m, seed, rules):
     """update_block (the vectorised stages: trial, critical-state estimates, Newton on
     (beta, gdot_p) for the whole block, the residual test) gives update_point's answer point by
-    point to the solver tolerance, case for case, on random states of every case."""
+    point to the solver tolerance, case for case, on random states of every case, under both
+    rules; a sixth of the points start stress free (p* <= 0 is handed to update_point)."""
     from rheology.local_update import BLOCK, NWORK, update_block, update_point
+    m = m.replace(rules=rules)
     sig, L, phi, f, dt = random_states(m, seed, n=BLOCK)
+    sig[: BLOCK // 6] = 0.0
     m.require("G", "K", "K0")
     P = kernel_parameters(m)
     so, o = np.empty_like(sig), np.empty((BLOCK, NOUT))
@@ -428,3 +431,148 @@ def test_material_by_name_equals_material_object():
     by_name = r.local_update(sig, L, 0.5, 0.1, 1e-3, "annular_shear")
     by_obj = r.local_update(sig, L, 0.5, 0.1, 1e-3, r.get_material("annular_shear"))
     assert np.array_equal(by_name.stress, by_obj.stress) and by_name.f == by_obj.f
+
+
+# ------------------------------------------------------------------ zero granular stress, rules
+def _steps(m, sig0, L, phi, f0, dt, n, newton=True):
+    """n steps of the update at every point (sig0: (k, 3, 3); L, phi, f0 broadcast to k):
+    the final stress (k, 3, 3), the outputs (k, NOUT), the cases of every step (n, k) and the
+    largest |sigma| reached (k,)."""
+    P = kernel_parameters(m)
+    k = sig0.shape[0]
+    sig = np.ascontiguousarray(sig0, dtype=float)
+    Lk = np.ascontiguousarray(np.broadcast_to(L, (k, 3, 3)), dtype=float)
+    ph, f = np.full(k, phi, dtype=float), np.full(k, f0, dtype=float)
+    so, out = np.empty_like(sig), np.empty((k, NOUT))
+    cases, peak = np.empty((n, k), dtype=int), np.zeros(k)
+    for i in range(n):
+        update_points_serial(sig, Lk, ph, f, dt, P, so, out, None, newton)
+        sig[:], f[:] = so, out[:, 0]
+        cases[i] = out[:, 12]
+        peak = np.maximum(peak, np.abs(sig).max(axis=(1, 2)))
+    return sig, out.copy(), cases, peak
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(materials(), st.integers(0, 2 ** 32 - 1), st.sampled_from(r.materials.RULES),
+       st.booleans(), st.booleans())
+def test_the_update_is_continuous_at_zero_stress(m, seed, rules, isochoric, newton):
+    """N steps from the stress-free point with trial pressures 0, +1e-12 Pa and -1e-12 Pa
+    (loose and jammed, any velocity gradient: compression, shear, dilation, rotation) end within
+    1e-6 of the stress scale of each other: the separated solution at p* <= 0 is taken only
+    where no dilatancy can give a positive pressure (p* + (K/G) tau* K3 phi <= 0), so p* = 0 is
+    the limit of p* -> 0+."""
+    m = m.replace(rules=rules)
+    rng = np.random.default_rng(seed)
+    L = rng.normal(size=(3, 3)) * 10.0 ** rng.uniform(0, 3)
+    if isochoric:
+        L -= np.trace(L) / 3 * np.eye(3)
+    phi = rng.uniform(0.5, 1.05) * m.phi_j                # loose and jammed (phi >= phi_m(f))
+    f0 = rng.uniform(0, 1)
+    dt = 10.0 ** rng.uniform(-7, -4)
+    sig0 = np.zeros((3, 3, 3))
+    for k, p0 in enumerate((0.0, 1e-12, -1e-12)):
+        sig0[k] = -p0 * np.eye(3)
+    D = 0.5 * (L + L.T)
+    sig, out, cases, peak = _steps(m, sig0, L, min(phi, 0.99), f0, dt, 20, newton)
+    assert np.all(cases != -1)
+    scale = max(peak.max(), m.G * dt * np.abs(D).max())
+    assert np.abs(sig[1:] - sig[0]).max() <= 1e-6 * scale
+    assert np.abs(out[1:, 0] - out[0, 0]).max() <= 1e-6                      # structure f
+
+
+def test_a_loose_point_sheared_from_zero_stress_carries_the_viscous_particle_pressure():
+    """The intruder set at phi 0.47, f 0, zero stress, sheared at 50 1/s for 2 ms in steps of
+    1e-6 s, exactly isochoric or with a volumetric rate of +-1.5e-10 1/s: the three agree, and
+    the point flows with the critical-state (compaction-rule) pressure of Boyer, Guazzelli &
+    Pouliquen (2011), p = (a phi)^2 (rho_s d^2 gdot_p^2 + 2 eta0 gdot_p)/(phi_m - phi)^2, not 0."""
+    m = r.get_material("intruder")
+    L = np.zeros((3, 3, 3))
+    L[:, 0, 1] = 50.0
+    L[:, 1, 1] = 0.0, 1.5e-10, -1.5e-10
+    sig, out, cases, _ = _steps(m, np.zeros((3, 3, 3)), L, 0.47, 0.0, 1e-6, 2000)
+    assert np.all(cases == SHEAR_FLOW)
+    p, taubar, f, gdot = out[:, 11], out[:, 10], out[:, 0], out[:, 1]
+    np.testing.assert_allclose(p, p[0], rtol=1e-6)
+    np.testing.assert_allclose(taubar, taubar[0], rtol=1e-6)
+    np.testing.assert_allclose(f, f[0], rtol=1e-6)
+    y = r.phi_m(f, m) - 0.47
+    a = m.a0 + (m.a_inf - m.a0) * f
+    P3 = (a * 0.47) ** 2 * (m.rho_s * m.d ** 2 * gdot ** 2 + 2 * m.eta0 * gdot) / y ** 2
+    np.testing.assert_allclose(p, P3, rtol=1e-3)           # 2.6e-4: beta -> 0 at a strain 0.1
+    assert np.all(p > 20.0)                                 # 22.47 Pa (not 0: separated)
+
+
+def test_the_mpm_3d_rules_keep_a_loose_point_elastic_and_agree_in_shear_from_rest():
+    """rules = mpm_3d differs from table8 in the elastic admissibility below jamming only:
+    under uniaxial compression from zero stress a loose point (phi 0.47 < phi_m 0.535) stays
+    linear elastic (tau* <= (mu_1 + K3 (phi - phi_m)) p* holds: 2G/(sqrt(3) K) = 0.53 < 0.88),
+    whereas Table 8 compacts it plastically (f_3 = 0: p = P3 of its deviatoric rate); sheared
+    isochorically from zero stress the two are the same (the yield surface has mu_p + beta >=
+    mu_1 > mu_1 + K3 (phi - phi_m), so a flowing point never re-enters the mpm_3d cone); a
+    point compressed elastically by mpm_3d and then sheared stays elastic until
+    tau* = (mu_1 + K3 (phi - phi_m)) p*."""
+    t8 = r.get_material("intruder")
+    m3 = t8.replace(rules="mpm_3d")
+    e, dt, n, phi = 1.0, 1e-6, 1000, 0.47
+    Lc = np.diag([-e, 0.0, 0.0])
+    ends = {}
+    for m in (t8, m3):
+        ends[m.rules] = _steps(m, np.zeros((1, 3, 3)), Lc, phi, 0.0, dt, n)
+    s8, o8, c8, _ = ends["table8"]
+    s3, o3, c3, _ = ends["mpm_3d"]
+    eps = Lc * n * dt
+    elastic = 2 * m3.G * (eps - np.trace(eps) / 3 * np.eye(3)) + m3.K * np.trace(eps) * np.eye(3)
+    assert np.all(c3 == ELASTIC) and np.all(c8 == COMPACTION)
+    np.testing.assert_allclose(s3[0], elastic, rtol=1e-12, atol=1e-9 * m3.K * e * n * dt)
+    tau8, p8 = r.invariants(s8[0])
+    assert p8 < 1e-4 * m3.K * e * n * dt and tau8 < 1e-4 * m3.G * e * n * dt   # 0.36, 0.47 Pa
+    # sheared from zero stress: the same law
+    Ls = np.zeros((3, 3))
+    Ls[0, 1] = 50.0
+    a8 = _steps(t8, np.zeros((1, 3, 3)), Ls, phi, 0.0, dt, 500)
+    a3 = _steps(m3, np.zeros((1, 3, 3)), Ls, phi, 0.0, dt, 500)
+    np.testing.assert_allclose(a3[0], a8[0], rtol=1e-12, atol=1e-12 * np.abs(a8[0]).max())
+    assert np.all(a3[2] == SHEAR_FLOW) and np.all(a8[2] == SHEAR_FLOW)
+    # compressed by mpm_3d, then sheared: elastic steps until the cone, then flow
+    tau0, p0 = r.invariants(s3[0])
+    _, _, cs, _ = _steps(m3, s3, Ls, phi, 0.0, dt, 100)
+    ratio = m3.mu_c + m3.K3 * (phi - m3.phi_j)
+    expect = np.sqrt((ratio * p0) ** 2 - tau0 ** 2) / (m3.G * Ls[0, 1] * dt)    # 30.96
+    elastic_steps = int(np.argmax(cs[:, 0] != ELASTIC))
+    assert np.all(cs[:elastic_steps, 0] == ELASTIC) and abs(elastic_steps - expect) <= 1
+
+
+def test_rules_is_a_validated_material_field():
+    m = r.get_material("intruder")
+    assert m.rules == "table8" and m.kernel_array()[-1] == 0.0
+    assert m.replace(rules="mpm_3d").kernel_array()[-1] == 1.0
+    with pytest.raises(ValueError, match=r"^rules = 'mpm3d' must be one of 'table8', 'mpm_3d' "
+                                         r"\(material intruder\)$"):
+        m.replace(rules="mpm3d")
+    from rheology.materials import check_set_override, settable_fields
+    assert check_set_override("rules", "MPM_3D") == ("rules", "mpm_3d")
+    assert "rules" in settable_fields()
+    with pytest.raises(ValueError, match="^--set rules = 'x' is not one of table8, mpm_3d$"):
+        check_set_override("rules", "x")
+    with pytest.raises(ValueError, match="^--set rules = none is not one of table8, mpm_3d$"):
+        check_set_override("rules", None)
+
+
+def test_rules_in_a_material_file(tmp_path):
+    m = r.get_material("intruder", rules="mpm_3d")
+    path = r.materials.save_material(tmp_path / "m.json", m)
+    assert r.get_material(str(path)) == m
+    import json
+    doc = json.loads(path.read_text())
+    doc["material"]["rules"] = "mpm-3d"
+    (tmp_path / "bad.json").write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match="material file bad.json: rules = 'mpm-3d' must be one of"):
+        r.get_material(str(tmp_path / "bad.json"))
+    doc["material"]["rules"] = 1
+    (tmp_path / "num.json").write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match="rules = 1 must be a string"):
+        r.get_material(str(tmp_path / "num.json"))
+    del doc["material"]["rules"]                             # files written before the field
+    (tmp_path / "old.json").write_text(json.dumps(doc))
+    assert r.get_material(str(tmp_path / "old.json")).rules == "table8"

@@ -261,34 +261,49 @@ def test_creep_at_zero_stress_is_refused(tmp_path, monkeypatch, capsys):
     assert not any(tmp_path.iterdir())
 
 
-def test_elastic_strain_past_the_small_strain_limit_fails(tmp_path, monkeypatch, capsys):
+def test_elastic_strain_past_the_small_strain_limit_ends_the_run_there(tmp_path, monkeypatch,
+                                                                      capsys):
     """startup --rate 1e9 wrote a granular stress of 1e13 Pa (taubar/G ~ 1e9 with G = 1e4 Pa).
     The hypoelastic law holds for elastic strains taubar/G <= 0.1 (rheology.elastic, shear1d's
-    bound): the run fails with one line naming the limit, the strain, the time, what to change;
-    exit 1, nothing written. relax --stress past 0.1 G is known up front: exit 2."""
+    bound): the run ends on the limit (rheology.run_end), its rows up to it written, one line
+    naming the limit, the time, what to change; exit 3. relax --stress past 0.1 G is known up
+    front: exit 2, nothing written."""
+    import json
+
     from rheology.elastic import ELASTIC_STRAIN_LIMIT
 
     monkeypatch.chdir(tmp_path)
-    assert main(["startup", "--rate", "1e9", "--t-end", "1", "--points", "5"]) == 1
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "rheometer startup: failed:" in err
-    assert f"exceeds the small-elastic-strain limit {ELASTIC_STRAIN_LIMIT:g}" in err
-    assert "elastic strain taubar/G = " in err and " at t = " in err and "--G" in err
-    assert main(["creep", "--stress", "1e5", "--t-end", "1", "--points", "5"]) == 1
-    assert "taubar <= 1000 Pa" in capsys.readouterr().err
-    assert main(["material-point", "--rate", "1e3", "--t-end", "1"]) == 1
-    assert "elastic strain taubar/G" in capsys.readouterr().err
+    for argv in (["startup", "--rate", "1e9", "--t-end", "1", "--points", "5"],
+                 ["creep", "--stress", "1e5", "--t-end", "1", "--points", "5"],
+                 ["material-point", "--rate", "1e3", "--t-end", "1"]):
+        assert main(argv) == 3, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"rheometer {argv[0]}: phi = 0.5: ended early at t = " \
+            in err and "small-elastic-strain limit 0.1" in err and "--G" in err, err
+        name = argv[0].replace("-", "_")
+        df = pd.read_csv(f"{name}.csv")
+        assert df["granular_shear_stress_Pa"].abs().max() <= 1e3 * (1 + 1e-6)
+        rec = json.loads(open(f"{name}.json").read())
+        assert rec["status"] == "ended_early" and rec["rows"] == len(df)
+        (end,) = rec["ends"]
+        assert end["kind"] == "validity_limit" and end["limit"] == ELASTIC_STRAIN_LIMIT
+        assert end["time_s"] == pytest.approx(df["time_s"].iloc[-1], rel=1e-12)
+    before = sorted(os.listdir(tmp_path))
     assert main(["relax", "--stress", "2000", "--t-end", "1"]) == 2
     err = capsys.readouterr().err
     assert "--stress = 2000 Pa is outside the valid range (0, 1000] Pa" in err and "--G" in err
-    assert not any(tmp_path.iterdir()), list(tmp_path.iterdir())
-    # at the limit and with a stiffer skeleton the same inputs run
+    assert sorted(os.listdir(tmp_path)) == before
+    # at the limit and with a stiffer skeleton the same inputs run to their end
     assert main(["relax", "--stress", "1000", "--t-end", "1", "--points", "5",
                  "--plot", "none"]) == 0
     assert main(["relax", "--stress", "2000", "--G", "1e5", "--t-end", "1", "--points", "5",
                  "--plot", "none"]) == 0
     df = pd.read_csv("relax.csv")
     assert df["granular_shear_stress_Pa"].abs().max() <= ELASTIC_STRAIN_LIMIT * 1e5 * (1 + 1e-6)
+    assert df["time_s"].iloc[-1] == 1.0
+    assert json.loads(open("relax.json").read()) == {"status": "complete", "ends": [],
+                                                     "command": "rheometer relax",
+                                                     "csv": "relax.csv", "rows": len(df)}
 
 
 def test_python_api_follows_large_strains_unless_asked():
@@ -302,15 +317,16 @@ def test_python_api_follows_large_strains_unless_asked():
         startup("hermes2016", 0.50, 1.0, 6.0, points=20, elastic_limit=True)
 
 
-def test_check_elastic_strain_unit():
-    import numpy as np
+def test_past_elastic_limit_unit():
+    from rheology.elastic import past_elastic_limit
 
-    from rheology.elastic import check_elastic_strain
-
-    check_elastic_strain([0, 1], [0.0, 1000.0], 1e4)            # exactly at the limit: allowed
-    with pytest.raises(RuntimeError, match=r"p/K = 0.2 at t = 2 s .*from t ~ 1.5 s"):
-        check_elastic_strain(np.array([0.0, 1.0, 2.0]), [0.0, 0.0, 2e3], 1e4, stress_name="p",
-                             modulus_name="K")
+    assert past_elastic_limit([0, 1], [0.0, 1000.0], 1e4) is None   # exactly at the limit
+    i, end = past_elastic_limit(np.array([0.0, 1.0, 2.0]), [0.0, 0.0, -2e3], 1e4,
+                                stress_name="p", modulus_name="K")
+    assert i == 2 and end.kind == "validity_limit" and end.quantity == "elastic strain p/K"
+    assert (end.time_s, end.past_s, end.value, end.limit) == (1.0, 2.0, 0.2, 0.1)
+    assert "p/K = 0.2 at t = 2 s" in end.reason and "from t ~ 1.5 s" in end.reason
+    assert past_elastic_limit([0.0], [2e3], 1e4)[1].time_s is None    # no row before it
 
 
 # ------------------------------------------------------------------ fresh-user faults 8 and 12
@@ -387,10 +403,12 @@ def test_resume_names_the_checkpoint_actually_read(tmp_path, monkeypatch, capsys
 def test_startup_far_past_the_elastic_limit_names_it_when_ida_gives_up(tmp_path, monkeypatch,
                                                                        capsys):
     """--rate 1e9 --t-end 1e9 (both in range): IDA gave up at taubar 1e20 Pa before the elastic
-    strain check ran, and the failure said only 'IDA failed'; the check now runs on the partial
-    solution first: one line naming the small-elastic-strain limit, exit 1, nothing written."""
+    strain check ran, and the failure said only 'IDA failed'. The run now ends on the limit
+    itself (a root of |taubar| - 0.1 G): one line naming it, the rows up to it, exit 3."""
     monkeypatch.chdir(tmp_path)
-    assert main(["startup", "--rate", "1e9", "--t-end", "1e9"]) == 1
+    assert main(["startup", "--rate", "1e9", "--t-end", "1e9"]) == 3
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "exceeds the small-elastic-strain limit 0.1" in err[0], err
-    assert not any(tmp_path.iterdir())
+    assert len(err) == 1 and "the small-elastic-strain limit 0.1" in err[0], err
+    df = pd.read_csv("startup.csv")
+    tau = df["granular_shear_stress_Pa"].to_numpy()
+    assert tau[-1] == pytest.approx(1e3, rel=1e-9) and np.all(tau <= 1e3 * (1 + 1e-9))

@@ -117,15 +117,17 @@ def test_cli_material_point_issue_command(tmp_path, monkeypatch, capsys):
     """The issue's commands (were -3400 Pa and -2e28 Pa): the shear-jammed point loads
     elastically to taubar -> G (bounded, see test_issue_rate_1000_...), i.e. elastic strains ~1,
     past the hypoelastic law's small-strain limit 0.1 (rheology.elastic): the command line
-    stops with one line naming it (exit 1, nothing written). A run that stays below it (t_end
-    short enough) writes its rows, sub-stepped."""
+    ends the run there with one line naming it, its rows before the limit written (exit 3,
+    rheology.run_end). A run that stays below it (t_end short enough) writes its rows,
+    sub-stepped."""
     monkeypatch.chdir(tmp_path)
     for rate in ("1000", "1e4"):
         assert main(["material-point", "--rate", rate, "--t-end", "0.05", "--points", "10",
-                     "--plot", "none"]) == 1
+                     "--plot", "none"]) == 3
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and "small-elastic-strain limit 0.1" in err
-        assert not any(tmp_path.iterdir())
+        df = pd.read_csv("material_point.csv")
+        assert df["granular_shear_stress_Pa"].max() <= 0.1 * 1e4 * (1 + 1e-6)
     assert main(["material-point", "--rate", "1000", "--t-end", "2e-4", "--dt", "1e-4",
                  "--points", "2", "--plot", "none"]) == 0
     df = pd.read_csv("material_point.csv")
@@ -181,7 +183,10 @@ def test_program_killed_twice_resumes_to_the_same_csv(tmp_path, monkeypatch, cap
     assert main(argv + ["--out", "run.csv", "--resume"]) == 0
     assert "resumed from run.checkpoint.npz" in capsys.readouterr().out
     assert (tmp_path / "run.csv").read_bytes() == (tmp_path / "ref.csv").read_bytes()
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.txt", "ref.csv", "run.csv"]
+    assert (tmp_path / "run.json").read_text() == (tmp_path / "ref.json").read_text().replace(
+        "ref.csv", "run.csv")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.txt", "ref.csv", "ref.json",
+                                                          "run.csv", "run.json"]
 
 
 def test_resume_refuses_another_run(tmp_path, monkeypatch, capsys):
@@ -253,4 +258,5 @@ def test_periodic_checkpoints_are_removed_after_success(tmp_path, monkeypatch):
     monkeypatch.setattr(ProgramCheckpoint, "save", save)
     assert main(["program", "p.txt", "--plot", "none", "--checkpoint-every", "1e-9"]) == 0
     assert len(seen) == 5 and all(seen)                   # after each of 5 steps (not the last
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.txt", "program.csv"]  # file)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.txt", "program.csv",  # file)
+                                                          "program.json"]

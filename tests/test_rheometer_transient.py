@@ -154,7 +154,7 @@ def test_approach_to_jamming_stays_unjammed_and_bounded():
     assert np.all(np.diff(gap) <= 0)
 
 
-def test_unphysical_solution_is_reported():
+def test_unphysical_solution_ends_the_run_before_it():
     r = Rheometer(HERMES, 0.52)
 
     class Sol:
@@ -164,8 +164,10 @@ def test_unphysical_solution_is_reported():
     y = np.zeros((2, 5))
     y[:, 1] = r.state(1.0, 0.1).gap
     y[1, 1] = r.state(1.0, 0.1).gap + 0.5          # f far below 0
-    with pytest.raises(RuntimeError, match="unphysical state.*t = 1"):
-        r._check_solution(Sol(), y, Step("rate", 1.0, duration=1.0), 0, r.state(1.0, 0.1))
+    keep, end = r._check_solution(Sol(), y, Step("rate", 1.0, duration=1.0), 0,
+                                  r.state(1.0, 0.1))
+    assert keep == 1 and end.kind == "solver_failure" and end.time_s == 0.0
+    assert "unphysical state" in end.reason and "at t = 1 s" in end.reason
 
 
 @pytest.mark.parametrize("kwargs, match", [

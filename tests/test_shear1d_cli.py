@@ -55,11 +55,12 @@ def test_couette_command(tmp_path):
 
 
 def _numeric_options():
-    """(subcommand, option, Number) for every numeric option of every subcommand."""
+    """(subcommand, option, Number) for every numeric option of every subcommand (--set, the
+    material's parameters, has its own checks: test_set_overrides_the_material)."""
     sub = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction))
     for cmd, p in sub.choices.items():
         for act in p._actions:
-            if act.option_strings and act.type is not None:
+            if act.option_strings and act.type is not None and act.dest != "set":
                 assert isinstance(act.type, Number), (cmd, act.option_strings)
                 yield cmd, act.option_strings[0], act.type
 
@@ -441,3 +442,40 @@ def test_csv_writes_no_negative_zero(tmp_path):
     for f in out.glob("*.csv"):
         x = pd.read_csv(f).select_dtypes("number").to_numpy(float)
         assert not np.any((x == 0) & np.signbit(x)), f.name
+
+
+@pytest.mark.parametrize("item, message", [
+    ("rules=mpm3d", "--set rules = 'mpm3d' is not one of table8, mpm_3d"),
+    ("K0=-1", "K0 = -1 is outside the valid range [0, inf) (material annular_shear)"),
+    ("name=x", "--set name: name is a text field of the material"),
+    ("G=abc", "--set G = 'abc' is not a number"),
+])
+def test_set_overrides_the_material(tmp_path, capsys, item, message):
+    """--set NAME=VALUE sets a parameter of the run's material (rules among them); a bad one is
+    refused in one line, exit 2, nothing written."""
+    out = tmp_path / "out"
+    try:                              # refused by the parser (SystemExit) or by the material
+        code = main(["couette", "--speed", "0.01", "--cells", "8", "--set", item, "--out",
+                     str(out)])
+    except SystemExit as exc:
+        code = exc.code
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0], err
+    assert not out.exists()
+    assert main(["couette", "--speed", "0.01", "--set", "rules=mpm_3d", "--method", "dae",
+                 "--out", str(out)]) == 2
+    assert "method 'dae' is the smooth form of the table8 rules" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_set_rules_reaches_the_law(tmp_path):
+    """The same run under the two rules: the kernel parameters (and so the checkpoint's
+    signature) carry the rules' code."""
+    from shear1d.cli import _parser as parser, _sample
+
+    for rules, code in (("table8", 0.0), ("mpm_3d", 1.0)):
+        args = parser().parse_args(["couette", "--speed", "0.01", "--set", f"rules={rules}",
+                                    "--out", str(tmp_path)])
+        m, _ = _sample(args)
+        assert m.rules == rules and m.kernel_array()[-1] == code

@@ -1,10 +1,15 @@
-"""Speed of the fitter: a 5-curve, 30-points-per-curve fit (the issue's size).
+"""Speed of the fitter: a 5-curve, 30-points-per-curve fit (a typical measured set).
 
 The reference is one model evaluation (all 150 points through the mixture-stress steady state),
 timed in the same process; the fit's cost is reported as wall time, number of model evaluations
 and its ratio to one evaluation, with and without the profile-likelihood intervals. For
 comparison, one evaluation through the general branch finder of rheology.steady
 (steady_states_mixture_stress) is timed too. Target: the fit in under 5 s.
+
+The relaxation fit (rheometer.relaxation_fit): two curves of Fig. 15's middle setting (phi = 0.52,
+G = 1e4 Pa, K0 = 1, taubar0 = 1 kPa and 300 Pa); the reference is one model run (rheometer
+relax at 1000 output times over the first curve's record), timed in the same process; the fit's
+cost is its wall time, its number of model runs and their ratio.
 """
 
 from __future__ import annotations
@@ -56,3 +61,28 @@ def fit_speed(out: Path, quick: bool) -> BenchResult:
                    f" = {q['fit / one evaluation']:.0f} evaluation times for "
                    f"{q['model_evaluations']} evaluations" for q in rows))
     return BenchResult(summary=summary, rows=rows, targets=targets)
+
+
+@benchmark("rheometer", "bench_fit_relaxation_speed",
+           "Relaxation fit: 2 curves, time and model runs (rheometer relax)")
+def fit_relaxation_speed(out: Path, quick: bool) -> BenchResult:
+    from rheometer.protocols import relax
+    from rheometer.relaxation_fit import POINTS, fit_relaxation, synthetic_relaxation
+
+    m = r.get_material("hermes2016")
+    curves = [synthetic_relaxation(m, 0.52, tau0, G=1e4, K0=1.0, offset=0.002, seed=k)
+              for k, tau0 in enumerate((1e3, 300.0))]
+    t_end = float(curves[0].time.max())
+    t_run, _ = _median(lambda: relax(m, 0.52, 1e3, t_end, G=1e4, K0=1.0, points=POINTS),
+                       3 if quick else 15)
+    t_fit, res = _median(lambda: fit_relaxation(curves, m), 1 if quick else 3)
+    rows = [{"curves": 2, "points": int(sum(c.time.size for c in curves)), "fit_s": t_fit,
+             "model_runs": res.n_runs, "one_run_s": t_run, "fit / one run": t_fit / t_run,
+             "run-equivalents per run": t_fit / t_run / res.n_runs}]
+    summary = (f"{machine_description()}. One model run (rheometer relax, {POINTS} output times): "
+               f"{t_run * 1e3:.1f} ms median; the 2-curve fit: {t_fit:.2f} s = "
+               f"{t_fit / t_run:.0f} run times for {res.n_runs} runs (the rest is interpolation "
+               f"and the optimiser)")
+    return BenchResult(summary=summary, rows=rows,
+                       targets=[("relaxation fit of 2 curves < 10 s", f"{t_fit:.2f} s",
+                                 t_fit < 10.0)])

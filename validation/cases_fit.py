@@ -5,10 +5,20 @@
    log-normal noise on the rate and the artefacts of real files (torque-floor readings, a
    repeated reading, a blank cell, wall slip on the densest curve), fitted from a start 20-300%
    off: phi_j, phi_c to 0.005; a0, a_inf, tau* to 10%; gdot_DST at the data's phi to 10%.
-2. Calibration: the 95% intervals over >= 50 noise seeds (guy2015_b, every parameter interior).
+2. Calibration: the 95% intervals over 150 noise seeds (guy2015_b, every parameter interior; at
+   50 seeds a coverage's sampling sd is ~0.04, enough to put a 0.91 coverage under 0.85).
 3. The paper's own numbers: stages 1-3 on the model curves of Table 1(a) at Fig. 1's ten volume
    fractions give back Table 1(a).
-4. The shipped example exports (rheometer/examples), read as files and fitted.
+4. The shipped example exports (rheometer/examples), read as files and fitted: RheoCompass, and
+   the TRIOS text, TRIOS CSV and rSpace CSV layouts.
+5. Relaxation (rheometer.relaxation_fit, Supplement Eqs. 35-37): G and K0 back from curves of
+   rheometer.protocols.relax at Fig. 15's settings (phi = 0.52, G = 1e3-1e5 Pa, K0 = 0.1-10),
+   3% noise, records starting late; the 95% intervals over 50 seeds; the shipped TRIOS example.
+
+Choices the paper does not make: each relaxation setting is measured at two taubar0 (1 kPa, as
+the rheometer tier's Fig. 15 case, and 300 Pa), fitted jointly (with one curve K0's 95% interval
+is up to +-9% at K0/G = 1e-2); readings below 1e-3 taubar0 are cut (a torque floor); the record
+starts 0.02 eta_g/G after cessation (the instrument's stop).
 """
 
 from __future__ import annotations
@@ -61,7 +71,7 @@ def fit_recovery(out: Path, quick: bool) -> Verdict:
     fig, axes = plt.subplots(2, 3, figsize=(13, 7.5))
     for ax, name in zip(axes.flat, names):
         m, phis, res, e = recover(name, points=20 if quick else 30)
-        flagged = {p.name for p in res.parameters if p.status == "unidentifiable"}
+        flagged = {p.name for p in res.parameters if p.unidentifiable}
         verdicts = {}
         for k, tol in TOL.items():
             within = bool(np.isfinite(e[k]) and e[k] <= tol)
@@ -101,11 +111,11 @@ def fit_recovery(out: Path, quick: bool) -> Verdict:
 
 
 @case("rheology", "fit_calibration_intervals",
-      "Fit: 95% intervals over 50 noise seeds contain the truth (guy2015_b)", slow=True)
+      "Fit: 95% intervals over 150 noise seeds contain the truth (guy2015_b)", slow=True)
 def fit_calibration(out: Path, quick: bool) -> Verdict:
     m = r.get_material("guy2015_b")
     phis = recovery_phis(m)
-    n = 6 if quick else 50
+    n = 6 if quick else 150
     hits: dict[str, list[bool]] = {}
     flags: dict[str, int] = {}
     times = []
@@ -117,7 +127,7 @@ def fit_calibration(out: Path, quick: bool) -> Verdict:
             if p.status == "fixed":
                 continue
             hits.setdefault(p.name, []).append(p.lower <= getattr(m, p.name) <= p.upper)
-            flags[p.name] = flags.get(p.name, 0) + (p.status == "unidentifiable")
+            flags[p.name] = flags.get(p.name, 0) + p.unidentifiable
     cover = {k: float(np.mean(v)) for k, v in hits.items()}
     identifiable = [k for k in cover if flags.get(k, 0) <= n // 2]
     fig, ax = plt.subplots(figsize=(6, 3.5))
@@ -136,8 +146,10 @@ def fit_calibration(out: Path, quick: bool) -> Verdict:
     return Verdict(
         criterion=f"over {n} seeds (3% noise, artefacts), the 95% interval of every identifiable "
                   f"parameter contains the true value in >= {need:.0%} of the fits"
-                  + (" (quick run: 85% needs the full 50 seeds)" if quick else ""),
+                  + (" (quick run: 85% needs the full 150 seeds)" if quick else ""),
         measured=", ".join(f"{k} {cover[k]:.2f}" for k in cover)
+                 + ("; over the first 50 seeds alone: " + ", ".join(
+                     f"{k} {np.mean(v[:50]):.2f}" for k, v in hits.items()) if n > 50 else "")
                  + f"; median fit time {np.median(times):.2f} s (profile intervals on)",
         passed=bool(identifiable) and worst >= need, figures=[png])
 
@@ -196,3 +208,150 @@ def fit_examples(out: Path, quick: bool) -> Verdict:
                      f"{k} {'yes' if v else 'no'}" for k, v in inside.items())
                  + f"; {res.seconds:.2f} s",
         passed=bool(ok))
+
+
+@case("rheology", "fit_instrument_exports",
+      "Fit: the shipped TRIOS text, TRIOS CSV and rSpace CSV examples give back hermes2016")
+def fit_instrument_exports(out: Path, quick: bool) -> Verdict:
+    from rheology.data import describe, read_flow_curves
+
+    folder = Path(__file__).resolve().parent.parent / "rheometer" / "examples"
+    files = [folder / n for n in ("trios_phi_0.42.txt", "trios_phi_0.45.csv",
+                                  "rspace_phi_0.48.csv")]
+    phis = [0.42, 0.45, 0.48]
+    table = read_flow_curves(files, phi=phis)
+    res = fit_flow_curves(FlowData.from_table(table), "hermes2016", profile=False)
+    e = recovery_errors(res, r.get_material("hermes2016"), phis)
+    counts = table.groupby("source_file")["kept"].sum().to_dict()
+    ok = (set(counts.values()) == {27} and e["phi_j"] <= 0.005 and e["phi_c"] <= 0.005
+          and e["tau_star"] <= 0.1 and abs(res.material.eta0 / 0.006 - 1) <= 0.1)
+    return Verdict(
+        criterion="each layout read to its hand count (27 of 31 points kept per file, the other "
+                  "blocks skipped); the fit (eta0 estimated) gives phi_j, phi_c within 0.005, "
+                  "tau* and eta0 within 10% of hermes2016",
+        measured=f"{describe(table)}; errors " + ", ".join(f"{k} {v:.2g}" for k, v in e.items())
+                 + f"; eta0 = {res.material.eta0:.4g} Pa s; problems: {res.problems or 'none'}",
+        passed=bool(ok))
+
+
+# ---------------------------------------------------------------------------------- relaxation
+RELAX_PHI = 0.52
+RELAX_STRESSES = (1e3, 300.0)
+
+
+def _relaxation_curves(G: float, K0: float, seed: int, record=None, stresses=RELAX_STRESSES):
+    """Curves at each taubar0; ``record``: the record's length in units of eta_g/G (None: until
+    the stress reaches the 1e-3 taubar0 floor)."""
+    from rheometer.relaxation_fit import synthetic_relaxation
+
+    m = r.get_material("hermes2016")
+    out = []
+    for i, tau0 in enumerate(stresses):
+        eta = tau0 / float(r.steady_state_stress(tau0, RELAX_PHI, m).shear_rate)
+        out.append(synthetic_relaxation(m, RELAX_PHI, tau0, G=G, K0=K0, offset=0.02 * eta / G,
+                                        seed=seed + 7 * i,
+                                        t_end=None if record is None else record * eta / G))
+    return out
+
+
+@case("rheometer", "fit_relaxation_recovery",
+      "Fit: G and K0 back from stress relaxations at Fig. 15's settings (Eqs. 35-37)", slow=True)
+def fit_relaxation_recovery(out: Path, quick: bool) -> Verdict:
+    import pandas as pd
+
+    from rheometer.relaxation_fit import fit_relaxation
+
+    m = r.get_material("hermes2016")
+    settings = [(G, K0, None) for G in (1e3, 1e4, 1e5) for K0 in (0.1, 1.0, 10.0)]
+    settings.append((1e4, 1.0, 0.3))           # a record that ends before it decays
+    rows, ok_all = [], True
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for i, (G, K0, t_end) in enumerate(settings):
+        curves = _relaxation_curves(G, K0, seed=20 + i, record=t_end,
+                                    stresses=RELAX_STRESSES[:1] if t_end else RELAX_STRESSES)
+        res = fit_relaxation(curves, m)
+        row = {"G_Pa": G, "K0": K0, "record_eta_over_G": t_end or float("nan"),
+               "last_stress_over_taubar0": float(curves[0].stress[-1] / curves[0].stress0),
+               "runs": res.n_runs,
+               "seconds": res.seconds}
+        verdicts = []
+        for p, truth in (("G", G), ("K0", K0)):
+            q = res.parameter(p)
+            err = q.value / truth - 1
+            within = abs(err) <= 0.05
+            v = "ok" if within else ("flagged" if q.unidentifiable and q.note else "FAIL")
+            verdicts.append(v)
+            row.update({f"{p}_fit": q.value, f"{p}_error": err, f"{p}_verdict": v,
+                        f"{p}_note": q.note})
+        ok_all &= "FAIL" not in verdicts
+        rows.append(row)
+        c = res.curves[0]
+        ax.loglog(c.time - res.t0[0], c.stress / c.stress0, ".", ms=2)
+        ax.loglog(c.time - res.t0[0], res.model_stress[0] / c.stress0, "k-", lw=0.6)
+    ax.set(xlabel="time after cessation [s]", ylabel="taubar / taubar0",
+           title="first curve of each setting: data (dots), fit (lines)")
+    png = atomic_savefig(fig, out / "relaxation_recovery.png")
+    plt.close(fig)
+    df = pd.DataFrame(rows)
+    atomic_write_csv(out / "relaxation_recovery.csv", df, empty_ok=("record_eta_over_G",))
+    full = df[df["record_eta_over_G"].isna()]
+    short = df[df["record_eta_over_G"].notna()].iloc[0]
+    return Verdict(
+        criterion="phi = 0.52, G in 1e3-1e5 Pa x K0 in 0.1-10 (two taubar0 each, fitted jointly, "
+                  "3% noise, record starting late): G and K0 within 5% of the truth or flagged "
+                  "unidentifiable with the reason; a record that ends before it decays is "
+                  "recovered or flagged",
+        measured=f"max |error| over the 9 settings: G {full['G_error'].abs().max():.2%}, K0 "
+                 f"{full['K0_error'].abs().max():.2%} (verdicts: "
+                 + ", ".join(f"{v}" for v in full["G_verdict"] + "/" + full["K0_verdict"])
+                 + f"); short record (0.3 eta_g/G, one curve ending at "
+                   f"{short['last_stress_over_taubar0']:.2f} taubar0): G {short['G_error']:+.1%} "
+                   f"({short['G_verdict']}), K0 {short['K0_error']:+.1%} ({short['K0_verdict']}:"
+                   f" {short['K0_note'] or '-'}); median fit {df['seconds'].median():.1f} s",
+        passed=bool(ok_all), figures=[png])
+
+
+@case("rheometer", "fit_relaxation_calibration",
+      "Fit: the relaxation fit's 95% intervals over 50 noise seeds contain G and K0", slow=True)
+def fit_relaxation_calibration(out: Path, quick: bool) -> Verdict:
+    from rheometer.relaxation_fit import fit_relaxation
+
+    m = r.get_material("hermes2016")
+    G, K0, n = 1e4, 1.0, (6 if quick else 50)
+    hits = {"G": [], "K0": []}
+    for seed in range(n):
+        res = fit_relaxation(_relaxation_curves(G, K0, seed=1000 + seed), m)
+        for p, truth in (("G", G), ("K0", K0)):
+            q = res.parameter(p)
+            hits[p].append(bool(q.lower <= truth <= q.upper))
+    cover = {k: float(np.mean(v)) for k, v in hits.items()}
+    need = 0.6 if quick else 0.85
+    return Verdict(
+        criterion=f"G = 1e4 Pa, K0 = 1 at phi = 0.52 (Fig. 15's middle curve), two taubar0, 3% "
+                  f"noise: the 95% intervals contain the truth in >= {need:.0%} of {n} seeds",
+        measured=", ".join(f"{k} {v:.2f}" for k, v in cover.items()),
+        passed=min(cover.values()) >= need)
+
+
+@case("rheometer", "fit_relaxation_example",
+      "Fit: the shipped TRIOS stress-relaxation example (torque only) gives back G and K0")
+def fit_relaxation_example(out: Path, quick: bool) -> Verdict:
+    from rheology.data import read_relaxation_curves
+    from rheometer.relaxation_fit import RelaxationCurve, fit_relaxation
+
+    f = Path(__file__).resolve().parent.parent / "rheometer" / "examples" / \
+        "trios_relaxation_phi_0.52.txt"
+    t = read_relaxation_curves([f])
+    curves = [RelaxationCurve(str(d["interval"].iloc[0]), d["time_s"].to_numpy(),
+                              d["shear_stress_Pa"].to_numpy(), 0.52, tau0)
+              for (_, d), tau0 in zip(t.groupby("curve"), (100.0, 30.0))]
+    res = fit_relaxation(curves, "hermes2016")
+    g, k = res.parameter("G"), res.parameter("K0")
+    return Verdict(
+        criterion="two 'Stress relaxation' steps (torque x the file's stress constant), fitted "
+                  "jointly: G within 5% of 2000 Pa and K0 within 5% of 1, inside their intervals",
+        measured=f"G = {g.value:.5g} Pa [{g.lower:.5g}, {g.upper:.5g}], K0 = {k.value:.4g} "
+                 f"[{k.lower:.4g}, {k.upper:.4g}], t0 = {', '.join(f'{x:.3g}' for x in res.t0)} s;"
+                 f" {res.seconds:.1f} s, {res.n_runs} model runs",
+        passed=bool(abs(g.value / 2000 - 1) <= 0.05 and abs(k.value - 1) <= 0.05
+                    and g.lower <= 2000 <= g.upper and k.lower <= 1 <= k.upper))

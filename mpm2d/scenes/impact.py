@@ -254,18 +254,20 @@ def _geo(key, lo, hi, unit, doc, note="", **kw):
                        optional=True, doc="finite-difference stencil of v and a (none: the "
                        "shear-wave round trip 2 max(depth, radius)/c_s)",
                        note="at most a quarter of t_end"),
-    gravity=spec.gravity(), cfl=spec.cfl())
+    gravity=spec.gravity(), rules=spec.rules(), cfl=spec.cfl())
 def setup(size="default", v0=None, phi0=None, radius=None, depth=None, cells_per_mm=None,
           t_end=None, material="auto", rod_radius=0.0095, rod_length=0.20, rod_density=2700.0,
-          rod_contact="noslip", mode="locked mixture", stencil=None, gravity=9.81, cfl=0.5):
+          rod_contact="noslip", mode="locked mixture", stencil=None, gravity=9.81, rules="table8",
+          cfl=0.5):
     params = dict(size=size, v0=v0, phi0=phi0, radius=radius, depth=depth,
                   cells_per_mm=cells_per_mm, t_end=t_end, material=material,
                   rod_radius=rod_radius, rod_length=rod_length, rod_density=rod_density,
-                  rod_contact=rod_contact, mode=mode, stencil=stencil, gravity=gravity, cfl=cfl)
+                  rod_contact=rod_contact, mode=mode, stencil=stencil, gravity=gravity, rules=rules,
+                  cfl=cfl)
     q = resolved(params)
     phi0 = q["phi0"]
     h = 1e-3 / q["cells_per_mm"]
-    m = get_material(q["material"])
+    m = get_material(q["material"], rules=rules)
     if not phi0 < m.phi_j:
         raise ValueError(f"phi0 = {phi0} is outside the valid range (0, {m.phi_j}) (phi_j of "
                          f"material {q['material']!r})")

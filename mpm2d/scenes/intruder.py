@@ -93,7 +93,7 @@ u_z = 0.5 v0"; v_fl is the lab-frame speed of the front along the axis.
 
 Parameters: layout (default|mpm_3d), phi0, v0 [m/s], t_end [s], radius, depth [m],
 cells_per_mm (1/h in 1/mm), rod_radius [m], rod_contact, contact, mode (auto: the layout's),
-fit_margin [m], gravity [m/s^2], cfl.
+fit_margin [m], gravity [m/s^2], rules (the law's: table8 or mpm_3d, rheology.local_update), cfl.
 
 Outputs (besides history.csv, frames, manifest): ``front.csv`` (time_s, longitudinal_m,
 transverse_m), ``front.png``, ``summary.json`` (k_l, k_t, R^2 of each fit, window, speeds,
@@ -216,17 +216,17 @@ def _geo(key, lo, hi, unit, doc, note=""):
     fit_margin=spec.Param(0.0, lambda p: 0.5 * min(resolved(p)["depth"], resolved(p)["radius"]),
                           unit="m", doc="fronts fitted until within this distance of the floor "
                                         "or wall", note="at most half the bed depth and radius"),
-    gravity=spec.gravity(), cfl=spec.cfl(),
+    gravity=spec.gravity(), rules=spec.rules(), cfl=spec.cfl(),
     size=_size)
 def setup(layout="default", phi0=0.47, v0=0.175, t_end=0.02, radius=None, depth=None,
           cells_per_mm=1.0, rod_radius=None, rod_contact="noslip", contact="auto", mode="auto",
-          fit_margin=5e-3, gravity=9.81, cfl=0.5):
+          fit_margin=5e-3, gravity=9.81, rules="table8", cfl=0.5):
     q = resolved(dict(layout=layout, phi0=phi0, v0=v0, t_end=t_end, radius=radius, depth=depth,
                       cells_per_mm=cells_per_mm, rod_radius=rod_radius, rod_contact=rod_contact,
                       contact=contact, mode=mode, fit_margin=fit_margin, gravity=gravity,
-                      cfl=cfl))
+                      rules=rules, cfl=cfl))
     h, nx, nz = grid_shape(q)
-    m = get_material("intruder")
+    m = get_material("intruder", rules=rules)
     depth, mode = q["depth"], q["mode"]
     grid = Grid(nx, nz, h, axisymmetric=True,
                 boundaries=dict(xmin="axis", xmax="noslip", ymin="noslip", ymax="free"))

@@ -533,6 +533,14 @@ def gravity(hi=1000.0):
                  doc="gravitational acceleration (downwards; the bed rests under it)")
 
 
+def rules() -> Param:
+    """The ``rules`` of the scene's suspension material (:data:`rheology.materials.RULES`)."""
+    from rheology.materials import RULES
+
+    return Param(choices=RULES, doc="yield rules of the Table 8 law: table8 (the paper's) or "
+                                    "mpm_3d (the author's code; rheology.local_update)")
+
+
 def scene_material_param(scene_set: str, doc: str = "steady-flow parameters") -> Param:
     """A ``material`` parameter: any SI parameter set or a material file (``fit/material.json``
     from ``rheometer fit``), put on the scene's own set ``scene_set`` by

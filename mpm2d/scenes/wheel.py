@@ -278,19 +278,20 @@ def _points(p) -> float:
     transfer=spec.Param(choices=("apic", "flip"), doc="particle-grid transfer (Fig. 14)"),
     gravity=spec.Param(0.0, 1000.0, lo_closed=False, unit="m/s^2",
                        doc="gravitational acceleration (downwards)"),
+    rules=spec.rules(),
     cfl=spec.cfl(),
     frames=spec.Param(1, 200, integer=True, doc="snapshots per run (figures, animation)"),
     size=lambda p: (_points(p), (p["width"] / p["h"] + 5) * (p["height"] / p["h"] + 5)))
 def setup(omega=None, radius=0.15, hub_radius=0.05, spoke_width=0.0556, density=3000.0,
           spokes="rigid", E=1.0e7, nu=0.3, phi0=0.5075, width=2.0, height=1.0, bed_depth=0.5,
           h=2.0 / 150.0, t_end=1.0, start_angle=45.0, mu_w=None, moduli_factor=1.0,
-          kappa_factor=1.0, transfer="apic", gravity=9.81, cfl=0.5, frames=20):
+          kappa_factor=1.0, transfer="apic", gravity=9.81, rules="table8", cfl=0.5, frames=20):
     params = dict(omega=omega, radius=radius, hub_radius=hub_radius, spoke_width=spoke_width,
                   density=density, spokes=spokes, E=E, nu=nu, phi0=phi0, width=width,
                   height=height,
                   bed_depth=bed_depth, h=h, t_end=t_end, start_angle=start_angle, mu_w=mu_w,
                   moduli_factor=moduli_factor, kappa_factor=kappa_factor, transfer=transfer,
-                  gravity=gravity, cfl=cfl, frames=frames)
+                  gravity=gravity, rules=rules, cfl=cfl, frames=frames)
     w = OMEGAS[0] if omega is None else float(omega)
     nx, ny = int(round(width / h)), int(round(height / h))
     grid = Grid(nx, ny, h, boundaries=dict(xmin="periodic", xmax="periodic", ymin="noslip",
@@ -298,7 +299,7 @@ def setup(omega=None, radius=0.15, hub_radius=0.05, spoke_width=0.0556, density=
     spacing = h / 2
     depth = round(bed_depth / spacing) * spacing           # whole point rows
     xb, ab = fill(lambda x, y: np.ones_like(x, dtype=bool), (0.0, 0.0), (nx * h, depth), spacing)
-    m = bed_material(moduli_factor, kappa_factor)
+    m = bed_material(moduli_factor, kappa_factor, rules)
     mu = math.inf if mu_w is None else float(mu_w)
     bed = ParticleSet("bed", Suspension(m, locked=True), xb, ab, phi=phi0, f=0.0)
     # the wheel on the lattice around (0, 0), then moved so that its lowest point faces touch the
@@ -354,10 +355,10 @@ def setup(omega=None, radius=0.15, hub_radius=0.05, spoke_width=0.0556, density=
                  report=lambda sim, hist, out: report(sim, hist, out, params, w), notes=notes)
 
 
-def bed_material(moduli_factor=1.0, kappa_factor=1.0):
-    """The Table 7 set ``wheel`` with its granular G and K multiplied by ``moduli_factor`` and its
-    fluid bulk modulus kappa by ``kappa_factor``."""
-    m = get_material("wheel")
+def bed_material(moduli_factor=1.0, kappa_factor=1.0, rules="table8"):
+    """The Table 7 set ``wheel`` with its granular G and K multiplied by ``moduli_factor``, its
+    fluid bulk modulus kappa by ``kappa_factor``, and the yield ``rules``."""
+    m = get_material("wheel", rules=rules)
     if moduli_factor == 1.0 and kappa_factor == 1.0:
         return m
     return m.replace(G=m.G * moduli_factor, K=m.K * moduli_factor, kappa=m.kappa * kappa_factor)
