@@ -132,6 +132,29 @@ def test_analysis_recovers_known_front_speeds():
     assert math.isnan(none["k_l"]) and math.isnan(none["k_t"])
 
 
+def test_fit_window_is_the_longest_growing_stretch():
+    """A start-up transient (the fronts run out to 6 mm, fall back to 4 mm and vanish, as where
+    the bed is pushed from a distance before the plug forms) ahead of the steady growth: the
+    window is the steady stretch, whose speeds the fit recovers, not the first one."""
+    v0, v_fl, v_ft, h = 0.5, 2.0, 1.2, 1e-3
+    t = np.linspace(0.0, 0.01, 401)
+    zl = 0.004 + v_fl * (t - 0.002)
+    rt = 0.004 + v_ft * (t - 0.002)
+    early = t < 0.0015
+    zl[early] = 0.006 - 4.0 * np.abs(t[early] - 0.0005)          # out to 6 mm and back to 2 mm
+    rt[early] = 0.005
+    zl[(t >= 0.0015) & (t < 0.002)] = np.nan
+    tip = v0 * t - 0.001
+    t0, t1 = fit_window(t, tip, zl, rt, depth=0.03, radius=0.05, h=h, margin=0.005)
+    assert t0 == pytest.approx(0.002, abs=2e-5) and t1 > 0.009
+    front = pd.DataFrame({"time_s": t, "longitudinal_m": zl, "transverse_m": rt})
+    params = dict(depth=0.03, radius=0.05, fit_margin=0.005, v0=v0, phi0=0.47,
+                  mode="two-phase", cells_per_mm=1.0)
+    res = analyse(front, tip, params, h, max_f=np.ones_like(t))
+    assert res["k_l"] == pytest.approx(v_fl / v0 - 1.0, rel=1e-9)
+    assert res["k_t"] == pytest.approx(v_ft / v0, rel=1e-9)
+
+
 def test_sweep_report_table_and_scatter(tmp_path):
     rows = []
     for phi, v0, kl, kt, jam in ((0.46, 0.2, 4.0, 2.0, False), (0.48, 0.5, 3.0, 1.6, True)):

@@ -80,13 +80,15 @@ interpolation between cell centres), the transverse front the radius where it do
 cells just below the tip, searched outward from the rod's represented radius; both are read from
 the bed's face under the rod (the tip, or the top of the highest filled axis cell below it where
 contact ``mass`` pushes the bed from a distance; ``face_depth_m`` in history.csv). Fit: straight
-lines over the stretch from the first record after the contact transient (four acoustic
-crossings of the bed) and after the bed first jams (a point's f reaches f_jam, phi_m(f_jam) =
-phi0; ``jammed`` in summary.json says whether it did) where both fronts exist and the
-longitudinal front is at least 2 cells ahead of the tip until either front comes within
-``fit_margin`` of the floor or the outer wall, or either (its running median over 9 records)
-falls back by more than a cell (h) from its farthest position (the plug stopped growing);
-records where a front is momentarily undefined are left out of the fits, not ended at.
+lines over a stretch after the contact transient (four acoustic crossings of the bed) and after
+the bed first jams (a point's f reaches f_jam, phi_m(f_jam) = phi0; ``jammed`` in summary.json
+says whether it did) where both fronts exist and the longitudinal front is at least 2 cells
+ahead of the tip, until either front comes within ``fit_margin`` of the floor or the outer
+wall, or either (its running median over 9 records) falls back by more than a cell (h) from
+its farthest position (the plug stopped growing, or a start-up transient ended); of the
+stretches so separated (after a fall-back the next starts at the next record where both fronts
+exist), the one over which both fronts advance most; records where a front is momentarily
+undefined are left out of the fits, not ended at.
 k_l = v_fl/v0 - 1, k_t = v_ft/v0: the paper's "(v_fl - v0)/v_ft ~ 2 ... transverse and
 longitudinal front propagation factors k_t = v_ft/v0 and k_l = v_fl/v0 - 1", front "defined by
 u_z = 0.5 v0"; v_fl is the lab-frame speed of the front along the axis.
@@ -298,7 +300,12 @@ def jamming_structure(phi0) -> float:
 
 def fit_window(time, tip_depth, longitudinal, transverse, *, depth, radius, h, margin,
                t_min=0.0):
-    """The stretch [t0, t1] over which the fronts are fitted (see the module docstring).
+    """The stretch [t0, t1] over which the fronts are fitted (see the module docstring): of the
+    stretches where both fronts exist ahead of the tip and grow, each ended by either front
+    coming within ``margin`` of the floor or wall (no stretch after that) or falling back by
+    more than h from its farthest position in the stretch (the next one starts at the next
+    record where both exist), the one over which the fronts advance most (the lesser of the
+    two advances).
 
     Parameters
     ----------
@@ -317,23 +324,33 @@ def fit_window(time, tip_depth, longitudinal, transverse, *, depth, radius, h, m
     zl, rt = np.asarray(longitudinal, float), np.asarray(transverse, float)
     formed = np.isfinite(zl) & np.isfinite(rt) & (zl - np.asarray(tip_depth, float) >= 2 * h) \
         & (t >= t_min)
-    if not formed.any():
-        return float("nan"), float("nan")
-    k0 = int(np.argmax(formed))
+    idx = np.arange(len(t))
     with np.errstate(invalid="ignore"):
-        near = (zl >= depth - margin) | (rt >= radius - margin)
-        # a front that falls back by more than a cell from its farthest position: the plug
-        # stopped growing (it unjams once the stress waves return from the floor)
-        for pos in (zl, rt):
-            # a running median over 9 records: the binning and contact noise left out
-            med = pd.Series(pos).rolling(9, center=True, min_periods=1).median().to_numpy()
-            best = np.fmax.accumulate(np.where(np.arange(len(med)) >= k0, med, np.nan))
-            near |= med < best - h
-    near[:k0] = False
-    k1 = int(np.argmax(near)) - 1 if near.any() else len(t) - 1
-    if k1 < k0:
-        return float("nan"), float("nan")
-    return float(t[k0]), float(t[k1])
+        wall = (zl >= depth - margin) | (rt >= radius - margin)
+        # running medians over 9 records: the binning and contact noise left out
+        meds = [pd.Series(pos).rolling(9, center=True, min_periods=1).median().to_numpy()
+                for pos in (zl, rt)]
+    best, most = (float("nan"), float("nan")), -1.0
+    start = np.flatnonzero(formed)
+    while start.size:
+        k0 = int(start[0])
+        stop = wall & (idx >= k0)
+        with np.errstate(invalid="ignore"):
+            for med in meds:
+                # a front falling back by more than a cell: the plug stopped growing (it
+                # unjams once the stress waves return from the floor), or a transient ended
+                far = np.fmax.accumulate(np.where(idx >= k0, med, np.nan))
+                stop |= (med < far - h) & (idx >= k0)
+        k1 = int(np.argmax(stop)) - 1 if stop.any() else len(t) - 1
+        if k1 >= k0:
+            # how far the fronts advance over the stretch: the lesser of the two
+            adv = min(float(np.nanmax(p[k0:k1 + 1]) - np.nanmin(p[k0:k1 + 1])) for p in (zl, rt))
+            if adv > most:
+                best, most = (float(t[k0]), float(t[k1])), adv
+        if not stop.any() or wall[k1 + 1]:
+            break
+        start = start[start > k1 + 1]
+    return best
 
 
 def analyse(front: pd.DataFrame, tip_depth, params, h, max_f=None) -> dict:
