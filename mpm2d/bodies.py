@@ -4,11 +4,12 @@ A rigid body is a set of body points (positions and in-plane areas) moving rigid
 centre X, angle theta, velocity V and angular velocity omega (a single out-of-plane rotation in
 plane strain; in axisymmetry only the axial translation V_z exists). Each step the body meets
 every particle field through :mod:`mpm2d.contact`: contact only where the body's surface touches
-the material's (gap criterion from the points' extents), only while they approach along the
-normal, with Coulomb friction ``mu_w`` (0 frictionless, ``inf`` no-slip) and free separation
-(no tension). Fields listed in ``bonded_to`` (e.g. the elastic spokes of a wheel on its rigid
-hub) are glued instead: every node the body covers (sum_p N_ip A_p >= h^2/2) moves rigidly with
-it. The body's velocity and the contact impulses are solved together, implicitly in the body
+the material's (``contact="touch"``: gap criterion from the points' extents; ``"mass"``: wherever
+both have nodal mass, Bardenhagen et al. 2000), only while they approach along the normal, with
+Coulomb friction ``mu_w`` (0 frictionless, ``inf`` no-slip) and free separation (no tension).
+Fields listed in ``bonded_to`` (e.g. the elastic spokes of a wheel on its rigid hub) are glued
+instead: every node the body covers (sum_p N_ip A_p >= h^2/2) moves rigidly with it. The
+body's velocity and the contact impulses are solved together, implicitly in the body
 mass (no added-mass limit on dt), and momentum is exchanged exactly:
 
     M q^{n+1} = M (q^n + dt g) - sum_k J_k^T lambda_k,   F = -sum_k lambda_k / dt
@@ -29,6 +30,9 @@ from rheology.checks import check_positive, check_range
 
 
 DOFS = ("vx", "vy", "omega")
+#: where a body meets a field (mpm2d.contact): its surface touching the field's points, or any
+#: node where both have mass
+CONTACT_RULES = ("touch", "mass")
 
 
 def check_mu(name, mu) -> float:
@@ -68,12 +72,28 @@ class RigidBody:
     bonded_to : iterable of str
         Names of particle sets glued to the body (their field moves rigidly with it on every node
         the body covers), e.g. the spokes of a wheel on its hub.
+    contact : {"touch", "mass"}
+        Where the body meets a field (:mod:`mpm2d.contact`): ``touch`` (default) at the nodes
+        covered by field points whose squares touch the body's, normal from those contacts;
+        ``mass`` at every node where both have mass, normal from the body's mass gradient (the
+        classic multi-field rule, which acts up to the shape functions' reach before the
+        surfaces meet).
+
+    Raises
+    ------
+    ValueError
+        No points, a non-positive area or density, an unknown prescribed component or contact
+        rule, mu_w not in [0, inf], or in-plane motion of an axisymmetric body.
     """
 
     def __init__(self, name, x, area, density, velocity=(0.0, 0.0), omega=0.0,
-                 prescribed="all", axisymmetric=False, mu_w=0.0, bonded_to=()):
+                 prescribed="all", axisymmetric=False, mu_w=0.0, bonded_to=(),
+                 contact="touch"):
         self.name = name
         self.mu_w = check_mu(f"{name}: mu_w", mu_w)
+        if contact not in CONTACT_RULES:
+            raise ValueError(f"body {name}: contact = {contact!r} must be one of {CONTACT_RULES}")
+        self.contact = contact
         self.bonded_to = tuple(bonded_to)
         self.contact_nodes = 0
         x = np.asarray(x, dtype=float).reshape(-1, 2)
@@ -119,7 +139,7 @@ class RigidBody:
         free = [d for d, f in zip(DOFS, self.free) if f]
         fixed = [d for d, f in zip(DOFS, self.free) if not f]
         return (f"rigid body {self.name}: mass {self.mass:.4g} kg{extent}, free {free or 'none'}, "
-                f"prescribed {fixed or 'none'}; contact mu_w = {self.mu_w:g}"
+                f"prescribed {fixed or 'none'}; contact {self.contact}, mu_w = {self.mu_w:g}"
                 + (f", bonded to {list(self.bonded_to)}" if self.bonded_to else ""))
 
     # -------------------------------------------------------------- state (checkpoints)

@@ -30,6 +30,11 @@ improved frictional heating in the material point method", Comp. Part. Mech. 5):
   the shape-function supports (1.5 h for quadratic B-splines) do: a body h/4 above a bed feels
   nothing until its surface reaches the bed's particle faces (exact for grid-aligned faces;
   for a tilted face the point squares over-reach by up to (sqrt(2) - 1) s/2);
+- a rigid body made with ``contact="mass"`` skips (ii) and takes the normal from its own area
+  gradient (rigid_normals; the mirror fold zeroes its wall-normal component on a wall's nodes):
+  the classic rule of Bardenhagen et al., as mpm_3d's ContactRigid_ReflectedBoundary has it. It
+  acts wherever both fields have mass, i.e. from where the supports overlap (a gap below 2.25 h
+  between faces on a lattice of h/2 with quadratic B-splines), before the surfaces meet;
 - the contact impulse lambda on the material (equal and opposite on the body, so the total
   momentum is conserved exactly) makes the normal velocities equal (perfectly inelastic, no
   penetration), with Coulomb friction |lambda_t| <= mu_w lambda_n (mu_w = 0 frictionless,
@@ -78,7 +83,9 @@ MAX_ACTIVE_SET = 50
 
 @_jit
 def scatter_area_gradient(x, side, axisym, geo, out):
-    """out[:, :, M] += N a_p and out[:, :, FX/FY] += grad N a_p, a_p = side_p^2 (in-plane area)."""
+    """out[:, :, M] += N a_p and out[:, :, FX/FY] += grad N a_p, a_p = side_p^2 (in-plane area);
+    nodes beyond the padded grid are skipped (a body reaching past the grid, where no material
+    can be)."""
     x0, y0, h = geo[0], geo[1], geo[2]
     inv_h = 1.0 / h
     for p in range(x.shape[0]):
@@ -92,6 +99,8 @@ def scatter_area_gradient(x, side, axisym, geo, out):
                 wb = wy0 if j == 0 else (wy1 if j == 1 else wy2)
                 db = dy0 if j == 0 else (dy1 if j == 1 else dy2)
                 I, J = bx + i + PAD, by + j + PAD
+                if I < 0 or J < 0 or I >= out.shape[0] or J >= out.shape[1]:
+                    continue
                 out[I, J, M] += wa * wb * a
                 out[I, J, FX] += da * wb * a * inv_h
                 out[I, J, FY] += wa * db * a * inv_h

@@ -624,8 +624,9 @@ class Simulation:
                     mask = (Bg.area > 0.0) & (Gm > 0.0)
                     if not mask.any():
                         continue
-                    touch, n = ct.touching(g, Bg.x, Bg.side, self._points(ph), n0,
-                                           self._geo_work)
+                    touch, n = ((True, n0) if b.contact == "mass" else
+                                ct.touching(g, Bg.x, Bg.side, self._points(ph), n0,
+                                            self._geo_work))
                     nodes = mask & touch
                 I, J = np.nonzero(nodes)
                 if I.size == 0:

@@ -132,6 +132,29 @@ def test_analysis_recovers_known_front_speeds():
     assert math.isnan(none["k_l"]) and math.isnan(none["k_t"])
 
 
+def test_fit_window_is_the_longest_growing_stretch():
+    """A start-up transient (the fronts run out to 6 mm, fall back to 4 mm and vanish, as where
+    the bed is pushed from a distance before the plug forms) ahead of the steady growth: the
+    window is the steady stretch, whose speeds the fit recovers, not the first one."""
+    v0, v_fl, v_ft, h = 0.5, 2.0, 1.2, 1e-3
+    t = np.linspace(0.0, 0.01, 401)
+    zl = 0.004 + v_fl * (t - 0.002)
+    rt = 0.004 + v_ft * (t - 0.002)
+    early = t < 0.0015
+    zl[early] = 0.006 - 4.0 * np.abs(t[early] - 0.0005)          # out to 6 mm and back to 2 mm
+    rt[early] = 0.005
+    zl[(t >= 0.0015) & (t < 0.002)] = np.nan
+    tip = v0 * t - 0.001
+    t0, t1 = fit_window(t, tip, zl, rt, depth=0.03, radius=0.05, h=h, margin=0.005)
+    assert t0 == pytest.approx(0.002, abs=2e-5) and t1 > 0.009
+    front = pd.DataFrame({"time_s": t, "longitudinal_m": zl, "transverse_m": rt})
+    params = dict(depth=0.03, radius=0.05, fit_margin=0.005, v0=v0, phi0=0.47,
+                  mode="two-phase", cells_per_mm=1.0)
+    res = analyse(front, tip, params, h, max_f=np.ones_like(t))
+    assert res["k_l"] == pytest.approx(v_fl / v0 - 1.0, rel=1e-9)
+    assert res["k_t"] == pytest.approx(v_ft / v0, rel=1e-9)
+
+
 def test_sweep_report_table_and_scatter(tmp_path):
     rows = []
     for phi, v0, kl, kt, jam in ((0.46, 0.2, 4.0, 2.0, False), (0.48, 0.5, 3.0, 1.6, True)):
@@ -173,9 +196,57 @@ def test_sweep_figure_of_one_phi0_has_a_real_colour_range(tmp_path, monkeypatch)
     assert lo == pytest.approx(0.465) and hi == pytest.approx(0.475)
 
 
+def test_mpm_3d_layout_is_the_authors_scene():
+    """layout=mpm_3d (GenerateMixture2D_v2.py, GenerateBlock2D_v2.py at mpm_3d 9aa6448): the
+    50 x 35 grid of 1 mm, the bed r 0-50 mm x z 0-30 mm at 2 x 2 points per cell, grains (mass
+    rho_s phi V) and fluid (rho_f (1 - phi) V, volume V) on the same points, V = r h^2/4 per
+    radian, the rod the block r 0-3 mm x z 32-35 mm moving at exactly -v0, classic contact."""
+    sim = get_setup("intruder")(layout="mpm_3d", phi0=0.47).sim
+    g, h = sim.grid, 1e-3
+    assert (g.nx, g.ny, g.h, g.axisymmetric) == (50, 35, h, True) and sim.mode == "two-phase"
+    grains, fluid = sim.sets
+    assert len(grains) == len(fluid) == 4 * 50 * 30
+    assert np.array_equal(grains.x, fluid.x)
+    for k, n in ((0, 50), (1, 30)):
+        assert np.allclose(np.unique(grains.x[:, k]), (np.arange(2 * n) + 0.5) * h / 2)
+    r, a = grains.x[:, 0], h * h / 4
+    assert grains.V == pytest.approx(r * a, rel=1e-9) and fluid.V == pytest.approx(r * a, rel=1e-9)
+    assert grains.m == pytest.approx(1620.0 * 0.47 * r * a, rel=1e-12)
+    # the fluid's density carries its hydrostatic compression p/kappa < 1e-5
+    assert fluid.m == pytest.approx(1620.0 * 0.53 * r * a, rel=1e-5)
+    rod = sim.bodies[0]
+    assert len(rod.x) == 36 and rod.contact == "mass" and not rod.free.any()
+    assert rod.x[:, 0].max() + h / 4 == pytest.approx(3e-3)
+    assert (rod.x[:, 1].min() - h / 4, rod.x[:, 1].max() + h / 4) == pytest.approx((0.032, 0.035))
+    assert tuple(rod.velocity) == (0.0, -0.175)
+
+
+def test_mpm_3d_contact_acts_at_overlapping_nodes_only_on_approach():
+    """At t = 0 the rod (lowest points at z = 32.25 mm) and the bed (highest at 29.75 mm) share
+    the node row z = 31 mm, where each weighs 1/32 (quadratic B-splines reach 1.5 h): the classic
+    rule acts there from the first step while the rod approaches: the row moves at -v0 (no slip)
+    and the bed's top points under the rod at -v0/32, in both phases; a rod moving away leaves
+    the bed at rest, and contact=touch waits for the surfaces to meet."""
+    v0, out = 0.175, {}
+    for name, v, contact in (("down", -v0, "auto"), ("up", v0, "auto"), ("touch", -v0, "touch")):
+        sim = get_setup("intruder")(layout="mpm_3d", radius=0.01, v0=v0, contact=contact).sim
+        sim.bodies[0].velocity = np.array([0.0, v])
+        sim.step()
+        out[name] = sim
+    grains = out["down"].sets[0]
+    under = (grains.x[:, 1] > 0.0295) & (grains.x[:, 0] < 3.5e-3)
+    for s in out["down"].sets:
+        assert s.v[under, 1] == pytest.approx(-v0 / 32, rel=1e-6)
+    assert out["down"].bodies[0].contact_nodes == 2 * 5          # r = 0-4 mm, two fields
+    for name in ("up", "touch"):
+        assert out[name].bodies[0].contact_nodes == 0
+        assert all(np.abs(s.v).max() < 1e-9 for s in out[name].sets)
+
+
 @pytest.mark.parametrize("item", ["phi0=0.6", "phi0=nan", "v0=-0.1", "v0=inf", "t_end=1",
                                   "mode=drained", "rod_contact=glue", "cells_per_mm=0",
-                                  "rod_radius=0.2", "fit_margin=0.03", "speed=1"])
+                                  "rod_radius=0.2", "fit_margin=0.03", "speed=1",
+                                  "layout=paper", "contact=glue"])
 def test_bad_values_are_refused(tmp_path, capsys, item):
     out = tmp_path / "never"
     assert main(["run", "intruder", "--set", item, "--out", str(out), "--quiet"]) == 2

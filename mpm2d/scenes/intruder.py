@@ -9,118 +9,103 @@ and v_ft across it, with k_l = v_fl/v0 - 1 about twice k_t = v_ft/v0 for every p
 Equations: axisymmetric (r, z) MPM of the Table 8 law (rheology.local_update) with the Table 6
 parameter set ``intruder`` (Hermes 2016 steady fit, eta0 = 4.6 mPa s, rho_s = rho_f = 1620
 kg/m^3, G = 3.8e7 Pa, K = 8.3e7 Pa, K0 = 0.2; d = 5.85 um, K3 = 4.715, K4 = 0; kappa = K, our
-choice, the paper gives no fluid modulus). Default mode: the locked mixture (one velocity field,
-undrained pore pressure); ``mode=two-phase`` runs grains and fluid on two fields with implicit
-Beetstra drag. The rod is a rigid body with every component prescribed (velocity (0, -v0) from
-t = 0) meeting the bed through multi-velocity-field contact (mpm2d.contact: gap criterion,
-Coulomb mu_w, free separation); its reaction force is recorded.
+choice, the paper gives no fluid modulus). ``mode=locked mixture``: one velocity field, undrained
+pore pressure; ``mode=two-phase``: grains and fluid on two fields with implicit Beetstra drag.
+The rod is a rigid body with every component prescribed (velocity (0, -v0) from t = 0), meeting
+the bed's fields through multi-velocity-field contact (mpm2d.contact), compressive only, with
+Coulomb friction mu_w (``rod_contact``: no slip, mu_w = inf, or frictionless); its reaction
+force is recorded.
 
-Drained or undrained (DESIGN.md section 5, whose "c_v of order 1 m^2/s" is 1000x too large),
-numbers for phi0 = 0.47: Beetstra F = 17.3, Darcy permeability k = (1 - phi) d^2/(18 phi F) =
-1.24e-13 m^2 (k/eta0 = 2.7e-11 m^2/(Pa s)); with the skeleton's constrained modulus M = K + 4G/3
-= 1.34e8 Pa and the fluid's storage (1 - phi)/kappa, c_v = k/(eta0 (1/M + (1 - phi)/kappa)) =
-1.9e-3 m^2/s (3.6e-3 without the storage). Over the plug's 1 cm the pore pressure needs L^2/c_v
-= 51 ms to drain, longer than the 20 ms run: the intrusion is undrained, grains and fluid move
-together, and an unjammed skeleton (phi < phi_m), which has no stiffness, drains even less (the
-Darcy velocity k/eta0 grad p ~ 2.7e-5 m/s for 1e4 Pa over 1 cm is 1e-4 of v0 = 0.175 m/s and
-changes phi by ~5e-5 in 20 ms), as Han et al. measured (no detectable change of packing fraction
-at the front). So the locked mixture is the default; the two-phase mode is kept to show the
-difference: measured at phi0 = 0.47, v0 = 0.5 m/s over 8 ms, two-phase gives k_l 8.5% and k_t
-8.4% lower (the same k_l/k_t, 0.64) at 2.3x the wall time (validation case
-``mpm2d_intruder_modes``).
+Drained or undrained (DESIGN.md section 5): for phi0 = 0.47, Beetstra F = 17.3, Darcy
+permeability k = (1 - phi) d^2/(18 phi F) = 1.24e-13 m^2; with the skeleton's constrained modulus
+M = K + 4G/3 = 1.34e8 Pa and the fluid's storage (1 - phi)/kappa, c_v = k/(eta0 (1/M + (1 -
+phi)/kappa)) = 1.9e-3 m^2/s, so over the plug's 1 cm the pore pressure needs L^2/c_v = 51 ms to
+drain, longer than the 20 ms run: the intrusion is undrained (Han et al. measured no change of
+packing fraction at the front), which makes the locked mixture the default layout's mode.
 
-Geometry and choices where the paper is silent (Baumgarten & Kamrin give only "axisymmetric MPM
-on a 50x35 element Cartesian grid with 1mm x 1mm resolution"; the author's code,
-aaronbaumgarten/mpm_3d, holds no intruder scene in any commit of its history: no script, config
-or driver names or mentions an intruder, Han et al., or 0.175 m/s):
-- bed: radius 50 mm, depth 35 mm (the paper's grid is the bed); the grid adds, above the bed,
-  room for the rod (v0 t_end + 5 mm) and for the free surface to heave: 50 x (35 + that) cells.
-  The author's impact generator (mpm_pygen/GenerateImpactMixture2D_v2.py) writes its grid as
-  Nx x Ny = radius x height with the room above the bed inside the height (0.30 m of bed in a
-  0.60 m grid) and 3 x 3 points per cell; read that way, the paper's 50 x 35 would be 50 mm of
-  radius by 35 mm of height including the rod's room, a shallower bed. Unverified either way; a
-  deeper bed (35 mm radius x 50 mm) moved k_l/k_t by less than 0.1 (below);
-- rod radius 3.175 mm (a 1/4-inch rod, the diameter we take for Han et al.'s intruder: we
-  could not check it against their methods section from here, so it is a parameter; 6.35 and
-  12.7 mm moved k_l/k_t by less than 0.15, below);
-  on the point lattice (spacing h/2) the rod is ``n h/2`` wide, n = floor(2 rod_radius/h):
-  3.0 mm at h = 1 mm; the transverse front is searched beyond that represented radius;
-- rod contact no-slip (mu_w = inf: a viscous suspension wets the rod; ``rod_contact=
-  frictionless`` for mu_w = 0), free to separate; the tip starts at the free surface;
-- container: no-slip floor and outer wall (a rigid container wetted by the suspension), axis
-  r = 0, free top surface;
-- the bed starts at rest (mpm2d.geostatic): loose (phi0 < phi_j), so the pore pressure carries
-  the weight and f = 0.
+Layouts (``layout``; the parameters left at none or auto take the layout's value):
 
-Fronts (Han et al. 2016, mpm2d.fronts): the vertical velocity of the bed's points binned to the
-grid's cells (mass-weighted); the longitudinal front is the depth below the initial surface
-where u_z/(-v0) falls below 1/2 on the axis column below the rod's tip (linear interpolation
-between cell centres), the transverse front the radius where it does on the row of cells just
-below the tip, searched outward from the rod's radius. Fit: straight lines over the stretch
-from the first record after the contact transient (four acoustic crossings of the bed, 0.3 ms
-on the default bed) and after the bed first jams (a point's f reaches f_jam, phi_m(f_jam) =
-phi0; ``jammed`` in summary.json says whether it did) where both fronts exist and the
-longitudinal front is at least 2 cells ahead of the tip until either front comes within
-``fit_margin`` of the floor or the outer wall, or either (its running median over 9 records)
-falls back by more than a cell (h) from its farthest position (the plug stopped growing: it
-unjams once the stress waves come back from the floor); records where a front is momentarily
-undefined (the cell under the tip lagging the rod by more than v0/2 for a step) are left out of
-the fits, not ended at.
+- ``default``: our reading of the paper's "axisymmetric MPM on a 50x35 element Cartesian grid
+  with 1mm x 1mm resolution". Bed radius 50 mm, depth 35 mm (the grid is the bed), plus room
+  above it for the rod (v0 t_end + 5 mm) and for the surface to heave; rod radius 3.175 mm (a
+  1/4-inch rod, our reading of Han et al.'s intruder), represented on the point lattice (spacing
+  h/2) as n h/2, n = floor(2 rod_radius/h): 3.0 mm at h = 1 mm; the rod's tip starts at the
+  free surface and the rod is v0 t_end + 5 mm long (it never submerges), density rho_s; locked
+  mixture; contact ``touch``.
+- ``mpm_3d``: the author's scene files (aaronbaumgarten/mpm_3d, commit 9aa6448:
+  mpm_pygen/GenerateMixture2D_v2.py and GenerateBlock2D_v2.py write the points; the driver
+  src/objects/boundaries/assigned_velocity.cpp and the contact
+  src/objects/contacts/contact_rigid_reflected_boundary.cpp are added in the same commit).
+  Taken from the files: the grid Lx x Ly = 50 mm x 35 mm in Nx x Ny = 50 x 35 cells (h = 1 mm);
+  2 x 2 points per cell at the quarter points (lmpp = 2; the generators' third direction, Lz = 2
+  with the boxes 0 <= z <= 1, keeps one layer), each of volume h^2/4 per unit length (mpm_3d
+  multiplies mass and volume by r when an axisymmetric job reads a point file); the bed the box
+  0 <= r <= 50 mm, 0 <= z <= 30 mm (5 mm of headroom), phi = 0.47 in the file (phi0 here);
+  grains and fluid as two bodies on the same points, grain mass 1620 phi V and fluid mass 1620
+  (1 - phi) V with volume V (our two-phase sets: phi rho_s V, (1 - phi) rho_f V), so mode =
+  two-phase; the rod the block 0 <= r <= 3 mm, 32 <= z <= 35 mm (radius 3 mm, height 3 mm, tip
+  2 mm above the free surface), density 1e5 kg/m^3 (no effect: its motion is prescribed);
+  gravity 9.81 m/s^2. AssignedVelocity gives the block's points v_set at the start and, every
+  step, v_set and zero force on every node where the block has mass: its motion is prescribed.
+  ContactRigid_ReflectedBoundary acts at every node where both bodies have mass: normal from the
+  block's mass gradient (of m/r, the 2-D density, in axisymmetry), its component normal to the
+  grid's boundary zeroed on boundary nodes; where the material approaches the block it sets the
+  material's normal velocity to the block's (compressive only) and limits the tangential force
+  by mu_f times the normal one (Coulomb); the block is not moved by it. Axisymmetric: the paper
+  says so and the contact has the axisymmetric branch; the point files serve either. That is
+  contact ``mass``.
+  Not in the files (no configuration file in the repository's history uses the driver or the
+  contact), our choices: mu_f (``rod_contact``, no slip by default as in the default layout: a
+  viscous suspension wets the rod); the container (axis r = 0 a symmetry line, no-slip floor and
+  outer wall, a wetted rigid container, as in the default layout; the top of the grid free); the
+  initial stress (the point files carry none: the bed starts at rest under gravity,
+  mpm2d.geostatic, as in the default layout, so a loose bed's weight is on its pore pressure);
+  the shape functions (the grid class is set in the missing configuration file; ours are
+  quadratic B-splines, whose supports reach 1.5 h: the block's lowest points (z = 32.25 mm) and
+  the bed's highest (29.75 mm) both weigh 1/32 on the node row z = 31 mm, so contact ``mass``
+  acts on the bed from t = 0, 2 mm before the surfaces meet); t_end 20 ms (Fig. 6's last field).
+
+Contact (``contact``, mpm2d.contact): ``touch`` acts only at nodes covered by bed points whose
+squares touch a rod point's square, with the normal of the touching faces; ``mass`` (the
+author's) at every node where the rod and a field both have mass, with the normal from the rod's
+area gradient (rigid_normals; the mirror fold zeroes its r component on the axis). Both act only
+on approach, compressive only, with the same friction and the rod's prescribed velocity, so they
+differ where the fields overlap without touching: ahead of and beside the rod by up to the
+shape functions' reach.
+
+Fronts (Han et al. 2016, mpm2d.fronts): the vertical velocity of the bed's (granular) points
+binned to the grid's cells (mass-weighted); the longitudinal front is the depth below the
+initial surface where u_z/(-v0) falls below 1/2 on the axis column below the rod's tip (linear
+interpolation between cell centres), the transverse front the radius where it does on the row of
+cells just below the tip, searched outward from the rod's represented radius; both are read from
+the bed's face under the rod (the tip, or the top of the highest filled axis cell below it where
+contact ``mass`` pushes the bed from a distance; ``face_depth_m`` in history.csv). Fit: straight
+lines over a stretch after the contact transient (four acoustic crossings of the bed) and after
+the bed first jams (a point's f reaches f_jam, phi_m(f_jam) = phi0; ``jammed`` in summary.json
+says whether it did) where both fronts exist and the longitudinal front is at least 2 cells
+ahead of the tip, until either front comes within ``fit_margin`` of the floor or the outer
+wall, or either (its running median over 9 records) falls back by more than a cell (h) from
+its farthest position (the plug stopped growing, or a start-up transient ended); of the
+stretches so separated (after a fall-back the next starts at the next record where both fronts
+exist), the one over which both fronts advance most; records where a front is momentarily
+undefined are left out of the fits, not ended at.
 k_l = v_fl/v0 - 1, k_t = v_ft/v0: the paper's "(v_fl - v0)/v_ft ~ 2 ... transverse and
 longitudinal front propagation factors k_t = v_ft/v0 and k_l = v_fl/v0 - 1", front "defined by
-u_z = 0.5 v0"; v_fl is the lab-frame speed of the front along the axis (v_fl - v0 its speed
-ahead of the tip, the same number whether the front is read from the surface or from the tip).
+u_z = 0.5 v0"; v_fl is the lab-frame speed of the front along the axis.
 
-Status against Fig. 7 (measured, locked mixture, 1 mm): NOT reproduced. The plug grows about
-as fast across as along the axis in the lab frame (v_fl ~ v_ft), where Han et al.'s ratio needs
-v_fl = (2 + 1/k_t) v_ft, so k_l/k_t = 0.6-1.0 instead of ~2. At phi0 = 0.47, v0 = 0.5 m/s
-(fit 0.5-5 ms): the default measure 0.86; the transverse front read at the tip's row, 3 or 6 mm
-below the tip, at 5 or 10 mm depth, or as the plug's widest radius: 0.67-0.86 (the reading moves
-k_t by < 30%, never towards 2); a frictionless rod 0.98; rod radius 6.35 mm 0.97, 12.7 mm 0.93;
-slip floor and wall 1.02; a 35 mm radius x 50 mm deep bed 0.79; the rod started 12 mm deep (no
-free surface at the tip) 0.86; h = 0.5 mm 0.89 (over 5 ms). The fields show why: the plug's
-side is a thin shear band (high gdot_p, so H = (taubar/tau*)^(3/2) and the structure rate K0 H
-gdot_p are high and f reaches f_jam within a cell or two), while ahead of the plug u_z falls
-off over ~10 mm (a low rate), so jamming spreads at about the same lab speed both ways. That is
-the model as the engine integrates it (rheology.local_update, mpm2d), not the front reading.
-At v0 = 0.175-0.2 m/s and phi0 <= 0.47 the bed does not jam within 20 ms (max f ~ 0.3 <
-f_jam = 0.66-0.76): ``jammed`` is false and the 'front' is the rod's near field, whereas the
-paper's Fig. 6 shows a plug at phi = 0.47, v0 = 0.175 m/s. Measured at that default: not jammed
-in two-phase mode either (k_l/k_t 1.86 against 1.80 locked, transverse R^2 0.87), nor with rod
-radii 6.35 or 12.7 mm (2.2, 1.4). The 0-D law at phi = 0.47 (``rheometer startup --material
-intruder --phi 0.47 --rate R --t-end 0.02``) shear-jams within 20 ms only above ~30 1/s (at
-11 ms for 40 1/s; 20 1/s reaches f = 0.11), while the rates the 1 mm grid resolves around the
-rod are 7-10 1/s (|D_rz|, |D_zz| at 20 ms; v0/R_rod = 55 1/s is spread over ~10 mm; max f/f_m
-0.28). At h = 0.5 mm the same default run grows a plug: max f/f_m 0.996, strain rate at its
-boundary, k_l = 2.02, k_t = 1.29, k_l/k_t = 1.56, R^2 0.99/0.98 (f only tends to f_m = f_jam
-with Delta = 0, so ``jammed`` stays false); phi0 = 0.50, v0 = 0.5 at 0.5 mm: 1.56 (R^2
-0.97/0.93, fit 0.5-2.7 ms). At h = 0.25 mm (``cells_per_mm=4``, 39 min on one thread) the
-default jams at 2.6 ms: k_l = 1.98, k_t = 1.84, k_l/k_t = 1.07 (R^2 0.98/0.95). So k_l converges
-(1.08, 2.02, 1.98 at 1, 0.5, 0.25 mm) while k_t grows as the plug's side shear band is resolved
-(0.60, 1.29, 1.84): refinement takes the ratio away from 2 (1.80, 1.56, 1.07); at v0 = 0.5
-and 0.25 mm (5 ms runs) phi0 = 0.47, 0.48, 0.50 give 1.03, 1.67, 1.82 (k_l 4.17, 7.59, 6.44; k_t
-4.06, 4.55, 3.55), against 0.81, 0.86, 1.61 at 1 mm and 1.31, 1.10, 1.56 at 0.5 mm: the grid
-dependence differs from case to case. The ten Fig. 7
-cases at 1 mm (``mpm2d sweep intruder --set phi0=0.46,...,0.50 --set v0=0.2,0.5``; at 0.5 mm, with
-``--set cells_per_mm=2``: mean 1.24, one of ten in range): k_l/k_t = 1.74 and 1.69 (phi0 0.46,
-0.47 at 0.2 m/s, not jammed), 0.99, 0.81, 0.53, 0.86, 1.38, 1.27, 0.84, 1.61 (phi0 0.46 and 0.47
-at 0.5 m/s; 0.48 at 0.2, 0.5; 0.49 at 0.2, 0.5; 0.50 at 0.2, 0.5): mean 1.17, sd 0.40, three
-of ten in [1.5, 2.5]. The ratio also depends on the fit window, because the longitudinal front
-slows down long before the floor: over 0.5-4 ms it is 0.8-1.6 for the 0.5 m/s cases (jammed
-within 0.4 ms), 1.3 at phi0 = 0.50, 0.2 m/s (jammed at 0.3 ms), and 2.3-3.3 for phi0 <= 0.49 at
-0.2 m/s, whose bed has not jammed by then (not at all, or after 2 ms): the unjammed near field
-of the rod is elongated along the axis, the jammed plug is not.
-
-Parameters: phi0, v0 [m/s], t_end [s], radius, depth [m], cells_per_mm (1/h in 1/mm),
-rod_radius [m], rod_contact, mode, fit_margin [m], gravity [m/s^2], cfl.
+Parameters: layout (default|mpm_3d), phi0, v0 [m/s], t_end [s], radius, depth [m],
+cells_per_mm (1/h in 1/mm), rod_radius [m], rod_contact, contact, mode (auto: the layout's),
+fit_margin [m], gravity [m/s^2], rules (the law's: table8 or mpm_3d, rheology.local_update), cfl.
 
 Outputs (besides history.csv, frames, manifest): ``front.csv`` (time_s, longitudinal_m,
-transverse_m), ``front.png``, ``summary.json`` (k_l, k_t, R^2 of each fit, window, speeds),
-``fields.png`` (Fig. 6(a)-(e): u_z at 6.2, 13.2 and 20 ms, |D_rz| and |D_zz| at t_end with the
-u_z = 0.5 v0 contour bold). A sweep (``mpm2d sweep intruder --set phi0=... --set v0=...``)
-writes ``fronts.csv`` and ``fronts.png`` (the k_l-k_t scatter with k_l = 2 k_t, Fig. 7).
+transverse_m), ``front.png``, ``summary.json`` (k_l, k_t, R^2 of each fit, window, speeds,
+jammed, t_jam_s, max_f_over_f_jam), ``fields.png`` (Fig. 6(a)-(e): u_z at 6.2, 13.2 and 20 ms,
+|D_rz| and |D_zz| at t_end with the u_z = 0.5 v0 contour bold). A sweep (``mpm2d sweep intruder
+--set phi0=... --set v0=...``) writes ``fronts.csv`` and ``fronts.png`` (the k_l-k_t scatter
+with k_l = 2 k_t, Fig. 7).
 
-Run: ``mpm2d run intruder --out intruder`` (mode: locked mixture)
+Run: ``mpm2d run intruder --out intruder``; the author's scene: ``mpm2d run intruder --set
+layout=mpm_3d --out intruder_mpm3d``.
 """
 
 from __future__ import annotations
@@ -150,71 +135,113 @@ from ..simulation import Simulation
 FIELD_TIMES = (6.2e-3, 13.2e-3, 20e-3)
 #: the front threshold u_z / v (Han et al. 2016)
 FRONT_FRACTION = 0.5
-#: rod length above its travel [m]
+#: rod length above its travel, default layout [m]
 ROD_EXTRA = 5e-3
+#: per layout: the geometry parameters' values, the rod's length and density, its tip's start
+#: above the bed and the grid's room above the bed (None: the default layout's rule: rod
+#: v0 t_end + ROD_EXTRA long, room for it plus 3 cells) [m, kg/m^3]
+LAYOUTS = {
+    "default": dict(radius=0.05, depth=0.035, rod_radius=3.175e-3, mode="locked mixture",
+                    contact="touch", rod_length=None, rod_density=None, gap=0.0,
+                    headroom=None),
+    "mpm_3d": dict(radius=0.05, depth=0.030, rod_radius=3e-3, mode="two-phase",
+                   contact="mass", rod_length=3e-3, rod_density=1e5, gap=2e-3, headroom=5e-3),
+}
 #: summary.json keys that may be undefined (no front formed, too few points)
 _NULLABLE = ("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal", "r2_transverse",
-             "v_fl_m_per_s", "v_ft_m_per_s", "fit_t_start_s", "fit_t_end_s", "t_jam_s")
+             "v_fl_m_per_s", "v_ft_m_per_s", "fit_t_start_s", "fit_t_end_s", "t_jam_s",
+             "max_f_over_f_jam")
 
 
-def _rod_length(p) -> float:
-    return p["v0"] * p["t_end"] + ROD_EXTRA
+def resolved(p: dict) -> dict:
+    """The parameters with every ``None`` or ``auto`` replaced by its layout's value, plus the
+    layout's rod and headroom entries."""
+    base = LAYOUTS[p["layout"]]
+    q = {k: (base[k] if k in base and (v is None or v == "auto") else v) for k, v in p.items()}
+    for k in ("rod_length", "rod_density", "gap", "headroom"):
+        q[k] = base[k]
+    if q["rod_length"] is None:
+        q["rod_length"] = q["v0"] * q["t_end"] + ROD_EXTRA
+    return q
 
 
-def _headroom_cells(p) -> int:
-    h = 1e-3 / p["cells_per_mm"]
-    return int(math.ceil(_rod_length(p) / h)) + 3
+def _headroom_cells(q) -> int:
+    h = 1e-3 / q["cells_per_mm"]
+    if q["headroom"] is not None:
+        return int(round(q["headroom"] / h))
+    return int(math.ceil((q["gap"] + q["rod_length"]) / h)) + 3
 
 
-def _points(p) -> float:
-    n = ((p["radius"] * p["depth"] + p["rod_radius"] * _rod_length(p))
-         * (p["cells_per_mm"] * 1e3) ** 2 * 4)
-    return n * (2 if p["mode"] == "two-phase" else 1)
+def grid_shape(q) -> tuple:
+    """(h [m], nx, nz) of the grid of the resolved parameters ``q`` (:func:`resolved`)."""
+    h = 1e-3 / q["cells_per_mm"]
+    return h, int(round(q["radius"] / h)), int(round(q["depth"] / h)) + _headroom_cells(q)
+
+
+def _size(p) -> tuple:
+    q = resolved(p)
+    c = q["cells_per_mm"] * 1e3
+    n = (q["radius"] * q["depth"] + q["rod_radius"] * q["rod_length"]) * c ** 2 * 4
+    points = n * (2 if q["mode"] == "two-phase" else 1)
+    return points, (q["radius"] * c + 5) * (q["depth"] * c + _headroom_cells(q) + 5)
+
+
+def _geo(key, lo, hi, unit, doc, note=""):
+    return spec.Param(lo, hi, unit=unit, doc=doc + " (none: the layout's)", optional=True,
+                      note=note, fill=lambda p: resolved(p)[key])
 
 
 @spec.parameters_of(
+    layout=spec.Param(choices=tuple(LAYOUTS),
+                      doc="default (our reading of the paper) or mpm_3d (the author's scene)"),
     phi0=spec.phi_below_jamming(fixed="intruder", doc="solid volume fraction of the bed"),
     v0=spec.Param(0.0, 10.0, lo_closed=False, unit="m/s", doc="rod speed (downwards)"),
-    t_end=spec.Param(0.0, lambda p: 0.8 * p["depth"] / p["v0"], lo_closed=False, unit="s",
-                     doc="end time", note="the rod travels at most 80% of the bed depth"),
-    radius=spec.Param(lambda p: p["rod_radius"] + 4e-3 / p["cells_per_mm"], 1.0, unit="m",
-                      doc="bed (container) radius", note="at least the rod radius + 4 cells"),
-    depth=spec.Param(lambda p: 4e-3 / p["cells_per_mm"], 1.0, unit="m", doc="bed depth",
-                     note="at least 4 cells"),
+    t_end=spec.Param(0.0, lambda p: 0.8 * resolved(p)["depth"] / p["v0"], lo_closed=False,
+                     unit="s", doc="end time", note="the rod travels at most 80% of the bed "
+                                                    "depth"),
+    radius=_geo("radius", lambda p: resolved(p)["rod_radius"] + 4e-3 / p["cells_per_mm"], 1.0, "m",
+                "bed (container) radius", note="at least the rod radius + 4 cells"),
+    depth=_geo("depth", lambda p: 4e-3 / p["cells_per_mm"], 1.0, "m", "bed depth",
+               note="at least 4 cells"),
     cells_per_mm=spec.Param(0.1, 20.0, unit="1/mm", doc="1/h in 1/mm (1: the paper's 1 mm)"),
-    rod_radius=spec.Param(lambda p: 1e-3 / p["cells_per_mm"], 0.5, unit="m", doc="rod radius",
-                          note="at least one cell"),
+    rod_radius=_geo("rod_radius", lambda p: 1e-3 / p["cells_per_mm"],
+                    lambda p: resolved(p)["radius"] - 4e-3 / p["cells_per_mm"], "m",
+                    "rod radius", note="at least one cell, at most the bed radius - 4 cells"),
     rod_contact=spec.Param(choices=("noslip", "frictionless"),
-                           doc="rod-suspension contact: no slip (mu_w = inf) or mu_w = 0"),
-    mode=spec.Param(choices=("locked mixture", "two-phase"),
-                    doc="locked mixture (undrained, default) or two-phase (grains + fluid)"),
-    fit_margin=spec.Param(0.0, lambda p: 0.5 * min(p["depth"], p["radius"]), unit="m",
-                          doc="fronts fitted until within this distance of the floor or wall",
-                          note="at most half the bed depth and radius"),
+                           doc="rod-suspension friction: no slip (mu_w = inf) or mu_w = 0"),
+    contact=spec.Param(choices=("auto", "touch", "mass"),
+                       doc="where the rod meets the bed: touch (surfaces touching), mass (any "
+                           "node where both have mass, the author's); auto: the layout's"),
+    mode=spec.Param(choices=("auto", "locked mixture", "two-phase"),
+                    doc="locked mixture (undrained) or two-phase (grains + fluid); auto: the "
+                        "layout's"),
+    fit_margin=spec.Param(0.0, lambda p: 0.5 * min(resolved(p)["depth"], resolved(p)["radius"]),
+                          unit="m", doc="fronts fitted until within this distance of the floor "
+                                        "or wall", note="at most half the bed depth and radius"),
     gravity=spec.gravity(), rules=spec.rules(), cfl=spec.cfl(),
-    size=lambda p: (_points(p), (p["radius"] * p["cells_per_mm"] * 1e3 + 5)
-                    * (p["depth"] * p["cells_per_mm"] * 1e3 + _headroom_cells(p) + 5)))
-def setup(phi0=0.47, v0=0.175, t_end=0.02, radius=0.05, depth=0.035, cells_per_mm=1.0,
-          rod_radius=3.175e-3, rod_contact="noslip", mode="locked mixture", fit_margin=5e-3,
-          gravity=9.81, rules="table8", cfl=0.5):
-    params = dict(phi0=phi0, v0=v0, t_end=t_end, radius=radius, depth=depth,
-                  cells_per_mm=cells_per_mm, rod_radius=rod_radius, rod_contact=rod_contact,
-                  mode=mode, fit_margin=fit_margin, gravity=gravity, rules=rules, cfl=cfl)
-    h = 1e-3 / cells_per_mm
+    size=_size)
+def setup(layout="default", phi0=0.47, v0=0.175, t_end=0.02, radius=None, depth=None,
+          cells_per_mm=1.0, rod_radius=None, rod_contact="noslip", contact="auto", mode="auto",
+          fit_margin=5e-3, gravity=9.81, rules="table8", cfl=0.5):
+    q = resolved(dict(layout=layout, phi0=phi0, v0=v0, t_end=t_end, radius=radius, depth=depth,
+                      cells_per_mm=cells_per_mm, rod_radius=rod_radius, rod_contact=rod_contact,
+                      contact=contact, mode=mode, fit_margin=fit_margin, gravity=gravity,
+                      rules=rules, cfl=cfl))
+    h, nx, nz = grid_shape(q)
     m = get_material("intruder", rules=rules)
-    nx = int(round(radius / h))
-    nz = int(round(depth / h)) + _headroom_cells(params)
+    depth, mode = q["depth"], q["mode"]
     grid = Grid(nx, nz, h, axisymmetric=True,
                 boundaries=dict(xmin="axis", xmax="noslip", ymin="noslip", ymax="free"))
     spacing = h / 2
     x, area = fill(lambda r, z: np.ones_like(r, dtype=bool), (0.0, 0.0), (nx * h, depth), spacing)
     sets, extra = suspension_bed(m, x, area, phi0, mode, axisymmetric=True)
-    length = _rod_length(params)
-    nrod = int(math.floor(rod_radius / spacing + 1e-9))
+    length, bottom = q["rod_length"], depth + q["gap"]
+    nrod = int(math.floor(q["rod_radius"] / spacing + 1e-9))
     rod_r = nrod * spacing                                 # the represented rod radius
-    xr, ar = fill(lambda r, z: r < rod_r, (0.0, depth), (rod_r, depth + length), spacing)
-    rod = RigidBody("rod", xr, ar, density=m.rho_s, velocity=(0.0, -v0), prescribed="all",
-                    axisymmetric=True, mu_w=math.inf if rod_contact == "noslip" else 0.0)
+    xr, ar = fill(lambda r, z: r < rod_r, (0.0, bottom), (rod_r, bottom + length), spacing)
+    rod = RigidBody("rod", xr, ar, density=q["rod_density"] or m.rho_s, velocity=(0.0, -v0),
+                    prescribed="all", axisymmetric=True, contact=q["contact"],
+                    mu_w=math.inf if rod_contact == "noslip" else 0.0)
     sim = Simulation(grid, sets, [rod], mode=mode, gravity=(0.0, -gravity), cfl=cfl,
                      name="intruder", **extra)
     geostatic(sim, sets=[s.name for s in sets])           # the bed at rest under gravity
@@ -228,22 +255,28 @@ def setup(phi0=0.47, v0=0.175, t_end=0.02, radius=0.05, depth=0.035, cells_per_m
         uz = cell_field(bed.x, bed.v[:, 1], bed.m, (0.0, 0.0), h, (nx, nz))
         rc = (np.arange(nx) + 0.5) * h
         zc = (np.arange(nz) + 0.5) * h
-        zl = longitudinal_front(uz, rc, zc, tip, v, FRONT_FRACTION)
-        rt = transverse_front(uz, rc, zc, tip, rod_r, v, FRONT_FRACTION)
-        return tip, zl, rt
+        # the fronts are read from the bed's face under the rod: the tip, or the top of the
+        # highest filled axis cell below it where the bed is pushed from a distance (mass)
+        filled = np.flatnonzero(np.isfinite(uz[0]) & (zc < tip))
+        face = min(tip, zc[filled[-1]] + 0.5 * h) if filled.size else tip
+        zl = longitudinal_front(uz, rc, zc, face, v, FRONT_FRACTION)
+        rt = transverse_front(uz, rc, zc, face, rod_r, v, FRONT_FRACTION)
+        return tip, face, zl, rt
 
     def record(sim):
-        tip, zl, rt = fronts_now(sim)
-        return {"tip_depth_m": depth - tip, "longitudinal_m": depth - zl, "transverse_m": rt,
+        tip, face, zl, rt = fronts_now(sim)
+        return {"tip_depth_m": depth - tip, "face_depth_m": depth - face,
+                "longitudinal_m": depth - zl, "transverse_m": rt,
                 "max_f": float(np.max(sim.sets[0].f)),
                 "max_phi": float(np.max(sim.sets[0].svol / sim.sets[0].V))}
 
     events = tuple(t for t in FIELD_TIMES if t <= t_end * (1 + 1e-9))
-    notes = (f"mode {mode}; rod radius {rod_r:g} m as represented ({rod_radius:g} m given), "
-             f"length {length:g} m, prescribed v0 = {v0:g} m/s, contact {rod_contact}")
-    return Scene(sim, t_end, params, frames=10, history_rows=400, record=record,
+    notes = (f"layout {layout}; mode {mode}; rod radius {rod_r:g} m as represented "
+             f"({q['rod_radius']:g} m given), length {length:g} m, tip {q['gap']:g} m above the "
+             f"bed, prescribed v0 = {v0:g} m/s, contact {q['contact']}, {rod_contact}")
+    return Scene(sim, t_end, q, frames=10, history_rows=400, record=record,
                  frame_times=events,
-                 report=lambda sim, hist, out: report(sim, hist, out, params, rod_r),
+                 report=lambda sim, hist, out: report(sim, hist, out, q, rod_r),
                  notes=notes, undefined=("longitudinal_m", "transverse_m"))
 
 
@@ -267,7 +300,12 @@ def jamming_structure(phi0) -> float:
 
 def fit_window(time, tip_depth, longitudinal, transverse, *, depth, radius, h, margin,
                t_min=0.0):
-    """The stretch [t0, t1] over which the fronts are fitted (see the module docstring).
+    """The stretch [t0, t1] over which the fronts are fitted (see the module docstring): of the
+    stretches where both fronts exist ahead of the tip and grow, each ended by either front
+    coming within ``margin`` of the floor or wall (no stretch after that) or falling back by
+    more than h from its farthest position in the stretch (the next one starts at the next
+    record where both exist), the one over which the fronts advance most (the lesser of the
+    two advances).
 
     Parameters
     ----------
@@ -286,23 +324,33 @@ def fit_window(time, tip_depth, longitudinal, transverse, *, depth, radius, h, m
     zl, rt = np.asarray(longitudinal, float), np.asarray(transverse, float)
     formed = np.isfinite(zl) & np.isfinite(rt) & (zl - np.asarray(tip_depth, float) >= 2 * h) \
         & (t >= t_min)
-    if not formed.any():
-        return float("nan"), float("nan")
-    k0 = int(np.argmax(formed))
+    idx = np.arange(len(t))
     with np.errstate(invalid="ignore"):
-        near = (zl >= depth - margin) | (rt >= radius - margin)
-        # a front that falls back by more than a cell from its farthest position: the plug
-        # stopped growing (it unjams once the stress waves return from the floor)
-        for pos in (zl, rt):
-            # a running median over 9 records: the binning and contact noise left out
-            med = pd.Series(pos).rolling(9, center=True, min_periods=1).median().to_numpy()
-            best = np.fmax.accumulate(np.where(np.arange(len(med)) >= k0, med, np.nan))
-            near |= med < best - h
-    near[:k0] = False
-    k1 = int(np.argmax(near)) - 1 if near.any() else len(t) - 1
-    if k1 < k0:
-        return float("nan"), float("nan")
-    return float(t[k0]), float(t[k1])
+        wall = (zl >= depth - margin) | (rt >= radius - margin)
+        # running medians over 9 records: the binning and contact noise left out
+        meds = [pd.Series(pos).rolling(9, center=True, min_periods=1).median().to_numpy()
+                for pos in (zl, rt)]
+    best, most = (float("nan"), float("nan")), -1.0
+    start = np.flatnonzero(formed)
+    while start.size:
+        k0 = int(start[0])
+        stop = wall & (idx >= k0)
+        with np.errstate(invalid="ignore"):
+            for med in meds:
+                # a front falling back by more than a cell: the plug stopped growing (it
+                # unjams once the stress waves return from the floor), or a transient ended
+                far = np.fmax.accumulate(np.where(idx >= k0, med, np.nan))
+                stop |= (med < far - h) & (idx >= k0)
+        k1 = int(np.argmax(stop)) - 1 if stop.any() else len(t) - 1
+        if k1 >= k0:
+            # how far the fronts advance over the stretch: the lesser of the two
+            adv = min(float(np.nanmax(p[k0:k1 + 1]) - np.nanmin(p[k0:k1 + 1])) for p in (zl, rt))
+            if adv > most:
+                best, most = (float(t[k0]), float(t[k1])), adv
+        if not stop.any() or wall[k1 + 1]:
+            break
+        start = start[start > k1 + 1]
+    return best
 
 
 def analyse(front: pd.DataFrame, tip_depth, params, h, max_f=None) -> dict:
@@ -360,14 +408,13 @@ def analyse(front: pd.DataFrame, tip_depth, params, h, max_f=None) -> dict:
             "v_fl_m_per_s": fl["speed"], "v_ft_m_per_s": ft["speed"],
             "fit_t_start_s": t0, "fit_t_end_s": t1, "fit_points": int(min(fl["points"],
                                                                           ft["points"])),
-            "front_fraction": FRONT_FRACTION, "mode": params["mode"], "jammed": jammed,
-            "t_jam_s": t_jam, "f_jam": f_jam, "set_up_time_s": set_up_time(params),
+            "front_fraction": FRONT_FRACTION, "layout": params.get("layout", "default"),
+            "mode": params["mode"], "contact": params.get("contact", "touch"),
+            "jammed": jammed, "t_jam_s": t_jam, "f_jam": f_jam,
+            "max_f_over_f_jam": (float(np.max(max_f)) / f_jam if max_f is not None and
+                                 len(max_f) else nan),
+            "set_up_time_s": set_up_time(params),
             "cells_per_mm": params["cells_per_mm"], "fit_note": note}
-
-
-def _clean(d: dict) -> dict:
-    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-            for k, v in d.items()}
 
 
 def report(sim, history, out, params, rod_r):
@@ -409,8 +456,36 @@ def front_figure(history, res, params, path):
     return plots.save(fig, path)
 
 
-def _grid_uz(x, v, m, h, shape):
-    return cell_field(x, v, m, (0.0, 0.0), h, shape)
+def event_fields(out) -> list:
+    """u_z binned to the cells at each event snapshot (FIELD_TIMES) of the run in ``out``.
+
+    Returns
+    -------
+    list of (t [s], u_z (nx, nz) [m/s] with NaN in empty cells, rod points (n, 2) [m]).
+    """
+    q = resolved(json.loads((Path(out) / "manifest.json").read_text())["params"])
+    h, nx, nz = grid_shape(q)
+    return [(float(f["time_s"]), cell_field(f["bed.x"], f["bed.v"][:, 1], f["bed.m"], (0.0, 0.0),
+                                            h, (nx, nz)), f["body.rod.x"])
+            for f in load_frames(out, tag="event")]
+
+
+def draw_uz(fig, ax, uz, h, v0, rod_x, rod_r, title):
+    """One Fig. 6(a)-(c) panel: u_z (colour, -v0 to 0) with the u_z = -v0/2 front contour (white)
+    and the rod (grey)."""
+    nx, nz = uz.shape
+    rc, zc = (np.arange(nx) + 0.5) * h * 1e3, (np.arange(nz) + 0.5) * h * 1e3
+    im = ax.imshow(uz.T, origin="lower", extent=(0.0, nx * h * 1e3, 0.0, nz * h * 1e3),
+                   cmap="viridis", vmin=-v0, vmax=0.0)
+    if np.nanmin(uz) < -0.5 * v0:
+        ax.contour(rc, zc, uz.T, levels=[-0.5 * v0], colors="w", linewidths=2)
+    ax.fill_between([0, rod_r * 1e3], rod_x[:, 1].min() * 1e3, rod_x[:, 1].max() * 1e3,
+                    color="0.4")
+    ax.set_title(title, fontsize=9)
+    ax.set_xlabel("r [mm]")
+    ax.set_ylabel("z [mm]")
+    ax.set_aspect("equal")
+    fig.colorbar(im, ax=ax, label="u_z [m/s]", shrink=0.8)
 
 
 def fields_figure(sim, out, params, rod_r, path):
@@ -418,46 +493,34 @@ def fields_figure(sim, out, params, rod_r, path):
     h = sim.grid.h
     nx, ny = sim.grid.nx, sim.grid.ny
     v0 = params["v0"]
-    ext = (0.0, nx * h * 1e3, 0.0, ny * h * 1e3)
-    frames = [f for f in load_frames(out, tag="event")]
+    panels = event_fields(out)
     bed = sim.sets[0]
     L = bed.L
-    drz = np.abs(0.5 * (L[:, 1] + L[:, 2]))
-    dzz = np.abs(L[:, 3])
-    uz_end = _grid_uz(bed.x, bed.v[:, 1], bed.m, h, (nx, ny))
-    panels = [(float(f["time_s"]), _grid_uz(f["bed.x"], f["bed.v"][:, 1], f["bed.m"], h, (nx, ny)),
-               f["body.rod.x"]) for f in frames]
+    uz_end = cell_field(bed.x, bed.v[:, 1], bed.m, (0.0, 0.0), h, (nx, ny))
     n = len(panels) + 2
     fig, axs = plots.plt.subplots(1, n, figsize=(3.6 * n, 3.4))
     rc = (np.arange(nx) + 0.5) * h * 1e3
     zc = (np.arange(ny) + 0.5) * h * 1e3
-
-    def draw_rod(ax, xr):
-        ax.fill_between([0, rod_r * 1e3], xr[:, 1].min() * 1e3, xr[:, 1].max() * 1e3,
-                        color="0.4")
-
     for ax, (t, uz, xr) in zip(axs, panels):
-        im = ax.imshow(uz.T, origin="lower", extent=ext, cmap="viridis", vmin=-v0, vmax=0.0)
-        ax.contour(rc, zc, uz.T, levels=[-0.5 * v0], colors="w", linewidths=2)
-        draw_rod(ax, xr)
-        ax.set_title(f"u_z at t = {t * 1e3:.1f} ms", fontsize=9)
-        fig.colorbar(im, ax=ax, label="u_z [m/s]", shrink=0.8)
-    for ax, d, name in ((axs[-2], drz, "|D_rz|"), (axs[-1], dzz, "|D_zz|")):
+        draw_uz(fig, ax, uz, h, v0, xr, rod_r, f"u_z at t = {t * 1e3:.1f} ms")
+    xr = sim.bodies[0].x
+    for ax, d, name in ((axs[-2], np.abs(0.5 * (L[:, 1] + L[:, 2])), "|D_rz|"),
+                        (axs[-1], np.abs(L[:, 3]), "|D_zz|")):
         field = cell_field(bed.x, d, bed.m, (0.0, 0.0), h, (nx, ny))
         vmax = np.nanpercentile(field, 99) if np.isfinite(field).any() else 1.0
-        im = ax.imshow(field.T, origin="lower", extent=ext, cmap="magma", vmin=0.0,
-                       vmax=vmax if vmax > 0 else 1.0)
+        im = ax.imshow(field.T, origin="lower", extent=(0.0, nx * h * 1e3, 0.0, ny * h * 1e3),
+                       cmap="magma", vmin=0.0, vmax=vmax if vmax > 0 else 1.0)
         levels = [-0.9 * v0, -0.7 * v0, -0.3 * v0, -0.1 * v0]
         ax.contour(rc, zc, uz_end.T, levels=levels, colors="c", linewidths=0.6)
         ax.contour(rc, zc, uz_end.T, levels=[-0.5 * v0], colors="c", linewidths=2.5)
-        draw_rod(ax, sim.bodies[0].x)
+        ax.fill_between([0, rod_r * 1e3], xr[:, 1].min() * 1e3, xr[:, 1].max() * 1e3,
+                        color="0.4")
         ax.set_title(f"{name} at t = {sim.t * 1e3:.1f} ms\n(contours of u_z, 0.5 v0 bold)",
                      fontsize=9)
-        fig.colorbar(im, ax=ax, label=f"{name} [1/s]", shrink=0.8)
-    for ax in axs:
         ax.set_xlabel("r [mm]")
         ax.set_ylabel("z [mm]")
         ax.set_aspect("equal")
+        fig.colorbar(im, ax=ax, label=f"{name} [1/s]", shrink=0.8)
     fig.tight_layout()
     return plots.save(fig, path)
 
@@ -465,13 +528,46 @@ def fields_figure(sim, out, params, rod_r, path):
 # ---------------------------------------------------------------- sweeps (Fig. 7)
 SWEEP_COLUMNS = ("phi0", "v0_m_per_s", "k_l", "k_t", "k_l_over_k_t", "r2_longitudinal",
                  "r2_transverse")
+#: fronts.csv's columns after ``jammed`` (from summary.json): first jamming time [s], largest
+#: f/f_jam
+_JAM_COLUMNS = ("t_jam_s", "max_f_over_f_jam")
+#: equivalent shear strain per unit axial strain of an isochoric axial compression
+#: (gdot = sqrt(2 D':D')): planar 2, axisymmetric sqrt(3)
+STRAIN_FACTOR = {"planar": 2.0, "axisymmetric": math.sqrt(3.0)}
+
+
+def onset_strain_k_l(k_t, flow="axisymmetric"):
+    """k_l of the longitudinal front that jams at the same equivalent shear strain as a
+    transverse front of factor k_t (both steady; validation.cases_intruder derives it):
+    c ln(1 + 1/k_l) = 1/k_t, i.e. k_l = 1/(exp(1/(c k_t)) - 1), with c = STRAIN_FACTOR[flow].
+
+    Parameters
+    ----------
+    k_t : float or array, > 0
+    flow : "planar" or "axisymmetric"
+
+    Returns
+    -------
+    k_l, same shape (between c k_t - 1/2 and c k_t).
+    """
+    return 1.0 / np.expm1(1.0 / (STRAIN_FACTOR[flow] * np.asarray(k_t, dtype=float)))
+
+
+def reference_lines(ax, kt_max):
+    """Han et al.'s k_l = 2 k_t and the single-onset-strain curves, for k_t in (0, kt_max]."""
+    kt = np.linspace(kt_max / 200.0, kt_max, 200)
+    ax.plot(kt, 2 * kt, "k--", label="k_l = 2 k_t (Han et al. 2016)")
+    for flow, style in (("axisymmetric", "g-"), ("planar", "g:")):
+        ax.plot(kt, onset_strain_k_l(kt, flow), style, lw=1,
+                label=f"one onset strain, {flow}")
 
 
 def sweep_report(table, out) -> list:
     """``out/fronts.csv`` (one row per complete case: phi0, v0_m_per_s, k_l, k_t, k_l_over_k_t,
-    r2_longitudinal, r2_transverse, jammed (whether the bed jammed during the run, from
-    summary.json), case) and ``out/fronts.png`` (k_l against k_t with the line k_l = 2 k_t,
-    Fig. 7; a case that never jammed drawn faint), from each case's ``summary.json``."""
+    r2_longitudinal, r2_transverse, jammed (whether the bed jammed during the run), t_jam_s,
+    max_f_over_f_jam (from summary.json), case) and ``out/fronts.png`` (k_l against k_t with
+    the line k_l = 2 k_t and the single-onset-strain curves (:func:`reference_lines`), Fig. 7;
+    a case that never jammed drawn faint), from each case's ``summary.json``."""
     out = Path(out)
     rows = []
     for _, r in table.iterrows():
@@ -479,12 +575,14 @@ def sweep_report(table, out) -> list:
         if not p.exists():
             continue
         s = json.loads(p.read_text())
-        rows.append({**{k: (np.nan if s.get(k) is None else s[k]) for k in SWEEP_COLUMNS},
+        rows.append({**{k: (np.nan if s.get(k) is None else s[k])
+                        for k in (*SWEEP_COLUMNS, *_JAM_COLUMNS)},
                      "jammed": bool(s.get("jammed", True)), "case": str(r["case"])})
     if not rows:
         return []
-    df = pd.DataFrame(rows, columns=[*SWEEP_COLUMNS, "jammed", "case"])
-    undefined = ("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal", "r2_transverse")
+    df = pd.DataFrame(rows, columns=[*SWEEP_COLUMNS, "jammed", *_JAM_COLUMNS, "case"])
+    undefined = ("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal", "r2_transverse",
+                 *_JAM_COLUMNS)
     paths = [atomic_write_csv(out / "fronts.csv", df, empty_ok=undefined)]
     fig, ax = plots.plt.subplots(figsize=(5.5, 4.5))
     ok = df.dropna(subset=["k_l", "k_t"])
@@ -507,8 +605,8 @@ def sweep_report(table, out) -> list:
                             label=f"v0 = {v0:g} m/s" + ("" if jam else ", not jammed"))
     if len(ok):
         fig.colorbar(sc, ax=ax, label="phi0")
-        kt = np.linspace(0, 1.1 * ok["k_t"].max(), 2)
-        ax.plot(kt, 2 * kt, "k--", label="k_l = 2 k_t (Han et al. 2016)")
+        if ok["k_t"].max() > 0:
+            reference_lines(ax, 1.1 * ok["k_t"].max())
         ratio = ok["k_l_over_k_t"]
         ax.set_title(f"k_l/k_t = {ratio.mean():.2f} +- {ratio.std(ddof=0):.2f} "
                      f"(min {ratio.min():.2f}, max {ratio.max():.2f})", fontsize=9)

@@ -83,6 +83,9 @@ class Param:
     fraction_of : callable(params) -> str, optional
         A volume fraction of the named material (:func:`phi_below_jamming`): ``mpm2d run
         --mass-fraction`` sets it through Eq. (20).
+    fill : callable(params) -> value, optional
+        The value an optional parameter left at ``None`` takes (the scene's choice from the
+        others); its derived bounds are checked on that value.
     """
 
     lo: float | Callable | None = None
@@ -98,6 +101,7 @@ class Param:
     note: str | Callable = ""
     material_of: str | None = None
     fraction_of: Callable | None = None
+    fill: Callable | None = None
 
     @property
     def kind(self) -> str:
@@ -181,11 +185,14 @@ class Param:
         return static.check(value.strip() if isinstance(value, str) else value)
 
     def check_derived(self, name: str, value, params: dict):
-        """Check ``value`` against the bounds resolved at ``params`` (ValueError naming both)."""
-        if value is None or self.kind != "number" or not self.derived:
+        """Check ``value`` (``None``: its ``fill``) against the bounds resolved at ``params``
+        (ValueError naming both)."""
+        shown = self.fill(params) if value is None and self.fill is not None else value
+        if shown is None or self.kind != "number" or not self.derived:
             return value
         try:
-            return self.number(name, params).check(value)
+            checked = self.number(name, params).check(shown)
+            return value if value is None else checked
         except ValueError as exc:
             note = self.note_text(params)
             raise ValueError(f"{exc}{f' ({note})' if note else ''}") from None
@@ -338,7 +345,8 @@ class SceneSpec:
             shown = shown_value(float(full[g]))
             note = p.note_text(full)
             if g != key:
-                why = (f" at the other parameters' values ({key} = {full[key]}"
+                val = full[key] if full[key] is not None or p.fill is None else p.fill(full)
+                why = (f" at the other parameters' values ({key} = {shown_value(val)}"
                        + (f" must be within {note}" if note else " must stay valid") + ")")
             else:
                 try:
