@@ -73,6 +73,9 @@ def main(argv=None) -> int:
     run.add_argument("--frames", type=Number("--frames", 1, 100000, integer=True), default=None,
                      help="number of snapshots (default: the scene's)")
     run.add_argument("--no-vtk", action="store_true", help="skip the VTK snapshots")
+    run.add_argument("--yes", action="store_true",
+                     help="run even past 1e10 point-steps (points x steps; about an hour or "
+                          "more): without it such a run is refused with its estimate")
     run.add_argument("--quiet", action="store_true",
                      help="no progress bar and no progress lines (errors still on stderr)")
     run.add_argument("--threads", type=Number("--threads", 1, ncpu, integer=True), default=None,
@@ -153,7 +156,7 @@ def _command(args) -> None:
     run_scene(get_setup(args.scene), args.scene if args.out is None else args.out, params,
               resume=args.resume, progress=not args.quiet, vtk=False if args.no_vtk else None,
               frames=args.frames, checkpoint_every=args.checkpoint_every, scene_name=args.scene,
-              quiet=args.quiet)
+              quiet=args.quiet, yes=args.yes)
 
 
 def _mass_fraction(args, spec, params: dict) -> None:

@@ -55,6 +55,7 @@ from rheology.io import (atomic_write_csv, check_output_dir, load_checkpoint,
                          previous_checkpoint, save_checkpoint)
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
+from . import estimate
 from .output import write_frame, write_manifest, write_pvds
 from .progress import Progress
 from .scenes.spec import shown_value
@@ -572,7 +573,7 @@ def command_line(name: str, params: dict, defaults: dict, frames, vtk: bool) -> 
 def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool = False,
               progress: bool = True, vtk: bool | None = None, frames: int | None = None,
               checkpoint_every: float = 60.0, log=None, stop_after_steps: int | None = None,
-              scene_name: str = "", quiet: bool = False) -> dict:
+              scene_name: str = "", quiet: bool = False, yes: bool = True) -> dict:
     """Run a scene to its end time (or ``stop_after_steps`` steps, then checkpoint).
 
     Parameters
@@ -590,6 +591,9 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     quiet : no progress bar and no log lines (set-up, notes, the closing line; ``mpm2d run
         --quiet``); a run started inside a quiet run (the wheel report's other omegas) is quiet
         too, whatever its own ``log`` and ``progress``. Errors are raised as always.
+    yes : run a fresh run past :data:`mpm2d.estimate.CONFIRM_POINT_STEPS` point-steps (``mpm2d
+        run --yes``); False refuses it with its estimate (ValueError) before anything is
+        written. Every fresh run logs its size and estimated wall time (:mod:`mpm2d.estimate`).
 
     Returns
     -------
@@ -614,7 +618,7 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     log = log or (lambda msg: print(msg, flush=True))
     with _Quiet(quiet):
         return _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_every,
-                          log, stop_after_steps, scene_name)
+                          log, stop_after_steps, scene_name, yes)
 
 
 class _Quiet:
@@ -634,7 +638,7 @@ class _Quiet:
 
 
 def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_every, log,
-               stop_after_steps, scene_name) -> dict:
+               stop_after_steps, scene_name, yes=True) -> dict:
     """:func:`run_scene` with its log and progress settled."""
     out = check_output_dir("--out", out)
     ckpt_path = out / "checkpoint.npz"
@@ -706,6 +710,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
     options["vtk"] = vtk
     params = spec.validate(given)
     check_step_bound(spec, params, name, given)   # before the set-up where the parameters tell
+    if saved is None:                             # a long run needs --yes (mpm2d.estimate)
+        estimate.check_before_setup(setup, spec, params, name, yes, log)
     # a fresh run removes only what a previous run of ours wrote; a folder of the user's is
     # refused here, before the set-up and before anything is written
     previous = previous_run_files(out) if saved is None else []
@@ -759,6 +765,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
             raise blame(setup, params, given, name, acceptable,
                         f"breaks the first step ({reason})",
                         time.perf_counter() + BLAME_BUDGET_S)
+        estimate.report_after_setup(scene, spec, params, name, yes, log)
     with np.errstate(all="ignore"):          # inf/0 steps are the check's to refuse
         check_step_count(scene, name)
     for w in held:                           # a set-up that succeeded: its warnings as they were
