@@ -44,6 +44,11 @@ def _clock(seconds: float) -> str:
     return f"{seconds / 3600:.3g} h"
 
 
+def _about(seconds: float) -> str:
+    text = _clock(seconds)
+    return text if text.startswith(("<", "unknown")) else "~" + text
+
+
 def _load() -> str:
     try:
         return f"load average {os.getloadavg()[0]:.1f}"
@@ -136,7 +141,7 @@ def report_after_setup(scene, spec, params: dict, name: str, yes: bool, log) -> 
     del probe
     text = (f"{points} points x ~{steps:.3g} steps (at the first stable step, {dt:.3g} s) = "
             f"{work:.3g} point-steps; memory ~{spec.estimate_bytes(params) / 1e9:.3g} GB "
-            f"(estimate); wall time ~{_clock(per * steps)} ({per * 1e3:.3g} ms a step in a "
+            f"(estimate); wall time {_about(per * steps)} ({per * 1e3:.3g} ms a step in a "
             f"timed probe of {PROBE_STEPS} steps, {_load()})")
     if work > CONFIRM_POINT_STEPS and not yes:
         raise ValueError(f"scene {name}: a run of {text}: runs past {CONFIRM_POINT_STEPS:.0e} "

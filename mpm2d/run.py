@@ -842,7 +842,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
             with warnings.catch_warnings(record=True) as held_run:
                 warnings.simplefilter("always", RuntimeWarning)
                 complete = stepping = True
-                bar = Progress(sim.t, t_end, sim.step_count, label=name) if progress else None
+                bar = Progress(sim.t, t_end, sim.step_count, label=spec.name) if progress else None
                 try:
                     while sim.t < t_end * (1.0 - 1e-12):
                         if stop.pending:
