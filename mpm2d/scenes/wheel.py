@@ -380,8 +380,7 @@ def analyse(history, params, omega) -> dict:
     y = history["hub_y_m"].to_numpy()
     dy = y - y[0]
     R = params["radius"]
-    spacing = params["h"] / 2
-    surface = round(params["bed_depth"] / spacing) * spacing      # the undisturbed bed top
+    surface = _surface(params)
     late = t > 0.5 * t[-1]
     speed = float(np.polyfit(t[late], x[late], 1)[0]) if late.sum() > 2 else float("nan")
     spin = float(-history["wheel_omega_per_s"].to_numpy()[late].mean()) if late.any() \
@@ -398,6 +397,12 @@ def analyse(history, params, omega) -> dict:
             "lowest_hub_above_surface_m": float(y.min() - surface)}
 
 
+def _surface(params) -> float:
+    """The undisturbed bed top [m] (whole rows of points at spacing h/2)."""
+    spacing = params["h"] / 2
+    return round(params["bed_depth"] / spacing) * spacing
+
+
 def checks(results: dict, R: float) -> dict:
     """The issue's checks from the per-omega results (keys: omega strings)."""
     out = {"fast_band_over_R": FAST_BAND, "sink_ratio_required": SINK_RATIO}
@@ -411,6 +416,8 @@ def checks(results: dict, R: float) -> dict:
         out["sink_ratio"] = ratio if math.isfinite(ratio) else None
         out["slow_sinks_3x"] = bool(slow["sink_depth_m"] > 0 and
                                     slow["sink_depth_m"] >= SINK_RATIO * ref)
+        dip = max(fast["max_sink_m"], 0.0)            # the same ratio by the largest dips
+        out["sink_ratio_largest_dip"] = slow["max_sink_m"] / dip if dip > 0 else None
     return out
 
 
@@ -526,24 +533,40 @@ def frame_at(out, t) -> dict:
 
 
 # ---------------------------------------------------------------- figures
-def draw_state(ax, frame, params, vmax_f=0.6, quiver_every=2):
-    """Fig. 8/9 panel: bed points coloured by f, wheel and hub in grey, cell-averaged velocity
-    vectors of the bed with lengths 1.215 v sqrt(R/g) [m], the grid phi = 0.1 contour."""
+#: Figs. 8-9: velocity vectors on cells of this many grid cells (a few hundred per panel)
+ARROW_CELLS = 5
+
+
+def f_field(frame, params):
+    """The bed's mass-weighted cell average of f on the grid cells, (nx, ny) (NaN where a cell
+    holds no bed point), with the cell edges in x and y [m]."""
+    h = params["h"]
+    nx, ny = int(round(params["width"] / h)), int(round(params["height"] / h))
+    f = cell_average(frame["bed.x"], frame["bed.f"], frame["bed.m"], h, nx, ny)
+    return f, np.arange(nx + 1) * h, np.arange(ny + 1) * h
+
+
+def draw_state(ax, frame, params, vmax_f, arrow_cells=ARROW_CELLS):
+    """Fig. 8/9 panel: f of the bed as its cell averages (every cell of bed in its colour),
+    wheel and hub points in grey, cell-averaged velocity vectors of the bed on blocks of
+    ``arrow_cells`` cells with lengths 1.215 v sqrt(R/g) [m] (the paper's scale), the grid
+    phi = 0.1 contour (the surface). Returns the mappable (colour range 0 to ``vmax_f``)."""
     h = params["h"]
     nx, ny = int(round(params["width"] / h)), int(round(params["height"] / h))
     x = frame["bed.x"]
-    sc = ax.scatter(x[:, 0], x[:, 1], c=frame["bed.f"], s=0.6, cmap="viridis", vmin=0.0,
-                    vmax=vmax_f, linewidths=0, rasterized=True)
-    if "wheel.x" in frame:
-        ax.scatter(frame["wheel.x"][:, 0], frame["wheel.x"][:, 1], s=0.6, c="0.35",
-                   linewidths=0)
-    ax.scatter(frame["body.hub.x"][:, 0], frame["body.hub.x"][:, 1], s=0.6, c="0.15",
-               linewidths=0)
+    f, xe, ye = f_field(frame, params)
+    im = ax.pcolormesh(xe, ye, np.ma.masked_invalid(f.T), cmap="viridis", vmin=0.0,
+                       vmax=vmax_f, shading="flat", rasterized=True)
+    for key, grey in (("wheel.x", "0.45"), ("body.hub.x", "0.2")):
+        if key in frame:
+            ax.scatter(frame[key][:, 0], frame[key][:, 1], s=1.5, c=grey, linewidths=0,
+                       marker="s", rasterized=True)
     gp = grid_phi(x, frame["bed.phi"] * frame["bed.V"], h, nx, ny)
     xs = np.arange(nx + 1) * h
     gpp = np.vstack([gp, gp[:1]])
-    ax.contour(xs, np.arange(ny + 1) * h, gpp.T, levels=[SURFACE_PHI], colors="k", linewidths=1)
-    k = quiver_every
+    ax.contour(xs, np.arange(ny + 1) * h, gpp.T, levels=[SURFACE_PHI], colors="w",
+               linewidths=1.2)
+    k = arrow_cells
     L = VECTOR_SCALE * math.sqrt(params["radius"] / params["gravity"])
     vx = cell_average(x, frame["bed.v"][:, 0], frame["bed.m"], k * h, nx // k, ny // k)
     vy = cell_average(x, frame["bed.v"][:, 1], frame["bed.m"], k * h, nx // k, ny // k)
@@ -551,40 +574,65 @@ def draw_state(ax, frame, params, vmax_f=0.6, quiver_every=2):
                        indexing="ij")
     ok = np.isfinite(vx) & np.isfinite(vy)
     ax.quiver(X[ok], Y[ok], L * vx[ok], L * vy[ok], angles="xy", scale_units="xy", scale=1.0,
-              width=0.0015, color="k")
+              width=0.002, headwidth=4, color="k")
     ax.set_xlim(0, nx * h)
     ax.set_ylim(0, min(ny * h, params["bed_depth"] + 3 * params["radius"]))
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    return sc
+    return im
 
 
-def snapshots_figure(out, params, omega, path, n=4):
-    """Fig. 8 (omega = 10) / Fig. 9 (omega = 1): the state at n times."""
+def _state_title(res: dict, R: float) -> str:
+    """What a run shows, from its summary entry (:func:`analyse`)."""
+    return (f"omega = {res['omega_per_s']:g} 1/s: the hub sank {res['sink_depth_m'] * 1e3:.0f} "
+            f"mm ({res['sink_over_R']:.2f} R) by t = {res['t_end_s']:.2g} s, at most "
+            f"{res['max_sink_m'] * 1e3:.0f} mm ({res['max_sink_m'] / R:.2f} R), and advanced "
+            f"{res['advance_m']:.2f} m")
+
+
+def snapshots_figure(out, params, omega, path, n=4, summary=None):
+    """Fig. 8 (omega = 10) / Fig. 9 (omega = 1): the state at n times, one colour scale for all
+    panels spanning f of every panel (at least to f_jam, marked on the bar); with the run's
+    ``summary`` entry (:func:`analyse`) the title says how far the hub sank. ``path`` None:
+    return the figure."""
     frames = load_frames(out)
     t_end = float(frames[-1]["time_s"])
     want = [t_end * (k + 1) / n for k in range(n)]
     chosen = [min(frames, key=lambda f: abs(float(f["time_s"]) - t)) for t in want]
     m = get_material("wheel")
     f_jam = (m.phi_j - params["phi0"]) / (m.phi_j - m.phi_c)
-    fig, axs = plots.plt.subplots(n, 1, figsize=(10, 2.8 * n), constrained_layout=True)
+    vmax = max(f_jam, max(float(np.nanmax(fr["bed.f"])) for fr in chosen))
+    fig, axs = plots.plt.subplots(n, 1, figsize=(10, 2.6 * n + 0.8), constrained_layout=True)
     for ax, fr in zip(np.atleast_1d(axs), chosen):
-        sc = draw_state(ax, fr, params)
-        ax.set_title(f"omega = {omega:g} 1/s, t = {float(fr['time_s']):.2f} s", fontsize=9)
-    fig.colorbar(sc, ax=axs, label=f"f (jammed above {f_jam:.2f}: phi_m(f) = phi0)",
-                 shrink=0.6)
-    return plots.save(fig, path)
+        im = draw_state(ax, fr, params, vmax)
+        c = fr["body.hub.center"]
+        ax.set_title(f"t = {float(fr['time_s']):.2f} s: hub centre at x = {c[0]:.2f} m, "
+                     f"{(c[1] - _surface(params)) / params['radius']:+.2f} R above the "
+                     "undisturbed surface", fontsize=9)
+    cb = fig.colorbar(im, ax=axs, shrink=0.6,
+                      label=f"f (cell average; jammed above f_jam = {f_jam:.2f}, where "
+                            "phi_m(f) = phi0)")
+    cb.ax.axhline(f_jam, color="w", lw=2)
+    head = (_state_title(summary, params["radius"]) if summary is not None
+            else f"omega = {omega:g} 1/s")
+    fig.suptitle(head + f"\nvectors: 1.215 v sqrt(R/g) on blocks of {ARROW_CELLS} x "
+                 f"{ARROW_CELLS} cells; white line: the surface (grid phi = {SURFACE_PHI:g})",
+                 fontsize=10)
+    return plots.save(fig, path) if path is not None else fig
 
 
 def animation(runs, params, path):
     """GIF (matplotlib PillowWriter) of every run's snapshots side by side: runs = [(omega,
-    folder)]."""
+    folder)], one colour scale (0 to the largest f of every snapshot, at least f_jam)."""
     from matplotlib.animation import PillowWriter
 
     plt = plots.plt
     seqs = [(w, load_frames(d)) for w, d in runs]
     n = min(len(s) for _, s in seqs)
+    m = get_material("wheel")
+    f_jam = (m.phi_j - params["phi0"]) / (m.phi_j - m.phi_c)
+    vmax = max([f_jam] + [float(np.nanmax(fr["bed.f"])) for _, seq in seqs for fr in seq])
     fig, axs = plt.subplots(len(seqs), 1, figsize=(8, 2.4 * len(seqs)))
     axs = np.atleast_1d(axs)
     writer = PillowWriter(fps=4)
@@ -593,9 +641,9 @@ def animation(runs, params, path):
         for k in range(n):
             for ax, (w, seq) in zip(axs, seqs):
                 ax.clear()
-                draw_state(ax, seq[k], params, quiver_every=3)
-                ax.set_title(f"omega = {w:g} 1/s, t = {float(seq[k]['time_s']):.2f} s",
-                             fontsize=9)
+                draw_state(ax, seq[k], params, vmax, arrow_cells=2 * ARROW_CELLS)
+                ax.set_title(f"omega = {w:g} 1/s, t = {float(seq[k]['time_s']):.2f} s "
+                             f"(colour: f, 0 to {vmax:.2f})", fontsize=9)
             fig.tight_layout()
             writer.grab_frame()
     plt.close(fig)
@@ -603,23 +651,45 @@ def animation(runs, params, path):
     return Path(path)
 
 
-def hub_figure(hub: pd.DataFrame, R, path):
-    """Hub height change and advance against time for every omega of ``hub``."""
-    fig, axs = plots.plt.subplots(1, 2, figsize=(11, 4))
+def hub_figure(hub: pd.DataFrame, R, path=None, summary=None):
+    """Hub height change and advance against time for every omega of ``hub``; the fast-wheel
+    band (+-FAST_BAND R) only where the fast wheel (omega = 10) is drawn, and the slow/fast
+    ratios of the summary's checks in the title. ``path`` None: return the figure."""
+    fig, axs = plots.plt.subplots(1, 2, figsize=(11, 4.8))
     for w, g in hub.groupby("omega_per_s"):
         t = g["time_s"].to_numpy()
         axs[0].plot(t, (g["y_m"] - g["y_m"].iloc[0]) / R, label=f"omega = {w:g} 1/s")
         axs[1].plot(t, (g["x_m"] - g["x_m"].iloc[0]) / R, label=f"omega = {w:g} 1/s")
-    axs[0].axhspan(-FAST_BAND, FAST_BAND, color="0.9", zorder=0,
-                   label=f"+- {FAST_BAND:.2g} R (fast-wheel check)")
+    if OMEGAS[0] in set(hub["omega_per_s"]):
+        axs[0].axhspan(-FAST_BAND, FAST_BAND, color="0.9", zorder=0,
+                       label=f"fast-wheel check (omega = {OMEGAS[0]:g} only): within "
+                             f"+-{FAST_BAND:.2g} R of its start")
     axs[0].set_ylabel("hub height change / R")
     axs[1].set_ylabel("hub advance / R")
     for ax in axs:
         ax.set_xlabel("t [s]")
-        ax.legend(fontsize=8)
-    fig.suptitle(f"hub of the wheel (R = {R:g} m)", fontsize=10)
-    fig.tight_layout()
-    return plots.save(fig, path)
+    title = f"hub of the wheel (R = {R:g} m)"
+    if summary is not None:
+        runs = summary["runs"]
+        title += ": sink at t_end " + ", ".join(
+            f"{r['sink_depth_m'] * 1e3:.0f} mm (largest {r['max_sink_m'] * 1e3:.0f} mm) at "
+            f"omega = {r['omega_per_s']:g} 1/s" for r in runs.values())
+        ch = summary["checks"]
+        if "slow_sinks_3x" in ch:
+            ratio = (f"{ch['sink_ratio']:.2f}" if ch["sink_ratio"] is not None
+                     else "undefined (the fast wheel did not sink)")
+            dip = (f"{ch['sink_ratio_largest_dip']:.2f}"
+                   if ch.get("sink_ratio_largest_dip") is not None else "undefined")
+            title += (f"\nslow/fast sink {ratio} at t_end (check >= {SINK_RATIO:g}: "
+                      f"{'passed' if ch['slow_sinks_3x'] else 'failed'}), {dip} by the "
+                      f"largest dips; fast wheel within +-{FAST_BAND:.2g} R: "
+                      f"{'yes' if ch['fast_stays_up'] else 'no'}")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0.08, 1, 0.95))
+    handles, labels = axs[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8,
+               frameon=False)
+    return plots.save(fig, path) if path is not None else fig
 
 
 def pressure_figure(cases, params_of, path, t=1.0, t_from=None):
@@ -691,11 +761,13 @@ def report(sim, history, out, params, omega):
                "sink_depth_definition": "hub height at t = 0 minus at t_end [m] (> 0: sank)"}
     paths = [atomic_write_csv(out / "hub.csv", hub),
              atomic_write_json(out / "summary.json", _finite(summary),
-                               nullable=("sink_ratio", "speed_m_per_s", "wheel_spin_per_s")),
-             hub_figure(hub, R, out / "hub.png")]
+                               nullable=("sink_ratio", "sink_ratio_largest_dip",
+                                         "speed_m_per_s", "wheel_spin_per_s")),
+             hub_figure(hub, R, out / "hub.png", summary)]
     for w, folder, _ in runs:
         name = {10.0: "fig8.png", 1.0: "fig9.png"}.get(float(w), f"state_omega_{_omega_key(w)}.png")
-        paths.append(snapshots_figure(folder, params, w, out / name))
+        paths.append(snapshots_figure(folder, params, w, out / name,
+                                      summary=results[_omega_key(w)]))
     paths.append(animation([(w, folder) for w, folder, _ in runs], params, out / "wheel.gif"))
     return [Path(p) for p in paths]
 
