@@ -76,7 +76,10 @@ def main(argv=None) -> int:
     run.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.npz")
     run.add_argument("--frames", type=Number("--frames", 1, 100000, integer=True), default=None,
                      help="number of snapshots (default: the scene's)")
-    run.add_argument("--no-vtk", action="store_true", help="skip the VTK snapshots")
+    vtk = run.add_mutually_exclusive_group()
+    vtk.add_argument("--no-vtk", action="store_true", help="skip the VTK snapshots")
+    vtk.add_argument("--vtk", action="store_true",
+                     help="write the VTK snapshots where the scene does not by default (wheel)")
     run.add_argument("--yes", action="store_true",
                      help="run even past 1e10 point-steps (points x steps; about an hour or "
                           "more): without it such a run is refused with its estimate")
@@ -168,7 +171,8 @@ def _command(args) -> None:
         args.mass_fraction = args.mass_fraction[0]
         _mass_fraction(args, get_spec(args.scene), params)
     run_scene(get_setup(args.scene), default_out if args.out is None else args.out, params,
-              resume=args.resume, progress=not args.quiet, vtk=False if args.no_vtk else None,
+              resume=args.resume, progress=not args.quiet,
+              vtk=False if args.no_vtk else True if args.vtk else None,
               frames=args.frames, checkpoint_every=args.checkpoint_every, scene_name=args.scene,
               quiet=args.quiet, yes=args.yes)
 

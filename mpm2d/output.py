@@ -69,16 +69,19 @@ def vtu_name(field: str, axisymmetric: bool) -> str:
     return f"{head}.{name}" if head else name
 
 
-def snapshot_arrays(sim) -> dict[str, np.ndarray]:
-    """Every output array of a snapshot, keyed ``set.field`` / ``body.name.field``; the
-    points of each set in the order of their ids (the engine re-sorts them in memory)."""
+def snapshot_arrays(sim, fields=()) -> dict[str, np.ndarray]:
+    """Every output array of a snapshot (``fields``: only those point fields besides ``id`` and
+    ``x``; empty: all), keyed ``set.field`` / ``body.name.field``; the points of each set in
+    the order of their ids (the engine re-sorts them in memory)."""
     out = {"time_s": np.array(sim.t), "step": np.array(sim.step_count),
            "dt_s": np.array(sim.last_dt)}
     for s in sim.sets:
-        fields = {"id": s.id, "x": s.x, "v": s.v, "stress": s.stress, "V": s.V, "m": s.m}
-        fields.update(s.material.output_fields(s))
+        every = {"id": s.id, "x": s.x, "v": s.v, "stress": s.stress, "V": s.V, "m": s.m}
+        every.update(s.material.output_fields(s))
         order = np.argsort(np.asarray(s.id), kind="stable")
-        for k, a in fields.items():
+        for k, a in every.items():
+            if fields and k not in fields and k not in ("id", "x"):
+                continue
             a = np.asarray(a)[order]
             out[f"{s.name}.{k}"] = a.astype(np.int32) if k in _INTEGER else a
     for b in sim.bodies:
@@ -225,11 +228,13 @@ def write_grid_vtu(path: Path, sim) -> Path:
     return write_vtu(path, pts, fields, cells=[("quad", quads)])
 
 
-def write_frame(out: Path, index: int, sim, vtk: bool = True, tag: str = "frame") -> dict:
+def write_frame(out: Path, index: int, sim, vtk: bool = True, tag: str = "frame",
+                fields=()) -> dict:
     """Write snapshot ``index`` (npz and, if ``vtk``, one .vtu per set); returns its entry.
 
-    ``tag``: ``frame`` for the regular snapshots, ``event`` for those a scene asked for."""
-    arrays = snapshot_arrays(sim)
+    ``tag``: ``frame`` for the regular snapshots, ``event`` for those a scene asked for;
+    ``fields``: the point fields kept (:func:`snapshot_arrays`)."""
+    arrays = snapshot_arrays(sim, fields)
     npz = Path("frames") / f"frame_{index:05d}.npz"
     write_npz(out / npz, arrays)
     entry = {"index": index, "time_s": sim.t, "step": sim.step_count, "npz": str(npz), "vtu": {},

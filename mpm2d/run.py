@@ -94,6 +94,12 @@ class Scene:
         Extra snapshot times [s] (written at the first step reaching each, tagged ``event`` in
         the manifest), e.g. the profile times a report compares; reports read them back with
         :func:`mpm2d.output.load_frames`, so they survive ``--resume``.
+    frame_fields : tuple of str
+        The point fields a snapshot keeps besides ``id`` and ``x`` (``v``, ``m``, ``f``...);
+        empty: every field (a scene whose snapshots would be too large keeps what its report
+        reads).
+    vtk : bool
+        Whether VTK snapshots are written by default (``mpm2d run --vtk``/``--no-vtk`` choose).
     notes : str
         Written to the manifest.
     undefined : tuple of str
@@ -121,6 +127,8 @@ class Scene:
     report: Callable | None = None
     before_step: Callable | None = None
     frame_times: tuple = ()
+    frame_fields: tuple = ()
+    vtk: bool = True
     notes: str = ""
     undefined: tuple = ()
     min_steps: int = 1
@@ -561,13 +569,15 @@ def _history_rows(saved: dict) -> list[dict]:
     return [{c: a[k].item() for c, a in zip(cols, arrays)} for k in range(len(arrays[0]))]
 
 
-def command_line(name: str, params: dict, defaults: dict, frames, vtk: bool) -> str:
+def command_line(name: str, params: dict, defaults: dict, frames, vtk: bool,
+                 vtk_default: bool = True) -> str:
     """The canonical command of a run (deterministic: no output folder, no --resume)."""
     sets = " ".join(f"--set {k}={v}" for k, v in params.items()
                     if k in defaults and v != defaults[k])
     return " ".join(filter(None, [f"mpm2d run {name}", sets,
                                   f"--frames {frames}" if frames is not None else "",
-                                  "" if vtk else "--no-vtk"]))
+                                  "" if vtk == vtk_default else
+                                  ("--vtk" if vtk else "--no-vtk")]))
 
 
 def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool = False,
@@ -583,7 +593,8 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     params : parameter overrides (strings from the CLI are converted)
     resume : continue from ``out/checkpoint.npz``
     progress : progress bar on stderr (tqdm)
-    vtk : also write VTK snapshots (points and grid); default True, or the checkpoint's choice
+    vtk : also write VTK snapshots (points and grid); default the scene's (``Scene.vtk``), or
+        the checkpoint's choice
     frames : number of snapshots (default: the scene's, or the checkpoint's)
     checkpoint_every : wall-clock seconds between checkpoints (> 0)
     log : callable(str) for the run log (default: print to stdout)
@@ -702,12 +713,11 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                               else f"--frames {v}")
                     raise ValueError(f"--resume: --frames {options[k]} differs from the "
                                      f"interrupted run's ({theirs}); resume without --frames")
-                raise ValueError("--resume: --no-vtk differs from the interrupted run's (it "
-                                 f"{'wrote' if v else 'did not write'} VTK); resume "
-                                 f"{'without' if v else 'with'} --no-vtk")
+                flag = "--vtk" if options[k] else "--no-vtk"
+                raise ValueError(f"--resume: {flag} differs from the interrupted run's (it "
+                                 f"{'wrote' if v else 'did not write'} VTK); resume without "
+                                 f"{flag}")
             options[k] = v if options.get(k) is None else options[k]
-    vtk = True if options["vtk"] is None else bool(options["vtk"])
-    options["vtk"] = vtk
     params = spec.validate(given)
     check_step_bound(spec, params, name, given)   # before the set-up where the parameters tell
     if saved is None:                             # a long run needs --yes (mpm2d.estimate)
@@ -749,6 +759,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                          f"({type(exc).__name__}: {exc}{_after_numpy(held)}); valid: values "
                          f"away from the extremes of their ranges ('mpm2d show {name}')") from None
     announce.cancel()
+    vtk = scene.vtk if options["vtk"] is None else bool(options["vtk"])   # the scene's default
+    options["vtk"] = vtk
     if saved is None:
         # too many steps, or fewer than the scene's analysis needs (an end time below one
         # stable step): refused naming the parameter set, with its bound (new set-ups)
@@ -790,7 +802,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         rec_dt = t_end / max(scene.history_rows, 1)
         frame_dt = t_end / max(nframes, 1)
         manifest = {"scene": name,
-                    "command": command_line(name, params, spec.defaults, options["frames"], vtk),
+                    "command": command_line(name, params, spec.defaults, options["frames"], vtk,
+                                            scene.vtk),
                     "params": params, "mode": sim.mode, "transfer": sim.transfer,
                     "description": sim.describe(),
                     "grid": {"nx": sim.grid.nx, "ny": sim.grid.ny, "h_m": sim.grid.h,
@@ -813,7 +826,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         if saved is None:                    # the folder is marked as a run of ours before its
             write_manifest(out, manifest)    # first file (a run killed now can be replaced)
         if not manifest["frames"]:
-            manifest["frames"].append(write_frame(out, 0, sim, vtk))
+            manifest["frames"].append(write_frame(out, 0, sim, vtk, fields=scene.frame_fields))
         if saved is not None:
             next_rec, next_frame = float(next_times[0]), float(next_times[1])
         else:
@@ -870,7 +883,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                         if regular or event:    # one snapshot per step, tagged event if asked
                             manifest["frames"].append(write_frame(
                                 out, len(manifest["frames"]), sim, vtk,
-                                tag="event" if event else "frame"))
+                                tag="event" if event else "frame", fields=scene.frame_fields))
                         if regular:
                             next_frame += frame_dt
                         if bar is not None:
@@ -895,7 +908,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                 if complete:
                     if manifest["frames"][-1]["step"] != sim.step_count:
                         manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim,
-                                                              vtk))
+                                                              vtk, fields=scene.frame_fields))
                     if vtk:
                         write_pvds(out, manifest["frames"])
                     write_history(history)               # the report may read it
