@@ -250,7 +250,7 @@ def _below_legend(fig, axs, ncol: int = 3):
             if lab not in labels and not lab.startswith("_"):
                 handles.append(h)
                 labels.append(lab)
-    fig.tight_layout(rect=(0, 0.04 + 0.035 * ((len(labels) + ncol - 1) // ncol), 1, 0.95))
+    fig.tight_layout(rect=(0, 0.03 + 0.035 * ((len(labels) + ncol - 1) // ncol), 1, 0.95))
     if labels:
         fig.legend(handles, labels, loc="lower center", ncol=ncol, fontsize=7, frameon=False)
 
@@ -426,9 +426,7 @@ def lissajous_figure(waves: pd.DataFrame, title: str, max_curves: int = 8,
         ax.axvline(0, color="0.7", lw=0.6)
         ax.grid(True, alpha=0.25)
     fig.suptitle(title, fontsize=11)
-    handles, labels = axs[0].get_legend_handles_labels()
-    fig.tight_layout(rect=(0, 0.03 + 0.035 * len(labels), 1, 0.96))
-    fig.legend(handles, labels, loc="lower center", ncol=1, fontsize=7, frameon=False)
+    _below_legend(fig, axs[:1], ncol=1)
     return fig
 
 

@@ -103,8 +103,12 @@ defaults) takes the size's value.
 Outputs (besides history.csv, frames, manifest): ``rod.csv`` (v0_m_per_s, time_s, z_m,
 v_m_per_s, a_m_per_s2), ``rod_raw.csv`` (time_s, z_m, force_N, a_raw_m_per_s2), ``front.csv``
 (v0_m_per_s, time_s, front_depth_m), ``displacement_vs_depth.csv`` (depth_m, displacement_m),
-``summary.json``, ``displacement.png`` (Fig. 4a), ``displacement_vs_depth.png`` (Fig. 4c),
-``rod.png`` (Fig. 5 for one v0) and ``front.png``. A sweep over v0 writes the same tables for all
+``summary.json`` (also the largest heave of the bed's points and the share rising more than
+1 mm, and the front's speed after the fit window and its k there), and the figures, drawn from
+these files and the first and last snapshots (:func:`figures`): ``displacement.png`` (Fig. 4a,
+on a diverging scale centred at 0 spanning the field: the heave beside the rod shows),
+``displacement_vs_depth.png`` (Fig. 4c), ``rod.png`` (Fig. 5 for one v0) and ``front.png`` (the
+fit window shaded, what the front does after it in the title). A sweep over v0 writes the same tables for all
 speeds together (``sweep_report``) with ``rod.png`` (Fig. 5), ``speeds.csv`` and ``summary.json``.
 
 Run: ``mpm2d run impact --out impact`` (mode: locked mixture)
