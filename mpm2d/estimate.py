@@ -27,9 +27,11 @@ import numpy as np
 #: runs of more point-steps need confirmation (``--yes``): about an hour or more of two cores
 #: at the ~3e6 point-steps per second of the suspension scenes
 CONFIRM_POINT_STEPS = 1e10
-#: the coarse probe before the set-up: about this many points, these many timed steps
+#: the probes: about this many points before the set-up; at most these many timed steps (or
+#: PROBE_SECONDS of wall time) after the first, whose median is taken
 PROBE_POINTS = 4000
-PROBE_STEPS = 3
+PROBE_STEPS = 20
+PROBE_SECONDS = 1.0
 
 
 def _clock(seconds: float) -> str:
@@ -56,9 +58,10 @@ def _load() -> str:
         return "load average unknown"
 
 
-def timed_steps(sim, steps: int = PROBE_STEPS, budget: float = 2.0) -> float:
-    """Median wall seconds of a step of ``sim`` over up to ``steps`` steps (fewer once
-    ``budget`` wall seconds are spent); ``sim`` is stepped (pass a copy). NaN on failure."""
+def timed_steps(sim, steps: int = PROBE_STEPS, budget: float = PROBE_SECONDS):
+    """(median wall seconds of a step, steps timed) of ``sim`` over up to ``steps`` steps
+    (fewer once ``budget`` wall seconds are spent); ``sim`` is stepped (pass a copy). NaN and 0
+    when no step succeeds."""
     times = []
     try:
         with warnings.catch_warnings(), np.errstate(all="ignore"):
@@ -72,31 +75,30 @@ def timed_steps(sim, steps: int = PROBE_STEPS, budget: float = 2.0) -> float:
                     break
     except (RuntimeError, ArithmeticError, ValueError):
         pass
-    return float(np.median(times)) if times else float("nan")
+    return (float(np.median(times)) if times else float("nan")), len(times)
 
 
-def _coarse_probe(setup, spec, params: dict, points: float) -> tuple[float, str]:
+def _coarse_probe(setup, params: dict, points: float) -> tuple[float, str]:
     """(seconds per point-step, what was probed) from the scene at a coarse resolution."""
     key = "cells_per_mm" if "cells_per_mm" in params else "h" if "h" in params else None
     if key is None or not isinstance(params.get(key), (int, float)) or not points > 0:
         return float("nan"), ""
-    factor = math.sqrt(points / PROBE_POINTS)
+    factor = max(1.0, math.sqrt(points / PROBE_POINTS))        # never finer than the run
     coarse = params[key] / factor if key == "cells_per_mm" else params[key] * factor
-    rng = spec.valid_range(key, params)
-    if rng is not None:
-        lo = rng.lo if rng.lo is not None else -math.inf
-        hi = rng.hi if rng.hi is not None else math.inf
-        coarse = min(max(coarse, lo * (1 + 1e-9)), hi * (1 - 1e-9))
     from .run import _build
 
-    scene = _build(setup, {**params, key: coarse})
-    if scene is None:
+    for _ in range(8):                 # a value the scene refuses: halfway back (geometric)
+        scene = _build(setup, {**params, key: coarse})
+        if scene is not None:
+            break
+        coarse = math.sqrt(coarse * params[key])
+    else:
         return float("nan"), ""
     sim = scene.sim
     n = sum(len(s.x) for s in sim.sets)
     timed_steps(sim, 1)                                   # compilation, caches
-    per = timed_steps(sim)
-    return per / max(n, 1), f"{key} = {coarse:.3g} ({n} points)"
+    per, k = timed_steps(sim)
+    return per / max(n, 1), f"{key} = {coarse:.3g} ({n} points, the median of {k} steps)"
 
 
 def check_before_setup(setup, spec, params: dict, name: str, yes: bool, log) -> None:
@@ -112,7 +114,7 @@ def check_before_setup(setup, spec, params: dict, name: str, yes: bool, log) -> 
     work = points * steps
     if not work > CONFIRM_POINT_STEPS:
         return
-    per, probed = _coarse_probe(setup, spec, params, points)
+    per, probed = _coarse_probe(setup, params, points)
     wall = (f"at least {_clock(work * per)} ({per:.3g} s per point-step from a timed probe at "
             f"{probed}, {_load()})" if math.isfinite(per) else "not estimated")
     text = (f"{points:.3g} points x at least {steps:.3g} steps = at least {work:.3g} "
@@ -137,12 +139,12 @@ def report_after_setup(scene, spec, params: dict, name: str, yes: bool, log) -> 
     work = points * steps
     probe = copy.deepcopy(sim)
     timed_steps(probe, 1)
-    per = timed_steps(probe)
+    per, probed = timed_steps(probe)
     del probe
     text = (f"{points} points x ~{steps:.3g} steps (at the first stable step, {dt:.3g} s) = "
             f"{work:.3g} point-steps; memory ~{spec.estimate_bytes(params) / 1e9:.3g} GB "
-            f"(estimate); wall time {_about(per * steps)} ({per * 1e3:.3g} ms a step in a "
-            f"timed probe of {PROBE_STEPS} steps, {_load()})")
+            f"(estimate); wall time {_about(per * steps)} ({per * 1e3:.3g} ms a step, the "
+            f"median of a timed probe of {probed} steps, {_load()})")
     if work > CONFIRM_POINT_STEPS and not yes:
         raise ValueError(f"scene {name}: a run of {text}: runs past {CONFIRM_POINT_STEPS:.0e} "
                          "point-steps need --yes")

@@ -108,8 +108,9 @@ v_m_per_s, a_m_per_s2), ``rod_raw.csv`` (time_s, z_m, force_N, a_raw_m_per_s2), 
 these files and the first and last snapshots (:func:`figures`): ``displacement.png`` (Fig. 4a,
 on a diverging scale centred at 0 spanning the field: the heave beside the rod shows),
 ``displacement_vs_depth.png`` (Fig. 4c), ``rod.png`` (Fig. 5 for one v0) and ``front.png`` (the
-fit window shaded, what the front does after it in the title). A sweep over v0 writes the same tables for all
-speeds together (``sweep_report``) with ``rod.png`` (Fig. 5), ``speeds.csv`` and ``summary.json``.
+fit window shaded, what the front does after it in the title). A sweep over v0 writes the same
+tables for all speeds together (``sweep_report``) with ``rod.png`` (Fig. 5), ``speeds.csv`` and
+``summary.json``.
 
 Run: ``mpm2d run impact --out impact`` (mode: locked mixture)
 """
