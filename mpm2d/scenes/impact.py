@@ -602,8 +602,8 @@ def displacement_figure(out, s):
     ax.set_title(f"z-displacement {t * 1e3:.0f} ms after impact at v0 = {s['v0_m_per_s']:g} "
                  f"m/s: the rod {rod_disp * 1e3:.1f} mm deep, heave up to "
                  f"{heave * 1e3:.1f} mm\n({s['heave_fraction_over_1mm']:.0%} of the bed's points "
-                 f"rose more than 1 mm); {nx} x {nz} cells of {h * 1e3:g} mm, phi0 = "
-                 f"{s['phi0']:g}", fontsize=9)
+                 f"rose more than 1 mm); {nx} x {nz} cells of {h * 1e3:g} mm; phi0 = "
+                 f"{s['phi0']:g} (our choice: the paper gives none)", fontsize=9)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=2, fontsize=7,
               frameon=False)
     ax.set_aspect("equal")

@@ -522,6 +522,14 @@ def _state_title(res: dict, R: float) -> str:
             f"{res['advance_m']:.2f} m")
 
 
+def _calibration(phi0) -> str:
+    """What the bed's phi0 is, for a figure's title."""
+    if abs(phi0 - 0.5075) < 1e-12:
+        return ("phi0 = 0.5075: a calibration inside the author's 0.50-0.51 (only a narrow "
+                "window of phi0 gives the two wheels' contrast)")
+    return f"phi0 = {phi0:g} (the calibrated default is 0.5075)"
+
+
 def snapshots_figure(out, params, omega, path, n=4, summary=None):
     """Fig. 8 (omega = 10) / Fig. 9 (omega = 1): the state at n times, one colour scale for all
     panels spanning f of every panel (at least to f_jam, marked on the bar); with the run's
@@ -547,9 +555,9 @@ def snapshots_figure(out, params, omega, path, n=4, summary=None):
     cb.ax.axhline(f_jam, color="w", lw=2)
     head = (_state_title(summary, params["radius"]) if summary is not None
             else f"omega = {omega:g} 1/s")
-    fig.suptitle(head + f"\nvectors: 1.215 v sqrt(R/g) on blocks of {ARROW_CELLS} x "
-                 f"{ARROW_CELLS} cells; white line: the surface (grid phi = {SURFACE_PHI:g})",
-                 fontsize=10)
+    fig.suptitle(head + f"\n{_calibration(params['phi0'])}; vectors: 1.215 v sqrt(R/g) on "
+                 f"blocks of {ARROW_CELLS} x {ARROW_CELLS} cells; white line: the surface (grid "
+                 f"phi = {SURFACE_PHI:g})", fontsize=10)
     return plots.save(fig, path) if path is not None else fig
 
 
@@ -601,8 +609,9 @@ def hub_figure(hub: pd.DataFrame, R, path=None, summary=None):
         ax.set_xlabel("t [s]")
     title = f"hub of the wheel (R = {R:g} m)"
     if summary is not None:
+        title = f"{title}; {_calibration(summary['phi0'])}\n"
         runs = summary["runs"]
-        title += ": sink at t_end " + ", ".join(
+        title += "sink at t_end " + ", ".join(
             f"{r['sink_depth_m'] * 1e3:.0f} mm (largest {r['max_sink_m'] * 1e3:.0f} mm) at "
             f"omega = {r['omega_per_s']:g} 1/s" for r in runs.values())
         ch = summary["checks"]
