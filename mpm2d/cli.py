@@ -10,6 +10,8 @@ Examples::
     mpm2d run column --set t_end=2 --out column      # two-phase settling column
     mpm2d run column --out column --resume           # continue from column/checkpoint.npz
     mpm2d sweep bar --set cells=16,32 --out bars     # a parameter sweep on Dask
+    mpm2d run mpm2d/examples/elastic_column.py       # a scene file of your own, by path
+    mpm2d run intruder --set cells_per_mm=8 --yes    # a run past 1e10 point-steps
 
 Bad input (an unknown scene or parameter, a value out of its range, a run too large for the
 memory, a step beyond stability, a resume of another scene or other parameters) exits with
@@ -62,17 +64,25 @@ def main(argv=None) -> int:
     ap._subparsers_action = sub
     sub.add_parser("list", help="list the scenes")
     show = sub.add_parser("show", help="a scene's equations, parameters (valid ranges), command")
-    show.add_argument("scene")
+    show.add_argument("scene", help="a built-in scene (mpm2d list) or a scene file's path")
     ncpu = os.cpu_count() or 1
     run = sub.add_parser("run", help="run a scene")
-    run.add_argument("scene")
+    run.add_argument("scene", help="a built-in scene (mpm2d list) or the path of a scene file "
+                                   "of your own (path/to/my_scene.py: a setup(**params) "
+                                   "declared with mpm2d.scenes.spec.parameters_of)")
     run.add_argument("--set", action="append", metavar="KEY=VALUE", default=[],
                      help="override a scene parameter (repeatable; see mpm2d show SCENE)")
     run.add_argument("--out", default=None, help="output folder (default: ./SCENE)")
     run.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.npz")
     run.add_argument("--frames", type=Number("--frames", 1, 100000, integer=True), default=None,
                      help="number of snapshots (default: the scene's)")
-    run.add_argument("--no-vtk", action="store_true", help="skip the VTK snapshots")
+    vtk = run.add_mutually_exclusive_group()
+    vtk.add_argument("--no-vtk", action="store_true", help="skip the VTK snapshots")
+    vtk.add_argument("--vtk", action="store_true",
+                     help="write the VTK snapshots where the scene does not by default (wheel)")
+    run.add_argument("--yes", action="store_true",
+                     help="run even past 1e10 point-steps (points x steps; about an hour or "
+                          "more): without it such a run is refused with its estimate")
     run.add_argument("--quiet", action="store_true",
                      help="no progress bar and no progress lines (errors still on stderr)")
     run.add_argument("--threads", type=Number("--threads", 1, ncpu, integer=True), default=None,
@@ -108,11 +118,21 @@ def main(argv=None) -> int:
 
 
 def _command(args) -> None:
-    from .scenes import SCENES, get_setup, get_spec
+    from pathlib import Path
+
+    from .scenes import SCENES, get_setup, get_spec, is_scene_file
+
+    if args.cmd != "list" and is_scene_file(args.scene):   # a scene file of the user's
+        default_out = Path(args.scene).stem
+        args.scene = str(Path(args.scene).expanduser().resolve())
+    elif args.cmd != "list":
+        default_out = args.scene
 
     if args.cmd == "list":
         for name, text in SCENES.items():
             print(f"{name:10s} {text}")
+        print("(or the path of a scene file of your own: mpm2d run path/to/my_scene.py; "
+              "example: mpm2d/examples/elastic_column.py)")
         return
     if args.cmd == "show":
         setup = get_setup(args.scene)
@@ -125,7 +145,7 @@ def _command(args) -> None:
     if args.cmd == "sweep":
         from .sweep import parse_grid, run_sweep
 
-        out = f"sweep_{args.scene}" if args.out is None else args.out      # '' is refused
+        out = f"sweep_{default_out}" if args.out is None else args.out      # '' is refused
         table = run_sweep(args.scene, parse_grid(args.set), out,
                           scheduler=args.scheduler, workers=args.workers,
                           checkpoint_every=args.checkpoint_every, vtk=args.vtk,
@@ -150,10 +170,11 @@ def _command(args) -> None:
                              "run each separately or use mpm2d sweep")
         args.mass_fraction = args.mass_fraction[0]
         _mass_fraction(args, get_spec(args.scene), params)
-    run_scene(get_setup(args.scene), args.scene if args.out is None else args.out, params,
-              resume=args.resume, progress=not args.quiet, vtk=False if args.no_vtk else None,
+    run_scene(get_setup(args.scene), default_out if args.out is None else args.out, params,
+              resume=args.resume, progress=not args.quiet,
+              vtk=False if args.no_vtk else True if args.vtk else None,
               frames=args.frames, checkpoint_every=args.checkpoint_every, scene_name=args.scene,
-              quiet=args.quiet)
+              quiet=args.quiet, yes=args.yes)
 
 
 def _mass_fraction(args, spec, params: dict) -> None:

@@ -2,7 +2,7 @@
 
 Layout of a run folder ``DIR`` (every file written atomically through :mod:`rheology.io`)::
 
-    DIR/manifest.json          scene, parameters, mode, grid, sets, fields with units, frames,
+    DIR/manifest.json          scene, parameters, mode, grid, the sets' description, frames,
                                ``status`` (running, complete, ended_early, failed) and ``ends``
                                (where and why a run ended early, rheology.run_end)
                                (strict JSON; ``command`` is the canonical command of the run,
@@ -11,17 +11,27 @@ Layout of a run folder ``DIR`` (every file written atomically through :mod:`rheo
                                momentum, scene columns (units in the names)
     DIR/frames/frame_NNNNN.npz snapshot N: ``time_s``, ``step``, ``dt_s`` and, per set S,
                                ``S.id, S.x, S.v, S.stress, S.V, S.m`` and the material's fields
-                               (``S.phi``, ``S.f``, ``S.pressure_Pa``...); per rigid body B,
-                               ``body.B.x`` (points), ``body.B.center``, ``body.B.velocity``
+                               (``S.phi``, ``S.f``, ``S.pressure_Pa``...), the points ordered by
+                               id in every frame; per rigid body B, ``body.B.x`` (points),
+                               ``body.B.center``, ``body.B.velocity``
     DIR/vtk/S_NNNNN.vtu        the same points and fields for ParaView (VTK XML UnstructuredGrid
                                of vertex cells, written by meshio; coordinates (x, y, 0) or
-                               (r, z, 0); vectors padded to 3 components, tensors as 9)
+                               (r, z, 0); vectors padded to 3 components, tensors as 9), in the
+                               same order (by ``id``: point k of every frame is the same
+                               material point), named with their units (:func:`vtu_name`:
+                               ``velocity_m_per_s``, ``stress_Pa``, ``volume_m3_per_m`` (plane
+                               strain; ``_per_rad`` axisymmetric), ``mass_kg_per_m``,
+                               ``plastic_shear_rate_per_s``, ``fluid_density_kg_per_m3``...;
+                               dimensionless ``phi``, ``f``), integers as integers (``id``,
+                               ``case``: 0 elastic, 1 separated, 2 shear flow, 3 shear flow +
+                               compaction)
     DIR/vtk/grid_NNNNN.vtu     the grid's nodal fields (the real nodes, quad cells): per velocity
-                               field P (``solid``, ``fluid`` in two-phase runs) ``P.velocity``
-                               [m/s] and ``P.mass`` [kg per m or per rad] of the last step's
-                               grid update, ``phi`` (two-phase nodal volume fraction), and each
-                               set's scalar fields projected to the nodes (mass-weighted B-spline
-                               average: ``S.pressure_Pa``, ``S.f``, ``S.phi``...)
+                               field P (``solid``, ``fluid`` in two-phase runs)
+                               ``P.velocity_m_per_s`` and ``P.mass_kg_per_m`` (or ``_per_rad``)
+                               of the last step's grid update, ``phi`` (two-phase nodal volume
+                               fraction), and each set's real scalar fields projected to the
+                               nodes (mass-weighted B-spline average: ``S.pressure_Pa``,
+                               ``S.f``, ``S.phi``...)
     DIR/vtk/NAME.pvd           the time series of each set, body and the grid (open in ParaView);
                                one entry per timestep
     DIR/checkpoint.npz         full state to resume bit-for-bit (``mpm2d run ... --resume``);
@@ -41,22 +51,39 @@ import numpy as np
 
 from rheology.io import atomic_savez, atomic_write_json, atomic_write_text, atomic_write_with
 
-UNITS = {"id": "-", "x": "m", "v": "m/s", "stress": "Pa", "V": "m^3 (per m or per rad)",
-         "m": "kg (per m or per rad)", "phi": "-", "f": "-", "pressure_Pa": "Pa",
-         "granular_pressure_Pa": "Pa", "pore_pressure_Pa": "Pa", "taubar_Pa": "Pa",
-         "shear_rate_p_per_s": "1/s", "case": "0 elastic, 1 separated, 2 shear flow, "
-         "3 shear flow + compaction", "rho_f": "kg/m^3"}
+
+#: VTU names of the snapshot fields that carry no unit in their npz name ("{per}": per m in
+#: plane strain, per rad in axisymmetry); the other names are kept (already ``_Pa``, or
+#: dimensionless)
+_VTU_NAMES = {"v": "velocity_m_per_s", "velocity": "velocity_m_per_s", "stress": "stress_Pa",
+              "V": "volume_m3_{per}", "m": "mass_kg_{per}", "mass": "mass_kg_{per}",
+              "rho_f": "fluid_density_kg_per_m3", "shear_rate_p_per_s": "plastic_shear_rate_per_s"}
+#: integer fields (written as int32 whatever the material stores)
+_INTEGER = ("id", "case")
 
 
-def snapshot_arrays(sim) -> dict[str, np.ndarray]:
-    """Every output array of a snapshot, keyed ``set.field`` / ``body.name.field``."""
+def vtu_name(field: str, axisymmetric: bool) -> str:
+    """The ParaView name of snapshot field ``field`` (``P.mass`` -> ``P.mass_kg_per_m``)."""
+    head, _, last = field.rpartition(".")
+    name = _VTU_NAMES.get(last, last).format(per="per_rad" if axisymmetric else "per_m")
+    return f"{head}.{name}" if head else name
+
+
+def snapshot_arrays(sim, fields=()) -> dict[str, np.ndarray]:
+    """Every output array of a snapshot (``fields``: only those point fields besides ``id`` and
+    ``x``; empty: all), keyed ``set.field`` / ``body.name.field``; the points of each set in
+    the order of their ids (the engine re-sorts them in memory)."""
     out = {"time_s": np.array(sim.t), "step": np.array(sim.step_count),
            "dt_s": np.array(sim.last_dt)}
     for s in sim.sets:
-        fields = {"id": s.id, "x": s.x, "v": s.v, "stress": s.stress, "V": s.V, "m": s.m}
-        fields.update(s.material.output_fields(s))
-        for k, a in fields.items():
-            out[f"{s.name}.{k}"] = np.asarray(a)
+        every = {"id": s.id, "x": s.x, "v": s.v, "stress": s.stress, "V": s.V, "m": s.m}
+        every.update(s.material.output_fields(s))
+        order = np.argsort(np.asarray(s.id), kind="stable")
+        for k, a in every.items():
+            if fields and k not in fields and k not in ("id", "x"):
+                continue
+            a = np.asarray(a)[order]
+            out[f"{s.name}.{k}"] = a.astype(np.int32) if k in _INTEGER else a
     for b in sim.bodies:
         out[f"body.{b.name}.x"] = b.x
         out[f"body.{b.name}.center"] = b.center
@@ -76,7 +103,9 @@ def _point_data(n: int, fields: dict) -> dict:
     out = {}
     for k, a in fields.items():
         a = np.asarray(a)
-        if a.dtype.kind not in "iuf":
+        if a.dtype.kind == "b":
+            a = a.astype(np.int32)
+        elif a.dtype.kind not in "iuf":
             a = a.astype(np.float64)
         a = a.reshape(n, -1) if a.ndim > 1 else a.reshape(n)
         if a.ndim == 2 and a.shape[1] == 2:          # ParaView vectors need 3 components
@@ -175,7 +204,7 @@ def grid_fields(sim) -> dict[str, np.ndarray]:
         out["phi"] = np.asarray(sim.phi_nodes)[real]
     for s in sim.sets:
         scalars = {k: np.asarray(a, dtype=float) for k, a in s.material.output_fields(s).items()
-                   if np.ndim(a) == 1 and np.asarray(a).dtype.kind == "f"}
+                   if np.ndim(a) == 1 and np.asarray(a).dtype.kind == "f" and k not in _INTEGER}
         for k, a in project_to_nodes(g, s.x, s.m, scalars).items():
             out[f"{s.name}.{k}"] = a
     return out
@@ -195,30 +224,33 @@ def write_grid_vtu(path: Path, sim) -> Path:
     fields = {}
     for k, a in grid_fields(sim).items():
         a = np.nan_to_num(np.asarray(a, dtype=float), nan=0.0)
-        fields[k] = a.reshape(nxn * nyn, *a.shape[2:])
+        fields[vtu_name(k, g.axisymmetric)] = a.reshape(nxn * nyn, *a.shape[2:])
     return write_vtu(path, pts, fields, cells=[("quad", quads)])
 
 
-def write_frame(out: Path, index: int, sim, vtk: bool = True, tag: str = "frame") -> dict:
+def write_frame(out: Path, index: int, sim, vtk: bool = True, tag: str = "frame",
+                fields=()) -> dict:
     """Write snapshot ``index`` (npz and, if ``vtk``, one .vtu per set); returns its entry.
 
-    ``tag``: ``frame`` for the regular snapshots, ``event`` for those a scene asked for."""
-    arrays = snapshot_arrays(sim)
+    ``tag``: ``frame`` for the regular snapshots, ``event`` for those a scene asked for;
+    ``fields``: the point fields kept (:func:`snapshot_arrays`)."""
+    arrays = snapshot_arrays(sim, fields)
     npz = Path("frames") / f"frame_{index:05d}.npz"
     write_npz(out / npz, arrays)
     entry = {"index": index, "time_s": sim.t, "step": sim.step_count, "npz": str(npz), "vtu": {},
              "tag": tag}
     if vtk:
+        axi = sim.grid.axisymmetric
         for s in sim.sets:
             prefix = f"{s.name}."
-            fields = {k[len(prefix):]: a for k, a in arrays.items()
+            fields = {vtu_name(k[len(prefix):], axi): a for k, a in arrays.items()
                       if k.startswith(prefix) and k != f"{s.name}.x"}
             vtu = Path("vtk") / f"{s.name}_{index:05d}.vtu"
-            write_vtu(out / vtu, s.x, fields)
+            write_vtu(out / vtu, arrays[f"{s.name}.x"], fields)
             entry["vtu"][s.name] = str(vtu)
         for b in sim.bodies:
             vtu = Path("vtk") / f"{b.name}_{index:05d}.vtu"
-            write_vtu(out / vtu, b.x, {"velocity": np.tile(b.velocity, (b.x.shape[0], 1))})
+            write_vtu(out / vtu, b.x, {"velocity_m_per_s": np.tile(b.velocity, (b.x.shape[0], 1))})
             entry["vtu"][b.name] = str(vtu)
         vtu = Path("vtk") / f"grid_{index:05d}.vtu"
         write_grid_vtu(out / vtu, sim)
@@ -254,4 +286,4 @@ def write_manifest(out: Path, manifest: dict) -> Path:
 
 __all__ = ["snapshot_arrays", "write_frame", "write_pvds", "write_manifest", "write_vtu",
            "read_vtu", "write_grid_vtu", "grid_fields", "project_to_nodes", "load_frames",
-           "UNITS"]
+           "vtu_name"]

@@ -55,6 +55,7 @@ from rheology.io import (atomic_write_csv, check_output_dir, load_checkpoint,
                          previous_checkpoint, save_checkpoint)
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
+from . import estimate
 from .output import write_frame, write_manifest, write_pvds
 from .progress import Progress
 from .scenes.spec import shown_value
@@ -93,6 +94,12 @@ class Scene:
         Extra snapshot times [s] (written at the first step reaching each, tagged ``event`` in
         the manifest), e.g. the profile times a report compares; reports read them back with
         :func:`mpm2d.output.load_frames`, so they survive ``--resume``.
+    frame_fields : tuple of str
+        The point fields a snapshot keeps besides ``id`` and ``x`` (``v``, ``m``, ``f``...);
+        empty: every field (a scene whose snapshots would be too large keeps what its report
+        reads).
+    vtk : bool
+        Whether VTK snapshots are written by default (``mpm2d run --vtk``/``--no-vtk`` choose).
     notes : str
         Written to the manifest.
     undefined : tuple of str
@@ -120,6 +127,8 @@ class Scene:
     report: Callable | None = None
     before_step: Callable | None = None
     frame_times: tuple = ()
+    frame_fields: tuple = ()
+    vtk: bool = True
     notes: str = ""
     undefined: tuple = ()
     min_steps: int = 1
@@ -560,19 +569,21 @@ def _history_rows(saved: dict) -> list[dict]:
     return [{c: a[k].item() for c, a in zip(cols, arrays)} for k in range(len(arrays[0]))]
 
 
-def command_line(name: str, params: dict, defaults: dict, frames, vtk: bool) -> str:
+def command_line(name: str, params: dict, defaults: dict, frames, vtk: bool,
+                 vtk_default: bool = True) -> str:
     """The canonical command of a run (deterministic: no output folder, no --resume)."""
     sets = " ".join(f"--set {k}={v}" for k, v in params.items()
                     if k in defaults and v != defaults[k])
     return " ".join(filter(None, [f"mpm2d run {name}", sets,
                                   f"--frames {frames}" if frames is not None else "",
-                                  "" if vtk else "--no-vtk"]))
+                                  "" if vtk == vtk_default else
+                                  ("--vtk" if vtk else "--no-vtk")]))
 
 
 def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool = False,
               progress: bool = True, vtk: bool | None = None, frames: int | None = None,
               checkpoint_every: float = 60.0, log=None, stop_after_steps: int | None = None,
-              scene_name: str = "", quiet: bool = False) -> dict:
+              scene_name: str = "", quiet: bool = False, yes: bool = True) -> dict:
     """Run a scene to its end time (or ``stop_after_steps`` steps, then checkpoint).
 
     Parameters
@@ -582,7 +593,8 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     params : parameter overrides (strings from the CLI are converted)
     resume : continue from ``out/checkpoint.npz``
     progress : progress bar on stderr (tqdm)
-    vtk : also write VTK snapshots (points and grid); default True, or the checkpoint's choice
+    vtk : also write VTK snapshots (points and grid); default the scene's (``Scene.vtk``), or
+        the checkpoint's choice
     frames : number of snapshots (default: the scene's, or the checkpoint's)
     checkpoint_every : wall-clock seconds between checkpoints (> 0)
     log : callable(str) for the run log (default: print to stdout)
@@ -590,6 +602,9 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     quiet : no progress bar and no log lines (set-up, notes, the closing line; ``mpm2d run
         --quiet``); a run started inside a quiet run (the wheel report's other omegas) is quiet
         too, whatever its own ``log`` and ``progress``. Errors are raised as always.
+    yes : run a fresh run past :data:`mpm2d.estimate.CONFIRM_POINT_STEPS` point-steps (``mpm2d
+        run --yes``); False refuses it with its estimate (ValueError) before anything is
+        written. Every fresh run logs its size and estimated wall time (:mod:`mpm2d.estimate`).
 
     Returns
     -------
@@ -614,7 +629,7 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     log = log or (lambda msg: print(msg, flush=True))
     with _Quiet(quiet):
         return _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_every,
-                          log, stop_after_steps, scene_name)
+                          log, stop_after_steps, scene_name, yes)
 
 
 class _Quiet:
@@ -634,7 +649,7 @@ class _Quiet:
 
 
 def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_every, log,
-               stop_after_steps, scene_name) -> dict:
+               stop_after_steps, scene_name, yes=True) -> dict:
     """:func:`run_scene` with its log and progress settled."""
     out = check_output_dir("--out", out)
     ckpt_path = out / "checkpoint.npz"
@@ -698,14 +713,15 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                               else f"--frames {v}")
                     raise ValueError(f"--resume: --frames {options[k]} differs from the "
                                      f"interrupted run's ({theirs}); resume without --frames")
-                raise ValueError("--resume: --no-vtk differs from the interrupted run's (it "
-                                 f"{'wrote' if v else 'did not write'} VTK); resume "
-                                 f"{'without' if v else 'with'} --no-vtk")
+                flag = "--vtk" if options[k] else "--no-vtk"
+                raise ValueError(f"--resume: {flag} differs from the interrupted run's (it "
+                                 f"{'wrote' if v else 'did not write'} VTK); resume without "
+                                 f"{flag}")
             options[k] = v if options.get(k) is None else options[k]
-    vtk = True if options["vtk"] is None else bool(options["vtk"])
-    options["vtk"] = vtk
     params = spec.validate(given)
     check_step_bound(spec, params, name, given)   # before the set-up where the parameters tell
+    if saved is None:                             # a long run needs --yes (mpm2d.estimate)
+        estimate.check_before_setup(setup, spec, params, name, yes, log)
     # a fresh run removes only what a previous run of ours wrote; a folder of the user's is
     # refused here, before the set-up and before anything is written
     previous = previous_run_files(out) if saved is None else []
@@ -743,6 +759,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                          f"({type(exc).__name__}: {exc}{_after_numpy(held)}); valid: values "
                          f"away from the extremes of their ranges ('mpm2d show {name}')") from None
     announce.cancel()
+    vtk = scene.vtk if options["vtk"] is None else bool(options["vtk"])   # the scene's default
+    options["vtk"] = vtk
     if saved is None:
         # too many steps, or fewer than the scene's analysis needs (an end time below one
         # stable step): refused naming the parameter set, with its bound (new set-ups)
@@ -759,6 +777,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
             raise blame(setup, params, given, name, acceptable,
                         f"breaks the first step ({reason})",
                         time.perf_counter() + BLAME_BUDGET_S)
+        estimate.report_after_setup(scene, spec, params, name, yes, log)
     with np.errstate(all="ignore"):          # inf/0 steps are the check's to refuse
         check_step_count(scene, name)
     for w in held:                           # a set-up that succeeded: its warnings as they were
@@ -783,7 +802,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         rec_dt = t_end / max(scene.history_rows, 1)
         frame_dt = t_end / max(nframes, 1)
         manifest = {"scene": name,
-                    "command": command_line(name, params, spec.defaults, options["frames"], vtk),
+                    "command": command_line(name, params, spec.defaults, options["frames"], vtk,
+                                            scene.vtk),
                     "params": params, "mode": sim.mode, "transfer": sim.transfer,
                     "description": sim.describe(),
                     "grid": {"nx": sim.grid.nx, "ny": sim.grid.ny, "h_m": sim.grid.h,
@@ -806,7 +826,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         if saved is None:                    # the folder is marked as a run of ours before its
             write_manifest(out, manifest)    # first file (a run killed now can be replaced)
         if not manifest["frames"]:
-            manifest["frames"].append(write_frame(out, 0, sim, vtk))
+            manifest["frames"].append(write_frame(out, 0, sim, vtk, fields=scene.frame_fields))
         if saved is not None:
             next_rec, next_frame = float(next_times[0]), float(next_times[1])
         else:
@@ -835,7 +855,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
             with warnings.catch_warnings(record=True) as held_run:
                 warnings.simplefilter("always", RuntimeWarning)
                 complete = stepping = True
-                bar = Progress(sim.t, t_end, sim.step_count, label=name) if progress else None
+                bar = Progress(sim.t, t_end, sim.step_count, label=spec.name) if progress else None
                 try:
                     while sim.t < t_end * (1.0 - 1e-12):
                         if stop.pending:
@@ -863,7 +883,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                         if regular or event:    # one snapshot per step, tagged event if asked
                             manifest["frames"].append(write_frame(
                                 out, len(manifest["frames"]), sim, vtk,
-                                tag="event" if event else "frame"))
+                                tag="event" if event else "frame", fields=scene.frame_fields))
                         if regular:
                             next_frame += frame_dt
                         if bar is not None:
@@ -888,7 +908,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                 if complete:
                     if manifest["frames"][-1]["step"] != sim.step_count:
                         manifest["frames"].append(write_frame(out, len(manifest["frames"]), sim,
-                                                              vtk))
+                                                              vtk, fields=scene.frame_fields))
                     if vtk:
                         write_pvds(out, manifest["frames"])
                     write_history(history)               # the report may read it

@@ -340,7 +340,10 @@ def add_subcommands(sub) -> dict:
 
 
 def _cmd_oscillation(args) -> str:
-    from rheology.io import atomic_savefig, atomic_write_csv, check_output_path
+    from rheology.elastic import ELASTIC_STRAIN_LIMIT
+    from rheology.io import atomic_savefig, atomic_write_csv, atomic_write_json, check_finite
+    from rheology.io import check_output_path
+    from rheology.run_end import EndedEarly, run_record
 
     from . import oscillation as osc
     from . import plots
@@ -350,6 +353,7 @@ def _cmd_oscillation(args) -> str:
     base = Path(args.out)
     waves_csv = base.with_name(base.stem + "_waveforms.csv")
     liss_png = base.with_name(base.stem + "_lissajous.png")
+    record = base.with_suffix(".json")
     check_output_path("--out", str(waves_csv), ["csv"])
     m = _material(args)
     if args.control == "strain":
@@ -364,6 +368,10 @@ def _cmd_oscillation(args) -> str:
         m, args.phi, frequency=args.frequency, amplitude=amps, control=args.control,
         start=args.start, G=args.G, K0=args.K0, max_cycles=args.cycles, tol=args.tol,
         samples=args.samples, rtol=args.rtol)
+    ends = points.attrs["ends"]
+    failed = points["reason"] != ""
+    if not (~failed).any():
+        raise RuntimeError(f"every point failed; the first: {ends[0].line()}")
     g = getattr(args, "_geometry", None)
     if g is not None:
         points = points.copy()
@@ -374,10 +382,18 @@ def _cmd_oscillation(args) -> str:
     wtable, _ = finish_table(args, waves)
     empty = ("elastic_stress_Pa", "viscous_stress_Pa") if args.control == "stress" else ()
     empty = tuple(geo.normalised_name(c) if m.units == "normalised" else c for c in empty)
-    # empty where undefined: tan_delta if G' <= 0, cycle_change if fewer than two cycles compared
-    atomic_write_csv(args.out, table, empty_ok=("tan_delta", "cycle_change"))
+    # empty where undefined: tan_delta if G' <= 0, cycle_change if fewer than two cycles
+    # compared; a failed point's results (its row says why), checked finite in the others
+    ok = ("tan_delta", "cycle_change")
+    check_finite(table[~failed.to_numpy()], Path(args.out).name, ok)
+    unit = geo.normalised_name if m.units == "normalised" else (lambda c: c)
+    empty_failed = tuple(unit(c) for c in osc.FAILED_EMPTY) + (
+        ("torque_amplitude_N_m", "angle_amplitude_rad") if g is not None else ())
+    atomic_write_csv(args.out, table, empty_ok=ok + (empty_failed if failed.any() else ()))
     atomic_write_csv(waves_csv, wtable, empty_ok=empty)
+    written = [args.out, str(waves_csv)]
     msg = f"wrote {args.out} ({len(table)} points) and {waves_csv} ({len(wtable)} rows)"
+    past = points[points["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT]
     if plot is not None:
         import matplotlib.pyplot as plt
 
@@ -392,31 +408,40 @@ def _cmd_oscillation(args) -> str:
         for path, maker in ((plot, lambda: plots.oscillation_figure(
                                 points, f"{m.name}: oscillation ({what})", dst)),
                             (str(liss_png), lambda: plots.lissajous_figure(
-                                waves, f"{m.name}: Lissajous-Bowditch curves ({what})"))):
+                                waves, f"{m.name}: Lissajous-Bowditch curves ({what})",
+                                points=points, dst_stress=dst))):
             fig = maker()
             try:
                 atomic_savefig(fig, path)
             finally:
                 plt.close(fig)
         msg += f", {plot} and {liss_png}"
-    cyc = points["cycles"]
+        written += [plot, str(liss_png)]
+    atomic_write_json(record, run_record(ends, command="rheometer oscillation",
+                                         csv=Path(args.out).name, rows=len(table),
+                                         failed_points=int(failed.sum()),
+                                         past_elastic_limit_points=len(past)))
+    written.append(str(record))
+    msg += f" and {record}"
+    ran = points[~failed]
+    cyc = ran["cycles"].astype(int)
     msg += (f"\nperiodic steady state: cycle-to-cycle change < {args.tol:g} of |first "
-            f"harmonic| (and of mean f) in {int(points['converged'].sum())}/{len(points)} points;"
-            f" cycles used {int(cyc.min())}..{int(cyc.max())} (median {int(np.median(cyc))})")
-    bad = points[~points["converged"]]
+            f"harmonic| (and of mean f) in {int(ran['converged'].sum())}/{len(ran)} points that "
+            f"ran; cycles used {int(cyc.min())}..{int(cyc.max())} (median "
+            f"{int(np.median(cyc))})")
+    bad = ran[~ran["converged"].astype(bool)]
     if len(bad):
         msg += ("\nWARNING: not periodic within --cycles " f"{args.cycles}: " + ", ".join(
             f"phi {r.phi:g} {r.frequency_Hz:g} Hz amplitude {r.strain_amplitude:.3g} (change "
             f"{r.cycle_change:.2g})" for r in bad.itertuples()))
-    from rheology.elastic import ELASTIC_STRAIN_LIMIT
-
-    past = points[points["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT]
     if len(past):
         msg += (f"\nWARNING: {len(past)}/{len(points)} points strain the skeleton elastically "
                 f"past {ELASTIC_STRAIN_LIMIT:g} (taubar/G up to "
                 f"{float(past['max_elastic_strain'].max()):.3g}, column max_elastic_strain; "
                 f"first at amplitude {float(past.iloc[0]['strain_amplitude']):.3g}): the "
                 f"hypoelastic law is used there outside its small-strain range (the jammed "
-                f"sample answers elastically)")
+                f"sample answers elastically; drawn hollow on the figure)")
     msg += extra_outputs(args, points)
+    if ends:          # the failed points are in the table with their reason: status 3
+        args._ended = EndedEarly(ends, partial=points, written=written)
     return msg

@@ -118,7 +118,13 @@ POINT_COLUMNS = ("phi", "control", "frequency_Hz", "angular_frequency_rad_per_s"
                  "storage_modulus_Pa", "loss_modulus_Pa", "complex_viscosity_Pa_s", "tan_delta",
                  "I3_over_I1", "linear_storage_modulus_Pa", "linear_loss_modulus_Pa",
                  "mean_f", "max_f", "max_elastic_strain", "cycles", "extrapolations",
-                 "cycle_change", "converged")
+                 "cycle_change", "converged", "reason")
+#: Columns of a point that failed (IDA, or an unphysical state) left empty (null) in its row;
+#: ``reason`` holds the solver's diagnostics (empty for the points that ran).
+FAILED_EMPTY = ("strain_amplitude", "stress_amplitude_Pa", "peak_stress_Pa",
+                "storage_modulus_Pa", "loss_modulus_Pa", "complex_viscosity_Pa_s", "tan_delta",
+                "I3_over_I1", "mean_f", "max_f", "max_elastic_strain", "cycles",
+                "extrapolations", "cycle_change")
 #: Columns of the waveform table (the last, periodic cycle of every point).
 WAVE_COLUMNS = ("point", "phi", "frequency_Hz", "strain_amplitude", "stress_amplitude_Pa",
                 "phase_rad", "time_s", "strain", "shear_rate_per_s", "shear_stress_Pa",
@@ -519,7 +525,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
                  # outside its range (a jammed sample answering elastically to gamma0 ~ 1)
                  max_elastic_strain=float(np.max(np.abs(taubar))) / G, cycles=cycle,
                  cycle_change=changes[-1] if changes else np.nan, converged=converged,
-                 extrapolations=jumps,
+                 extrapolations=jumps, reason="",
                  seconds=time.perf_counter() - t0)
     if mode == STRAIN:
         el, vi = elastic_viscous(sigma)
@@ -557,8 +563,13 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
     Returns
     -------
     (points, waveforms) : DataFrames with :data:`POINT_COLUMNS` and :data:`WAVE_COLUMNS`;
-    ``points.attrs`` holds the material, G, K0, the tolerance, the run time and the number of
-    points that did not converge.
+    ``points.attrs`` holds the material, G, K0, the tolerance, the run time, the number of
+    points that did not converge and ``ends``: one :class:`rheology.run_end.RunEnd` (kind
+    ``solver_failure``, ``run`` naming the point) per point whose solve failed. Such a point
+    keeps its row, with its drive (phi, control, frequency, the imposed amplitude), empty
+    (NaN) results (:data:`FAILED_EMPTY`), ``converged`` False and the solver's diagnostics in
+    ``reason``; it has no waveform rows; the sweep goes on (under ``start="previous"`` the
+    next point starts from rest). Bad input raises ValueError before any point runs.
     """
     m = rheology.get_material(material)
     if start not in ("rest", "previous"):
@@ -571,14 +582,26 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
             raise ValueError(f"give at least one {name}")
     check_positive("frequency [Hz]", freqs)
     check_positive("amplitude", amps)
-    rows, waves = [], []
+    from rheology.run_end import RunEnd
+
+    _moduli(m, phis[0], options.get("G"), options.get("K0"))     # bad input before any point
+    rows, waves, ends = [], [], []
     t0 = time.perf_counter()
     for ph in phis:
         state = None
         for fr in freqs:
             for a in amps:
-                point, wave, end = oscillate(m, ph, fr, a, control=control, state=state,
-                                             **options)
+                try:
+                    point, wave, end = oscillate(m, ph, fr, a, control=control, state=state,
+                                                 **options)
+                except RuntimeError as exc:          # this point failed: its own row, no wave
+                    what = "strain" if control == "strain" else "stress"
+                    run = f"phi = {ph:g}, {fr:g} Hz, {what} amplitude {a:g}"
+                    ends.append(RunEnd("solver_failure", str(exc), run=run))
+                    lin = complex(linear_modulus(m, ph, fr, options.get("G")))
+                    rows.append(_failed_point(ph, control, fr, a, lin, str(exc)))
+                    state = None
+                    continue
                 state = end if start == "previous" else None
                 n = len(rows)
                 rows.append(point)
@@ -591,11 +614,27 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
     points = pd.DataFrame(rows)
     seconds = points.pop("seconds")
     points = points[list(POINT_COLUMNS)]
-    waveforms = pd.concat(waves, ignore_index=True)[list(WAVE_COLUMNS)]
+    for c in ("cycles", "extrapolations"):                 # integers, empty where failed
+        points[c] = points[c].astype("Int64")
+    waveforms = (pd.concat(waves, ignore_index=True) if waves
+                 else pd.DataFrame(columns=WAVE_COLUMNS))[list(WAVE_COLUMNS)]
     _, _, G, K0 = _moduli(m, phis[0], options.get("G"), options.get("K0"))
     points.attrs.update(material=m.name, control=control, G_Pa=G, K0=K0,
                         tol=options.get("tol", DEFAULT_TOL), seconds=time.perf_counter() - t0,
                         point_seconds=list(seconds), not_converged=int((~points["converged"]).sum()),
-                        start=start)
+                        start=start, ends=ends)
     waveforms.attrs.update(points.attrs)
     return points, waveforms
+
+
+def _failed_point(phi, control, frequency, amplitude, linear, reason) -> dict:
+    """The row of a point whose solve failed: its drive, the linear G* (``linear``, complex
+    [Pa]), NaN results, the reason."""
+    nan = float("nan")
+    row = {k: nan for k in POINT_COLUMNS}
+    row.update(phi=phi, control=control, frequency_Hz=frequency,
+               angular_frequency_rad_per_s=2.0 * np.pi * frequency, converged=False,
+               linear_storage_modulus_Pa=linear.real, linear_loss_modulus_Pa=linear.imag,
+               reason=reason, seconds=nan)
+    row["strain_amplitude" if control == "strain" else "stress_amplitude_Pa"] = amplitude
+    return row

@@ -241,85 +241,179 @@ def material_point_figure(df: pd.DataFrame, title: str):
 
 
 # ------------------------------------------------------------------ oscillation
+def _below_legend(fig, axs, ncol: int = 3):
+    """One legend for the figure, below its panels (never over data); the labels of every
+    panel, each once."""
+    handles, labels = [], []
+    for ax in np.atleast_1d(axs):
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            if lab not in labels and not lab.startswith("_"):
+                handles.append(h)
+                labels.append(lab)
+    fig.tight_layout(rect=(0, 0.03 + 0.035 * ((len(labels) + ncol - 1) // ncol), 1, 0.95))
+    if labels:
+        fig.legend(handles, labels, loc="lower center", ncol=ncol, fontsize=7, frameon=False)
+
+
 def oscillation_figure(points: pd.DataFrame, title: str, dst_stress: float | None = None):
     """Sweep results: G' and G'' (symbols) with the linearised model's (lines), |eta*|, and the
     third-harmonic ratio I3/I1, against the strain amplitude (amplitude sweep) or the frequency
-    (frequency sweep); one colour per phi (and per frequency in an amplitude sweep). Where
-    ``dst_stress`` [Pa] is given, the amplitude where the peak stress first exceeds it is marked."""
-    fig, axs = plt.subplots(1, 3, figsize=(15, 4.3))
+    (frequency sweep); one colour per phi (and per frequency in an amplitude sweep). Points whose
+    elastic strain taubar/G passes :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT` (the law outside
+    its small-strain range) are drawn hollow over a shaded band; points whose solve failed
+    (empty results, ``reason`` set) as crosses on the axis. Where ``dst_stress`` [Pa] is given,
+    the amplitude where the peak stress first exceeds it is marked. One legend, below."""
+    from rheology.elastic import ELASTIC_STRAIN_LIMIT
+
+    fig, axs = plt.subplots(1, 3, figsize=(15, 4.8))
     amp_sweep = points.groupby(["phi", "frequency_Hz"]).size().max() > 1
     keys = ["phi", "frequency_Hz"] if amp_sweep else ["phi", "strain_amplitude"]
     if not amp_sweep and points["control"].iloc[0] == "stress":
         keys = ["phi", "stress_amplitude_Pa"]
-    groups = list(points.groupby(keys, sort=False))
+    if "reason" not in points:
+        points = points.assign(reason="")
+    failed_all = points["reason"].fillna("") != ""
+    # a failed point has no measured strain (stress control) or stress: group it by its drive
+    groups = list(points.groupby(keys, sort=False, dropna=False))
     xcol = "strain_amplitude" if amp_sweep else "frequency_Hz"
-    xlabel = "strain amplitude gamma0 [-]" if amp_sweep else "frequency [Hz]"
+    if amp_sweep and points["control"].iloc[0] == "stress":
+        xcol = "stress_amplitude_Pa"
+    xlabel = {"strain_amplitude": "strain amplitude gamma0 [-]",
+              "stress_amplitude_Pa": "stress amplitude sigma0 [Pa]",
+              "frequency_Hz": "frequency [Hz]"}[xcol]
+    n_past = int((points["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT).sum())
     for c, (key, d) in zip(_colors(len(groups)), groups):
         d = d.sort_values(xcol)
         lab = f"phi = {key[0]:g}, " + (f"{key[1]:g} Hz" if amp_sweep else
                                        (f"gamma0 = {key[1]:g}" if keys[1] == "strain_amplitude"
                                         else f"sigma0 = {key[1]:g} Pa"))
-        x = d[xcol]
-        axs[0].loglog(x, _positive(d["storage_modulus_Pa"]), "o-", color=c, ms=4, lw=1.5,
-                      label=lab + ": G'")
-        axs[0].loglog(x, _positive(d["loss_modulus_Pa"]), "s--", color=c, ms=4, lw=1.5,
-                      mfc="none", label=lab + ": G''")
-        axs[0].loglog(x, _positive(d["linear_storage_modulus_Pa"]), ":", color=c, lw=1)
-        axs[0].loglog(x, _positive(d["linear_loss_modulus_Pa"]), ":", color=c, lw=1)
-        axs[1].loglog(x, _positive(d["complex_viscosity_Pa_s"]), "o-", color=c, ms=4, label=lab)
-        axs[2].loglog(x, _positive(d["I3_over_I1"]), "o-", color=c, ms=4, label=lab)
-        bad = d[~d["converged"].astype(bool)]
+        fail = (d["reason"].fillna("") != "").to_numpy()
+        ran = d[~fail]
+        past = (ran["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT).to_numpy()
+        x = ran[xcol]
+        panels = ((axs[0], "storage_modulus_Pa", "o", "-", ": G'"),
+                  (axs[0], "loss_modulus_Pa", "s", "--", ": G''"),
+                  (axs[1], "complex_viscosity_Pa_s", "o", "-", ""),
+                  (axs[2], "I3_over_I1", "o", "-", ""))
+        for k, (ax, col, mk, ls, what) in enumerate(panels):
+            y = _positive(ran[col])
+            ax.loglog(x, y, ls, color=c, lw=1.5, label=lab + what if k < 2 else "_",
+                      marker=mk, ms=5, mfc="none" if mk == "s" else c,
+                      markevery=list(np.flatnonzero(~past)))
+            if past.any():
+                ax.loglog(x[past], y[past], mk, color=c, ms=7, mfc="white", mew=1.6, ls="none")
+        axs[0].loglog(x, _positive(ran["linear_storage_modulus_Pa"]), ":", color=c, lw=1,
+                      label="linear G', G'' (small-amplitude model)")
+        axs[0].loglog(x, _positive(ran["linear_loss_modulus_Pa"]), ":", color=c, lw=1)
+        bad = ran[~ran["converged"].astype(bool)]
         if len(bad):
             axs[2].loglog(bad[xcol], _positive(bad["I3_over_I1"]), "kx", ms=8,
                           label="not periodic within the cycle limit")
+        if past.any():
+            lo, hi = float(x[past].min()), float(x[past].max())
+            for ax in axs:
+                ax.axvspan(lo / 1.25, hi * 1.25, color="crimson", alpha=0.08, lw=0,
+                           label=f"hollow: elastic strain taubar/G > {ELASTIC_STRAIN_LIMIT:g} "
+                                 "(law outside its small-strain range)")
+        for xf in d.loc[fail, xcol].dropna():
+            for ax in axs:
+                ax.axvline(float(xf), color="k", ls=":", lw=1)
+                ax.plot([float(xf)], [0.03], "kX", ms=9, transform=ax.get_xaxis_transform(),
+                        label="solve failed (no result; reason in the CSV)")
         if amp_sweep and dst_stress is not None:
-            over = d[d["peak_stress_Pa"] >= dst_stress]
+            over = ran[ran["peak_stress_Pa"] >= dst_stress]
             if len(over):
                 g_c = float(over[xcol].iloc[0])
                 for ax in axs:
-                    ax.axvline(g_c, color=c, ls="-.", lw=1)
-                axs[2].annotate(f"peak stress >= DST stress {dst_stress:.3g} Pa", (g_c, 0.05),
-                                xycoords=("data", "axes fraction"), rotation=90, fontsize=7,
-                                ha="right", va="bottom")
+                    ax.axvline(g_c, color=c, ls="-.", lw=1,
+                               label=f"first amplitude with peak stress >= DST stress "
+                                     f"{dst_stress:.3g} Pa")
     axs[0].set_ylabel("G' (o), G'' (s) [Pa]; dotted: linear G*(omega)")
     axs[1].set_ylabel("|eta*| = |G*|/omega [Pa s]")
     axs[2].set_ylabel("I3/I1 [-]")
     for ax in axs:
         ax.set_xlabel(xlabel)
         ax.grid(True, which="both", alpha=0.25)
-        ax.legend(fontsize=6)
-    fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
+    notes = []
+    if n_past:
+        notes.append(f"{n_past} of {len(points)} points past the elastic-strain limit")
+    if failed_all.any():
+        notes.append(f"{int(failed_all.sum())} failed")
+    fig.suptitle(title + (f"\n{'; '.join(notes)}" if notes else ""), fontsize=11)
+    _below_legend(fig, axs)
     return fig
 
 
-def lissajous_figure(waves: pd.DataFrame, title: str, max_curves: int = 8):
+def _normalised_cycle(w: pd.DataFrame):
+    """One closed cycle of a waveform, normalised by its maxima: (strain, rate, stress,
+    elastic stress, viscous stress, stress maximum)."""
+    close = np.r_[np.arange(len(w)), 0]
+    s = w["shear_stress_Pa"].to_numpy()[close]
+    smax = np.max(np.abs(s)) or 1.0
+    g = w["strain"].to_numpy()[close]
+    gd = w["shear_rate_per_s"].to_numpy()[close]
+    el = w["elastic_stress_Pa"].to_numpy()[close]
+    vi = w["viscous_stress_Pa"].to_numpy()[close]
+    return (g / (np.max(np.abs(g)) or 1.0), gd / (np.max(np.abs(gd)) or 1.0), s / smax,
+            el / smax, vi / smax, smax)
+
+
+#: normalised Lissajous curves closer than this everywhere are drawn as one (one legend entry
+#: naming them all), so that no entry names a curve hidden under another
+COINCIDE = 0.01
+
+
+def lissajous_figure(waves: pd.DataFrame, title: str, max_curves: int = 8,
+                     points: pd.DataFrame | None = None, dst_stress: float | None = None):
     """Lissajous-Bowditch curves of the periodic cycle: the elastic projection (stress against
     strain) and the viscous projection (stress against shear rate), each normalised by its
-    maximum, for up to ``max_curves`` points spread over the sweep; Ewoldt's elastic and viscous
-    stresses dashed (strain control)."""
-    fig, axs = plt.subplots(1, 2, figsize=(11, 4.6))
-    pts = np.unique(waves["point"])
-    if pts.size > max_curves:
-        pts = pts[np.unique(np.round(np.linspace(0, pts.size - 1, max_curves)).astype(int))]
-    for c, k in zip(_colors(len(pts)), pts):
-        w = waves[waves["point"] == k]
-        close = np.r_[np.arange(len(w)), 0]
-        s = w["shear_stress_Pa"].to_numpy()[close]
-        smax = np.max(np.abs(s)) or 1.0
-        g = w["strain"].to_numpy()[close]
-        gd = w["shear_rate_per_s"].to_numpy()[close]
-        gmax = np.max(np.abs(g)) or 1.0
-        gdmax = np.max(np.abs(gd)) or 1.0
+    maximum; Ewoldt's elastic and viscous stresses dashed (strain control). Consecutive points
+    whose normalised curves coincide (within :data:`COINCIDE`) are drawn once and named
+    together; of more than ``max_curves`` distinct curves, ``max_curves`` spread over the sweep
+    are drawn. With the sweep's ``points`` (and ``dst_stress`` [Pa]) the first point whose peak
+    stress reaches the DST stress (where thickening starts) is always drawn, and curves past
+    the elastic-strain limit are dash-dotted and say so. One legend, below the panels."""
+    from rheology.elastic import ELASTIC_STRAIN_LIMIT
+
+    fig, axs = plt.subplots(1, 2, figsize=(11, 5.6))
+    groups = []                              # [point indices, normalised cycle]
+    for k in np.unique(waves["point"]):
+        cyc = _normalised_cycle(waves[waves["point"] == k])
+        if groups and len(groups[-1][1][0]) == len(cyc[0]) and all(
+                np.max(np.abs(a - b)) < COINCIDE for a, b in zip(groups[-1][1][:3], cyc[:3])):
+            groups[-1][0].append(k)
+            continue
+        groups.append(([k], cyc))
+    onset = None
+    if points is not None and dst_stress is not None:
+        over = [k for g in groups for k in g[0]
+                if float(points.loc[k, "peak_stress_Pa"]) >= dst_stress]
+        onset = over[0] if over else None
+    if len(groups) > max_curves:
+        keep = set(np.unique(np.round(np.linspace(0, len(groups) - 1, max_curves)).astype(int)))
+        j = next((i for i, g in enumerate(groups) if onset in g[0]), None)
+        if j is not None and j not in keep:
+            keep.discard(min(keep - {0, len(groups) - 1}, key=lambda i: abs(i - j)))
+            keep.add(j)
+        groups = [groups[i] for i in sorted(keep)]
+    for c, (ks, (g, gd, s, el, vi, smax)) in zip(_colors(len(groups)), groups):
+        w = waves[waves["point"] == ks[0]]
+        amps = [float(waves.loc[waves["point"] == k, "strain_amplitude"].iloc[0]) for k in ks]
         lab = (f"phi = {w['phi'].iloc[0]:g}, {w['frequency_Hz'].iloc[0]:g} Hz, gamma0 = "
-               f"{w['strain_amplitude'].iloc[0]:.3g} (sigma_max = {smax:.3g} Pa)")
-        axs[0].plot(g / gmax, s / smax, "-", color=c, lw=1.8, label=lab)
-        axs[1].plot(gd / gdmax, s / smax, "-", color=c, lw=1.8, label=lab)
-        el = w["elastic_stress_Pa"].to_numpy()[close]
-        vi = w["viscous_stress_Pa"].to_numpy()[close]
+               + (f"{amps[0]:.3g} (sigma_max = {smax:.3g} Pa)" if len(ks) == 1 else
+                  f"{amps[0]:.3g} ... {amps[-1]:.3g} ({len(ks)} curves, coinciding)"))
+        ls = "-"
+        if points is not None:
+            if onset in ks:
+                lab += ": thickening starts (peak stress >= DST stress)"
+            if (points.loc[ks, "max_elastic_strain"] > ELASTIC_STRAIN_LIMIT).any():
+                lab += f": past the elastic-strain limit {ELASTIC_STRAIN_LIMIT:g}"
+                ls = "-."
+        axs[0].plot(g, s, ls, color=c, lw=1.8, label=lab)
+        axs[1].plot(gd, s, ls, color=c, lw=1.8, label=lab)
         if np.all(np.isfinite(el)):
-            axs[0].plot(g / gmax, el / smax, "--", color=c, lw=0.9)
-            axs[1].plot(gd / gdmax, vi / smax, "--", color=c, lw=0.9)
+            axs[0].plot(g, el, "--", color=c, lw=0.9)
+            axs[1].plot(gd, vi, "--", color=c, lw=0.9)
     axs[0].set_xlabel("strain / strain amplitude [-]")
     axs[0].set_title("elastic projection (dashed: elastic stress sigma')", fontsize=10)
     axs[1].set_xlabel("shear rate / max shear rate [-]")
@@ -331,9 +425,8 @@ def lissajous_figure(waves: pd.DataFrame, title: str, max_curves: int = 8):
         ax.axhline(0, color="0.7", lw=0.6)
         ax.axvline(0, color="0.7", lw=0.6)
         ax.grid(True, alpha=0.25)
-    axs[0].legend(fontsize=6, loc="upper left")
     fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
+    _below_legend(fig, axs[:1], ncol=1)
     return fig
 
 

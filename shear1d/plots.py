@@ -38,14 +38,55 @@ def _end_rotation(run):
     return float(rotation_of(run.result, end.time_s)), f"ended: {end.label}"
 
 
+def _what_happened(run) -> str:
+    """What the run shows, in lines: jammed or not, where the band reached the outer wall, when
+    the flow stopped and started again, and how Newtonian the last profile is."""
+    from .scenes import jammed
+
+    s = run.summary
+    dev = {float(k): v for k, v in s["newtonian_deviation_max_over_u"].items()}
+    last = max(dev) if dev else None
+    if not jammed(s):
+        lines = [f"not jammed (f_max = {s['f_max'] / s['f_jam']:.2g} f_jam)"]
+        if dev and max(dev.values()) < COINCIDE:
+            lines.append(f"the profiles from {min(dev):g} rad on coincide with the Newtonian "
+                         f"one (within {100 * max(dev.values()):.2g}% of u_i)")
+        elif last is not None:
+            lines.append(f"at {last:g} rad within {100 * dev[last]:.2g}% of u_i of the "
+                         "Newtonian profile")
+        return "\n".join(lines)
+    lines = ["jammed" + (f": band at the outer wall at {s['front_at_wall_rotation_rad']:.3f} rad"
+                         if s["front_at_wall_rotation_rad"] is not None else "")]
+    if s["flow_stopped_rotation_rad"] is not None:
+        again = s.get("flow_restarted_rotation_rad")
+        lines.append(f"flow stopped at {s['flow_stopped_rotation_rad']:.3f} rad, " +
+                     (f"flowing again from {again:.3f} rad" if again is not None
+                      else "still stopped at the end"))
+    if last is not None:
+        lines.append(f"at {last:g} rad within {100 * dev[last]:.2g}% of u_i of the Newtonian "
+                     "profile")
+    return "\n".join(lines)
+
+
 def velocity_profiles(path, runs, rotations=(0.0, 0.1, 0.2, 0.31)):
-    """Fig. 3a: v/u_i against r at the given bob rotations; a row per speed, a column per mode."""
+    """Write :func:`velocity_profiles_figure` to ``path``."""
+    fig = velocity_profiles_figure(runs, rotations)
+    atomic_savefig(fig, path)
+    plt.close(fig)
+    return path
+
+
+def velocity_profiles_figure(runs, rotations=(0.0, 0.1, 0.2, 0.31)):
+    """Fig. 3a: v/u_i against r at the given bob rotations; a row per speed, a column per mode.
+    Each panel's title says what its run shows (:func:`_what_happened`: jammed or not, the band
+    at the outer wall, the flow stopping and starting again, the last profile against the
+    Newtonian one); one legend below the panels."""
     from .scenes import rotation_of
 
     speeds = sorted({r.summary["u_inner_m_per_s"] for r in runs})
     modes = sorted({r.summary["mode"] for r in runs}, key=lambda m: m != "locked")
-    fig, axes = plt.subplots(len(speeds), len(modes), figsize=(5.6 * len(modes),
-                                                              4.0 * len(speeds)), squeeze=False)
+    fig, axes = plt.subplots(len(speeds), len(modes), figsize=(6.2 * len(modes),
+                                                              4.6 * len(speeds)), squeeze=False)
     for ax in axes.ravel():
         ax.set_visible(False)
     for run in runs:
@@ -60,7 +101,7 @@ def velocity_profiles(path, runs, rotations=(0.0, 0.1, 0.2, 0.31)):
         shown = rotations if not ended else [x for x in rotations if x < rot[-1]] + [rot[-1]]
         for target, c in zip(shown, plt.cm.viridis(np.linspace(0, 0.9, len(rotations)))):
             k = int(np.argmin(np.abs(rot - target)))
-            ax.plot(g.faces * 1e3, v[k] / u, color=c, lw=1.8, label=f"{rot[k]:.2f} rad")
+            ax.plot(g.faces * 1e3, v[k] / u, color=c, lw=1.8, label=f"{target:.2f} rad")
         ax.plot(g.faces * 1e3, annular_steady(g.faces, g.inner, g.outer, u) / u, "k--", lw=1,
                 label="Newtonian steady")
         ax.plot(g.faces * 1e3, g.faces / g.inner, "k:", lw=1, label="rigid rotation")
@@ -68,44 +109,87 @@ def velocity_profiles(path, runs, rotations=(0.0, 0.1, 0.2, 0.31)):
                     max(1.6, float(np.nanmax(v / u)) + 0.05))
         ax.set_xlabel("r [mm]")
         ax.set_ylabel("v / u_i")
-        ax.set_title(_label(run) + (f"\n{ended[1]} at {ended[0]:.3g} rad (the last profile)"
-                                    if ended else ""), fontsize=10,
-                     color="crimson" if ended else "k")
-        ax.legend(fontsize=8)
+        ax.set_title(_label(run) + f"\n{_what_happened(run)}" +
+                     (f"\n{ended[1]} at {ended[0]:.3g} rad (the last profile)" if ended else ""),
+                     fontsize=9, color="crimson" if ended else "k")
         ax.grid(alpha=0.3)
+    handles, labels = next(ax for ax in axes.ravel() if ax.get_visible()) \
+        .get_legend_handles_labels()
     fig.suptitle("Annular shear: velocity profiles after 0, 0.1, 0.2, 0.31 rad of bob rotation")
-    return _finish(fig, path)
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8, frameon=False)
+    return fig
+
+
+def _coincide(x, y, x_ref, y_ref, tol) -> bool:
+    """Whether the curve (x, y) lies within ``tol`` of (x_ref, y_ref) where both are defined."""
+    ok = np.isfinite(y)
+    ok_ref = np.isfinite(y_ref)
+    if ok.sum() < 2 or ok_ref.sum() < 2:
+        return False
+    xr, yr = np.asarray(x_ref)[ok_ref], np.asarray(y_ref)[ok_ref]
+    inside = (np.asarray(x)[ok] >= xr.min()) & (np.asarray(x)[ok] <= xr.max())
+    if inside.sum() < 2:
+        return False
+    return bool(np.max(np.abs(np.interp(np.asarray(x)[ok][inside], xr, yr)
+                              - np.asarray(y)[ok][inside])) < tol)
+
+
+#: two curves closer than this (in the plotted units) are said to coincide in their legend entry
+COINCIDE = 0.005
+
 
 def front_positions_figure(runs):
     """Kinematic and structure fronts against bob rotation for the runs that jammed, drawn only
     where a jammed band exists (:func:`shear1d.scenes.band_present`: the front_m cells of
-    <tag>_front.csv that are not empty), with the linear fit and the events."""
+    <tag>_front.csv that are not empty), with the linear fit and the events. A run whose fronts
+    coincide with an earlier run's (within :data:`COINCIDE` of the gap) is drawn thin and dashed
+    on top of it and its legend entry says so; the runs without a band are named in the title;
+    the legend is below the axes."""
     from .scenes import front_frame, jammed
 
-    fig, ax = plt.subplots(figsize=(7.5, 4.8))
+    fig, ax = plt.subplots(figsize=(8, 6.6))
+    none = [_label(r) for r in runs if not jammed(r.summary)]
     runs = [r for r in runs if jammed(r.summary)]
-    for run, c in zip(runs, plt.cm.tab10(np.arange(len(runs)))):
+    drawn = []
+    events = {}
+    for k, (run, c) in enumerate(zip(runs, plt.cm.tab10(np.arange(len(runs))))):
         res, g, s = run.result, run.result.problem.grid, run.summary
         fr = front_frame(res)
         band = np.isfinite(fr["front_m"].to_numpy())
         rot = fr["rotation_rad"].to_numpy()[band]
-        ax.plot(rot, (fr["front_m"].to_numpy()[band] - g.inner) / g.gap, color=c, lw=1.8,
-                label=f"{_label(run)}: front v/(omega r) = 1/2")
-        ax.plot(rot, (fr["structure_front_m"].to_numpy()[band] - g.inner) / g.gap, "--",
-                color=c, lw=1.2, label="  structure front f = f_jam/2")
-        if np.isfinite(s["front_speed_m_per_s"]):
-            rr = np.linspace(*s["front_fit_rotation_rad"], 20)
-            x = s["front_speed_m_per_s"] * rr * g.inner / s["u_inner_m_per_s"] \
-                + s["front_fit_intercept_m"]
-            ax.plot(rr, (x - g.inner) / g.gap, ":", color="k", lw=1,
-                    label=f"  linear fit: {s['front_speed_m_per_s']:.3g} m/s")
-        for key, ls, what in (("front_at_wall_rotation_rad", ":", "band at outer wall"),
-                              ("flow_stopped_rotation_rad", "-.", "flow stopped")):
+        y = (fr["front_m"].to_numpy()[band] - g.inner) / g.gap
+        ys = (fr["structure_front_m"].to_numpy()[band] - g.inner) / g.gap
+        same = next((lab for x0, y0, lab in drawn if _coincide(rot, y, x0, y0, COINCIDE)), None)
+        note = f" (coincides with {same} within {COINCIDE:.1%} of the gap)" if same else ""
+        thin = dict(lw=1.0, dashes=(4, 3)) if same else dict(lw=2.2)
+        ax.plot(rot, y, color=c, label=f"{_label(run)}: front v/(omega r) = 1/2{note}", **thin)
+        ax.plot(rot, ys, ":" if same else "--", color=c, lw=1.0 if same else 1.4,
+                label=f"{_label(run)}: structure front f = f_jam/2{note}")
+        drawn.append((rot, y, _label(run)))
+        fit = s["front_speed_m_per_s"]
+        if fit is not None and np.isfinite(fit):
+            lo, hi = s["front_fit_rotation_rad"]
+            what = f"linear fit {fit:.3g} m/s over {lo:.3f}-{hi:.3f} rad"
+            if same:           # on the line already drawn: named in the front's entry
+                ax.lines[-2].set_label(ax.lines[-2].get_label() + f"; {what}")
+            else:
+                rr = np.linspace(lo, hi, 20)
+                x = fit * rr * g.inner / s["u_inner_m_per_s"] + s["front_fit_intercept_m"]
+                ax.plot(rr, (x - g.inner) / g.gap, "-", color="k", lw=0.8,
+                        label=f"{_label(run)}: {what}")
+        for key, what in (("front_at_wall_rotation_rad", "band at the outer wall"),
+                          ("flow_stopped_rotation_rad", "flow stopped")):
             if s[key] is not None:
-                ax.axvline(s[key], color=c, ls=ls, lw=0.8, label=f"  {what}")
+                events.setdefault(what, []).append((s[key], run))
         ended = _end_rotation(run)
         if ended:
             mark_end(ax, ended[0], f"{_label(run)}: {ended[1]}")
+    for (what, marks), ls in zip(events.items(), (":", "-.")):
+        for x, run in marks:
+            ax.axvline(x, color="0.3", ls=ls, lw=0.9)
+        ax.plot([], [], color="0.3", ls=ls, lw=0.9, label=f"{what}: " + ", ".join(
+            f"{x:.3f} rad ({run.summary['mode']})" for x, run in marks))
     if not runs:
         ax.text(0.5, 0.5, "no run jammed (f < f_jam/2 everywhere): no front", ha="center",
                 transform=ax.transAxes)
@@ -114,9 +198,11 @@ def front_positions_figure(runs):
     ax.set_ylim(0, 1.02)
     ax.set_title("Shear-jamming front, drawn only while a jammed band (f >= f_jam/2 at the bob) "
                  "grows,\nuntil it reaches the outer wall (it then fills the gap) or the flow "
-                 "stops", fontsize=9)
+                 "stops" + (f"\nno jammed band, no front: {'; '.join(none)}" if none else ""),
+                 fontsize=9)
     if runs:
-        ax.legend(fontsize=7)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=1, fontsize=7,
+                  frameon=False)
     ax.grid(alpha=0.3)
     return fig
 
@@ -126,8 +212,19 @@ def front_positions(path, runs):
     return _finish(front_positions_figure(runs), path)
 
 
+def _span(data, lo=None, hi=None) -> dict:
+    """vmin/vmax covering the finite ``data``, widened to include ``lo``/``hi`` if given."""
+    d = np.asarray(data, float)
+    d = d[np.isfinite(d)]
+    if not d.size:
+        return {}
+    return dict(vmin=min(float(d.min()), lo) if lo is not None else float(d.min()),
+                vmax=max(float(d.max()), hi) if hi is not None else float(d.max()))
+
+
 def run_fields_figure(run):
-    """Space-time maps of one run: v/(omega r), f, plastic shear rate and granular pressure; the
+    """Space-time maps of one run: v/(omega r), f, plastic shear rate and granular pressure,
+    each colour scale spanning its data (v/(omega r) at least 0-1.1, f/f_jam at least 0-1); the
     front is drawn only where a jammed band exists (as in <tag>_front.csv)."""
     from .scenes import band_front, rotation_of
 
@@ -137,13 +234,14 @@ def run_fields_figure(run):
     v = res.field("v")
     vc = 0.5 * (v[:, 1:] + v[:, :-1]) / g.rigid_speed(u, g.centres)
     fjam = float(rheology.f_jam(res.problem.phi0, res.problem.material))
-    maps = [(vc, "v / (omega r)", dict(vmin=0, vmax=1.1, cmap="viridis")),
-            (res.field("f") / fjam, "f / f_jam(phi0)", dict(vmin=0, vmax=1.0, cmap="magma")),
-            (np.log10(np.abs(res.field("plastic_shear_rate")) + 1e-6),
-             "log10 plastic shear rate [1/s]", dict(cmap="cividis")),
-            (np.log10(res.field("pressure") + 1e-3), "log10 granular pressure [Pa]",
-             dict(cmap="plasma"))]
-    fig, axes = plt.subplots(1, 4, figsize=(18, 4.4))
+    f = res.field("f") / fjam
+    rate = np.log10(np.abs(res.field("plastic_shear_rate")) + 1e-6)
+    pres = np.log10(res.field("pressure") + 1e-3)
+    maps = [(vc, "v / (omega r)", dict(_span(vc, 0.0, 1.1), cmap="viridis")),
+            (f, "f / f_jam(phi0)", dict(_span(f, 0.0, 1.0), cmap="magma")),
+            (rate, "log10(plastic shear rate [1/s] + 1e-6)", dict(_span(rate), cmap="cividis")),
+            (pres, "log10(granular pressure [Pa] + 1e-3)", dict(_span(pres), cmap="plasma"))]
+    fig, axes = plt.subplots(1, 4, figsize=(18, 4.6))
     ext = [g.inner * 1e3, g.outer * 1e3, rot[0], rot[-1]]
     front = band_front(res)
     band = np.isfinite(front)
@@ -151,19 +249,18 @@ def run_fields_figure(run):
         im = ax.imshow(data, origin="lower", aspect="auto", extent=ext, interpolation="nearest",
                        **kw)
         if band.any():
-            ax.plot(front[band] * 1e3, rot[band], "w-", lw=1.0, label="front of the jammed band")
+            ax.plot(front[band] * 1e3, rot[band], "w-", lw=1.0)
         fig.colorbar(im, ax=ax)
         ax.set_title(title, fontsize=10)
         ax.set_xlabel("r [mm]")
         ended = _end_rotation(run)
         if ended:
             mark_end(ax, ended[0], ended[1], vertical=False)
-    if band.any():
-        axes[0].legend(fontsize=7, loc="upper right", facecolor="0.4", labelcolor="w")
     axes[0].set_ylabel("bob rotation [rad]")
     what = ("white: front v/(omega r) = 1/2, drawn while a jammed band grows" if band.any()
             else "no jammed band formed: no front drawn")
-    fig.suptitle(f"{_label(run)}, {g.n} cells ({res.method}); {what}")
+    fig.suptitle(f"{_label(run)}, {g.n} cells ({res.method}); {what}\n"
+                 + _what_happened(run).replace("\n", "; "), fontsize=10)
     return fig
 
 
@@ -173,29 +270,53 @@ def run_fields(path, run):
 
 
 def mode_comparison(path, runs):
-    """Locked mixture against two-phase: fronts and the volume fraction at the end."""
+    """Locked mixture against two-phase: the fronts (runs with a jammed band) and the volume
+    fraction at the end (two-phase runs; a locked mixture keeps phi = phi0 by construction, one
+    line for all). A two-phase curve that coincides with the locked one (within
+    :data:`COINCIDE`) is drawn thin and dashed on top and its legend entry says so. Legends
+    below the panels."""
     from .scenes import front_frame
 
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 6.0))
+    drawn = []
+    no_band = []
     for run, c in zip(runs, plt.cm.tab10(np.arange(len(runs)))):
         res, g = run.result, run.result.problem.grid
         fr = front_frame(res)
-        ls = "-" if run.summary["mode"] == "locked" else "--"
-        axes[0].plot(fr["rotation_rad"], (fr["front_m"] - g.inner) * 1e3, ls, color=c,
-                     label=_label(run))
-        axes[1].plot(g.centres * 1e3, res.field("phi")[-1] - res.problem.phi0, ls, color=c,
-                     label=_label(run))
+        rot = fr["rotation_rad"].to_numpy()
+        y = (fr["front_m"].to_numpy() - g.inner) * 1e3
+        if not np.isfinite(y).any():
+            no_band.append(_label(run))
+        else:
+            same = next((lab for x0, y0, lab in drawn
+                         if _coincide(rot, y, x0, y0, COINCIDE * g.gap * 1e3)), None)
+            note = f" (coincides with {same})" if same else ""
+            style = dict(lw=1.0, dashes=(4, 3)) if same else dict(lw=2.2)
+            axes[0].plot(rot, y, color=c, label=_label(run) + note, **style)
+            drawn.append((rot, y, _label(run)))
+        if run.summary["mode"] != "locked":
+            axes[1].plot(g.centres * 1e3, res.field("phi")[-1] - res.problem.phi0, color=c,
+                         lw=1.5, label=_label(run))
         ended = _end_rotation(run)
         if ended:
             mark_end(axes[0], ended[0], f"{_label(run)}: {ended[1]}")
+    if any(r.summary["mode"] == "locked" for r in runs):
+        g = runs[0].result.problem.grid
+        axes[1].plot([g.inner * 1e3, g.outer * 1e3], [0.0, 0.0], ":", color="0.4", lw=1.0,
+                     zorder=1, label="locked mixture (every speed): phi = phi0 by construction")
     axes[0].set_xlabel("bob rotation [rad]")
     axes[0].set_ylabel("front - R_i [mm]")
+    axes[0].set_title("fronts of the jammed bands" + (
+        f"\nno jammed band, no front: {'; '.join(no_band)}" if no_band else ""), fontsize=9)
     axes[1].set_xlabel("r [mm]")
-    axes[1].set_ylabel("phi - phi0 at the end (of a run that ended early: its last output)")
+    axes[1].set_ylabel("phi - phi0")
+    axes[1].set_title("volume fraction at the end (of a run that ended early: its last output)",
+                      fontsize=9)
     for ax in axes:
-        ax.legend(fontsize=8)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1, fontsize=8,
+                  frameon=False)
         ax.grid(alpha=0.3)
-    fig.suptitle("Locked mixture (solid) against two-phase Darcy migration (dashed)")
+    fig.suptitle("Locked mixture against two-phase Darcy migration")
     return _finish(fig, path)
 
 

@@ -128,6 +128,19 @@ def flow_stop_time(result: Result) -> float | None:
     return next((x for x in ev.get("flow_stopped", []) if wall is None or x >= wall), None)
 
 
+def flow_restart_time(result: Result) -> float | None:
+    """The first output time [s] after the flow stopped (:func:`flow_stop_time`) at which the
+    bulk speed is back above FLOW_STOP_LEVEL of the wall speed (None: it stays stopped)."""
+    from .integrate import FLOW_STOP_LEVEL
+
+    stop = flow_stop_time(result)
+    if stop is None:
+        return None
+    g, u, v = result.problem.grid, result.problem.drive_amplitude, result.field("v")
+    return next((float(t) for t, vk in zip(result.t, v)
+                 if t > stop and analysis.bulk_speed(g, vk, u) >= FLOW_STOP_LEVEL), None)
+
+
 def band_present(result: Result) -> np.ndarray:
     """(n_out,) bool: outputs at which a jammed band grows from the moving wall.
 
@@ -190,6 +203,7 @@ def summarize(result: Result) -> dict:
     ev = {k: [float(x) for x in result.events.get(k, [])] for k in EVENTS}
     wall_t = ev["front_at_wall"][0] if ev["front_at_wall"] else None
     stop_t = flow_stop_time(result)
+    again_t = flow_restart_time(result)
     newt = {}
     for target in ROTATIONS[1:]:
         k = int(np.argmin(np.abs(rot - target)))
@@ -216,6 +230,8 @@ def summarize(result: Result) -> dict:
         max_front_position_m=float(np.nanmax(front)) if band.any() else nan,
         front_at_wall_rotation_rad=None if wall_t is None else float(rotation_of(result, wall_t)),
         flow_stopped_rotation_rad=None if stop_t is None else float(rotation_of(result, stop_t)),
+        flow_restarted_rotation_rad=None if again_t is None else float(rotation_of(result,
+                                                                                   again_t)),
         events_s=ev,
         newtonian_deviation_max_over_u=newt,
         f_max=float(f.max()), f_jam=fjam, phi_min=float(phi.min()), phi_max=float(phi.max()),

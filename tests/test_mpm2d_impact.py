@@ -195,3 +195,43 @@ def test_late_change_is_the_velocity_change_over_the_late_window():
     assert change == pytest.approx(2.0 * (t[late][-1] - t[late][0]), rel=1e-9)
     assert mean == pytest.approx(np.mean(v[late]), rel=1e-12)
     assert np.isnan(late_change(t[:3], np.array([np.nan, 1.0, np.nan]))[0])
+
+
+def test_figures_cover_their_data_and_say_what_summary_says(tiny_run):
+    """Issue 27: the displacement map spans the field on a diverging scale centred at 0 (the
+    heave shows), no jet; each title states the summary's numbers (rod depth, heave, k and its
+    window); every legend is off the data."""
+    import matplotlib.pyplot as plt
+    from figure_checks import (assert_colour_range_covers, assert_legends_clear_of_data,
+                               assert_uniform_cmap)
+
+    from mpm2d.scenes import impact
+
+    out, _ = tiny_run
+    s = _strict((out / "summary.json").read_text())
+    field, dz, _, _ = impact.displacement_field(out, s)
+    assert dz.max() > 0 > dz.min()                       # the bed rises beside the rod
+    assert s["max_heave_m"] == pytest.approx(dz.max())
+    fig = impact.displacement_figure(out, s)
+    im = fig.axes[0].images[0]
+    assert_colour_range_covers(im, field.T, centred=True)
+    assert_uniform_cmap(im)
+    title = fig.axes[0].get_title()
+    assert f"rod {s['final_rod_depth_m'] * 1e3:.1f} mm deep" in title
+    assert f"heave up to {s['max_heave_m'] * 1e3:.1f} mm" in title
+    assert_legends_clear_of_data(fig)
+    plt.close(fig)
+    rod = pd.read_csv(out / "rod.csv")
+    fig = impact.front_figure(pd.read_csv(out / "front.csv"), rod["z_m"].to_numpy(), s)
+    title = fig.axes[0].get_title()
+    if s["k"] is not None:
+        assert f"k = {s['k']:.3g} over the first {s['fit_t_end_s'] * 1e3:.3g} ms" in title
+        fit = [ln for ln in fig.axes[0].get_lines() if ln.get_color() == "r"]
+        assert fit and np.all(np.isfinite(fit[0].get_ydata()))
+    else:
+        assert "no front" in title
+    assert_legends_clear_of_data(fig)
+    plt.close(fig)
+    fig = impact.profile_figure(pd.read_csv(out / "displacement_vs_depth.csv"), s)
+    assert_legends_clear_of_data(fig)
+    plt.close(fig)

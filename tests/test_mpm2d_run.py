@@ -186,15 +186,16 @@ def test_vtk_read_back_with_meshio_and_pvd_unique(tmp_path):
     with np.load(out / last["npz"]) as snap:
         mesh = meshio.read(out / last["vtu"]["grains"])
         assert np.array_equal(mesh.points[:, :2], snap["grains.x"])
-        assert np.array_equal(mesh.point_data["stress"].reshape(-1, 3, 3), snap["grains.stress"])
-        assert np.array_equal(mesh.point_data["v"][:, :2], snap["grains.v"])
-        assert np.all(mesh.point_data["v"][:, 2] == 0.0)
+        assert np.array_equal(mesh.point_data["stress_Pa"].reshape(-1, 3, 3),
+                              snap["grains.stress"])
+        assert np.array_equal(mesh.point_data["velocity_m_per_s"][:, :2], snap["grains.v"])
+        assert np.all(mesh.point_data["velocity_m_per_s"][:, 2] == 0.0)
     grid = meshio.read(out / last["vtu"]["grid"])
     g = sim.grid
     assert grid.points.shape == ((g.nx + 1) * (g.ny + 1), 3)
     assert grid.cells_dict["quad"].shape == (g.nx * g.ny, 4)
-    for key in ("solid.velocity", "fluid.velocity", "solid.mass", "phi",
-                "fluid.pore_pressure_Pa"):
+    for key in ("solid.velocity_m_per_s", "fluid.velocity_m_per_s", "solid.mass_kg_per_m",
+                "phi", "fluid.pore_pressure_Pa"):
         assert key in grid.point_data, sorted(grid.point_data)
     nodal = grid_fields(sim)
     assert np.array_equal(grid.point_data["phi"], nodal["phi"].ravel())

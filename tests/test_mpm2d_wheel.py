@@ -188,11 +188,12 @@ def test_checks_band_advance_and_ratio():
     wheel passes only sinking at least SINK_RATIO times the fast wheel's sink."""
     R = 0.15
 
-    def run(exc, adv, sink):
+    def run(exc, adv, sink, dip=None):
         return {"max_excursion_over_R": exc, "advance_m": adv, "sink_depth_m": sink,
-                "sink_over_R": sink / R}
-    ok = wheel.checks({"10": run(0.79, 0.9, 0.08), "1": run(1.9, 0.05, 0.25)}, R)
+                "sink_over_R": sink / R, "max_sink_m": sink if dip is None else dip}
+    ok = wheel.checks({"10": run(0.79, 0.9, 0.08, 0.105), "1": run(1.9, 0.05, 0.25, 0.254)}, R)
     assert ok["fast_stays_up"] and ok["slow_sinks_3x"] and ok["sink_ratio"] == pytest.approx(3.125)
+    assert ok["sink_ratio_largest_dip"] == pytest.approx(0.254 / 0.105)     # the other reading
     deep = wheel.checks({"10": run(0.81, 0.9, 0.08), "1": run(1.9, 0.05, 0.25)}, R)
     assert not deep["fast_stays_up"]
     stuck = wheel.checks({"10": run(0.5, 0.1, 0.08), "1": run(1.9, 0.05, 0.25)}, R)
@@ -253,3 +254,49 @@ def test_default_run_interrupted_in_its_omega_1_sub_run_resumes(both, tmp_path, 
     for name in ("hub.csv", "summary.json", "history.csv", "omega_1/history.csv",
                  "omega_1/hub.csv", "omega_1/summary.json"):
         assert (out / name).read_bytes() == (ref / name).read_bytes(), name
+
+
+def test_figures_cover_their_data_and_say_what_summary_says(both):
+    """Issue 27: Figs. 8-9 colour every cell of bed by its f on a scale that spans every
+    panel's f (no pale points), a few hundred arrows a panel, titles with the summary's sink;
+    hub.png draws the fast-wheel band only where the fast wheel is drawn."""
+    import matplotlib.pyplot as plt
+    from figure_checks import (assert_colour_range_covers, assert_legends_clear_of_data,
+                               assert_uniform_cmap)
+
+    out, _ = both
+    s = _strict((out / "summary.json").read_text())
+    params = json.loads((out / "manifest.json").read_text())["params"]
+    for w, folder in ((10.0, out), (1.0, out / "omega_1")):
+        res = s["runs"][f"{w:g}"]
+        fig = wheel.snapshots_figure(folder, params, w, None, summary=res)
+        panels = [ax for ax in fig.axes if ax.get_xlabel() == "x [m]"]
+        assert len(panels) == 4
+        for ax in panels:
+            (mesh,) = [c for c in ax.collections if hasattr(c, "get_array")
+                       and c.get_array() is not None and c.get_array().ndim >= 1
+                       and c.__class__.__name__ == "QuadMesh"]
+            assert_colour_range_covers(mesh, mesh.get_array().compressed())
+            assert_uniform_cmap(mesh)
+            arrows = [c for c in ax.collections if c.__class__.__name__ == "Quiver"]
+            assert len(arrows) == 1 and 0 < arrows[0].N <= 500
+        title = fig._suptitle.get_text()
+        assert f"sank {res['sink_depth_m'] * 1e3:.0f} mm ({res['sink_over_R']:.2f} R)" in title
+        assert f"at most {res['max_sink_m'] * 1e3:.0f} mm" in title
+        plt.close(fig)
+    hub = pd.read_csv(out / "hub.csv")
+    fig = wheel.hub_figure(hub, params["radius"], summary=s)
+    assert any("fast-wheel check" in t.get_text() for t in fig.legends[0].get_texts())
+    title = fig._suptitle.get_text()
+    for res in s["runs"].values():
+        assert f"{res['sink_depth_m'] * 1e3:.0f} mm (largest {res['max_sink_m'] * 1e3:.0f} mm)" \
+            in title
+    ratio, dip = s["checks"]["sink_ratio"], s["checks"]["sink_ratio_largest_dip"]
+    assert (f"slow/fast sink {ratio:.2f}" if ratio is not None else "undefined") in title
+    if dip is not None:
+        assert f"{dip:.2f} by the largest dips" in title
+    assert_legends_clear_of_data(fig)
+    plt.close(fig)
+    fig = wheel.hub_figure(hub[hub["omega_per_s"] == 1.0], params["radius"])
+    assert not any("fast-wheel" in t.get_text() for t in fig.legends[0].get_texts())
+    plt.close(fig)

@@ -175,3 +175,108 @@ def test_points_past_the_small_strain_limit_are_flagged(tmp_path, monkeypatch, c
     assert pts["max_elastic_strain"].iloc[0] < 1e-3 < ELASTIC_STRAIN_LIMIT
     assert pts["max_elastic_strain"].iloc[1] > 0.5
     assert "WARNING: 1/2 points strain the skeleton elastically past 0.1" in out
+
+
+# ------------------------------------------------------------------ a point that fails
+def _failing_at(monkeypatch, bad_amplitude):
+    """oscillate as it is, except that the point at ``bad_amplitude`` fails as IDA does."""
+    real = osc.oscillate
+
+    def oscillate(material, phi, frequency, amplitude, **kw):
+        if amplitude == bad_amplitude:
+            raise RuntimeError(f"IDA failed in oscillation at phi = {phi:g}, {frequency:g} Hz, "
+                               f"strain amplitude {amplitude:g}, cycle 3, t = 2.5 s: "
+                               "the corrector convergence failed repeatedly")
+        return real(material, phi, frequency, amplitude, **kw)
+
+    monkeypatch.setattr(osc, "oscillate", oscillate)
+
+
+def test_a_failed_point_keeps_its_row_and_the_other_points(monkeypatch):
+    amps = [0.001, 0.05, 0.3]
+    ref, ref_w = osc.oscillation_sweep(HERMES, PHI, frequency=1.0, amplitude=amps)
+    _failing_at(monkeypatch, 0.05)
+    pts, waves = osc.oscillation_sweep(HERMES, PHI, frequency=1.0, amplitude=amps)
+    assert len(pts) == 3 and list(pts["strain_amplitude"]) == amps
+    bad = pts.iloc[1]
+    assert "IDA failed" in bad["reason"] and not bad["converged"]
+    for c in ("storage_modulus_Pa", "loss_modulus_Pa", "I3_over_I1", "max_elastic_strain"):
+        assert np.isnan(bad[c])
+    assert pd_isna(bad["cycles"])
+    lin = osc.linear_modulus(HERMES, PHI, 1.0)             # defined for every point
+    assert bad["linear_storage_modulus_Pa"] == pytest.approx(lin.real, rel=1e-14)
+    for k in (0, 2):                          # the other points: as in the sweep without it
+        assert pts["reason"].iloc[k] == ""
+        assert pts["storage_modulus_Pa"].iloc[k] == ref["storage_modulus_Pa"].iloc[k]
+    assert sorted(set(waves["point"])) == [0, 2]           # no waveform of the failed point
+    (end,) = pts.attrs["ends"]
+    assert end.kind == "solver_failure" and end.run == "phi = 0.5, 1 Hz, strain amplitude 0.05"
+
+
+def pd_isna(x):
+    import pandas as pd
+
+    return bool(pd.isna(x))
+
+
+def test_cli_failed_point_exit_3_with_its_row_and_reason(tmp_path, monkeypatch, capsys):
+    import json
+
+    import pandas as pd
+
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    _failing_at(monkeypatch, 0.05)
+    assert main(["oscillation", "--strain-amplitude", "0.001", "0.05", "0.3"]) == 3
+    err = capsys.readouterr().err
+    assert ("rheometer oscillation: phi = 0.5, 1 Hz, strain amplitude 0.05: ended early before "
+            "its first row: IDA failed") in err
+    pts = pd.read_csv("oscillation.csv", keep_default_na=False)
+    assert len(pts) == 3 and pts["storage_modulus_Pa"].iloc[1] == ""      # empty cell
+    assert pts["reason"].iloc[1].startswith("IDA failed") and pts["reason"].iloc[0] == ""
+    assert float(pts["storage_modulus_Pa"].iloc[2]) > 100
+    rec = json.loads((tmp_path / "oscillation.json").read_text())
+    assert rec["status"] == "ended_early" and rec["failed_points"] == 1
+    assert rec["ends"][0]["kind"] == "solver_failure"
+    for name in ("oscillation.png", "oscillation_lissajous.png"):
+        assert (tmp_path / name).stat().st_size > 10_000
+
+
+def test_figures_mark_past_limit_and_failed_points_and_keep_legends_off_data(monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from figure_checks import assert_legends_clear_of_data
+    from rheology.elastic import ELASTIC_STRAIN_LIMIT
+    from rheometer import plots
+
+    _failing_at(monkeypatch, 0.01)
+    amps = list(np.logspace(-3, 0, 7))
+    amps[2] = 0.01
+    pts, waves = osc.oscillation_sweep(HERMES, PHI, frequency=1.0, amplitude=amps)
+    dst = osc.dst_onset_stress(HERMES, PHI)
+    past = pts["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT
+    assert 0 < past.sum() < len(pts) - 1
+    fig = plots.oscillation_figure(pts, "sweep", dst)
+    ax = fig.axes[0]
+    hollow = [ln for ln in ax.get_lines() if isinstance(ln.get_markerfacecolor(), str)
+              and ln.get_markerfacecolor() == "white" and ln.get_linestyle() == "None"]
+    xs = sorted(float(x) for ln in hollow for x in ln.get_xdata())
+    assert xs == sorted(2 * list(pts.loc[past, "strain_amplitude"]))       # G' and G''
+    failed = [ln for ln in ax.get_lines() if ln.get_marker() == "X"]
+    assert len(failed) == 1 and failed[0].get_xdata()[0] == 0.01
+    assert "past the elastic-strain limit" in fig._suptitle.get_text()
+    assert_legends_clear_of_data(fig)
+    plt.close(fig)
+    fig = plots.lissajous_figure(waves, "LB", points=pts, dst_stress=dst)
+    labels = [t.get_text() for t in fig.legends[0].get_texts()]
+    onset = float(pts.loc[pts["peak_stress_Pa"] >= dst, "strain_amplitude"].iloc[0])
+    assert any(f"gamma0 = {onset:.3g}" in s and "thickening starts" in s for s in labels)
+    # every entry names a visible curve: as many entries as drawn stress curves per panel
+    assert len(labels) == len([ln for ln in fig.axes[0].get_lines()
+                               if ln.get_linestyle() in ("-", "-.")]) - 2   # minus the axes
+    assert_legends_clear_of_data(fig)
+    plt.close(fig)

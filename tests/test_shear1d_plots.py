@@ -91,3 +91,75 @@ def test_fields_figure_draws_the_band_front_only(fast_run, slow_run):
         assert "no front" in fig._suptitle.get_text()
     finally:
         plt.close(fig)
+
+
+def test_titles_say_what_the_runs_show_as_their_summaries_do(fast_run, slow_run):
+    """Issue 27: the fast case stops and flows again; its panel says where (the summary's
+    rotations) and how close its last profile is to the Newtonian one; the slow panel says it
+    did not jam and its profiles coincide with the Newtonian one. No legend over data."""
+    from figure_checks import assert_legends_clear_of_data
+
+    fig = plots.velocity_profiles_figure([fast_run, slow_run])
+    try:
+        titles = {ax.get_title().split("\n")[0]: ax.get_title() for ax in fig.axes
+                  if ax.get_visible()}
+        fast = titles["u_i = 84 mm/s, locked"]
+        s = fast_run.summary
+        assert "jammed" in fast and "not jammed" not in fast
+        if s["flow_stopped_rotation_rad"] is not None:
+            assert f"flow stopped at {s['flow_stopped_rotation_rad']:.3f} rad" in fast
+            again = s["flow_restarted_rotation_rad"]
+            assert (f"flowing again from {again:.3f} rad" if again is not None
+                    else "still stopped") in fast
+        dev = s["newtonian_deviation_max_over_u"]["0.31"]
+        assert f"within {100 * dev:.2g}% of u_i of the Newtonian profile" in fast
+        slow = titles["u_i = 0.84 mm/s, locked"]
+        assert "not jammed" in slow and "coincide with the Newtonian" in slow
+        assert_legends_clear_of_data(fig)
+    finally:
+        plt.close(fig)
+
+
+def test_flow_restart_is_where_the_bulk_speed_is_back_above_the_stop_level(fast_run):
+    from shear1d import analysis
+    from shear1d.integrate import FLOW_STOP_LEVEL
+    from shear1d.scenes import flow_restart_time, flow_stop_time, rotation_of
+
+    res, s = fast_run.result, fast_run.summary
+    stop, again = flow_stop_time(res), flow_restart_time(res)
+    if stop is None:
+        assert again is None
+        return
+    g, u, v = res.problem.grid, res.problem.drive_amplitude, res.field("v")
+    bulk = np.array([analysis.bulk_speed(g, vk, u) for vk in v])
+    between = (res.t > stop) & (res.t < (again if again is not None else np.inf))
+    assert np.all(bulk[between] < FLOW_STOP_LEVEL)
+    if again is not None:
+        k = int(np.argmin(np.abs(res.t - again)))
+        assert bulk[k] >= FLOW_STOP_LEVEL
+        assert s["flow_restarted_rotation_rad"] == pytest.approx(float(rotation_of(res, again)))
+
+
+def test_coinciding_fronts_are_named_together_and_colour_scales_cover_the_fields(fast_run,
+                                                                                 slow_run):
+    from figure_checks import assert_colour_range_covers, assert_legends_clear_of_data
+
+    from shear1d.scenes import SceneRun
+
+    twin = SceneRun("twin", fast_run.result, fast_run.summary)      # the same curves twice
+    fig = plots.front_positions_figure([fast_run, twin, slow_run])
+    try:
+        labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+        assert sum("coincides with" in x for x in labels) == 2       # front and structure
+        assert sum("linear fit" in x for x in labels) == 2           # the twin's in its entry
+        assert "no jammed band, no front: u_i = 0.84 mm/s" in fig.axes[0].get_title()
+        assert_legends_clear_of_data(fig)
+    finally:
+        plt.close(fig)
+    fig = plots.run_fields_figure(fast_run)
+    try:
+        for ax in fig.axes[:4]:
+            (im,) = ax.images
+            assert_colour_range_covers(im, im.get_array())
+    finally:
+        plt.close(fig)

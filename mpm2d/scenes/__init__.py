@@ -2,7 +2,9 @@
 the parameters (with units) and the command that runs it.
 
 ``mpm2d list`` shows them; ``mpm2d show NAME`` prints a scene's parameters with their valid
-ranges; ``mpm2d run NAME --set key=value --out DIR`` runs one.
+ranges; ``mpm2d run NAME --set key=value --out DIR`` runs one. ``NAME`` may also be the path of
+a scene file of the user's with the same shape (``mpm2d run path/to/my_scene.py``; a worked
+example: ``mpm2d/examples/elastic_column.py``).
 
 Every scene declares the valid range of every ``setup`` parameter through the one mechanism of
 :mod:`mpm2d.scenes.spec` (``@spec.parameters_of(...)``): a new scene must too (``get_spec``
@@ -12,6 +14,10 @@ refuses a scene without a declaration).
 from __future__ import annotations
 
 import importlib
+import importlib.util
+import os
+import sys
+from pathlib import Path
 
 from .spec import Param, SceneSpec, parameters_of
 
@@ -34,11 +40,54 @@ SCENES = {
 
 
 # ---------------------------------------------------------------- lookup
+def is_scene_file(name: str) -> bool:
+    """Whether ``name`` names a scene file of the user's (``path/to/my_scene.py``), not a
+    built-in scene."""
+    return str(name).endswith(".py") or os.sep in str(name)
+
+
+def _scene_file(name: str):
+    """The module of the user's scene file ``name`` (imported once per file, under its stem).
+
+    Raises ValueError (bad input: one line) for a missing file, one that cannot be imported,
+    one without a declared ``setup`` or whose stem is another module's name."""
+    path = Path(name).expanduser().resolve()
+    if path.suffix != ".py" or not path.is_file():
+        raise ValueError(f"scene file {name!r} does not exist (a scene is a built-in name, "
+                         f"{', '.join(SCENES)}, or a path to a .py file)")
+    mod = sys.modules.get(path.stem)
+    if mod is not None:
+        if Path(getattr(mod, "__file__", "") or "").resolve() == path:
+            return mod
+        raise ValueError(f"scene file {name!r}: its name {path.stem!r} is that of the module "
+                         f"{mod.__name__} already imported; rename the file")
+    spec_ = importlib.util.spec_from_file_location(path.stem, path)
+    mod = importlib.util.module_from_spec(spec_)
+    sys.modules[path.stem] = mod
+    try:
+        spec_.loader.exec_module(mod)
+    except Exception as exc:                   # the user's code: any failure is bad input
+        del sys.modules[path.stem]
+        raise ValueError(f"scene file {name!r} could not be imported: "
+                         f"{type(exc).__name__}: {exc}") from None
+    if not callable(getattr(mod, "setup", None)) or \
+            getattr(mod.setup, "spec", None) is None:
+        del sys.modules[path.stem]
+        raise ValueError(f"scene file {name!r} has no setup(**params) declared with "
+                         "@mpm2d.scenes.spec.parameters_of (see mpm2d/examples/"
+                         "elastic_column.py)")
+    return mod
+
+
 def get_setup(name: str):
-    """The (validating) ``setup`` function of scene ``name`` (ValueError if unknown)."""
+    """The (validating) ``setup`` function of scene ``name``: a built-in scene's name, or the
+    path of a scene file of the user's (:func:`is_scene_file`); ValueError if unknown."""
+    if is_scene_file(name):
+        return _scene_file(name).setup
     key = str(name).strip().lower()
     if key not in SCENES:
-        raise ValueError(f"unknown scene {name!r}; valid: {', '.join(SCENES)}")
+        raise ValueError(f"unknown scene {name!r}; valid: {', '.join(SCENES)}, or the path of "
+                         "a scene file (path/to/my_scene.py)")
     return importlib.import_module(f"mpm2d.scenes.{key}").setup
 
 
@@ -58,4 +107,4 @@ def parameters(name: str) -> dict:
 
 
 __all__ = ["SCENES", "Param", "SceneSpec", "parameters_of", "get_setup", "get_spec",
-           "parameters"]
+           "parameters", "is_scene_file"]

@@ -103,9 +103,14 @@ defaults) takes the size's value.
 Outputs (besides history.csv, frames, manifest): ``rod.csv`` (v0_m_per_s, time_s, z_m,
 v_m_per_s, a_m_per_s2), ``rod_raw.csv`` (time_s, z_m, force_N, a_raw_m_per_s2), ``front.csv``
 (v0_m_per_s, time_s, front_depth_m), ``displacement_vs_depth.csv`` (depth_m, displacement_m),
-``summary.json``, ``displacement.png`` (Fig. 4a), ``displacement_vs_depth.png`` (Fig. 4c),
-``rod.png`` (Fig. 5 for one v0) and ``front.png``. A sweep over v0 writes the same tables for all
-speeds together (``sweep_report``) with ``rod.png`` (Fig. 5), ``speeds.csv`` and ``summary.json``.
+``summary.json`` (also the largest heave of the bed's points and the share rising more than
+1 mm, and the front's speed after the fit window and its k there), and the figures, drawn from
+these files and the first and last snapshots (:func:`figures`): ``displacement.png`` (Fig. 4a,
+on a diverging scale centred at 0 spanning the field: the heave beside the rod shows),
+``displacement_vs_depth.png`` (Fig. 4c), ``rod.png`` (Fig. 5 for one v0) and ``front.png`` (the
+fit window shaded, what the front does after it in the title). A sweep over v0 writes the same
+tables for all speeds together (``sweep_report``) with ``rod.png`` (Fig. 5), ``speeds.csv`` and
+``summary.json``.
 
 Run: ``mpm2d run impact --out impact`` (mode: locked mixture)
 """
@@ -162,7 +167,7 @@ HISTORY_ROWS = 2400
 _NULLABLE = ("front_speed_m_per_s", "front_r2", "k", "k_penetration", "front_r2_penetration",
              "fit_t_start_s",
              "fit_t_end_s", "plug_depth_m", "plug_r2", "plug_slope", "late_velocity_m_per_s",
-             "mean_rod_speed_fit_m_per_s")
+             "mean_rod_speed_fit_m_per_s", "front_speed_after_fit_m_per_s", "k_after_fit")
 
 
 def resolved(p: dict) -> dict:
@@ -442,7 +447,8 @@ def front_fit(t, front, z, v, v0, h, depth) -> dict:
     formed = np.isfinite(front) & (front - (-z) >= 2 * h)
     res = {"fit_t_start_s": nan, "fit_t_end_s": nan, "front_speed_m_per_s": nan,
            "front_r2": nan, "k": nan, "k_penetration": nan, "front_r2_penetration": nan,
-           "mean_rod_speed_fit_m_per_s": nan, "fit_points": 0}
+           "mean_rod_speed_fit_m_per_s": nan, "fit_points": 0,
+           "front_speed_after_fit_m_per_s": nan, "k_after_fit": nan}
     if not formed.any():
         return res
     k0 = int(np.argmax(formed))
@@ -463,6 +469,11 @@ def front_fit(t, front, z, v, v0, h, depth) -> dict:
                k_penetration=pen["slope"], front_r2_penetration=pen["r2"],
                mean_rod_speed_fit_m_per_s=mean_v,
                fit_points=int(sel.sum()))
+    after = (t > t[k1]) & np.isfinite(front)            # the front after the window
+    if after.sum() >= 3:
+        g = linear_fit(t[after], front[after])
+        res.update(front_speed_after_fit_m_per_s=g["slope"],
+                   k_after_fit=g["slope"] / float(np.mean(np.abs(v[after]))))
     return res
 
 
@@ -499,9 +510,11 @@ def report(sim, history, out, info, x_init):
     late = t >= 0.8 * t[-1]
     late_v = float(np.nanmean(v_fd[late])) if np.isfinite(v_fd[late]).any() else float("nan")
     raw_a = raw["a_raw_m_per_s2"].to_numpy()
+    dz = bed.x[:, 1] - x0[:, 1]
     res = {"v0_m_per_s": v0, "size": info["size"], "mode": info["mode"],
            "material": info["material"], "phi0": info["phi0"], "h_m": h,
-           "grid": [info["nx"], info["nz"]], "t_end_s": info["t_end"],
+           "grid": [info["nx"], info["nz"]], "depth_m": info["depth"],
+           "radius_m": info["radius"], "t_end_s": info["t_end"],
            "rod_mass_kg": info["rod_mass_kg"], "rod_radius_m": info["rod_radius"],
            "launch_height_m": info["launch_height_m"],
            "stencil_s": info["stencil"], "stencil_samples": n,
@@ -515,74 +528,118 @@ def report(sim, history, out, info, x_init):
                sim.bodies[0].velocity[1]),
            "late_velocity_m_per_s": late_v, "late_window_s": [float(0.8 * t[-1]), float(t[-1])],
            "max_f": float(history["max_f"].max()),
+           "max_heave_m": float(max(dz.max(), 0.0)),
+           "heave_fraction_over_1mm": float(np.mean(dz > 1e-3)),
            "comoving_fraction": COMOVING_FRACTION, "plug_fraction": PLUG_FRACTION,
            "front_fraction": FRONT_FRACTION, **plug, **ff}
     atomic_write_json(out / "summary.json", res, nullable=_NULLABLE + ("peak_deceleration_m_per_s2",
                                                                        "time_of_peak_s"))
-    return [displacement_figure(sim, x0, info, rod_disp, out / "displacement.png"),
-            profile_figure(prof, plug, info, out / "displacement_vs_depth.png"),
-            rod_figure([(v0, rod, raw)], out / "rod.png"),
-            front_figure(front, z, ff, info, out / "front.png")]
+    return figures(out)
 
 
-def displacement_figure(sim, x0, info, rod_disp, path):
+def figures(out) -> list:
+    """The run's four figures, drawn from its files alone (summary.json, the tables, the first
+    and last snapshots): ``displacement.png``, ``displacement_vs_depth.png``, ``rod.png``,
+    ``front.png``."""
+    out = Path(out)
+    s = json.loads((out / "summary.json").read_text())
+    rod, raw = pd.read_csv(out / "rod.csv"), pd.read_csv(out / "rod_raw.csv")
+    return [plots.save(displacement_figure(out, s), out / "displacement.png"),
+            plots.save(profile_figure(pd.read_csv(out / "displacement_vs_depth.csv"), s),
+                       out / "displacement_vs_depth.png"),
+            plots.save(rod_figure([(s["v0_m_per_s"], rod, raw)], summary=s), out / "rod.png"),
+            plots.save(front_figure(pd.read_csv(out / "front.csv"), rod["z_m"].to_numpy(), s),
+                       out / "front.png")]
+
+
+def _first_last(out):
+    """The bed's points (x, m) of the first and the last snapshot, ordered by id, and the last
+    snapshot's time."""
+    man = json.loads((Path(out) / "manifest.json").read_text())
+    with np.load(Path(out) / man["frames"][0]["npz"]) as a, \
+            np.load(Path(out) / man["frames"][-1]["npz"]) as b:
+        return a["bed.x"], b["bed.x"], b["bed.m"], float(b["time_s"])
+
+
+def displacement_field(out, s):
+    """The cell-averaged z-displacement [m] of the bed in its deformed configuration, (nx, nz)
+    (NaN in empty cells), with the points' dz and the last snapshot (x, time)."""
+    x0, x, m, t = _first_last(out)
+    dz = x[:, 1] - x0[:, 1]
+    nx, nz = s["grid"]
+    return cell_field(x, dz, m, (0.0, 0.0), s["h_m"], (nx, nz)), dz, x, t
+
+
+def displacement_figure(out, s):
     """Fig. 4a: the z-displacement field in the deformed configuration (the points' current
-    positions, as an X-ray image shows it) with contours; co-moving points marked."""
-    h, nx, nz = info["h"], info["nx"], info["nz"]
-    bed = sim.sets[0]
-    dz = bed.x[:, 1] - x0[:, 1]
-    field = cell_field(bed.x, dz, bed.m, (0.0, 0.0), h, (nx, nz))
-    fig, ax = plots.plt.subplots(figsize=(7.5, 6.5))
+    positions, as an X-ray image shows it) on a diverging map centred at 0 and spanning the
+    field (down: blue, heave: red), contours at fractions of the rod's displacement and of the
+    heave; co-moving points marked."""
+    field, dz, x, t = displacement_field(out, s)
+    h, (nx, nz) = s["h_m"], s["grid"]
+    rod_disp, heave = s["final_rod_depth_m"], s["max_heave_m"]
+    fig, ax = plots.plt.subplots(figsize=(7.5, 7.4))
     ext = (0.0, nx * h * 1e2, 0.0, nz * h * 1e2)
-    vmax = max(rod_disp, 1e-9) * 1e2
-    im = ax.imshow(field.T * 1e2, origin="lower", extent=ext, cmap="jet_r", vmin=-vmax, vmax=0.0)
+    lim = float(np.nanmax(np.abs(field))) * 1e2 if np.isfinite(field).any() else 1e-9
+    im = ax.imshow(field.T * 1e2, origin="lower", extent=ext, cmap="RdBu_r", vmin=-lim,
+                   vmax=lim, interpolation="nearest")
     rc = (np.arange(nx) + 0.5) * h * 1e2
     zc = (np.arange(nz) + 0.5) * h * 1e2
-    levels = sorted(-f * vmax for f in (0.05, 0.1, 0.25, 0.5, 0.75, 0.9))
+    levels = sorted([-f * rod_disp * 1e2 for f in (0.05, 0.1, 0.25, 0.5, 0.75, 0.9)]
+                    + [f * heave * 1e2 for f in (0.25, 0.5) if heave > 0])
     if np.isfinite(field).any():
-        masked = np.ma.masked_invalid(field.T * 1e2)
-        cs = ax.contour(rc, zc, masked, levels=levels, colors="k", linewidths=0.7)
+        cs = ax.contour(rc, zc, np.ma.masked_invalid(field.T * 1e2), levels=levels, colors="k",
+                        linewidths=0.7)
         ax.clabel(cs, fmt="%.2f", fontsize=6)
     co = np.abs(dz) >= COMOVING_FRACTION * rod_disp
-    ax.scatter(bed.x[co, 0] * 1e2, bed.x[co, 1] * 1e2, s=3, c="w", edgecolors="k",
-               linewidths=0.2, marker="o",
+    ax.scatter(x[co, 0] * 1e2, x[co, 1] * 1e2, s=4, c="w", edgecolors="k", linewidths=0.3,
                label=f"co-moving points (|dz| >= {COMOVING_FRACTION:.0%} of the rod's)")
-    rx = sim.bodies[0].x
-    ax.fill_between([0, info["rod_radius"] * 1e2], (info["depth"] - rod_disp) * 1e2,
+    ax.fill_between([0, s["rod_radius_m"] * 1e2], (s["depth_m"] - rod_disp) * 1e2,
                     nz * h * 1e2, color="0.55", label="rod")
-    del rx
-    fig.colorbar(im, ax=ax, label="z-displacement [cm]")
+    fig.colorbar(im, ax=ax, label="z-displacement [cm] (< 0 down, > 0 up)", shrink=0.8)
     ax.set_xlabel("r [cm]")
     ax.set_ylabel("z [cm]")
-    ax.set_title(f"z-displacement {sim.t * 1e3:.0f} ms after impact, v0 = {info['v0']:g} m/s, "
-                 f"rod {rod_disp * 1e3:.1f} mm deep ({info['nx']} x {info['nz']} cells of "
-                 f"{h * 1e3:g} mm)", fontsize=9)
-    ax.legend(loc="lower right", fontsize=7)
+    ax.set_title(f"z-displacement {t * 1e3:.0f} ms after impact at v0 = {s['v0_m_per_s']:g} "
+                 f"m/s: the rod {rod_disp * 1e3:.1f} mm deep, heave up to "
+                 f"{heave * 1e3:.1f} mm\n({s['heave_fraction_over_1mm']:.0%} of the bed's points "
+                 f"rose more than 1 mm); {nx} x {nz} cells of {h * 1e3:g} mm; phi0 = "
+                 f"{s['phi0']:g} (our choice: the paper gives none)", fontsize=9)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=2, fontsize=7,
+              frameon=False)
     ax.set_aspect("equal")
-    return plots.save(fig, path)
+    return fig
 
 
-def profile_figure(prof, plug, info, path):
+def profile_figure(prof, s):
     """Fig. 4c: |Delta z| against depth below the rod, the plug's straight line."""
-    fig, ax = plots.plt.subplots(figsize=(6, 4.5))
+    fig, ax = plots.plt.subplots(figsize=(6.4, 5.0))
     d, u = prof["depth_m"].to_numpy(), prof["displacement_m"].to_numpy()
-    ax.plot(d * 1e2, u * 1e2, "k.-", ms=3, label="simulation (r < rod radius)")
-    if plug["plug_depth_m"] is not None and math.isfinite(plug["plug_depth_m"]):
-        dd = d[d <= plug["plug_depth_m"]]
-        yy = u[d <= plug["plug_depth_m"]]
-        b = float(np.mean(yy) - plug["plug_slope"] * np.mean(dd))
-        ax.plot(dd * 1e2, (b + plug["plug_slope"] * dd) * 1e2, "r-",
-                label=f"plug fit, R^2 = {plug['plug_r2']:.3f}")
+    ax.plot(d * 1e2, u * 1e2, "k.-", ms=3,
+            label=f"simulation (mean over r < the rod's {s['rod_radius_m'] * 1e3:g} mm)")
+    plug = s.get("plug_depth_m")
+    if plug is not None and s.get("plug_slope") is not None:
+        sel = (d <= plug) & np.isfinite(u)
+        b = float(np.mean(u[sel]) - s["plug_slope"] * np.mean(d[sel]))
+        ax.plot(d[sel] * 1e2, (b + s["plug_slope"] * d[sel]) * 1e2, "r-",
+                label=f"straight line over the plug, R^2 = {s['plug_r2']:.3f}")
+        what = (f"plug (|dz| > {PLUG_FRACTION:.0%} of the rod's {s['final_rod_depth_m'] * 1e3:.1f}"
+                f" mm) from the surface to {plug * 1e2:.3g} cm")
+    else:
+        what = "no plug"
     ax.set_xlabel("initial depth below the surface z [cm]")
     ax.set_ylabel("|Delta z| [cm]")
-    ax.set_title(f"displacement below the rod, {info['t_end'] * 1e3:.0f} ms after impact", fontsize=9)
-    ax.legend(fontsize=8)
-    return plots.save(fig, path)
+    ax.set_title(f"displacement below the rod, {s['t_end_s'] * 1e3:.0f} ms after impact:\n{what}",
+                 fontsize=9)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=1, fontsize=8,
+              frameon=False)
+    return fig
 
 
-def rod_figure(runs, path):
-    """Fig. 5: z, v, a against t for each v0 (a from z, stencil), the raw a(t) lighter."""
-    fig, axs = plots.plt.subplots(1, 3, figsize=(15, 4.5))
+def rod_figure(runs, path=None, summary=None):
+    """Fig. 5: z, v, a against t for each v0 (a from z, stencil), the raw a(t) lighter; one
+    legend below the panels. With one run's ``summary`` the title gives its peak deceleration
+    and late sinking speed. ``path``: save there and return the path, else return the figure."""
+    fig, axs = plots.plt.subplots(1, 3, figsize=(15, 5.0))
     colors = plots.plt.cm.viridis(np.linspace(0, 0.85, max(len(runs), 1)))
     for (v0, rod, raw), c in zip(runs, colors):
         t = rod["time_s"].to_numpy() * 1e3
@@ -594,31 +651,56 @@ def rod_figure(runs, path):
     axs[0].set_ylabel("rod face z [cm]")
     axs[1].set_ylabel("rod velocity v [m/s]")
     axs[2].set_ylabel("rod acceleration a [m/s^2] (thin: raw F/M - g)")
-    axs[0].legend(fontsize=8)
     for ax in axs:
         ax.set_xlabel("t after impact [ms]")
-    return plots.save(fig, path)
+    if summary is not None:
+        s = summary
+        peak = s.get("peak_deceleration_m_per_s2")
+        fig.suptitle(
+            (f"peak deceleration {peak:.3g} m/s^2 at {s['time_of_peak_s'] * 1e3:.2g} ms"
+             if peak is not None else "no deceleration") +
+            f" (v and a from z over the {s['stencil_s'] * 1e3:.3g} ms stencil); late sinking "
+            f"{abs(s['late_velocity_m_per_s']):.3g} m/s; rod {s['final_rod_depth_m'] * 1e3:.1f} "
+            f"mm deep at {s['t_end_s'] * 1e3:.0f} ms", fontsize=10)
+    fig.tight_layout(rect=(0, 0.07, 1, 0.95))
+    fig.legend(*axs[0].get_legend_handles_labels(), loc="lower center", ncol=min(len(runs), 6),
+               fontsize=8, frameon=False)
+    return plots.save(fig, path) if path is not None else fig
 
 
-def front_figure(front, z, ff, info, path):
-    fig, ax = plots.plt.subplots(figsize=(6, 4.5))
+def front_figure(front, z, s):
+    """The jamming front's depth against time, the rod's depth, the straight-line fit over its
+    window (shaded) and what the front does after it."""
+    fig, ax = plots.plt.subplots(figsize=(6.8, 5.4))
     t = front["time_s"].to_numpy()
-    ax.plot(t * 1e3, front["front_depth_m"] * 1e2, "b.", ms=2, label="front (u_z = v_rod/2)")
+    y = front["front_depth_m"].to_numpy()
+    ax.plot(t * 1e3, y * 1e2, "b.", ms=2, label="front (u_z = v_rod/2 on the axis)")
     ax.plot(t * 1e3, -np.asarray(z) * 1e2, "k-", lw=1, label="rod face depth")
-    if ff["fit_t_start_s"] is not None and math.isfinite(ff["fit_t_start_s"]):
-        sel = (t >= ff["fit_t_start_s"]) & (t <= ff["fit_t_end_s"])
-        y = front["front_depth_m"].to_numpy()[sel]
-        ok = np.isfinite(y)
-        b = float(np.mean(y[ok]) - ff["front_speed_m_per_s"] * np.mean(t[sel][ok]))
-        tt = np.array([ff["fit_t_start_s"], ff["fit_t_end_s"]])
-        ax.plot(tt * 1e3, (b + ff["front_speed_m_per_s"] * tt) * 1e2, "r-", lw=2,
-                label=f"fit: {ff['front_speed_m_per_s']:.3g} m/s, R^2 = {ff['front_r2']:.3f}, "
-                      f"k = {ff['k']:.3g}")
+    t_end = s["t_end_s"]
+    if s.get("fit_t_start_s") is not None and s.get("front_speed_m_per_s") is not None:
+        t0, t1 = s["fit_t_start_s"], s["fit_t_end_s"]
+        sel = (t >= t0) & (t <= t1) & np.isfinite(y)
+        b = float(np.mean(y[sel]) - s["front_speed_m_per_s"] * np.mean(t[sel]))
+        tt = np.array([t0, t1])
+        ax.axvspan(t0 * 1e3, t1 * 1e3, color="orange", alpha=0.25, lw=0,
+                   label=f"fit window {t0 * 1e3:.2g}-{t1 * 1e3:.3g} ms (until the rod has lost "
+                         f"{FIT_SPEED_FRACTION:.0%} of its speed)")
+        ax.plot(tt * 1e3, (b + s["front_speed_m_per_s"] * tt) * 1e2, "r-", lw=2,
+                label=f"fit: {s['front_speed_m_per_s']:.3g} m/s, R^2 = {s['front_r2']:.3f}, "
+                      f"k = {s['k']:.3g}")
+        after = s.get("front_speed_after_fit_m_per_s")
+        later = (f"after it the front advances at {after:.2g} m/s (k = "
+                 f"{s['k_after_fit']:.2g})" if after is not None else "after it: no front")
+        title = (f"jamming front, v0 = {s['v0_m_per_s']:g} m/s: k = {s['k']:.3g} over the first "
+                 f"{t1 * 1e3:.3g} ms of {t_end * 1e3:.0f} ms;\n{later}")
+    else:
+        title = f"jamming front, v0 = {s['v0_m_per_s']:g} m/s: no front formed ahead of the rod"
     ax.set_xlabel("t after impact [ms]")
     ax.set_ylabel("depth below the initial surface [cm]")
-    ax.set_title(f"jamming front, v0 = {info['v0']:g} m/s", fontsize=9)
-    ax.legend(fontsize=8)
-    return plots.save(fig, path)
+    ax.set_title(title, fontsize=9)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=1, fontsize=8,
+              frameon=False)
+    return fig
 
 
 # ---------------------------------------------------------------- sweeps (Fig. 5)

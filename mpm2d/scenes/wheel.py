@@ -26,52 +26,23 @@ density 3000 kg/m^3, four spokes, Table 7. Our choices where the paper is silent
   rest, spinning at omega from t = 0, the spokes at ``start_angle`` = 45 deg to the vertical, so
   the wheel rests on two spoke tips (its lowest point faces touch the bed's top faces; the hub
   centre 0.81-0.83 R above the undisturbed surface, depending on the point lattice): the
-  symmetric position in which a wheel set down on a surface rests. ``start_angle = 0`` (one
-  spoke straight down, hub 1.0 R above the surface) starts 28 mm higher and ends at the same
-  level (h = 20 mm, 0.6 s: hub 0.475 against 0.455 m), so the start changes the measured sink by
-  its height only;
+  symmetric position in which a wheel set down on a surface rests (``start_angle = 0``: one spoke
+  straight down);
 - contact: no slip (``mu_w`` none) as the rod of the impact scene (the suspension wets the
-  spokes); mu_w = 0.5 changed the sinks by 4 % (h = 20 mm, 0.6 s: 161 against 167 mm for the
-  fast wheel, 293 against 290 mm for the slow one);
+  spokes);
 - wheel stiffness: rigid by default. The author's driver (mpm_3d src/objects/bodies/
   wheel_body.cpp) sets every wheel node's tangential velocity to omega r about the wheel's centre
-  of mass, i.e. the wheel turns rigidly; and with elastic spokes (E = 1e7 Pa, nu = 0.3: static
-  bending strain 1.7 % under the wheel's weight, wave speed 67 m/s) the spokes tore off the hub
-  in our engine under the impact loads (h = 20 mm, omega = 10: the first by t = 0.3 s, three by
-  0.6 s; the bond is only on the nodes the hub covers), which stops a 1 s run from meaning
-  anything; ``spokes=elastic`` keeps that variant (short runs, the bonding test);
-- bed 2.0 m x 0.5 m (the author's 0.5 m; with 0.3 m, his other generator, the slow wheel's
-  jammed plug reached the floor and held the wheel at 1.1 R: measured at h = 20 mm);
+  of mass, i.e. the wheel turns rigidly; with elastic spokes (E = 1e7 Pa, nu = 0.3) the spokes
+  tear off the hub in this engine under the impact loads (the bond is only on the nodes the hub
+  covers), so ``spokes=elastic`` is kept for short runs and the bonding test;
+- bed 2.0 m x 0.5 m (the author's 0.5 m; with his other generator's 0.3 m the slow wheel's
+  jammed plug reaches the floor);
 - phi0 = 0.5075, inside the author's 0.50-0.51: between phi_c = 0.436 and phi_j = 0.535 of the
   set, i.e. loose at rest (f = 0, no granular stress: the grains are density matched, the pore
   fluid carries the weight, the bed has no strength until it is sheared) but shear-jammable
   (phi_m(f) = phi0 at f_jam = 0.28). This is a CALIBRATION inside the author's range, not a
-  prediction: the contrast depends on phi0 and only a narrow window gives the paper's picture,
-  and 0.5075 is the middle of the window we measured. Reduced grid (h = 20 mm, 1 s; fast wheel:
-  largest sink, sink at 1 s; slow wheel: sink at 1 s, ratio):
-  at 0.50: 167 mm (1.11 R) already at 0.6 s and still sinking; slow 290 mm at 0.6 s;
-  0.5025: 174 mm (1.16 R), 106 mm; slow 314 mm (2.96);
-  0.505: 116 mm (0.78 R), 87 mm; slow 286 mm (3.28);
-  0.5075: 101 mm (0.68 R), 75 mm; slow: stopped at 0.56 s by an engine defect (below); after
-  its fix (d765e4a) 99 mm (0.66 R), 62 mm; slow 250 mm (4.03);
-  0.51: 97 mm (0.65 R), 46 mm; slow 217 mm (4.7), but the slow wheel too is held early: it
-  stops at 0.6 s (226 mm) and rises, its sheared zone reaching f_jam = 0.25 as well.
-  (the other rows were measured before that fix). The paper's grid (150 x 75, 1 s; before the
-  fix): phi0 = 0.505: fast largest sink 122 mm (0.816 R: its hub centre reaches the undisturbed
-  surface, just outside FAST_BAND), 86 mm at 1 s; slow 280 mm (ratio 3.27); phi0 = 0.5075:
-  fast 103 mm (0.69 R), 72 mm at 1 s; slow 246 mm (ratio 3.40); after the fix, phi0 = 0.5075
-  (the default run, below): 105 mm (0.70 R), 78 mm; slow 244 mm (ratio 3.12). So the checks pass
-  for phi0 from about 0.506 to (at least) 0.51, and the margins are thin: below, the fast
-  wheel's hub sinks below the surface it started on; above, the slow wheel is held sooner; and
-  the fix's small change of a few surface nodes' forces moved the ratio from 3.40 to 3.12. The
-  runs are chaotic in the details: at h = 20 mm, phi0 = 0.5075, halving the step (cfl 0.25)
-  left the fast wheel's largest sink at 99 mm and the slow sink at 246 mm (250) but moved the
-  fast sink at 1 s from 62 to 71 mm, the ratio from 4.03 to 3.48: the ratio is uncertain by
-  about +-0.3-0.5 (through the fast wheel's end height, +-10 mm). On the paper's grid halving
-  the step (cfl 0.25, 13 300 steps per omega) gave: fast largest sink 119 mm (0.796 R, against
-  105 mm, 0.70 R, at cfl 0.5), 71 mm at 1 s (78), slow 247 mm (244), ratio 3.50 (3.12): both
-  checks pass in both runs, but the fast wheel's first dip is uncertain by ~0.1 R and both
-  checks have thin margins;
+  prediction: the contrast of the two wheels exists only in a narrow window of phi0, and 0.5075
+  is the middle of the window measured (the measurements: README, "Running on oobleck");
 - run length t_end = 1.0 s (the paper's Fig. 14 snapshot time): omega = 10 turns the wheel 1.6
   times; the wheel starts 0.25 m from the left edge: the engine does not wrap a rigid body through
   a periodic side, so a wheel coming within R + 3 h of the right edge stops the run with that
@@ -84,62 +55,19 @@ spoke's 5 cm the pore pressure diffuses in ~ 0.04 s: slower than a spoke's impac
 omega = 10), comparable to the slow wheel's time. The locked mixture (undrained) is the default
 for the speed budget; a two-phase wheel run is left as a check (it doubles the points).
 
-Why the fast wheel dips (measured; probes of the bed under the wheel in the snapshots):
-
-1. For the first 0.15 s both wheels fall alike, whatever omega (paper's grid, phi0 = 0.505: 64
-   and 66 mm at 0.15 s for omega = 10 and 1; 30 and 39 mm at 0.1 s): between free fall and the
-   buoyancy-reduced fall (1 - rho_f/rho_wheel) g = 4.5 m/s^2 (90 mm in 0.2 s). A density-matched
-   bed at rest carries no granular stress, so until a zone of it has been sheared into jamming
-   nothing but the fluid's buoyancy and inertia holds the wheel: this first ~0.45 R of the dip
-   does not depend on omega, phi0, mu_w, kappa or dt.
-2. Under a spoke striking at omega R = 1.5 m/s the bed is sheared at ~20 1/s, the strike
-   compresses it (p~ > 0), the shear stress passes tau* = 5.35 Pa and f climbs to f_jam within
-   ~0.03 s (a shear strain ~0.6): with K0 = 1, building f is not the bottleneck. But f then STALLS
-   at f_jam: it grows only while the material flows, and the material stops flowing (elastic)
-   once phi >= phi_m(f). The zone under the spokes sits at the jamming threshold (median phi -
-   phi_m(f) between -0.1e-3 and -0.7e-3 at every phi0 tried, 0-40 % of its points jammed at any
-   instant), creeping at mu ~ mu_c under p~ ~ 0.5-2 kPa: a marginal, floating plug rather than a
-   solid, which holds the wheel only once it is large (after the second spoke strike, 0.16 s);
-   the fast wheel then levels off (0.3-0.5 s) and climbs back while it advances.
-3. The depth of the dip before that is set by phi0 (above): f_jam is 0.35, 0.30, 0.28, 0.25 for
-   the phi0 values 0.50, 0.505, 0.5075, 0.51; the slow wheel's sheared zone reaches f ~ 0.2 at
-   0.50 and 0.28 at 0.505 (below f_jam: it flows and the wheel sinks), 0.25 at 0.51 (= f_jam:
-   held).
-Not the cause (h = 20 mm, 0.6 s, phi0 = 0.50; sink of omega = 10 / omega = 1 in mm; reference
-167 / 290): the time step (cfl 0.25: 168 / 285); the fluid modulus (``kappa_factor`` = 10: 169 /
-272, 2.5x the steps; the spoke impacts ring through the soft fluid, pore pressure +-25-35 kPa at
-the tips and phi 0.492-0.511 there, but a 10x stiffer fluid leaves the sink unchanged); the
-contact friction (mu_w = 0.5: 161 / 293); the start (one spoke down: the same final level). The
-moduli G, K do matter (x1 sinks 27 % deeper than x10 at 0.3 s; Fig. 14 below) but are the
-paper's.
-
-Engine defect met here and fixed (mpm2d.transfer.p2g, d765e4a): the well-balanced body-force
-term m_p c h^2 N_i'' g put a finite force on a node at the edge of a point's stencil, where the
-point's weight (so the node's mass) tends to 0; a free-surface node reached by one such point got
-an unbounded acceleration (measured: node mass 2.7e-15 kg, force -1.7e-2 N), the point's velocity
-gradient inverted its volume and the run stopped with "a point left the grid" (h = 20 mm, 0.6 s:
-the slow wheel at phi0 0.5075 and omega 6 at phi0 0.505, both reproducible). The term is now
-limited on such nodes (regular layouts unchanged bit for bit); both runs complete.
-
 Default ``mpm2d run wheel``: ``omega = none`` runs BOTH omegas: 10 1/s in DIR (the main run)
 then 1 1/s in DIR/omega_1 (a sub-run of the same parameters, launched by the report; resumable
 the same way), and writes the combined ``DIR/hub.csv`` (omega_per_s, time_s, x_m, y_m),
 ``DIR/summary.json`` (sink depth per omega and the checks), ``hub.png``, ``fig8.png`` (omega =
-10), ``fig9.png`` (omega = 1), ``wheel.gif`` (both). ``--set omega=1`` runs one omega.
+10), ``fig9.png`` (omega = 1), ``wheel.gif`` (both). ``--set omega=1`` runs one omega. Each run
+keeps ``frames`` = 8 snapshots (every 0.125 s: the Fig. 8-9 times 0.25, 0.5, 0.75, 1 s) with
+the fields the report reads (:data:`FRAME_FIELDS`) and no VTK unless asked (``mpm2d run wheel
+--vtk``), and its final checkpoint: about 45 MB for the default run.
 
-Measured, default run (paper's grid, phi0 = 0.5075, after d765e4a; 22 500 bed points, ~6 650
-steps per omega): omega = 10: the hub dips 105 mm (0.70 R, its centre 20 mm above the
-undisturbed surface) by 0.3 s, then runs level and climbs a little while it advances 1.02 m (6.8
-R, 1.1 m/s = 0.75 omega R): sink 78 mm (0.52 R) at 1 s. omega = 1: sinks 254 mm (1.69 R) by
-0.65 s, its hub 129 mm below the surface, the wheel under it, and is then held (244 mm at 1 s),
-advance 0.08 m. Ratio 3.12: both checks pass. Cost: 4 min 47 s wall, 307 s CPU with 2 numba
-threads on the shared machine (load ~3.5, the run got 107 % CPU): stepping 151 s (omega = 10,
-with setup) and ~120 s (omega = 1), figures and GIFs 13 s (the sub-run writes its own figures
-and GIF too, 4 s of it); on 2 idle cores about 3 min.
-
-Figures 8-9: the bed's points coloured by f, velocity vectors (cell averages) drawn with lengths
-l_i = 1.215 v_i sqrt(R/g), the grid volume fraction phi = 0.1 contour (phi on the nodes: sum_p
-N_ip phi_p V_p / h^2) as the surface, at four times.
+Figures 8-9: the bed's f as cell averages (every cell of bed in its colour, one scale for the
+four times), velocity vectors (block averages) drawn with lengths l_i = 1.215 v_i sqrt(R/g),
+the grid volume fraction phi = 0.1 contour (phi on the nodes: sum_p N_ip phi_p V_p / h^2) as
+the surface.
 
 Fig. 14 (where the method fails): ``moduli_factor`` multiplies the granular G and K (not kappa)
 and ``transfer`` selects APIC or FLIP; :func:`pressure_noise` measures the noise of the granular
@@ -149,7 +77,7 @@ the cases (validation/cases_wheel.py).
 Parameters: omega [1/s] (none: both 10 and 1), radius, hub_radius, spoke_width [m], density
 [kg/m^3], spokes (rigid or elastic), E [Pa], nu (elastic spokes), phi0, width, height,
 bed_depth, h [m], t_end [s], start_angle [deg], mu_w (none: no slip), moduli_factor,
-kappa_factor, transfer, gravity [m/s^2], cfl, frames.
+kappa_factor, transfer, gravity [m/s^2], rules, cfl, frames.
 
 Run: ``mpm2d run wheel --out wheel`` (both omegas)
 """
@@ -158,7 +86,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -195,6 +122,9 @@ SURFACE_PHI = 0.1
 FAST_BAND = 0.8
 #: check: the slow wheel sinks at least this many times deeper than the fast one
 SINK_RATIO = 3.0
+#: what a snapshot keeps (the figures, the animation and Fig. 14's pressure noise read them):
+#: 1.7 MB a snapshot of the default bed (22 500 points), besides id and x
+FRAME_FIELDS = ("v", "m", "V", "phi", "f", "granular_pressure_Pa")
 #: hub.csv columns (interface)
 HUB_COLUMNS = ("omega_per_s", "time_s", "x_m", "y_m")
 
@@ -285,7 +215,7 @@ def _points(p) -> float:
 def setup(omega=None, radius=0.15, hub_radius=0.05, spoke_width=0.0556, density=3000.0,
           spokes="rigid", E=1.0e7, nu=0.3, phi0=0.5075, width=2.0, height=1.0, bed_depth=0.5,
           h=2.0 / 150.0, t_end=1.0, start_angle=45.0, mu_w=None, moduli_factor=1.0,
-          kappa_factor=1.0, transfer="apic", gravity=9.81, rules="table8", cfl=0.5, frames=20):
+          kappa_factor=1.0, transfer="apic", gravity=9.81, rules="table8", cfl=0.5, frames=8):
     params = dict(omega=omega, radius=radius, hub_radius=hub_radius, spoke_width=spoke_width,
                   density=density, spokes=spokes, E=E, nu=nu, phi0=phi0, width=width,
                   height=height,
@@ -352,6 +282,7 @@ def setup(omega=None, radius=0.15, hub_radius=0.05, spoke_width=0.0556, density=
              "(omega prescribed, translation free), spokes elastic (own field, no-slip contact)")
     return Scene(sim, t_end, params, frames=frames, history_rows=400,
                  record=record, before_step=before_step, frame_times=events,
+                 frame_fields=FRAME_FIELDS, vtk=False,
                  report=lambda sim, hist, out: report(sim, hist, out, params, w), notes=notes)
 
 
@@ -380,8 +311,7 @@ def analyse(history, params, omega) -> dict:
     y = history["hub_y_m"].to_numpy()
     dy = y - y[0]
     R = params["radius"]
-    spacing = params["h"] / 2
-    surface = round(params["bed_depth"] / spacing) * spacing      # the undisturbed bed top
+    surface = _surface(params)
     late = t > 0.5 * t[-1]
     speed = float(np.polyfit(t[late], x[late], 1)[0]) if late.sum() > 2 else float("nan")
     spin = float(-history["wheel_omega_per_s"].to_numpy()[late].mean()) if late.any() \
@@ -398,6 +328,12 @@ def analyse(history, params, omega) -> dict:
             "lowest_hub_above_surface_m": float(y.min() - surface)}
 
 
+def _surface(params) -> float:
+    """The undisturbed bed top [m] (whole rows of points at spacing h/2)."""
+    spacing = params["h"] / 2
+    return round(params["bed_depth"] / spacing) * spacing
+
+
 def checks(results: dict, R: float) -> dict:
     """The issue's checks from the per-omega results (keys: omega strings)."""
     out = {"fast_band_over_R": FAST_BAND, "sink_ratio_required": SINK_RATIO}
@@ -411,6 +347,8 @@ def checks(results: dict, R: float) -> dict:
         out["sink_ratio"] = ratio if math.isfinite(ratio) else None
         out["slow_sinks_3x"] = bool(slow["sink_depth_m"] > 0 and
                                     slow["sink_depth_m"] >= SINK_RATIO * ref)
+        dip = max(fast["max_sink_m"], 0.0)            # the same ratio by the largest dips
+        out["sink_ratio_largest_dip"] = slow["max_sink_m"] / dip if dip > 0 else None
     return out
 
 
@@ -526,24 +464,40 @@ def frame_at(out, t) -> dict:
 
 
 # ---------------------------------------------------------------- figures
-def draw_state(ax, frame, params, vmax_f=0.6, quiver_every=2):
-    """Fig. 8/9 panel: bed points coloured by f, wheel and hub in grey, cell-averaged velocity
-    vectors of the bed with lengths 1.215 v sqrt(R/g) [m], the grid phi = 0.1 contour."""
+#: Figs. 8-9: velocity vectors on cells of this many grid cells (a few hundred per panel)
+ARROW_CELLS = 5
+
+
+def f_field(frame, params):
+    """The bed's mass-weighted cell average of f on the grid cells, (nx, ny) (NaN where a cell
+    holds no bed point), with the cell edges in x and y [m]."""
+    h = params["h"]
+    nx, ny = int(round(params["width"] / h)), int(round(params["height"] / h))
+    f = cell_average(frame["bed.x"], frame["bed.f"], frame["bed.m"], h, nx, ny)
+    return f, np.arange(nx + 1) * h, np.arange(ny + 1) * h
+
+
+def draw_state(ax, frame, params, vmax_f, arrow_cells=ARROW_CELLS):
+    """Fig. 8/9 panel: f of the bed as its cell averages (every cell of bed in its colour),
+    wheel and hub points in grey, cell-averaged velocity vectors of the bed on blocks of
+    ``arrow_cells`` cells with lengths 1.215 v sqrt(R/g) [m] (the paper's scale), the grid
+    phi = 0.1 contour (the surface). Returns the mappable (colour range 0 to ``vmax_f``)."""
     h = params["h"]
     nx, ny = int(round(params["width"] / h)), int(round(params["height"] / h))
     x = frame["bed.x"]
-    sc = ax.scatter(x[:, 0], x[:, 1], c=frame["bed.f"], s=0.6, cmap="viridis", vmin=0.0,
-                    vmax=vmax_f, linewidths=0, rasterized=True)
-    if "wheel.x" in frame:
-        ax.scatter(frame["wheel.x"][:, 0], frame["wheel.x"][:, 1], s=0.6, c="0.35",
-                   linewidths=0)
-    ax.scatter(frame["body.hub.x"][:, 0], frame["body.hub.x"][:, 1], s=0.6, c="0.15",
-               linewidths=0)
+    f, xe, ye = f_field(frame, params)
+    im = ax.pcolormesh(xe, ye, np.ma.masked_invalid(f.T), cmap="viridis", vmin=0.0,
+                       vmax=vmax_f, shading="flat", rasterized=True)
+    for key, grey in (("wheel.x", "0.45"), ("body.hub.x", "0.2")):
+        if key in frame:
+            ax.scatter(frame[key][:, 0], frame[key][:, 1], s=4, c=grey, linewidths=0,
+                       marker="s", rasterized=True)
     gp = grid_phi(x, frame["bed.phi"] * frame["bed.V"], h, nx, ny)
     xs = np.arange(nx + 1) * h
     gpp = np.vstack([gp, gp[:1]])
-    ax.contour(xs, np.arange(ny + 1) * h, gpp.T, levels=[SURFACE_PHI], colors="k", linewidths=1)
-    k = quiver_every
+    ax.contour(xs, np.arange(ny + 1) * h, gpp.T, levels=[SURFACE_PHI], colors="w",
+               linewidths=1.2)
+    k = arrow_cells
     L = VECTOR_SCALE * math.sqrt(params["radius"] / params["gravity"])
     vx = cell_average(x, frame["bed.v"][:, 0], frame["bed.m"], k * h, nx // k, ny // k)
     vy = cell_average(x, frame["bed.v"][:, 1], frame["bed.m"], k * h, nx // k, ny // k)
@@ -551,40 +505,73 @@ def draw_state(ax, frame, params, vmax_f=0.6, quiver_every=2):
                        indexing="ij")
     ok = np.isfinite(vx) & np.isfinite(vy)
     ax.quiver(X[ok], Y[ok], L * vx[ok], L * vy[ok], angles="xy", scale_units="xy", scale=1.0,
-              width=0.0015, color="k")
+              width=0.002, headwidth=4, color="k")
     ax.set_xlim(0, nx * h)
     ax.set_ylim(0, min(ny * h, params["bed_depth"] + 3 * params["radius"]))
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
-    return sc
+    return im
 
 
-def snapshots_figure(out, params, omega, path, n=4):
-    """Fig. 8 (omega = 10) / Fig. 9 (omega = 1): the state at n times."""
+def _state_title(res: dict, R: float) -> str:
+    """What a run shows, from its summary entry (:func:`analyse`)."""
+    return (f"omega = {res['omega_per_s']:g} 1/s: the hub sank {res['sink_depth_m'] * 1e3:.0f} "
+            f"mm ({res['sink_over_R']:.2f} R) by t = {res['t_end_s']:.2g} s, at most "
+            f"{res['max_sink_m'] * 1e3:.0f} mm ({res['max_sink_m'] / R:.2f} R), and advanced "
+            f"{res['advance_m']:.2f} m")
+
+
+def _calibration(phi0) -> str:
+    """What the bed's phi0 is, for a figure's title."""
+    if abs(phi0 - 0.5075) < 1e-12:
+        return ("phi0 = 0.5075: a calibration inside the author's 0.50-0.51 (only a narrow "
+                "window of phi0 gives the two wheels' contrast)")
+    return f"phi0 = {phi0:g} (the calibrated default is 0.5075)"
+
+
+def snapshots_figure(out, params, omega, path, n=4, summary=None):
+    """Fig. 8 (omega = 10) / Fig. 9 (omega = 1): the state at n times, one colour scale for all
+    panels spanning f of every panel (at least to f_jam, marked on the bar); with the run's
+    ``summary`` entry (:func:`analyse`) the title says how far the hub sank. ``path`` None:
+    return the figure."""
     frames = load_frames(out)
     t_end = float(frames[-1]["time_s"])
     want = [t_end * (k + 1) / n for k in range(n)]
     chosen = [min(frames, key=lambda f: abs(float(f["time_s"]) - t)) for t in want]
     m = get_material("wheel")
     f_jam = (m.phi_j - params["phi0"]) / (m.phi_j - m.phi_c)
-    fig, axs = plots.plt.subplots(n, 1, figsize=(10, 2.8 * n), constrained_layout=True)
+    vmax = max(f_jam, max(float(np.nanmax(fr["bed.f"])) for fr in chosen))
+    fig, axs = plots.plt.subplots(n, 1, figsize=(9, 3.3 * n + 1.0), constrained_layout=True)
     for ax, fr in zip(np.atleast_1d(axs), chosen):
-        sc = draw_state(ax, fr, params)
-        ax.set_title(f"omega = {omega:g} 1/s, t = {float(fr['time_s']):.2f} s", fontsize=9)
-    fig.colorbar(sc, ax=axs, label=f"f (jammed above {f_jam:.2f}: phi_m(f) = phi0)",
-                 shrink=0.6)
-    return plots.save(fig, path)
+        im = draw_state(ax, fr, params, vmax)
+        c = fr["body.hub.center"]
+        ax.set_title(f"t = {float(fr['time_s']):.2f} s: hub centre at x = {c[0]:.2f} m, "
+                     f"{(c[1] - _surface(params)) / params['radius']:+.2f} R above the "
+                     "undisturbed surface", fontsize=9)
+    cb = fig.colorbar(im, ax=axs, shrink=0.6,
+                      label=f"f (cell average; jammed above f_jam = {f_jam:.2f}, where "
+                            "phi_m(f) = phi0)")
+    cb.ax.axhline(f_jam, color="w", lw=2)
+    head = (_state_title(summary, params["radius"]) if summary is not None
+            else f"omega = {omega:g} 1/s")
+    fig.suptitle(head + f"\n{_calibration(params['phi0'])}; vectors: 1.215 v sqrt(R/g) on "
+                 f"blocks of {ARROW_CELLS} x {ARROW_CELLS} cells; white line: the surface (grid "
+                 f"phi = {SURFACE_PHI:g})", fontsize=10)
+    return plots.save(fig, path) if path is not None else fig
 
 
 def animation(runs, params, path):
     """GIF (matplotlib PillowWriter) of every run's snapshots side by side: runs = [(omega,
-    folder)]."""
+    folder)], one colour scale (0 to the largest f of every snapshot, at least f_jam)."""
     from matplotlib.animation import PillowWriter
 
     plt = plots.plt
     seqs = [(w, load_frames(d)) for w, d in runs]
     n = min(len(s) for _, s in seqs)
+    m = get_material("wheel")
+    f_jam = (m.phi_j - params["phi0"]) / (m.phi_j - m.phi_c)
+    vmax = max([f_jam] + [float(np.nanmax(fr["bed.f"])) for _, seq in seqs for fr in seq])
     fig, axs = plt.subplots(len(seqs), 1, figsize=(8, 2.4 * len(seqs)))
     axs = np.atleast_1d(axs)
     writer = PillowWriter(fps=4)
@@ -593,9 +580,9 @@ def animation(runs, params, path):
         for k in range(n):
             for ax, (w, seq) in zip(axs, seqs):
                 ax.clear()
-                draw_state(ax, seq[k], params, quiver_every=3)
-                ax.set_title(f"omega = {w:g} 1/s, t = {float(seq[k]['time_s']):.2f} s",
-                             fontsize=9)
+                draw_state(ax, seq[k], params, vmax, arrow_cells=2 * ARROW_CELLS)
+                ax.set_title(f"omega = {w:g} 1/s, t = {float(seq[k]['time_s']):.2f} s "
+                             f"(colour: f, 0 to {vmax:.2f})", fontsize=9)
             fig.tight_layout()
             writer.grab_frame()
     plt.close(fig)
@@ -603,23 +590,46 @@ def animation(runs, params, path):
     return Path(path)
 
 
-def hub_figure(hub: pd.DataFrame, R, path):
-    """Hub height change and advance against time for every omega of ``hub``."""
-    fig, axs = plots.plt.subplots(1, 2, figsize=(11, 4))
+def hub_figure(hub: pd.DataFrame, R, path=None, summary=None):
+    """Hub height change and advance against time for every omega of ``hub``; the fast-wheel
+    band (+-FAST_BAND R) only where the fast wheel (omega = 10) is drawn, and the slow/fast
+    ratios of the summary's checks in the title. ``path`` None: return the figure."""
+    fig, axs = plots.plt.subplots(1, 2, figsize=(11, 4.8))
     for w, g in hub.groupby("omega_per_s"):
         t = g["time_s"].to_numpy()
         axs[0].plot(t, (g["y_m"] - g["y_m"].iloc[0]) / R, label=f"omega = {w:g} 1/s")
         axs[1].plot(t, (g["x_m"] - g["x_m"].iloc[0]) / R, label=f"omega = {w:g} 1/s")
-    axs[0].axhspan(-FAST_BAND, FAST_BAND, color="0.9", zorder=0,
-                   label=f"+- {FAST_BAND:.2g} R (fast-wheel check)")
+    if OMEGAS[0] in set(hub["omega_per_s"]):
+        axs[0].axhspan(-FAST_BAND, FAST_BAND, color="0.9", zorder=0,
+                       label=f"fast-wheel check (omega = {OMEGAS[0]:g} only): within "
+                             f"+-{FAST_BAND:.2g} R of its start")
     axs[0].set_ylabel("hub height change / R")
     axs[1].set_ylabel("hub advance / R")
     for ax in axs:
         ax.set_xlabel("t [s]")
-        ax.legend(fontsize=8)
-    fig.suptitle(f"hub of the wheel (R = {R:g} m)", fontsize=10)
-    fig.tight_layout()
-    return plots.save(fig, path)
+    title = f"hub of the wheel (R = {R:g} m)"
+    if summary is not None:
+        title = f"{title}; {_calibration(summary['phi0'])}\n"
+        runs = summary["runs"]
+        title += "sink at t_end " + ", ".join(
+            f"{r['sink_depth_m'] * 1e3:.0f} mm (largest {r['max_sink_m'] * 1e3:.0f} mm) at "
+            f"omega = {r['omega_per_s']:g} 1/s" for r in runs.values())
+        ch = summary["checks"]
+        if "slow_sinks_3x" in ch:
+            ratio = (f"{ch['sink_ratio']:.2f}" if ch["sink_ratio"] is not None
+                     else "undefined (the fast wheel did not sink)")
+            dip = (f"{ch['sink_ratio_largest_dip']:.2f}"
+                   if ch.get("sink_ratio_largest_dip") is not None else "undefined")
+            title += (f"\nslow/fast sink {ratio} at t_end (check >= {SINK_RATIO:g}: "
+                      f"{'passed' if ch['slow_sinks_3x'] else 'failed'}), {dip} by the "
+                      f"largest dips; fast wheel within +-{FAST_BAND:.2g} R: "
+                      f"{'yes' if ch['fast_stays_up'] else 'no'}")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0.08, 1, 0.95))
+    handles, labels = axs[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8,
+               frameon=False)
+    return plots.save(fig, path) if path is not None else fig
 
 
 def pressure_figure(cases, params_of, path, t=1.0, t_from=None):
@@ -678,7 +688,7 @@ def report(sim, history, out, params, omega):
             resume = (sub / "checkpoint.npz").exists()
             given = {k: v for k, v in params.items() if k != "omega"}
             res = run_scene(setup, sub, {**given, "omega": w}, resume=resume,
-                            progress=sys.stderr.isatty(), vtk=(out / "vtk").exists(),
+                            progress=True, vtk=(out / "vtk").exists(),
                             log=lambda msg: print(msg, flush=True))
             runs.append((w, sub, res["history"]))
     hub = pd.concat([hub_table(h_, w) for w, _, h_ in runs], ignore_index=True)
@@ -691,11 +701,13 @@ def report(sim, history, out, params, omega):
                "sink_depth_definition": "hub height at t = 0 minus at t_end [m] (> 0: sank)"}
     paths = [atomic_write_csv(out / "hub.csv", hub),
              atomic_write_json(out / "summary.json", _finite(summary),
-                               nullable=("sink_ratio", "speed_m_per_s", "wheel_spin_per_s")),
-             hub_figure(hub, R, out / "hub.png")]
+                               nullable=("sink_ratio", "sink_ratio_largest_dip",
+                                         "speed_m_per_s", "wheel_spin_per_s")),
+             hub_figure(hub, R, out / "hub.png", summary)]
     for w, folder, _ in runs:
         name = {10.0: "fig8.png", 1.0: "fig9.png"}.get(float(w), f"state_omega_{_omega_key(w)}.png")
-        paths.append(snapshots_figure(folder, params, w, out / name))
+        paths.append(snapshots_figure(folder, params, w, out / name,
+                                      summary=results[_omega_key(w)]))
     paths.append(animation([(w, folder) for w, folder, _ in runs], params, out / "wheel.gif"))
     return [Path(p) for p in paths]
 

@@ -1,0 +1,61 @@
+"""Before a run: its size (points, steps, point-steps, memory, a probed wall time) is printed,
+and a run past mpm2d.estimate.CONFIRM_POINT_STEPS needs --yes, else it is refused with the
+estimate before anything is written (before the set-up where the parameters bound the size)."""
+
+import re
+
+import pytest
+
+from mpm2d import estimate
+from mpm2d.run import run_scene
+from mpm2d.scenes import bar, get_setup
+
+TINY_IMPACT = dict(radius=0.02, depth=0.016, cells_per_mm=0.5, t_end=0.001, stencil=1e-4)
+
+
+def test_a_run_past_the_limit_is_refused_before_its_set_up(tmp_path, monkeypatch):
+    """320 points x at least 172 steps (t_end/dt_max, dt_max = cfl h/sqrt(G/rho)) = 5.5e4
+    point-steps: past a limit of 1e4 the run is refused, naming the size and --yes."""
+    monkeypatch.setattr(estimate, "CONFIRM_POINT_STEPS", 1e4)
+    built = []
+    setup = get_setup("impact")
+    monkeypatch.setattr(estimate, "_coarse_probe",
+                        lambda *a: (built.append(a) or (2e-6, "cells_per_mm = 0.5")))
+    out = tmp_path / "never"
+    with pytest.raises(ValueError, match="need --yes") as err:
+        run_scene(setup, out, dict(TINY_IMPACT), progress=False, log=lambda m: None,
+                  yes=False)
+    text = str(err.value)
+    points, steps, work = (float(x) for x in re.search(
+        r"a run of (\S+) points x at least (\S+) steps = at least (\S+) point-steps",
+        text).groups())
+    assert points == 320 and work == pytest.approx(points * steps, rel=2e-3)
+    assert "memory ~" in text and f"at least {estimate._clock(work * 2e-6)}" in text
+    assert not out.exists() and len(built) == 1
+
+
+def test_with_yes_it_runs_and_says_its_size(tmp_path, monkeypatch):
+    monkeypatch.setattr(estimate, "CONFIRM_POINT_STEPS", 10.0)
+    lines = []
+    res = run_scene(bar.setup, tmp_path / "b", dict(cells=8, periods=0.1), progress=False,
+                    vtk=False, log=lines.append, yes=True)
+    assert res["complete"]
+    (size,) = [x for x in lines if x.startswith("run size: ")]
+    sim = res["scene"].sim
+    assert size.startswith(f"run size: {len(sim.sets[0].x)} points x ~")
+    assert re.search(r"wall time (~|< )\S+ .*median of a timed probe of \d+ steps, load "
+                     r"average", size)
+    with pytest.raises(ValueError, match=r"run size|a run of .* need --yes"):
+        run_scene(bar.setup, tmp_path / "n", dict(cells=8, periods=0.1), progress=False,
+                  vtk=False, log=lambda m: None, yes=False)
+    assert not (tmp_path / "n").exists()
+
+
+def test_the_coarse_probe_times_the_same_scene_at_fewer_points():
+    """The probe before the set-up builds the scene itself at a coarser cell size, never finer
+    than the run; a size the scene refuses (0.1 cells per mm: the rod narrower than 2 cells) is
+    moved halfway back, geometrically (0.224 cells per mm: 22 x 22 cells, 1936 points)."""
+    setup = get_setup("impact")
+    params = setup.spec.validate({"cells_per_mm": 0.5})
+    per, what = estimate._coarse_probe(setup, params, 1e5)
+    assert 0 < per < 1e-3 and what.startswith("cells_per_mm = 0.224 (1936 points")
