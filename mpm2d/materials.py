@@ -40,14 +40,22 @@ _jit = nb.njit(cache=True, error_model="numpy")
 
 
 # ------------------------------------------------------------------ shared kernel pieces
-@_jit
+_inline = nb.njit(cache=True, error_model="numpy", inline="always")
+
+
+@_inline
+def _det(l0, l1, l2, l3, l4, dt):
+    """det(1 + dt L) of a compact gradient (xx, xy, yx, yy, thth)."""
+    return ((1.0 + dt * l0) * (1.0 + dt * l3) - dt * dt * l1 * l2) * (1.0 + dt * l4)
+
+
+@_inline
 def _jacobian(L, p, dt):
     """det(1 + dt L) for the compact gradient row p."""
-    return (((1.0 + dt * L[p, 0]) * (1.0 + dt * L[p, 3]) - dt * dt * L[p, 1] * L[p, 2])
-            * (1.0 + dt * L[p, 4]))
+    return _det(L[p, 0], L[p, 1], L[p, 2], L[p, 3], L[p, 4], dt)
 
 
-@_jit
+@_inline
 def _viscous(L, p, eta):
     """tau = eta (L + L^T - 2/3 tr L 1) as (xx, xy, yy, thth)."""
     tr = L[p, 0] + L[p, 3] + L[p, 4]
@@ -57,18 +65,18 @@ def _viscous(L, p, eta):
 
 # ------------------------------------------------------------------ kernels
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p):
-    """Jaumann linear-elastic update of point p in registers: with swirl
-    rheology.local_update.jaumann_elastic on the 3 x 3 L of the compact row (xx, xy, yx, yy,
-    thth) and the swirl rows L_theta_r, L_theta_z (zeros above them); without, the plane form
+def _elastic_point(stress, l, vol, dt, G, K, sp, Lw, spw, p):
+    """Jaumann linear-elastic update of point p in registers from its compact gradient l (the
+    5-tuple xx, xy, yx, yy, thth): with swirl rheology.local_update.jaumann_elastic on the 3 x 3
+    L of l and the swirl rows L_theta_r, L_theta_z (zeros above them); without, the plane form
     (jaumann_elastic_plane: no out-of-plane shear, which Simulation checks at the start, so the
     four in-plane and hoop components are the whole update)."""
+    l0, l1, l2, l3, l4 = l
     if Lw.shape[0] > 0:
         r = jaumann_elastic((stress[p, 0, 0], stress[p, 0, 1], stress[p, 0, 2],
                              stress[p, 1, 0], stress[p, 1, 1], stress[p, 1, 2],
                              stress[p, 2, 0], stress[p, 2, 1], stress[p, 2, 2]),
-                            (L[p, 0], L[p, 1], 0.0, L[p, 2], L[p, 3], 0.0, Lw[p, 0], Lw[p, 1],
-                             L[p, 4]), dt, G, K)
+                            (l0, l1, 0.0, l2, l3, 0.0, Lw[p, 0], Lw[p, 1], l4), dt, G, K)
         stress[p, 0, 0], stress[p, 0, 1], stress[p, 0, 2] = r[0], r[1], r[2]
         stress[p, 1, 0], stress[p, 1, 1], stress[p, 1, 2] = r[3], r[4], r[5]
         stress[p, 2, 0], stress[p, 2, 1], stress[p, 2, 2] = r[6], r[7], r[8]
@@ -76,12 +84,12 @@ def _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p):
         spw[p, 0], spw[p, 1] = r[2], r[5]
     else:
         n00, n01, n11, n22 = jaumann_elastic_plane(stress[p, 0, 0], stress[p, 0, 1],
-                                                   stress[p, 1, 1], stress[p, 2, 2], L[p, 0],
-                                                   L[p, 1], L[p, 2], L[p, 3], L[p, 4], dt, G, K)
+                                                   stress[p, 1, 1], stress[p, 2, 2], l0, l1, l2,
+                                                   l3, l4, dt, G, K)
         stress[p, 0, 0], stress[p, 0, 1], stress[p, 1, 0] = n00, n01, n01
         stress[p, 1, 1], stress[p, 2, 2] = n11, n22
         sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = n00, n01, n11, n22
-    vol[p] *= _jacobian(L, p, dt)
+    vol[p] *= _det(l0, l1, l2, l3, l4, dt)
 
 
 @dual
@@ -89,7 +97,8 @@ def elastic_kernel(stress, L, vol, dt, G, K, sp, Lw, spw):
     """Jaumann linear-elastic update of every point; sp = (xx, xy, yy, zz); with swirl (Lw,
     spw of shape (N, 2), else (0, 2)) spw = (r theta, theta z)."""
     for p in nb.prange(vol.shape[0]):
-        _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p)
+        _elastic_point(stress, (L[p, 0], L[p, 1], L[p, 2], L[p, 3], L[p, 4]), vol, dt, G, K, sp,
+                       Lw, spw, p)
 
 
 @dual
@@ -97,12 +106,13 @@ def elastic_g2p_kernel(x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt
                        stress, vol, G, K, sp, Lw, spw):
     """G2P (:func:`mpm2d.transfer.g2p`, same arguments first) and the linear-elastic update
     (:func:`elastic_kernel`, same arguments after) of each point in one pass: the point's L is
-    used while it is in registers and cache, and the step has one parallel loop fewer. Same
-    arithmetic in the same order per point as the two kernels called one after the other, so
-    the results are identical to them."""
+    used while it is in registers, and the step has one parallel loop fewer. Same arithmetic in
+    the same order per point as the two kernels called one after the other, so the results are
+    identical to them."""
     for p in nb.prange(x.shape[0]):
-        gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag)
-        _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p)
+        l = gather_point(p, x, v, C, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag)
+        L[p, 0], L[p, 1], L[p, 2], L[p, 3], L[p, 4] = l
+        _elastic_point(stress, l, vol, dt, G, K, sp, Lw, spw, p)
 
 
 @dual
@@ -174,13 +184,13 @@ def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, 
     (V - svol) (undrained), fluid stress eta0 (1 + 5/2 phi)(L + L^T - 2/3 tr L), and
     sp = sigma~ - p_f 1 + tau_f. ``fail[0]`` = 1 + index of a failed point (0 if none).
     With swirl (Lw, spw (N, 2), else (0, 2)): spw = (r theta, theta z) of sigma~ + tau_f.
-    Work arrays of each chunk c: S[c] (NSTRESS, BLOCK), W[c] (NWORK, BLOCK), blk[c] (2, BLOCK)
-    (phi, pore pressure); ``none``: an empty (0, NOUT) array (no diagnostic outputs).
+    Work arrays of each chunk c: S[c] (NSTRESS, BLOCK), W[c] (NWORK, BLOCK), blk[c] (3, BLOCK)
+    (phi, pore pressure, fluid viscosity); ``none``: an empty (0, NOUT) array (no diagnostic outputs).
     """
     sw = Lw.shape[0] > 0
     G, K = P[16], P[17]
     for c in nb.prange(chunks.shape[0] - 1):
-        Sc, Wc, phib, prb = S[c], W[c], blk[c, 0], blk[c, 1]
+        Sc, Wc, phib, prb, etab = S[c], W[c], blk[c, 0], blk[c, 1], blk[c, 2]
         for lo in range(chunks[c], chunks[c + 1], BLOCK):
             hi = min(lo + BLOCK, chunks[c + 1])
             n = hi - lo
@@ -192,11 +202,13 @@ def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, 
             # gdot: the warm start of a jammed point's dilatant solve (its previous plastic
             # rate, checkpointed), then the new rate
             update_block(Sc, phib[:n], f[lo:hi], gdot[lo:hi], case[lo:hi], dt, P, Wc, none)
-            if locked:      # the pore pressures in a loop of their own (rheology.vecmath: SIMD)
+            if locked:      # pore pressure and fluid viscosity: loops over slices (SIMD)
                 mc, sc, vc = m[lo:hi], svol[lo:hi], vol[lo:hi]
                 for k in range(n):
                     prb[k] = laws.pore_pressure((mc[k] - rho_s * sc[k]) / (vc[k] - sc[k]),
                                                 rho_f0, kappa)
+                for k in range(n):
+                    etab[k] = laws.fluid_viscosity(sc[k] / vc[k], eta0)
             for k in range(n):
                 p = lo + k
                 if case[p] == FAILED:
@@ -204,10 +216,10 @@ def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, 
                 s00, s11, s22, s01 = Sc[0, k], Sc[1, k], Sc[2, k], Sc[3, k]
                 stress[p, 0, 0], stress[p, 1, 1], stress[p, 2, 2] = s00, s11, s22
                 stress[p, 0, 1] = stress[p, 1, 0] = s01
-                pr = prb[k] if locked else 0.0
-                txx = txy = tyy = ttt = eta = 0.0
+                pr = eta = 0.0
+                txx = txy = tyy = ttt = 0.0
                 if locked:
-                    eta = laws.fluid_viscosity(svol[p] / vol[p], eta0)
+                    pr, eta = prb[k], etab[k]
                     txx, txy, tyy, ttt = _viscous(L, p, eta)
                 if sw:
                     s02, s12 = Sc[4, k], Sc[5, k]
@@ -457,7 +469,7 @@ class Suspension:
         w = self.__dict__.get("_work_arrays")
         if w is None or w[0].shape[0] != nc:
             w = (np.zeros((nc, NSTRESS, BLOCK)), np.zeros((nc, NWORK, BLOCK)),
-                 np.zeros((nc, 2, BLOCK)), np.zeros((0, NOUT)))
+                 np.zeros((nc, 3, BLOCK)), np.zeros((0, NOUT)))
             self._work_arrays = w
         return w
 

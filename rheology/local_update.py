@@ -798,9 +798,10 @@ def block_newton(phi, f, dt, P, W):
 @_stage
 def block_test(phi, f, dt, P, W):
     """update_block stage 3: R(beta) of :func:`_dilatant_flow` at the Newton iterate (gdot(beta)
-    in closed form), its slope and update_point's convergence test (the exits of
-    _dilatant_flow's Newton: |R| at the roundoff floor, or a step below 1e-14 beta with
-    |R| <= 1e-12 of the stress); a point that passes is finished (branch-free: SIMD)."""
+    in closed form), its slope (:func:`_slope`) and update_point's convergence test (the exits
+    of _dilatant_flow's Newton: |R| at the roundoff floor, or a step below 1e-14 beta with
+    |R| <= 1e-12 of the stress); a point that passes is finished (branch-free: SIMD; three
+    divisions and a square root)."""
     phi_c, phi_j, a0, ainf, mu1, mu2, b, eta0 = P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[8]
     K3 = P[20]
     Gdt, Kdt, rd2, iK3 = P[16] * dt, P[17] * dt, P[18] * P[19] * P[19], 1.0 / K3
@@ -811,18 +812,34 @@ def block_test(phi, f, dt, P, W):
         a = laws.dilatancy_a(f[k], a0, ainf)
         beta_lo = max(0.0, K3 * (ph - phim))
         beta_top = beta_lo + (K3 * ph - beta_lo) * (1.0 - 1e-15)
+        # R = tau* - G dt g - (mu_p + beta) p with laws.friction's terms multiplied through by
+        # p: (mu_1 + beta) p + (mu_2 - mu_1) U p + V g, U = I_m/(I_m + b), V = 5/2 phi eta0/(a I_m)
+        # (F2 of _newton_2d at g = gdot(beta)); 1/(a x), U and V from one reciprocal
         x = ph - beta * iK3
-        Im = (phim - x) / (a * x)
+        w = phim - x
+        ax = a * x
+        wb = w + b * ax
+        q = 1.0 / (ax * w * wb)
+        iax = w * wb * q
+        Im = w * iax
         Im2 = Im * Im
+        U = w * w * ax * q
+        c = 2.5 * ph * eta0
+        V = c * x * ax * wb * q
         bq = 2.0 * eta0 - Kdt * beta * Im2
         cq = p_tr * Im2
         sq = np.sqrt(bq * bq + 4.0 * rd2 * cq)
         gk = 2.0 * cq / (bq + sq) if bq > 0.0 else (-bq + sq) / (2.0 * rd2)
         p = p_tr + Kdt * beta * gk
-        Iv = eta0 * gk / p
-        mu = laws.friction(Iv, Im, ph, a, mu1, mu2, b)
-        R = tau_tr - Gdt * gk - (mu + beta) * p
-        dR = _slope(beta, gk, p, Im, x, sq, Iv, mu, ph, phim, a, Gdt, Kdt, eta0, K3, mu1, mu2, b)
+        R = tau_tr - Gdt * gk - (mu1 + beta) * p - (mu2 - mu1) * U * p - V * gk
+        # its slope (_slope's chain rule in these variables; w + x = phi_m)
+        dIm = phim * a * iax * iax * iK3
+        dg = (Kdt * Im2 * gk + 2.0 * p * Im * dIm) / sq
+        dp = Kdt * (gk + beta * dg)
+        dU = b * a * phim * iK3 * (ax * w * q) ** 2
+        dV = -c * phim * iK3 * (ax * wb * q) ** 2
+        dR = (-Gdt * dg - p - (mu1 + beta) * dp - (mu2 - mu1) * (dU * p + U * dp) - dV * gk
+              - V * dg)
         floor = 2e-15 * (tau_tr + mu1 * abs(p_tr))
         conv = (abs(R) <= floor) | ((abs(R) <= 1e-14 * abs(beta) * abs(dR))
                                     & (abs(R) <= 1e-12 * (tau_tr - Gdt * gk + mu1 * p) + floor))

@@ -320,10 +320,9 @@ def phase_bytes(sim) -> dict:
         elastic = s.name in sim._fused_update
         # P2G: x, v, C, m, V, sp (+ pf of two-phase fluid points, svol of two-phase grains)
         p2g = 2 + 2 + 4 + 1 + 1 + 4 + (two and fluid) + (two and not fluid)
-        # G2P: reads x, v, C; writes them and L (write-only)
-        g2p = 8 + 8 + 2 * 5
-        if elastic:        # fused update: stress and V read and written, sp write-only
-            g2p += 2 * 9 + 2 + 2 * 4
+        # G2P: reads x, v, C and writes them, L write-only; a linear-elastic set's fused update:
+        # stress and V read and written, sp write-only
+        g2p = 8 + 8 + 2 * 5 + (2 * 9 + 2 + 2 * 4 if elastic else 0)
         if two and fluid:  # porosity and div q gathered (write-only), n = 1 - phi (numpy)
             g2p += 2 * 2 + 3
         con = 0
