@@ -64,12 +64,16 @@ f_n:
    whose fixed point is Eq. (13) exactly. phi_m and a use f_n.
 
 The point kernel :func:`update_point` is numba-compiled and calls the laws of :mod:`rheology.laws`
-(written once). :func:`update_block` runs the same update on a block of points in vectorised
-stages (the scalar solve is a chain of dependent divisions; in SIMD lanes its Newton steps cost
-~1.4 ns a point) and hands every point it does not finish to update_point; :func:`update_points`
-is the parallel loop of blocks, the entry point for ``shear1d``, and ``mpm2d``'s suspension
-kernel calls update_block on its own blocks; :func:`local_update` is the validated numpy front
-end.
+(written once): the elastic trial, then :func:`_correct` (step 2 from the trial invariants p*,
+tau*), then step 3. :func:`update_block` runs the same update on a block of points whose trial
+stress the caller gives as a structure-of-arrays (rows xx, yy, zz, xy, xz, yz), in vectorised
+stages (the scalar solve is a chain of dependent divisions; in SIMD lanes a Newton step costs
+~1.3 ns a point): the closed-form cases, three Newton steps on (beta, gdot_p) and update_point's
+convergence test for the dilatant points below jamming, 1/eta_B, the structure step; a point
+they do not finish (jammed and yielding, p* <= 0, a missed test) goes through :func:`_correct`.
+:func:`update_points` is the parallel loop of blocks on (N, 3, 3) arrays (:func:`local_update`,
+the validated numpy front end, calls it); ``mpm2d``'s suspension kernel writes its trial
+stresses into the block and calls update_block; ``shear1d`` and ``rheometer`` call update_point.
 """
 
 from __future__ import annotations
@@ -898,10 +902,6 @@ def block_finish(S, phi, f, g, case, dt, P, W):
         f[k], g[k], case[k] = f1, gk, cs
 
 
-#: update_block's stages in order, with their arguments (for timing them one by one)
-BLOCK_STAGES = ("start", "newton", "test", "inv_eta_B", "handed", "finish")
-
-
 @_jit
 def update_block(S, phi, f, g, case, dt, P, W, out):
     """:func:`update_point` on a block of n = len(phi) <= BLOCK points, in vectorised stages.
@@ -1000,7 +1000,10 @@ def _update_loop(sig, L, phi, f, dt, P, sig_out, out, g_prev=None, newton=True):
             for k in range(hi - lo):
                 trial_to_block(sig, L, lo + k, dt, G, K, S, k)
                 fb[k] = f[lo + k]
-                gb[k] = -1.0 if g_prev is None else g_prev[lo + k]
+            if g_prev is None:
+                gb[:] = -1.0
+            else:
+                gb[:hi - lo] = g_prev[lo:hi]
             n = hi - lo
             update_block(S, phi[lo:hi], fb[:n], gb[:n], cb[:n], dt, P, W, out[lo:hi])
             for k in range(hi - lo):
