@@ -603,14 +603,15 @@ def _flow_outputs(phi, phim, a, g, p, Im, P):
 
 
 @_jit
-def _correct(p_tr, tau_tr, phi, f, dt, P, g_prev, newton, beta_start):
+def _correct(p_tr, tau_tr, phi, f, dt, P, g_prev, newton, beta_start, g_start):
     """The plastic correction of one point from its trial invariants p*, tau* [Pa] (module
     docstring, step 2): returns (case, gdot_p, p, I_m, beta, xi1, xi2, evaluations).
 
     ``g_prev``: warm start of a jammed point's dilatant solve (see :func:`update_point`);
-    ``beta_start``: a start of the dilatant solve's Newton in beta from the caller (update_block's
-    Newton iterate), used when it lies in the bracket; otherwise (e.g. -1) the start is
-    :func:`_newton_2d`'s. Either only moves where the solve starts, not its tolerance.
+    ``beta_start``, ``g_start``: an iterate of :func:`_newton_2d`'s pair from the caller
+    (update_block's Newton), from which _newton_2d continues when it lies in the bracket
+    (g_start > 0); otherwise (e.g. -1, -1) it starts from its own estimates. Either only moves
+    where the solve starts, not its tolerance.
     """
     phi_c, phi_j, a0, ainf = P[0], P[1], P[2], P[3]
     mu1, mu2, b, eta0 = P[4], P[5], P[6], P[8]
@@ -652,11 +653,11 @@ def _correct(p_tr, tau_tr, phi, f, dt, P, g_prev, newton, beta_start):
     # relation at that rate
     beta_top = beta_lo + (K3 * phi - beta_lo) * (1.0 - 1e-15)
     bs = beta_lo
-    if newton and beta_lo < beta_start < beta_top:
-        bs = beta_start
-    elif newton:
+    if newton:
         warm = g_prev > 0.0 and g_prev < np.inf
-        if y > 0.0:
+        if beta_lo < beta_start < beta_top and 0.0 < g_start < np.inf:
+            g0, b0 = g_start, beta_start
+        elif y > 0.0:
             g0 = gc
             b0 = beta_c
         else:
@@ -700,7 +701,7 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
             ss += sij * sij
     tau_tr = np.sqrt(0.5 * ss)
     case, g, p, Im, beta, xi1, xi2, iters = _correct(p_tr, tau_tr, phi, f, dt, P, g_prev, newton,
-                                                     -1.0)
+                                                     -1.0, -1.0)
     taubar, scale, f1 = _structure_tail(f, phi, g, tau_tr, G * dt, P, dt,
                                         laws.inv_eta_B(phi, phi_j, v1, al1, v2, al2),
                                         case == SEPARATED)
@@ -872,9 +873,10 @@ def block_handed(phi, f, g, dt, P, W):
     for k in range(phi.shape[0]):
         cs = W[_CASE, k]
         if cs < -1.0:
-            bs = W[_BETA, k] if cs == _HANDED_START else -1.0
+            start = cs == _HANDED_START
             c, gk, p, Im, beta, _, _, it = _correct(W[_PTR, k], W[_TAU, k], phi[k], f[k], dt, P,
-                                                    g[k], True, bs)
+                                                    g[k], True, W[_BETA, k] if start else -1.0,
+                                                    W[_G, k] if start else -1.0)
             W[_CASE, k], W[_GF, k], W[_PF, k], W[_IM, k], W[_BETA, k] = c, gk, p, Im, beta
             # evaluations: the block's own (one, at its iterate) and _correct's
             W[_ITER, k] = it if (it < 0 or cs != _HANDED_START) else it + 1
