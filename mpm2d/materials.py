@@ -177,72 +177,72 @@ def _trial(stress, L, Lw, p, dt, G, K, S, k):
 def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, kappa, eta0,
                       sp, pf, gdot, case, fail, Lw, spw, S, W, blk, none):
     """The Table 8 granular law at every point (rheology.local_update.update_block on blocks of
-    BLOCK points, handed to the threads a few at a time as they finish the last: the cost of a
-    point varies several times with its case, so equal shares of the points would leave threads
-    waiting).
+    BLOCK points, dealt round-robin to S.shape[0] lanes, a few per thread: the cost of a point
+    varies several times with its case, so contiguous equal shares of the points, one a thread,
+    would leave threads waiting while one finishes an expensive region).
 
     phi = svol/V at the start of the step; f and stress advanced; V *= det(1 + dt L).
     Locked mixture: pore pressure p_f = kappa ln(rho_f/rho_0f) with rho_f = (m - rho_s svol) /
     (V - svol) (undrained), fluid stress eta0 (1 + 5/2 phi)(L + L^T - 2/3 tr L), and
     sp = sigma~ - p_f 1 + tau_f. ``fail[0]`` = 1 + index of a failed point (0 if none).
     With swirl (Lw, spw (N, 2), else (0, 2)): spw = (r theta, theta z) of sigma~ + tau_f.
-    Work arrays of each thread t (numba.get_thread_id): S[t] (NSTRESS, BLOCK), W[t] (NWORK,
-    BLOCK), blk[t] (3, BLOCK) (phi, pore pressure, fluid viscosity); ``none``: an empty
-    (0, NOUT) array (no diagnostic outputs).
+    Work arrays of each lane t: S[t] (NSTRESS, BLOCK), W[t] (NWORK, BLOCK), blk[t] (3, BLOCK)
+    (phi, pore pressure, fluid viscosity); ``none``: an empty (0, NOUT) array (no diagnostic
+    outputs).
     """
     sw = Lw.shape[0] > 0
     G, K = P[16], P[17]
     N = vol.shape[0]
-    chunk = nb.set_parallel_chunksize(_BLOCKS_PER_TASK)
-    for jb in nb.prange((N + BLOCK - 1) // BLOCK):
-        t = nb.get_thread_id()
+    lanes = S.shape[0]
+    nblocks = (N + BLOCK - 1) // BLOCK
+    for t in nb.prange(lanes):
         Sc, Wc, phib, prb, etab = S[t], W[t], blk[t, 0], blk[t, 1], blk[t, 2]
-        lo = jb * BLOCK
-        hi = min(lo + BLOCK, N)
-        n = hi - lo
-        for k in range(n):
-            p = lo + k
-            phib[k] = svol[p] / vol[p]
-            _trial(stress, L, Lw, p, dt, G, K, Sc, k)
-            vol[p] *= _jacobian(L, p, dt)
-        # gdot: the warm start of a jammed point's dilatant solve (its previous plastic
-        # rate, checkpointed), then the new rate
-        update_block(Sc, phib[:n], f[lo:hi], gdot[lo:hi], case[lo:hi], dt, P, Wc, none)
-        if locked:      # pore pressure and fluid viscosity: loops over slices (SIMD)
-            mc, sc, vc = m[lo:hi], svol[lo:hi], vol[lo:hi]
+        for jb in range(t, nblocks, lanes):
+            lo = jb * BLOCK
+            hi = min(lo + BLOCK, N)
+            n = hi - lo
             for k in range(n):
-                prb[k] = laws.pore_pressure((mc[k] - rho_s * sc[k]) / (vc[k] - sc[k]),
-                                            rho_f0, kappa)
+                p = lo + k
+                phib[k] = svol[p] / vol[p]
+                _trial(stress, L, Lw, p, dt, G, K, Sc, k)
+                vol[p] *= _jacobian(L, p, dt)
+            # gdot: the warm start of a jammed point's dilatant solve (its previous plastic
+            # rate, checkpointed), then the new rate
+            update_block(Sc, phib[:n], f[lo:hi], gdot[lo:hi], case[lo:hi], dt, P, Wc, none)
+            if locked:      # pore pressure and fluid viscosity: loops over slices (SIMD)
+                mc, sc, vc = m[lo:hi], svol[lo:hi], vol[lo:hi]
+                for k in range(n):
+                    prb[k] = laws.pore_pressure((mc[k] - rho_s * sc[k]) / (vc[k] - sc[k]),
+                                                rho_f0, kappa)
+                for k in range(n):
+                    etab[k] = laws.fluid_viscosity(sc[k] / vc[k], eta0)
             for k in range(n):
-                etab[k] = laws.fluid_viscosity(sc[k] / vc[k], eta0)
-        for k in range(n):
-            p = lo + k
-            if case[p] == FAILED:
-                fail[0] = p + 1
-            s00, s11, s22, s01 = Sc[0, k], Sc[1, k], Sc[2, k], Sc[3, k]
-            stress[p, 0, 0], stress[p, 1, 1], stress[p, 2, 2] = s00, s11, s22
-            stress[p, 0, 1] = stress[p, 1, 0] = s01
-            pr = eta = 0.0
-            txx = txy = tyy = ttt = 0.0
-            if locked:
-                pr, eta = prb[k], etab[k]
-                txx, txy, tyy, ttt = _viscous(L, p, eta)
-            if sw:
-                s02, s12 = Sc[4, k], Sc[5, k]
-                stress[p, 0, 2] = stress[p, 2, 0] = s02
-                stress[p, 1, 2] = stress[p, 2, 1] = s12
-                spw[p, 0] = s02 + eta * Lw[p, 0]
-                spw[p, 1] = s12 + eta * Lw[p, 1]
-            pf[p] = pr
-            sp[p, 0] = s00 + txx - pr
-            sp[p, 1] = s01 + txy
-            sp[p, 2] = s11 + tyy - pr
-            sp[p, 3] = s22 + ttt - pr
-    nb.set_parallel_chunksize(chunk)
+                p = lo + k
+                if case[p] == FAILED:
+                    fail[0] = p + 1
+                s00, s11, s22, s01 = Sc[0, k], Sc[1, k], Sc[2, k], Sc[3, k]
+                stress[p, 0, 0], stress[p, 1, 1], stress[p, 2, 2] = s00, s11, s22
+                stress[p, 0, 1] = stress[p, 1, 0] = s01
+                pr = eta = 0.0
+                txx = txy = tyy = ttt = 0.0
+                if locked:
+                    pr, eta = prb[k], etab[k]
+                    txx, txy, tyy, ttt = _viscous(L, p, eta)
+                if sw:
+                    s02, s12 = Sc[4, k], Sc[5, k]
+                    stress[p, 0, 2] = stress[p, 2, 0] = s02
+                    stress[p, 1, 2] = stress[p, 2, 1] = s12
+                    spw[p, 0] = s02 + eta * Lw[p, 0]
+                    spw[p, 1] = s12 + eta * Lw[p, 1]
+                pf[p] = pr
+                sp[p, 0] = s00 + txx - pr
+                sp[p, 1] = s01 + txy
+                sp[p, 2] = s11 + tyy - pr
+                sp[p, 3] = s22 + ttt - pr
 
 
-#: blocks of BLOCK points a thread takes at a time in suspension_kernel (dynamic schedule)
-_BLOCKS_PER_TASK = 4
+#: suspension_kernel's lanes per thread (blocks dealt round-robin to the lanes)
+LANES_PER_THREAD = 4
 _NO_SWIRL = np.zeros((0, 2))
 
 
@@ -464,7 +464,9 @@ class Suspension:
         suspension_kernel[parallel](ps.stress, ps.L, ps.V, ps.svol, ps.m, ps.f, dt, self.P,
                                     self.locked, m.rho_s, m.rho_f if self.locked else 1.0,
                                     m.kappa if self.locked else 0.0, m.eta0, ps.sp, ps.pf,
-                                    ps.gdot_p, ps.case, fail, *_swirl_arrays(ps), *self._work())
+                                    ps.gdot_p, ps.case, fail, *_swirl_arrays(ps),
+                                    *self._work(LANES_PER_THREAD * nb.get_num_threads()
+                                                if parallel else 1))
         if fail[0]:
             k = fail[0] - 1
             raise RuntimeError(f"{ps.name}: the Table 8 local update failed at point id "
@@ -472,13 +474,12 @@ class Suspension:
                                f"{ps.svol[k] / ps.V[k]:.6g}, f = {ps.f[k]:.6g}, stress = "
                                f"{ps.stress[k].round(6).tolist()}, dt = {dt:g} s)")
 
-    def _work(self):
-        """suspension_kernel's work arrays, one set for each numba thread (kept between steps)."""
+    def _work(self, lanes):
+        """suspension_kernel's work arrays for ``lanes`` lanes (kept between steps)."""
         w = self.__dict__.get("_work_arrays")
-        if w is None:
-            nt = nb.config.NUMBA_NUM_THREADS
-            w = (np.zeros((nt, NSTRESS, BLOCK)), np.zeros((nt, NWORK, BLOCK)),
-                 np.zeros((nt, 3, BLOCK)), np.zeros((0, NOUT)))
+        if w is None or w[0].shape[0] != lanes:
+            w = (np.zeros((lanes, NSTRESS, BLOCK)), np.zeros((lanes, NWORK, BLOCK)),
+                 np.zeros((lanes, 3, BLOCK)), np.zeros((0, NOUT)))
             self._work_arrays = w
         return w
 
