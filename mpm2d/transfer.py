@@ -157,11 +157,13 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, gra
                     G[I, J, MY] += w * (mya + c11 * ry)
                     G[I, J, FX] += q[a] * wy[b] - (sxx * gx + sxy * gy)
                     G[I, J, FY] += r[b] * wx[a] - (sxy * gx + syy * gy)
-                    if two:
+                    if two:              # (VS: grains only; FPX, FPY: fluid points only)
                         G[I, J, V] += w * Vp
-                        G[I, J, VS] += w * sv
-                        G[I, J, FPX] += pp * gx + w * hoop_p
-                        G[I, J, FPY] += pp * gy
+                        if has_s:
+                            G[I, J, VS] += w * sv
+                        if has_p:
+                            G[I, J, FPX] += pp * gx + w * hoop_p
+                            G[I, J, FPY] += pp * gy
             if has_f and (fext[p, 0] != 0.0 or fext[p, 1] != 0.0):
                 # a surface load acts on the point's face x_p + offset, where the particle
                 # quadrature of the internal force puts the boundary (exact for B-splines)
