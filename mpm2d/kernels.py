@@ -3,7 +3,8 @@
 A parallel numba loop costs tens of microseconds to launch (much more on a loaded machine), which
 dominates small models such as the verification problems. Each kernel is therefore compiled
 twice from the same source, once with ``parallel=True`` (``prange`` over chunks or points) and
-once serially (``prange`` acts as ``range``), both cached on disk under distinct names;
+once serially (``prange`` acts as ``range``, and without numba's reference counting, so a
+kernel must not allocate arrays), both cached on disk under distinct names;
 :class:`~mpm2d.simulation.Simulation` picks the parallel build above :data:`PARALLEL_MIN_POINTS`
 points. Both builds do the same arithmetic in the same order, so results are identical.
 """
@@ -34,7 +35,12 @@ class Dual:
         f.__qualname__ = name
         f.__module__ = fn.__module__
         f.__doc__ = fn.__doc__
-        return nb.njit(cache=True, parallel=parallel, error_model="numpy")(f)
+        # the serial build without numba's reference counting: it would incref and decref the
+        # arrays of every inlined helper once per loop iteration (atomic operations; G2P was
+        # 3x slower serially than the parallel build, whose loop bodies have none). The
+        # kernels allocate nothing (work arrays come from the caller)
+        return nb.njit(cache=True, parallel=parallel, error_model="numpy",
+                       **({} if parallel else {"_nrt": False}))(f)
 
     def __getitem__(self, parallel: bool):
         parallel = bool(parallel)

@@ -26,7 +26,7 @@ import numpy as np
 from rheology import laws, vecmath
 from rheology.checks import check_positive, check_range
 from rheology.flow_rule import invariants
-from rheology.local_update import (BLOCK, FAILED, NOUT, NWORK, jaumann_elastic,
+from rheology.local_update import (BLOCK, FAILED, NOUT, NSTRESS, NWORK, jaumann_elastic,
                                    jaumann_elastic_plane, kernel_parameters, update_block)
 from rheology.materials import Material
 from rheology.numba_cache import guard
@@ -40,14 +40,22 @@ _jit = nb.njit(cache=True, error_model="numpy")
 
 
 # ------------------------------------------------------------------ shared kernel pieces
-@_jit
+_inline = nb.njit(cache=True, error_model="numpy", inline="always")
+
+
+@_inline
+def _det(l0, l1, l2, l3, l4, dt):
+    """det(1 + dt L) of a compact gradient (xx, xy, yx, yy, thth)."""
+    return ((1.0 + dt * l0) * (1.0 + dt * l3) - dt * dt * l1 * l2) * (1.0 + dt * l4)
+
+
+@_inline
 def _jacobian(L, p, dt):
     """det(1 + dt L) for the compact gradient row p."""
-    return (((1.0 + dt * L[p, 0]) * (1.0 + dt * L[p, 3]) - dt * dt * L[p, 1] * L[p, 2])
-            * (1.0 + dt * L[p, 4]))
+    return _det(L[p, 0], L[p, 1], L[p, 2], L[p, 3], L[p, 4], dt)
 
 
-@_jit
+@_inline
 def _viscous(L, p, eta):
     """tau = eta (L + L^T - 2/3 tr L 1) as (xx, xy, yy, thth)."""
     tr = L[p, 0] + L[p, 3] + L[p, 4]
@@ -57,18 +65,18 @@ def _viscous(L, p, eta):
 
 # ------------------------------------------------------------------ kernels
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p):
-    """Jaumann linear-elastic update of point p in registers: with swirl
-    rheology.local_update.jaumann_elastic on the 3 x 3 L of the compact row (xx, xy, yx, yy,
-    thth) and the swirl rows L_theta_r, L_theta_z (zeros above them); without, the plane form
+def _elastic_point(stress, l, vol, dt, G, K, sp, Lw, spw, p):
+    """Jaumann linear-elastic update of point p in registers from its compact gradient l (the
+    5-tuple xx, xy, yx, yy, thth): with swirl rheology.local_update.jaumann_elastic on the 3 x 3
+    L of l and the swirl rows L_theta_r, L_theta_z (zeros above them); without, the plane form
     (jaumann_elastic_plane: no out-of-plane shear, which Simulation checks at the start, so the
     four in-plane and hoop components are the whole update)."""
+    l0, l1, l2, l3, l4 = l
     if Lw.shape[0] > 0:
         r = jaumann_elastic((stress[p, 0, 0], stress[p, 0, 1], stress[p, 0, 2],
                              stress[p, 1, 0], stress[p, 1, 1], stress[p, 1, 2],
                              stress[p, 2, 0], stress[p, 2, 1], stress[p, 2, 2]),
-                            (L[p, 0], L[p, 1], 0.0, L[p, 2], L[p, 3], 0.0, Lw[p, 0], Lw[p, 1],
-                             L[p, 4]), dt, G, K)
+                            (l0, l1, 0.0, l2, l3, 0.0, Lw[p, 0], Lw[p, 1], l4), dt, G, K)
         stress[p, 0, 0], stress[p, 0, 1], stress[p, 0, 2] = r[0], r[1], r[2]
         stress[p, 1, 0], stress[p, 1, 1], stress[p, 1, 2] = r[3], r[4], r[5]
         stress[p, 2, 0], stress[p, 2, 1], stress[p, 2, 2] = r[6], r[7], r[8]
@@ -76,12 +84,12 @@ def _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p):
         spw[p, 0], spw[p, 1] = r[2], r[5]
     else:
         n00, n01, n11, n22 = jaumann_elastic_plane(stress[p, 0, 0], stress[p, 0, 1],
-                                                   stress[p, 1, 1], stress[p, 2, 2], L[p, 0],
-                                                   L[p, 1], L[p, 2], L[p, 3], L[p, 4], dt, G, K)
+                                                   stress[p, 1, 1], stress[p, 2, 2], l0, l1, l2,
+                                                   l3, l4, dt, G, K)
         stress[p, 0, 0], stress[p, 0, 1], stress[p, 1, 0] = n00, n01, n01
         stress[p, 1, 1], stress[p, 2, 2] = n11, n22
         sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = n00, n01, n11, n22
-    vol[p] *= _jacobian(L, p, dt)
+    vol[p] *= _det(l0, l1, l2, l3, l4, dt)
 
 
 @dual
@@ -89,7 +97,8 @@ def elastic_kernel(stress, L, vol, dt, G, K, sp, Lw, spw):
     """Jaumann linear-elastic update of every point; sp = (xx, xy, yy, zz); with swirl (Lw,
     spw of shape (N, 2), else (0, 2)) spw = (r theta, theta z)."""
     for p in nb.prange(vol.shape[0]):
-        _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p)
+        _elastic_point(stress, (L[p, 0], L[p, 1], L[p, 2], L[p, 3], L[p, 4]), vol, dt, G, K, sp,
+                       Lw, spw, p)
 
 
 @dual
@@ -97,12 +106,13 @@ def elastic_g2p_kernel(x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt
                        stress, vol, G, K, sp, Lw, spw):
     """G2P (:func:`mpm2d.transfer.g2p`, same arguments first) and the linear-elastic update
     (:func:`elastic_kernel`, same arguments after) of each point in one pass: the point's L is
-    used while it is in registers and cache, and the step has one parallel loop fewer. Same
-    arithmetic in the same order per point as the two kernels called one after the other, so
-    the results are identical to them."""
+    used while it is in registers, and the step has one parallel loop fewer. Same arithmetic in
+    the same order per point as the two kernels called one after the other, so the results are
+    identical to them."""
     for p in nb.prange(x.shape[0]):
-        gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag)
-        _elastic_point(stress, L, vol, dt, G, K, sp, Lw, spw, p)
+        l = gather_point(p, x, v, C, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag)
+        L[p, 0], L[p, 1], L[p, 2], L[p, 3], L[p, 4] = l
+        _elastic_point(stress, l, vol, dt, G, K, sp, Lw, spw, p)
 
 
 @dual
@@ -144,75 +154,95 @@ def fluid_kernel(L, vol, m, rho, divq, n, dt, eta0, einstein, rho0, kappa, two_p
             sp[p, 0], sp[p, 1], sp[p, 2], sp[p, 3] = txx - pr, txy, tyy - pr, ttt - pr
 
 
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _trial(stress, L, Lw, p, dt, G, K, S, k):
+    """The Jaumann trial stress of point p into column k of update_block's stress S: with swirl
+    rheology.local_update.jaumann_elastic on the 3 x 3 L of the compact row and the swirl rows,
+    without the plane form (four components; sigma_xz = sigma_yz = 0)."""
+    if Lw.shape[0] > 0:
+        r = jaumann_elastic((stress[p, 0, 0], stress[p, 0, 1], stress[p, 0, 2],
+                             stress[p, 1, 0], stress[p, 1, 1], stress[p, 1, 2],
+                             stress[p, 2, 0], stress[p, 2, 1], stress[p, 2, 2]),
+                            (L[p, 0], L[p, 1], 0.0, L[p, 2], L[p, 3], 0.0, Lw[p, 0], Lw[p, 1],
+                             L[p, 4]), dt, G, K)
+        S[0, k], S[1, k], S[2, k], S[3, k], S[4, k], S[5, k] = r[0], r[4], r[8], r[1], r[2], r[5]
+    else:
+        n00, n01, n11, n22 = jaumann_elastic_plane(stress[p, 0, 0], stress[p, 0, 1],
+                                                   stress[p, 1, 1], stress[p, 2, 2], L[p, 0],
+                                                   L[p, 1], L[p, 2], L[p, 3], L[p, 4], dt, G, K)
+        S[0, k], S[1, k], S[2, k], S[3, k], S[4, k], S[5, k] = n00, n11, n22, n01, 0.0, 0.0
+
+
 @dual
 def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, kappa, eta0,
-                      chunks, sp, pf, gdot, case, fail, Lw, spw):
-    """The Table 8 granular law at every point (rheology.local_update.update_block, blocks of
-    BLOCK points of a chunk; the 3 x 3 gradient from the compact row and the swirl rows).
+                      sp, pf, gdot, case, fail, Lw, spw, S, W, blk, none):
+    """The Table 8 granular law at every point (rheology.local_update.update_block on blocks of
+    BLOCK points, dealt round-robin to S.shape[0] lanes, a few per thread: the cost of a point
+    varies several times with its case, so contiguous equal shares of the points, one a thread,
+    would leave threads waiting while one finishes an expensive region).
 
     phi = svol/V at the start of the step; f and stress advanced; V *= det(1 + dt L).
     Locked mixture: pore pressure p_f = kappa ln(rho_f/rho_0f) with rho_f = (m - rho_s svol) /
     (V - svol) (undrained), fluid stress eta0 (1 + 5/2 phi)(L + L^T - 2/3 tr L), and
     sp = sigma~ - p_f 1 + tau_f. ``fail[0]`` = 1 + index of a failed point (0 if none).
     With swirl (Lw, spw (N, 2), else (0, 2)): spw = (r theta, theta z) of sigma~ + tau_f.
+    Work arrays of each lane t: S[t] (NSTRESS, BLOCK), W[t] (NWORK, BLOCK), blk[t] (3, BLOCK)
+    (phi, pore pressure, fluid viscosity); ``none``: an empty (0, NOUT) array (no diagnostic
+    outputs).
     """
     sw = Lw.shape[0] > 0
-    for c in nb.prange(chunks.shape[0] - 1):
-        # the law on blocks of points (rheology.local_update.update_block: vectorised stages)
-        Lb = np.zeros((BLOCK, 3, 3))
-        so = np.empty((BLOCK, 3, 3))
-        ob = np.empty((BLOCK, NOUT))
-        phib = np.empty(BLOCK)
-        prb = np.zeros(BLOCK)
-        W = np.empty((NWORK, BLOCK))
-        s1, l1, so1, o1 = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(NOUT)
-        for lo in range(chunks[c], chunks[c + 1], BLOCK):
-            hi = min(lo + BLOCK, chunks[c + 1])
+    G, K = P[16], P[17]
+    N = vol.shape[0]
+    lanes = S.shape[0]
+    nblocks = (N + BLOCK - 1) // BLOCK
+    for t in nb.prange(lanes):
+        Sc, Wc, phib, prb, etab = S[t], W[t], blk[t, 0], blk[t, 1], blk[t, 2]
+        for jb in range(t, nblocks, lanes):
+            lo = jb * BLOCK
+            hi = min(lo + BLOCK, N)
             n = hi - lo
             for k in range(n):
                 p = lo + k
-                Lb[k, 0, 0], Lb[k, 0, 1], Lb[k, 1, 0] = L[p, 0], L[p, 1], L[p, 2]
-                Lb[k, 1, 1], Lb[k, 2, 2] = L[p, 3], L[p, 4]
-                if sw:
-                    Lb[k, 2, 0], Lb[k, 2, 1] = Lw[p, 0], Lw[p, 1]
                 phib[k] = svol[p] / vol[p]
-            # warm start of a jammed point's dilatant solve from its previous plastic rate
-            # (gdot_p, checkpointed): same tolerance, a different starting point
-            update_block(stress[lo:hi], Lb[:n], phib[:n], f[lo:hi], gdot[lo:hi], dt, P, so[:n],
-                         ob[:n], W, s1, l1, so1, o1, False)
-            for k in range(n):
-                p = lo + k
+                _trial(stress, L, Lw, p, dt, G, K, Sc, k)
                 vol[p] *= _jacobian(L, p, dt)
-            if locked:      # the pore pressures in a loop of their own (rheology.vecmath: SIMD)
+            # gdot: the warm start of a jammed point's dilatant solve (its previous plastic
+            # rate, checkpointed), then the new rate
+            update_block(Sc, phib[:n], f[lo:hi], gdot[lo:hi], case[lo:hi], dt, P, Wc, none)
+            if locked:      # pore pressure and fluid viscosity: loops over slices (SIMD)
                 mc, sc, vc = m[lo:hi], svol[lo:hi], vol[lo:hi]
                 for k in range(n):
                     prb[k] = laws.pore_pressure((mc[k] - rho_s * sc[k]) / (vc[k] - sc[k]),
                                                 rho_f0, kappa)
+                for k in range(n):
+                    etab[k] = laws.fluid_viscosity(sc[k] / vc[k], eta0)
             for k in range(n):
                 p = lo + k
-                if ob[k, 12] == FAILED:
+                if case[p] == FAILED:
                     fail[0] = p + 1
-                for i in range(3):
-                    for j in range(3):
-                        stress[p, i, j] = so[k, i, j]
-                f[p] = ob[k, 0]
-                gdot[p] = ob[k, 1]
-                case[p] = ob[k, 12]
-                pr = prb[k]
-                txx = txy = tyy = ttt = eta = 0.0
+                s00, s11, s22, s01 = Sc[0, k], Sc[1, k], Sc[2, k], Sc[3, k]
+                stress[p, 0, 0], stress[p, 1, 1], stress[p, 2, 2] = s00, s11, s22
+                stress[p, 0, 1] = stress[p, 1, 0] = s01
+                pr = eta = 0.0
+                txx = txy = tyy = ttt = 0.0
                 if locked:
-                    eta = laws.fluid_viscosity(svol[p] / vol[p], eta0)
+                    pr, eta = prb[k], etab[k]
                     txx, txy, tyy, ttt = _viscous(L, p, eta)
                 if sw:
-                    spw[p, 0] = so[k, 0, 2] + eta * Lw[p, 0]
-                    spw[p, 1] = so[k, 1, 2] + eta * Lw[p, 1]
+                    s02, s12 = Sc[4, k], Sc[5, k]
+                    stress[p, 0, 2] = stress[p, 2, 0] = s02
+                    stress[p, 1, 2] = stress[p, 2, 1] = s12
+                    spw[p, 0] = s02 + eta * Lw[p, 0]
+                    spw[p, 1] = s12 + eta * Lw[p, 1]
                 pf[p] = pr
-                sp[p, 0] = so[k, 0, 0] + txx - pr
-                sp[p, 1] = so[k, 0, 1] + txy
-                sp[p, 2] = so[k, 1, 1] + tyy - pr
-                sp[p, 3] = so[k, 2, 2] + ttt - pr
+                sp[p, 0] = s00 + txx - pr
+                sp[p, 1] = s01 + txy
+                sp[p, 2] = s11 + tyy - pr
+                sp[p, 3] = s22 + ttt - pr
 
 
+#: suspension_kernel's lanes per thread (blocks dealt round-robin to the lanes)
+LANES_PER_THREAD = 4
 _NO_SWIRL = np.zeros((0, 2))
 
 
@@ -431,16 +461,27 @@ class Suspension:
     def update(self, ps, dt, chunks, parallel, **_):
         m = self.m
         fail = np.zeros(1, dtype=np.int64)
-        suspension_kernel[parallel](ps.stress, ps.L, ps.V, ps.svol, ps.m, ps.f, dt, self.P, self.locked,
-                          m.rho_s, m.rho_f if self.locked else 1.0,
-                          m.kappa if self.locked else 0.0, m.eta0, chunks, ps.sp, ps.pf,
-                          ps.gdot_p, ps.case, fail, *_swirl_arrays(ps))
+        suspension_kernel[parallel](ps.stress, ps.L, ps.V, ps.svol, ps.m, ps.f, dt, self.P,
+                                    self.locked, m.rho_s, m.rho_f if self.locked else 1.0,
+                                    m.kappa if self.locked else 0.0, m.eta0, ps.sp, ps.pf,
+                                    ps.gdot_p, ps.case, fail, *_swirl_arrays(ps),
+                                    *self._work(LANES_PER_THREAD * nb.get_num_threads()
+                                                if parallel else 1))
         if fail[0]:
             k = fail[0] - 1
             raise RuntimeError(f"{ps.name}: the Table 8 local update failed at point id "
                                f"{ps.id[k]} (x = {ps.x[k].tolist()}, phi = "
                                f"{ps.svol[k] / ps.V[k]:.6g}, f = {ps.f[k]:.6g}, stress = "
                                f"{ps.stress[k].round(6).tolist()}, dt = {dt:g} s)")
+
+    def _work(self, lanes):
+        """suspension_kernel's work arrays for ``lanes`` lanes (kept between steps)."""
+        w = self.__dict__.get("_work_arrays")
+        if w is None or w[0].shape[0] != lanes:
+            w = (np.zeros((lanes, NSTRESS, BLOCK)), np.zeros((lanes, NWORK, BLOCK)),
+                 np.zeros((lanes, 3, BLOCK)), np.zeros((0, NOUT)))
+            self._work_arrays = w
+        return w
 
     def wave_modulus(self) -> float:
         m = self.m

@@ -12,9 +12,15 @@ out-of-plane z or hoop theta direction).
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
 from rheology.checks import check_range
+from rheology.numba_cache import guard
+
+from .kernels import PARALLEL_MIN_POINTS, dual
+
+guard(__file__)
 
 #: arrays every set has (name -> trailing shape)
 CORE = {"id": (), "x": (2,), "v": (2,), "C": (2, 2), "m": (), "V": (), "svol": (),
@@ -124,9 +130,16 @@ class ParticleSet:
         return {k: a for k, a in self.arrays.items() if a.ndim and a.shape[0] == n}
 
     def permute(self, order: np.ndarray) -> None:
-        """Reorder every per-point array (used to keep points sorted by base node)."""
+        """Reorder every per-point array (used to keep points sorted by base node); the gather
+        runs on numba's threads (the engine re-sorts every few steps: a serial copy of every
+        array would be a serial section of the step)."""
+        order = np.ascontiguousarray(order, dtype=np.int64)
+        par = nb.get_num_threads() > 1 and len(order) >= PARALLEL_MIN_POINTS
         for k, a in self.per_point().items():
-            self.arrays[k] = np.ascontiguousarray(a[order])
+            a2 = np.ascontiguousarray(a).reshape(len(order), -1)
+            out = np.empty_like(a2)
+            _gather_rows[par](a2, order, out)
+            self.arrays[k] = out.reshape(a.shape)
 
     # ------------------------------------------------------------------ swirl
     #: per-point arrays of the out-of-plane (azimuthal) velocity, see :meth:`enable_swirl`
@@ -168,6 +181,14 @@ class ParticleSet:
 
     def momentum(self) -> np.ndarray:
         return (self.m[:, None] * self.v).sum(axis=0)
+
+
+@dual
+def _gather_rows(a, order, out):
+    """out[i] = a[order[i]] for (N, k) arrays."""
+    for i in nb.prange(order.shape[0]):
+        for j in range(a.shape[1]):
+            out[i, j] = a[order[i], j]
 
 
 def _as(value, shape, name):

@@ -59,10 +59,9 @@ TRANSFERS = ("apic", "flip", "pic")
 
 
 @dual
-def _extremes(m, vol, v, chunks):
-    """Per chunk: max V/m [m^3/kg] and max |v|^2 [m^2/s^2]."""
+def _extremes(m, vol, v, chunks, out):
+    """Per chunk into out (nc, 2): max V/m [m^3/kg] and max |v|^2 [m^2/s^2]."""
     nc = chunks.shape[0] - 1
-    out = np.zeros((nc, 2))
     for c in nb.prange(nc):
         a = b = 0.0
         for p in range(chunks[c], chunks[c + 1]):
@@ -357,8 +356,9 @@ class Simulation:
         h = self.grid.h
         c2 = v2 = nu = 0.0
         for s in self.sets:
-            e = _ext[s.name] if _ext is not None else _extremes[self.par](
-                s.m, s.V, s.v, self._chunks[s.name])
+            e = _ext[s.name] if _ext is not None else np.zeros((self.nc, 2))
+            if _ext is None:
+                _extremes[self.par](s.m, s.V, s.v, self._chunks[s.name], e)
             ext = e.max(axis=0)
             c2 = max(c2, s.material.wave_modulus() * ext[0])
             nu = max(nu, s.material.viscosity_bound() * ext[0])

@@ -157,11 +157,13 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, gra
                     G[I, J, MY] += w * (mya + c11 * ry)
                     G[I, J, FX] += q[a] * wy[b] - (sxx * gx + sxy * gy)
                     G[I, J, FY] += r[b] * wx[a] - (sxy * gx + syy * gy)
-                    if two:
+                    if two:              # (VS: grains only; FPX, FPY: fluid points only)
                         G[I, J, V] += w * Vp
-                        G[I, J, VS] += w * sv
-                        G[I, J, FPX] += pp * gx + w * hoop_p
-                        G[I, J, FPY] += pp * gy
+                        if has_s:
+                            G[I, J, VS] += w * sv
+                        if has_p:
+                            G[I, J, FPX] += pp * gx + w * hoop_p
+                            G[I, J, FPY] += pp * gy
             if has_f and (fext[p, 0] != 0.0 or fext[p, 1] != 0.0):
                 # a surface load acts on the point's face x_p + offset, where the particle
                 # quadrature of the internal force puts the boundary (exact for B-splines)
@@ -261,12 +263,14 @@ def g2p(x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag):
     (shared with the fused gather + elastic update, mpm2d.materials.elastic_g2p_kernel).
     """
     for p in nb.prange(x.shape[0]):
-        gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag)
+        L[p, 0], L[p, 1], L[p, 2], L[p, 3], L[p, 4] = gather_point(
+            p, x, v, C, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag)
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag):
-    """G2P of point p (see :func:`g2p`): v, C, L and the new position of point p."""
+def gather_point(p, x, v, C, vg, vg_old, geo, axisym, apic, flip_alpha, dt, kind, flag):
+    """G2P of point p (see :func:`g2p`): v, C and the new position of point p; returns its L
+    (xx, xy, yx, yy, thth), which the caller stores or uses in registers."""
     x0, y0, h, x1, y1 = geo[0], geo[1], geo[2], geo[3], geo[4]
     inv_h = 1.0 / h
     dinv = APIC_D_INV * inv_h          # D^-1 (x_i - x_p) with (x_i - x_p) in cell units
@@ -302,8 +306,7 @@ def gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, k
         lyx += da * s0y
         lxy += wa * s2x
         lyy += wa * s2y
-    L[p, 0], L[p, 1], L[p, 2], L[p, 3] = lxx * inv_h, lxy * inv_h, lyx * inv_h, lyy * inv_h
-    L[p, 4] = vx / x[p, 0] if axisym else 0.0
+    l4 = vx / x[p, 0] if axisym else 0.0
     if apic:
         C[p, 0, 0], C[p, 0, 1] = dinv * bxx, dinv * bxy
         C[p, 1, 0], C[p, 1, 1] = dinv * byx, dinv * byy
@@ -324,6 +327,7 @@ def gather_point(p, x, v, C, L, vg, vg_old, geo, axisym, apic, flip_alpha, dt, k
     if not (lo_x < xn < hi_x and lo_y < yn < hi_y):
         flag[0] = 1
     x[p, 0], x[p, 1] = xn, yn
+    return lxx * inv_h, lxy * inv_h, lyx * inv_h, lyy * inv_h, l4
 
 
 @_jit

@@ -64,12 +64,16 @@ f_n:
    whose fixed point is Eq. (13) exactly. phi_m and a use f_n.
 
 The point kernel :func:`update_point` is numba-compiled and calls the laws of :mod:`rheology.laws`
-(written once). :func:`update_block` runs the same update on a block of points in vectorised
-stages (the scalar solve is a chain of dependent divisions; in SIMD lanes its Newton steps cost
-~1.4 ns a point) and hands every point it does not finish to update_point; :func:`update_points`
-is the parallel loop of blocks, the entry point for ``shear1d``, and ``mpm2d``'s suspension
-kernel calls update_block on its own blocks; :func:`local_update` is the validated numpy front
-end.
+(written once): the elastic trial, then :func:`_correct` (step 2 from the trial invariants p*,
+tau*), then step 3. :func:`update_block` runs the same update on a block of points whose trial
+stress the caller gives as a structure-of-arrays (rows xx, yy, zz, xy, xz, yz), in vectorised
+stages (the scalar solve is a chain of dependent divisions; in SIMD lanes a Newton step costs
+~1.3 ns a point): the closed-form cases, three Newton steps on (beta, gdot_p) and update_point's
+convergence test for the dilatant points below jamming, 1/eta_B, the structure step; a point
+they do not finish (jammed and yielding, p* <= 0, a missed test) goes through :func:`_correct`.
+:func:`update_points` is the parallel loop of blocks on (N, 3, 3) arrays (:func:`local_update`,
+the validated numpy front end, calls it); ``mpm2d``'s suspension kernel writes its trial
+stresses into the block and calls update_block; ``shear1d`` and ``rheometer`` call update_point.
 """
 
 from __future__ import annotations
@@ -277,25 +281,27 @@ def _critical_state(tau_tr, phi, y, a, Gdt, mu1, mu2, b, eta0, rho_s, d):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _newton_2d_step(beta, g, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, iK3, cV, mu1, mu2, b):
+def _newton_2d_step(beta, g, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, iK3, mu1, mu2, b):
     """One Newton step (d beta, d gdot_p) on the pair F1, F2 of :func:`_newton_2d` at (beta, g);
-    iK3 = 1/K3, cV = 5/2 phi eta0/a. Branch-free, so that update_block's loop over a block
-    becomes SIMD code."""
+    iK3 = 1/K3. Branch-free, so that update_block's loop over a block becomes SIMD code; two
+    divisions (1/(a x), I_m, 1/I_m and 1/(I_m + b) from one reciprocal of their product)."""
     x = phi - beta * iK3
     w = phim - x
     ax = a * x
-    iax = 1.0 / ax
+    wb = w + b * ax
+    q = 1.0 / (ax * w * wb)
+    iax = w * wb * q
     Im = w * iax
-    iIm = ax / w
+    ib = ax * ax * w * q                     # 1/(I_m + b)
     p = p_tr + Kdt * beta * g
     Ag = rd2 * g * g + 2.0 * eta0 * g
     F1 = p * w * w - Ag * ax * ax
     F1b = Kdt * g * w * w + 2.0 * (p * w + Ag * a * ax) * iK3
     F1g = Kdt * beta * w * w - (2.0 * rd2 * g + 2.0 * eta0) * ax * ax
     dIm = phim * a * iax * iax * iK3
-    ib = 1.0 / (Im + b)
     M = mu1 + beta + (mu2 - mu1) * Im * ib
-    V = cV * iIm
+    iIm = ax * ax * wb * q                   # 1/I_m
+    V = 2.5 * phi * eta0 * x * ax * wb * q   # 5/2 phi eta0/(a I_m)
     F2 = tau_tr - Gdt * g - M * p - V * g
     F2b = -(1.0 + (mu2 - mu1) * b * ib * ib * dIm) * p - M * Kdt * g + V * g * dIm * iIm
     F2g = -Gdt - M * Kdt * beta - V
@@ -319,11 +325,10 @@ def _newton_2d(beta, g, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
     does not settle (the caller then starts elsewhere; the result is only a starting point).
     """
     iK3 = 1.0 / K3
-    cV = 2.5 * phi * eta0 / a
     r_prev = np.inf
     for _ in range(_NEWTON2D_MAX):
         db, dg = _newton_2d_step(beta, g, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, iK3,
-                                 cV, mu1, mu2, b)
+                                 mu1, mu2, b)
         bn, gn = beta + db, g + dg
         if not (beta_lo < bn < beta_top and gn > 0.0 and gn < np.inf):
             return beta_lo
@@ -570,13 +575,13 @@ def elastic_trial(sig, L, dt, G, K, out):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _structure_tail(f, phi, g, tau_tr, Gdt, P, dt, invB):
-    """What follows the plastic correction of a point that is not separated: the equivalent
-    shear stress taubar = max(tau* - G dt gdot_p, 0), the deviator's scale factor taubar/tau*
-    and the structure's backward-Euler step; ``invB`` = 1/eta_B(phi) (laws.inv_eta_B). Branch-free
+def _structure_tail(f, phi, g, tau_tr, Gdt, P, dt, invB, sep):
+    """What follows the plastic correction: the equivalent shear stress taubar = max(tau* - G dt
+    gdot_p, 0) (0 for a separated point, ``sep``), the deviator's scale factor taubar/tau* and
+    the structure's backward-Euler step; ``invB`` = 1/eta_B(phi) (laws.inv_eta_B). Branch-free
     (selects), so a block runs it for all its points as SIMD. Returns (taubar, scale, f_new)."""
     phi_c, phi_j, tau_star, Delta, xi_eps, K0 = P[0], P[1], P[7], P[13], P[14], P[15]
-    taubar = max(tau_tr - Gdt * g, 0.0)
+    taubar = 0.0 if sep else max(tau_tr - Gdt * g, 0.0)
     scale = taubar / tau_tr if tau_tr > 0.0 else 0.0
     fm = laws.f_max(phi, phi_c, phi_j, Delta)
     return taubar, scale, laws.structure_step(f, taubar, g, fm, tau_star, invB, K0, xi_eps, dt)
@@ -584,8 +589,8 @@ def _structure_tail(f, phi, g, tau_tr, Gdt, P, dt, invB):
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def _flow_outputs(phi, phim, a, g, p, Im, P):
-    """The diagnostic outputs of a point that is not separated: mu_p, I, I_v (inf where p = 0)
-    and phi_eq. Returns (mu_p, I, I_v, phi_eq)."""
+    """The diagnostic outputs mu_p, I, I_v (inf where p = 0, e.g. separated) and phi_eq (phi
+    where I_m is infinite). Returns (mu_p, I, I_v, phi_eq)."""
     mu1, mu2, b, eta0, rho_s, d = P[4], P[5], P[6], P[8], P[18], P[19]
     if p > 0.0:
         Iv = eta0 * g / p
@@ -597,19 +602,80 @@ def _flow_outputs(phi, phim, a, g, p, Im, P):
     return mu, I, Iv, phieq
 
 
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def _separated(f, p_tr, tau_tr, phi, Gdt, Kdt, tau_star, K0, xi_eps, dt, sig_out, out):
-    """The separated point (f_2 = 0, xi_1 = -p*/(K dt), beta = 0): stress free, gdot_p =
-    tau*/(G dt); friction and inertial numbers undefined (inf); taubar = 0 and H(0) gdot = 0
-    leave f_m and 1/eta_B out of the structure step (passed as 0)."""
-    g = tau_tr / Gdt
-    for i in range(3):
-        for j in range(3):
-            sig_out[i, j] = 0.0
-    out[0] = laws.structure_step(f, 0.0, g, 0.0, tau_star, 0.0, K0, xi_eps, dt)
-    out[1], out[2], out[3], out[4] = g, -p_tr / Kdt, 0.0, np.inf
-    out[5], out[6], out[7], out[8], out[9] = np.inf, np.inf, np.inf, 0.0, phi
-    out[10], out[11], out[12], out[13] = 0.0, 0.0, SEPARATED, 0
+@_jit
+def _correct(p_tr, tau_tr, phi, f, dt, P, g_prev, newton, beta_start, g_start):
+    """The plastic correction of one point from its trial invariants p*, tau* [Pa] (module
+    docstring, step 2): returns (case, gdot_p, p, I_m, beta, xi1, xi2, evaluations).
+
+    ``g_prev``: warm start of a jammed point's dilatant solve (see :func:`update_point`);
+    ``beta_start``, ``g_start``: an iterate of :func:`_newton_2d`'s pair from the caller
+    (update_block's Newton), from which _newton_2d continues when it lies in the bracket
+    (g_start > 0); otherwise (e.g. -1, -1) it starts from its own estimates. Either only moves
+    where the solve starts, not its tolerance.
+    """
+    phi_c, phi_j, a0, ainf = P[0], P[1], P[2], P[3]
+    mu1, mu2, b, eta0 = P[4], P[5], P[6], P[8]
+    G, K, rho_s, d, K3 = P[16], P[17], P[18], P[19], P[20]
+    phim = laws.phi_m(f, phi_c, phi_j)
+    a = laws.dilatancy_a(f, a0, ainf)
+    Gdt, Kdt, rd2 = G * dt, K * dt, rho_s * d * d
+    case, iters = ELASTIC, 0
+    g, xi1, xi2 = 0.0, 0.0, 0.0
+    beta_guess, beta_c, gc = 0.0, 0.0, 0.0
+    p, Im, beta = p_tr, 0.0, 0.0
+    y = phim - phi
+    # the largest pressure dilatancy can give: beta -> K3 phi at gdot_p = tau*/(G dt)
+    p_dil = Kdt * tau_tr / Gdt * K3 * phi
+    if p_tr + p_dil <= 0.0:                                   # separation: stress free
+        return SEPARATED, tau_tr / Gdt, 0.0, np.inf, 0.0, -p_tr / Kdt, 0.0, 0
+    if P[21] == 1.0 and y > 0.0 and p_tr >= 0.0 and tau_tr <= (mu1 - K3 * y) * p_tr:
+        return ELASTIC, 0.0, p_tr, 0.0, -K3 * y, 0.0, 0.0, 0   # mpm_3d: admissible below jamming
+    if y > 0.0:                                               # try shear flow + compaction
+        gc, pc = _critical_state(tau_tr, phi, y, a, Gdt, mu1, mu2, b, eta0, rho_s, d)
+        if pc <= p_tr:
+            return COMPACTION, gc, pc, y / (a * phi), 0.0, 0.0, (pc - p_tr) / Kdt, 0
+        # dilatant: K dt beta gdot ~ p - p*, with gdot ~ gc, p ~ pc
+        beta_guess = (pc - p_tr) / (Kdt * gc) if gc > 0.0 else 0.0
+        # to first order in beta, p = pc (1 - 2 beta I_m'/I_m) (I_m = y/(a phi) at beta = 0)
+        beta_c = (pc - p_tr) / (Kdt * gc + 2.0 * pc * phim / (phi * y * K3))
+    beta_lo = max(0.0, K3 * (phi - phim))
+    if y <= 0.0:
+        # R(beta_lo) at phi_eq = phi_m: I_m = 0, so gdot = 0, p = p*, mu_p = mu_1
+        r_lo = tau_tr - (mu1 + beta_lo) * p_tr
+        if r_lo <= 0.0:                                       # jammed and below yield: elastic
+            return ELASTIC, 0.0, p_tr, 0.0, beta_lo, 0.0, 0.0, 0
+    else:
+        r_lo = np.nan                                         # evaluated only if needed
+    # start of the solve, (beta, gdot): below jamming, the compaction estimates (pc, gc)
+    # corrected to first order in beta (this step's critical-state rate gc is a better start than
+    # the previous step's rate); jammed (phi >= phi_m), the previous step's rate (warm start) if
+    # there is one, else the rate that would return tau* to mu_1 p*, and beta from the I_m
+    # relation at that rate
+    beta_top = beta_lo + (K3 * phi - beta_lo) * (1.0 - 1e-15)
+    bs = beta_lo
+    if newton:
+        warm = g_prev > 0.0 and g_prev < np.inf
+        if beta_lo < beta_start < beta_top and 0.0 < g_start < np.inf:
+            g0, b0 = g_start, beta_start
+        elif y > 0.0:
+            g0 = gc
+            b0 = beta_c
+        else:
+            g0 = g_prev if warm else max(tau_tr - mu1 * p_tr, 0.0) / Gdt
+            # I_m from p I_m^2 = rd2 g^2 + 2 eta0 g at p ~ p* + K dt beta g, twice
+            Ag = rd2 * g0 * g0 + 2.0 * eta0 * g0
+            b0 = beta_lo
+            for _ in range(2):
+                b0 = K3 * (phi - phim / (1.0 + a * np.sqrt(Ag / (p_tr + Kdt * b0 * g0))))
+        if not beta_lo < b0 < beta_top:
+            b0 = beta_lo + 1e-3 * (beta_top - beta_lo)
+        if g0 > 0.0 and p_tr > 0.0:
+            # no settled start (far from the solution): straight to the bracket
+            bs = _newton_2d(b0, g0, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0,
+                            rd2, K3, mu1, mu2, b)
+    beta, g, p, Im, iters = _dilatant_flow(beta_lo, r_lo, beta_guess, bs, phi, phim, a, p_tr,
+                                           tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b, newton)
+    return FAILED if iters < 0 else SHEAR_FLOW, g, p, Im, beta, xi1, xi2, iters
 
 
 @_jit
@@ -624,13 +690,8 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
     ``newton=False`` solves by the bracket alone (the reference).
     """
     phi_c, phi_j, a0, ainf = P[0], P[1], P[2], P[3]
-    mu1, mu2, b, tau_star, eta0 = P[4], P[5], P[6], P[7], P[8]
-    v1, al1, v2, al2, Delta, xi_eps, K0 = P[9], P[10], P[11], P[12], P[13], P[14], P[15]
-    G, K, rho_s, d, K3 = P[16], P[17], P[18], P[19], P[20]
-    phim = laws.phi_m(f, phi_c, phi_j)
-    a = laws.dilatancy_a(f, a0, ainf)
-    Gdt, Kdt, rd2 = G * dt, K * dt, rho_s * d * d
-
+    v1, al1, v2, al2 = P[9], P[10], P[11], P[12]
+    G, K = P[16], P[17]
     elastic_trial(sig, L, dt, G, K, sig_out)
     p_tr = -(sig_out[0, 0] + sig_out[1, 1] + sig_out[2, 2]) / 3.0
     ss = 0.0
@@ -639,74 +700,13 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
             sij = sig_out[i, j] + (p_tr if i == j else 0.0)
             ss += sij * sij
     tau_tr = np.sqrt(0.5 * ss)
-
-    case, iters = ELASTIC, 0
-    g, xi1, xi2 = 0.0, 0.0, 0.0
-    beta_guess, beta_c, gc = 0.0, 0.0, 0.0
-    p, Im, beta = p_tr, 0.0, 0.0
-    y = phim - phi
-    # the largest pressure dilatancy can give: beta -> K3 phi at gdot_p = tau*/(G dt)
-    p_dil = Kdt * tau_tr / Gdt * K3 * phi
-    if p_tr + p_dil <= 0.0:                                   # separation: stress free
-        _separated(f, p_tr, tau_tr, phi, Gdt, Kdt, tau_star, K0, xi_eps, dt, sig_out, out)
-        return
-    elif P[21] == 1.0 and y > 0.0 and p_tr >= 0.0 and tau_tr <= (mu1 - K3 * y) * p_tr:
-        beta = -K3 * y                  # mpm_3d: admissible below jamming too, elastic
-    else:
-        if y > 0.0:                                           # try shear flow + compaction
-            gc, pc = _critical_state(tau_tr, phi, y, a, Gdt, mu1, mu2, b, eta0, rho_s, d)
-            if pc <= p_tr:
-                case = COMPACTION
-                g, p, Im, beta = gc, pc, y / (a * phi), 0.0
-                xi2 = (pc - p_tr) / Kdt
-            else:                     # dilatant: K dt beta gdot ~ p - p*, with gdot ~ gc, p ~ pc
-                beta_guess = (pc - p_tr) / (Kdt * gc) if gc > 0.0 else 0.0
-                # to first order in beta, p = pc (1 - 2 beta I_m'/I_m) (I_m = y/(a phi) at beta = 0)
-                beta_c = (pc - p_tr) / (Kdt * gc + 2.0 * pc * phim / (phi * y * K3))
-        if case == ELASTIC:
-            beta_lo = max(0.0, K3 * (phi - phim))
-            if y <= 0.0:
-                # R(beta_lo) at phi_eq = phi_m: I_m = 0, so gdot = 0, p = p*, mu_p = mu_1
-                r_lo = tau_tr - (mu1 + beta_lo) * p_tr
-            else:
-                r_lo = np.nan                                 # evaluated only if needed
-            if y <= 0.0 and r_lo <= 0.0:                      # jammed and below yield: elastic
-                beta = beta_lo
-            else:
-                case = SHEAR_FLOW
-                # start of the solve, (beta, gdot): below jamming, the compaction estimates
-                # (pc, gc) corrected to first order in beta (this step's critical-state rate gc
-                # is a better start than the previous step's rate); jammed (phi >= phi_m), the
-                # previous step's rate (warm start) if there is one, else the rate that would
-                # return tau* to mu_1 p*, and beta from the I_m relation at that rate
-                beta_top = beta_lo + (K3 * phi - beta_lo) * (1.0 - 1e-15)
-                warm = g_prev > 0.0 and g_prev < np.inf
-                if y > 0.0:
-                    g0 = gc
-                    b0 = beta_c
-                else:
-                    g0 = g_prev if warm else max(tau_tr - mu1 * p_tr, 0.0) / Gdt
-                    # I_m from p I_m^2 = rd2 g^2 + 2 eta0 g at p ~ p* + K dt beta g, twice
-                    Ag = rd2 * g0 * g0 + 2.0 * eta0 * g0
-                    b0 = beta_lo
-                    for _ in range(2):
-                        b0 = K3 * (phi - phim / (1.0 + a * np.sqrt(Ag / (p_tr + Kdt * b0 * g0))))
-                if not beta_lo < b0 < beta_top:
-                    b0 = beta_lo + 1e-3 * (beta_top - beta_lo)
-                beta_start = beta_lo
-                if newton and g0 > 0.0 and p_tr > 0.0:
-                    beta_start = _newton_2d(b0, g0, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr,
-                                            Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b)
-                    # no settled start (far from the solution): straight to the bracket
-                beta, g, p, Im, iters = _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi,
-                                                       phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
-                                                       K3, mu1, mu2, b, newton)
-                if iters < 0:
-                    case = FAILED
-
-    taubar, scale, f1 = _structure_tail(f, phi, g, tau_tr, Gdt, P, dt,
-                                        laws.inv_eta_B(phi, phi_j, v1, al1, v2, al2))
-    mu, I, Iv, phieq = _flow_outputs(phi, phim, a, g, p, Im, P)
+    case, g, p, Im, beta, xi1, xi2, iters = _correct(p_tr, tau_tr, phi, f, dt, P, g_prev, newton,
+                                                     -1.0, -1.0)
+    taubar, scale, f1 = _structure_tail(f, phi, g, tau_tr, G * dt, P, dt,
+                                        laws.inv_eta_B(phi, phi_j, v1, al1, v2, al2),
+                                        case == SEPARATED)
+    mu, I, Iv, phieq = _flow_outputs(phi, laws.phi_m(f, phi_c, phi_j),
+                                     laws.dilatancy_a(f, a0, ainf), g, p, Im, P)
     for i in range(3):
         for j in range(3):
             dev = sig_out[i, j] + (p_tr if i == j else 0.0)
@@ -716,83 +716,46 @@ def update_point(sig, L, phi, f, dt, P, sig_out, out, g_prev=-1.0, newton=True):
     out[10], out[11], out[12], out[13] = taubar, p, case, iters
 
 
-@nb.njit(cache=True, error_model="numpy", inline="always")
-def _update_row(sig, L, phi, f, dt, P, sig_out, out, k, g_prev, newton, s1, l1, so1, o1):
-    """:func:`update_point` on row k of the (n, 3, 3) / (n,) / (n, NOUT) arrays through the
-    small scratch arrays s1, l1, so1, o1 (element copies: a view of a row costs its reference
-    counting, as much as an elastic exit)."""
-    for i in range(3):
-        for j in range(3):
-            s1[i, j] = sig[k, i, j]
-            l1[i, j] = L[k, i, j]
-    update_point(s1, l1, phi[k], f[k], dt, P, so1, o1, g_prev, newton)
-    for i in range(3):
-        for j in range(3):
-            sig_out[k, i, j] = so1[i, j]
-    for i in range(NOUT):
-        out[k, i] = o1[i]
-
-
-#: points per block of :func:`update_block` (its work arrays: (NWORK, BLOCK)); 256: the
-#: locked kernel 67 -> 63 ns a point serial against 128 (fewer block set-ups, W still in L2)
+#: points per block of :func:`update_block` (its work arrays: (NWORK, BLOCK), the stress
+#: (NSTRESS, BLOCK))
 BLOCK = 256
-NWORK = 16
-#: Newton steps on (beta, gdot_p) that :func:`update_block` takes in step for a whole block:
-#: three, as many as _newton_2d takes from the same start in MPM shear (the test then sees the
-#: same iterate; a fourth step only moves the last bits, and misses the roundoff-floor test a
-#: little more often: 82 of 87 against >= 95% of the points update_point passes at once)
+#: rows of update_block's structure-of-arrays stress: sigma_xx, yy, zz, xy, xz, yz
+NSTRESS = 6
+#: rows of update_block's work array W
+_PTR, _TAU, _BETA, _G, _CASE, _GF, _PF, _IM, _INVB, _ITER = range(10)
+NWORK = 10
+#: Newton steps on (beta, gdot_p) that :func:`update_block` takes in step for a whole block,
+#: from _correct's start below jamming: after three, update_point's convergence test passes at
+#: 99-100% of the flowing points of the mpm2d benchmark's shear, transient and steady (after two
+#: at 33-99%; from the previous step's rate and pressure, a warm start, after two at 0-76%:
+#: measured)
 _LANE_NEWTON = 3
+#: update_block's case code of a point it hands to :func:`_correct` (with its Newton iterate as
+#: the start of the dilatant solve: _HANDED_START; without: _HANDED)
+_HANDED, _HANDED_START = -3.0, -2.0
+_SEPARATED, _ELASTIC, _COMPACTION = float(SEPARATED), float(ELASTIC), float(COMPACTION)
+
+# The stages' loops are SIMD code only while they store few rows of W (each store is one more
+# pointer whose overlap with the others the compiler checks at run time; past a handful it
+# leaves the loop scalar): phi_m, a and the bracket are recomputed from f and phi where needed.
+_stage = nb.njit(cache=True, error_model="numpy", inline="always")
 
 
-@_jit
-def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1, full=True):
-    """:func:`update_point` on a block of n <= BLOCK points, the dilatant solve vectorised.
-
-    sig, L, sig_out: (n, 3, 3); phi, f, g_prev (warm starts, negative for none): (n,);
-    out: (n, NOUT); W: (NWORK, >= n) work; s1, l1, so1: (3, 3) and o1: (NOUT,) scratch.
-    ``full=False``: of the points the block finishes only the stress and the out columns 0, 1
-    and 12 (f, gdot_p, the case) are written, the other columns are left as they were (a caller
-    that keeps only those, e.g. mpm2d: their divisions, square root and stores skipped).
-
-    The scalar update is a chain of dependent divisions and square roots per point (~240 ns for a
-    point in dilatant shear flow, half of it in the solve and its residual check), so
-    it runs at the latency of that chain. Here the same arithmetic goes through the block one
-    stage at a time, each stage a branch-free loop over the points that the compiler turns into
-    SIMD instructions: (1) the elastic trial, its invariants and the critical-state estimates of
-    every point; (2) _LANE_NEWTON steps of the 2-D Newton of :func:`_newton_2d` (same equations)
-    from the same start (beta_c, gdot_c); (3) the residual R(beta) of :func:`_dilatant_flow`
-    (same formula) and its acceptance test |R| <= 2e-15 (tau* + mu_1 p*), unchanged. A point
-    below jamming (phi < phi_m) in shear flow + compaction (closed form) or in dilatant shear
-    flow whose solve passed that test is finished here (:func:`_structure_tail`); every other
-    point (separated, jammed, a solve that left its bracket or missed the test) goes through
-    :func:`update_point` whole, so the results are those of update_point to its convergence
-    test (the two differ only in how many Newton steps led there).
-    """
-    n = phi.shape[0]
+@_stage
+def block_start(S, phi, f, dt, P, W):
+    """update_block stage 1: the trial invariants, the critical-state estimates, the case of
+    every point whose case has a closed form (separated, elastic, shear flow + compaction) with
+    its gdot_p and p, and the start of the others' Newton (branch-free: SIMD)."""
     mu1, mu2, b, eta0 = P[4], P[5], P[6], P[8]
     G, K, rho_s, d, K3 = P[16], P[17], P[18], P[19], P[20]
     phi_c, phi_j, a0, ainf = P[0], P[1], P[2], P[3]
-    Gdt, Kdt, rd2 = G * dt, K * dt, rho_s * d * d
-    iK3 = 1.0 / K3
-    table8 = P[21] != 1.0
-    # 1. trial stress, invariants, critical-state estimates and the solve's start
-    for k in range(n):
-        r = jaumann_elastic((sig[k, 0, 0], sig[k, 0, 1], sig[k, 0, 2], sig[k, 1, 0], sig[k, 1, 1],
-                             sig[k, 1, 2], sig[k, 2, 0], sig[k, 2, 1], sig[k, 2, 2]),
-                            (L[k, 0, 0], L[k, 0, 1], L[k, 0, 2], L[k, 1, 0], L[k, 1, 1],
-                             L[k, 1, 2], L[k, 2, 0], L[k, 2, 1], L[k, 2, 2]), dt, G, K)
-        sig_out[k, 0, 0], sig_out[k, 0, 1], sig_out[k, 0, 2] = r[0], r[1], r[2]
-        sig_out[k, 1, 0], sig_out[k, 1, 1], sig_out[k, 1, 2] = r[3], r[4], r[5]
-        sig_out[k, 2, 0], sig_out[k, 2, 1], sig_out[k, 2, 2] = r[6], r[7], r[8]
-        p_tr = -(r[0] + r[4] + r[8]) / 3.0
-        d0, d1, d2 = r[0] + p_tr, r[4] + p_tr, r[8] + p_tr
-        ss = (d0 * d0 + r[1] * r[1] + r[2] * r[2] + r[3] * r[3] + d1 * d1 + r[5] * r[5]
-              + r[6] * r[6] + r[7] * r[7] + d2 * d2)
-        W[0, k], W[1, k] = p_tr, 0.5 * ss
-    # ... and in a loop of its own (contiguous rows, no branches: SIMD) the rest of stage 1
-    for k in range(n):
-        p_tr = W[0, k]
-        tau_tr = np.sqrt(W[1, k])
+    Gdt, Kdt = G * dt, K * dt
+    mpm_3d = P[21] == 1.0
+    for k in range(phi.shape[0]):
+        s0, s1, s2, s3, s4, s5 = S[0, k], S[1, k], S[2, k], S[3, k], S[4, k], S[5, k]
+        p_tr = -(s0 + s1 + s2) / 3.0
+        d0, d1, d2 = s0 + p_tr, s1 + p_tr, s2 + p_tr
+        tau_tr = np.sqrt(0.5 * (d0 * d0 + d1 * d1 + d2 * d2) + (s3 * s3 + s4 * s4 + s5 * s5))
         ph = phi[k]
         phim = laws.phi_m(f[k], phi_c, phi_j)
         a = laws.dilatancy_a(f[k], a0, ainf)
@@ -800,81 +763,219 @@ def update_block(sig, L, phi, f, g_prev, dt, P, sig_out, out, W, s1, l1, so1, o1
         gc, pc = _critical_state(tau_tr, ph, y, a, Gdt, mu1, mu2, b, eta0, rho_s, d)
         beta_lo = max(0.0, K3 * (ph - phim))
         beta_top = beta_lo + (K3 * ph - beta_lo) * (1.0 - 1e-15)
+        # the start of the dilatant solve below jamming: _correct's, the compaction estimates
+        # (gc, pc) corrected to first order in beta
         b0 = (pc - p_tr) / (Kdt * gc + 2.0 * pc * phim / (ph * y * K3))
-        W[0, k], W[1, k], W[2, k], W[3, k], W[4, k] = p_tr, tau_tr, phim, a, y
-        W[5, k], W[6, k], W[7, k], W[8, k], W[9, k] = gc, pc, b0, gc, beta_lo
-        W[10, k] = beta_top
-        # 1: compaction, 2: dilatant (if its solve passes), 0: update_point (the mpm_3d rules'
-        # elastic points below jamming among them)
-        below = (p_tr > 0.0) & (y > 0.0) & (table8 | (tau_tr > (mu1 - K3 * y) * p_tr))
-        start = (gc > 0.0) & (beta_lo < b0) & (b0 < beta_top)
-        W[15, k] = 1.0 * (below & (pc <= p_tr)) + 2.0 * (below & start & (pc > p_tr))
-    # 2. Newton on (beta, gdot_p): the equations F1, F2 of _newton_2d, every point in step
+        # update_point's cases in its order (_correct), as exclusive masks, and the values of
+        # the closed-form ones (every operand computed first, then selects)
+        sep = p_tr + Kdt * tau_tr / Gdt * K3 * ph <= 0.0
+        el3 = (y > 0.0) & (p_tr >= 0.0) & (tau_tr <= (mu1 - K3 * y) * p_tr) & mpm_3d
+        el = (el3 | ((y <= 0.0) & (tau_tr - (mu1 + beta_lo) * p_tr <= 0.0))) & (not sep)
+        comp = (y > 0.0) & (pc <= p_tr) & (not sep) & (not el)
+        dil = (y > 0.0) & (p_tr > 0.0) & (gc > 0.0) & (beta_lo < b0) & (b0 < beta_top)
+        g_sep = tau_tr / Gdt
+        cs = _HANDED_START if dil else _HANDED
+        cs = _COMPACTION if comp else cs
+        cs = _ELASTIC if el else cs
+        cs = _SEPARATED if sep else cs
+        gf = gc if comp else 0.0
+        pf = pc if comp else 0.0
+        W[_PTR, k], W[_TAU, k], W[_BETA, k], W[_G, k], W[_CASE, k] = p_tr, tau_tr, b0, gc, cs
+        W[_GF, k] = g_sep if sep else gf
+        W[_PF, k] = p_tr if el else pf
+
+
+@_stage
+def block_newton(phi, f, dt, P, W):
+    """update_block stage 2: _LANE_NEWTON steps of the 2-D Newton of :func:`_newton_2d` (its
+    equations F1, F2) at every point in step (branch-free: SIMD)."""
+    phi_c, phi_j, a0, ainf, mu1, mu2, b, eta0 = P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[8]
+    Gdt, Kdt, rd2, iK3 = P[16] * dt, P[17] * dt, P[18] * P[19] * P[19], 1.0 / P[20]
     for _ in range(_LANE_NEWTON):
-        for k in range(n):
-            beta, g, a = W[7, k], W[8, k], W[3, k]
-            db, dg = _newton_2d_step(beta, g, phi[k], W[2, k], a, W[0, k], W[1, k], Gdt, Kdt,
-                                     eta0, rd2, iK3, 2.5 * phi[k] * eta0 / a, mu1, mu2, b)
-            W[7, k], W[8, k] = beta + db, g + dg
-    # 3. the residual of _dilatant_flow at the final beta, with gdot(beta) in closed form
-    for k in range(n):
-        beta, p_tr, tau_tr, phim, a = W[7, k], W[0, k], W[1, k], W[2, k], W[3, k]
-        x = phi[k] - beta * iK3
-        Im = (phim - x) / (a * x)
+        for k in range(phi.shape[0]):
+            beta, gk = W[_BETA, k], W[_G, k]
+            db, dg = _newton_2d_step(beta, gk, phi[k], laws.phi_m(f[k], phi_c, phi_j),
+                                     laws.dilatancy_a(f[k], a0, ainf), W[_PTR, k], W[_TAU, k],
+                                     Gdt, Kdt, eta0, rd2, iK3, mu1, mu2, b)
+            W[_BETA, k], W[_G, k] = beta + db, gk + dg
+
+
+@_stage
+def block_test(phi, f, dt, P, W):
+    """update_block stage 3: R(beta) of :func:`_dilatant_flow` at the Newton iterate (gdot(beta)
+    in closed form), its slope (:func:`_slope`) and update_point's convergence test (the exits
+    of _dilatant_flow's Newton: |R| at the roundoff floor, or a step below 1e-14 beta with
+    |R| <= 1e-12 of the stress); a point that passes is finished (branch-free: SIMD; three
+    divisions and a square root)."""
+    phi_c, phi_j, a0, ainf, mu1, mu2, b, eta0 = P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[8]
+    K3 = P[20]
+    Gdt, Kdt, rd2, iK3 = P[16] * dt, P[17] * dt, P[18] * P[19] * P[19], 1.0 / K3
+    for k in range(phi.shape[0]):
+        beta, p_tr, tau_tr, ph = W[_BETA, k], W[_PTR, k], W[_TAU, k], phi[k]
+        cs, gf, pf = W[_CASE, k], W[_GF, k], W[_PF, k]
+        phim = laws.phi_m(f[k], phi_c, phi_j)
+        a = laws.dilatancy_a(f[k], a0, ainf)
+        beta_lo = max(0.0, K3 * (ph - phim))
+        beta_top = beta_lo + (K3 * ph - beta_lo) * (1.0 - 1e-15)
+        # R = tau* - G dt g - (mu_p + beta) p with laws.friction's terms multiplied through by
+        # p: (mu_1 + beta) p + (mu_2 - mu_1) U p + V g, U = I_m/(I_m + b), V = 5/2 phi eta0/(a I_m)
+        # (F2 of _newton_2d at g = gdot(beta)); 1/(a x), U and V from one reciprocal
+        x = ph - beta * iK3
+        w = phim - x
+        ax = a * x
+        wb = w + b * ax
+        q = 1.0 / (ax * w * wb)
+        iax = w * wb * q
+        Im = w * iax
         Im2 = Im * Im
+        U = w * w * ax * q
+        c = 2.5 * ph * eta0
+        V = c * x * ax * wb * q
         bq = 2.0 * eta0 - Kdt * beta * Im2
         cq = p_tr * Im2
         sq = np.sqrt(bq * bq + 4.0 * rd2 * cq)
-        g = 2.0 * cq / (bq + sq) if bq > 0.0 else (-bq + sq) / (2.0 * rd2)
-        p = p_tr + Kdt * beta * g
-        R = tau_tr - Gdt * g - (laws.friction(eta0 * g / p, Im, phi[k], a, mu1, mu2, b)
-                                + beta) * p
-        ok = (abs(R) <= 2e-15 * (tau_tr + mu1 * p_tr) and W[9, k] < beta < W[10, k]
-              and 0.0 < g < np.inf)
-        W[11, k], W[12, k], W[13, k] = g, p, Im
-        if W[15, k] == 2.0 and not ok:
-            W[15, k] = 0.0
-    # 1/eta_B of every point (Eq. 9: a log and two exps, rheology.vecmath: SIMD)
-    v1, al1, v2, al2 = P[9], P[10], P[11], P[12]
-    for k in range(n):
-        W[14, k] = laws.inv_eta_B(phi[k], phi_j, v1, al1, v2, al2)
-    # 4. the points the block does not finish go through update_point whole
-    for k in range(n):
-        if W[15, k] == 0.0:
-            _update_row(sig, L, phi, f, dt, P, sig_out, out, k, g_prev[k], True, s1, l1, so1, o1)
-    # 5. the others: shear flow + compaction (closed form) or the accepted dilatant solve. First
-    # taubar, the deviator's scale and the structure step of every point in a branch-free loop
-    # (SIMD; at a point update_point finished they are computed and not used), over rows of W
-    # that are no longer needed, then the stores. The parameters as a tuple: values, whose loads
-    # are not redone after every store (array loads would be, and keep the loop scalar)
+        gk = 2.0 * cq / (bq + sq) if bq > 0.0 else (-bq + sq) / (2.0 * rd2)
+        p = p_tr + Kdt * beta * gk
+        R = tau_tr - Gdt * gk - (mu1 + beta) * p - (mu2 - mu1) * U * p - V * gk
+        # its slope (_slope's chain rule in these variables; w + x = phi_m)
+        dIm = phim * a * iax * iax * iK3
+        dg = (Kdt * Im2 * gk + 2.0 * p * Im * dIm) / sq
+        dp = Kdt * (gk + beta * dg)
+        dU = b * a * phim * iK3 * (ax * w * q) ** 2
+        dV = -c * phim * iK3 * (ax * wb * q) ** 2
+        dR = (-Gdt * dg - p - (mu1 + beta) * dp - (mu2 - mu1) * (dU * p + U * dp) - dV * gk
+              - V * dg)
+        floor = 2e-15 * (tau_tr + mu1 * abs(p_tr))
+        conv = (abs(R) <= floor) | ((abs(R) <= 1e-14 * abs(beta) * abs(dR))
+                                    & (abs(R) <= 1e-12 * (tau_tr - Gdt * gk + mu1 * p) + floor))
+        ok = (conv & (beta_lo < beta) & (beta < beta_top) & (gk > 0.0) & (gk < np.inf)
+              & (cs == _HANDED_START))
+        W[_CASE, k] = SHEAR_FLOW if ok else cs
+        W[_GF, k] = gk if ok else gf
+        W[_PF, k] = p if ok else pf
+        W[_IM, k] = Im
+        W[_ITER, k] = 1.0 if ok else 0.0
+
+
+@_stage
+def block_inv_eta_B(phi, P, W):
+    """update_block stage 4: 1/eta_B of every point (Eq. 9; rheology.vecmath: SIMD)."""
+    phi_j, v1, al1, v2, al2 = P[1], P[9], P[10], P[11], P[12]
+    for k in range(phi.shape[0]):
+        W[_INVB, k] = laws.inv_eta_B(phi[k], phi_j, v1, al1, v2, al2)
+
+
+@_stage
+def block_handed(phi, f, g, dt, P, W):
+    """update_block stage 5: the points without a closed form or an accepted solve through
+    :func:`_correct` (update_point's solve; a dilatant point below jamming from the block's
+    iterate). They end in shear flow (or FAILED): xi1 = xi2 = 0."""
+    for k in range(phi.shape[0]):
+        cs = W[_CASE, k]
+        if cs < -1.0:
+            start = cs == _HANDED_START
+            c, gk, p, Im, beta, _, _, it = _correct(W[_PTR, k], W[_TAU, k], phi[k], f[k], dt, P,
+                                                    g[k], True, W[_BETA, k] if start else -1.0,
+                                                    W[_G, k] if start else -1.0)
+            W[_CASE, k], W[_GF, k], W[_PF, k], W[_IM, k], W[_BETA, k] = c, gk, p, Im, beta
+            # evaluations: the block's own (one, at its iterate) and _correct's
+            W[_ITER, k] = it if (it < 0 or cs != _HANDED_START) else it + 1
+
+
+@_stage
+def block_finish(S, phi, f, g, case, dt, P, W):
+    """update_block stage 6: taubar, the structure step and the new stress of every point
+    (branch-free: SIMD); f, g and case written."""
+    Gdt = P[16] * dt
+    # the parameters as a tuple: values, whose loads are not redone after every store (array
+    # loads would be, and keep the loop scalar)
     Pt = (P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[7], P[8], P[9], P[10], P[11], P[12],
           P[13], P[14], P[15], P[16], P[17], P[18], P[19], P[20])
-    for k in range(n):
-        # every operand loaded first, then selects (a load under a condition stays scalar)
-        comp, gc, pc, y, a, ph = W[15, k] == 1.0, W[5, k], W[6, k], W[4, k], W[3, k], phi[k]
-        gd, pd, Imd, tau_tr, invB, fk = W[11, k], W[12, k], W[13, k], W[1, k], W[14, k], f[k]
-        g = gc if comp else gd
-        W[11, k] = g                                                   # gdot_p
-        W[12, k] = pc if comp else pd                                  # p
-        W[13, k] = y / (a * ph) if comp else Imd                       # I_m
-        W[5, k], W[6, k], W[9, k] = _structure_tail(fk, ph, g, tau_tr, Gdt, Pt, dt, invB)
-    for k in range(n):
-        kind = W[15, k]
-        if kind == 0.0:
-            continue
-        comp = kind == 1.0
-        p_tr, g, p, scale = W[0, k], W[11, k], W[12, k], W[6, k]
-        for i in range(3):
-            for j in range(3):
-                sig_out[k, i, j] = (scale * (sig_out[k, i, j] + (p_tr if i == j else 0.0))
-                                    - (p if i == j else 0.0))
-        out[k, 0], out[k, 1], out[k, 12] = W[9, k], g, COMPACTION if comp else SHEAR_FLOW
-        if full:
-            Im, beta = W[13, k], 0.0 if comp else W[7, k]
-            mu, I, Iv, phieq = _flow_outputs(phi[k], W[2, k], W[3, k], g, p, Im, P)
-            out[k, 2], out[k, 3], out[k, 4] = 0.0, (p - p_tr) / Kdt if comp else 0.0, mu
-            out[k, 5], out[k, 6], out[k, 7], out[k, 8], out[k, 9] = I, Iv, Im, beta, phieq
-            out[k, 10], out[k, 11], out[k, 13] = W[5, k], p, 0.0 if comp else 1.0
+    for k in range(phi.shape[0]):
+        cs, gk, p, p_tr, tau_tr = W[_CASE, k], W[_GF, k], W[_PF, k], W[_PTR, k], W[_TAU, k]
+        ph, fk, invB = phi[k], f[k], W[_INVB, k]
+        s0, s1, s2, s3, s4, s5 = S[0, k], S[1, k], S[2, k], S[3, k], S[4, k], S[5, k]
+        taubar, scale, f1 = _structure_tail(fk, ph, gk, tau_tr, Gdt, Pt, dt, invB,
+                                            cs == SEPARATED)
+        S[0, k] = scale * (s0 + p_tr) - p
+        S[1, k] = scale * (s1 + p_tr) - p
+        S[2, k] = scale * (s2 + p_tr) - p
+        S[3, k], S[4, k], S[5, k] = scale * s3, scale * s4, scale * s5
+        f[k], g[k], case[k] = f1, gk, cs
+
+
+@_jit
+def update_block(S, phi, f, g, case, dt, P, W, out):
+    """:func:`update_point` on a block of n = len(phi) <= BLOCK points, in vectorised stages.
+
+    Parameters
+    ----------
+    S : (NSTRESS, >= n) float array
+        Structure-of-arrays stress (rows xx, yy, zz, xy, xz, yz; symmetric) [Pa]: on entry the
+        elastic trial sigma* (:func:`jaumann_elastic` of the point's sigma_n and L), on return
+        sigma_{n+1}.
+    phi : (n,) volume fraction.
+    f : (n,) structure, advanced in place.
+    g : (n,) on entry each point's previous plastic shear rate (the warm start of a jammed
+        point's solve, :func:`update_point`; negative: none), on return the new gdot_p [1/s].
+    case : (n,) written: the case code (float).
+    dt, P : step [s] and parameter vector (:func:`kernel_parameters`).
+    W : (NWORK, >= n) work array.
+    out : (n, NOUT) or (0, NOUT)
+        Diagnostic outputs as :func:`update_point` writes them, or nothing (0 rows: a caller
+        that keeps only the stress, f, gdot_p and the case, e.g. mpm2d).
+
+    The scalar update is a chain of dependent divisions and square roots per point, so it runs
+    at the latency of that chain; here the same arithmetic goes through the block one stage at
+    a time (:func:`block_start`, :func:`block_newton`, :func:`block_test`,
+    :func:`block_inv_eta_B`, :func:`block_handed`, :func:`block_finish`), each but the fifth a
+    branch-free loop over the points that the compiler turns into SIMD instructions. A point
+    the vector stages do not finish goes through :func:`_correct`, so the results are those of
+    update_point to its convergence test.
+    """
+    block_start(S, phi, f, dt, P, W)
+    block_newton(phi, f, dt, P, W)
+    block_test(phi, f, dt, P, W)
+    block_inv_eta_B(phi, P, W)
+    block_handed(phi, f, g, dt, P, W)
+    if out.shape[0] > 0:
+        _block_outputs(phi, f, dt, P, W, out)
+    block_finish(S, phi, f, g, case, dt, P, W)
+
+
+@_jit
+def _block_outputs(phi, f, dt, P, W, out):
+    """update_block's diagnostic outputs (the columns of :data:`OUT_FIELDS`) from its work
+    array, before its last stage (f is still f_n there)."""
+    Gdt, Kdt, K3 = P[16] * dt, P[17] * dt, P[20]
+    for k in range(phi.shape[0]):
+        cs, gk, p, p_tr, tau_tr = W[_CASE, k], W[_GF, k], W[_PF, k], W[_PTR, k], W[_TAU, k]
+        ph = phi[k]
+        phim, a = laws.phi_m(f[k], P[0], P[1]), laws.dilatancy_a(f[k], P[2], P[3])
+        sep = cs == SEPARATED
+        Im, beta, xi1, xi2 = W[_IM, k], W[_BETA, k], 0.0, 0.0
+        if cs == COMPACTION:
+            Im, beta, xi2 = (phim - ph) / (a * ph), 0.0, (p - p_tr) / Kdt
+        elif cs == ELASTIC:
+            Im, beta = 0.0, -K3 * (phim - ph)
+        elif sep:
+            Im, beta, xi1 = np.inf, 0.0, -p_tr / Kdt
+        taubar, _, f1 = _structure_tail(f[k], ph, gk, tau_tr, Gdt, P, dt, W[_INVB, k], sep)
+        mu, I, Iv, phieq = _flow_outputs(ph, phim, a, gk, p, Im, P)
+        out[k, 0], out[k, 1], out[k, 2], out[k, 3], out[k, 4] = f1, gk, xi1, xi2, mu
+        out[k, 5], out[k, 6], out[k, 7], out[k, 8], out[k, 9] = I, Iv, Im, beta, phieq
+        out[k, 10], out[k, 11], out[k, 12], out[k, 13] = taubar, p, cs, W[_ITER, k]
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def trial_to_block(sig, L, k, dt, G, K, S, j):
+    """The Jaumann trial (:func:`jaumann_elastic`) of row k of the (N, 3, 3) stress and
+    gradient into column j of update_block's stress S; returns sigma_n's pressure."""
+    r = jaumann_elastic((sig[k, 0, 0], sig[k, 0, 1], sig[k, 0, 2], sig[k, 1, 0], sig[k, 1, 1],
+                         sig[k, 1, 2], sig[k, 2, 0], sig[k, 2, 1], sig[k, 2, 2]),
+                        (L[k, 0, 0], L[k, 0, 1], L[k, 0, 2], L[k, 1, 0], L[k, 1, 1],
+                         L[k, 1, 2], L[k, 2, 0], L[k, 2, 1], L[k, 2, 2]), dt, G, K)
+    S[0, j], S[1, j], S[2, j], S[3, j], S[4, j], S[5, j] = r[0], r[4], r[8], r[1], r[2], r[5]
 
 
 def _update_loop(sig, L, phi, f, dt, P, sig_out, out, g_prev=None, newton=True):
@@ -886,22 +987,33 @@ def _update_loop(sig, L, phi, f, dt, P, sig_out, out, g_prev=None, newton=True):
     blocks run in parallel, each with its own work arrays.
     """
     N = phi.shape[0]
+    G, K = P[16], P[17]
     for c in nb.prange((N + 4 * BLOCK - 1) // (4 * BLOCK)):
+        S = np.empty((NSTRESS, BLOCK))
         W = np.empty((NWORK, BLOCK))
-        s = np.empty((3, 3))
-        l = np.empty((3, 3))
-        so = np.empty((3, 3))
-        o = np.empty(NOUT)
-        none = np.full(BLOCK, -1.0)
+        fb, gb, cb = np.empty(BLOCK), np.empty(BLOCK), np.empty(BLOCK)
         for lo in range(4 * BLOCK * c, min(4 * BLOCK * (c + 1), N), BLOCK):
             hi = min(lo + BLOCK, N)
-            if newton:
-                gp = none[:hi - lo] if g_prev is None else g_prev[lo:hi]
-                update_block(sig[lo:hi], L[lo:hi], phi[lo:hi], f[lo:hi], gp, dt, P,
-                             sig_out[lo:hi], out[lo:hi], W, s, l, so, o)
+            if not newton:
+                for k in range(lo, hi):
+                    update_point(sig[k], L[k], phi[k], f[k], dt, P, sig_out[k], out[k], -1.0,
+                                 False)
                 continue
-            for n in range(lo, hi):
-                _update_row(sig, L, phi, f, dt, P, sig_out, out, n, -1.0, False, s, l, so, o)
+            for k in range(hi - lo):
+                trial_to_block(sig, L, lo + k, dt, G, K, S, k)
+                fb[k] = f[lo + k]
+            if g_prev is None:
+                gb[:] = -1.0
+            else:
+                gb[:hi - lo] = g_prev[lo:hi]
+            n = hi - lo
+            update_block(S, phi[lo:hi], fb[:n], gb[:n], cb[:n], dt, P, W, out[lo:hi])
+            for k in range(hi - lo):
+                so = sig_out[lo + k]
+                so[0, 0], so[1, 1], so[2, 2] = S[0, k], S[1, k], S[2, k]
+                so[0, 1] = so[1, 0] = S[3, k]
+                so[0, 2] = so[2, 0] = S[4, k]
+                so[1, 2] = so[2, 1] = S[5, k]
 
 
 #: Parallel (prange) loop over points: the entry point for large batches (MPM, 1-D grids).

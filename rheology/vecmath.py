@@ -23,6 +23,8 @@ s = f/(2 + f), ln m = 2 atanh(s) = f - s (f - R(s^2)), R(z) = sum_k 2 z^k/(2k + 
 exp y: n = round(y/ln2) by the 1.5 2^52 shift, r = y - n ln2 (two-part ln2, |r| <= 0.347), the
 Taylor series of e^r to degree 13 (truncation < 5e-18), times 2^n built from the exponent bits in
 two factors (so subnormal results and overflow to inf come out right).
+Both polynomials by Horner's rule in fused multiply-adds (one rounding a step; in a SIMD loop
+twice the throughput of a multiply and an add, and half the latency of each step).
 """
 
 from __future__ import annotations
@@ -55,6 +57,20 @@ def _from_bits(typingctx, b):
     def codegen(context, builder, signature, args):
         return builder.bitcast(args[0], ir.DoubleType())
     return types.float64(types.int64), codegen
+
+
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """a b + c rounded once (llvm.fma: one FMA instruction, vectorised in SIMD loops; numba
+    does not fuse a multiply and an add by itself)."""
+    if not (a == types.float64 and b == types.float64 and c == types.float64):
+        return None
+
+    def codegen(context, builder, signature, args):
+        d = ir.DoubleType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [d], ir.FunctionType(d, [d, d, d]))
+        return builder.call(fn, args)
+    return types.float64(types.float64, types.float64, types.float64), codegen
 
 
 _LN2_HI = 6.93147180369123816490e-01       # ln 2 to 32 bits (e ln2_hi exact for |e| < 2^20)
@@ -92,8 +108,16 @@ def _log_jit(x):
     f = m - 1.0
     s = f / (2.0 + f)
     z = s * s
-    R = z * (_L1 + z * (_L2 + z * (_L3 + z * (_L4 + z * (_L5 + z * (_L6 + z * (
-        _L7 + z * (_L8 + z * (_L9 + z * (_L10 + z * _L11))))))))))
+    R = _fma(z, _L11, _L10)
+    R = _fma(R, z, _L9)
+    R = _fma(R, z, _L8)
+    R = _fma(R, z, _L7)
+    R = _fma(R, z, _L6)
+    R = _fma(R, z, _L5)
+    R = _fma(R, z, _L4)
+    R = _fma(R, z, _L3)
+    R = _fma(R, z, _L2)
+    R = _fma(R, z, _L1) * z
     r = e * _LN2_HI + (e * _LN2_LO + (f - s * (f - R)))
     r = -np.inf if x == 0.0 else r
     r = x if x == np.inf else r
@@ -106,8 +130,19 @@ def _exp_jit(y):
     t = yc * _INV_LN2 + _SHIFT
     nf = t - _SHIFT                                        # round(y / ln 2), as a float
     r = (yc - nf * _LN2_HI) - nf * _LN2_LO
-    p = 1.0 + r * (1.0 + r * (_E2 + r * (_E3 + r * (_E4 + r * (_E5 + r * (_E6 + r * (
-        _E7 + r * (_E8 + r * (_E9 + r * (_E10 + r * (_E11 + r * (_E12 + r * _E13))))))))))))
+    p = _fma(r, _E13, _E12)
+    p = _fma(p, r, _E11)
+    p = _fma(p, r, _E10)
+    p = _fma(p, r, _E9)
+    p = _fma(p, r, _E8)
+    p = _fma(p, r, _E7)
+    p = _fma(p, r, _E6)
+    p = _fma(p, r, _E5)
+    p = _fma(p, r, _E4)
+    p = _fma(p, r, _E3)
+    p = _fma(p, r, _E2)
+    p = _fma(p, r, 1.0)
+    p = _fma(p, r, 1.0)
     # 2^n = 2^n1 2^n2, n1 = floor(n/2): each factor a normal number, so subnormal results and
     # overflow come out right; the integers from the shift trick (float and int64 adds only)
     n1f = np.floor(0.5 * nf)
