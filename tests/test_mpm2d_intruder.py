@@ -13,6 +13,7 @@ import pytest
 from mpm2d.cli import main
 from mpm2d.run import run_scene
 from mpm2d.scenes import get_setup
+from mpm2d.scenes import intruder
 from mpm2d.scenes.intruder import SWEEP_COLUMNS, analyse, fit_window, sweep_report
 
 #: a small, short case (h = 1 mm, a 20 mm x 16 mm bed, 2 ms at 0.5 m/s): a few seconds. At
@@ -88,6 +89,87 @@ def test_fronts_grow_and_the_plug_moves_with_the_rod(small_run):
     # far from the rod (outer bottom corner) the bed barely moves
     far = (bed.x[:, 0] > 0.8 * SMALL["radius"]) & (bed.x[:, 1] < 0.2 * SMALL["depth"])
     assert np.abs(bed.v[far, 1]).max() < 0.5 * SMALL["v0"]
+
+
+def _fit_lines(ax):
+    """The fit lines of front.png (width 2): (x, y) of each."""
+    return [(ln.get_xdata(), ln.get_ydata()) for ln in ax.get_lines() if ln.get_linewidth() == 2]
+
+
+def test_front_figure_title_agrees_with_the_summary(small_run):
+    """The title says whether the bed jammed and when, the fit window and the factors, each as
+    summary.json has them; both fit lines are drawn over the window."""
+    out, res = small_run
+    s = _strict((out / "summary.json").read_text())
+    fig = intruder.front_figure(res["history"], s, res["scene"].params)
+    ax = fig.axes[0]
+    title = ax.get_title()
+    assert s["jammed"] and f"jammed at {1e3 * s['t_jam_s']:.3g} ms" in title
+    assert f"max f/f_jam {s['max_f_over_f_jam']:.3g}" in title
+    assert f"fit {1e3 * s['fit_t_start_s']:.3g}-{1e3 * s['fit_t_end_s']:.3g} ms" in title
+    for k in ("k_l", "k_t", "k_l/k_t"):
+        assert f"{k} = {s[k.replace('/', '_over_')]:.3g}" in title
+    lines = _fit_lines(ax)
+    assert len(lines) == 2
+    for x, y in lines:
+        assert np.all(np.isfinite(y))
+        assert x == pytest.approx([1e3 * s["fit_t_start_s"], 1e3 * s["fit_t_end_s"]])
+    intruder.plots.plt.close(fig)
+
+
+def test_front_figure_of_an_unjammed_bed_with_gaps():
+    """A bed that did not jam: the title says so and gives no k_l/k_t (its fronts are the rod's
+    near field); records where a front is undefined (NaN, 57 of 401 in the default run) inside
+    the window leave both fit lines finite, on the least-squares line of the finite records."""
+    v0, t = 0.175, np.linspace(0.0, 0.02, 401)
+    zl, rt = 0.004 + 0.35 * t, 0.004 + 0.1 * t
+    zl[::7] = np.nan
+    rt[3::11] = np.nan
+    hist = pd.DataFrame({"time_s": t, "longitudinal_m": zl, "transverse_m": rt,
+                         "tip_depth_m": v0 * t})
+    params = dict(depth=0.035, radius=0.05, fit_margin=0.005, v0=v0, phi0=0.47, layout="default",
+                  rules="table8", mode="locked mixture", cells_per_mm=1.0)
+    res = analyse(hist[["time_s", "longitudinal_m", "transverse_m"]], v0 * t, params, 1e-3,
+                  max_f=np.full(len(t), 0.3))
+    assert not res["jammed"]
+    fig = intruder.front_figure(hist, res, params)
+    title = fig.axes[0].get_title()
+    assert "did not jam" in title and f"max f/f_jam {0.3 / res['f_jam']:.3g} < 1" in title
+    assert "k_l/k_t" not in title and "not a plug" in title
+    lines = _fit_lines(fig.axes[0])
+    assert len(lines) == 2
+    for (x, y), (speed, y0) in zip(lines, ((0.35, 0.004), (0.1, 0.004))):
+        assert np.all(np.isfinite(y))
+        assert y == pytest.approx(1e3 * (y0 + speed * np.asarray(x) * 1e-3), rel=1e-9)
+    intruder.plots.plt.close(fig)
+
+
+def test_fields_figure_colour_ranges_cover_their_data(small_run):
+    """fields.png: panels in rows of three (no strip of five), u_z on a diverging map centred at
+    0 spanning every u_z panel, |D_rz|, |D_zz| and f/f_jam from 0 to at least their largest
+    value, no jet; the title's jam state is summary.json's."""
+    from figure_checks import assert_colour_range_covers, assert_uniform_cmap
+
+    out, _ = small_run
+    s = _strict((out / "summary.json").read_text())
+    fig = intruder.fields_figure(out, s)
+    w, h = fig.get_size_inches() * fig.dpi
+    assert w / h < 2.5
+    images = [(ax, im) for ax in fig.axes for im in ax.get_images()]
+    assert len(images) >= 4                        # u_z at the end, |D_rz|, |D_zz|, f/f_jam
+    for ax, im in images:
+        data = np.ma.filled(im.get_array().astype(float), np.nan)
+        assert np.isfinite(data).any()
+        assert_uniform_cmap(im)
+        signed = ax.get_title().startswith("u_z")
+        assert_colour_range_covers(im, data, centred=signed)
+        if not signed:
+            assert im.norm.vmin == 0.0
+    uz = [im for ax, im in images if ax.get_title().startswith("u_z")]
+    assert uz and max(im.norm.vmax for im in uz) >= s["v0_m_per_s"]
+    assert intruder.jam_text(s) in fig._suptitle.get_text()
+    assert ("did not jam" in fig._suptitle.get_text()) == (not s["jammed"])
+    intruder.plots.plt.close(fig)
 
 
 def test_analysis_recovers_known_front_speeds():

@@ -1,111 +1,58 @@
 """A rigid rod driven at constant speed v0 into a suspension bed: jamming fronts (Figs. 6-7).
 
-The controlled-intrusion experiment of Han, Peters & Jaeger (Nat. Commun. 7, 12243, 2016) as
-simulated by Baumgarten & Kamrin (section "Impact activated solidification", Table 6, Figs. 6-7):
-a flat-ended rod moves down at a prescribed speed v0 into a density-matched cornstarch
-suspension; a solid plug grows ahead of it, its front (u_z = v0/2) moving at v_fl along the axis
-and v_ft across it, with k_l = v_fl/v0 - 1 about twice k_t = v_ft/v0 for every phi and v0.
+The controlled intrusion of Han, Peters & Jaeger (Nat. Commun. 7, 12243, 2016) as simulated by
+Baumgarten & Kamrin (section "Impact activated solidification", Table 6, Figs. 6-7): a flat rod
+moves down at v0 into a density-matched cornstarch suspension; a plug grows ahead of it, its
+front (u_z = v0/2) moving at v_fl along the axis and v_ft across it, with the factors
+k_l = v_fl/v0 - 1 and k_t = v_ft/v0, k_l ~ 2 k_t for every phi0 and v0 (Han et al.).
 
-Equations: axisymmetric (r, z) MPM of the Table 8 law (rheology.local_update) with the Table 6
-parameter set ``intruder`` (Hermes 2016 steady fit, eta0 = 4.6 mPa s, rho_s = rho_f = 1620
-kg/m^3, G = 3.8e7 Pa, K = 8.3e7 Pa, K0 = 0.2; d = 5.85 um, K3 = 4.715, K4 = 0; kappa = K, our
-choice, the paper gives no fluid modulus). ``mode=locked mixture``: one velocity field, undrained
-pore pressure; ``mode=two-phase``: grains and fluid on two fields with implicit Beetstra drag.
-The rod is a rigid body with every component prescribed (velocity (0, -v0) from t = 0), meeting
-the bed's fields through multi-velocity-field contact (mpm2d.contact), compressive only, with
-Coulomb friction mu_w (``rod_contact``: no slip, mu_w = inf, or frictionless); its reaction
-force is recorded.
+Model: axisymmetric (r, z) MPM of the Table 8 law (rheology.local_update; ``rules`` table8 or
+mpm_3d) with the Table 6 set ``intruder`` (eta0 = 4.6 mPa s, rho_s = rho_f = 1620 kg/m^3,
+G = 3.8e7 Pa, K = 8.3e7 Pa, d = 5.85 um; fluid modulus kappa = K, our choice: the paper gives
+none). Undrained: with Beetstra drag at phi0 = 0.47 the permeability is 1.24e-13 m^2 and the
+consolidation coefficient c_v = k/(eta0 (1/M + (1 - phi)/kappa)) = 1.9e-3 m^2/s (M = K + 4G/3),
+so draining the plug's 1 cm takes L^2/c_v = 51 ms, longer than the 20 ms run. The rod is a
+rigid body with its velocity (0, -v0) prescribed from t = 0; it meets the bed through
+multi-velocity-field contact (mpm2d.contact), compressive only, on approach, with Coulomb
+friction (``rod_contact``: no slip, the default, or frictionless); the bed starts at rest under
+gravity (mpm2d.geostatic); axis r = 0 a symmetry line, floor and outer wall no slip, top free.
 
-Drained or undrained (DESIGN.md section 5): for phi0 = 0.47, Beetstra F = 17.3, Darcy
-permeability k = (1 - phi) d^2/(18 phi F) = 1.24e-13 m^2; with the skeleton's constrained modulus
-M = K + 4G/3 = 1.34e8 Pa and the fluid's storage (1 - phi)/kappa, c_v = k/(eta0 (1/M + (1 -
-phi)/kappa)) = 1.9e-3 m^2/s, so over the plug's 1 cm the pore pressure needs L^2/c_v = 51 ms to
-drain, longer than the 20 ms run: the intrusion is undrained (Han et al. measured no change of
-packing fraction at the front), which makes the locked mixture the default layout's mode.
+Layouts (``layout``; geometry parameters left at none/auto take the layout's values):
+- ``default``, our reading of the paper's "50x35 element Cartesian grid with 1mm x 1mm
+  resolution": bed 50 mm x 35 mm plus room above for the rod, rod radius 3.175 mm (a 1/4-inch
+  rod) represented on the h/2 point lattice (3.0 mm at h = 1 mm), tip starting at the surface,
+  locked mixture (undrained), contact ``touch`` (only where the points' squares touch).
+- ``mpm_3d``, the author's scene (aaronbaumgarten/mpm_3d, mpm_pygen/GenerateMixture2D_v2.py and
+  GenerateBlock2D_v2.py, with src/objects/boundaries/assigned_velocity.cpp and
+  src/objects/contacts/contact_rigid_reflected_boundary.cpp): grid 50 x 35 cells of 1 mm, bed
+  0-50 mm x 0-30 mm (5 mm headroom) at 2 x 2 points per cell, grains and fluid as two bodies
+  (two-phase), rod the block r 0-3 mm, z 32-35 mm (tip 2 mm above the surface), density 1e5
+  kg/m^3, contact ``mass`` (every node where the rod and a field both have mass, normal from the
+  rod's area gradient). With quadratic B-splines (reach 1.5 h) it acts on the bed from t = 0.
+  Not in the files, our choices: the friction, container, initial stress and shape functions.
 
-Layouts (``layout``; the parameters left at none or auto take the layout's value):
+Fronts (mpm2d.fronts): u_z of the bed's (granular) points binned to the cells; the longitudinal
+front is the depth where u_z/(-v0) falls below 1/2 on the axis column under the rod's face, the
+transverse front the radius where it does on the row below the face, searched outward from the
+rod's radius. The face is the tip, or the top of the highest filled axis cell below it where
+contact ``mass`` pushes the bed from a distance. The bed jams where a point's f reaches f_jam
+(phi_m(f_jam) = phi0); ``jammed`` in summary.json says whether it did: if not, the fronts are
+the rod's viscous near field, not a plug.
 
-- ``default``: our reading of the paper's "axisymmetric MPM on a 50x35 element Cartesian grid
-  with 1mm x 1mm resolution". Bed radius 50 mm, depth 35 mm (the grid is the bed), plus room
-  above it for the rod (v0 t_end + 5 mm) and for the surface to heave; rod radius 3.175 mm (a
-  1/4-inch rod, our reading of Han et al.'s intruder), represented on the point lattice (spacing
-  h/2) as n h/2, n = floor(2 rod_radius/h): 3.0 mm at h = 1 mm; the rod's tip starts at the
-  free surface and the rod is v0 t_end + 5 mm long (it never submerges), density rho_s; locked
-  mixture; contact ``touch``.
-- ``mpm_3d``: the author's scene files (aaronbaumgarten/mpm_3d, commit 9aa6448:
-  mpm_pygen/GenerateMixture2D_v2.py and GenerateBlock2D_v2.py write the points; the driver
-  src/objects/boundaries/assigned_velocity.cpp and the contact
-  src/objects/contacts/contact_rigid_reflected_boundary.cpp are added in the same commit).
-  Taken from the files: the grid Lx x Ly = 50 mm x 35 mm in Nx x Ny = 50 x 35 cells (h = 1 mm);
-  2 x 2 points per cell at the quarter points (lmpp = 2; the generators' third direction, Lz = 2
-  with the boxes 0 <= z <= 1, keeps one layer), each of volume h^2/4 per unit length (mpm_3d
-  multiplies mass and volume by r when an axisymmetric job reads a point file); the bed the box
-  0 <= r <= 50 mm, 0 <= z <= 30 mm (5 mm of headroom), phi = 0.47 in the file (phi0 here);
-  grains and fluid as two bodies on the same points, grain mass 1620 phi V and fluid mass 1620
-  (1 - phi) V with volume V (our two-phase sets: phi rho_s V, (1 - phi) rho_f V), so mode =
-  two-phase; the rod the block 0 <= r <= 3 mm, 32 <= z <= 35 mm (radius 3 mm, height 3 mm, tip
-  2 mm above the free surface), density 1e5 kg/m^3 (no effect: its motion is prescribed);
-  gravity 9.81 m/s^2. AssignedVelocity gives the block's points v_set at the start and, every
-  step, v_set and zero force on every node where the block has mass: its motion is prescribed.
-  ContactRigid_ReflectedBoundary acts at every node where both bodies have mass: normal from the
-  block's mass gradient (of m/r, the 2-D density, in axisymmetry), its component normal to the
-  grid's boundary zeroed on boundary nodes; where the material approaches the block it sets the
-  material's normal velocity to the block's (compressive only) and limits the tangential force
-  by mu_f times the normal one (Coulomb); the block is not moved by it. Axisymmetric: the paper
-  says so and the contact has the axisymmetric branch; the point files serve either. That is
-  contact ``mass``.
-  Not in the files (no configuration file in the repository's history uses the driver or the
-  contact), our choices: mu_f (``rod_contact``, no slip by default as in the default layout: a
-  viscous suspension wets the rod); the container (axis r = 0 a symmetry line, no-slip floor and
-  outer wall, a wetted rigid container, as in the default layout; the top of the grid free); the
-  initial stress (the point files carry none: the bed starts at rest under gravity,
-  mpm2d.geostatic, as in the default layout, so a loose bed's weight is on its pore pressure);
-  the shape functions (the grid class is set in the missing configuration file; ours are
-  quadratic B-splines, whose supports reach 1.5 h: the block's lowest points (z = 32.25 mm) and
-  the bed's highest (29.75 mm) both weigh 1/32 on the node row z = 31 mm, so contact ``mass``
-  acts on the bed from t = 0, 2 mm before the surfaces meet); t_end 20 ms (Fig. 6's last field).
+Fit: straight lines (least squares on the finite records) over a window after the contact
+transient (four acoustic crossings of the bed) and after the first jamming, where both fronts
+exist and the longitudinal one is 2 cells ahead of the tip, ended by a front within
+``fit_margin`` of the floor or wall or falling back by more than h from its farthest position
+(running median over 9 records); of such stretches, the one over which both fronts advance
+most. A speed over less than two cells of travel is null with its reason.
 
-Contact (``contact``, mpm2d.contact): ``touch`` acts only at nodes covered by bed points whose
-squares touch a rod point's square, with the normal of the touching faces; ``mass`` (the
-author's) at every node where the rod and a field both have mass, with the normal from the rod's
-area gradient (rigid_normals; the mirror fold zeroes its r component on the axis). Both act only
-on approach, compressive only, with the same friction and the rod's prescribed velocity, so they
-differ where the fields overlap without touching: ahead of and beside the rod by up to the
-shape functions' reach.
-
-Fronts (Han et al. 2016, mpm2d.fronts): the vertical velocity of the bed's (granular) points
-binned to the grid's cells (mass-weighted); the longitudinal front is the depth below the
-initial surface where u_z/(-v0) falls below 1/2 on the axis column below the rod's tip (linear
-interpolation between cell centres), the transverse front the radius where it does on the row of
-cells just below the tip, searched outward from the rod's represented radius; both are read from
-the bed's face under the rod (the tip, or the top of the highest filled axis cell below it where
-contact ``mass`` pushes the bed from a distance; ``face_depth_m`` in history.csv). Fit: straight
-lines over a stretch after the contact transient (four acoustic crossings of the bed) and after
-the bed first jams (a point's f reaches f_jam, phi_m(f_jam) = phi0; ``jammed`` in summary.json
-says whether it did) where both fronts exist and the longitudinal front is at least 2 cells
-ahead of the tip, until either front comes within ``fit_margin`` of the floor or the outer
-wall, or either (its running median over 9 records) falls back by more than a cell (h) from
-its farthest position (the plug stopped growing, or a start-up transient ended); of the
-stretches so separated (after a fall-back the next starts at the next record where both fronts
-exist), the one over which both fronts advance most; records where a front is momentarily
-undefined are left out of the fits, not ended at.
-k_l = v_fl/v0 - 1, k_t = v_ft/v0: the paper's "(v_fl - v0)/v_ft ~ 2 ... transverse and
-longitudinal front propagation factors k_t = v_ft/v0 and k_l = v_fl/v0 - 1", front "defined by
-u_z = 0.5 v0"; v_fl is the lab-frame speed of the front along the axis.
-
-Parameters: layout (default|mpm_3d), phi0, v0 [m/s], t_end [s], radius, depth [m],
-cells_per_mm (1/h in 1/mm), rod_radius [m], rod_contact, contact, mode (auto: the layout's),
-fit_margin [m], gravity [m/s^2], rules (the law's: table8 or mpm_3d, rheology.local_update), cfl.
-
-Outputs (besides history.csv, frames, manifest): ``front.csv`` (time_s, longitudinal_m,
-transverse_m), ``front.png``, ``summary.json`` (k_l, k_t, R^2 of each fit, window, speeds,
-jammed, t_jam_s, max_f_over_f_jam), ``fields.png`` (Fig. 6(a)-(e): u_z at 6.2, 13.2 and 20 ms,
-|D_rz| and |D_zz| at t_end with the u_z = 0.5 v0 contour bold). A sweep (``mpm2d sweep intruder
---set phi0=... --set v0=...``) writes ``fronts.csv`` and ``fronts.png`` (the k_l-k_t scatter
-with k_l = 2 k_t, Fig. 7).
-
-Run: ``mpm2d run intruder --out intruder``; the author's scene: ``mpm2d run intruder --set
-layout=mpm_3d --out intruder_mpm3d``.
+Parameters: layout, phi0, v0 [m/s], t_end [s], radius, depth [m], cells_per_mm [1/mm],
+rod_radius [m], rod_contact, contact, mode, fit_margin [m], gravity [m/s^2], rules, cfl.
+Outputs: front.csv (time_s, longitudinal_m, transverse_m), front.png (fronts, fit lines, the
+jam state and window in the title), summary.json (k_l, k_t, R^2, window, jammed, t_jam_s,
+max_f_over_f_jam), fields.png (Fig. 6: u_z at 6.2, 13.2, 20 ms, |D_rz|, |D_zz| and f/f_jam at
+t_end). ``mpm2d sweep intruder`` writes fronts.csv and fronts.png (Fig. 7's k_l-k_t scatter).
+Run: ``mpm2d run intruder``; the author's scene: ``mpm2d run intruder --set layout=mpm_3d``.
 """
 
 from __future__ import annotations
@@ -114,6 +61,7 @@ import json
 import math
 from pathlib import Path
 
+import matplotlib.colors as mcolors
 import numpy as np
 import pandas as pd
 
@@ -419,41 +367,65 @@ def analyse(front: pd.DataFrame, tip_depth, params, h, max_f=None) -> dict:
 
 def report(sim, history, out, params, rod_r):
     out = Path(out)
-    h = sim.grid.h
     front = history[["time_s", "longitudinal_m", "transverse_m"]].copy()
     atomic_write_csv(out / "front.csv", front, empty_ok=("longitudinal_m", "transverse_m"))
-    res = analyse(front, history["tip_depth_m"].to_numpy(), params, h,
+    res = analyse(front, history["tip_depth_m"].to_numpy(), params, sim.grid.h,
                   history["max_f"].to_numpy())
     res["rod_radius_m"] = rod_r
     atomic_write_json(out / "summary.json", res, nullable=_NULLABLE)
-    return [front_figure(history, res, params, out / "front.png"),
-            fields_figure(sim, out, params, rod_r, out / "fields.png")]
+    return [plots.save(front_figure(history, res, params), out / "front.png"),
+            plots.save(fields_figure(out, res), out / "fields.png")]
 
 
-def front_figure(history, res, params, path):
-    fig, ax = plots.plt.subplots(figsize=(6.5, 4.5))
-    t = history["time_s"].to_numpy() * 1e3
-    ax.plot(t, history["longitudinal_m"] * 1e3, "b.", ms=3, label="longitudinal (depth)")
-    ax.plot(t, history["transverse_m"] * 1e3, "r.", ms=3, label="transverse (radius)")
-    ax.plot(t, history["tip_depth_m"] * 1e3, "k-", lw=1, label="rod tip depth")
+def jam_text(res) -> str:
+    """What the run shows about jamming, from its summary: 'jammed at T ms (max f/f_jam X)' or
+    'did not jam (max f/f_jam X < 1)'."""
+    mx = res.get("max_f_over_f_jam")
+    tail = "" if mx is None or not math.isfinite(mx) else f"max f/f_jam {mx:.3g}"
+    if res["jammed"]:
+        return f"jammed at {1e3 * res['t_jam_s']:.3g} ms" + (f" ({tail})" if tail else "")
+    return "did not jam" + (f" ({tail} < 1)" if tail else "")
+
+
+def front_title(res, params) -> str:
+    """front.png's title: the case, the jam state, the fit window and what was fitted (the
+    factors of a plug, or the near field's speeds when the bed did not jam)."""
+    head = f"phi0 {params['phi0']:g}, v0 {params['v0']:g} m/s, layout {params['layout']}, " \
+           f"rules {params['rules']}: bed {jam_text(res)}"
     t0, t1 = res["fit_t_start_s"], res["fit_t_end_s"]
-    if math.isfinite(t0):
-        tt = np.array([t0, t1])
-        for col, speed, c in (("longitudinal_m", res["v_fl_m_per_s"], "b"),
-                              ("transverse_m", res["v_ft_m_per_s"], "r")):
-            sel = (history["time_s"] >= t0) & (history["time_s"] <= t1)
-            y = history.loc[sel, col].to_numpy()
-            ts = history.loc[sel, "time_s"].to_numpy()
-            b = float(np.mean(y) - speed * np.mean(ts))
-            ax.plot(tt * 1e3, (b + speed * tt) * 1e3, c + "-", lw=2)
+    if t0 is None or not math.isfinite(t0):
+        return head + "\nno fit window: " + res["fit_note"]
+    kl, kt = (np.nan if res[k] is None else res[k] for k in ("k_l", "k_t"))
+    window = f"fit {1e3 * t0:.3g}-{1e3 * t1:.3g} ms"
+    if not res["jammed"]:
+        return (head + f"\n{window}: near-field speeds, not a plug's fronts: "
+                f"v_fl/v0 - 1 = {kl:.3g}, v_ft/v0 = {kt:.3g}")
+    ratio = kl / kt if math.isfinite(kt) and kt != 0 else np.nan
+    return head + f"\n{window}: k_l = {kl:.3g}, k_t = {kt:.3g}, k_l/k_t = {ratio:.3g}"
+
+
+def front_figure(history, res, params):
+    """front.png: both fronts and the rod tip against time, the fit window and its straight
+    lines (least squares on the window's finite records, as in :func:`analyse`)."""
+    fig, ax = plots.plt.subplots(figsize=(7.0, 4.8))
+    t = history["time_s"].to_numpy()
+    ax.plot(t * 1e3, history["longitudinal_m"] * 1e3, "b.", ms=3, label="longitudinal (depth)")
+    ax.plot(t * 1e3, history["transverse_m"] * 1e3, "r.", ms=3, label="transverse (radius)")
+    ax.plot(t * 1e3, history["tip_depth_m"] * 1e3, "k-", lw=1, label="rod tip depth")
+    t0, t1 = res["fit_t_start_s"], res["fit_t_end_s"]
+    if t0 is not None and math.isfinite(t0):
         ax.axvspan(t0 * 1e3, t1 * 1e3, color="0.9", zorder=0, label="fit window")
+        for col, c in (("longitudinal_m", "b"), ("transverse_m", "r")):
+            fit = fit_speed(t, history[col].to_numpy(), t0, t1)
+            if math.isfinite(fit["speed"]):
+                tt = np.array([t0, t1])
+                ax.plot(tt * 1e3, (fit["intercept"] + fit["speed"] * tt) * 1e3, c + "-", lw=2)
     ax.set_xlabel("t [ms]")
     ax.set_ylabel("front position [mm]")
-    kl, kt = res["k_l"], res["k_t"]
-    ax.set_title(f"phi0 = {params['phi0']}, v0 = {params['v0']} m/s: k_l = {kl:.3g}, "
-                 f"k_t = {kt:.3g}, k_l/k_t = {res['k_l_over_k_t']:.3g}", fontsize=9)
-    ax.legend(fontsize=8)
-    return plots.save(fig, path)
+    ax.set_title(front_title(res, params), fontsize=8)
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    return fig
 
 
 def event_fields(out) -> list:
@@ -470,59 +442,101 @@ def event_fields(out) -> list:
             for f in load_frames(out, tag="event")]
 
 
-def draw_uz(fig, ax, uz, h, v0, rod_x, rod_r, title):
-    """One Fig. 6(a)-(c) panel: u_z (colour, -v0 to 0) with the u_z = -v0/2 front contour (white)
-    and the rod (grey)."""
+def uz_norm(v0, fields):
+    """The colour scale of u_z panels: symmetric about 0 (a diverging map), spanning -v0 and
+    every finite value of ``fields`` (the heave beside the rod is positive)."""
+    top = max([v0] + [float(np.nanmax(np.abs(f))) for f in fields if np.isfinite(f).any()])
+    return mcolors.Normalize(-top, top)
+
+
+def draw_uz(ax, uz, h, v0, rod_x, rod_r, title, norm):
+    """One Fig. 6(a)-(c) panel: u_z [m/s] on ``norm`` (:func:`uz_norm`, map RdBu_r: the bed
+    moving down in blue) with the u_z = -v0/2 front contour (black) and the rod (grey).
+    Returns the image."""
     nx, nz = uz.shape
     rc, zc = (np.arange(nx) + 0.5) * h * 1e3, (np.arange(nz) + 0.5) * h * 1e3
     im = ax.imshow(uz.T, origin="lower", extent=(0.0, nx * h * 1e3, 0.0, nz * h * 1e3),
-                   cmap="viridis", vmin=-v0, vmax=0.0)
+                   cmap="RdBu_r", norm=norm)
     if np.nanmin(uz) < -0.5 * v0:
-        ax.contour(rc, zc, uz.T, levels=[-0.5 * v0], colors="w", linewidths=2)
-    ax.fill_between([0, rod_r * 1e3], rod_x[:, 1].min() * 1e3, rod_x[:, 1].max() * 1e3,
-                    color="0.4")
+        ax.contour(rc, zc, uz.T, levels=[-0.5 * v0], colors="k", linewidths=1.5)
+    _rod(ax, rod_x, rod_r)
     ax.set_title(title, fontsize=9)
     ax.set_xlabel("r [mm]")
     ax.set_ylabel("z [mm]")
-    ax.set_aspect("equal")
-    fig.colorbar(im, ax=ax, label="u_z [m/s]", shrink=0.8)
+    return im
 
 
-def fields_figure(sim, out, params, rod_r, path):
-    """Fig. 6(a)-(e): u_z at the event times, |D_rz| and |D_zz| at the end."""
-    h = sim.grid.h
-    nx, ny = sim.grid.nx, sim.grid.ny
-    v0 = params["v0"]
-    panels = event_fields(out)
-    bed = sim.sets[0]
-    L = bed.L
-    uz_end = cell_field(bed.x, bed.v[:, 1], bed.m, (0.0, 0.0), h, (nx, ny))
-    n = len(panels) + 2
-    fig, axs = plots.plt.subplots(1, n, figsize=(3.6 * n, 3.4))
-    rc = (np.arange(nx) + 0.5) * h * 1e3
-    zc = (np.arange(ny) + 0.5) * h * 1e3
-    for ax, (t, uz, xr) in zip(axs, panels):
-        draw_uz(fig, ax, uz, h, v0, xr, rod_r, f"u_z at t = {t * 1e3:.1f} ms")
-    xr = sim.bodies[0].x
-    for ax, d, name in ((axs[-2], np.abs(0.5 * (L[:, 1] + L[:, 2])), "|D_rz|"),
-                        (axs[-1], np.abs(L[:, 3]), "|D_zz|")):
-        field = cell_field(bed.x, d, bed.m, (0.0, 0.0), h, (nx, ny))
-        vmax = np.nanpercentile(field, 99) if np.isfinite(field).any() else 1.0
-        im = ax.imshow(field.T, origin="lower", extent=(0.0, nx * h * 1e3, 0.0, ny * h * 1e3),
-                       cmap="magma", vmin=0.0, vmax=vmax if vmax > 0 else 1.0)
-        levels = [-0.9 * v0, -0.7 * v0, -0.3 * v0, -0.1 * v0]
-        ax.contour(rc, zc, uz_end.T, levels=levels, colors="c", linewidths=0.6)
-        ax.contour(rc, zc, uz_end.T, levels=[-0.5 * v0], colors="c", linewidths=2.5)
-        ax.fill_between([0, rod_r * 1e3], xr[:, 1].min() * 1e3, xr[:, 1].max() * 1e3,
-                        color="0.4")
-        ax.set_title(f"{name} at t = {sim.t * 1e3:.1f} ms\n(contours of u_z, 0.5 v0 bold)",
-                     fontsize=9)
+def _rod(ax, rod_x, rod_r):
+    ax.fill_between([0, rod_r * 1e3], rod_x[:, 1].min() * 1e3, rod_x[:, 1].max() * 1e3,
+                    color="0.45")
+
+
+def end_fields(out) -> dict:
+    """The last snapshot of the run in ``out`` on its cells: t [s], u_z, |D_rz|, |D_zz| [1/s]
+    (central differences of the cell velocities; one-sided at the edges) and f/f_jam (the
+    largest f of each cell), NaN in empty cells, and the rod's points."""
+    q = resolved(json.loads((Path(out) / "manifest.json").read_text())["params"])
+    h, nx, nz = grid_shape(q)
+    f = load_frames(out)[-1]
+    x, v, m = f["bed.x"], f["bed.v"], f["bed.m"]
+    ur, uz = (cell_field(x, v[:, k], m, (0.0, 0.0), h, (nx, nz)) for k in (0, 1))
+    dur_dr, dur_dz = np.gradient(ur, h)
+    duz_dr, duz_dz = np.gradient(uz, h)
+    idx = np.clip((x / h).astype(int), 0, [nx - 1, nz - 1])
+    fmax = np.full((nx, nz), np.nan)
+    fmax[idx[:, 0], idx[:, 1]] = -np.inf
+    np.maximum.at(fmax, (idx[:, 0], idx[:, 1]), f["bed.f"])
+    return {"t": float(f["time_s"]), "uz": uz, "D_rz": np.abs(0.5 * (dur_dz + duz_dr)),
+            "D_zz": np.abs(duz_dz), "f_over_f_jam": fmax / jamming_structure(q["phi0"]),
+            "rod_x": f["body.rod.x"], "h": h, "params": q}
+
+
+def fields_figure(out, res):
+    """fields.png (Fig. 6): u_z at the event times and at the end (one diverging scale centred
+    at 0), then |D_rz|, |D_zz| (square-root scale from 0 to their largest value) and f/f_jam
+    at the end (f_jam: 1, contoured), three panels a row; the title says whether the bed
+    jammed (``res``, the run's summary)."""
+    end = end_fields(out)
+    h, q, rod_r = end["h"], end["params"], res["rod_radius_m"]
+    v0 = q["v0"]
+    panels = [(t, uz, xr) for t, uz, xr in event_fields(out)]
+    if not panels or abs(panels[-1][0] - end["t"]) > 1e-9:
+        panels.append((end["t"], end["uz"], end["rod_x"]))
+    rows = -(-len(panels) // 3) + 1
+    fig, axs = plots.plt.subplots(rows, 3, figsize=(11.0, 3.0 * rows + 0.5), squeeze=False,
+                                 layout="constrained")
+    norm = uz_norm(v0, [p[1] for p in panels])
+    for ax, (t, uz, xr) in zip(axs.flat, panels):
+        im = draw_uz(ax, uz, h, v0, xr, rod_r, f"u_z at t = {t * 1e3:.1f} ms", norm)
+    fig.colorbar(im, ax=axs[:-1, :], label="u_z [m/s] (front u_z = -v0/2)", shrink=0.9)
+    for ax in axs[:-1].flat[len(panels):]:
+        ax.axis("off")
+    nx, nz = end["uz"].shape
+    ext = (0.0, nx * h * 1e3, 0.0, nz * h * 1e3)
+    rc, zc = (np.arange(nx) + 0.5) * h * 1e3, (np.arange(nz) + 0.5) * h * 1e3
+    for ax, key, label in ((axs[-1, 0], "D_rz", "|D_rz| [1/s]"), (axs[-1, 1], "D_zz", "|D_zz| [1/s]"),
+                           (axs[-1, 2], "f_over_f_jam", "f/f_jam")):
+        field = end[key]
+        top = float(np.nanmax(field)) if np.isfinite(field).any() else 1.0
+        if key == "f_over_f_jam":
+            nrm, cmap = mcolors.Normalize(0.0, max(1.0, top)), "cividis"
+        else:
+            nrm, cmap = mcolors.PowerNorm(0.5, 0.0, top if top > 0 else 1.0), "magma"
+        im = ax.imshow(field.T, origin="lower", extent=ext, cmap=cmap, norm=nrm)
+        if key == "f_over_f_jam":
+            if np.nanmax(field) >= 1.0:
+                ax.contour(rc, zc, field.T, levels=[1.0], colors="r", linewidths=1.2)
+        elif np.nanmin(end["uz"]) < -0.5 * v0:
+            ax.contour(rc, zc, end["uz"].T, levels=[-0.5 * v0], colors="c", linewidths=1.5)
+        _rod(ax, end["rod_x"], rod_r)
+        ax.set_title(f"{label.split(' [')[0]} at t = {end['t'] * 1e3:.1f} ms", fontsize=9)
         ax.set_xlabel("r [mm]")
         ax.set_ylabel("z [mm]")
-        ax.set_aspect("equal")
-        fig.colorbar(im, ax=ax, label=f"{name} [1/s]", shrink=0.8)
-    fig.tight_layout()
-    return plots.save(fig, path)
+        fig.colorbar(im, ax=ax, label=label, shrink=0.9)
+    fig.suptitle(f"phi0 {q['phi0']:g}, v0 {v0:g} m/s, layout {q['layout']}, rules "
+                 f"{q['rules']}: bed {jam_text(res)}; contours: u_z = -v0/2 (black, cyan), "
+                 "f = f_jam (red)", fontsize=9)
+    return fig
 
 
 # ---------------------------------------------------------------- sweeps (Fig. 7)
@@ -607,9 +621,12 @@ def sweep_report(table, out) -> list:
         fig.colorbar(sc, ax=ax, label="phi0")
         if ok["k_t"].max() > 0:
             reference_lines(ax, 1.1 * ok["k_t"].max())
-        ratio = ok["k_l_over_k_t"]
-        ax.set_title(f"k_l/k_t = {ratio.mean():.2f} +- {ratio.std(ddof=0):.2f} "
-                     f"(min {ratio.min():.2f}, max {ratio.max():.2f})", fontsize=9)
+        ratio = ok["k_l_over_k_t"].dropna()
+        jam = ok.loc[ok["jammed"], "k_l_over_k_t"].dropna()
+        ax.set_title(f"{len(ratio)} of {len(df)} cases with both fronts fitted, "
+                     f"{len(jam)} of them jammed\nk_l/k_t of the jammed: " + (
+                         f"{jam.mean():.2f} +- {jam.std(ddof=0):.2f} (min {jam.min():.2f}, "
+                         f"max {jam.max():.2f})" if len(jam) else "none"), fontsize=9)
     ax.set_xlabel("k_t = v_ft/v0")
     ax.set_ylabel("k_l = v_fl/v0 - 1")
     ax.set_xlim(left=0)
