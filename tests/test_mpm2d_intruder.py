@@ -335,3 +335,56 @@ def test_bad_values_are_refused(tmp_path, capsys, item):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and item.split("=")[0] in err[0]
     assert not out.exists()
+
+
+def _fig7_folders(out, summaries):
+    """Finished Fig. 7 sweeps as the case reads them: out/<rules>_<layout>/fronts.csv (the
+    case column) and each case's summary.json."""
+    for (rules, layout), cases in summaries.items():
+        folder = out / f"{rules}_{layout}"
+        names = []
+        for i, s in enumerate(cases):
+            name = f"case{i}"
+            (folder / name).mkdir(parents=True)
+            (folder / name / "summary.json").write_text(json.dumps(s))
+            names.append(name)
+        pd.DataFrame({"case": names}).to_csv(folder / "fronts.csv", index=False)
+
+
+def _summary(phi0, v0, kl, kt, jammed=True, note=""):
+    ratio = None if kl is None or kt is None else kl / kt
+    return {"phi0": phi0, "v0_m_per_s": v0, "k_l": kl, "k_t": kt, "k_l_over_k_t": ratio,
+            "r2_longitudinal": None if kl is None else 0.95,
+            "r2_transverse": None if kt is None else 0.9, "jammed": jammed,
+            "t_jam_s": 1e-3 if jammed else None, "max_f_over_f_jam": 1.1 if jammed else 0.6,
+            "fit_note": note}
+
+
+def test_fig7_verdict_passes_only_for_ten_jammed_cases_in_range(tmp_path):
+    """The Fig. 7 case: a row per case with the ratio (null with the fit's reason), passing for
+    a combination whose ten beds all jam with k_l/k_t in [1.5, 2.5]; a combination with one
+    bed that did not jam (in range or not) or one ratio out of range does not reproduce it."""
+    from validation.cases_intruder import COMBINATIONS, RATIO_RANGE, fig7_verdict
+    from validation.framework import clean
+
+    grid = [(p, v) for p in (0.46, 0.47, 0.48, 0.49, 0.50) for v in (0.2, 0.5)]
+    good = [_summary(p, v, 2.0 * (1 + 10 * (p - 0.46)), 1 + 10 * (p - 0.46)) for p, v in grid]
+    why = "not measured: the transverse front advances only 0.0018 m"
+    variants = [good, [*good[:9], _summary(0.5, 0.5, 2.0, 1.0, jammed=False)],
+                [*good[:9], _summary(0.5, 0.5, 1.0, 1.0)],
+                [*good[:9], _summary(0.5, 0.5, 2.0, None, note=why)]]
+    for n_ok, order in ((1, variants), (0, variants[1:] + variants[1:2])):
+        out = tmp_path / f"pass{n_ok}"
+        _fig7_folders(out, dict(zip(COMBINATIONS, order)))
+        v = fig7_verdict(out)
+        data, problems = clean(v)
+        assert problems == [] and len(data["rows"]) == 40
+        assert v.passed == bool(n_ok)
+        assert ("Fig. 7 is not reproduced" in v.measured) == (not n_ok)
+        null = [r for r in data["rows"] if r["k_l_over_k_t"] is None]
+        assert len(null) == order.count(variants[3]) and all(r["k_l_over_k_t_note"] == why
+                                                              for r in null)
+        for r in data["rows"]:
+            q = r["k_l_over_k_t"]
+            assert r["in_range"] == (q is not None and RATIO_RANGE[0] <= q <= RATIO_RANGE[1])
+        assert (out / "fronts_all.csv").exists() and v.figures[0].exists()
