@@ -122,7 +122,7 @@ def test_front_figure_of_an_unjammed_bed_with_gaps():
     near field); records where a front is undefined (NaN, 57 of 401 in the default run) inside
     the window leave both fit lines finite, on the least-squares line of the finite records."""
     v0, t = 0.175, np.linspace(0.0, 0.02, 401)
-    zl, rt = 0.004 + 0.35 * t, 0.004 + 0.1 * t
+    zl, rt = 0.004 + 0.35 * t, 0.004 + 0.15 * t
     zl[::7] = np.nan
     rt[3::11] = np.nan
     hist = pd.DataFrame({"time_s": t, "longitudinal_m": zl, "transverse_m": rt,
@@ -138,9 +138,22 @@ def test_front_figure_of_an_unjammed_bed_with_gaps():
     assert "k_l/k_t" not in title and "not a plug" in title
     lines = _fit_lines(fig.axes[0])
     assert len(lines) == 2
-    for (x, y), (speed, y0) in zip(lines, ((0.35, 0.004), (0.1, 0.004))):
+    for (x, y), (speed, y0) in zip(lines, ((0.35, 0.004), (0.15, 0.004))):
         assert np.all(np.isfinite(y))
         assert y == pytest.approx(1e3 * (y0 + speed * np.asarray(x) * 1e-3), rel=1e-9)
+    intruder.plots.plt.close(fig)
+    # jammed, the transverse front crossing less than two cells: k_t null with the reason in
+    # the title and no transverse line (a line for a speed the analysis refused)
+    hist["transverse_m"] = 0.004 + 0.05 * t
+    res = analyse(hist[["time_s", "longitudinal_m", "transverse_m"]], v0 * t, params, 1e-3,
+                  max_f=np.full(len(t), 1.0))
+    assert res["jammed"] and math.isnan(res["k_t"]) and math.isfinite(res["k_l"])
+    fig = intruder.front_figure(hist, res, params)
+    title = fig.axes[0].get_title()
+    assert "k_t = null" in title and "the transverse front advances only" in title
+    assert "nan" not in title
+    (x, y), = _fit_lines(fig.axes[0])
+    assert y == pytest.approx(1e3 * (0.004 + 0.35 * np.asarray(x) * 1e-3), rel=1e-9)
     intruder.plots.plt.close(fig)
 
 

@@ -395,18 +395,31 @@ def front_title(res, params) -> str:
     t0, t1 = res["fit_t_start_s"], res["fit_t_end_s"]
     if t0 is None or not math.isfinite(t0):
         return head + "\nno fit window: " + res["fit_note"]
-    kl, kt = (np.nan if res[k] is None else res[k] for k in ("k_l", "k_t"))
+    kl, kt = (_value(res[k]) for k in ("k_l", "k_t"))
     window = f"fit {1e3 * t0:.3g}-{1e3 * t1:.3g} ms"
+    why = res["fit_note"].split(" over the fit window")[0] if None in (kl, kt) else ""
     if not res["jammed"]:
-        return (head + f"\n{window}: near-field speeds, not a plug's fronts: "
-                f"v_fl/v0 - 1 = {kl:.3g}, v_ft/v0 = {kt:.3g}")
-    ratio = kl / kt if math.isfinite(kt) and kt != 0 else np.nan
-    return head + f"\n{window}: k_l = {kl:.3g}, k_t = {kt:.3g}, k_l/k_t = {ratio:.3g}"
+        text = (f"{window}: near-field speeds, not a plug's fronts: v_fl/v0 - 1 = {_fmt(kl)}, "
+                f"v_ft/v0 = {_fmt(kt)}")
+    else:
+        ratio = None if None in (kl, kt) or kt == 0 else kl / kt
+        text = f"{window}: k_l = {_fmt(kl)}, k_t = {_fmt(kt)}, k_l/k_t = {_fmt(ratio)}"
+    return head + "\n" + text + (f"\n({why})" if why else "")
+
+
+def _value(x):
+    """None for an undefined summary value (null or NaN), else the float."""
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+def _fmt(x) -> str:
+    return "null" if x is None else f"{x:.3g}"
 
 
 def front_figure(history, res, params):
     """front.png: both fronts and the rod tip against time, the fit window and its straight
-    lines (least squares on the window's finite records, as in :func:`analyse`)."""
+    lines for each speed the analysis measured (least squares on the window's finite records,
+    as in :func:`analyse`); ``res`` is the run's summary (null or NaN where undefined)."""
     fig, ax = plots.plt.subplots(figsize=(7.0, 4.8))
     t = history["time_s"].to_numpy()
     ax.plot(t * 1e3, history["longitudinal_m"] * 1e3, "b.", ms=3, label="longitudinal (depth)")
@@ -415,9 +428,10 @@ def front_figure(history, res, params):
     t0, t1 = res["fit_t_start_s"], res["fit_t_end_s"]
     if t0 is not None and math.isfinite(t0):
         ax.axvspan(t0 * 1e3, t1 * 1e3, color="0.9", zorder=0, label="fit window")
-        for col, c in (("longitudinal_m", "b"), ("transverse_m", "r")):
+        for col, speed, c in (("longitudinal_m", "v_fl_m_per_s", "b"),
+                              ("transverse_m", "v_ft_m_per_s", "r")):
             fit = fit_speed(t, history[col].to_numpy(), t0, t1)
-            if math.isfinite(fit["speed"]):
+            if _value(res[speed]) is not None:          # a speed the analysis measured
                 tt = np.array([t0, t1])
                 ax.plot(tt * 1e3, (fit["intercept"] + fit["speed"] * tt) * 1e3, c + "-", lw=2)
     ax.set_xlabel("t [ms]")
