@@ -229,9 +229,10 @@ def fig7_verdict(out: Path, walls: dict | None = None) -> Verdict:
                    bool(passing), figs, rows=rows,
                    details="k_l/k_t null where a front cannot be fitted (the row's note gives "
                            "the fit's reason); in_range false there; a bed that did not jam "
-                           "(its fronts the rod's near field) does not count for the verdict. A single onset strain "
-                           "bounds k_l/k_t below sqrt(3) = 1.73 in axisymmetry (the fitted "
-                           "curve k_l = 1/(exp(1/(sqrt(3) k_t)) - 1) in the scatter).")
+                           "(its fronts the rod's near field) does not count for the verdict. "
+                           "A single onset strain bounds k_l/k_t below sqrt(3) = 1.73 in "
+                           "axisymmetry (the curve k_l = 1/(exp(1/(sqrt(3) k_t)) - 1) in the "
+                           "scatter).")
 
 
 def _scatter(df: pd.DataFrame, path: Path) -> Path:

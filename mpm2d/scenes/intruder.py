@@ -380,8 +380,8 @@ def report(sim, history, out, params, rod_r):
 def jam_text(res) -> str:
     """What the run shows about jamming, from its summary: 'jammed at T ms (max f/f_jam X)' or
     'did not jam (max f/f_jam X < 1)'."""
-    mx = res.get("max_f_over_f_jam")
-    tail = "" if mx is None or not math.isfinite(mx) else f"max f/f_jam {mx:.3g}"
+    mx = _value(res.get("max_f_over_f_jam"))
+    tail = "" if mx is None else f"max f/f_jam {mx:.3g}"
     if res["jammed"]:
         return f"jammed at {1e3 * res['t_jam_s']:.3g} ms" + (f" ({tail})" if tail else "")
     return "did not jam" + (f" ({tail} < 1)" if tail else "")
@@ -392,8 +392,8 @@ def front_title(res, params) -> str:
     factors of a plug, or the near field's speeds when the bed did not jam)."""
     head = f"phi0 {params['phi0']:g}, v0 {params['v0']:g} m/s, layout {params['layout']}, " \
            f"rules {params['rules']}: bed {jam_text(res)}"
-    t0, t1 = res["fit_t_start_s"], res["fit_t_end_s"]
-    if t0 is None or not math.isfinite(t0):
+    t0, t1 = _value(res["fit_t_start_s"]), res["fit_t_end_s"]
+    if t0 is None:
         return head + "\nno fit window: " + res["fit_note"]
     kl, kt = (_value(res[k]) for k in ("k_l", "k_t"))
     window = f"fit {1e3 * t0:.3g}-{1e3 * t1:.3g} ms"
@@ -425,8 +425,8 @@ def front_figure(history, res, params):
     ax.plot(t * 1e3, history["longitudinal_m"] * 1e3, "b.", ms=3, label="longitudinal (depth)")
     ax.plot(t * 1e3, history["transverse_m"] * 1e3, "r.", ms=3, label="transverse (radius)")
     ax.plot(t * 1e3, history["tip_depth_m"] * 1e3, "k-", lw=1, label="rod tip depth")
-    t0, t1 = res["fit_t_start_s"], res["fit_t_end_s"]
-    if t0 is not None and math.isfinite(t0):
+    t0, t1 = _value(res["fit_t_start_s"]), res["fit_t_end_s"]
+    if t0 is not None:
         ax.axvspan(t0 * 1e3, t1 * 1e3, color="0.9", zorder=0, label="fit window")
         for col, speed, c in (("longitudinal_m", "v_fl_m_per_s", "b"),
                               ("transverse_m", "v_ft_m_per_s", "r")):
@@ -528,8 +528,8 @@ def fields_figure(out, res):
     nx, nz = end["uz"].shape
     ext = (0.0, nx * h * 1e3, 0.0, nz * h * 1e3)
     rc, zc = (np.arange(nx) + 0.5) * h * 1e3, (np.arange(nz) + 0.5) * h * 1e3
-    for ax, key, label in ((axs[-1, 0], "D_rz", "|D_rz| [1/s]"), (axs[-1, 1], "D_zz", "|D_zz| [1/s]"),
-                           (axs[-1, 2], "f_over_f_jam", "f/f_jam")):
+    for ax, key, label in zip(axs[-1], ("D_rz", "D_zz", "f_over_f_jam"),
+                              ("|D_rz| [1/s]", "|D_zz| [1/s]", "f/f_jam")):
         field = end[key]
         top = float(np.nanmax(field)) if np.isfinite(field).any() else 1.0
         if key == "f_over_f_jam":
