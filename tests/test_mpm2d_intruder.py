@@ -250,7 +250,15 @@ def test_fit_window_is_the_longest_growing_stretch():
     assert res["k_t"] == pytest.approx(v_ft / v0, rel=1e-9)
 
 
-def test_sweep_report_table_and_scatter(tmp_path):
+def test_sweep_report_table_and_scatter(tmp_path, monkeypatch):
+    """fronts.csv carries each case's jam state; fronts.png's title counts the fitted and the
+    jammed cases and gives the ratio of the jammed only, its phi0 colours span the cases'."""
+    from figure_checks import assert_colour_range_covers
+
+    figs = []
+    save = intruder.plots.save
+    monkeypatch.setattr(intruder.plots, "save", lambda fig, path: (figs.append(fig),
+                                                                   save(fig, path))[1])
     rows = []
     for phi, v0, kl, kt, jam in ((0.46, 0.2, 4.0, 2.0, False), (0.48, 0.5, 3.0, 1.6, True)):
         case = f"phi0={phi}_v0={v0}"
@@ -266,6 +274,13 @@ def test_sweep_report_table_and_scatter(tmp_path):
     assert df["k_l_over_k_t"].tolist() == pytest.approx([2.0, 1.875])
     # whether each bed jammed is carried (an unjammed 'front' is the rod's near field, no plug)
     assert df["jammed"].tolist() == [False, True]
+    ax = figs[0].axes[0]
+    title = ax.get_title()
+    assert "2 of 2 cases with both fronts fitted, 1 of them jammed" in title
+    assert "k_l/k_t of the jammed: 1.88 +- 0.00" in title
+    for coll in ax.collections:
+        if coll.get_array() is not None:
+            assert_colour_range_covers(coll, df["phi0"])
 
 
 def test_sweep_figure_of_one_phi0_has_a_real_colour_range(tmp_path, monkeypatch):

@@ -50,8 +50,8 @@ Parameters: layout, phi0, v0 [m/s], t_end [s], radius, depth [m], cells_per_mm [
 rod_radius [m], rod_contact, contact, mode, fit_margin [m], gravity [m/s^2], rules, cfl.
 Outputs: front.csv (time_s, longitudinal_m, transverse_m), front.png (fronts, fit lines, the
 jam state and window in the title), summary.json (k_l, k_t, R^2, window, jammed, t_jam_s,
-max_f_over_f_jam), fields.png (Fig. 6: u_z at 6.2, 13.2, 20 ms, |D_rz|, |D_zz| and f/f_jam at
-t_end). ``mpm2d sweep intruder`` writes fronts.csv and fronts.png (Fig. 7's k_l-k_t scatter).
+max_f_over_f_jam), fields.png (Fig. 6: u_z at 6.2, 13.2, 20 ms up to t_end and at t_end;
+|D_rz|, |D_zz| and f/f_jam at t_end). ``mpm2d sweep intruder`` writes fronts.csv and fronts.png (Fig. 7's k_l-k_t scatter).
 Run: ``mpm2d run intruder``; the author's scene: ``mpm2d run intruder --set layout=mpm_3d``.
 """
 
