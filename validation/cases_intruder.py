@@ -154,7 +154,7 @@ def fig6_verdict(folders: dict, out: Path) -> Verdict:
         for ax, (t, uz, xr) in zip(axrow, ev):
             im = draw_uz(ax, uz, 1e-3 / s["cells_per_mm"], v0, xr, s["rod_radius_m"],
                          f"t = {t * 1e3:.1f} ms", norm)
-        axrow[1].set_title(f"{part}\nt = {ev[1][0] * 1e3:.1f} ms", fontsize=9)
+        axrow[1].set_title(f"{part}\n{axrow[1].get_title()}", fontsize=9)
     fig.colorbar(im, ax=axs, label="u_z [m/s] (black: u_z = -v0/2)", shrink=0.5)
     fig.suptitle("Fig. 6 at h = 1 mm: phi0 0.47, v0 0.175 m/s; a row per rules/layout",
                  fontsize=10)
@@ -172,8 +172,8 @@ def intruder_fig7(out: Path, quick: bool) -> Verdict:
     for rules, layout in COMBINATIONS:
         grid = {"rules": [rules], "layout": [layout], "phi0": ["0.46", "0.47", "0.48", "0.49",
                                                                "0.50"], "v0": ["0.2", "0.5"]}
-        table, walls[rules, layout] = _sweep(out / f"{rules}_{layout}", grid)
-        walls[rules, layout] = (walls[rules, layout], int((table["status"] == "failed").sum()))
+        table, wall = _sweep(out / f"{rules}_{layout}", grid)
+        walls[rules, layout] = (wall, int((table["status"] == "failed").sum()))
     return fig7_verdict(out, walls)
 
 
