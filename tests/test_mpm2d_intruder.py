@@ -98,7 +98,10 @@ def _fit_lines(ax):
 
 def test_front_figure_title_agrees_with_the_summary(small_run):
     """The title says whether the bed jammed and when, the fit window and the factors, each as
-    summary.json has them; both fit lines are drawn over the window."""
+    summary.json has them; both fit lines are drawn over the window; the legend is off the
+    data."""
+    from figure_checks import assert_legends_clear_of_data
+
     out, res = small_run
     s = _strict((out / "summary.json").read_text())
     fig = intruder.front_figure(res["history"], s, res["scene"].params)
@@ -114,6 +117,7 @@ def test_front_figure_title_agrees_with_the_summary(small_run):
     for x, y in lines:
         assert np.all(np.isfinite(y))
         assert x == pytest.approx([1e3 * s["fit_t_start_s"], 1e3 * s["fit_t_end_s"]])
+    assert_legends_clear_of_data(fig)
     intruder.plots.plt.close(fig)
 
 
@@ -253,12 +257,12 @@ def test_fit_window_is_the_longest_growing_stretch():
 def test_sweep_report_table_and_scatter(tmp_path, monkeypatch):
     """fronts.csv carries each case's jam state; fronts.png's title counts the fitted and the
     jammed cases and gives the ratio of the jammed only, its phi0 colours span the cases'."""
-    from figure_checks import assert_colour_range_covers
+    from figure_checks import assert_colour_range_covers, assert_legends_clear_of_data
 
     figs = []
     save = intruder.plots.save
-    monkeypatch.setattr(intruder.plots, "save", lambda fig, path: (figs.append(fig),
-                                                                   save(fig, path))[1])
+    monkeypatch.setattr(intruder.plots, "save", lambda fig, path: (
+        figs.append(fig), assert_legends_clear_of_data(fig), save(fig, path))[2])
     rows = []
     for phi, v0, kl, kt, jam in ((0.46, 0.2, 4.0, 2.0, False), (0.48, 0.5, 3.0, 1.6, True)):
         case = f"phi0={phi}_v0={v0}"

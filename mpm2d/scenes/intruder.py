@@ -420,7 +420,7 @@ def front_figure(history, res, params):
     """front.png: both fronts and the rod tip against time, the fit window and its straight
     lines for each speed the analysis measured (least squares on the window's finite records,
     as in :func:`analyse`); ``res`` is the run's summary (null or NaN where undefined)."""
-    fig, ax = plots.plt.subplots(figsize=(7.0, 4.8))
+    fig, ax = plots.plt.subplots(figsize=(8.5, 4.8), layout="constrained")
     t = history["time_s"].to_numpy()
     ax.plot(t * 1e3, history["longitudinal_m"] * 1e3, "b.", ms=3, label="longitudinal (depth)")
     ax.plot(t * 1e3, history["transverse_m"] * 1e3, "r.", ms=3, label="transverse (radius)")
@@ -437,8 +437,7 @@ def front_figure(history, res, params):
     ax.set_xlabel("t [ms]")
     ax.set_ylabel("front position [mm]")
     ax.set_title(front_title(res, params), fontsize=8)
-    ax.legend(fontsize=8, loc="upper left")
-    fig.tight_layout()
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))      # off the data
     return fig
 
 
@@ -612,7 +611,7 @@ def sweep_report(table, out) -> list:
     undefined = ("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal", "r2_transverse",
                  *_JAM_COLUMNS)
     paths = [atomic_write_csv(out / "fronts.csv", df, empty_ok=undefined)]
-    fig, ax = plots.plt.subplots(figsize=(5.5, 4.5))
+    fig, ax = plots.plt.subplots(figsize=(7.5, 4.5), layout="constrained")
     ok = df.dropna(subset=["k_l", "k_t"])
     # colour range of phi0: a single phi0 gets a +-0.005 band (a zero-width range drew a
     # degenerate colour bar with an offset label)
@@ -645,6 +644,6 @@ def sweep_report(table, out) -> list:
     ax.set_ylabel("k_l = v_fl/v0 - 1")
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=0)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.25, 1.0))      # beside the bar
     paths.append(plots.save(fig, out / "fronts.png"))
     return [Path(p) for p in paths]
