@@ -1,6 +1,6 @@
 """Sphinx configuration of the suspension-toolkit documentation.
 
-Build: ``python -m sphinx -W --keep-going -b html docs docs/_build/html`` (warnings are errors).
+Build: ``sphinx-build -W --keep-going -b html docs docs/_build/html`` (warnings are errors).
 
 The API reference covers every top-level package named in ``pyproject.toml``
 (``[tool.setuptools] packages``): :func:`write_api_index` writes ``api/index.rst`` from that
