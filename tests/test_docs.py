@@ -6,8 +6,8 @@
   temporary folder, with the shipped examples' documented paths pointing into the repository.
 - No development-log wording (commit hashes, dates of our work, "this stop", "the issue", "main
   at ...") and no citation of a file outside the repository (DESIGN.md, /work/...) in the README,
-  the docs, the module, class and function docstrings of every package, or the ``--help`` of
-  every command and subcommand.
+  the docs, the module, class and function docstrings of every package, the ``--help`` of
+  every command and subcommand, or what ``mpm2d show`` prints for every scene.
 - Every module of the packages imports (the API reference walks them; a module that cannot be
   imported would be missing from it).
 """
@@ -245,18 +245,32 @@ def help_texts() -> list[tuple[str, str]]:
     return texts
 
 
+def scene_texts() -> list[tuple[str, str]]:
+    """What ``mpm2d show SCENE`` prints for every built-in scene (docstring and parameters)."""
+    from mpm2d.cli import main
+    from mpm2d.scenes import SCENES
+
+    texts = []
+    for scene in SCENES:
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            assert main(["show", scene]) == 0
+        texts.append((f"mpm2d show {scene}", out.getvalue()))
+    return texts
+
+
 @pytest.fixture(scope="module")
 def user_texts():
     texts = [(str(p.relative_to(ROOT)), p.read_text(encoding="utf-8")) for p in pages()]
     texts += [(f"docstring of {name}", doc) for name, doc in docstrings()]
     texts += [(f"{cmd} --help", text) for cmd, text in help_texts()]
-    return texts
+    return texts + scene_texts()
 
 
 def test_help_texts_are_collected(user_texts):
     names = {where for where, _ in user_texts}
     for needed in ("rheometer flow-curve --help", "shear1d annular --help", "mpm2d run --help",
-                   "python -m validation report --help"):
+                   "python -m validation report --help", "mpm2d show intruder"):
         assert needed in names
 
 
