@@ -108,8 +108,9 @@ _SYSTEM_MESSAGE_OK = ("Unknown interpreted text role", "Unknown directive type",
 
 
 def _escape_pipes(line: str) -> str:
-    stripped = line.lstrip()
-    if stripped.startswith(("|", "+")):      # a grid-table row or border, or a line block
+    stripped = line.strip()
+    table_row = stripped.startswith("|") and stripped.endswith("|") and stripped.count("|") > 2
+    if table_row or stripped.startswith(("| ", "+-", "+=")):   # a grid table or a line block
         return line
     return _PIPE.sub(r"\\|", line)
 
@@ -134,6 +135,8 @@ def _parse_errors(text: str) -> list[str]:
 
 
 _RAW: dict[str, list[str]] = {}
+#: the docstrings shown verbatim in this build (reported at its end)
+VERBATIM: list[str] = []
 
 
 def escape_docstring(app, what, name, obj, options, lines):
@@ -148,10 +151,21 @@ def verbatim_if_broken(app, what, name, obj, options, lines):
     raw = _RAW.pop(name, None)
     if not raw or not _parse_errors("\n".join(lines)):
         return
+    VERBATIM.append(name)
     first = raw[0].strip().replace("`", "'").replace("*", "\\*").replace("|", "\\|")
     lines[:] = [first, "", ".. code-block:: text", ""] + ["   " + line for line in raw[1:]] + [""]
+
+
+def report_verbatim(app, exception):
+    if VERBATIM:
+        from sphinx.util import logging
+
+        logging.getLogger(__name__).info(
+            f"{len(set(VERBATIM))} docstring(s) are not valid reST and are shown verbatim: "
+            + ", ".join(sorted(set(VERBATIM))))
 
 
 def setup(app):
     app.connect("autodoc-process-docstring", escape_docstring, priority=100)
     app.connect("autodoc-process-docstring", verbatim_if_broken, priority=900)
+    app.connect("build-finished", report_verbatim)

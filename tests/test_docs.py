@@ -299,3 +299,25 @@ def test_readme_figures_exist_and_are_small():
         path = ROOT / image
         assert path.is_file(), image
         assert path.stat().st_size < 150_000, f"{image}: {path.stat().st_size} bytes"
+
+
+def test_docs_conf_renders_plain_text_docstrings():
+    """conf.py's docstring helpers: |x| is an absolute value, not a reST substitution; grid
+    tables and line blocks are kept; a docstring docutils cannot parse is detected (it is then
+    shown verbatim rather than breaking the build)."""
+    before = set(sys.modules)
+    sys.path.insert(0, str(DOCS))
+    try:
+        conf = importlib.import_module("conf")
+    finally:
+        sys.path.remove(str(DOCS))
+        for name in set(sys.modules) - before:    # conf's stand-ins for the __main__ modules
+            if name == "conf" or name.endswith(".__main__"):
+                del sys.modules[name]
+    assert conf._escape_pipes("max |v - v_N|/u_i") == r"max \|v - v_N\|/u_i"
+    for kept in ("| a | b |", "+---+---+", "| a line block"):
+        assert conf._escape_pipes(kept) == kept
+    assert conf._parse_errors("a |v| b") and not conf._parse_errors(conf._escape_pipes("a |v| b"))
+    assert not conf._parse_errors("see :func:`rheology.steady.gdot_dst`\n\n.. math::\n\n   x\n")
+    assert conf._parse_errors("a\n    b\n  c")                 # unexpected indentation
+    assert set(conf.packages()) == set(packages())

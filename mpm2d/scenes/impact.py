@@ -36,6 +36,7 @@ the check. (Without the fluid's storage, k M/eta0 = 1.24e-13 x 1.34e8/7e-3 = 2.4
 same conclusion.)
 
 Geometry and the choices where the paper is silent:
+
 - ``size=fig4``: container (mixture) radius 10 cm, depth 10 cm, on the paper's 100 x 120 grid at
   1 mm (the 20 cells above the bed hold the represented rod and the free surface's heave),
   eta0 = 7 mPa s (``rod_impact``), v0 = 1.0 m/s, 60 ms after impact;
@@ -70,6 +71,7 @@ Geometry and the choices where the paper is silent:
 - the bed starts at rest (mpm2d.geostatic): loose, so the pore pressure carries the weight, f = 0.
 
 Measures (outputs):
+
 - rod z(t): the height of the rod's face above the initial free surface (0 at impact, negative
   below); v(t) and a(t) from z by the paper's first-order finite difference over a stencil of
   length ``stencil`` (default the longest shear-wave round trip to a wall, 2 max(depth, radius)/c_s
