@@ -4,6 +4,7 @@ Run by hand from the repository root (not in CI; ~5-15 min on two cores, most of
 
     python docs/make_figures.py              # runs the commands in a temporary folder
     python docs/make_figures.py --work DIR   # keeps the runs in DIR (rerun: reuses finished runs)
+    python docs/make_figures.py --wheel      # also Figs. 8-9 (mpm2d run wheel, ~25 min more)
 
 Every figure is drawn from the toolkit's own commands or API, at their default sizes:
 
@@ -14,7 +15,8 @@ Every figure is drawn from the toolkit's own commands or API, at their default s
   z-displacement field from :func:`mpm2d.scenes.impact.displacement_field`;
 - ``fit.png``: ``rheometer fit`` on the shipped RheoCompass examples (``fit.csv``);
 - ``fig1.png``, ``fig2.png``, ``fig10.png``, ``fig15.png``: the figures of the validation cases
-  of those paper figures (``python -m validation report --only ...``), shrunk.
+  of those paper figures (``python -m validation report --only ...``), shrunk;
+- with ``--wheel``: ``fig8.png``, ``fig9.png`` from ``mpm2d run wheel`` (the paper's grid).
 
 The PNGs go to ``docs/images/`` (each well under 150 kB).
 """
@@ -148,27 +150,41 @@ CASE_FIGURES = {
 }
 
 
-def case_figures(work: Path, width: int = 640) -> None:
-    """The cheap paper-figure cases of the validation report, their figures shrunk to ``width``
-    pixels and 256 colours."""
+def shrink(src: Path, name: str, width: int = 640) -> None:
+    """A run's figure as ``docs/images/NAME``: ``width`` pixels wide, 256 colours."""
     from PIL import Image
 
+    with Image.open(src) as im:
+        im = im.convert("RGB")
+        im.thumbnail((width, width * 4))
+        im = im.quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+        im.save(IMAGES / name, optimize=True)
+    print(f"wrote docs/images/{name} ({(IMAGES / name).stat().st_size / 1024:.0f} kB)")
+
+
+def case_figures(work: Path) -> None:
+    """The cheap paper-figure cases of the validation report, their figures shrunk."""
     out = work / "report"
     run([sys.executable, "-m", "validation", "report", "--only", *CASE_FIGURES, "--out",
          "report"], work, out / "results.json")
     for case, (src, name) in CASE_FIGURES.items():
-        with Image.open(out / case / src) as im:
-            im = im.convert("RGB")
-            im.thumbnail((width, width * 4))
-            im = im.quantize(colors=256, method=Image.Quantize.MEDIANCUT)
-            im.save(IMAGES / name, optimize=True)
-        size = (IMAGES / name).stat().st_size / 1024
-        print(f"wrote docs/images/{name} ({size:.0f} kB)")
+        shrink(out / case / src, name)
+
+
+def wheel_figures(work: Path) -> None:
+    """Figs. 8-9 from ``mpm2d run wheel`` (the paper's grid, both omegas: ~25 min on two
+    cores; only with ``--wheel``)."""
+    out = work / "wheel"
+    run(["mpm2d", "run", "wheel", "--out", "wheel", "--quiet"], work, out / "summary.json")
+    shrink(out / "fig8.png", "fig8.png", width=720)
+    shrink(out / "fig9.png", "fig9.png", width=720)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--work", type=Path, help="folder for the runs (default: a temporary one)")
+    ap.add_argument("--wheel", action="store_true",
+                    help="also Figs. 8-9 from mpm2d run wheel (~25 min on two cores)")
     args = ap.parse_args(argv)
     IMAGES.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
@@ -179,6 +195,8 @@ def main(argv=None) -> int:
         shear1d_front(work)
         impact_displacement(work)
         case_figures(work)
+        if args.wheel:
+            wheel_figures(work)
     return 0
 
 
