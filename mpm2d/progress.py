@@ -23,7 +23,7 @@ def _clock(seconds: float) -> str:
 
 
 class Progress:
-    """Progress over the simulated time ``t0 .. t_end`` [s] of a run.
+    """Progress over the simulated time from ``t0`` to ``t_end`` [s] of a run.
 
     The postfix (or line) shows the simulated time, the step number and the wall time per step
     since the start (or the resume); the time left extrapolates the simulated time per wall

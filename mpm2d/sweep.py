@@ -1,4 +1,4 @@
-"""Parameter sweeps of any scene on Dask: ``mpm2d sweep SCENE --set k=v1,v2 ... --out DIR``.
+"""Parameter sweeps of a scene on Dask: ``mpm2d sweep SCENE --set k=v1,v2 [...] --out DIR``.
 
 The cases are the Cartesian product of the ``--set`` lists (``--set phi0=0.46,0.47 --set
 v0=0.2,0.5`` is four cases). They run on ``dask.distributed``: by default a ``LocalCluster`` on

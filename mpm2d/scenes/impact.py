@@ -20,7 +20,7 @@ implicitly with the rod's velocity:
 Default mode: the locked mixture (one velocity field, undrained pore pressure); ``mode=two-phase``
 runs grains and fluid on two fields with implicit Beetstra drag (for the comparison).
 
-Drained or undrained (DESIGN.md section 5), numbers for phi0 = 0.47 and Table 5 (validation
+Drained or undrained (the drainage time L^2/c_v against the run's duration), numbers for phi0 = 0.47 and Table 5 (validation
 case ``impact_locked_vs_two_phase`` computes them): Beetstra F = 10 phi/(1 - phi)^2 + (1 - phi)^2
 (1 + 1.5 sqrt(phi)) = 17.3, Darcy permeability k = (1 - phi) d^2/(18 phi F) = 1.24e-13 m^2 (d =
 5.85 um); constrained modulus of a jammed skeleton M = K + 4G/3 = 1.34e8 Pa, fluid storage
@@ -32,10 +32,11 @@ grains and the fluid move together (relative Darcy flux (k/eta0) grad p ~ 1.8e-1
 (1e5 Pa/2 cm) = 9e-5 m/s against the rod's 1 m/s; Han et al. 2016 measured no change of packing
 fraction at the front), which is what the locked mixture assumes; it is also 1.7x fewer
 point-steps and ~2-3x less wall time. So the locked mixture is the default; the two-phase run is
-the check. (DESIGN.md section 5 quotes c_v ~ 1 m^2/s for these moduli; with k M/eta0 =
-1.24e-13 x 1.34e8/7e-3 it is 2.4e-3 m^2/s: the conclusion "undrained" is firmer, not weaker.)
+the check. (Without the fluid's storage, k M/eta0 = 1.24e-13 x 1.34e8/7e-3 = 2.4e-3 m^2/s: the
+same conclusion.)
 
 Geometry and the choices where the paper is silent:
+
 - ``size=fig4``: container (mixture) radius 10 cm, depth 10 cm, on the paper's 100 x 120 grid at
   1 mm (the 20 cells above the bed hold the represented rod and the free surface's heave),
   eta0 = 7 mPa s (``rod_impact``), v0 = 1.0 m/s, 60 ms after impact;
@@ -70,6 +71,7 @@ Geometry and the choices where the paper is silent:
 - the bed starts at rest (mpm2d.geostatic): loose, so the pore pressure carries the weight, f = 0.
 
 Measures (outputs):
+
 - rod z(t): the height of the rod's face above the initial free surface (0 at impact, negative
   below); v(t) and a(t) from z by the paper's first-order finite difference over a stencil of
   length ``stencil`` (default the longest shear-wave round trip to a wall, 2 max(depth, radius)/c_s
@@ -197,7 +199,7 @@ def _declare(estimate, **params):
     """:func:`mpm2d.scenes.spec.parameters_of` for a scene with a parameter named ``size``.
 
     ``parameters_of(size=..., **params)`` takes the memory estimate under the keyword ``size``,
-    so a scene parameter of that name (the issue's ``--set size=fig4``) cannot be declared
+    so a scene parameter of that name (``--set size=fig4``) cannot be declared
     through it; this builds the same :class:`~mpm2d.scenes.spec.SceneSpec` and validating
     wrapper (same checks: the declaration and the signature name the same parameters, every
     parameter has a default)."""
@@ -705,7 +707,7 @@ def front_figure(front, z, s):
 
 # ---------------------------------------------------------------- sweeps (Fig. 5)
 def sweep_report(table, out) -> list:
-    """All speeds together: ``out/rod.csv``, ``out/front.csv`` (the issue's columns, every
+    """All speeds together: ``out/rod.csv``, ``out/front.csv`` (the columns of a single run, every
     case), ``out/rod.png`` (Fig. 5), ``out/speeds.csv`` (per v0: peak deceleration, late
     velocity, k, R^2) and ``out/summary.json`` (with the log-log slope of the peak deceleration
     against v0 and whether it grows monotonically)."""

@@ -48,7 +48,7 @@ density 3000 kg/m^3, four spokes, Table 7. Our choices where the paper is silent
   a periodic side, so a wheel coming within R + 3 h of the right edge stops the run with that
   message (START_X + omega R t_end + R + 3 h <= width is checked first).
 
-Drained or undrained (DESIGN.md section 5): Beetstra F ~ 20 at phi = 0.5 gives a Darcy
+Drained or undrained (the drainage time L^2/c_v against the run's duration): Beetstra F ~ 20 at phi = 0.5 gives a Darcy
 permeability k = (1 - phi) d^2/(18 phi F) ~ 1e-13 m^2; with M = K + 4G/3 = 1.3e6 Pa and the
 fluid's storage (1 - phi)/kappa, c_v = k/(eta0 (1/M + (1 - phi)/kappa)) ~ 0.07 m^2/s, so over the
 spoke's 5 cm the pore pressure diffuses in ~ 0.04 s: slower than a spoke's impact (~ 0.01 s at
@@ -335,7 +335,7 @@ def _surface(params) -> float:
 
 
 def checks(results: dict, R: float) -> dict:
-    """The issue's checks from the per-omega results (keys: omega strings)."""
+    """The run-or-sink checks of Figs. 8-9 from the per-omega results (keys: omega strings)."""
     out = {"fast_band_over_R": FAST_BAND, "sink_ratio_required": SINK_RATIO}
     fast, slow = results.get(_omega_key(10.0)), results.get(_omega_key(1.0))
     if fast is not None:
