@@ -71,7 +71,7 @@ def flow_curve() -> None:
     ax.text(gd * 1.15, 2e-3, "gdot_DST(0.52)\nEq. (33)", fontsize=7)
     ax.set_xlabel("shear rate [1/s]")
     ax.set_ylabel("granular shear stress [Pa]")
-    ax.set_title("rheometer: hermes2016 flow curves; at 0.52 the rate folds back (DST)",
+    ax.set_title("rheometer: hermes2016 flow curves; each folds back (DST)",
                  fontsize=9)
     ax.legend(fontsize=8, frameon=False)
     save(fig, "flow_curve.png")
