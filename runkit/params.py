@@ -63,7 +63,8 @@ class Param:
     ``lo``, ``hi``: :class:`Bound` or a number (a closed bound without reason) or None;
     ``kind``: ``"number"``, ``"integer"``, ``"bool"``, ``"choice"`` (``choices``, a tuple or a
     function returning one; case-insensitive) or ``"text"`` (``convert(text)`` returns the
-    value or raises ValueError); ``optional``: None (``none``) is valid too.
+    value or raises ValueError); ``optional``: None (``none``) is valid too; ``also``: values
+    valid besides the range (a grain size 0: the viscous limit).
     """
 
     lo: Bound | float | None = None
@@ -74,6 +75,7 @@ class Param:
     choices: tuple | Callable = ()
     convert: Callable | None = None
     optional: bool = False
+    also: tuple = ()
 
     def __post_init__(self):
         object.__setattr__(self, "lo", _as_bound(self.lo))
@@ -123,17 +125,13 @@ class Param:
             return hw
         return None
 
-    def contains(self, x, params=None, static=False) -> bool:
-        return math.isfinite(x) and self._outside(x, params, static) is None and not (
-            self.kind == "integer" and x != int(x))
-
     def check(self, name: str, value, params=None, *, static=False):
         """``value`` converted (str from a command line, or a Python value) and checked against
         the static bounds and, with ``params``, the derived ones; ValueError naming ``name``."""
         if self.optional and (value is None or (isinstance(value, str)
                                                 and value.strip().lower() in ("none", ""))):
             return None
-        rng = self.range_text(params, static)
+        rng = self.range_text(params, static) + "".join(f", or {a:g}" for a in self.also)
         if self.kind == "bool":
             if isinstance(value, bool):
                 return value
@@ -163,7 +161,7 @@ class Param:
                              f"{rng}")
         if self.kind == "integer" and x != int(x):
             raise ValueError(f"{name} = {text} is not an integer; valid range {rng}")
-        why = self._outside(x, params, static)
+        why = None if x in self.also else self._outside(x, params, static)
         if why is not None:
             raise ValueError(f"{name} = {text} is outside the valid range {rng}"
                              + (f" ({why})" if why else ""))
@@ -205,9 +203,7 @@ def check_range(name: str, value, lo=None, hi=None, *, lo_closed=True, hi_closed
     if hi is not None:
         bad |= (arr > hi) if hi_closed else (arr >= hi)
     if np.any(bad):
-        x = float(np.ravel(arr[bad] if arr.ndim else arr)[0])
-        p.check(name, x)
-        raise ValueError(f"{name} = {x:g} is outside the valid range {p.range_text()}")
+        p.check(name, float(np.ravel(arr[bad] if arr.ndim else arr)[0]))   # raises
     return arr
 
 

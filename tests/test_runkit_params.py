@@ -165,3 +165,69 @@ def test_memory_is_checked_against_what_the_machine_has():
     assert s.check({"n": 10})["n"] == 10
     with pytest.raises(ValueError, match="n = 1000000000000 needs about"):
         s.check({"n": 10 ** 12})
+
+
+def material_schema(label=lambda k: f"--set {k}"):
+    """A prototype of rheology's Material schema (MIGRATION.md): the paper's field checks, the
+    physical ranges of runkit.limits for the scales."""
+    import dataclasses
+
+    from rheology.materials import FIELD_UNITS, Material
+
+    def unit(k):
+        return "" if FIELD_UNITS[k] == "-" else FIELD_UNITS[k]
+
+    nonneg = {k: Param(0.0, None) for k in ("varphi1", "alpha1", "varphi2", "alpha2", "xi_eps",
+                                            "K3", "b")}
+    params = {
+        "phi_j": Param(L.gt(0.0), L.lt(1.0, "a volume fraction")),
+        "phi_c": Param(L.gt(0.0), L.lt(lambda p: p["phi_j"], "phi_c must be below phi_j")),
+        "a0": Param(L.gt(0.0)),
+        "a_inf": Param(L.ge(lambda p: p["a0"], "a_inf >= a0 makes the stress-controlled "
+                                               "steady state unique")),
+        "mu_c": Param(L.gt(0.0)),
+        "mu_2": Param(L.ge(lambda p: p["mu_c"], "mu_2 >= mu_c"), optional=True),
+        "tau_star": Param(L.TAU_STAR_MIN, L.TAU_STAR_MAX, unit="Pa"),
+        "eta0": Param(L.VISCOSITY_MIN, L.VISCOSITY_MAX, unit="Pa s"),
+        "Delta": Param(0.0, 1.0),
+        "K4": Param(0.0, L.le(0.0, "only K4 = 0, the value of every scene of the paper, is "
+                                   "implemented")),
+        "K0": Param(0.0, 1e6, optional=True),
+        **{k: Param(L.MODULUS_MIN, L.MODULUS_MAX, unit="Pa", optional=True)
+           for k in ("G", "K", "kappa")},
+        **{k: Param(L.DENSITY_MIN, L.DENSITY_MAX, unit="kg/m^3", optional=True)
+           for k in ("rho_s", "rho_f")},
+        "d": Param(L.GRAIN_MIN, L.GRAIN_MAX, unit="m", also=(0.0,)),
+        "phi0": Param(L.gt(0.0), L.lt(lambda p: p["phi_j"], "below phi_j"), optional=True),
+        **nonneg,
+    }
+    assert set(params) == set(FIELD_UNITS)
+    for k, p in params.items():
+        params[k] = dataclasses.replace(p, unit=p.unit or unit(k))
+    names = [f.name for f in dataclasses.fields(Material) if f.name in FIELD_UNITS]
+    return params, names
+
+
+def test_a_material_schema_admits_every_set_of_the_paper_and_explains_as_today():
+    """Every parameter set passes the physical ranges; a --set refusal names the parameter
+    set with the same range as rheometer's bisection on the Material's checks today, and
+    moduli that only arithmetic bounded (G = 1e-300 Pa ran) are refused with their reason."""
+    import rheology
+
+    params, names = material_schema()
+    for name in rheology.material_names():
+        m = rheology.get_material(name)
+        Schema(params, {k: getattr(m, k) for k in names}).check({})
+    m = rheology.get_material("hermes2016")
+    s = Schema(params, {k: getattr(m, k) for k in names}, label=lambda k: f"--set {k}")
+    with pytest.raises(ValueError) as e:
+        s.check({"phi_j": 0.3})
+    assert str(e.value).startswith("--set phi_j = 0.3 is outside the valid range (0.436, 1) "
+                                   "(--set phi_c: phi_c must be below phi_j)")
+    with pytest.raises(ValueError) as e:
+        s.check({"a0": 5.0})
+    assert str(e.value).startswith("--set a0 = 5 is outside the valid range (0, 0.8]")
+    with pytest.raises(ValueError, match=r"--set G = 1e-300 is outside the valid range \[1, "
+                                         r"1e\+12\] Pa, or none \(the weakest colloidal gels"):
+        s.check({"G": 1e-300})
+    assert s.check({"d": 0.0})["d"] == 0.0 and s.check({"G": "none"})["G"] is None
