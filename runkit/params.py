@@ -24,6 +24,8 @@ the same check for the arrays a physics function receives.
 from __future__ import annotations
 
 import argparse
+import functools
+import inspect
 import math
 import struct
 import sys
@@ -401,4 +403,30 @@ class Schema:
                 f"{p.range_text(self.defaults, typed=True)})" for k, p in self.params.items()]
 
 
-__all__ = ["Param", "Schema", "Option", "check_range", "valid_interval", "interval_text", "shown"]
+def checked(size=None, label: Callable[[str], str] = str, **params: Param):
+    """Declare the parameters of an entry point (a scene's ``setup``, a protocol, a command's
+    body): the decorated function checks its keyword arguments once (:meth:`Schema.check`,
+    defaults from its signature) and calls the function; ``fn.schema`` builds the options and
+    checks with other labels, ``fn.raw`` is the function itself, for callers whose values are
+    checked already. TypeError at import when the declaration and the signature disagree."""
+
+    def wrap(fn):
+        sig = inspect.signature(fn).parameters
+        if set(sig) != set(params):
+            raise TypeError(f"{fn.__qualname__}: declared {sorted(params)}, signature "
+                            f"{sorted(sig)}")
+        defaults = {k: p.default for k, p in sig.items() if p.default is not p.empty}
+        schema = Schema(params, defaults, size=size, label=label, where=fn.__qualname__)
+
+        @functools.wraps(fn)
+        def entry(**given):
+            return fn(**schema.check(given))
+
+        entry.schema, entry.raw = schema, fn
+        return entry
+
+    return wrap
+
+
+__all__ = ["Param", "Schema", "Option", "checked", "check_range", "valid_interval",
+           "interval_text", "shown"]

@@ -231,3 +231,27 @@ def test_a_material_schema_admits_every_set_of_the_paper_and_explains_as_today()
                                          r"1e\+12\] Pa, or none \(the weakest colloidal gels"):
         s.check({"G": 1e-300})
     assert s.check({"d": 0.0})["d"] == 0.0 and s.check({"G": "none"})["G"] is None
+
+
+def test_an_entry_point_checks_its_arguments_once():
+    """@checked: the call is checked (one refusal naming the parameter), ``raw`` is not."""
+    from runkit.params import checked
+
+    calls = []
+
+    @checked(t_end=Param(L.TIME_MIN, L.TIME_MAX, unit="s"),
+             dt=Param(L.gt(0.0), L.le(lambda p: p["t_end"], "a step within the run"), unit="s"))
+    def run(t_end=1.0, dt=0.1):
+        calls.append((t_end, dt))
+        return t_end / dt
+
+    assert run(t_end="2") == pytest.approx(20.0) and calls == [(2.0, 0.1)]
+    with pytest.raises(ValueError, match=r"dt = 3 is outside the valid range \(0, 1\] s \(a step "
+                                         r"within the run\)"):
+        run(dt=3.0)
+    assert run.raw(t_end=1.0, dt=3.0) == pytest.approx(1 / 3)      # checked already: no check
+    with pytest.raises(ValueError, match=r"--t-end = 1e-300 is outside the valid range"):
+        Schema(run.schema.params, run.schema.defaults,
+               label=lambda k: "--" + k.replace("_", "-")).check({"t_end": 1e-300})
+    with pytest.raises(TypeError, match="declared"):
+        checked(x=Param())(lambda y=1: y)
