@@ -15,7 +15,7 @@ shear rate    [1e-9, 1e9] 1/s         no steady state within 30 years below (a s
                                       order one); past impact and ultrasonic rheometry above
 stress        [1e-12, 1e12] Pa        water at 1e-9 1/s carries 1e-12 Pa; 5 x diamond's G
 modulus       [1, 1e12] Pa            weakest colloidal gels ~1 Pa (the paper's skeletons:
-                                      1e4-1e7 Pa); 5 x the shear modulus of diamond
+                                      3.8e5-8.3e7 Pa, Tables 4-7); 5 x diamond's G
 viscosity     [1e-5, 1e6] Pa s        a decade below the thinnest liquids; molten polymers
 tau*          [1e-8, 1e8] Pa          the DST transition (1e-4..1e4 tau*) within the stresses
 density       [1, 1e5] kg/m^3         aerogel, the lightest solid; 4 x osmium (22,600)
@@ -34,8 +34,8 @@ memory        <= 1/2 of what is free  the rest of the machine keeps working
 
 Resource limits (not physics; stated with their reason): :data:`MAX_STEPS` explicit steps of a
 run (a day on one core at the smallest scene), :data:`MAX_CELL_STEPS` cell-steps of an explicit
-1-D run (hours). Sources: water's structural relaxation time, Bernal-Fowler / Teixeira (~1 ps);
-moduli and densities from standard tables (diamond G = 478 GPa, osmium 22,590 kg/m^3).
+1-D run (hours). Sources: the structural (hydrogen-bond) relaxation time of water, ~1 ps; moduli
+and densities from standard tables (diamond G = 478 GPa, osmium 22,590 kg/m^3).
 """
 
 from __future__ import annotations

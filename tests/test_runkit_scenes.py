@@ -38,7 +38,7 @@ def translate(spec) -> Schema:
     return Schema(out, spec.defaults, where=f"scene {spec.name}")
 
 
-def _probes(p, defaults, k):
+def _probes(p, defaults):
     lo, hi = p.lo, p.hi
     lo = lo(defaults) if callable(lo) else lo
     hi = hi(defaults) if callable(hi) else hi
@@ -80,7 +80,7 @@ def test_every_number_of_every_scene_is_refused_alike(scene, cached_materials):
     for k, p in spec.params.items():
         if p.kind != "number" or spec.defaults[k] is None:
             continue
-        for x in _probes(p, spec.defaults, k):
+        for x in _probes(p, spec.defaults):
             try:
                 spec.coerce({k: x})
                 old_ok, old_text = True, ""
@@ -95,7 +95,8 @@ def test_every_number_of_every_scene_is_refused_alike(scene, cached_materials):
                 continue
             assert old_ok == new_ok, (scene, k, x, old_text, new_text)
             if old_text.startswith(f"{k} = ") and "outside the valid range" in old_text:
-                rng = old_text.split("outside the valid range ")[1].split(" (")[0].split(" at the")[0]
+                rng = old_text.split("outside the valid range ")[1]
+                rng = rng.split(" (")[0].split(" at the")[0]
                 assert rng in new_text, (scene, k, x, old_text, new_text)
             compared += 1
     assert compared > 0
