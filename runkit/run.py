@@ -1,0 +1,310 @@
+"""Long runs: one loop with checkpoint and resume, signals, held numpy warnings and progress,
+and one output-folder policy with its manifest.
+
+:func:`drive` advances a :class:`Stepper` (``t``, ``t_end``, ``steps``, ``advance()``) to its
+end. Ctrl-C and SIGTERM are deferred to the end of the current ``advance`` (a signal inside a
+step would leave a state half-updated), then the checkpoint is saved and ``KeyboardInterrupt``
+raised with where it is. A checkpoint (:class:`Checkpoint`) is saved at most every ``every``
+seconds of wall time and at an interrupt; it holds the stepper's state and the run's
+fingerprint (everything that determines the output: a resume with anything else is refused,
+naming the first difference). Resume is byte for byte: the resumed run continues from the
+state at an ``advance`` boundary, and ``advance`` is a function of that state alone (an
+explicit step; an IDA solve from a consistent state, restarted at each boundary in the
+uninterrupted run too).
+
+numpy's warnings of the run are held (:class:`HeldWarnings`): a run that fails cites the first
+in its one line; one that completes shows them as they were. :class:`Progress` is a tqdm bar on
+a terminal and a plain line every ``every`` seconds otherwise (a log file).
+
+:class:`Folder` is the output-folder policy: a fresh run removes only the files a previous run
+of ours listed in its ``manifest.json`` (and the temporaries of an interrupted atomic write); a
+non-empty folder without our manifest is refused before anything is written. The manifest's
+``status`` is ``running``, ``complete``, ``stopped``, ``ended_early`` or ``failed`` (with the
+message).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import signal
+import sys
+import threading
+import time
+import warnings
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+from tqdm import tqdm
+
+from .io import (atomic_write_json, check_output_dir, load_checkpoint, previous_checkpoint,
+                 save_checkpoint)
+
+#: a temporary file of an atomic write (``.NAME.XXXXXXXX.suffix``) left by a killed run
+TEMPORARY = re.compile(r"^\..+\.[a-z0-9_]{8}\.(npz|tmp|vtu|pvd|png|csv|json)$")
+
+
+class Interrupts:
+    """SIGINT and SIGTERM while open (main thread): recorded in ``pending`` (``defer``) or
+    raised at once as ``KeyboardInterrupt`` and recorded too (one raised inside a C callback
+    can be swallowed: :meth:`check` raises it again). Nested windows share what they record."""
+
+    _open: list = []
+
+    def __init__(self, defer: bool = True):
+        self.defer, self.pending, self._old = defer, None, {}
+
+    def __enter__(self):
+        if self._open:
+            self.pending = self._open[-1].pending
+        self._open.append(self)
+        if threading.current_thread() is threading.main_thread():
+            self._old = {s: signal.signal(s, self._record) for s in (signal.SIGINT,
+                                                                      signal.SIGTERM)}
+        return self
+
+    def _record(self, signum, frame):
+        self.pending = signal.Signals(signum).name
+        if not self.defer:
+            raise KeyboardInterrupt
+
+    def check(self) -> None:
+        """Raise ``KeyboardInterrupt`` if a signal came."""
+        if self.pending:
+            raise KeyboardInterrupt
+
+    def __exit__(self, *exc):
+        for s, old in self._old.items():
+            signal.signal(s, old)
+        self._open.remove(self)
+        if self._open and self.pending:
+            self._open[-1].pending = self.pending
+        return False
+
+
+class HeldWarnings:
+    """numpy's RuntimeWarnings recorded while open: :meth:`after` for a failure's line,
+    :meth:`replay` shows them as they were (a run that succeeded)."""
+
+    def __enter__(self):
+        self._cm = warnings.catch_warnings(record=True)
+        self.held = self._cm.__enter__()
+        warnings.simplefilter("always", RuntimeWarning)
+        return self
+
+    def __exit__(self, *exc):
+        return self._cm.__exit__(*exc)
+
+    def after(self) -> str:
+        """``" after numpy's 'MESSAGE'"`` for the first RuntimeWarning, "" without one."""
+        first = next((w for w in self.held if issubclass(w.category, RuntimeWarning)), None)
+        return f" after numpy's '{first.message}'" if first is not None else ""
+
+    def replay(self) -> None:
+        for w in self.held:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
+class Progress:
+    """Progress of the simulated time ``t0 .. t_end`` [s] on ``stream`` (stderr): a tqdm bar on
+    a terminal; else one plain line every ``every`` wall seconds (and at the end). The postfix:
+    the step and the wall time per step since the start (or the resume)."""
+
+    def __init__(self, t0: float, t_end: float, *, step0: int = 0, label: str = "",
+                 stream=None, enabled: bool = True, every: float = 30.0):
+        self.t0, self.t_end, self.step0, self.label = float(t0), float(t_end), int(step0), label
+        self.stream = stream or sys.stderr
+        self.enabled, self.every = enabled, float(every)
+        self.start = self.last = time.perf_counter()
+        self.t, self.step, self.bar = self.t0, self.step0, None
+        if enabled and getattr(self.stream, "isatty", lambda: False)():
+            self.bar = tqdm(total=max(self.t_end - self.t0, 0.0), file=self.stream, leave=True,
+                            desc=label or None, dynamic_ncols=True, mininterval=0.5,
+                            bar_format="{desc}: {percentage:5.1f}%|{bar}| "
+                                       "[{elapsed}<{remaining}{postfix}]")
+
+    def text(self) -> str:
+        per = (time.perf_counter() - self.start) / max(self.step - self.step0, 1)
+        return f"t = {self.t:.4g}/{self.t_end:.4g} s, step {self.step}, {per * 1e3:.3g} ms/step"
+
+    def update(self, t: float, step: int | None = None) -> None:
+        if not self.enabled:
+            return
+        done = min(max(t - self.t0, 0.0), max(self.t_end - self.t0, 0.0))
+        self.t, self.step = float(t), self.step if step is None else int(step)
+        if self.bar is not None:
+            self.bar.set_postfix_str(self.text(), refresh=False)
+            self.bar.update(done - self.bar.n)
+        elif time.perf_counter() - self.last >= self.every:
+            self.last = time.perf_counter()
+            frac = done / (self.t_end - self.t0) if self.t_end > self.t0 else 1.0
+            left = ((time.perf_counter() - self.start) * (1 / frac - 1) if frac > 0
+                    else math.inf)
+            eta = f", {left:.0f} s left" if math.isfinite(left) else ""
+            print(f"{self.label or 'run'}: {100 * frac:5.1f}% {self.text()}{eta}",
+                  file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.set_postfix_str(self.text(), refresh=False)
+            self.bar.close()
+        elif self.enabled:
+            self.last = -math.inf
+            self.update(self.t, self.step)
+
+
+class Checkpoint:
+    """An .npz checkpoint (atomic, its predecessor kept) with its run's ``fingerprint`` (a dict
+    of JSON values: everything that determines the output)."""
+
+    def __init__(self, path, fingerprint: dict):
+        self.path, self.fingerprint = Path(path), dict(fingerprint)
+
+    def exists(self) -> bool:
+        return self.path.is_file() or previous_checkpoint(self.path).is_file()
+
+    def save(self, state: dict) -> Path:
+        return save_checkpoint(self.path, **state,
+                               **{"run.fingerprint": np.array(json.dumps(self.fingerprint))})
+
+    def load(self, required=(), log=None) -> dict:
+        """The saved state; ValueError if there is none, it is corrupt (with no readable
+        predecessor) or it is of another run (naming the first difference)."""
+        data = load_checkpoint(self.path, required=("run.fingerprint", *required), log=log)
+        stored = json.loads(str(data.pop("run.fingerprint")))
+        for k in dict.fromkeys([*self.fingerprint, *stored]):
+            mine, theirs = self.fingerprint.get(k), stored.get(k)
+            if mine != theirs:
+                raise ValueError(f"--resume: {k} = {mine} differs from the checkpoint's {k} = "
+                                 f"{theirs} ({self.path}); resume with the same, or start again "
+                                 "without --resume")
+        return data
+
+    def remove(self) -> None:
+        for p in (self.path, previous_checkpoint(self.path)):
+            p.unlink(missing_ok=True)
+
+
+class Stepper(Protocol):
+    """What :func:`drive` advances: the simulated time ``t`` [s] to ``t_end``, the ``steps``
+    done, ``advance()`` one step or segment, ``state()`` what a checkpoint holds."""
+
+    t: float
+    t_end: float
+    steps: int
+
+    def advance(self) -> None: ...
+
+    def state(self) -> dict: ...
+
+
+def drive(stepper: Stepper, *, checkpoint: Checkpoint | None = None, every: float = 60.0,
+          progress: Progress | None = None, stop_after: int | None = None,
+          end_tol: float = 1e-12) -> bool:
+    """Advance ``stepper`` to ``t_end`` (or ``stop_after`` advances): see the module docstring.
+
+    Returns True at the end time, False when stopped by ``stop_after`` (checkpoint saved).
+
+    Raises
+    ------
+    KeyboardInterrupt
+        SIGINT/SIGTERM, after the current advance and the checkpoint: its message says where.
+    RuntimeError
+        ``advance`` failed (RuntimeError, ArithmeticError): the message with numpy's first
+        warning of the run. An exception that ended the run early (``ends``) passes unchanged.
+    """
+    last, done = time.perf_counter(), 0
+    with Interrupts(defer=True) as stop, HeldWarnings() as held:
+        try:
+            while stepper.t < stepper.t_end * (1.0 - end_tol):
+                stop.check()
+                if stop_after is not None and done >= stop_after:
+                    break
+                stepper.advance()
+                done += 1
+                if progress is not None:
+                    progress.update(stepper.t, stepper.steps)
+                if checkpoint is not None and time.perf_counter() - last >= every:
+                    checkpoint.save(stepper.state())
+                    last = time.perf_counter()
+        except KeyboardInterrupt:
+            if checkpoint is None:
+                raise KeyboardInterrupt("nothing was saved") from None
+            checkpoint.save(stepper.state())
+            raise KeyboardInterrupt(f"checkpoint written to {checkpoint.path} at t = "
+                                    f"{stepper.t:.6g} s: rerun with --resume to continue") from None
+        except (RuntimeError, ArithmeticError) as exc:
+            if getattr(exc, "ends", None):
+                raise
+            raise RuntimeError(f"{exc}{held.after()}") from None
+        finally:
+            if progress is not None:
+                progress.close()
+        complete = not stepper.t < stepper.t_end * (1.0 - end_tol)
+        if checkpoint is not None and not complete:
+            checkpoint.save(stepper.state())
+    held.replay()
+    return complete
+
+
+class Folder:
+    """The output folder of a run (see the module docstring); ``owner`` marks its manifest."""
+
+    def __init__(self, path, owner: str, option: str = "--out"):
+        self.path = check_output_dir(option, path)
+        self.owner, self.option = owner, option
+        self.manifest = {"owner": owner, "status": "running", "files": []}
+
+    def previous(self) -> dict | None:
+        """The manifest of a previous run of ours here, else None."""
+        try:
+            m = json.loads((self.path / "manifest.json").read_text())
+        except (OSError, ValueError, UnicodeDecodeError):
+            return None
+        ok = isinstance(m, dict) and m.get("owner") == self.owner and isinstance(
+            m.get("files"), list)
+        return m if ok else None
+
+    def _inside(self, rel) -> Path | None:
+        """``path/rel`` for a plain relative path inside the folder (a manifest is never
+        trusted to name a file elsewhere)."""
+        if not isinstance(rel, str) or not rel or "\\" in rel or Path(rel).is_absolute() \
+                or ".." in Path(rel).parts:
+            return None
+        return self.path / rel
+
+    def prepare(self, resume: bool = False) -> list[str]:
+        """Check the folder before anything is written (ValueError for a non-empty folder that
+        holds no run of ours); create it; remove the temporaries of interrupted writes and, for
+        a fresh run, the files of the previous run of ours. Returns the removed names."""
+        entries = [f for f in self.path.rglob("*") if f.is_file()] if self.path.is_dir() else []
+        mine = [f for f in entries if not TEMPORARY.match(f.name)]
+        previous = self.previous()
+        if mine and previous is None:
+            raise ValueError(f"{self.option} = {str(self.path)!r} is a non-empty folder that "
+                             f"holds no {self.owner} run (no manifest.json of ours): give a new "
+                             "or empty folder, nothing of yours is overwritten")
+        gone = [f for f in entries if TEMPORARY.match(f.name)]
+        if previous is not None and not resume:
+            listed = {self._inside(r) for r in previous["files"] + ["manifest.json"]}
+            gone += [f for f in mine if f in listed]
+        if resume and previous is not None:
+            self.manifest = {**previous, "status": "running"}
+        self.path.mkdir(parents=True, exist_ok=True)
+        for f in gone:
+            f.unlink()
+        return [str(f.relative_to(self.path)) for f in gone]
+
+    def wrote(self, path) -> Path:
+        """Record a file the run wrote (removed by the next fresh run here)."""
+        rel = str(Path(path).resolve().relative_to(self.path.resolve()))
+        if rel not in self.manifest["files"]:
+            self.manifest["files"].append(rel)
+        return Path(path)
+
+    def write_manifest(self, status: str | None = None, **fields) -> Path:
+        """``manifest.json`` (strict JSON) with ``status`` and ``fields``."""
+        self.manifest.update(fields, **({"status": status} if status else {}))
+        return atomic_write_json(self.path / "manifest.json", self.manifest)
