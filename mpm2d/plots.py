@@ -8,7 +8,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from rheology.io import atomic_savefig  # noqa: E402
+from runkit.io import atomic_savefig  # noqa: E402
 
 
 def particles(ax, sim, field: str = "speed", cmap="viridis", vmin=None, vmax=None, sets=None,

@@ -51,7 +51,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from rheology.io import (atomic_write_csv, check_output_dir, load_checkpoint,
+from runkit.io import (atomic_write_csv, check_output_dir, load_checkpoint,
                          previous_checkpoint, save_checkpoint)
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
@@ -243,16 +243,6 @@ SETUP_NOTICE_S = 2.0
 BLAME_BUDGET_S = 20.0
 
 
-def _build(setup, params: dict):
-    """The scene of ``params`` or None when its set-up fails (numpy quiet)."""
-    try:
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore")
-            return setup(**params)
-    except (ArithmeticError, ValueError, RuntimeError, TypeError):
-        return None
-
-
 def _round_toward(x: float, good_side_up: bool) -> float:
     """``x`` to 3 significant digits, rounded away from the invalid side."""
     if x == 0 or not math.isfinite(x):
@@ -324,7 +314,7 @@ def blame(setup, params: dict, given: dict, name: str, ok: Callable, why: str,
     changed = [k for k, v in given.items() if v != spec.defaults.get(k)]
 
     def ok_at(k, x):
-        probe = _build(setup, {**params, k: x})
+        probe = estimate.build_quietly(setup, {**params, k: x})
         return probe is not None and ok(probe)
 
     culprits = [k for k in changed if time.perf_counter() < deadline

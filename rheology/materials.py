@@ -391,7 +391,7 @@ def material_from_dict(data: dict, source: str = "material file") -> Material:
 def save_material(path, m: Material, **extra) -> Path:
     """Write ``m`` as a material file (strict JSON, atomically): ``{"format", "material":
     {fields}, **extra}`` (e.g. ``provenance=...``, ``fit=...``). :func:`get_material` reads it."""
-    from .io import atomic_write_json
+    from runkit.io import atomic_write_json
 
     doc = {"format": MATERIAL_FILE_FORMAT, "version": 1, "material": material_to_dict(m), **extra}
     return atomic_write_json(path, doc)

@@ -3,7 +3,7 @@
 A program is run phi by phi and step by step (:meth:`rheometer.transient.Rheometer.run`). After
 every completed step, at most every ``every`` seconds of computing, and always on Ctrl-C or
 SIGTERM (which :func:`rheology.cli_common.run_command` turns into ``KeyboardInterrupt``), the
-checkpoint ``<out>.checkpoint.npz`` is written atomically (:func:`rheology.io.save_checkpoint`,
+checkpoint ``<out>.checkpoint.npz`` is written atomically (:func:`runkit.io.save_checkpoint`,
 which keeps the previous one): the rows of the finished volume fractions, the rows of the
 completed steps of the current one, the exact state (t, taubar, jamming gap, strain) at the end of
 the last completed step, the events and solver counts, the ends of the fractions that ended early
@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from rheology.io import load_checkpoint, previous_checkpoint, save_checkpoint
+from runkit.io import load_checkpoint, previous_checkpoint, save_checkpoint
 from rheology.run_end import EndedEarly, RunEnd
 
 from .program import Program

@@ -319,7 +319,7 @@ EMPTY_OK = ("viscosity_Pa_s", "relative_viscosity")
 
 def _plot_path(args):
     """The figure path (None for no figure), checked with --out BEFORE any work is done."""
-    from rheology.io import check_output_path
+    from runkit.io import check_output_path
 
     check_output_path("--out", args.out, ["csv"])
     plot = args.plot if args.plot is not None else str(Path(args.out).with_suffix(".png"))
@@ -334,7 +334,7 @@ def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=No
     ``<out>.json`` (rheology.run_end: status and the ends in ``df.attrs["ends"]``, those in
     ``marked``, default all, marked on the figure); a run that ended early is then raised by
     :func:`main` after the message (exit status 3)."""
-    from rheology.io import atomic_savefig, atomic_write_csv, atomic_write_json
+    from runkit.io import atomic_savefig, atomic_write_csv, atomic_write_json
     from rheology.run_end import EndedEarly, run_record
 
     from .instrument_cli import extra_outputs, finish_table
@@ -408,7 +408,7 @@ def _cmd_materials(args) -> str:
     import rheology
 
     if args.out:
-        from rheology.io import check_output_path
+        from runkit.io import check_output_path
 
         check_output_path("--out", args.out, ["csv"])
     if args.material is not None:
@@ -423,7 +423,7 @@ def _cmd_materials(args) -> str:
     from .instrument_cli import materials_note
     print(materials_note())
     if args.out:
-        from rheology.io import atomic_write_csv
+        from runkit.io import atomic_write_csv
 
         table = pd.DataFrame([{"name": n, "citation": c, **{
             k: getattr(rheology.get_material(n), k) for k in rheology.materials.FIELD_UNITS}}
@@ -574,9 +574,9 @@ def _cmd_program(args) -> str:
 
 def _load_checkpoint(ck) -> Path:
     """Load ``ck`` for --resume (its fallback notice on stderr) and return the file actually
-    read: rheology.io.load_checkpoint falls back to the previous checkpoint NAME.prev.npz when
+    read: runkit.io.load_checkpoint falls back to the previous checkpoint NAME.prev.npz when
     NAME.npz is corrupt (and says so through ``log``) or absent (silently)."""
-    from rheology.io import previous_checkpoint
+    from runkit.io import previous_checkpoint
 
     prev = previous_checkpoint(ck.path)
     used = [prev if not ck.path.is_file() and prev.is_file() else ck.path]

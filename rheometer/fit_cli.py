@@ -275,7 +275,7 @@ def prepare_out(option: str, path) -> Path:
     """The --out folder, checked before any work: writable, and holding no file but a previous
     fit's (:data:`OUTPUTS` and their temporaries), which this run replaces or removes. ValueError
     naming the foreign files otherwise."""
-    from rheology.io import check_output_dir
+    from runkit.io import check_output_dir
 
     out = check_output_dir(option, path)
     if out.is_dir():
@@ -318,7 +318,7 @@ def _read(args):
 def cmd_read(args) -> str:
     """``rheometer read``: write the tidy table; print the drop counts and skipped blocks."""
     from rheology.data import EMPTY_OK, describe, table_to_csv_frame
-    from rheology.io import atomic_write_csv, check_output_path
+    from runkit.io import atomic_write_csv, check_output_path
 
     check_output_path("--out", args.out, ["csv"])
     table = _read(args)
@@ -357,7 +357,7 @@ def _write_results(out: Path, tables: dict, material, doc: dict, problems, accep
     """Check every output, write them, the material as material.json (or material_rejected.json
     for an unphysical result without --accept), remove a previous fit's other files. Returns the
     names written."""
-    from rheology.io import atomic_write_csv, atomic_write_json, check_finite, strict_json
+    from runkit.io import atomic_write_csv, atomic_write_json, check_finite, strict_json
     from rheology.materials import MATERIAL_FILE_FORMAT, material_to_dict
 
     nullable = ("lower", "upper", "std_error")
@@ -527,7 +527,7 @@ def write_figures(out: Path, data, res) -> list[str]:
     import matplotlib.pyplot as plt
 
     from rheology.fit import mixture_steady_state
-    from rheology.io import atomic_savefig
+    from runkit.io import atomic_savefig
 
     m = res.material
     phis = data.curve_phi()
@@ -748,7 +748,7 @@ def relaxation_figure(out: Path, res) -> str:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from rheology.io import atomic_savefig
+    from runkit.io import atomic_savefig
 
     fig, ax = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True, constrained_layout=True,
                            gridspec_kw={"height_ratios": [3, 1]})

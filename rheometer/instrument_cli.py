@@ -249,7 +249,7 @@ def extra_outputs(args, df: pd.DataFrame, plot=None) -> str:
             msg += (" (the sample is taken homogeneous at the rim rate: the radial integration "
                     "is done for steady flow curves)")
         if g.kind == "parallel-plate" and getattr(args, "cmd", "") == "flow-curve":
-            from rheology.io import atomic_savefig, atomic_write_csv
+            from runkit.io import atomic_savefig, atomic_write_csv
 
             from . import plots
 
@@ -341,8 +341,8 @@ def add_subcommands(sub) -> dict:
 
 def _cmd_oscillation(args) -> str:
     from rheology.elastic import ELASTIC_STRAIN_LIMIT
-    from rheology.io import atomic_savefig, atomic_write_csv, atomic_write_json, check_finite
-    from rheology.io import check_output_path
+    from runkit.io import atomic_savefig, atomic_write_csv, atomic_write_json, check_finite
+    from runkit.io import check_output_path
     from rheology.run_end import EndedEarly, run_record
 
     from . import oscillation as osc

@@ -84,13 +84,21 @@ def check_finite(frame, where: str = "result", empty_ok: Iterable[str] = ()) -> 
                                "written")
 
 
-def strict_json(obj, where: str = "result", nullable: Iterable[str] = ()):
+def strict_json(obj, where: str = "result", nullable: Iterable[str] = (), on_bad=None):
     """``obj`` with numpy scalars/arrays turned into plain Python, checked for finiteness.
 
     A non-finite float under a key named in ``nullable`` becomes ``None`` (JSON ``null``);
-    anywhere else it raises ``RuntimeError`` naming the key path.
+    anywhere else it raises ``RuntimeError`` naming the key path, and a value of another type
+    (not dict, list, tuple, array, bool, number, str, Path or None) raises ``TypeError``.
+    ``on_bad(path, value)``, when given, is told of each such value instead, which becomes
+    ``None``: a caller that keeps what is valid (the validation report) lists them.
     """
     nullable = set(nullable)
+
+    def bad(path: str, x, exc):
+        if on_bad is None:
+            raise exc
+        on_bad(path.lstrip("."), x)
 
     def conv(x, key: str, path: str):
         if isinstance(x, dict):
@@ -109,13 +117,14 @@ def strict_json(obj, where: str = "result", nullable: Iterable[str] = ()):
                 return x
             if key in nullable:
                 return None
-            raise RuntimeError(f"{where}: {path.lstrip('.')} = {x!r} is not finite; nothing "
-                               "was written")
+            return bad(path, x, RuntimeError(f"{where}: {path.lstrip('.')} = {x!r} is not "
+                                             "finite; nothing was written"))
         if x is None or isinstance(x, str):
             return x
         if isinstance(x, Path):
             return str(x)
-        raise TypeError(f"{where}: {path.lstrip('.')} has type {type(x).__name__}, not JSON")
+        return bad(path, x, TypeError(f"{where}: {path.lstrip('.')} has type "
+                                      f"{type(x).__name__}, not JSON"))
 
     return conv(obj, "", "")
 

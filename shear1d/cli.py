@@ -214,7 +214,7 @@ def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
 
 def _check_out(out: str) -> None:
     """An empty --out (``--out ''``) would write into the current folder: refused by name
-    (rheology.io.check_output_dir, called by the scene, checks the rest before the run)."""
+    (runkit.io.check_output_dir, called by the scene, checks the rest before the run)."""
     if not str(out).strip():
         raise ValueError(f"--out = {out!r} is empty: give the output folder's name (use "
                          "--out . for the current folder)")
@@ -262,9 +262,9 @@ def _check_lengths(material, option: str, value: float, hi: float, cells: int,
 
 def _check_resume(paths) -> None:
     """With --resume: read each checkpoint that is there before the run starts, so that a corrupt
-    one is refused (exit 2) before anything is printed or written (rheology.io.load_checkpoint:
+    one is refused (exit 2) before anything is printed or written (runkit.io.load_checkpoint:
     CorruptCheckpoint names the file; a readable previous checkpoint is the run's fallback)."""
-    from rheology.io import load_checkpoint, previous_checkpoint
+    from runkit.io import load_checkpoint, previous_checkpoint
 
     for ck in paths:
         if ck.is_file() or previous_checkpoint(ck).is_file():

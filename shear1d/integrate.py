@@ -25,7 +25,7 @@ p/K of every cell within :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT`). An outp
 check, a failed IDA step or a failed local update ends the run there:
 :class:`rheology.run_end.EndedEarly` with the diagnostics and the :class:`Result` of the outputs
 before it (``Result.end`` says where and why, :mod:`rheology.run_end`). Runs can checkpoint to an
-``.npz`` file and resume from it (:mod:`rheology.io`, atomic; an ended run resumes as ended).
+``.npz`` file and resume from it (:mod:`runkit.io`, atomic; an ended run resumes as ended).
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ from rheology import f_jam
 from rheology.checks import check_positive, check_range
 from rheology.elastic import past_elastic_limit
 from rheology.flow_rule import invariants
-from rheology.io import CorruptCheckpoint, load_checkpoint, save_checkpoint
+from runkit.io import CorruptCheckpoint, load_checkpoint, save_checkpoint
 from rheology.run_end import EndedEarly, RunEnd
 
 from . import analysis, kernels
@@ -491,14 +491,14 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     stop_on : iterable of str
         Event names (``front_at_wall``, ``flow_stopped``) that end the run when they fire.
     checkpoint : path, optional
-        ``.npz`` checkpoint (:func:`rheology.io.save_checkpoint`, the previous one kept as
+        ``.npz`` checkpoint (:func:`runkit.io.save_checkpoint`, the previous one kept as
         ``.prev.npz``) written at an output at most every ``checkpoint_every`` seconds of wall
         time, at the end, and when the run is interrupted (KeyboardInterrupt: Ctrl-C, or SIGTERM
         under :func:`rheology.cli_common.run_command`); the interrupt is re-raised with a message
         naming the checkpoint.
     resume : bool
         Continue from ``checkpoint`` (ValueError if there is none or it belongs to another run;
-        :class:`rheology.io.CorruptCheckpoint` if it and its predecessor are unreadable). The
+        :class:`runkit.io.CorruptCheckpoint` if it and its predecessor are unreadable). The
         run restarts from the checkpoint's last output: with the explicit method the result is
         bit-for-bit the uninterrupted one; IDA restarts its BDF history there, so the result
         agrees with the uninterrupted one to the integration tolerance (measured: see

@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import rheology  # noqa: E402
-from rheology.io import atomic_savefig  # noqa: E402
+from runkit.io import atomic_savefig  # noqa: E402
 from rheology.run_end import mark_end  # noqa: E402
 
 from .analytic import annular_steady  # noqa: E402

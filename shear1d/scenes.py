@@ -33,7 +33,7 @@ import pandas as pd
 import rheology
 from rheology.checks import check_memory, check_positive, check_range
 from rheology.cli_common import TIME_MAX, TIME_MIN
-from rheology.io import atomic_write_csv, atomic_write_json, check_output_dir, previous_checkpoint
+from runkit.io import atomic_write_csv, atomic_write_json, check_output_dir, previous_checkpoint
 from rheology.run_end import EndedEarly, run_record
 
 from . import analysis
@@ -368,7 +368,7 @@ def precheck(problem: Couette, method: str, rtol: float, dt: float | None,
 
 def check_out_dir(out) -> Path:
     """The output folder as a Path; ValueError if it exists and is not a folder or cannot be
-    written (rheology.io.check_output_dir)."""
+    written (runkit.io.check_output_dir)."""
     return check_output_dir("--out", out)
 
 

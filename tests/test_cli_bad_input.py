@@ -147,7 +147,7 @@ def test_help_of_every_subcommand(cli, capsys):
 def test_unwritable_outputs_are_refused_before_any_work(tmp_path):
     """An output under a folder where nothing can be created (or a file where a folder is
     needed) is refused with one line naming the option, before anything runs or is written."""
-    from rheology.io import check_output_dir, check_output_path
+    from runkit.io import check_output_dir, check_output_path
 
     with pytest.raises(ValueError, match="--plot = '/proc/x.png': cannot write in /proc"):
         check_output_path("--plot", "/proc/x.png", ["figure"])

@@ -225,7 +225,7 @@ def test_bad_value_of_a_derived_bound_states_the_derived_range(capsys, tmp_path)
 @pytest.mark.parametrize("argv", [["run", "bar"], ["sweep", "bar", "--set", "cells=4,8"]])
 def test_empty_out_is_refused(argv, tmp_path, monkeypatch, capsys):
     """--out '' ran the scene into its default folder (mpm2d) or the current one (shear1d):
-    refused by rheology.io.check_output_dir, one line, exit 2, nothing written."""
+    refused by runkit.io.check_output_dir, one line, exit 2, nothing written."""
     monkeypatch.chdir(tmp_path)
     assert main(argv + ["--out", ""]) == 2
     err = capsys.readouterr().err.strip().splitlines()

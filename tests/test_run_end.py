@@ -21,19 +21,19 @@ TAU_LIMIT = ELASTIC_STRAIN_LIMIT * G
 
 @pytest.fixture
 def figures(monkeypatch):
-    """The figures the commands save (rheology.io.atomic_savefig, also as shear1d.plots'), by
+    """The figures the commands save (runkit.io.atomic_savefig, also as shear1d.plots'), by
     file name: per axes its lines' (x, y) data and its texts."""
-    import rheology.io
+    import runkit.io
     import shear1d.plots
 
-    saved, real = {}, rheology.io.atomic_savefig
+    saved, real = {}, runkit.io.atomic_savefig
 
     def keep(fig, path, **kw):
         saved[Path(path).name] = [([(ln.get_xdata(), ln.get_ydata()) for ln in ax.lines],
                                    [t.get_text() for t in ax.texts]) for ax in fig.axes]
         return real(fig, path, **kw)
 
-    monkeypatch.setattr(rheology.io, "atomic_savefig", keep)
+    monkeypatch.setattr(runkit.io, "atomic_savefig", keep)
     monkeypatch.setattr(shear1d.plots, "atomic_savefig", keep)
     return saved
 

@@ -49,7 +49,10 @@ def _probes(p, defaults):
     return xs
 
 
-SCENE_NAMES = list(SCENES)
+SCENE_NAMES = [pytest.param(n, marks=pytest.mark.xfail(
+    strict=True, reason="intruder's optional geometry is filled from its layout (spec.Param.fill), "
+                        "which runkit.params.Param does not model yet")) if n == "intruder" else n
+               for n in SCENES]
 
 
 @pytest.fixture

@@ -424,11 +424,11 @@ def test_resume_from_a_corrupt_checkpoint_prints_only_the_refusal(args, name, tm
 
 
 def test_csv_writes_no_negative_zero(tmp_path):
-    """rheology.io.atomic_write_csv writes -0.0 as 0.0 in every float column (shear1d couette
+    """runkit.io.atomic_write_csv writes -0.0 as 0.0 in every float column (shear1d couette
     --speed 1e-300 wrote f_mean = -0.0), NaN still empty where allowed, the frame unchanged."""
     import numpy as np
 
-    from rheology.io import atomic_write_csv
+    from runkit.io import atomic_write_csv
 
     df = pd.DataFrame({"a": [-0.0, 1.5, -2.0], "b": np.array([-0.0, 0.0, np.nan], np.float32),
                        "n": [0, -1, 2], "s": ["-0.0", "x", "y"]})

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import rheology
-from rheology.io import load_checkpoint
+from runkit.io import load_checkpoint
 from shear1d import analysis
 from shear1d.geometry import Grid
 from shear1d.integrate import check_state, output_times, solve, stable_time_step

@@ -503,7 +503,7 @@ def taichi_elastic_rate(cells: int, steps: int, reps: int = 3):
 def speed(out: Path, quick: bool) -> BenchResult:
     import pandas as pd
 
-    from rheology.io import atomic_write_csv
+    from runkit.io import atomic_write_csv
     from mpm2d.plots import plt, save
 
     threads = min(THREADS, nb.config.NUMBA_NUM_THREADS)

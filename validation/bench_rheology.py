@@ -22,7 +22,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 import rheology as r
-from rheology.io import atomic_savefig
+from runkit.io import atomic_savefig
 from rheology.local_update import NOUT, kernel_parameters, update_points, update_points_serial
 from rheology.steady import _residual
 

@@ -26,7 +26,7 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import rheology  # noqa: E402
-from rheology.io import atomic_savefig  # noqa: E402
+from runkit.io import atomic_savefig  # noqa: E402
 from rheometer import model  # noqa: E402
 from rheometer.protocols import flow_curve, relax, startup  # noqa: E402
 from rheometer.transient import Rheometer, Step  # noqa: E402
@@ -343,7 +343,7 @@ def random_programs(out: Path, quick: bool) -> BenchResult:
     failed = int((df["kind"] == "FAILED").sum())
     worst = ok.nlargest(5, "seconds")
     by_kind = ok.groupby("kind")["seconds"].agg(["median", "max", "count"]).reset_index()
-    from rheology.io import atomic_write_csv
+    from runkit.io import atomic_write_csv
 
     atomic_write_csv(Path(out) / "random_program_steps.csv", df, empty_ok=("seconds",))
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.2))

@@ -33,7 +33,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from rheology import f_jam  # noqa: E402
-from rheology.io import atomic_write_csv  # noqa: E402
+from runkit.io import atomic_write_csv  # noqa: E402
 from shear1d import analysis  # noqa: E402
 from shear1d.analytic import annular_steady  # noqa: E402
 from shear1d.integrate import solve  # noqa: E402

@@ -33,7 +33,7 @@ import numpy as np
 
 import rheology as r
 from rheology.fit import FlowData, fit_flow_curves, recovery_errors, synthetic_table
-from rheology.io import atomic_savefig, atomic_write_csv
+from runkit.io import atomic_savefig, atomic_write_csv
 
 from .framework import Verdict, case
 

@@ -25,7 +25,7 @@ import pandas as pd  # noqa: E402
 from mpm2d.run import run_scene  # noqa: E402
 from mpm2d.scenes import impact  # noqa: E402
 from rheology import get_material  # noqa: E402
-from rheology.io import atomic_savefig, atomic_write_csv, atomic_write_json  # noqa: E402
+from runkit.io import atomic_savefig, atomic_write_csv, atomic_write_json  # noqa: E402
 
 from .framework import Verdict, case  # noqa: E402
 

@@ -62,7 +62,7 @@ import pandas as pd  # noqa: E402
 from mpm2d.run import run_scene  # noqa: E402
 from mpm2d.scenes import get_setup  # noqa: E402
 from mpm2d.scenes.intruder import draw_uz, event_fields, reference_lines  # noqa: E402
-from rheology.io import atomic_savefig, atomic_write_csv  # noqa: E402
+from runkit.io import atomic_savefig, atomic_write_csv  # noqa: E402
 
 from .framework import Verdict, case  # noqa: E402
 

@@ -19,7 +19,7 @@ from mpm2d.analytic import observed_orders  # noqa: E402
 from mpm2d.run import run_scene  # noqa: E402
 from mpm2d.scenes import (bar, column, couette, cylinder, disks, piston, shear,  # noqa: E402
                           terzaghi)
-from rheology.io import atomic_savefig, atomic_write_csv  # noqa: E402
+from runkit.io import atomic_savefig, atomic_write_csv  # noqa: E402
 
 from .framework import NO_COARSER, Verdict, case  # noqa: E402
 

@@ -20,7 +20,7 @@ import pandas as pd  # noqa: E402
 from mpm2d.analytic import observed_orders  # noqa: E402
 from mpm2d.run import run_scene  # noqa: E402
 from mpm2d.scenes import annular  # noqa: E402
-from rheology.io import atomic_savefig, atomic_write_csv  # noqa: E402
+from runkit.io import atomic_savefig, atomic_write_csv  # noqa: E402
 
 from .framework import NO_COARSER, Verdict, case  # noqa: E402
 

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import rheology as r
-from rheology.io import atomic_savefig
+from runkit.io import atomic_savefig
 from rheology.local_update import NOUT, kernel_parameters, update_points_serial
 
 from .framework import Verdict, case

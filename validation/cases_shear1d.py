@@ -17,7 +17,7 @@ import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import rheology  # noqa: E402
-from rheology.io import atomic_savefig, atomic_write_json  # noqa: E402
+from runkit.io import atomic_savefig, atomic_write_json  # noqa: E402
 from shear1d import analysis, kernels  # noqa: E402
 from shear1d.analytic import annular_steady, plane_couette_startup  # noqa: E402
 from shear1d.integrate import solve  # noqa: E402

@@ -132,7 +132,7 @@ def convergence(out: Path, quick: bool) -> Verdict:
             rows.append({"h_m": h, "omega_per_s": float(k), "sink_depth_m": r["sink_depth_m"],
                          "wall_s": s["wall_s"], "steps": s["steps"], "points": s["points"]})
     df = pd.DataFrame(rows)
-    from rheology.io import atomic_write_csv
+    from runkit.io import atomic_write_csv
 
     atomic_write_csv(out / "convergence.csv", df)
     diffs = {}
@@ -157,7 +157,7 @@ def fig14_table(out: Path, rows: list, t: float):
     at t; writes fig14.png and fig14.csv; returns the DataFrame."""
     import numpy as np
 
-    from rheology.io import atomic_write_csv
+    from runkit.io import atomic_write_csv
 
     def params_of(folder):
         return json.loads((Path(folder) / "manifest.json").read_text())["params"]

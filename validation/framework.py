@@ -44,7 +44,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Callable
 
-from rheology.io import strict_json
+from runkit.io import strict_json
 
 
 @dataclass
@@ -133,7 +133,7 @@ def save_figure(fig, out, name: str) -> Path:
     """Save a case's figure atomically as ``out/name`` and close it; returns the path."""
     import matplotlib.pyplot as plt
 
-    from rheology.io import atomic_savefig
+    from runkit.io import atomic_savefig
 
     path = atomic_savefig(fig, Path(out) / name)
     plt.close(fig)

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rheology.cli_common import one_line
-from rheology.io import atomic_write_json, atomic_write_text, check_output_dir
+from runkit.io import atomic_write_json, atomic_write_text, check_output_dir
 
 from .framework import NOTE, TIERS, Entry, Outcome, fingerprint, load_all, run_entry
 
@@ -352,7 +352,7 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
                  slow: bool = True, resume: bool = False, log=print) -> Report:
     """Run the selected cases (and benchmarks); write ``out/results.json`` and ``report.html``.
 
-    The selection (:func:`plan`), the folder (``rheology.io.check_output_dir``) and, with
+    The selection (:func:`plan`), the folder (``runkit.io.check_output_dir``) and, with
     ``resume``, the earlier report are checked before anything is written or run. Both files are
     rewritten atomically after every entry (``results.json`` first; ``"complete": false`` and
     ``"status": "running"`` until the last entry is done), so a crash, a full disk or a kill loses

@@ -37,7 +37,7 @@ import pandas as pd
 
 from rheology import get_material
 from rheology.fluid import drag_coefficient
-from rheology.io import atomic_write_csv
+from runkit.io import atomic_write_csv
 
 from .. import analytic, plots
 from ..bodies import box

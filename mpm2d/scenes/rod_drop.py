@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from rheology import get_material
-from rheology.io import atomic_write_csv
+from runkit.io import atomic_write_csv
 
 from .. import plots
 from ..bodies import RigidBody, box

@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from rheology import laws
-from rheology.io import atomic_write_csv
+from runkit.io import atomic_write_csv
 
 from .. import analytic, plots
 from ..bodies import box
