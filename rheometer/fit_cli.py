@@ -37,6 +37,9 @@ import pandas as pd
 
 from rheology.cli_common import Number
 
+from .limits import STRESS_MAX
+from .options import about_set, k0
+
 _PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
 
 #: What steady flow curves cannot determine (copied by --transient-from).
@@ -199,7 +202,6 @@ def add_subcommands(sub) -> dict:
     p.add_argument("--no-profile", action="store_true",
                    help="skip the profile-likelihood intervals of phi_j and phi_c")
 
-    from .cli import STRESS_MAX, _k0
 
     p = sub.add_parser(
         "fit-relaxation", help="fit G and K0 to stress relaxation after cessation of steady "
@@ -222,7 +224,7 @@ def add_subcommands(sub) -> dict:
                    help="steady granular shear stress before cessation [Pa] (the measured "
                         "stress less eta0 (1 + 5/2 phi) gdot, negligible when dense): one for "
                         "every curve, or one per curve in order")
-    p.add_argument("--K0", type=_k0(), default=None, help="hold K0 at this value (fit G only)")
+    p.add_argument("--K0", type=k0(), default=None, help="hold K0 at this value (fit G only)")
     p.add_argument("--time-offset", type=Number("--time-offset", -1e9, 1e9, unit="s"),
                    default=None, metavar="SECONDS",
                    help="hold each curve's cessation time at this time on its clock (default: "
@@ -418,12 +420,10 @@ def cmd_fit(args) -> str:
     if fixed:                                # refused as the parameter set, with its range
         from rheology.materials import FIELD_UNITS
 
-        from .cli import _about_set
-
         try:
             start.replace(**fixed)
         except ValueError as exc:
-            raise _about_set(start, fixed, exc, "--set", FIELD_UNITS) from None
+            raise about_set(start, fixed, exc, "--set", FIELD_UNITS) from None
     _once("--free", args.free)
     if "eta0" in (args.free or []):
         raise ValueError("--free eta0: eta0 is estimated from the curves by default; hold it "

@@ -104,7 +104,7 @@ def yield_residual(out):
 
 
 @_jit
-def _step(sig, phi, f, gdot, e, dt, P, sig_out, out):
+def local_step(sig, phi, f, gdot, e, dt, P, sig_out, out):
     """One local update of simple shear with dilation rate e; returns phi at the end of the step."""
     L = np.zeros((3, 3))
     L[0, 1] = gdot
@@ -117,12 +117,12 @@ def _step(sig, phi, f, gdot, e, dt, P, sig_out, out):
 @_jit
 def _pressure_residual(e, sig, phi, f, gdot, dt, p_target, P, sig_out, out):
     """p_{n+1}(e) - p_target after the step with dilation rate e; NaN if the update failed."""
-    _step(sig, phi, f, gdot, e, dt, P, sig_out, out)
+    local_step(sig, phi, f, gdot, e, dt, P, sig_out, out)
     return np.nan if out[12] == FAILED else out[11] - p_target
 
 
 @_jit
-def _pressure_step(sig, phi, f, gdot, e_guess, dt, p_target, K, P, sig_out, out):
+def pressure_step(sig, phi, f, gdot, e_guess, dt, p_target, K, P, sig_out, out):
     """Step with the dilation rate e that gives end pressure p_target; returns (e, ok).
 
     r(e) = p_{n+1}(e) - p_target decreases with e (dilating lowers both the trial pressure and,
@@ -189,11 +189,11 @@ def _advance(sig, phi, f, e, gdot, h, nsub, mode, p_target, K, G, P, sig_out, ou
     elastic = False
     for _ in range(nsub):
         if mode == 0:
-            phi_new = _step(sig_w, phi, f, gdot, 0.0, h, P, sig_out, out)
+            phi_new = local_step(sig_w, phi, f, gdot, 0.0, h, P, sig_out, out)
             if out[12] == FAILED:
                 return UPDATE_FAILED, phi, f, e, q, elastic
         else:
-            e, ok = _pressure_step(sig_w, phi, f, gdot, e, h, p_target, K, P, sig_out, out)
+            e, ok = pressure_step(sig_w, phi, f, gdot, e, h, p_target, K, P, sig_out, out)
             phi_new = phi / (1.0 + e * h)
             if not ok:
                 return PRESSURE_FAILED, phi, f, e, q, elastic

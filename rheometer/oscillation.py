@@ -69,9 +69,11 @@ from sksundae.ida import IDA
 
 import rheology
 from rheology import laws
+from rheology.steady import steady_fold
 from rheology.checks import check_positive, check_range
 
 from . import model
+from .harmonics import elastic_viscous, harmonics
 from .transient import DEFAULT_G, DEFAULT_K0
 
 
@@ -168,8 +170,6 @@ def dst_onset_stress(material, phi: float) -> float:
     Eq. 1). Raises ValueError if the steady curve of ``phi`` has no fold (no DST)."""
     from scipy.optimize import minimize_scalar
 
-    from .program import steady_fold
-
     m = rheology.get_material(material)
     fold = steady_fold(m, phi)
     if fold is None:
@@ -194,24 +194,6 @@ def drive(mode: int, amplitude: float, omega: float, t0: float = 0.0) -> np.ndar
 
 
 # ------------------------------------------------------------------ harmonics
-def harmonics(samples, orders=(1, 3)) -> np.ndarray:
-    """Complex harmonics c_n = (2/N) sum_k s_k exp(-i n 2 pi k/N) of one period sampled at
-    uniform phase 2 pi k/N, k = 0..N-1 (last axis); returns shape (..., len(orders))."""
-    s = np.asarray(samples, dtype=float)
-    N = s.shape[-1]
-    k = np.arange(N)
-    E = np.exp(-1j * 2.0 * np.pi * np.outer(k, np.asarray(orders)) / N)
-    return (2.0 / N) * (s @ E)
-
-
-def elastic_viscous(stress) -> tuple[np.ndarray, np.ndarray]:
-    """Ewoldt's elastic and viscous stresses of a strain-controlled cycle sampled at uniform
-    phase from 0: sigma'(t) = (sigma(t) - sigma(-t))/2, sigma''(t) = (sigma(t) + sigma(-t))/2 [Pa]."""
-    s = np.asarray(stress, dtype=float)
-    mirror = s[(-np.arange(s.size)) % s.size]
-    return 0.5 * (s - mirror), 0.5 * (s + mirror)
-
-
 # ------------------------------------------------------------------ one point
 def _periodic(changes, tol: float) -> bool:
     """Periodic steady state: the last cycle-to-cycle change and its geometric projection

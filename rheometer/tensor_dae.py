@@ -40,7 +40,7 @@ from rheology.local_update import CASE_NAMES, COMPACTION, NOUT, SHEAR_FLOW
 from rheology.materials import KERNEL_FIELDS
 from rheology.numba_cache import guard
 
-from .material_point import _pressure_step, _step, initial_point, point_parameters
+from .material_point import initial_point, local_step, point_parameters, pressure_step
 
 guard(__file__)                          # drop cached kernels if rheology's laws changed
 _jit = nb.njit(cache=True, error_model="numpy")
@@ -143,10 +143,10 @@ def _probe(sig, phi, f, gdot, dt, ctrl, p_target, m, P):
     sig_out = np.empty((3, 3))
     out = np.zeros(NOUT)
     if ctrl == 0:
-        _step(sig, phi, f, gdot, 0.0, dt, P, sig_out, out)
+        local_step(sig, phi, f, gdot, 0.0, dt, P, sig_out, out)
         e = 0.0
     else:
-        e, ok = _pressure_step(sig, phi, f, gdot, 0.0, dt, p_target, m.K, P, sig_out, out)
+        e, ok = pressure_step(sig, phi, f, gdot, 0.0, dt, p_target, m.K, P, sig_out, out)
         if not ok:
             raise RuntimeError("tensor reference: no dilation rate holds the pressure at the start")
     case = int(out[12])

@@ -46,6 +46,7 @@ from rheology.materials import Material
 from rheology.run_end import EndedEarly, RunEnd
 
 from . import limits, model
+from .harmonics import harmonics
 from .model import GAP, GD, GP, NEVENTS, NVAR, STRAIN, TAU
 
 #: Defaults for materials without G or K0 (see module docstring).
@@ -770,8 +771,6 @@ class Rheometer:
         mean_stress_Pa, cycle_change (relative change of c_1 from the cycle before; NaN with one
         cycle). Fewer than one full cycle: only step, control, frequency_Hz, cycles.
         """
-        from .oscillation import harmonics
-
         out = dict(step=index + 1, control=step.control, frequency_Hz=step.frequency,
                    cycles=step.cycles)
         full = int(np.floor(step.cycles * (1 + 1e-12)))

@@ -68,7 +68,6 @@ from rheology.local_update import COMPACTION, ELASTIC, SHEAR_FLOW
 from rheology.numba_cache import guard
 
 from . import kernels
-from .integrate import _Events, _run_ida, ida_failure_message
 from .model import Couette
 
 guard(__file__)                          # drop cached kernels if rheology's laws changed
@@ -304,6 +303,7 @@ class FullLawDAE:
                              "'explicit'")
         self.pb = problem
         self.P = parameters(problem, k4, width)
+        self.k4, self.width = float(self.P[_K4]), float(self.P[_WIDTH])
         n = problem.grid.n
         i_c = np.empty(n, dtype=np.int64)
         i_v = np.full(n + 1, -1, dtype=np.int64)
@@ -371,51 +371,3 @@ class FullLawDAE:
                         self.i_v, self.mt["cg"], self.mt["w"], self.P, self.c_S, self.c_f,
                         self.c_v, self.c_size, diag)
         return yc, diag
-
-
-class _DAEEvents(_Events):
-    """The events of :mod:`shear1d.integrate` evaluated on the converted state."""
-
-    def __init__(self, problem: Couette, dae: FullLawDAE):
-        super().__init__(problem)
-        self.dae = dae
-
-    def values(self, t, y):
-        if len(y) == self.dae.size:
-            y = self.dae.convert(t, y)[0]
-        return super().values(t, y)
-
-
-def solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar, stop_hook,
-              k4=None, width=None):
-    """Integrate with IDA (banded difference-quotient Jacobian, BDF order <= max_order, x
-    algebraic) on the stepping loop of method ``"ida"`` (:func:`shear1d.integrate._run_ida`), so
-    with the same outputs, events, checkpoints and stats as :func:`shear1d.integrate.solve` with
-    ``method="ida"`` (called from there with ``method="dae"``); the outputs and checks see the
-    DAE state converted to the Couette layout (:meth:`FullLawDAE.convert`), and the checkpoint
-    also keeps the DAE state (y, y') a resume restarts from. ``k4`` and ``width`` default to the
-    module's :data:`K4_REG` and :data:`COMPACTION_WIDTH` at call time. Raises ValueError when the
-    checkpoint's DAE state does not fit the grid, RuntimeError with diagnostics (min p included)
-    when IDA fails or a state is unphysical."""
-    dae = FullLawDAE(problem, K4_REG if k4 is None else k4,
-                     COMPACTION_WIDTH if width is None else width)
-    events = _DAEEvents(problem, dae)
-    events.times = outs.events.times
-    outs.events = events
-    if ck is not None and ck["y"].shape != (dae.size,):
-        raise ValueError("--resume: the checkpoint's DAE state does not match this grid")
-
-    def stats(counters):
-        return dict(nfev=int(counters[0]), njev=int(counters[1]), rtol=rtol,
-                    bandwidth=BANDWIDTH, k4=float(dae.P[_K4]), width=float(dae.P[_WIDTH]))
-
-    def failure(sol, t_target):
-        return ida_failure_message(problem, sol, t_target, rtol, dae.convert(sol.t, sol.y)[0],
-                                   solver="IDA (method dae)", with_mode=False,
-                                   extra=f", min p = {sol.y[dae.i_p].min():.6g} Pa")
-
-    return _run_ida(problem, "dae", times, rtol, stop_on, outs, ck, max_step, max_order, bar,
-                    stop_hook, residual=dae.residual, start=dae.initial_state, convert=dae.convert,
-                    options=dict(atol=dae.tolerances(rtol), lband=BANDWIDTH, uband=BANDWIDTH,
-                                 algebraic_idx=dae.algebraic()),
-                    stats=stats, failure=failure)

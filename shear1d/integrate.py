@@ -46,6 +46,7 @@ from runkit.io import CorruptCheckpoint, load_checkpoint, save_checkpoint
 from rheology.run_end import EndedEarly, RunEnd
 
 from . import analysis, kernels
+from . import dae as dae_mod
 from .model import STRESS_COMPONENTS, Couette
 
 METHODS = ("ida", "explicit", "dae")
@@ -566,8 +567,7 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
         bar = _Progress(progress, times[-1], label)
         try:
             if method == "dae":
-                from .dae import solve_dae
-                return solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order,
+                return _solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order,
                                  bar, stop_hook)
             return _solve_ida(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar,
                               stop_hook)
@@ -663,7 +663,7 @@ def _run_ida(problem, method, times, rtol, stop_on, outs, ck, max_step, max_orde
              stop_hook, *, residual, start, convert, options, stats, failure) -> Result:
     """Integrate a DAE ``residual(t, y, yp) = 0`` on SUNDIALS IDA from rest or from a checkpoint,
     recording the outputs: the one stepping loop of methods ``"ida"`` (:func:`_solve_ida`) and
-    ``"dae"`` (:func:`shear1d.dae.solve_dae`).
+    ``"dae"`` (:func:`_solve_dae`).
 
     Starts from ``start()`` (recorded as the output at t = 0) or, when ``ck`` (the checkpoint's
     arrays, read by :meth:`_Outputs.load`) is given, from its last output's solver state ``y``,
@@ -861,3 +861,51 @@ def _solve_explicit(problem, times, dt, lim, stop_on, outs, ck, bar, stop_hook):
     except KeyboardInterrupt:
         raise outs.interrupted(outs.wall_before + time.perf_counter() - wall0) from None
     return _result(problem, "explicit", outs, wall0, stats(steps))
+
+
+class _DAEEvents(_Events):
+    """The events of :mod:`shear1d.integrate` evaluated on the converted state."""
+
+    def __init__(self, problem: Couette, dae: "dae_mod.FullLawDAE"):
+        super().__init__(problem)
+        self.dae = dae
+
+    def values(self, t, y):
+        if len(y) == self.dae.size:
+            y = self.dae.convert(t, y)[0]
+        return super().values(t, y)
+
+
+def _solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar, stop_hook,
+              k4=None, width=None):
+    """Integrate with IDA (banded difference-quotient Jacobian, BDF order <= max_order, x
+    algebraic) on the stepping loop of method ``"ida"`` (:func:`_run_ida`), so
+    with the same outputs, events, checkpoints and stats as :func:`solve` with
+    ``method="ida"`` (called from there with ``method="dae"``); the outputs and checks see the
+    DAE state converted to the Couette layout (:meth:`shear1d.dae.FullLawDAE.convert`), and the checkpoint
+    also keeps the DAE state (y, y') a resume restarts from. ``k4`` and ``width`` default to the
+    module's :data:`shear1d.dae.K4_REG` and :data:`shear1d.dae.COMPACTION_WIDTH` at call time. Raises ValueError when the
+    checkpoint's DAE state does not fit the grid, RuntimeError with diagnostics (min p included)
+    when IDA fails or a state is unphysical."""
+    dae = dae_mod.FullLawDAE(problem, dae_mod.K4_REG if k4 is None else k4,
+                             dae_mod.COMPACTION_WIDTH if width is None else width)
+    events = _DAEEvents(problem, dae)
+    events.times = outs.events.times
+    outs.events = events
+    if ck is not None and ck["y"].shape != (dae.size,):
+        raise ValueError("--resume: the checkpoint's DAE state does not match this grid")
+
+    def stats(counters):
+        return dict(nfev=int(counters[0]), njev=int(counters[1]), rtol=rtol,
+                    bandwidth=dae_mod.BANDWIDTH, k4=dae.k4, width=dae.width)
+
+    def failure(sol, t_target):
+        return ida_failure_message(problem, sol, t_target, rtol, dae.convert(sol.t, sol.y)[0],
+                                   solver="IDA (method dae)", with_mode=False,
+                                   extra=f", min p = {sol.y[dae.i_p].min():.6g} Pa")
+
+    return _run_ida(problem, "dae", times, rtol, stop_on, outs, ck, max_step, max_order, bar,
+                    stop_hook, residual=dae.residual, start=dae.initial_state, convert=dae.convert,
+                    options=dict(atol=dae.tolerances(rtol), lband=dae_mod.BANDWIDTH, uband=dae_mod.BANDWIDTH,
+                                 algebraic_idx=dae.algebraic()),
+                    stats=stats, failure=failure)

@@ -16,23 +16,11 @@ import ast
 import tomllib
 from pathlib import Path
 
-import pytest
-
 ROOT = Path(__file__).resolve().parents[1]
 TIERS = ("rheometer", "shear1d", "mpm2d")
 #: what each top-level package may import of ours (besides itself)
 ALLOWED = {"runkit": (), "rheology": ("runkit",), "validation": None,
            **{t: ("rheology", "runkit") for t in TIERS}}
-
-#: the circles still to cut (MIGRATION.md); a new circle fails test_no_new_circle
-KNOWN_CIRCLES = {
-    frozenset({"rheology.defaults", "rheology.materials"}),
-    frozenset({"rheometer.cli", "rheometer.fit_cli", "rheometer.instrument_cli"}),
-    frozenset({"rheometer.oscillation", "rheometer.program", "rheometer.transient"}),
-    frozenset({"shear1d.dae", "shear1d.integrate"}),
-    frozenset({"shear1d.plots", "shear1d.scenes"}),
-}
-
 
 def modules() -> dict[str, tuple[Path, bool]]:
     """Module name -> (file, is a package) for every package in pyproject.toml."""
@@ -133,7 +121,7 @@ G = graph()
 def test_the_walk_sees_the_package():
     """The walk finds the modules and their imports (a guard against an empty walk)."""
     assert len(G) >= 90
-    assert "rheology.materials" in G["rheology.defaults"]
+    assert "rheology.materials" in G["rheology.steady"]
     inner = sum(inner for e in G.values() for w in e.values() for _, inner in w)
     assert inner > 0                     # imports inside functions are read too
 
@@ -160,15 +148,6 @@ def test_layers():
     assert not bad, "; ".join(bad)
 
 
-def test_no_new_circle():
-    """No circle beyond those MIGRATION.md cuts (KNOWN_CIRCLES)."""
-    new = [_describe(G, c) for c in circles(G) if c not in KNOWN_CIRCLES]
-    assert not new, "new import circle(s): " + " | ".join(new)
-
-
-@pytest.mark.xfail(strict=True, reason="five circles inside packages until the migration "
-                                       "(MIGRATION.md): " + "; ".join(
-                                           " <-> ".join(sorted(c)) for c in KNOWN_CIRCLES))
 def test_no_circles():
     """No two modules import each other, directly or through others."""
     found = circles(G)
@@ -187,7 +166,6 @@ def private_imports(mods=None) -> list[str]:
     return out
 
 
-@pytest.mark.xfail(strict=True, reason="private names imported across modules until the "
-                                       "migration (MIGRATION.md)")
 def test_no_private_name_imported():
+    """No module imports a private name (``_x``) of another."""
     assert not private_imports()

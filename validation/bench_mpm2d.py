@@ -54,7 +54,7 @@ import mpm2d.shape as _shape
 from mpm2d.shape import APIC_D_INV, weights
 from mpm2d.transfer import chunk_bounds
 from rheology import get_material
-from mpm2d.materials import _trial
+from mpm2d.materials import trial_stress
 from rheology.local_update import (BLOCK, NOUT, NSTRESS, NWORK, SHEAR_FLOW, block_finish,
                                    block_handed, block_inv_eta_B, block_newton, block_start,
                                    block_test, kernel_parameters, update_points_serial)
@@ -215,14 +215,14 @@ def sheared_locked(cells: int) -> Simulation:
 @nb.njit(error_model="numpy")
 def _law_upto(stop, stress, L, Lw, phi, f0, g0, dt, P, S, W, fb, gb, cb):
     """The suspension kernel's law on blocks of BLOCK points up to stage ``stop`` (0: the trial
-    in mpm2d's layout, mpm2d.materials._trial; 1-6: update_block's stages in turn), on copies
+    in mpm2d's layout, mpm2d.materials.trial_stress; 1-6: update_block's stages in turn), on copies
     of f and gdot (the inputs are not changed)."""
     N = phi.shape[0]
     G, K = P[16], P[17]
     for lo in range(0, N, BLOCK):
         n = min(lo + BLOCK, N) - lo
         for k in range(n):
-            _trial(stress, L, Lw, lo + k, dt, G, K, S, k)
+            trial_stress(stress, L, Lw, lo + k, dt, G, K, S, k)
             fb[k], gb[k] = f0[lo + k], g0[lo + k]
         ph, f, g, case = phi[lo:lo + n], fb[:n], gb[:n], cb[:n]
         if stop >= 1:

@@ -22,8 +22,8 @@ from shear1d import analysis, kernels  # noqa: E402
 from shear1d.analytic import annular_steady, plane_couette_startup  # noqa: E402
 from shear1d.integrate import solve  # noqa: E402
 from shear1d.model import Couette  # noqa: E402
-from shear1d.scenes import (NULLABLE, annular_shear_jamming, plane_couette,  # noqa: E402
-                            rotation_of, summarize)
+from shear1d.scenes import annular_shear_jamming, plane_couette  # noqa: E402
+from shear1d.summary import NULLABLE, rotation_of, summarize  # noqa: E402
 
 from .framework import Verdict, case  # noqa: E402
 
