@@ -641,9 +641,6 @@ def pressure_figure(cases, params_of, path, t=1.0, t_from=None):
 
 
 # ---------------------------------------------------------------- report
-def _run_params(folder) -> dict:
-    man = json.loads((Path(folder) / "manifest.json").read_text())
-    return man["params"]
 
 
 def report(sim, history, out, params, omega):
