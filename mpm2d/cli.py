@@ -28,7 +28,9 @@ import argparse
 import os
 import sys
 
-from rheology.cli_common import Number, OneLineParser, run_command
+from runkit.command import OneLineParser
+from runkit.command import run as run_command
+from runkit.params import Number
 from rheology.sample import add_mass_fraction_options
 
 

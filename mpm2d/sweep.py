@@ -32,7 +32,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from rheology.cli_common import one_line
+from runkit.command import one_line
 from runkit.io import atomic_write_csv, check_output_dir
 
 #: parameter-name pattern of a case folder (stable across reruns)

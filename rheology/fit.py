@@ -54,7 +54,7 @@ from scipy import stats
 from scipy.optimize import least_squares
 
 from . import laws
-from .checks import check_range
+from runkit.params import check_range
 from .materials import Material, get_material
 from .numba_cache import guard
 from .steady import gdot_dst

@@ -38,7 +38,7 @@ from typing import Callable
 
 import numpy as np
 
-from .checks import check_range
+from runkit.params import check_range
 
 #: Units of every numeric field (SI sets; Table 1 sets use eta0 = gdot_0 = 1 instead).
 FIELD_UNITS: dict[str, str] = {

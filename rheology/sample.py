@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .checks import check_range
-from .cli_common import Number
+from runkit.params import check_range
+from runkit.params import Number
 from .materials import Material
 from .steady import phi_from_mass_fraction
 

@@ -21,7 +21,7 @@ import numpy as np
 from scipy.optimize import elementwise, minimize_scalar
 
 from . import laws
-from .checks import check_nonnegative, check_positive, check_range
+from runkit.params import check_nonnegative, check_positive, check_range
 from .materials import Material, get_material
 
 _TOL = dict(xatol=1e-300, xrtol=4e-16, fatol=0.0, frtol=0.0)

@@ -2,7 +2,7 @@
 
 A program is run phi by phi and step by step (:meth:`rheometer.transient.Rheometer.run`). After
 every completed step, at most every ``every`` seconds of computing, and always on Ctrl-C or
-SIGTERM (which :func:`rheology.cli_common.run_command` turns into ``KeyboardInterrupt``), the
+SIGTERM (which :func:`runkit.command.run` turns into ``KeyboardInterrupt``), the
 checkpoint ``<out>.checkpoint.npz`` is written atomically (:func:`runkit.io.save_checkpoint`,
 which keeps the previous one): the rows of the finished volume fractions, the rows of the
 completed steps of the current one, the exact state (t, taubar, jamming gap, strain) at the end of

@@ -32,7 +32,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from rheology.cli_common import Number, OneLineParser, run_command
+from runkit.command import OneLineParser
+from runkit.command import run as run_command
+from runkit.params import Number
 from rheology.materials import set_argument
 
 #: Upper bounds of the numeric options: rheometer.limits (shared with the program parser).

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from rheology.cli_common import Number
+from runkit.params import Number
 
 from .limits import STRESS_MAX
 from .options import about_set, k0

@@ -55,7 +55,7 @@ import numpy as np
 import pandas as pd
 
 import rheology
-from rheology.checks import check_positive, check_range
+from runkit.params import check_positive, check_range
 from rheology.materials import Material
 
 GEOMETRIES = ("cone-plate", "parallel-plate", "couette")

@@ -15,7 +15,7 @@ command bodies of :mod:`rheometer.cli`, which call four hooks:
   (``<out>_parallel_plate.csv`` and ``.png``);
 - :func:`add_subcommands` (from ``build_parser``): ``rheometer oscillation``.
 
-Every numeric option is a :class:`rheology.cli_common.Number`.
+Every numeric option is a :class:`runkit.params.Number`.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from rheology.cli_common import Number
+from runkit.params import Number
 
 from . import geometry as geo
 from .limits import RATE_MAX, STRESS_MAX

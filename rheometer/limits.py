@@ -7,7 +7,7 @@ more), shear rates <= 1e9 1/s (well past impact and ultrasonic rheometry), times
 cycle is sampled at least 32 times: 3.2e6 rows), strains <= 1e6.
 
 Lower bound of every duration (``--t-end``, material-point's ``--dt``, a program step):
-TIME_MIN = 1e-12 s (rheology.cli_common, shared with shear1d's durations). A picosecond is the molecular relaxation time of the suspending liquid (water
+TIME_MIN = 1e-12 s (runkit.limits, shared with shear1d's durations). A picosecond is the molecular relaxation time of the suspending liquid (water
 ~1 ps): below it the Newtonian fluid of the model, and so the continuum suspension, has no meaning.
 It also keeps IDA well clear of its own limit: IDA refuses a stop time whose products with the
 step underflow, ``(tstop - t)(tout - t) <= 0`` at t = 0, i.e. any duration below ~1.5e-154 s
@@ -34,7 +34,10 @@ with a decade to spare to molten polymers; the paper's sets have 9e-4-1 Pa s (et
 reached a CSV with NaN pressures). G, K, kappa: as --G, (0, STRESS_MAX] Pa.
 """
 
-from rheology.cli_common import TIME_MAX, TIME_MIN, Number
+from runkit import limits as physical
+from runkit.params import Number
+
+TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
 
 STRESS_MAX, RATE_MAX, K0_MAX = 1e12, 1e9, 1e6
 CYCLES_MAX, STRAIN_MAX = 1e5, 1e6

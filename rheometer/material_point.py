@@ -50,7 +50,7 @@ import numpy as np
 import pandas as pd
 
 import rheology
-from rheology.checks import check_nonnegative, check_positive, check_range
+from runkit.params import check_nonnegative, check_positive, check_range
 from rheology.elastic import past_elastic_limit
 from rheology.local_update import (CASE_NAMES, COMPACTION, ELASTIC, FAILED, NOUT, OUT_FIELDS,
                                    SHEAR_FLOW, update_point)

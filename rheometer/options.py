@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 
 import rheology
-from rheology.checks import valid_interval
-from rheology.cli_common import Number
+from runkit.params import valid_interval
+from runkit.params import Number
 from rheology.materials import FIELD_UNITS, default_fraction, default_fractions, set_argument
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit.io import check_output_path

@@ -70,7 +70,7 @@ from sksundae.ida import IDA
 import rheology
 from rheology import laws
 from rheology.steady import steady_fold
-from rheology.checks import check_positive, check_range
+from runkit.params import check_positive, check_range
 
 from . import model
 from .harmonics import elastic_viscous, harmonics

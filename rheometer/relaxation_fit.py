@@ -166,7 +166,7 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
     RuntimeError
         The model fails at the start values (its diagnostics).
     """
-    from rheology.checks import check_range
+    from runkit.params import check_range
 
     from .material_point import K_OVER_G
 

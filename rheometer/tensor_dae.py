@@ -35,7 +35,7 @@ from sksundae.ida import IDA
 
 import rheology
 from rheology import laws
-from rheology.checks import check_positive
+from runkit.params import check_positive
 from rheology.local_update import CASE_NAMES, COMPACTION, NOUT, SHEAR_FLOW
 from rheology.materials import KERNEL_FIELDS
 from rheology.numba_cache import guard

@@ -39,7 +39,7 @@ from sksundae.ida import IDA
 
 import rheology
 from rheology import laws
-from rheology.checks import check_nonnegative, check_positive, check_range
+from runkit.params import check_nonnegative, check_positive, check_range
 from rheology.elastic import (ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress,
                               past_elastic_limit)
 from rheology.materials import Material

@@ -188,6 +188,53 @@ class Option:
         return f"Option({self.name!r}, {self.param.range_text(static=True)})"
 
 
+class Number(Option):
+    """The :class:`Option` of a number in a static range, declared in place: ``Number("--t-end",
+    0, None, lo_closed=False)``. ``shown_range``: for an option whose bounds depend on the run
+    (checked once it is known), the range the parse-time message states (``lo = hi = None``)."""
+
+    def __init__(self, name: str, lo=None, hi=None, *, integer: bool = False,
+                 lo_closed: bool = True, hi_closed: bool = True, unit: str = "",
+                 shown_range: str = ""):
+        if shown_range and (lo is not None or hi is not None):
+            raise ValueError(f"{name}: shown_range is for bounds checked later (lo = hi = None)")
+        super().__init__(name, Param(None if lo is None else Bound(lo, lo_closed),
+                                     None if hi is None else Bound(hi, hi_closed), unit=unit,
+                                     kind="integer" if integer else "number"))
+        self.lo, self.hi, self.lo_closed, self.hi_closed = lo, hi, lo_closed, hi_closed
+        self.integer, self.unit, self.shown_range = integer, unit, shown_range
+
+    @property
+    def range_text(self) -> str:
+        if self.shown_range:
+            return self.shown_range + (f" {self.unit}" if self.unit else "")
+        return self.param.range_text(static=True)
+
+    def contains(self, x: float) -> bool:
+        """Whether ``x`` (a float) is a valid value."""
+        return (math.isfinite(x) and not (self.integer and x != int(x))
+                and self.param._outside(x, None, True) is None)
+
+    def check(self, value):
+        """``value`` as int or float, or ValueError naming the option."""
+        if not self.shown_range:
+            return self.param.check(self.name, value, static=True)
+        try:
+            return self.param.check(self.name, value, static=True)
+        except ValueError as exc:
+            raise ValueError(str(exc).replace(self.param.range_text(static=True),
+                                              self.range_text)) from None
+
+    def __call__(self, text):
+        try:
+            return self.check(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    def __repr__(self):
+        return f"Number({self.name!r}, {self.range_text})"
+
+
 def check_range(name: str, value, lo=None, hi=None, *, lo_closed=True, hi_closed=True,
                 note: str = "") -> np.ndarray:
     """``value`` (a number or an array) as a float array, every element finite and in range;
@@ -207,6 +254,16 @@ def check_range(name: str, value, lo=None, hi=None, *, lo_closed=True, hi_closed
     if np.any(bad):
         p.check(name, float(np.ravel(arr[bad] if arr.ndim else arr)[0]))   # raises
     return arr
+
+
+def check_positive(name: str, value, note: str = "") -> np.ndarray:
+    """:func:`check_range` for ``value > 0``."""
+    return check_range(name, value, 0.0, None, lo_closed=False, note=note)
+
+
+def check_nonnegative(name: str, value, note: str = "") -> np.ndarray:
+    """:func:`check_range` for ``value >= 0``."""
+    return check_range(name, value, 0.0, None, note=note)
 
 
 # ---------------------------------------------------------------- the valid range at the others
@@ -245,6 +302,8 @@ def valid_interval(ok: Callable[[float], bool], x0: float, lo=None, hi=None) -> 
         edge = float(f"{b:.6g}")
         if not min(g, b) <= edge <= max(g, b):
             edge = float(f"{g:.6g}")
+        if abs(edge) <= sys.float_info.min:            # a bound on the subnormals: at 0
+            edge = 0.0
         out += [edge, ok(edge)]
     return tuple(out)
 

@@ -23,8 +23,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rheology.cli_common import TIME_MAX, TIME_MIN, Number, OneLineParser, run_command
+from runkit.command import OneLineParser
+from runkit.command import run as run_command
+from runkit import limits as physical
+from runkit.params import Number
 from rheology.sample import add_mass_fraction_options
+
+TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
 
 #: Size bounds of --cells and --outputs (a memory estimate is checked as well, before the run).
 #: The explicit method's cost grows as cells^2 (hours at 20000). The grain size bounds the cells

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from rheology import f_jam
-from rheology.checks import check_positive, check_range
+from runkit.params import check_positive, check_range
 from rheology.elastic import past_elastic_limit
 from rheology.flow_rule import invariants
 from runkit.io import CorruptCheckpoint, load_checkpoint, save_checkpoint
@@ -495,7 +495,7 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
         ``.npz`` checkpoint (:func:`runkit.io.save_checkpoint`, the previous one kept as
         ``.prev.npz``) written at an output at most every ``checkpoint_every`` seconds of wall
         time, at the end, and when the run is interrupted (KeyboardInterrupt: Ctrl-C, or SIGTERM
-        under :func:`rheology.cli_common.run_command`); the interrupt is re-raised with a message
+        under :func:`runkit.command.run`); the interrupt is re-raised with a message
         naming the checkpoint.
     resume : bool
         Continue from ``checkpoint`` (ValueError if there is none or it belongs to another run;

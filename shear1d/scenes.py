@@ -27,8 +27,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import rheology
-from rheology.checks import check_memory, check_positive, check_range
-from rheology.cli_common import TIME_MAX, TIME_MIN
+from runkit.limits import check_memory
+from runkit.params import check_positive, check_range
+from runkit import limits as physical
 from runkit.io import atomic_write_csv, atomic_write_json, check_output_dir, previous_checkpoint
 from rheology.run_end import EndedEarly, run_record
 
@@ -39,6 +40,8 @@ from .integrate import (METHODS, Result, check_time_step, memory_estimate,
 from .model import Couette
 from .summary import (FRONT_EMPTY_OK, NULLABLE, SceneRun, couette_frames, couette_profile_outputs,
                       fields_frame, front_frame, jammed, profile_frames, run_tag, summarize)
+
+TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
 
 R_INNER = 12.5e-3
 R_OUTER = 36e-3
@@ -60,7 +63,7 @@ def annular_shear_jamming(u_inner: float = 0.084, *, n_cells: int = 200, mode: s
     ------
     ValueError
         A parameter out of its range, or a t_end outside the durations of every tier
-        [TIME_MIN, TIME_MAX] (rheology.cli_common: 1 ps to 30 years), naming u_inner and rotation
+        [TIME_MIN, TIME_MAX] (runkit.limits: 1 ps to 30 years), naming u_inner and rotation
         with their ranges at the other's value (u_inner = 1e-300 asked for 3.9e297 s and failed
         in the law; rotation = 1e-300 ran 1.5e-301 s and wrote its files).
     """

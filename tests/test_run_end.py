@@ -193,7 +193,8 @@ def test_material_point_ends_at_the_step_before_the_limit(tmp_path, monkeypatch,
 
 
 def test_run_command_statuses():
-    from rheology.cli_common import FAILED, run_command
+    from runkit.command import FAILED
+    from runkit.command import run as run_command
 
     end = RunEnd("validity_limit", "x past it", 1.0, "elastic strain taubar/G", 0.2, 0.1, 2.0)
 

@@ -12,7 +12,7 @@ import sys
 import pandas as pd
 import pytest
 
-from rheology.cli_common import Number
+from runkit.params import Number
 from shear1d.cli import _parser, main
 
 
@@ -155,7 +155,7 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, args, word
 
 
 def test_a_run_too_large_for_memory_is_refused_with_its_estimate(tmp_path, capsys, monkeypatch):
-    import rheology.checks as checks
+    import runkit.limits as checks
 
     monkeypatch.setattr(checks, "available_memory", lambda: 2e9)
     out = tmp_path / "big"
@@ -306,7 +306,7 @@ def test_sundials_error_lines_stay_off_stdout(tmp_path, monkeypatch, capsys):
 def test_sundials_filter_passes_every_other_line():
     import io as _io
 
-    from rheology.cli_common import SundialsFilter as _SundialsFilter
+    from runkit.command import SundialsFilter as _SundialsFilter
 
     buf = _io.StringIO()
     f = _SundialsFilter(buf)

@@ -21,7 +21,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rheology.cli_common import OneLineParser, run_command
+from runkit.command import OneLineParser
+from runkit.command import run as run_command
 
 _QUICK_HELP = ("small sizes (as in the test suite). Cases marked slow (their criteria hold at "
                "full size only; 'list' marks them) are skipped and listed as skipped in the "

@@ -400,7 +400,7 @@ def taichi_elastic_rate(cells: int, steps: int, reps: int = 3):
     (rate, note); rate None when Taichi is not installed.
     """
     # Taichi wraps every kernel call with a print-buffer flush when sys.stdout is not the
-    # console's own (it is a filter under rheology.cli_common.run_command): a per-call cost
+    # console's own (it is a filter under runkit.command.run): a per-call cost
     # that is not Taichi's speed (seen: 6.6 instead of 11-13 M point-steps/s). Our kernels
     # do not print, so the buffer is off.
     os.environ.setdefault("TI_ENABLE_PYBUF", "0")

@@ -24,7 +24,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from rheology.cli_common import one_line
+from runkit.command import one_line
 from runkit.io import atomic_write_json, atomic_write_text, check_output_dir
 
 from .framework import NOTE, TIERS, Entry, Outcome, fingerprint, load_all, run_entry

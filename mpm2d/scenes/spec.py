@@ -34,8 +34,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rheology.checks import check_memory, valid_interval
-from rheology.cli_common import Number
+from runkit.limits import check_memory
+from runkit.params import valid_interval
+from runkit.params import Number
 
 #: memory estimate: bytes per material point (kinematic arrays ~40 float64, material state,
 #: the output copies of a snapshot and the permutation copies of a sort) and per grid node (per
@@ -115,7 +116,7 @@ class Param:
         return callable(self.lo) or callable(self.hi)
 
     def number(self, name: str, params: dict | None = None) -> Number:
-        """The :class:`~rheology.cli_common.Number` of this parameter (bounds resolved against
+        """The :class:`~runkit.params.Number` of this parameter (bounds resolved against
         ``params`` where they are derived; unresolved derived bounds are left open)."""
         lo = _resolve(self.lo, params) if (params is not None or not callable(self.lo)) else None
         hi = _resolve(self.hi, params) if (params is not None or not callable(self.hi)) else None
