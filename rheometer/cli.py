@@ -174,7 +174,7 @@ def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=No
 
     plot = plot_path(args)
     ends = list(df.attrs.get("ends") or []) if record else []
-    table, empty_ok = finish_table(args, df, EMPTY_OK)   # issue 15: instrument, mass, units
+    table, empty_ok = finish_table(args, df, EMPTY_OK)   # instrument, mass, units
     atomic_write_csv(args.out, table, empty_ok=empty_ok)
     written = [args.out]
     msg = f"wrote {args.out} ({len(df)} rows)"

@@ -1,4 +1,4 @@
-"""The instrument's words on the ``rheometer`` command line (issue 15), kept apart from the
+"""The instrument's words on the ``rheometer`` command line, kept apart from the
 command bodies of :mod:`rheometer.cli`, which call four hooks:
 
 - :func:`add_instrument_options` (from ``common_options``): ``--geometry cone-plate|parallel-plate|couette``

@@ -243,7 +243,7 @@ def sample_material(args):
         raise ValueError(f"--set {twice[0]} given twice; give each parameter once")
     overrides = dict(args.set or [])
     m = material_with(args.material, overrides)
-    resolve_sample(args, m)        # issue 15: --phi default per material, --mass-fraction, geometry
+    resolve_sample(args, m)        # --phi default per material, --mass-fraction, geometry
     return m
 
 
@@ -275,7 +275,7 @@ def common_options(p, phi_count, out_default):
     p.add_argument("--plot", default=None, metavar="FILE.png",
                    help=f"figure (default: the --out name with .png, {out_default}.png; 'none' "
                         f"for no figure)")
-    add_instrument_options(p)      # issue 15: --geometry and dimensions, --mass-fraction
+    add_instrument_options(p)      # --geometry and dimensions, --mass-fraction
 
 
 def modulus(name):

@@ -327,7 +327,7 @@ def column_case(out: Path, quick: bool) -> Verdict:
         passed=ok, figures=[out / "column.png"])
 
 
-# ---------------------------------------------------------------- issue 10: contact, axis, rest
+# ---------------------------------------------------------------- contact, axis, rest
 def _block_on_floor(h, gap=0.0, theta=0.0, mu=0.0, v0=0.0, geostatic=False):
     from mpm2d import Grid, LinearElastic, ParticleSet, RigidBody, Simulation, box
     g0, rho, nu = 9.81, 1000.0, 0.3
@@ -526,7 +526,7 @@ def _axis_bed(mode, h, nx, nz, axi=True):
 def axis_rest_case(out: Path, quick: bool) -> Verdict:
     """Every cell row held to 0.5 %, the free-surface rows included.
 
-    Measure (the issue's "equal rho g depth in every cell"): per cell, the mean over its points
+    Measure ("equal rho g depth in every cell"): per cell, the mean over its points
     of (field - rho g d_p)/(rho g d_p). Also reported: the cell-mean field against rho g times
     the cell-mean depth (``max_cell_mean_field_error``), which weighs the shallow points less.
     Before the well-balanced body force (mpm2d.shape.hydrostatic_coefficient) the top cell row

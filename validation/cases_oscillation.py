@@ -1,4 +1,4 @@
-"""Validation of the rheometer's oscillation and measuring geometries (issue 15).
+"""Validation of the rheometer's oscillation and measuring geometries.
 
 - ``oscillation_linear_limit``: small-amplitude G'(omega), G''(omega) from the time-domain
   periodic state against the linearised Maxwell-type G*(omega) derived in
@@ -8,7 +8,7 @@
   stiffens) at the amplitude where the peak stress first crosses the DST onset stress.
 - ``parallel_plate_weissenberg_rabinowitsch``: the apparent parallel-plate flow curve (radial
   integration of the local steady state) against the true one, and the correction recovering it.
-- benchmark ``oscillation_amplitude_sweep``: one 20-point amplitude sweep (issue target < 2 s),
+- benchmark ``oscillation_amplitude_sweep``: one 20-point amplitude sweep (target < 2 s),
   with its ratio to a reference run in the same process.
 
 Choices: G = 1e4 Pa and K0 = 1 (the transient defaults; the steady fits give none); 1 Hz; the

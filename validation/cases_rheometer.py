@@ -126,7 +126,7 @@ def fig15_relaxation(out: Path, quick: bool) -> Verdict:
                  f"t(1/e) vs K0 {', '.join(f'{x:.3g} s' for x in tK)}; max rise "
                  f"{worst_rise:.1e}; end {worst_end:.1e}; f in bounds {f_ok}",
         passed=bool(passed), figures=[png],
-        details=f"eta/G at K0 = 0, G = 1e4 Pa: {eta / 1e4:.4g} s. From the issue's example "
+        details=f"eta/G at K0 = 0, G = 1e4 Pa: {eta / 1e4:.4g} s. From the example "
                 f"(taubar0 = 10 Pa) the relaxation time is eta/G = {eta10 / 1e4 * 1e3:.3g} ms: "
                 f"tens of seconds need stresses near the DST limit.")
 

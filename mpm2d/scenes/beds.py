@@ -3,8 +3,9 @@
 ``mode="locked mixture"``: one set ``bed`` of the suspension law with the undrained pore pressure
 (grains and fluid move together); ``mode="two-phase"``: the granular set ``bed`` and a Newtonian
 ``fluid`` set on the same points, coupled by Beetstra drag (Table 8). Which mode a scene needs
-follows from its drainage time L^2/c_v against its duration (DESIGN.md section 5; each scene's
-docstring gives the numbers).
+follows from its consolidation time L^2/c_v, c_v = k/(eta0 (1/M + (1 - phi)/kappa)) with the
+Darcy permeability k = (1 - phi) d^2/(18 phi F) (Beetstra F) and M = K + 4G/3, against its
+duration (Terzaghi's consolidation; the numbers per scene: docs/measurements.md).
 """
 
 from __future__ import annotations

@@ -141,7 +141,7 @@ def _declare(estimate, **params):
     """:func:`mpm2d.scenes.spec.parameters_of` for a scene with a parameter named ``size``.
 
     ``parameters_of(size=..., **params)`` takes the memory estimate under the keyword ``size``,
-    so a scene parameter of that name (the issue's ``--set size=fig4``) cannot be declared
+    so a scene parameter of that name (``--set size=fig4``) cannot be declared
     through it; this builds the same :class:`~mpm2d.scenes.spec.SceneSpec` and validating
     wrapper (same checks: the declaration and the signature name the same parameters, every
     parameter has a default)."""
@@ -649,7 +649,7 @@ def front_figure(front, z, s):
 
 # ---------------------------------------------------------------- sweeps (Fig. 5)
 def sweep_report(table, out) -> list:
-    """All speeds together: ``out/rod.csv``, ``out/front.csv`` (the issue's columns, every
+    """All speeds together: ``out/rod.csv``, ``out/front.csv`` (the same columns, every
     case), ``out/rod.png`` (Fig. 5), ``out/speeds.csv`` (per v0: peak deceleration, late
     velocity, k, R^2) and ``out/summary.json`` (with the log-log slope of the peak deceleration
     against v0 and whether it grows monotonically)."""

@@ -87,7 +87,7 @@ START_X = 0.25
 VECTOR_SCALE = 1.215
 #: the surface contour of Figs. 8-9 (grid volume fraction)
 SURFACE_PHI = 0.1
-#: check (issue 13): the fast wheel's hub stays within this fraction of R of its start height
+#: check: the fast wheel's hub stays within this fraction of R of its start height
 #: (while it advances at least R): 0.8 R is the hub centre's start height above the undisturbed
 #: surface (0.81-0.83 R, resting on two spoke tips), i.e. the hub never goes below the surface it
 #: started on; a wheel whose hub sinks below the surface is not "running along" it
@@ -307,7 +307,7 @@ def _surface(params) -> float:
 
 
 def checks(results: dict, R: float) -> dict:
-    """The issue's checks from the per-omega results (keys: omega strings)."""
+    """The running-on-oobleck checks from the per-omega results (keys: omega strings)."""
     out = {"fast_band_over_R": FAST_BAND, "sink_ratio_required": SINK_RATIO}
     fast, slow = results.get(_omega_key(10.0)), results.get(_omega_key(1.0))
     if fast is not None:
