@@ -34,7 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from runkit.limits import check_memory
+from runkit import limits
+from runkit.limits import Bound, check_memory
 from runkit.params import valid_interval
 from runkit.params import Number
 
@@ -87,6 +88,8 @@ class Param:
     fill : callable(params) -> value, optional
         The value an optional parameter left at ``None`` takes (the scene's choice from the
         others); its derived bounds are checked on that value.
+    lo_why, hi_why : str
+        The physical reason of a static bound (:mod:`runkit.limits`), printed with a refusal.
     """
 
     lo: float | Callable | None = None
@@ -103,6 +106,8 @@ class Param:
     material_of: str | None = None
     fraction_of: Callable | None = None
     fill: Callable | None = None
+    lo_why: str = ""
+    hi_why: str = ""
 
     @property
     def kind(self) -> str:
@@ -183,7 +188,13 @@ class Param:
         if isinstance(value, bool) or not (isinstance(value, str) or _is_real(value)):
             kind = "an integer" if self.integer else "a number"
             raise ValueError(f"{name} = {value!r} is not {kind}; valid range {static.range_text}")
-        return static.check(value.strip() if isinstance(value, str) else value)
+        try:
+            return static.check(value.strip() if isinstance(value, str) else value)
+        except ValueError as exc:
+            x = float(value) if _is_real(value) else _as_float(value)
+            why = self.lo_why if static.lo is not None and x <= static.lo else self.hi_why
+            raise ValueError(f"{exc} ({why})" if why and "outside" in str(exc) else str(exc)) \
+                from None
 
     def check_derived(self, name: str, value, params: dict):
         """Check ``value`` (``None``: its ``fill``) against the bounds resolved at ``params``
@@ -197,6 +208,13 @@ class Param:
         except ValueError as exc:
             note = self.note_text(params)
             raise ValueError(f"{exc}{f' ({note})' if note else ''}") from None
+
+
+def _as_float(text) -> float:
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return math.nan
 
 
 def _is_real(value) -> bool:
@@ -508,12 +526,22 @@ def count(lo, hi, doc=""):
     return Param(lo, hi, integer=True, doc=doc)
 
 
-def modulus(doc="", hi=1e12):
-    return positive(hi, "Pa", doc)
+def physical(lo: Bound, hi: Bound, unit: str, doc: str = "") -> Param:
+    """A number between two physical limits of :mod:`runkit.limits`, with their reasons."""
+    return Param(lo.value, hi.value, lo_closed=lo.closed, hi_closed=hi.closed, unit=unit,
+                 doc=doc, lo_why=lo.why, hi_why=hi.why)
 
 
-def density(doc="", hi=1e5):
-    return positive(hi, "kg/m^3", doc)
+def modulus(doc=""):
+    return physical(limits.MODULUS_MIN, limits.MODULUS_MAX, "Pa", doc)
+
+
+def density(doc=""):
+    return physical(limits.DENSITY_MIN, limits.DENSITY_MAX, "kg/m^3", doc)
+
+
+def grain_size(doc="grain diameter (sets the drag)"):
+    return physical(limits.GRAIN_MIN, limits.GRAIN_MAX, "m", doc)
 
 
 def cfl(doc="safety factor of the stable step"):
@@ -528,10 +556,9 @@ def flip_alpha():
     return Param(0.0, 1.0, doc="FLIP fraction of the FLIP/PIC blend (transfer=flip)")
 
 
-def gravity(hi=1000.0):
-    """Gravity of a scene whose bed starts at rest under it (mpm2d.geostatic): > 0."""
-    return Param(0.0, hi, lo_closed=False, unit="m/s^2",
-                 doc="gravitational acceleration (downwards; the bed rests under it)")
+def gravity(doc="gravitational acceleration (downwards; the bed rests under it)"):
+    """Gravity of a scene whose bed starts at rest under it (mpm2d.geostatic)."""
+    return physical(limits.GRAVITY_MIN, limits.GRAVITY_MAX, "m/s^2", doc)
 
 
 def rules() -> Param:
