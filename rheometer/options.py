@@ -15,11 +15,12 @@ from runkit.params import valid_interval
 from runkit.params import Number
 from rheology.materials import FIELD_UNITS, default_fraction, default_fractions, set_argument
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
+from runkit import limits as physical
 from runkit.io import check_output_path
 
 from . import geometry as geo
 from . import limits
-from .limits import K0_MAX, STRESS_MAX
+from .limits import K0_MAX
 
 DEFAULT_MATERIAL = "hermes2016"
 
@@ -279,7 +280,7 @@ def common_options(p, phi_count, out_default):
 
 
 def modulus(name):
-    return Number(name, 0.0, STRESS_MAX, lo_closed=False, unit="Pa")
+    return Number(name, physical.MODULUS_MIN, physical.MODULUS_MAX, unit="Pa")
 
 
 def k0():

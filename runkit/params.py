@@ -190,7 +190,8 @@ class Option:
 
 class Number(Option):
     """The :class:`Option` of a number in a static range, declared in place: ``Number("--t-end",
-    0, None, lo_closed=False)``. ``shown_range``: for an option whose bounds depend on the run
+    0, None, lo_closed=False)``; a bound may be a :class:`~runkit.limits.Bound` (its reason is
+    printed with a refusal). ``shown_range``: for an option whose bounds depend on the run
     (checked once it is known), the range the parse-time message states (``lo = hi = None``)."""
 
     def __init__(self, name: str, lo=None, hi=None, *, integer: bool = False,
@@ -198,10 +199,11 @@ class Number(Option):
                  shown_range: str = ""):
         if shown_range and (lo is not None or hi is not None):
             raise ValueError(f"{name}: shown_range is for bounds checked later (lo = hi = None)")
-        super().__init__(name, Param(None if lo is None else Bound(lo, lo_closed),
-                                     None if hi is None else Bound(hi, hi_closed), unit=unit,
-                                     kind="integer" if integer else "number"))
-        self.lo, self.hi, self.lo_closed, self.hi_closed = lo, hi, lo_closed, hi_closed
+        lo, hi = (b if b is None or isinstance(b, Bound) else Bound(b, c)
+                  for b, c in ((lo, lo_closed), (hi, hi_closed)))
+        super().__init__(name, Param(lo, hi, unit=unit, kind="integer" if integer else "number"))
+        self.lo, self.hi = (None if b is None else b.value for b in (lo, hi))
+        self.lo_closed, self.hi_closed = (b is None or b.closed for b in (lo, hi))
         self.integer, self.unit, self.shown_range = integer, unit, shown_range
 
     @property

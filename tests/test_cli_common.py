@@ -49,8 +49,8 @@ def _run(argv, tmp_path, monkeypatch, capsys):
 
 
 @pytest.mark.parametrize("argv, match", [
-    (["rheometer", "relax", "--G", "-1e4"], "--G = -1e4 is outside the valid range (0, 1e+12] Pa"),
-    (["rheometer", "relax", "--G", "-inf"], "--G = -inf: must be finite; valid range (0, 1e+12]"),
+    (["rheometer", "relax", "--G", "-1e4"], "--G = -1e4 is outside the valid range [1, 1e+12] Pa"),
+    (["rheometer", "relax", "--G", "-inf"], "--G = -inf: must be finite; valid range [1, 1e+12]"),
     (["rheometer", "startup", "--rate", "-1e-3"], "--rate = -1e-3 is outside the valid range"),
     (["rheometer", "flow-curve", "--phi", "0.5", "-1e-2"], "--phi = -1e-2 is outside"),
     (["rheometer", "relax", "--phi", "-nan"], "--phi = -nan: must be finite"),
