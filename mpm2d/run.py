@@ -53,11 +53,11 @@ import pandas as pd
 
 from runkit.io import (atomic_write_csv, check_output_dir, load_checkpoint,
                          previous_checkpoint, save_checkpoint)
+from runkit.run import Progress
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
 from . import estimate
 from .output import write_frame, write_manifest, write_pvds
-from .progress import Progress
 from .scenes.spec import shown_value
 from .simulation import Simulation
 

@@ -107,52 +107,80 @@ class HeldWarnings:
             warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
 
-class Progress:
-    """Progress of the simulated time ``t0 .. t_end`` [s] on ``stream`` (stderr): a tqdm bar on
-    a terminal; else one plain line every ``every`` wall seconds (and at the end). The postfix:
-    the step and the wall time per step since the start (or the resume)."""
+def _clock(seconds: float) -> str:
+    s = int(round(max(seconds, 0.0)))
+    h, m = divmod(s, 3600)
+    m, s = divmod(m, 60)
+    return f"{h}:{m:02d}:{s:02d}" if h else f"{m}:{s:02d}"
 
-    def __init__(self, t0: float, t_end: float, *, step0: int = 0, label: str = "",
-                 stream=None, enabled: bool = True, every: float = 30.0):
-        self.t0, self.t_end, self.step0, self.label = float(t0), float(t_end), int(step0), label
-        self.stream = stream or sys.stderr
-        self.enabled, self.every = enabled, float(every)
-        self.start = self.last = time.perf_counter()
-        self.t, self.step, self.bar = self.t0, self.step0, None
-        if enabled and getattr(self.stream, "isatty", lambda: False)():
-            self.bar = tqdm(total=max(self.t_end - self.t0, 0.0), file=self.stream, leave=True,
-                            desc=label or None, dynamic_ncols=True, mininterval=0.5,
+
+class Progress:
+    """Progress over the simulated time ``t0 .. t_end`` [s] of a run on ``stream`` (stderr).
+
+    On a terminal a tqdm bar redraws in place (refreshed every ``interval`` wall s); otherwise
+    (a log file, a pipe, a batch job) plain lines, one at most every ``every`` wall seconds and
+    one at the end, each complete on its own (no carriage returns, no bar characters)::
+
+        intruder: 25.2% t = 0.005043/0.02 s, step 4428, 15 ms/step, 1:06 elapsed, ~3:16 left
+
+    The wall time per step counts from the start (or the resume); the time left extrapolates
+    the simulated time per wall second so far.
+    """
+
+    def __init__(self, t0: float, t_end: float, step0: int = 0, *, stream=None,
+                 interval: float = 0.5, label: str = "", every: float = 30.0):
+        self.t0, self.t_end, self.step0 = float(t0), float(t_end), int(step0)
+        self.stream, self.label = stream or sys.stderr, label or "run"
+        self.start = time.perf_counter()
+        self.t, self.step, self.done, self.every = self.t0, self.step0, 0.0, float(every)
+        self.next_line = self.start + self.every
+        self.bar = None
+        if getattr(self.stream, "isatty", lambda: False)():
+            self.bar = tqdm(total=max(self.t_end - self.t0, 0.0), initial=0.0, file=self.stream,
+                            desc=self.label, unit="s(sim)", dynamic_ncols=True,
+                            mininterval=interval, leave=True,
                             bar_format="{desc}: {percentage:5.1f}%|{bar}| "
                                        "[{elapsed}<{remaining}{postfix}]")
+            self.bar.set_postfix_str(self._postfix(self.t0, self.step0), refresh=False)
 
-    def text(self) -> str:
-        per = (time.perf_counter() - self.start) / max(self.step - self.step0, 1)
-        return f"t = {self.t:.4g}/{self.t_end:.4g} s, step {self.step}, {per * 1e3:.3g} ms/step"
+    def _postfix(self, t: float, step: int) -> str:
+        per = (time.perf_counter() - self.start) / max(step - self.step0, 1)
+        return f"t = {t:.4g}/{self.t_end:.4g} s, step {step}, {per * 1e3:.3g} ms/step"
+
+    def line(self, t: float, step: int) -> str:
+        """The plain progress line at simulated time ``t`` [s], step ``step``."""
+        frac = min(max((t - self.t0) / max(self.t_end - self.t0, 1e-300), 0.0), 1.0)
+        wall = time.perf_counter() - self.start
+        left = wall * (1.0 - frac) / frac if frac > 0 else math.nan
+        tail = f", ~{_clock(left)} left" if frac < 1.0 and left == left else ""
+        return (f"{self.label}: {100 * frac:5.1f}% {self._postfix(t, step)}, "
+                f"{_clock(wall)} elapsed{tail}")
 
     def update(self, t: float, step: int | None = None) -> None:
-        if not self.enabled:
-            return
-        done = min(max(t - self.t0, 0.0), max(self.t_end - self.t0, 0.0))
+        """Advance to simulated time ``t`` [s] at step ``step``."""
         self.t, self.step = float(t), self.step if step is None else int(step)
-        if self.bar is not None:
-            self.bar.set_postfix_str(self.text(), refresh=False)
-            self.bar.update(done - self.bar.n)
-        elif time.perf_counter() - self.last >= self.every:
-            self.last = time.perf_counter()
-            frac = done / (self.t_end - self.t0) if self.t_end > self.t0 else 1.0
-            left = ((time.perf_counter() - self.start) * (1 / frac - 1) if frac > 0
-                    else math.inf)
-            eta = f", {left:.0f} s left" if math.isfinite(left) else ""
-            print(f"{self.label or 'run'}: {100 * frac:5.1f}% {self.text()}{eta}",
-                  file=self.stream, flush=True)
+        if self.bar is None:
+            now = time.perf_counter()
+            if now >= self.next_line:
+                self.next_line = now + self.every
+                print(self.line(self.t, self.step), file=self.stream, flush=True)
+            return
+        target = min(max(self.t - self.t0, 0.0), self.bar.total)
+        if target > self.done:
+            self.done = target
+            self.bar.set_postfix_str(self._postfix(self.t, self.step), refresh=False)
+            self.bar.update(target - self.bar.n)
 
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.set_postfix_str(self.text(), refresh=False)
-            self.bar.close()
-        elif self.enabled:
-            self.last = -math.inf
-            self.update(self.t, self.step)
+    def close(self, t: float | None = None, step: int | None = None) -> None:
+        """The last line (or the bar's last state)."""
+        t, step = self.t if t is None else float(t), self.step if step is None else int(step)
+        if self.bar is None:
+            print(self.line(t, step), file=self.stream, flush=True)
+            return
+        self.update(t, step)
+        self.bar.set_postfix_str(self._postfix(t, step), refresh=False)
+        self.bar.refresh()
+        self.bar.close()
 
 
 class Checkpoint:
