@@ -44,6 +44,7 @@ from rheology.elastic import past_elastic_limit
 from rheology.flow_rule import invariants
 from runkit.io import CorruptCheckpoint, load_checkpoint, save_checkpoint
 from rheology.run_end import EndedEarly, RunEnd
+from runkit.ida import IDAFailed, Solver
 
 from . import analysis, kernels
 from . import dae as dae_mod
@@ -53,7 +54,6 @@ METHODS = ("ida", "explicit", "dae")
 EVENTS = ("front_at_wall", "flow_stopped")
 #: flow_stopped fires when the bulk speed (analysis.bulk_speed) falls below this fraction of u_wall.
 FLOW_STOP_LEVEL = 0.1
-_IDA_ROOT_RETURN = 2
 
 
 @dataclass
@@ -179,25 +179,9 @@ class _Events:
                          - (g.inner + analysis.WALL_FRACTION * g.gap),
                          analysis.bulk_speed(g, st["v"], u) - FLOW_STOP_LEVEL])
 
-    def ida_function(self):
-        def eventsfn(t, y, yp, events):
-            events[:] = self.values(t, y)
-        eventsfn.terminal = [False, False]
-        eventsfn.direction = list(self.directions)
-        return eventsfn
-
-    def record_roots(self, sol, seen: int) -> tuple[int, list[str]]:
-        """Record the roots IDA has reported since the first ``seen`` (IDA keeps them all);
-        returns the new count and the names of the events that fired."""
-        te = np.atleast_1d(sol.t_events) if sol.t_events is not None else []
-        ie = np.atleast_2d(sol.i_events) if sol.i_events is not None else []
-        fired = []
-        for k in range(seen, len(te)):
-            for i, name in enumerate(EVENTS):
-                if ie[k][i] != 0:
-                    self.times[name].append(float(te[k]))
-                    fired.append(name)
-        return len(te), fired
+    def ida_events(self, t, y, yp, out) -> None:
+        """The root functions as IDA takes them (:class:`runkit.ida.Solver`)."""
+        out[:] = self.values(t, y)
 
     def sample(self, t: float, y: np.ndarray) -> list[str]:
         """Record crossings between the previous sample and (t, y) (explicit scheme)."""
@@ -727,8 +711,6 @@ def _run_ida(problem, method, times, rtol, stop_on, outs, ck, max_step, max_orde
         Interrupted; the checkpoint is saved and the message says where
         (:meth:`_Outputs.interrupted`).
     """
-    from sksundae.ida import IDA
-
     wall0 = time.perf_counter()
     events = outs.events
     if ck is None:
@@ -744,34 +726,34 @@ def _run_ida(problem, method, times, rtol, stop_on, outs, ck, max_step, max_orde
             return _resumed_finished(ck, _result(problem, method, outs, wall0, stats(base)))
     t0 = outs.t_last
     i_next = int(np.searchsorted(times, t0, side="right"))
-    opts = dict(rtol=rtol, linsolver="band", max_num_steps=500000, max_step=max_step,
-                max_order=max_order, **options)
+    opts = dict(options)
     if events.active:
-        opts.update(eventsfn=events.ida_function(), num_events=len(EVENTS))
-    solver = IDA(residual, **opts)
-    solver.init_step(t0, y0, yp0)
+        opts.update(events=events.ida_events, names=EVENTS, direction=events.directions)
+    solver = Solver(residual, rtol=rtol, atol=opts.pop("atol"), linsolver="band",
+                    max_num_steps=500000, max_step=max_step, max_order=max_order, **opts)
+    solver.start(t0, y0, yp0)
     bar.to(t0)
-    seen, stopped, end = 0, False, None
+    stopped, end = False, None
     counters = base.copy()
     try:
         for t_target in times[i_next:]:
-            while True:
-                try:
-                    sol = solver.step(float(t_target))
-                except RuntimeError as exc:      # the law failed inside a residual
-                    end = RunEnd("law_failure", f"{' '.join(str(exc).split())} (in IDA's "
-                                                f"residual, stepping to t = {t_target:.6g} s)")
-                    break
+            try:
+                sol, fired = solver.advance(float(t_target), stop_on=stop_on)
+            except IDAFailed as exc:
+                sol = exc.sol
                 counters = base + np.array([sol.nfev, sol.njev, 0.0])
-                if sol.status == _IDA_ROOT_RETURN:
-                    seen, fired = events.record_roots(sol, seen)
-                    stopped = stopped or any(name in stop_on for name in fired)
-                    if stopped:
-                        break
-                    continue
-                if not sol.success:
-                    end = RunEnd("solver_failure", failure(sol, t_target), past_s=float(sol.t))
-                break
+                said = f" [SUNDIALS: {exc.printed.lstrip('[')[:300]}]" if exc.printed else ""
+                end = RunEnd("solver_failure", failure(sol, t_target) + said, past_s=exc.t)
+                fired = []
+            except RuntimeError as exc:          # the law failed inside a residual
+                end = RunEnd("law_failure", f"{' '.join(str(exc).split())} (in IDA's "
+                                            f"residual, stepping to t = {t_target:.6g} s)")
+                fired = []
+            else:
+                counters = base + np.array([sol.nfev, sol.njev, 0.0])
+            for t_root, name, _ in fired:
+                events.times[name].append(t_root)
+                stopped = stopped or name in stop_on
             if end is None:
                 t_now = float(sol.t)
                 yc, diag = convert(t_now, sol.y)

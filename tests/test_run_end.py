@@ -353,13 +353,11 @@ def test_shear1d_ida_failure_at_the_first_output_fails_and_leaves_nothing(tmp_pa
                                                                           monkeypatch):
     """IDA allowed 5 steps cannot reach the first output: nothing to keep, so the run fails
     (exit 1, IDA's diagnostics) and leaves no folder, no checkpoint."""
-    import sksundae.ida
-
+    import runkit.ida
     from shear1d.cli import main
 
-    real = sksundae.ida.IDA
-    monkeypatch.setattr(sksundae.ida, "IDA", lambda *a, **k: real(*a, **{**k,
-                                                                         "max_num_steps": 5}))
+    real = runkit.ida.IDA
+    monkeypatch.setattr(runkit.ida, "IDA", lambda *a, **k: real(*a, **{**k, "max_num_steps": 5}))
     out = tmp_path / "c"
     assert main(COUETTE[:-3] + ["--quiet", "--out", str(out)]) == 1
     err = capsys.readouterr().err.strip().splitlines()

@@ -285,14 +285,14 @@ def test_ramp_time_bound_is_the_rotation_time_of_the_fastest_speed():
 def test_sundials_error_lines_stay_off_stdout(tmp_path, monkeypatch, capsys):
     """Fault 10: sksundae prints SUNDIALS' errors on stdout ('[IDASolve, Error: -22] ...'). They
     are kept off it and the failure's one line (exit 1) carries their words."""
-    import sksundae.ida
+    import runkit.ida
 
-    real = sksundae.ida.IDA
+    real = runkit.ida.IDA
 
     def few_steps(*a, **kw):                      # IDA gives up after 3 steps: a real failure
         kw["max_num_steps"] = 3
         return real(*a, **kw)
-    monkeypatch.setattr(sksundae.ida, "IDA", few_steps)
+    monkeypatch.setattr(runkit.ida, "IDA", few_steps)
     rc = main(["couette", "--speed", "0.01", "--cells", "4", "--time", "0.2", "--outputs", "2",
                "--quiet", "--out", str(tmp_path / "o")])
     cap = capsys.readouterr()
