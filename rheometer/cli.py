@@ -29,19 +29,33 @@ import math
 import sys
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+import rheology
+from rheology.elastic import ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress
+from rheology.materials import set_argument
+from rheology.run_end import EndedEarly, run_record
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
+from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, check_output_path,
+                       previous_checkpoint)
 from runkit.params import Number
-from rheology.materials import set_argument
 
-#: Upper bounds of the numeric options: rheometer.limits (shared with the program parser).
-from . import limits  # noqa: E402
-from .limits import RATE_MAX, STRESS_MAX, TIME_MAX  # noqa: E402
-from .options import (common_options, k0, modulus, plot_path,  # noqa: E402
-                      sample_material, t_end_option, transient_options)
+from . import instrument_cli, limits, plots
+from .checkpoint import ProgramCheckpoint
+from .fit_cli import add_subcommands
+from .instrument_cli import extra_outputs, finish_table, materials_note
+from .limits import RATE_MAX, STRESS_MAX, TIME_MAX
+from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP, simple_shear_point
+from .options import (common_options, k0, modulus, plot_path, sample_material, t_end_option,
+                      transient_options)
+from .plots import mark_ends, normalise_units
+from .program import hysteresis_program, parse_program
+from .protocols import creep, flow_curve, relax, startup
+from .transient import DEFAULT_G
+
 _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
            "skeleton; 'mixture shear stress' = granular + eta0 (1 + 5/2 phi) gdot is what a "
            "rheometer measures. G [Pa] and K0 default to the material's values, else G = 1e4 Pa "
@@ -149,9 +163,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale (default 1)")
     p.add_argument("--points", type=Number("--points", 1, 10 ** 7, integer=True), default=400,
                    help="output rows (400)")
-    from .fit_cli import add_subcommands          # 'read' and 'fit' (rheometer/fit_cli.py)
     _COMMANDS.update(add_subcommands(sub))
-    from . import instrument_cli                  # 'oscillation' (rheometer/instrument_cli.py)
     _COMMANDS.update(instrument_cli.add_subcommands(sub))
     return ap
 
@@ -167,11 +179,6 @@ def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=No
     ``<out>.json`` (rheology.run_end: status and the ends in ``df.attrs["ends"]``, those in
     ``marked``, default all, marked on the figure); a run that ended early is then raised by
     :func:`main` after the message (exit status 3)."""
-    from runkit.io import atomic_savefig, atomic_write_csv, atomic_write_json
-    from rheology.run_end import EndedEarly, run_record
-
-    from .instrument_cli import extra_outputs, finish_table
-
     plot = plot_path(args)
     ends = list(df.attrs.get("ends") or []) if record else []
     table, empty_ok = finish_table(args, df, EMPTY_OK)   # instrument, mass, units
@@ -179,10 +186,6 @@ def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=No
     written = [args.out]
     msg = f"wrote {args.out} ({len(df)} rows)"
     if plot is not None:
-        import matplotlib.pyplot as plt
-
-        from .plots import mark_ends, normalise_units
-
         fig = fig_maker()
         mark_ends(fig, ends if marked is None else marked)
         m = getattr(args, "_material_obj", None)
@@ -216,8 +219,6 @@ def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=No
 def _per_phi(args, run) -> pd.DataFrame:
     """``run(phi)`` at every --phi, concatenated; a run that ends early keeps its rows up to the
     end (rheology.run_end), its end in ``attrs["ends"]``; RuntimeError when no run has a row."""
-    from rheology.run_end import EndedEarly
-
     frames, ends = [], []
     for ph in args.phi:
         try:
@@ -238,11 +239,7 @@ def _per_phi(args, run) -> pd.DataFrame:
 
 
 def _cmd_materials(args) -> str:
-    import rheology
-
     if args.out:
-        from runkit.io import check_output_path
-
         check_output_path("--out", args.out, ["csv"])
     if args.material is not None:
         print(sample_material(args).summary())
@@ -253,11 +250,8 @@ def _cmd_materials(args) -> str:
     width = max(len(n) for n, _ in rows)
     for name, cite in rows:
         print(f"{name:{width}s}  {cite}")
-    from .instrument_cli import materials_note
     print(materials_note())
     if args.out:
-        from runkit.io import atomic_write_csv
-
         table = pd.DataFrame([{"name": n, "citation": c, **{
             k: getattr(rheology.get_material(n), k) for k in rheology.materials.FIELD_UNITS}}
             for n, c in rows])
@@ -267,9 +261,6 @@ def _cmd_materials(args) -> str:
 
 
 def _cmd_flow_curve(args) -> str:
-    from . import plots
-    from .protocols import flow_curve
-
     plot_path(args)
     m = sample_material(args)
     n = int(args.points)
@@ -307,10 +298,6 @@ def _check_relax_stress(args, m) -> None:
     """``relax --stress`` starts from a steady state at that granular stress: its elastic strain
     stress/G is known before the run; past the small-strain limit (rheology.elastic) the run is
     refused here (exit 2) rather than failed by the solver's check (exit 1)."""
-    from rheology.elastic import ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress
-
-    from .transient import DEFAULT_G
-
     G = args.G if args.G is not None else (m.G or DEFAULT_G)
     top = elastic_strain_limit_stress(G)
     if args.stress > top * (1.0 + 1e-12):
@@ -323,9 +310,6 @@ def _check_relax_stress(args, m) -> None:
 
 
 def _transient(args, kind: str) -> str:
-    from . import plots
-    from .protocols import creep, relax, startup
-
     plot_path(args)
     m = sample_material(args)
     opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True)
@@ -369,10 +353,6 @@ def read_program_file(name: str) -> tuple[str, str]:
 
 
 def _cmd_program(args) -> str:
-    from . import plots
-    from .checkpoint import ProgramCheckpoint
-    from .program import hysteresis_program, parse_program
-
     plot_path(args)
     m = sample_material(args)
     if args.file is None:
@@ -409,8 +389,6 @@ def _load_checkpoint(ck) -> Path:
     """Load ``ck`` for --resume (its fallback notice on stderr) and return the file actually
     read: runkit.io.load_checkpoint falls back to the previous checkpoint NAME.prev.npz when
     NAME.npz is corrupt (and says so through ``log``) or absent (silently)."""
-    from runkit.io import previous_checkpoint
-
     prev = previous_checkpoint(ck.path)
     used = [prev if not ck.path.is_file() and prev.is_file() else ck.path]
 
@@ -424,9 +402,6 @@ def _load_checkpoint(ck) -> Path:
 
 
 def _cmd_material_point(args) -> str:
-    from . import plots
-    from .material_point import simple_shear_point
-
     plot_path(args)
     # options another choice makes irrelevant are refused, not ignored
     if args.control == "volume" and args.pressure is not None:
@@ -454,8 +429,7 @@ def _check_update_count(rate: float, t_end: float, dt: float) -> None:
     longer than --t-end. Two limits: the steps, set by --t-end / --dt (a longer --dt or a
     shorter --t-end helps), and the strain per update, set by --rate x --t-end (no --dt helps:
     a lower --rate or a shorter --t-end). ValueError with the valid values of each option."""
-    from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP as x
-
+    x = STRAIN_PER_SUBSTEP
     if dt > t_end:
         raise ValueError(f"--dt = {dt:g} s is outside the valid range [{limits.TIME_MIN:g}, "
                          f"{t_end:g}] s: the "

@@ -22,13 +22,21 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
+import rheology
+from rheology.elastic import ELASTIC_STRAIN_LIMIT
+from rheology.run_end import EndedEarly, run_record
+from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, check_finite,
+                       check_output_path)
 from runkit.params import Number
 
 from . import geometry as geo
-from .limits import RATE_MAX, STRESS_MAX
+from . import oscillation as osc
+from . import plots
+from .limits import FREQUENCY_MIN, RATE_MAX, STRESS_MAX
 from .options import common_options, k0, modulus, plot_path, sample_material
 
 def _phi_column(df: pd.DataFrame) -> str | None:
@@ -103,10 +111,6 @@ def extra_outputs(args, df: pd.DataFrame, plot=None) -> str:
             msg += (" (the sample is taken homogeneous at the rim rate: the radial integration "
                     "is done for steady flow curves)")
         if g.kind == "parallel-plate" and getattr(args, "cmd", "") == "flow-curve":
-            from runkit.io import atomic_savefig, atomic_write_csv
-
-            from . import plots
-
             base = Path(args.out)
             csv = base.with_name(base.stem + "_parallel_plate.csv")
             pp = pd.concat([geo.parallel_plate_flow_curve(m, float(ph), g) for ph in args.phi],
@@ -114,8 +118,6 @@ def extra_outputs(args, df: pd.DataFrame, plot=None) -> str:
             atomic_write_csv(csv, geo.normalise_columns(pp, m))
             msg += f"\nwrote {csv} ({len(pp)} rows: true, apparent and corrected rim stress)"
             if plot is not None:
-                import matplotlib.pyplot as plt
-
                 png = base.with_name(base.stem + "_parallel_plate.png")
                 fig = plots.parallel_plate_figure(pp, df, f"{m.name}: {g.describe()}")
                 try:
@@ -128,8 +130,6 @@ def extra_outputs(args, df: pd.DataFrame, plot=None) -> str:
 
 def materials_note() -> str:
     """The default-fraction rule and each material's defaults (for ``rheometer materials``)."""
-    import rheology
-
     lines = [f"Defaults ({geo.DEFAULT_RULE}):"]
     for name in rheology.materials.material_names():
         m = rheology.get_material(name)
@@ -143,9 +143,6 @@ def materials_note() -> str:
 # ------------------------------------------------------------------ rheometer oscillation
 def add_subcommands(sub) -> dict:
     """Add ``oscillation`` to the ``rheometer`` subparsers; return its command function."""
-    from . import oscillation as osc
-    from .limits import FREQUENCY_MIN
-
     p = sub.add_parser(
         "oscillation", help="oscillatory shear: amplitude and frequency sweeps (G', G'', I3/I1, "
                             "Lissajous curves)",
@@ -193,14 +190,6 @@ def add_subcommands(sub) -> dict:
 
 
 def _cmd_oscillation(args) -> str:
-    from rheology.elastic import ELASTIC_STRAIN_LIMIT
-    from runkit.io import atomic_savefig, atomic_write_csv, atomic_write_json, check_finite
-    from runkit.io import check_output_path
-    from rheology.run_end import EndedEarly, run_record
-
-    from . import oscillation as osc
-    from . import plots
-
     plot = plot_path(args)
     base = Path(args.out)
     waves_csv = base.with_name(base.stem + "_waveforms.csv")
@@ -247,8 +236,6 @@ def _cmd_oscillation(args) -> str:
     msg = f"wrote {args.out} ({len(table)} points) and {waves_csv} ({len(wtable)} rows)"
     past = points[points["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT]
     if plot is not None:
-        import matplotlib.pyplot as plt
-
         dst = None
         if len(args.phi) == 1:
             try:

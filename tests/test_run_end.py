@@ -21,10 +21,14 @@ TAU_LIMIT = ELASTIC_STRAIN_LIMIT * G
 
 @pytest.fixture
 def figures(monkeypatch):
-    """The figures the commands save (runkit.io.atomic_savefig, also as shear1d.plots'), by
+    """The figures the commands save (runkit.io.atomic_savefig, wherever it is imported), by
     file name: per axes its lines' (x, y) data and its texts."""
+    import sys
+
+    import mpm2d.cli  # noqa: F401  (every command's modules, imported)
+    import rheometer.cli  # noqa: F401
     import runkit.io
-    import shear1d.plots
+    import shear1d.cli  # noqa: F401
 
     saved, real = {}, runkit.io.atomic_savefig
 
@@ -33,8 +37,10 @@ def figures(monkeypatch):
                                    [t.get_text() for t in ax.texts]) for ax in fig.axes]
         return real(fig, path, **kw)
 
-    monkeypatch.setattr(runkit.io, "atomic_savefig", keep)
-    monkeypatch.setattr(shear1d.plots, "atomic_savefig", keep)
+    for name, mod in list(sys.modules.items()):         # every module that imported it
+        if name.split(".")[0] in ("runkit", "rheometer", "shear1d", "mpm2d") and getattr(
+                mod, "atomic_savefig", None) is real:
+            monkeypatch.setattr(mod, "atomic_savefig", keep)
     return saved
 
 
@@ -332,7 +338,9 @@ def test_mpm2d_run_whose_step_fails_ends_there_with_its_history(tmp_path, capsys
         return sc
 
     setup.spec = bar.setup.spec
-    monkeypatch.setattr(mpm2d.scenes, "get_setup", lambda name: setup)
+    import mpm2d.cli
+
+    monkeypatch.setattr(mpm2d.cli, "get_setup", lambda name: setup)
     out = tmp_path / "run"
     assert main(argv + ["--out", str(out)]) == ENDED_EARLY
     err = [line for line in capsys.readouterr().err.splitlines() if line]
