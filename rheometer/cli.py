@@ -29,7 +29,7 @@ import math
 import sys
 from pathlib import Path
 
-import matplotlib.pyplot as plt
+from runkit.plotting import plt
 import numpy as np
 import pandas as pd
 

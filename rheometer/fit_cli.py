@@ -33,8 +33,7 @@ import hashlib
 import warnings
 from pathlib import Path
 
-import matplotlib
-import matplotlib.pyplot as plt
+from runkit.plotting import plt
 import numpy as np
 import pandas as pd
 
@@ -512,8 +511,6 @@ def _legend(ax, **kw):
 def write_figures(out: Path, data, res) -> list[str]:
     """The fit's figures (data vs model per phi, residuals, stages 1-3 as Figs. 11-13). The
     stage figures show each stage's own values and, dashed, the final (stage 4) ones."""
-    matplotlib.use("Agg")
-
     m = res.material
     phis = data.curve_phi()
     colours = plt.cm.viridis(np.linspace(0, 0.9, data.n_curves))
@@ -719,8 +716,6 @@ def cmd_fit_relaxation(args) -> str:
 
 def relaxation_figure(out: Path, res) -> str:
     """relaxation.png: data and model against the time after cessation (log-log), residuals."""
-    matplotlib.use("Agg")
-
     fig, ax = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True, constrained_layout=True,
                            gridspec_kw={"height_ratios": [3, 1]})
     colours = plt.cm.viridis(np.linspace(0, 0.85, len(res.curves)))

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib.pyplot as plt
+from runkit.plotting import plt
 import numpy as np
 import pandas as pd
 

@@ -169,3 +169,17 @@ def private_imports(mods=None) -> list[str]:
 def test_no_private_name_imported():
     """No module imports a private name (``_x``) of another."""
     assert not private_imports()
+
+
+def test_matplotlib_backend_is_set_once():
+    """Only runkit.plotting calls ``matplotlib.use`` (the Agg backend, set once); every module
+    that draws imports ``plt`` from it. validation.cases_intruder (its owner's branch) is the
+    one module still to move."""
+    setters = []
+    for name, (path, _) in modules().items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+                    and node.func.attr == "use" and isinstance(node.func.value, ast.Name)
+                    and node.func.value.id == "matplotlib"):
+                setters.append(name)
+    assert sorted(set(setters) - {"validation.cases_intruder"}) == ["runkit.plotting"], setters

@@ -14,10 +14,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+from runkit.plotting import plt
 import numpy as np
 from scipy.optimize import brentq
 

@@ -8,10 +8,7 @@ import os
 import time
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 
 from runkit.io import atomic_savefig  # noqa: E402

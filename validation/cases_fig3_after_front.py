@@ -26,10 +26,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 
 from rheology import f_jam  # noqa: E402

@@ -10,10 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 

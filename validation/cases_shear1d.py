@@ -9,10 +9,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 

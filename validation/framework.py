@@ -44,7 +44,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Callable
 
-from runkit.io import strict_json
+from runkit.io import atomic_savefig, strict_json
+from runkit.plotting import plt
 
 
 @dataclass
@@ -131,10 +132,6 @@ def benchmark(tier: str, name: str, title: str):
 
 def save_figure(fig, out, name: str) -> Path:
     """Save a case's figure atomically as ``out/name`` and close it; returns the path."""
-    import matplotlib.pyplot as plt
-
-    from runkit.io import atomic_savefig
-
     path = atomic_savefig(fig, Path(out) / name)
     plt.close(fig)
     return path
