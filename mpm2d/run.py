@@ -40,7 +40,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import signal
 import threading
 import time
 import warnings
@@ -53,7 +52,7 @@ import pandas as pd
 
 from runkit.io import (atomic_write_csv, check_output_dir, load_checkpoint,
                          previous_checkpoint, save_checkpoint)
-from runkit.run import Progress
+from runkit.run import Interrupts, Progress
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
 from . import estimate
@@ -166,40 +165,6 @@ def coerce(params: dict, setup: Callable) -> dict:
         One line naming the parameter, its value and the valid range (or an unknown key).
     """
     return spec_of(setup).coerce(dict(params))
-
-
-class _DeferredSignals:
-    """SIGINT/SIGTERM recorded instead of raised while a step runs (main thread only).
-
-    Nested windows (a run whose report runs sub-runs, the wheel's other omegas) share what they
-    record: a signal that came while the outer run finished its last files stops the sub-run at
-    its first step, and one recorded by a sub-run is the outer run's too."""
-
-    _open: list = []
-
-    def __init__(self):
-        self.pending = None
-        self._old = {}
-
-    def __enter__(self):
-        if self._open:
-            self.pending = self._open[-1].pending
-        self._open.append(self)
-        if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                self._old[sig] = signal.signal(sig, self._record)
-        return self
-
-    def _record(self, signum, frame):
-        self.pending = signal.Signals(signum).name
-
-    def __exit__(self, *exc):
-        for sig, old in self._old.items():
-            signal.signal(sig, old)
-        self._open.remove(self)
-        if self._open and self.pending:
-            self._open[-1].pending = self.pending
-        return False
 
 
 def _first_step(scene) -> tuple[float, float, int]:
@@ -776,7 +741,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                           or ckpt_path.with_name("checkpoint.prev.npz").exists()):
         log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "
             "replaces it (--resume continues it instead)")
-    with _DeferredSignals() as stop:         # from here on, a signal stops between steps
+    with Interrupts() as stop:         # from here on, a signal stops between steps
         out.mkdir(parents=True, exist_ok=True)
         for f in _remove_stale_temporaries(out):
             log(f"removed {f}, a temporary file of an interrupted write")
