@@ -52,7 +52,8 @@ import pandas as pd
 
 from runkit.io import (atomic_write_csv, check_output_dir, load_checkpoint,
                          previous_checkpoint, save_checkpoint)
-from runkit.run import Interrupts, Progress
+from runkit.limits import MAX_STEPS
+from runkit.run import TEMPORARY, Interrupts, Progress
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
 from . import estimate
@@ -60,12 +61,6 @@ from .output import write_frame, write_manifest, write_pvds
 from .scenes.spec import shown_value
 from .simulation import Simulation
 
-#: temporary files of an atomic write (``.NAME.XXXXXXXX.suffix``) left by a killed run
-_TEMP = re.compile(r"^\..+\.[a-z0-9_]{8}\.(npz|tmp|vtu|pvd|png|csv|json)$")
-#: a run whose first stable step would need more steps than this to reach t_end is refused
-#: (a cfl of 1e-300 or a t_end of years: it would never end; 1e8 steps of the smallest scene
-#: take about a day on one core)
-MAX_STEPS = 1e8
 
 
 @dataclass
@@ -404,7 +399,7 @@ def _remove_stale_temporaries(out: Path) -> list[str]:
     for folder in (out, out / "frames", out / "vtk"):
         if folder.is_dir():
             for f in folder.iterdir():
-                if f.is_file() and _TEMP.match(f.name):
+                if f.is_file() and TEMPORARY.match(f.name):
                     f.unlink()
                     gone.append(str(f.relative_to(out)))
     return gone
@@ -446,7 +441,7 @@ def _is_empty(out: Path) -> bool:
     for f in out.iterdir():
         if f.is_dir() and f.name in ("frames", "vtk") and not any(f.iterdir()):
             continue
-        if f.is_file() and _TEMP.match(f.name):
+        if f.is_file() and TEMPORARY.match(f.name):
             continue
         return False
     return True

@@ -24,8 +24,6 @@ from .limits import K0_MAX
 
 DEFAULT_MATERIAL = "hermes2016"
 
-#: Largest dimension accepted [m].
-LENGTH_MAX = 10.0
 
 
 # ------------------------------------------------------------------ options
@@ -35,7 +33,7 @@ def add_instrument_options(p) -> None:
                              "rate by the standard conversions)")
     g.add_argument("--geometry", choices=geo.GEOMETRIES, default=None,
                    help="cone-plate | parallel-plate | couette (default: none, sample values only)")
-    length = lambda name: Number(name, 0.0, LENGTH_MAX, lo_closed=False, unit="m")  # noqa: E731
+    length = lambda name: Number(name, 0.0, physical.LENGTH_MAX, lo_closed=False, unit="m")  # noqa: E731
     d = geo.DEFAULTS
     g.add_argument("--cone-angle", type=Number("--cone-angle", 0.0, 10.0, lo_closed=False,
                                                unit="deg"), default=None,
@@ -108,7 +106,7 @@ def _about_dimension(kind: str, dims: dict, exc: Exception) -> ValueError:
         if v is None:
             continue
         x0 = geo.DEFAULTS[_DEFAULT_KEY.get((kind, key), key)]
-        static = Number(f"--{key.replace('_', '-')}", 0.0, limit.get(key, LENGTH_MAX),
+        static = Number(f"--{key.replace('_', '-')}", 0.0, limit.get(key, physical.LENGTH_MAX.value),
                         lo_closed=False, unit="deg" if key == "cone_angle" else "m")
 
         def ok(x, key=key, static=static):

@@ -42,6 +42,8 @@ from .summary import (FRONT_EMPTY_OK, NULLABLE, SceneRun, couette_frames, couett
                       fields_frame, front_frame, jammed, profile_frames, run_tag, summarize)
 
 TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
+#: largest explicit run accepted, in cell-steps (about 3 hours at ~1e8 cell-steps per second)
+MAX_CELL_STEPS = physical.MAX_CELL_STEPS
 
 R_INNER = 12.5e-3
 R_OUTER = 36e-3
@@ -111,9 +113,6 @@ def write_run(out: Path, run: SceneRun) -> list[Path]:
     return paths
 
 
-#: Largest explicit run accepted, in cell-steps (cells x steps): about 3 hours at the ~1e8
-#: cell-steps per second of the explicit kernel; longer runs are refused with the estimate.
-MAX_CELL_STEPS = 1e12
 
 
 def precheck(problem: Couette, method: str, rtol: float, dt: float | None,
