@@ -115,7 +115,7 @@ def _clock(seconds: float) -> str:
 
 
 class Progress:
-    """Progress over the simulated time ``t0 .. t_end`` [s] of a run on ``stream`` (stderr).
+    """Progress over the simulated time from ``t0`` to ``t_end`` [s] of a run (on stderr).
 
     On a terminal a tqdm bar redraws in place (refreshed every ``interval`` wall s); otherwise
     (a log file, a pipe, a batch job) plain lines, one at most every ``every`` wall seconds and

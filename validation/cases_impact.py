@@ -350,7 +350,7 @@ def step_convergence(out: Path, quick: bool) -> Verdict:
 # ---------------------------------------------------------------- drained or undrained
 def drainage_numbers(material: str = "rod_impact", phi: float = 0.47,
                      lengths=(0.01, 0.02, 0.05)) -> dict:
-    """The drained/undrained time scale (Terzaghi's consolidation time) for the impact set.
+    """The drained/undrained time scale (drainage time L^2/c_v) for the impact set.
 
     k = (1 - phi) d^2/(18 phi F) (Beetstra F at Re = 0), c_v = k/(eta0 (1/M + (1 - phi)/kappa))
     with M = K + 4G/3; t_L = L^2/c_v for each plug length L [m]."""

@@ -77,7 +77,7 @@ class BenchResult:
         The measured table (one dict per row). A value undefined by construction is ``None``
         (or NaN) with its reason in the row's ``<column>_note`` key or in ``notes``.
     targets : list of (target, measured, met)
-        Each target of the case with its measured value and whether it is met.
+        Each target with its measured value and whether it is met.
     figures : list of Path
     notes : dict of str to str
         Column -> why its values are null where they are (for every row of the table).

@@ -3,9 +3,8 @@
 ``mode="locked mixture"``: one set ``bed`` of the suspension law with the undrained pore pressure
 (grains and fluid move together); ``mode="two-phase"``: the granular set ``bed`` and a Newtonian
 ``fluid`` set on the same points, coupled by Beetstra drag (Table 8). Which mode a scene needs
-follows from its consolidation time L^2/c_v, c_v = k/(eta0 (1/M + (1 - phi)/kappa)) with the
-Darcy permeability k = (1 - phi) d^2/(18 phi F) (Beetstra F) and M = K + 4G/3, against its
-duration (Terzaghi's consolidation; the numbers per scene: docs/measurements.md).
+follows from its drainage time L^2/c_v (c_v the consolidation coefficient of the jammed skeleton
+and the pore fluid) against its duration; each scene's docstring gives the numbers.
 """
 
 from __future__ import annotations

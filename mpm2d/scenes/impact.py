@@ -13,10 +13,11 @@ K = 8.3e7 Pa, K0 = 1; d = 5.85 um, K3 = 4.715, K4 = 0; kappa = K (the paper give
 modulus). The rod is a free rigid body (mass, gravity, axial translation) meeting the bed through
 multi-velocity-field contact (mpm2d.contact), solved implicitly with the rod's velocity:
 ``M dV/dt = -M g + F_contact``. Default mode: the locked mixture (one velocity field, undrained
-pore pressure: the consolidation time L^2/c_v of the plug exceeds the run, docs/measurements.md);
+pore pressure: the drainage time L^2/c_v of the plug exceeds the run, docs/measurements.md);
 ``mode=two-phase`` runs grains and fluid on two fields with implicit Beetstra drag.
 
 Choices where the paper is silent:
+
 - ``size=fig4``: container radius 10 cm, depth 10 cm on the paper's 100 x 120 grid at 1 mm,
   ``rod_impact``, v0 = 1.0 m/s, 60 ms; ``size=fig5``: radius 15 cm, depth 20.5 cm on the
   paper's 150 x 225 grid, ``rod_impact_1cp``, 60 ms (speeds by ``mpm2d sweep impact --set
@@ -56,8 +57,7 @@ v_m_per_s, a_m_per_s2), ``rod_raw.csv`` (time_s, z_m, force_N, a_raw_m_per_s2), 
 ``rod.png`` (Fig. 5) and ``front.png``; a sweep over v0 writes them for all speeds together
 (``sweep_report``) with ``speeds.csv``.
 
-Run: ``mpm2d run impact --out impact`` (mode: locked mixture)
-"""
+Run: ``mpm2d run impact --out impact`` (locked mixture)."""
 
 from __future__ import annotations
 

@@ -5,7 +5,8 @@ cornstarch bed; fast (omega = 10 1/s) it runs along the surface, slow (omega = 1
 Equations: plane-strain MPM. The bed is the Table 8 law (rheology.local_update) with the Table 7
 parameter set ``wheel`` on the Hermes 2016 steady fit (eta0 = 1 mPa s, rho_s = rho_f = 1620
 kg/m^3, G = 3.8e5 Pa, K = 8.3e5 Pa, K0 = 1; d = 5.85 um, K3 = 4.715, K4 = 0; kappa = K) as a
-LOCKED MIXTURE (one velocity field, undrained pore pressure: docs/measurements.md). The wheel is
+LOCKED MIXTURE (one velocity field, undrained pore pressure: the drainage time L^2/c_v against
+the run's duration, docs/measurements.md). The wheel is
 a rigid body whose angular velocity is prescribed (-omega: clockwise, driving to +x, from t = 0)
 and whose translation is free (mass, gravity, contact; mpm2d.bodies), meeting the bed through
 mpm2d.contact (no slip mu_w = inf, free separation); ``spokes=elastic`` makes the spokes
@@ -307,7 +308,7 @@ def _surface(params) -> float:
 
 
 def checks(results: dict, R: float) -> dict:
-    """The running-on-oobleck checks from the per-omega results (keys: omega strings)."""
+    """The run-or-sink checks of Figs. 8-9 from the per-omega results (keys: omega strings)."""
     out = {"fast_band_over_R": FAST_BAND, "sink_ratio_required": SINK_RATIO}
     fast, slow = results.get(_omega_key(10.0)), results.get(_omega_key(1.0))
     if fast is not None:
