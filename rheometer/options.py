@@ -171,10 +171,10 @@ def material_with(name, overrides: dict, option: str = "--set"):
     """``rheology.get_material(name, **overrides)`` whose refusal names the parameter set.
 
     The Material checks its fields together (phi_c < phi_j, a_inf >= a0, mu_2 >= mu_c, phi0 <
-    phi_j): ``--set phi_j=0.3`` was refused as ``phi_c = 0.436 is outside the valid range (0,
-    0.3)``, a parameter the user did not set. Here such a refusal is restated about the set
-    parameter with its valid range at the material's other values (found by bisection on the
-    Material's own checks, :func:`valid_interval`).
+    phi_j), so its refusal may name a parameter the user did not set (``--set phi_j=0.3``
+    breaks phi_c < phi_j); such a refusal is restated about the set parameter with its valid
+    range at the material's other values (bisection on the Material's checks,
+    :func:`valid_interval`).
 
     Raises
     ------
