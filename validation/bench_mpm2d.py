@@ -61,6 +61,9 @@ from rheology.local_update import (BLOCK, NOUT, NSTRESS, NWORK, SHEAR_FLOW, bloc
 from rheology.numba_cache import guard
 
 from .framework import BenchResult, benchmark
+import pandas as pd
+from mpm2d.plots import plt, save
+from runkit.io import atomic_write_csv
 
 guard(__file__, _shape.__file__)   # its bare kernels inline mpm2d.shape's weights
 
@@ -501,11 +504,6 @@ def taichi_elastic_rate(cells: int, steps: int, reps: int = 3):
            "loop (elastic, two-phase, locked mixture; 1 and 2 threads), memory traffic, the Table 8 "
            "update per stage, and Taichi")
 def speed(out: Path, quick: bool) -> BenchResult:
-    import pandas as pd
-
-    from runkit.io import atomic_write_csv
-    from mpm2d.plots import plt, save
-
     threads = min(THREADS, nb.config.NUMBA_NUM_THREADS)
     cells = {"elastic": 64 if quick else 256, "two-phase suspension": 32 if quick else 128,
              "locked mixture": 32 if quick else 128}

@@ -20,6 +20,8 @@ from mpm2d.scenes import annular  # noqa: E402
 from runkit.io import atomic_savefig, atomic_write_csv  # noqa: E402
 
 from .framework import NO_COARSER, Verdict, case  # noqa: E402
+from shear1d.integrate import solve
+from shear1d.scenes import annular_shear_jamming, summarize
 
 #: the paper's grid mapped onto the gap: 24 cells of 23.5/24 mm (see mpm2d.scenes.annular)
 PAPER_CELLS = 24
@@ -60,9 +62,6 @@ def swirl_newtonian(out: Path, quick: bool) -> Verdict:
 
 
 def _shear1d_front(u_inner: float, n_cells: int) -> dict:
-    from shear1d.integrate import solve
-    from shear1d.scenes import annular_shear_jamming, summarize
-
     problem, t_end = annular_shear_jamming(u_inner, n_cells=n_cells)
     res = solve(problem, t_end, method="explicit", n_out=310)
     s = summarize(res)

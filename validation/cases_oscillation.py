@@ -31,6 +31,7 @@ from rheometer.protocols import flow_curve, startup  # noqa: E402
 
 from .framework import BenchResult, Verdict, benchmark, case, save_figure  # noqa: E402
 from .report import machine_description  # noqa: E402
+import pandas as pd
 
 HERMES = "hermes2016"
 
@@ -159,7 +160,6 @@ def parallel_plate(out: Path, quick: bool) -> Verdict:
     m = rheology.get_material(HERMES)
     phis = (0.42, 0.50)
     frames = [geo.parallel_plate_flow_curve(m, ph, points=800 if quick else 2000) for ph in phis]
-    import pandas as pd
 
     df = pd.concat(frames, ignore_index=True)
     true = flow_curve(m, list(phis), stress=np.logspace(-5, 6, 400))

@@ -46,6 +46,7 @@ from typing import Callable
 
 from runkit.io import atomic_savefig, strict_json
 from runkit.plotting import plt
+import validation
 
 
 @dataclass
@@ -139,8 +140,6 @@ def save_figure(fig, out, name: str) -> Path:
 
 def load_all() -> dict[str, Entry]:
     """Import every ``validation.cases_*`` and ``validation.bench_*`` module; return the registry."""
-    import validation
-
     for mod in sorted(pkgutil.iter_modules(validation.__path__), key=lambda m: m.name):
         if mod.name.startswith(("cases_", "bench_")):
             importlib.import_module(f"validation.{mod.name}")

@@ -28,12 +28,11 @@ from runkit.command import one_line
 from runkit.io import atomic_write_json, atomic_write_text, check_output_dir
 
 from .framework import NOTE, TIERS, Entry, Outcome, fingerprint, load_all, run_entry
+import numpy as np
 
 
 def machine_description() -> str:
     """CPU model, core count and Python/numpy versions, for timings."""
-    import numpy as np
-
     cpu = platform.processor() or platform.machine()
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
