@@ -46,6 +46,8 @@ from rheology.steady import dst_fold
 
 from . import limits
 from .transient import DEFAULT_MAX_TIME, Step
+import rheology
+from rheology.materials import default_fraction
 
 _NUM = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
 _RATE_U = r"(1/s|/s|s\^-1|s-1)"
@@ -279,8 +281,6 @@ def hysteresis_program(material, phi: float) -> str:
     state (a stress step below the lagging stress of a rate sweep's end would reverse the flow).
     Without DST at this phi: a rate sweep over 0.01-10 1/s up and down.
     """
-    import rheology
-
     m = rheology.get_material(material)
     fold = dst_fold(m, phi)
     lines = [f"# {m.name} at phi = {phi:g}"]
@@ -313,8 +313,6 @@ def hysteresis_program(material, phi: float) -> str:
 #: The built-in program of ``rheometer program`` (no file): :func:`hysteresis_program` of the
 #: default material (hermes2016) at its default volume fraction (0.50, rheology.materials).
 def _default_program() -> str:
-    from rheology.materials import default_fraction
-
     return hysteresis_program("hermes2016", default_fraction("hermes2016"))
 
 

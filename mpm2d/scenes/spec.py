@@ -38,6 +38,8 @@ from runkit import limits
 from runkit.limits import Bound, check_memory
 from runkit.params import valid_interval
 from runkit.params import Number
+from rheology import get_material, material_names
+from rheology.materials import RULES, scene_material
 
 #: memory estimate: bytes per material point (kinematic arrays ~40 float64, material state,
 #: the output copies of a snapshot and the permutation copies of a sort) and per grid node (per
@@ -159,8 +161,6 @@ class Param:
                                                 and value.strip().lower() in ("none", ""))):
             return None
         if self.kind == "material":
-            from rheology.materials import scene_material
-
             if not isinstance(value, str) or not value.strip():
                 raise ValueError(f"{name} = {value!r} is not a parameter set name or a material "
                                  "file")
@@ -427,8 +427,6 @@ class SceneSpec:
         if not _is_real(cfl) or key is None:
             return None
         try:
-            from rheology import get_material
-
             name = self.params[key].fraction_of(params)
             m = get_material(name)
             factor = min(1.0, float(params.get("moduli_factor", 1.0)))
@@ -563,8 +561,6 @@ def gravity(doc="gravitational acceleration (downwards; the bed rests under it)"
 
 def rules() -> Param:
     """The ``rules`` of the scene's suspension material (:data:`rheology.materials.RULES`)."""
-    from rheology.materials import RULES
-
     return Param(choices=RULES, doc="yield rules of the Table 8 law: table8 (the paper's) or "
                                     "mpm_3d (the author's code; rheology.local_update)")
 
@@ -581,8 +577,6 @@ def materials_where(predicate: Callable, what: str) -> Callable[[], tuple]:
     which, for ``mpm2d show``)."""
 
     def names():
-        from rheology import get_material, material_names
-
         return tuple(n for n in material_names() if predicate(get_material(n)))
 
     names.what = what
@@ -598,8 +592,6 @@ def phi_below_jamming(material_key="material", fixed=None, doc="initial solid vo
         return fixed if fixed else p[material_key]
 
     def phi_j(p):
-        from rheology import get_material
-
         return get_material(name(p)).phi_j
 
     return Param(0.0, phi_j, lo_closed=False, hi_closed=False, doc=doc, optional=optional,
