@@ -31,7 +31,6 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 import pandas as pd
-from sksundae.ida import IDA
 
 import rheology
 from rheology import laws
@@ -39,6 +38,7 @@ from runkit.params import check_positive
 from rheology.local_update import CASE_NAMES, COMPACTION, NOUT, SHEAR_FLOW
 from rheology.materials import KERNEL_FIELDS
 from rheology.numba_cache import guard
+from runkit.ida import IDAFailed, Solver
 
 from .material_point import initial_point, local_step, point_parameters, pressure_step
 
@@ -208,15 +208,13 @@ def tensor_reference(material, phi: float, rate: float, t_end: float, *, control
         eventsfn.terminal = [True, True, True]
         eventsfn.direction = [-1, -1, -1]
         grid = np.concatenate([[t0], times[times > t0 * (1 + 1e-14) + 1e-300]])
-        if grid.size == 2:
-            grid = np.array([grid[0], 0.5 * (grid[0] + grid[1]), grid[1]])
-        solver = IDA(resfn, rtol=rtol, atol=1e-3 * rtol * _scales(y), algebraic_idx=alg,
-                     calc_initcond="yp0", calc_init_dt=1e-6 * t_end, eventsfn=eventsfn,
-                     num_events=3, max_num_steps=500_000)
-        sol = solver.solve(grid, y, np.zeros(NV))
-        if not sol.success:
-            raise RuntimeError(f"tensor reference: IDA failed at t = {sol.t[-1]:.6g} s: "
-                               f"{sol.message}")
+        solver = Solver(resfn, rtol=rtol, atol=1e-3 * rtol * _scales(y), algebraic_idx=alg,
+                        calc_initcond="yp0", calc_init_dt=1e-6 * t_end, eventsfn=eventsfn,
+                        num_events=3, max_num_steps=500_000)
+        try:
+            sol, _ = solver.solve(grid, y, np.zeros(NV))
+        except IDAFailed as exc:
+            raise RuntimeError(f"tensor reference: {exc}") from None
         keep = np.isin(sol.t, times)
         for ti, yi in zip(sol.t[keep], sol.y[keep]):
             if not rows or ti > rows[-1][0]:
