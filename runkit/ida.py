@@ -30,6 +30,7 @@ ROOT_RETURN = 2
 
 class _Captured:
     text = ""
+    libc = tmp = None                    # the C library and one temporary file, reused
 
 
 @contextlib.contextmanager
@@ -41,9 +42,12 @@ def captured():
     try:
         sys.stdout.flush()
         sys.stderr.flush()
-        libc = ctypes.CDLL(None)
+        if _Captured.libc is None:
+            _Captured.libc, _Captured.tmp = ctypes.CDLL(None), tempfile.TemporaryFile()
+        libc, tmp = _Captured.libc, _Captured.tmp
         libc.fflush(None)
-        tmp = tempfile.TemporaryFile()
+        tmp.seek(0)
+        tmp.truncate()
         saved = (os.dup(1), os.dup(2))
         os.dup2(tmp.fileno(), 1)
         os.dup2(tmp.fileno(), 2)
@@ -60,9 +64,9 @@ def captured():
             os.dup2(saved[1], 2)
             os.close(saved[0])
             os.close(saved[1])
-            tmp.seek(0)
-            c_text = tmp.read(4096).decode("utf-8", "replace")
-            tmp.close()
+            if tmp.tell():
+                tmp.seek(0)
+                c_text = tmp.read(4096).decode("utf-8", "replace")
         out.text = " ".join(f"{buf.getvalue()} {c_text}".split())
 
 

@@ -645,71 +645,23 @@ def ida_failure_message(problem: Couette, sol, t_target: float, rtol: float, sta
 
 def _run_ida(problem, method, times, rtol, stop_on, outs, ck, max_step, max_order, bar,
              stop_hook, *, residual, start, convert, options, stats, failure) -> Result:
-    """Integrate a DAE ``residual(t, y, yp) = 0`` on SUNDIALS IDA from rest or from a checkpoint,
-    recording the outputs: the one stepping loop of methods ``"ida"`` (:func:`_solve_ida`) and
-    ``"dae"`` (:func:`_solve_dae`).
+    """Integrate a DAE ``residual(t, y, yp, res)`` on SUNDIALS IDA (:class:`runkit.ida.Solver`,
+    banded Jacobian) from ``start() -> (y0, yp0)`` at t = 0 or from the checkpoint ``ck``'s last
+    output (y, yp, counters; a finished run is returned as it is): the one stepping loop of
+    methods ``"ida"`` and ``"dae"``.
 
-    Starts from ``start()`` (recorded as the output at t = 0) or, when ``ck`` (the checkpoint's
-    arrays, read by :meth:`_Outputs.load`) is given, from its last output's solver state ``y``,
-    ``yp`` and counters (a finished run is returned as it is). Steps to every output time of
-    ``times`` after that (IDA restarts its BDF history there), with the root events of
-    ``outs.events`` when they are active (``stop_on`` names those that end the run); at each
-    output the state is converted, checked (:func:`check_state`, f within 100 rtol of [0, 1]),
-    recorded with the solver's y and y' (what a resume restarts from), shown on ``bar`` and
-    checkpointed at the end or when ``outs.due()``; ``stop_hook(t)`` follows every output but
-    the last.
+    Steps to every output time of ``times`` (IDA restarts its BDF history there) with the root
+    events of ``outs.events`` when active (``stop_on`` names those that end the run). At each
+    output ``convert(t, y) -> (state, diag)`` gives the Couette layout, which is checked
+    (:func:`check_state`, f within 100 rtol of [0, 1]), recorded with the solver's y and y' (what
+    a resume restarts from), shown on ``bar`` and checkpointed at the end or when
+    ``outs.due()``; ``stop_hook(t)`` follows every output but the last. ``options``: the
+    method's IDA options (``atol`` array, ``lband``, ``uband``, ...); ``stats(counters)``: the
+    result's stats; ``failure(sol, t_target)``: the message of a failed step.
 
-    Parameters
-    ----------
-    problem : Couette
-    method : str
-        The method named in the result and the checkpoint (``"ida"``, ``"dae"``).
-    times : (n_out + 1,) float array
-        Output times [s], from 0.
-    rtol : float
-        IDA's relative tolerance.
-    stop_on : tuple of str
-        Events (names of :data:`EVENTS`) that end the run.
-    outs : _Outputs
-        Where the outputs go (its ``events`` evaluate the root functions on the solver's y).
-    ck : dict or None
-        The checkpoint to resume from.
-    max_step : float
-        Largest IDA step [s] (0: unbounded).
-    max_order : int
-        Largest BDF order (1-5).
-    bar : _Progress
-    stop_hook : callable or None
-    residual : callable
-        ``residual(t, y, yp, res)``: the DAE residual into ``res``.
-    start : callable
-        ``start() -> (y0, yp0)``: the solver's consistent state at t = 0.
-    convert : callable
-        ``convert(t, y) -> (state, diag)``: the solver's y at t as a new array in the layout of
-        :meth:`Couette.layout` and the per-cell diagnostics (n, :data:`kernels.NDIAG`).
-    options : dict
-        IDA options of the method: ``atol`` (array), ``lband``, ``uband`` of the banded
-        Jacobian, and any other (e.g. ``algebraic_idx``); rtol, the band solver, 500000 steps at
-        most, ``max_step``, ``max_order`` and the events are added here.
-    stats : callable
-        ``stats(counters) -> dict``: the result's stats from the counters (nfev, njev, 0), counted
-        since t = 0.
-    failure : callable
-        ``failure(sol, t_target) -> str``: the message of a failed step (e.g.
-        :func:`ida_failure_message`).
-
-    Returns
-    -------
-    Result
-
-    Raises
-    ------
-    rheology.run_end.EndedEarly (a RuntimeError)
-        IDA failed (``failure``'s message) or an output fails :meth:`_Outputs.end_at`; the
-        Result of the outputs before it (:meth:`_Outputs.ended`).
-    KeyboardInterrupt
-        Interrupted; the checkpoint is saved and the message says where
-        (:meth:`_Outputs.interrupted`).
+    Raises :class:`rheology.run_end.EndedEarly` (IDA or the law failed, or an output fails
+    :meth:`_Outputs.end_at`: the Result of the outputs before it) and KeyboardInterrupt after
+    saving the checkpoint (:meth:`_Outputs.interrupted`).
     """
     wall0 = time.perf_counter()
     events = outs.events
