@@ -27,16 +27,25 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from pathlib import Path
 
-from rheology.cli_common import Number, OneLineParser, run_command
-from rheology.sample import add_mass_fraction_options
+import numba
+
+from rheology import get_material
+from rheology.sample import add_mass_fraction_options, mass_fraction_phi
+from runkit.command import OneLineParser
+from runkit.command import run as run_command
+from runkit.params import Number
+
+from .run import run_scene
+from .scenes import SCENES, get_setup, get_spec, is_scene_file
+from .scenes.spec import volume_fraction_key
+from .sweep import parse_grid, run_sweep
 
 
 def _parse_set(items) -> dict:
     """``--set key=value`` items of ``mpm2d run`` -> {key: value}: the sweep's parser
     (:func:`mpm2d.sweep.parse_grid`: no empty key or value, no key twice), one value each."""
-    from .sweep import parse_grid
-
     return {k: v[0] for k, v in parse_grid(items, lists=False).items()}
 
 
@@ -118,10 +127,6 @@ def main(argv=None) -> int:
 
 
 def _command(args) -> None:
-    from pathlib import Path
-
-    from .scenes import SCENES, get_setup, get_spec, is_scene_file
-
     if args.cmd != "list" and is_scene_file(args.scene):   # a scene file of the user's
         default_out = Path(args.scene).stem
         args.scene = str(Path(args.scene).expanduser().resolve())
@@ -143,8 +148,6 @@ def _command(args) -> None:
             print(line)
         return
     if args.cmd == "sweep":
-        from .sweep import parse_grid, run_sweep
-
         out = f"sweep_{default_out}" if args.out is None else args.out      # '' is refused
         table = run_sweep(args.scene, parse_grid(args.set), out,
                           scheduler=args.scheduler, workers=args.workers,
@@ -152,15 +155,12 @@ def _command(args) -> None:
                           progress=not args.quiet, quiet=args.quiet)
         return 0 if (table["status"] != "failed").all() else 1
     if args.threads:
-        import numba
-
         cap = numba.config.NUMBA_NUM_THREADS
         if args.threads > cap:
             print(f"mpm2d {args.cmd}: --threads {args.threads}: numba is limited to {cap} "
                   f"thread(s) here (NUMBA_NUM_THREADS); running with {cap}", flush=True,
                   file=sys.stderr if args.quiet else sys.stdout)
         numba.set_num_threads(min(args.threads, cap))
-    from .run import run_scene
 
     params = _parse_set(args.set)
     if args.mass_fraction is not None:
@@ -180,11 +180,6 @@ def _command(args) -> None:
 def _mass_fraction(args, spec, params: dict) -> None:
     """Set the scene's volume fraction from ``--mass-fraction`` (Eq. 20 with the scene material's
     densities unless given) and print the conversion; ValueError where the scene has none."""
-    from rheology import get_material
-    from rheology.sample import mass_fraction_phi
-
-    from .scenes.spec import volume_fraction_key
-
     key = volume_fraction_key(spec)
     if key is None:
         raise ValueError(f"--mass-fraction: scene {spec.name} has no suspension volume fraction")

@@ -14,18 +14,13 @@ improved frictional heating in the material point method", Comp. Part. Mech. 5):
   N-weighted mean of the face normals of the material points that touch the body (below),
   each the separating axis of its square and the nearest body point's square, pointing from
   the body into the material. Bardenhagen et al.'s normal from the nodal mass gradient
-  g_i = sum_p m_p grad N_i(x_p) (kept as the fallback where nothing touches) follows the body's
-  nearest face: at a corner node it points sideways while the material touches the body's
-  bottom, and a rigid box sliding frictionless on an elastic bed then ploughed (acceleration
-  0.50 g sin(theta) instead of g sin(theta); now exact);
+  g_i = sum_p m_p grad N_i(x_p) is the fallback where nothing touches (it follows the body's
+  nearest face, sideways at a corner: docs/measurements.md);
 - contact is active at a node only if (i) both fields have mass there, (ii) the fields TOUCH, and
   (iii) they approach along n ((v_mat - v_body).n < 0). Touching: some material point whose
   B-spline support covers the node has its square (side s = sqrt(in-plane area)) touching or
   overlapping a body point's square (Chebyshev centre distance <= the sum of the half sides; a
-  k-d tree of the body's points, rigid or deformable). A gap measured along the nodal normal
-  instead (min over material points of (x_p - x_i).n - e_p minus the body's max) fails at body
-  corners, where the normal turns sideways and the bed beside the body looks "touching": a rod
-  one cell above a bed was touched along its side normal from the first step. Criterion (ii)
+  k-d tree of the body's points, rigid or deformable). Criterion (ii)
   removes the classic early contact of the multi-field method, whose fields overlap as soon as
   the shape-function supports (1.5 h for quadratic B-splines) do: a body h/4 above a bed feels
   nothing until its surface reaches the bed's particle faces (exact for grid-aligned faces;
@@ -52,12 +47,10 @@ Deformable body against material: the closed-form two-field correction of Barden
 each contact node (centre-of-mass velocity, normal part removed when approaching, tangential part
 limited by mu_w times the normal impulse).
 
-Limits: touching is judged between real points (a body's or the material's mirror images across
-walls are not scanned; periodic sides use minimum images); a point's square uses its current
-area, so anisotropic stretching is not seen; a curved body's point faces are axis-aligned, so
-its frictionless normal forces are only nearly central (a disk sliding on a soft bed spins at
-|omega| R ~ 3 % of its speed); no-slip rolling of a curved body resists: the stuck patch of a
-few nodes (a disk of R = 5 h rolls at 0.31 of the exact acceleration on an elastic bed).
+Limits: touching is judged between real points (mirror images across walls are not scanned;
+periodic sides use minimum images); a point's square uses its current area, so anisotropic
+stretching is not seen; a curved body's point faces are axis-aligned, so its frictionless normal
+forces are only nearly central and its no-slip rolling resists (docs/measurements.md).
 """
 
 from __future__ import annotations

@@ -34,6 +34,16 @@ PROBE_STEPS = 20
 PROBE_SECONDS = 1.0
 
 
+def build_quietly(setup, params: dict):
+    """The scene of ``params`` or None when its set-up fails (numpy quiet)."""
+    try:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            return setup(**params)
+    except (ArithmeticError, ValueError, RuntimeError, TypeError):
+        return None
+
+
 def _clock(seconds: float) -> str:
     if not math.isfinite(seconds):
         return "unknown"
@@ -85,10 +95,8 @@ def _coarse_probe(setup, params: dict, points: float) -> tuple[float, str]:
         return float("nan"), ""
     factor = max(1.0, math.sqrt(points / PROBE_POINTS))        # never finer than the run
     coarse = params[key] / factor if key == "cells_per_mm" else params[key] * factor
-    from .run import _build
-
     for _ in range(8):                 # a value the scene refuses: halfway back (geometric)
-        scene = _build(setup, {**params, key: coarse})
+        scene = build_quietly(setup, {**params, key: coarse})
         if scene is not None:
             break
         coarse = math.sqrt(coarse * params[key])

@@ -328,25 +328,6 @@ def unfold(Vg, kind, wall_u, nx, ny, vector):
                             Vg[t, dst, c] = val
 
 
-@_jit
-def fold_scalar(S, kind, nx, ny):
-    """Fold a nodal scalar (NI, NJ): periodic copies added, even mirror images at walls."""
-    for axis in range(2):
-        n = nx if axis == 0 else ny
-        other = S.shape[1] if axis == 0 else S.shape[0]
-        for side in range(2):
-            kd = kind[2 * axis + side]
-            if kd == FREE or (kd == PERIODIC and side == 1):
-                continue
-            pairs = _fold_pairs(kd, side, n, False)
-            for t in range(other):
-                for src, dst in pairs:
-                    if axis == 0:
-                        S[dst, t] += S[src, t]
-                        S[src, t] = 0.0
-                    else:
-                        S[t, dst] += S[t, src]
-                        S[t, src] = 0.0
 
 
 # ---------------------------------------------------------------------- swirl (angular momentum)

@@ -173,6 +173,10 @@ def _trial(stress, L, Lw, p, dt, G, K, S, k):
         S[0, k], S[1, k], S[2, k], S[3, k], S[4, k], S[5, k] = n00, n11, n22, n01, 0.0, 0.0
 
 
+#: the trial stage of update_block, public for validation/bench_mpm2d (which times each stage)
+trial_stress = _trial
+
+
 @dual
 def suspension_kernel(stress, L, vol, svol, m, f, dt, P, locked, rho_s, rho_f0, kappa, eta0,
                       sp, pf, gdot, case, fail, Lw, spw, S, W, blk, none):

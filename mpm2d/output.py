@@ -1,6 +1,6 @@
 """Run outputs: snapshots (npz + manifest), VTK files through meshio, checkpoints.
 
-Layout of a run folder ``DIR`` (every file written atomically through :mod:`rheology.io`)::
+Layout of a run folder ``DIR`` (every file written atomically through :mod:`runkit.io`)::
 
     DIR/manifest.json          scene, parameters, mode, grid, the sets' description, frames,
                                ``status`` (running, complete, ended_early, failed) and ``ends``
@@ -49,7 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rheology.io import atomic_savez, atomic_write_json, atomic_write_text, atomic_write_with
+from runkit.io import atomic_savez, atomic_write_json, atomic_write_text, atomic_write_with
 
 
 #: VTU names of the snapshot fields that carry no unit in their npz name ("{per}": per m in
@@ -94,7 +94,7 @@ def snapshot_arrays(sim, fields=()) -> dict[str, np.ndarray]:
 
 def write_npz(path: Path, arrays: dict) -> Path:
     """Atomic uncompressed npz (``np.savez`` stamps its members with a fixed date, so the bytes
-    depend only on the arrays). Not :func:`rheology.io.save_checkpoint`: a snapshot rewritten by
+    depend only on the arrays). Not :func:`runkit.io.save_checkpoint`: a snapshot rewritten by
     a resumed run keeps no ``.prev`` copy."""
     return atomic_savez(path, **arrays)
 

@@ -40,7 +40,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import signal
 import threading
 import time
 import warnings
@@ -51,22 +50,17 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from rheology.io import (atomic_write_csv, check_output_dir, load_checkpoint,
+from runkit.io import (atomic_write_csv, check_output_dir, load_checkpoint,
                          previous_checkpoint, save_checkpoint)
+from runkit.limits import MAX_STEPS
+from runkit.run import TEMPORARY, Interrupts, Progress
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
 from . import estimate
 from .output import write_frame, write_manifest, write_pvds
-from .progress import Progress
 from .scenes.spec import shown_value
 from .simulation import Simulation
 
-#: temporary files of an atomic write (``.NAME.XXXXXXXX.suffix``) left by a killed run
-_TEMP = re.compile(r"^\..+\.[a-z0-9_]{8}\.(npz|tmp|vtu|pvd|png|csv|json)$")
-#: a run whose first stable step would need more steps than this to reach t_end is refused
-#: (a cfl of 1e-300 or a t_end of years: it would never end; 1e8 steps of the smallest scene
-#: take about a day on one core)
-MAX_STEPS = 1e8
 
 
 @dataclass
@@ -168,40 +162,6 @@ def coerce(params: dict, setup: Callable) -> dict:
     return spec_of(setup).coerce(dict(params))
 
 
-class _DeferredSignals:
-    """SIGINT/SIGTERM recorded instead of raised while a step runs (main thread only).
-
-    Nested windows (a run whose report runs sub-runs, the wheel's other omegas) share what they
-    record: a signal that came while the outer run finished its last files stops the sub-run at
-    its first step, and one recorded by a sub-run is the outer run's too."""
-
-    _open: list = []
-
-    def __init__(self):
-        self.pending = None
-        self._old = {}
-
-    def __enter__(self):
-        if self._open:
-            self.pending = self._open[-1].pending
-        self._open.append(self)
-        if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                self._old[sig] = signal.signal(sig, self._record)
-        return self
-
-    def _record(self, signum, frame):
-        self.pending = signal.Signals(signum).name
-
-    def __exit__(self, *exc):
-        for sig, old in self._old.items():
-            signal.signal(sig, old)
-        self._open.remove(self)
-        if self._open and self.pending:
-            self._open[-1].pending = self.pending
-        return False
-
-
 def _first_step(scene) -> tuple[float, float, int]:
     """(first step [s], number of steps to t_end at it, the fewest steps the scene needs) of a
     freshly set-up scene (inf/0 steps and NaN are returned, not raised)."""
@@ -241,16 +201,6 @@ SETUP_NOTICE_S = 2.0
 #: wall seconds the search for the parameter that makes a run too long/short may take (set-ups
 #: of bed scenes take seconds each: the bound found so far is reported, a conservative one)
 BLAME_BUDGET_S = 20.0
-
-
-def _build(setup, params: dict):
-    """The scene of ``params`` or None when its set-up fails (numpy quiet)."""
-    try:
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore")
-            return setup(**params)
-    except (ArithmeticError, ValueError, RuntimeError, TypeError):
-        return None
 
 
 def _round_toward(x: float, good_side_up: bool) -> float:
@@ -324,7 +274,7 @@ def blame(setup, params: dict, given: dict, name: str, ok: Callable, why: str,
     changed = [k for k, v in given.items() if v != spec.defaults.get(k)]
 
     def ok_at(k, x):
-        probe = _build(setup, {**params, k: x})
+        probe = estimate.build_quietly(setup, {**params, k: x})
         return probe is not None and ok(probe)
 
     culprits = [k for k in changed if time.perf_counter() < deadline
@@ -449,7 +399,7 @@ def _remove_stale_temporaries(out: Path) -> list[str]:
     for folder in (out, out / "frames", out / "vtk"):
         if folder.is_dir():
             for f in folder.iterdir():
-                if f.is_file() and _TEMP.match(f.name):
+                if f.is_file() and TEMPORARY.match(f.name):
                     f.unlink()
                     gone.append(str(f.relative_to(out)))
     return gone
@@ -491,7 +441,7 @@ def _is_empty(out: Path) -> bool:
     for f in out.iterdir():
         if f.is_dir() and f.name in ("frames", "vtk") and not any(f.iterdir()):
             continue
-        if f.is_file() and _TEMP.match(f.name):
+        if f.is_file() and TEMPORARY.match(f.name):
             continue
         return False
     return True
@@ -786,7 +736,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                           or ckpt_path.with_name("checkpoint.prev.npz").exists()):
         log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "
             "replaces it (--resume continues it instead)")
-    with _DeferredSignals() as stop:         # from here on, a signal stops between steps
+    with Interrupts() as stop:         # from here on, a signal stops between steps
         out.mkdir(parents=True, exist_ok=True)
         for f in _remove_stale_temporaries(out):
             log(f"removed {f}, a temporary file of an interrupted write")

@@ -32,8 +32,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from rheology.cli_common import one_line
-from rheology.io import atomic_write_csv, check_output_dir
+from runkit.command import one_line
+from runkit.io import atomic_write_csv, check_output_dir
 
 #: parameter-name pattern of a case folder (stable across reruns)
 _SAFE = re.compile(r"[^A-Za-z0-9.+\-]+")

@@ -347,16 +347,6 @@ def _keep_inside(s, lo, hi, kind_lo, kind_hi):
     return s
 
 
-@_jit
-def scatter_area(x, area, geo, out):
-    """out[I, J] += N_ip A_p: a body's area field (used to find the nodes a body covers)."""
-    x0, y0, h = geo[0], geo[1], geo[2]
-    inv_h = 1.0 / h
-    for p in range(x.shape[0]):
-        bx, by, _, _, wx, wy, _, _ = stencil(x[p, 0], x[p, 1], x0, y0, inv_h)
-        for a in range(3):
-            for b in range(3):
-                out[bx + a + PAD, by + b + PAD] += wx[a] * wy[b] * area[p]
 
 
 @dual

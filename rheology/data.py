@@ -857,7 +857,7 @@ def describe(table: pd.DataFrame) -> str:
 
 
 def table_to_csv_frame(table: pd.DataFrame) -> pd.DataFrame:
-    """The tidy table ready for :func:`rheology.io.atomic_write_csv` (non-finite numbers of
+    """The tidy table ready for :func:`runkit.io.atomic_write_csv` (non-finite numbers of
     dropped points blanked; empty-ok columns listed in :data:`EMPTY_OK`)."""
     out = table.copy()
     for c in EMPTY_OK:
@@ -886,7 +886,7 @@ def write_rheocompass(path, curves: Iterable[dict], *, project: str = "synthetic
     ``status`` (list of str, e.g. ``"Dy_auto,ME-"``), ``time`` [s]. Used for the shipped example
     exports and the tests of the reader. Written atomically.
     """
-    from .io import atomic_write_bytes
+    from runkit.io import atomic_write_bytes
 
     lines = [f"Project:\t{project}", "", f"Test:\t{test}", ""]
     head = ("Interval data:\tPoint No.\tTime\tShear Rate\tShear Stress\tViscosity\tTorque\t"
@@ -922,7 +922,7 @@ def write_export(path, layout: str, steps: Iterable[dict], header: dict) -> Path
 
     The TRIOS text is Latin-1 with CRLF line ends, the CSVs UTF-8 with a BOM.
     """
-    from .io import atomic_write_bytes
+    from runkit.io import atomic_write_bytes
 
     steps = list(steps)
     if layout in ("trios", "trios-csv"):

@@ -17,6 +17,7 @@ run's end (:class:`rheology.run_end.RunEnd`: the run keeps its rows before it, s
 from __future__ import annotations
 
 import numpy as np
+from .run_end import RunEnd
 
 #: Largest elastic strain (taubar/G, p/K) at which the hypoelastic law is used.
 ELASTIC_STRAIN_LIMIT = 0.1
@@ -58,8 +59,6 @@ def past_elastic_limit(t, stress, modulus: float, *, stress_name: str = "taubar"
         ``past_s`` its time; the reason is one line with the limit, the strain and stress
         reached, the time the limit was crossed (linear interpolation), the modulus, ``advice``.
     """
-    from .run_end import RunEnd
-
     t = np.asarray(t, dtype=float).ravel()
     s = np.abs(np.asarray(stress, dtype=float).ravel())
     strain = s / float(modulus)

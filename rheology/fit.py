@@ -54,10 +54,13 @@ from scipy import stats
 from scipy.optimize import least_squares
 
 from . import laws
-from .checks import check_range
+from runkit.params import check_range
 from .materials import Material, get_material
 from .numba_cache import guard
 from .steady import gdot_dst
+import pandas as pd
+from .data import COLUMNS, Curve, clean
+from .materials import FIELD_UNITS
 
 #: Every parameter the fitter can vary, with its reporting coordinate: "log" (intervals and
 #: correlations in ln, always positive) or "lin".
@@ -537,8 +540,6 @@ def parameter_table(params, scale: dict[str, str], units: dict[str, str]):
     """parameters.csv of a fit as a DataFrame: ``parameter, value, unit, lower, upper,
     std_error_reporting_coord, reporting_coord, interval, stage, status, at_bound,
     unidentifiable, converged, note`` (non-finite lower, upper, std_error as NaN: empty cells)."""
-    import pandas as pd
-
     def fin(x):
         return float(x) if np.isfinite(x) else float("nan")
 
@@ -648,8 +649,6 @@ class FitResult:
 
     def table(self):
         """parameters.csv as a DataFrame (:func:`parameter_table`)."""
-        from .materials import FIELD_UNITS
-
         return parameter_table(self.parameters, SCALE, FIELD_UNITS)
 
 
@@ -1209,10 +1208,6 @@ def synthetic_curves(m: Material, phis, *, stress_range=None, points: int = 30,
 def synthetic_table(m: Material, phis, **kw):
     """:func:`synthetic_curves` as the tidy table of :func:`rheology.data.read_flow_curves`
     (through the same cleaning as a file)."""
-    import pandas as pd
-
-    from .data import COLUMNS, Curve, clean
-
     syn = synthetic_curves(m, phis, **kw)
     frames = []
     for c, ph in zip(syn["curves"], syn["phi"]):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import laws
-from .checks import check_nonnegative, check_positive, check_range
+from runkit.params import check_nonnegative, check_positive, check_range
 from .materials import Material, get_material
 
 

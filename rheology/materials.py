@@ -38,7 +38,7 @@ from typing import Callable
 
 import numpy as np
 
-from .checks import check_range
+from runkit.params import check_range
 
 #: Units of every numeric field (SI sets; Table 1 sets use eta0 = gdot_0 = 1 instead).
 FIELD_UNITS: dict[str, str] = {
@@ -391,7 +391,7 @@ def material_from_dict(data: dict, source: str = "material file") -> Material:
 def save_material(path, m: Material, **extra) -> Path:
     """Write ``m`` as a material file (strict JSON, atomically): ``{"format", "material":
     {fields}, **extra}`` (e.g. ``provenance=...``, ``fit=...``). :func:`get_material` reads it."""
-    from .io import atomic_write_json
+    from runkit.io import atomic_write_json
 
     doc = {"format": MATERIAL_FILE_FORMAT, "version": 1, "material": material_to_dict(m), **extra}
     return atomic_write_json(path, doc)
@@ -574,7 +574,7 @@ def scene_material(scene_set: str | Material, material: str | Material | None = 
     eta0, eta_B, Delta, ...) are used, and each of :data:`SCENE_FIELDS` the material leaves unset
     (None; d = 0, the viscous limit of a steady fit) is taken from the scene's set, except a
     scene phi0 at or above the material's phi_j: then phi0 follows the default-fraction rule of
-    :func:`rheology.defaults.default_fraction` (the rule every command uses).
+    :func:`default_fraction` (the rule every command uses).
 
     Parameters
     ----------
@@ -602,10 +602,45 @@ def scene_material(scene_set: str | Material, material: str | Material | None = 
         unset.add("d")
     fill = {k: getattr(scene, k) for k in unset}
     if "phi0" in fill and (fill["phi0"] is None or fill["phi0"] >= user.phi_j):
-        from .defaults import default_fraction    # the scene's phi0 would be jammed here
-
         fill["phi0"] = default_fraction(user)
     return user.replace(**fill, **overrides) if (fill or overrides) else user
+
+
+
+# Default volume fractions per material, one rule for every command of every tier. A set with
+# DST (a finite buckling resistance eta_B, Eq. 9: the Table 2-7 sets and Singh (b)) gets
+# phi = phi_c + s (phi_j - phi_c) with s = 0.45, 0.65, 0.85, all inside the DST window
+# phi_c <= phi < phi_j (Hermes 2016: 0.48, 0.50, 0.52). A set without DST (eta_B infinite:
+# Singh (a), which shear-jams above phi_c) gets s = -1.5, -0.75, -0.25: below phi_c, where it
+# flows at every stress. Each value is rounded to 0.005 and kept inside (0, phi_j); a command
+# or scene with one fraction takes the middle one.
+DST_POSITIONS = (0.45, 0.65, 0.85)
+NO_DST_POSITIONS = (-1.5, -0.75, -0.25)
+RULE = ("default phi: sets with DST (finite eta_B) phi_c + (0.45, 0.65, 0.85)(phi_j - phi_c), "
+        "sets without DST (Singh (a)) phi_c + (-1.5, -0.75, -0.25)(phi_j - phi_c), rounded to "
+        "0.005; one-phi commands take the middle one")
+
+
+def has_dst(material) -> bool:
+    """Whether the set shows DST: a finite buckling resistance eta_B (Eq. 9)."""
+    m = material if isinstance(material, Material) else get_material(material)
+    return (m.varphi1 + m.varphi2) > 0
+
+
+def default_fractions(material) -> list[float]:
+    """The three default volume fractions of ``material`` (name or Material), ascending."""
+    m = material if isinstance(material, Material) else get_material(material)
+    s = DST_POSITIONS if has_dst(m) else NO_DST_POSITIONS
+    out = []
+    for x in s:
+        phi = round((m.phi_c + x * (m.phi_j - m.phi_c)) / 0.005) * 0.005
+        out.append(float(round(min(max(phi, 0.005), m.phi_j - 0.005), 6)))
+    return out
+
+
+def default_fraction(material) -> float:
+    """The single default volume fraction (the middle of :func:`default_fractions`)."""
+    return default_fractions(material)[1]
 
 
 def list_materials() -> list[tuple[str, str]]:

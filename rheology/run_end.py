@@ -17,7 +17,7 @@ returns an unphysical state), or the Table 8 local update fails. The run then en
 - its figures are drawn up to there, the end marked by a line and its reason (:func:`mark_end`);
 - the command prints one line per end on stderr, ``PROG: RUN: ended early at t = T s (last row
   written): REASON``, and exits with :data:`ENDED_EARLY` (3), beside 0 (complete), 1 (failed,
-  nothing new written), 2 (bad input) and 130 (interrupted) of :mod:`rheology.cli_common`.
+  nothing new written), 2 (bad input) and 130 (interrupted) of :mod:`runkit.command`.
 """
 
 from __future__ import annotations
@@ -95,7 +95,7 @@ class EndedEarly(RuntimeError):
 
     ``ends`` lists the ends (one per run of a command), ``partial`` holds what the run computed
     up to there (the tier's result type: a DataFrame, a shear1d Result), ``written`` the files a
-    command wrote from it. :func:`rheology.cli_common.run_command` prints the ends and returns
+    command wrote from it. :func:`runkit.command.run` prints the ends and returns
     :data:`ENDED_EARLY` when ``written`` is set; without it the run counts as failed (status 1).
     A RuntimeError: code that does not look for it sees the failure it always saw.
     """

@@ -18,8 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .checks import check_range
-from .cli_common import Number
+from runkit.limits import DENSITY_MAX, DENSITY_MIN
+from runkit.params import Number, check_range
+
 from .materials import Material
 from .steady import phi_from_mass_fraction
 
@@ -27,8 +28,6 @@ from .steady import phi_from_mass_fraction
 #: none [kg/m^3].
 LAMBDA, BETA = 0.3, 0.1
 RHO_GRAIN, RHO_LIQUID, RHO_WATER = 1620.0, 1000.0, 1000.0
-#: Largest density accepted [kg/m^3] (osmium is 22,600).
-DENSITY_MAX = 1e5
 
 
 @dataclass(frozen=True)
@@ -104,7 +103,7 @@ def add_mass_fraction_options(p, nargs="+") -> None:
                    nargs=nargs, default=None, metavar="W",
                    help="grain mass fraction(s) m_grain/(m_grain + m_liquid), converted to volume "
                         "fractions by Eq. 20 (instead of a volume fraction)")
-    dens = lambda name: Number(name, 0.0, DENSITY_MAX, lo_closed=False, unit="kg/m^3")  # noqa
+    dens = lambda name: Number(name, DENSITY_MIN, DENSITY_MAX, unit="kg/m^3")  # noqa
     s.add_argument("--grain-density", type=dens("--grain-density"), default=None,
                    help=f"grain density [kg/m^3] (material's rho_s, else {RHO_GRAIN:g})")
     s.add_argument("--liquid-density", type=dens("--liquid-density"), default=None,

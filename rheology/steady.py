@@ -21,7 +21,7 @@ import numpy as np
 from scipy.optimize import elementwise, minimize_scalar
 
 from . import laws
-from .checks import check_nonnegative, check_positive, check_range
+from runkit.params import check_nonnegative, check_positive, check_range
 from .materials import Material, get_material
 
 _TOL = dict(xatol=1e-300, xrtol=4e-16, fatol=0.0, frtol=0.0)
@@ -144,7 +144,7 @@ class SteadyFlow:
                              if getattr(self, k.name) is not None})
 
 
-def _residual(f, y, df, taubar, phi, H, k, m: Material):
+def steady_residual(f, y, df, taubar, phi, H, k, m: Material):
     """y^2 [f (H + S) - H f_m] for structure f, gap y = phi_m(f) - phi and df = f - f_m.
 
     Smooth through jamming and increasing in f, so its root is unique. f, y and df are all passed
@@ -246,18 +246,18 @@ def _steady_state_stress(taubar, phi, m) -> SteadyFlow:
         # half: solve in w = f_hi - f (f - f_m = (f_hi - f_m) - w, y = y_hi + w dphi: sums of
         # like-signed terms). f, y and f - f_m then keep full relative precision everywhere, at
         # low stress and 1e-12 from jamming alike.
-        lower = _residual(fhalf, y0 - fhalf * dphi, fhalf - fms, t, ph, h, ks, m) > 0
+        lower = steady_residual(fhalf, y0 - fhalf * dphi, fhalf - fms, t, ph, h, ks, m) > 0
         fs, ys = np.empty_like(t), np.empty_like(t)
         for sel in (lower, ~lower):
             if not np.any(sel):
                 continue
             args = tuple(x[sel] for x in (fhi, yhi, fms, t, ph, h, ks))
             if sel is lower:
-                fun = lambda x, fhi_, yhi_, fm_, t_, p_, *rest: _residual(
+                fun = lambda x, fhi_, yhi_, fm_, t_, p_, *rest: steady_residual(
                     x, m.phi_j - p_ - x * dphi, x - fm_, t_, p_, *rest, m)
                 bracket = (np.zeros_like(args[0]), fhalf[sel])
             else:
-                fun = lambda x, fhi_, yhi_, fm_, t_, p_, *rest: -_residual(
+                fun = lambda x, fhi_, yhi_, fm_, t_, p_, *rest: -steady_residual(
                     fhi_ - x, yhi_ + x * dphi, (fhi_ - fm_) - x, t_, p_, *rest, m)
                 bracket = (np.zeros_like(args[0]), fhi[sel] - fhalf[sel])
             res = elementwise.find_root(fun, bracket, args=args, tolerances=_TOL)
@@ -465,3 +465,30 @@ def phi_from_mass_fraction(phi_w, rho_cs: float, rho_l: float, rho_w: float = 10
     check_nonnegative("lam", lam)
     return ((1 + lam) * (1 - beta)
             / ((1 - beta) + (1 - phi_w) / phi_w * rho_cs / rho_l + beta * rho_cs / rho_w))
+
+
+def dst_fold(material, phi: float) -> tuple[float, float] | None:
+    """(shear rate [1/s], mixture shear stress [Pa]) of the fold of the steady curve: the largest
+    steady shear rate, where DST sets in (above it no steady flow exists under rate control and
+    the sample shear-jams); None if the curve of ``phi`` has no fold (no DST). Eq. (13) with
+    Eq. (1), on 1201 granular stresses over tau* 1e-4 .. 1e8 (0.8% steps)."""
+    fold = steady_fold(material, phi)
+    if fold is None:
+        return None
+    taus, st, g, i = fold
+    return float(g[i]), float(st.shear_stress[i])
+
+
+def steady_fold(material, phi: float):
+    """The first fold of the steady curve on a grid of 1201 granular stresses over tau* 1e-4 ..
+    1e8 (0.8% steps): ``(taus, steady, rates, i)`` with ``i`` the grid maximum of the shear rate
+    (jammed states count as rate 0), or None if the curve of ``phi`` has no fold. Shared by
+    :func:`dst_fold` and :func:`rheometer.oscillation.dst_onset_stress` (which refines it)."""
+    m = get_material(material)
+    taus = m.tau_star * np.logspace(-4, 8, 1201)
+    st = steady_state_stress(taus, phi, m)
+    g = np.where(st.jammed, 0.0, st.shear_rate)
+    k = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] > g[2:]))
+    if k.size == 0:
+        return None
+    return taus, st, g, int(k[0]) + 1

@@ -2,8 +2,8 @@
 
 A program is run phi by phi and step by step (:meth:`rheometer.transient.Rheometer.run`). After
 every completed step, at most every ``every`` seconds of computing, and always on Ctrl-C or
-SIGTERM (which :func:`rheology.cli_common.run_command` turns into ``KeyboardInterrupt``), the
-checkpoint ``<out>.checkpoint.npz`` is written atomically (:func:`rheology.io.save_checkpoint`,
+SIGTERM (which :func:`runkit.command.run` turns into ``KeyboardInterrupt``), the
+checkpoint ``<out>.checkpoint.npz`` is written atomically (:func:`runkit.io.save_checkpoint`,
 which keeps the previous one): the rows of the finished volume fractions, the rows of the
 completed steps of the current one, the exact state (t, taubar, jamming gap, strain) at the end of
 the last completed step, the events and solver counts, the ends of the fractions that ended early
@@ -23,15 +23,14 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import signal
-import threading
 import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from rheology.io import load_checkpoint, previous_checkpoint, save_checkpoint
+from runkit.io import load_checkpoint, previous_checkpoint, save_checkpoint
+from runkit.run import Interrupts
 from rheology.run_end import EndedEarly, RunEnd
 
 from .program import Program
@@ -78,7 +77,7 @@ class ProgramCheckpoint:
         self.progress: Progress | None = None
         self.attrs: dict = {}
         self._last = time.monotonic()
-        self._stop = False
+        self._signals = Interrupts(defer=False)
 
     # ------------------------------------------------------------------ reading
     def load(self, log=None) -> None:
@@ -138,14 +137,9 @@ class ProgramCheckpoint:
     # ------------------------------------------------------------------ running
     def _on_step(self, progress: Progress) -> None:
         self.progress = progress
-        if self._stop:                 # a signal whose KeyboardInterrupt was swallowed (it can
-            raise KeyboardInterrupt    # land in a ctypes callback, e.g. numba's compiler)
-        if time.monotonic() - self._last >= self.every:
+        self._signals.check()          # a signal whose KeyboardInterrupt was swallowed (it can
+        if time.monotonic() - self._last >= self.every:    # land in a ctypes callback)
             self.save()
-
-    def _signal(self, signum, frame):
-        self._stop = True
-        raise KeyboardInterrupt
 
     def run(self, program: Program) -> pd.DataFrame:
         """Run (or continue) the program at every phi; the rows of all, column ``phi`` first.
@@ -155,34 +149,27 @@ class ProgramCheckpoint:
         ..."). Raises RuntimeError if no phi has a row, and KeyboardInterrupt("checkpoint
         written to ...; rerun with --resume ...") after saving, when interrupted.
         """
-        self._stop = False
-        handlers = {}
-        if threading.current_thread() is threading.main_thread():
-            handlers = {sig: signal.signal(sig, self._signal)
-                        for sig in (signal.SIGINT, signal.SIGTERM)}
-        try:
-            for ph in self.phis[len(self.done):]:
-                try:
-                    df = run_program(self.material, ph, program, resume=self.progress,
-                                     on_step=self._on_step, **self.options)
-                except EndedEarly as exc:
-                    self.ends.append(exc.ends[0].replace(run=f"phi = {ph:g}"))
-                    df = (exc.partial if exc.partial is not None
-                          else pd.DataFrame(columns=list(COLUMNS), dtype=float))
-                df.insert(0, "phi", ph)
-                self.attrs = dict(df.attrs) or self.attrs
-                self.done.append(df)
-                self.progress = None
-        except KeyboardInterrupt:
-            if not self.done and self.progress is None:
-                raise KeyboardInterrupt("no step was completed, nothing to save; rerun to start "
-                                        "again") from None
-            self.save()
-            raise KeyboardInterrupt(f"checkpoint written to {self.path}; rerun the same command "
-                                    f"with --resume to continue") from None
-        finally:
-            for sig, h in handlers.items():
-                signal.signal(sig, h)
+        with Interrupts(defer=False) as self._signals:
+            try:
+                for ph in self.phis[len(self.done):]:
+                    try:
+                        df = run_program(self.material, ph, program, resume=self.progress,
+                                         on_step=self._on_step, **self.options)
+                    except EndedEarly as exc:
+                        self.ends.append(exc.ends[0].replace(run=f"phi = {ph:g}"))
+                        df = (exc.partial if exc.partial is not None
+                              else pd.DataFrame(columns=list(COLUMNS), dtype=float))
+                    df.insert(0, "phi", ph)
+                    self.attrs = dict(df.attrs) or self.attrs
+                    self.done.append(df)
+                    self.progress = None
+            except KeyboardInterrupt:
+                if not self.done and self.progress is None:
+                    raise KeyboardInterrupt("no step was completed, nothing to save; rerun to "
+                                            "start again") from None
+                self.save()
+                raise KeyboardInterrupt(f"checkpoint written to {self.path}; rerun the same "
+                                        f"command with --resume to continue") from None
         out = pd.concat([d for d in self.done if len(d)], ignore_index=True) if any(
             len(d) for d in self.done) else None
         if out is None:

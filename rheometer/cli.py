@@ -29,178 +29,37 @@ import math
 import sys
 from pathlib import Path
 
+from runkit.plotting import plt
 import numpy as np
 import pandas as pd
 
-from rheology.checks import valid_interval
-from rheology.cli_common import Number, OneLineParser, run_command
+import rheology
+from rheology.elastic import ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress
+from rheology.materials import set_argument
+from rheology.run_end import EndedEarly, run_record
+from runkit.command import OneLineParser
+from runkit.command import run as run_command
+from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, check_output_path,
+                       previous_checkpoint)
+from runkit.params import Number
 
-DEFAULT_MATERIAL = "hermes2016"
-#: Upper bounds of the numeric options: rheometer.limits (shared with the program parser).
-from . import limits  # noqa: E402
-from .limits import K0_MAX, RATE_MAX, STRESS_MAX, TIME_MAX  # noqa: E402
+from . import instrument_cli, limits, plots
+from .checkpoint import ProgramCheckpoint
+from .fit_cli import add_subcommands
+from .instrument_cli import extra_outputs, finish_table, materials_note
+from .limits import RATE_MAX, STRESS_MAX, TIME_MAX
+from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP, simple_shear_point
+from .options import (common_options, k0, modulus, plot_path, sample_material, t_end_option,
+                      transient_options)
+from .plots import mark_ends, normalise_units
+from .program import hysteresis_program, parse_program
+from .protocols import creep, flow_curve, relax, startup
+from .transient import DEFAULT_G
+
 _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
            "skeleton; 'mixture shear stress' = granular + eta0 (1 + 5/2 phi) gdot is what a "
            "rheometer measures. G [Pa] and K0 default to the material's values, else G = 1e4 Pa "
            "(Fig. 15: relaxation times of tens of seconds) and K0 = 1 (Tables 5, 7).")
-
-
-def _set_value(text: str):
-    """``NAME=VALUE`` of ``--set``: a numeric parameter of the material (its text fields name,
-    citation, units, notes are not settable) and a finite number, or ``none`` to unset an optional
-    one (rheology.materials.check_set_override; the Material checks the value's range)."""
-    from rheology.materials import check_set_override, split_set_item
-
-    try:
-        return check_set_override(*split_set_item(text))
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def material_with(name, overrides: dict, option: str = "--set"):
-    """``rheology.get_material(name, **overrides)`` whose refusal names the parameter set.
-
-    The Material checks its fields together (phi_c < phi_j, a_inf >= a0, mu_2 >= mu_c, phi0 <
-    phi_j): ``--set phi_j=0.3`` was refused as ``phi_c = 0.436 is outside the valid range (0,
-    0.3)``, a parameter the user did not set. Here such a refusal is restated about the set
-    parameter with its valid range at the material's other values (found by bisection on the
-    Material's own checks, :func:`valid_interval`).
-
-    Raises
-    ------
-    ValueError
-        ``--set NAME = VALUE is outside the valid range R (with material M's other parameters:
-        <the check it breaks>)``, or the Material's own message when that already names a set
-        parameter with a range that holds.
-    """
-    import rheology
-    from rheology.materials import FIELD_UNITS
-
-    limits.check_set(overrides, option)
-    try:
-        return rheology.get_material(name, **overrides)
-    except ValueError as exc:
-        try:
-            base = rheology.get_material(name)
-        except ValueError:
-            raise exc from None
-        raise _about_set(base, overrides, exc, option, FIELD_UNITS) from None
-
-
-def _about_set(base, overrides: dict, exc: ValueError, option: str, units: dict) -> ValueError:
-    for key, v in overrides.items():
-        x0 = getattr(base, key, None)
-        if not isinstance(v, (int, float)) or isinstance(v, bool) or not isinstance(
-                x0, (int, float)):
-            continue
-
-        def ok(x, key=key):
-            try:
-                with np.errstate(all="ignore"):
-                    base.replace(**{**overrides, key: x})
-            except (ValueError, ArithmeticError):
-                return False
-            return True
-
-        if not ok(float(x0)):
-            continue
-        lo, lo_closed, hi, hi_closed = valid_interval(ok, float(x0))
-        unit = units.get(key, "-")
-        rng = Number(f"{option} {key}", lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
-                     unit="" if unit == "-" else unit)
-        if rng.contains(float(v)):
-            continue
-        import re
-
-        cause = str(exc)
-        # "phi_c = 0.436 is outside the valid range (0, 0.3) (material M; NOTE)": keep the
-        # parameter, its value and the note (the range printed there is phi_c's, not key's)
-        m = re.match(r"(\w+) = (\S+) is outside the valid range .*?(?:\(material [^;)]*"
-                     r"(?:; (.+))?\))?$", cause)
-        named, note = (m.group(1), m.group(3)) if m else (None, None)
-        if named == key:
-            why = f" ({note})" if note else ""
-        elif m:
-            why = (f" (with material {base.name}'s other parameters: {named} = {m.group(2)}"
-                   + (f"; {note}" if note else "") + ")")
-        else:
-            why = f" (with material {base.name}'s other parameters: {cause})"
-        return ValueError(f"{option} {key} = {v:g} is outside the valid range {rng.range_text}"
-                          f"{why}")
-    return exc
-
-
-def _material(args):
-    import rheology
-
-    from .instrument_cli import resolve_sample
-
-    names = [k for k, _ in args.set or []]
-    twice = sorted({k for k in names if names.count(k) > 1})
-    if twice:
-        raise ValueError(f"--set {twice[0]} given twice; give each parameter once")
-    overrides = dict(args.set or [])
-    m = material_with(args.material, overrides)
-    resolve_sample(args, m)        # issue 15: --phi default per material, --mass-fraction, geometry
-    return m
-
-
-def _default_phis(count: int) -> list[float]:
-    """The fractions a command with ``count`` default fractions runs at on DEFAULT_MATERIAL
-    (rheology.defaults, the rule resolve_sample applies): three, or the middle one."""
-    from rheology.defaults import default_fraction, default_fractions
-
-    return default_fractions(DEFAULT_MATERIAL) if count > 1 else [default_fraction(DEFAULT_MATERIAL)]
-
-
-def _common(p, phi_count, out_default):
-    """Options of every measuring command; ``phi_count`` (1 or 3) default fractions."""
-    phi_default = _default_phis(phi_count)
-    p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
-                   help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
-    p.add_argument("--phi", type=Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False),
-                   nargs="+", default=None, metavar="PHI",
-                   help=("volume fraction(s) (default: "
-                         + ("the material's reference fraction" if len(phi_default) == 1 else
-                            f"{len(phi_default)} fractions around the material's reference")
-                         + f", see 'rheometer materials'; for {DEFAULT_MATERIAL}: "
-                         f"{' '.join(f'{x:g}' for x in phi_default)})"))
-    p.set_defaults(_phi_count=len(phi_default))
-    p.add_argument("--set", action="append", type=_set_value, metavar="NAME=VALUE",
-                   help="override a numeric material parameter, e.g. --set eta0=0.01, or unset "
-                        "an optional one (G=none); repeatable; the text fields name, citation, "
-                        "units, notes are not settable")
-    p.add_argument("--out", default=f"{out_default}.csv", metavar="FILE.csv",
-                   help=f"CSV output (default {out_default}.csv)")
-    p.add_argument("--plot", default=None, metavar="FILE.png",
-                   help=f"figure (default: the --out name with .png, {out_default}.png; 'none' "
-                        f"for no figure)")
-    from .instrument_cli import add_instrument_options
-    add_instrument_options(p)      # issue 15: --geometry and dimensions, --mass-fraction
-
-
-def _modulus(name):
-    return Number(name, 0.0, STRESS_MAX, lo_closed=False, unit="Pa")
-
-
-def _k0():
-    return Number("--K0", 0.0, K0_MAX)
-
-
-def _t_end():
-    return limits.duration("--t-end")
-
-
-def _transient_options(p, t_end=None):
-    p.add_argument("--G", type=_modulus("--G"), default=None, help="granular shear modulus [Pa]")
-    p.add_argument("--K0", type=_k0(), default=None, help="structure-rate scale K0 [-]")
-    if t_end is not None:
-        p.add_argument("--t-end", type=_t_end(), default=t_end,
-                       help=f"duration [s] (default {t_end:g})")
-    p.add_argument("--rtol", type=Number("--rtol", 1e-13, 1e-2), default=1e-7,
-                   help="IDA relative tolerance (1e-7)")
-    p.add_argument("--points", type=Number("--points", 3, 10 ** 6, integer=True), default=300,
-                   help="output rows per step (300)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -211,7 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("materials", help="list the parameter sets and their sources")
     p.add_argument("--material", default=None, metavar="NAME", help="show every parameter of one")
-    p.add_argument("--set", action="append", type=_set_value, metavar="NAME=VALUE",
+    p.add_argument("--set", action="append", type=set_argument, metavar="NAME=VALUE",
                    help="override numeric parameters of --material (not name, citation, units, "
                         "notes)")
     p.add_argument("--out", default=None, metavar="FILE.csv", help="also write the table as CSV")
@@ -223,7 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
                     "--control mixture-stress imposes the MIXTURE shear stress and --control rate "
                     "the shear rate: every steady state, with columns branch and stable.",
         epilog=_EPILOG)
-    _common(p, 3, "flow_curve")
+    common_options(p, 3, "flow_curve")
     p.add_argument("--control", choices=("stress", "mixture-stress", "rate"), default="stress")
     p.add_argument("--stress-range", type=Number("--stress-range", limits.STRESS_MIN, STRESS_MAX,
                                                  unit="Pa"),
@@ -249,9 +108,9 @@ def build_parser() -> argparse.ArgumentParser:
           Number("--stress", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"))))
     for name, text, t_end, (flag, value, flag_help, kind) in transients:
         p = sub.add_parser(name, help=text, epilog=_EPILOG)
-        _common(p, 1, name)
+        common_options(p, 1, name)
         p.add_argument(flag, type=kind, default=value, help=flag_help)
-        _transient_options(p, t_end)
+        transient_options(p, t_end)
 
     p = sub.add_parser("program", help="a test program from a text file (steps and ramps)",
                        epilog="Lines: 'shear at 10 1/s for 60 s', 'shear at 1 1/s until strain 5', "
@@ -263,8 +122,8 @@ def build_parser() -> argparse.ArgumentParser:
                               "comments. Without FILE: stress and rate sweeps up and down across "
                               "DST, built for the material and the first phi (hysteresis).")
     p.add_argument("file", nargs="?", default=None, help="program file ('-' for stdin)")
-    _common(p, 1, "program")
-    _transient_options(p)
+    common_options(p, 1, "program")
+    transient_options(p)
     p.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0.0, TIME_MAX,
                                                      lo_closed=False, unit="s"),
                    default=60.0, metavar="SECONDS",
@@ -278,10 +137,10 @@ def build_parser() -> argparse.ArgumentParser:
                        epilog="Volume control keeps phi; pressure control imposes the granular "
                               "pressure and lets phi evolve. Start from the steady state at "
                               "--stress0 or from rest under --pressure0.")
-    _common(p, 1, "material_point")
+    common_options(p, 1, "material_point")
     p.add_argument("--rate", type=Number("--rate", 0.0, RATE_MAX, unit="1/s"), default=0.5,
                    help="shear rate [1/s] (0.5)")
-    p.add_argument("--t-end", type=_t_end(), default=10.0, help="duration [s] (10)")
+    p.add_argument("--t-end", type=t_end_option(), default=10.0, help="duration [s] (10)")
     p.add_argument("--dt", type=limits.duration("--dt"),
                    default=1e-3, help="largest time step [s] (1e-3; sub-stepped where the rate "
                                       "needs it)")
@@ -297,16 +156,14 @@ def build_parser() -> argparse.ArgumentParser:
                                       "stress free)")
     p.add_argument("--f0", type=Number("--f0", 0.0, 1.0), default=None,
                    help="initial structure f")
-    p.add_argument("--G", type=_modulus("--G"), default=None,
+    p.add_argument("--G", type=modulus("--G"), default=None,
                    help="shear modulus [Pa] (default 1e4)")
-    p.add_argument("--K", type=_modulus("--K"), default=None,
+    p.add_argument("--K", type=modulus("--K"), default=None,
                    help="bulk modulus [Pa] (default 2.18 G)")
-    p.add_argument("--K0", type=_k0(), default=None, help="structure-rate scale (default 1)")
+    p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale (default 1)")
     p.add_argument("--points", type=Number("--points", 1, 10 ** 7, integer=True), default=400,
                    help="output rows (400)")
-    from .fit_cli import add_subcommands          # 'read' and 'fit' (rheometer/fit_cli.py)
     _COMMANDS.update(add_subcommands(sub))
-    from . import instrument_cli                  # 'oscillation' (rheometer/instrument_cli.py)
     _COMMANDS.update(instrument_cli.add_subcommands(sub))
     return ap
 
@@ -317,39 +174,18 @@ def build_parser() -> argparse.ArgumentParser:
 EMPTY_OK = ("viscosity_Pa_s", "relative_viscosity")
 
 
-def _plot_path(args):
-    """The figure path (None for no figure), checked with --out BEFORE any work is done."""
-    from rheology.io import check_output_path
-
-    check_output_path("--out", args.out, ["csv"])
-    plot = args.plot if args.plot is not None else str(Path(args.out).with_suffix(".png"))
-    if plot.lower() == "none":
-        return None
-    check_output_path("--plot", plot, ["figure"])
-    return plot
-
-
 def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=None) -> str:
     """Write the CSV and the figure; with ``record`` (the transients) also the run record
     ``<out>.json`` (rheology.run_end: status and the ends in ``df.attrs["ends"]``, those in
     ``marked``, default all, marked on the figure); a run that ended early is then raised by
     :func:`main` after the message (exit status 3)."""
-    from rheology.io import atomic_savefig, atomic_write_csv, atomic_write_json
-    from rheology.run_end import EndedEarly, run_record
-
-    from .instrument_cli import extra_outputs, finish_table
-
-    plot = _plot_path(args)
+    plot = plot_path(args)
     ends = list(df.attrs.get("ends") or []) if record else []
-    table, empty_ok = finish_table(args, df, EMPTY_OK)   # issue 15: instrument, mass, units
+    table, empty_ok = finish_table(args, df, EMPTY_OK)   # instrument, mass, units
     atomic_write_csv(args.out, table, empty_ok=empty_ok)
     written = [args.out]
     msg = f"wrote {args.out} ({len(df)} rows)"
     if plot is not None:
-        import matplotlib.pyplot as plt
-
-        from .plots import mark_ends, normalise_units
-
         fig = fig_maker()
         mark_ends(fig, ends if marked is None else marked)
         m = getattr(args, "_material_obj", None)
@@ -383,8 +219,6 @@ def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=No
 def _per_phi(args, run) -> pd.DataFrame:
     """``run(phi)`` at every --phi, concatenated; a run that ends early keeps its rows up to the
     end (rheology.run_end), its end in ``attrs["ends"]``; RuntimeError when no run has a row."""
-    from rheology.run_end import EndedEarly
-
     frames, ends = [], []
     for ph in args.phi:
         try:
@@ -405,14 +239,10 @@ def _per_phi(args, run) -> pd.DataFrame:
 
 
 def _cmd_materials(args) -> str:
-    import rheology
-
     if args.out:
-        from rheology.io import check_output_path
-
         check_output_path("--out", args.out, ["csv"])
     if args.material is not None:
-        print(_material(args).summary())
+        print(sample_material(args).summary())
         return ""
     if args.set:
         raise ValueError("--set needs --material NAME (the parameter set to change)")
@@ -420,11 +250,8 @@ def _cmd_materials(args) -> str:
     width = max(len(n) for n, _ in rows)
     for name, cite in rows:
         print(f"{name:{width}s}  {cite}")
-    from .instrument_cli import materials_note
     print(materials_note())
     if args.out:
-        from rheology.io import atomic_write_csv
-
         table = pd.DataFrame([{"name": n, "citation": c, **{
             k: getattr(rheology.get_material(n), k) for k in rheology.materials.FIELD_UNITS}}
             for n, c in rows])
@@ -434,11 +261,8 @@ def _cmd_materials(args) -> str:
 
 
 def _cmd_flow_curve(args) -> str:
-    from . import plots
-    from .protocols import flow_curve
-
-    _plot_path(args)
-    m = _material(args)
+    plot_path(args)
+    m = sample_material(args)
     n = int(args.points)
     # a range of the other control would be ignored: refused (defaults: 1e-3 1e4 Pa, 1e-4 1e3 1/s)
     if args.control == "rate" and args.stress_range is not None:
@@ -474,10 +298,6 @@ def _check_relax_stress(args, m) -> None:
     """``relax --stress`` starts from a steady state at that granular stress: its elastic strain
     stress/G is known before the run; past the small-strain limit (rheology.elastic) the run is
     refused here (exit 2) rather than failed by the solver's check (exit 1)."""
-    from rheology.elastic import ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress
-
-    from .transient import DEFAULT_G
-
     G = args.G if args.G is not None else (m.G or DEFAULT_G)
     top = elastic_strain_limit_stress(G)
     if args.stress > top * (1.0 + 1e-12):
@@ -490,11 +310,8 @@ def _check_relax_stress(args, m) -> None:
 
 
 def _transient(args, kind: str) -> str:
-    from . import plots
-    from .protocols import creep, relax, startup
-
-    _plot_path(args)
-    m = _material(args)
+    plot_path(args)
+    m = sample_material(args)
     opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True)
     if kind == "startup":
         df = _per_phi(args, lambda ph: startup(m, ph, args.rate, args.t_end, **opts))
@@ -536,12 +353,8 @@ def read_program_file(name: str) -> tuple[str, str]:
 
 
 def _cmd_program(args) -> str:
-    from . import plots
-    from .checkpoint import ProgramCheckpoint
-    from .program import hysteresis_program, parse_program
-
-    _plot_path(args)
-    m = _material(args)
+    plot_path(args)
+    m = sample_material(args)
     if args.file is None:
         text = hysteresis_program(m, args.phi[0])
         name = f"built-in stress and rate sweeps up and down at phi = {args.phi[0]:g}"
@@ -574,10 +387,8 @@ def _cmd_program(args) -> str:
 
 def _load_checkpoint(ck) -> Path:
     """Load ``ck`` for --resume (its fallback notice on stderr) and return the file actually
-    read: rheology.io.load_checkpoint falls back to the previous checkpoint NAME.prev.npz when
+    read: runkit.io.load_checkpoint falls back to the previous checkpoint NAME.prev.npz when
     NAME.npz is corrupt (and says so through ``log``) or absent (silently)."""
-    from rheology.io import previous_checkpoint
-
     prev = previous_checkpoint(ck.path)
     used = [prev if not ck.path.is_file() and prev.is_file() else ck.path]
 
@@ -591,10 +402,7 @@ def _load_checkpoint(ck) -> Path:
 
 
 def _cmd_material_point(args) -> str:
-    from . import plots
-    from .material_point import simple_shear_point
-
-    _plot_path(args)
+    plot_path(args)
     # options another choice makes irrelevant are refused, not ignored
     if args.control == "volume" and args.pressure is not None:
         raise ValueError("--pressure is the imposed pressure of --control pressure; --control "
@@ -603,7 +411,7 @@ def _cmd_material_point(args) -> str:
         raise ValueError("give --stress0 (start from the steady state at that stress) or "
                          "--pressure0 (start from rest under that pressure), not both")
     _check_update_count(args.rate, args.t_end, args.dt)
-    m = _material(args)
+    m = sample_material(args)
     df = _per_phi(args, lambda ph: simple_shear_point(
         m, ph, args.rate, args.t_end, args.dt, control=args.control, pressure=args.pressure,
         f0=args.f0, stress0=args.stress0, pressure0=args.pressure0, G=args.G, K=args.K,
@@ -621,8 +429,7 @@ def _check_update_count(rate: float, t_end: float, dt: float) -> None:
     longer than --t-end. Two limits: the steps, set by --t-end / --dt (a longer --dt or a
     shorter --t-end helps), and the strain per update, set by --rate x --t-end (no --dt helps:
     a lower --rate or a shorter --t-end). ValueError with the valid values of each option."""
-    from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP as x
-
+    x = STRAIN_PER_SUBSTEP
     if dt > t_end:
         raise ValueError(f"--dt = {dt:g} s is outside the valid range [{limits.TIME_MIN:g}, "
                          f"{t_end:g}] s: the "

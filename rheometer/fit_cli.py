@@ -30,12 +30,29 @@ from __future__ import annotations
 import argparse
 import datetime
 import hashlib
+import warnings
 from pathlib import Path
 
+from runkit.plotting import plt
 import numpy as np
 import pandas as pd
 
-from rheology.cli_common import Number
+import rheology
+from rheology.data import (EMPTY_OK, READERS, describe, detect_format, drop_counts,
+                           read_flow_curves, read_relaxation_curves, read_text,
+                           table_to_csv_frame)
+from rheology.fit import (PARAMETER_EMPTY_OK, FlowData, fit_flow_curves, mixture_steady_state,
+                          parameter_table)
+from rheology.materials import (FIELD_UNITS, MATERIAL_FILE_FORMAT, check_set_override,
+                                material_to_dict, split_set_item)
+from rheology.steady import gdot_dst
+from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, check_finite,
+                       check_output_dir, check_output_path, strict_json)
+from runkit.params import Number
+
+from .limits import STRESS_MAX, check_set
+from .options import about_set, k0
+from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
 
 _PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
 
@@ -85,8 +102,6 @@ def _once(option: str, values) -> None:
 def _set_value(text: str):
     """``NAME=VALUE`` of ``fit --set`` (checked in cmd_fit by rheology.materials.
     check_set_override: a numeric parameter, not a text field, held at a finite number)."""
-    from rheology.materials import split_set_item
-
     try:
         return split_set_item(text)
     except ValueError as exc:
@@ -94,8 +109,6 @@ def _set_value(text: str):
 
 
 def _file_options(p, *, relaxation: bool = False):
-    from rheology.data import READERS
-
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="rheometer exports (RheoCompass, TRIOS text or CSV, rSpace CSV) or tables")
     p.add_argument("--format", default="auto", choices=("auto", *READERS),
@@ -199,7 +212,6 @@ def add_subcommands(sub) -> dict:
     p.add_argument("--no-profile", action="store_true",
                    help="skip the profile-likelihood intervals of phi_j and phi_c")
 
-    from .cli import STRESS_MAX, _k0
 
     p = sub.add_parser(
         "fit-relaxation", help="fit G and K0 to stress relaxation after cessation of steady "
@@ -222,7 +234,7 @@ def add_subcommands(sub) -> dict:
                    help="steady granular shear stress before cessation [Pa] (the measured "
                         "stress less eta0 (1 + 5/2 phi) gdot, negligible when dense): one for "
                         "every curve, or one per curve in order")
-    p.add_argument("--K0", type=_k0(), default=None, help="hold K0 at this value (fit G only)")
+    p.add_argument("--K0", type=k0(), default=None, help="hold K0 at this value (fit G only)")
     p.add_argument("--time-offset", type=Number("--time-offset", -1e9, 1e9, unit="s"),
                    default=None, metavar="SECONDS",
                    help="hold each curve's cessation time at this time on its clock (default: "
@@ -241,8 +253,6 @@ def check_files(args) -> None:
     the files given: ``--columns`` maps the columns of CSV/TSV tables, an instrument export's
     columns are fixed by the export; ``--interval`` selects an export's named intervals, steps
     or actions, tables have none. One line naming the file(s) and the option."""
-    from rheology.data import detect_format, read_text
-
     _once("--columns", [k for k, _ in args.columns or []])       # a quantity mapped twice
     _once("--interval", args.interval)
     seen: dict = {}
@@ -275,8 +285,6 @@ def prepare_out(option: str, path) -> Path:
     """The --out folder, checked before any work: writable, and holding no file but a previous
     fit's (:data:`OUTPUTS` and their temporaries), which this run replaces or removes. ValueError
     naming the foreign files otherwise."""
-    from rheology.io import check_output_dir
-
     out = check_output_dir(option, path)
     if out.is_dir():
         other = sorted(p.name for p in out.iterdir() if not _ours(p.name))
@@ -299,8 +307,6 @@ def remove_stale(out: Path, written) -> None:
 
 
 def _read(args):
-    from rheology.data import read_flow_curves
-
     check_files(args)
     mass = None
     if args.mass_fraction:
@@ -317,9 +323,6 @@ def _read(args):
 
 def cmd_read(args) -> str:
     """``rheometer read``: write the tidy table; print the drop counts and skipped blocks."""
-    from rheology.data import EMPTY_OK, describe, table_to_csv_frame
-    from rheology.io import atomic_write_csv, check_output_path
-
     check_output_path("--out", args.out, ["csv"])
     table = _read(args)
     atomic_write_csv(args.out, table_to_csv_frame(table), empty_ok=EMPTY_OK)
@@ -357,9 +360,6 @@ def _write_results(out: Path, tables: dict, material, doc: dict, problems, accep
     """Check every output, write them, the material as material.json (or material_rejected.json
     for an unphysical result without --accept), remove a previous fit's other files. Returns the
     names written."""
-    from rheology.io import atomic_write_csv, atomic_write_json, check_finite, strict_json
-    from rheology.materials import MATERIAL_FILE_FORMAT, material_to_dict
-
     nullable = ("lower", "upper", "std_error")
     for name, (frame, empty) in tables.items():
         check_finite(frame, name, empty)
@@ -394,11 +394,6 @@ def _verdict(problems, out: Path, accept: bool) -> str:
 # ------------------------------------------------------------------ rheometer fit
 def cmd_fit(args) -> str:
     """``rheometer fit``: read, fit, write DIR/material.json, CSVs and figures."""
-    import rheology
-    from rheology.data import EMPTY_OK, describe, drop_counts, table_to_csv_frame
-    from rheology.fit import PARAMETER_EMPTY_OK, FlowData, fit_flow_curves
-    from rheology.materials import check_set_override
-
     out = prepare_out("--out", args.out)
     if args.name is not None and not args.name.strip():
         raise ValueError(f"--name = {args.name!r} is empty; valid: a non-empty name (default: "
@@ -412,18 +407,14 @@ def cmd_fit(args) -> str:
         if name in fixed:
             raise ValueError(f"--set {name} given twice; give each parameter once")
         fixed[name] = x
-    from .limits import check_set
 
     check_set(fixed)                         # the scales' ranges (rheometer.limits.SET_RANGES)
     if fixed:                                # refused as the parameter set, with its range
-        from rheology.materials import FIELD_UNITS
-
-        from .cli import _about_set
 
         try:
             start.replace(**fixed)
         except ValueError as exc:
-            raise _about_set(start, fixed, exc, "--set", FIELD_UNITS) from None
+            raise about_set(start, fixed, exc, "--set", FIELD_UNITS) from None
     _once("--free", args.free)
     if "eta0" in (args.free or []):
         raise ValueError("--free eta0: eta0 is estimated from the curves by default; hold it "
@@ -435,7 +426,6 @@ def cmd_fit(args) -> str:
     name = args.name.strip() if args.name is not None else out.resolve().name
     # numpy's warnings of the fit (a singular covariance at an extreme held value) are held: a
     # failed fit cites the first in its one line, a finished one lists them as notes
-    import warnings
 
     try:
         with warnings.catch_warnings(record=True) as held:
@@ -521,14 +511,6 @@ def _legend(ax, **kw):
 def write_figures(out: Path, data, res) -> list[str]:
     """The fit's figures (data vs model per phi, residuals, stages 1-3 as Figs. 11-13). The
     stage figures show each stage's own values and, dashed, the final (stage 4) ones."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from rheology.fit import mixture_steady_state
-    from rheology.io import atomic_savefig
-
     m = res.material
     phis = data.curve_phi()
     colours = plt.cm.viridis(np.linspace(0, 0.9, data.n_curves))
@@ -627,8 +609,6 @@ def write_figures(out: Path, data, res) -> list[str]:
     _legend(ax[0])
     top = min(m.phi_star, m.phi_j) - 1e-4 * m.phi_j
     if len(st3["phi"]) and top > m.phi_c:
-        from rheology.steady import gdot_dst
-
         ax[1].semilogy(st3["phi"], st3["gdot_dst"], "o", label="DST rates (stage 3)")
         for mm, style, what in ((st3["material"], "r-", "stage 3"), (m, "k--", "final")):
             hi = min(mm.phi_star, mm.phi_j) - 1e-4 * mm.phi_j
@@ -660,13 +640,6 @@ def _per_curve(option: str, values, n: int) -> list[float]:
 def cmd_fit_relaxation(args) -> str:
     """``rheometer fit-relaxation``: read relaxations, fit G and K0, write DIR/material.json,
     parameters.csv, fit.csv and relaxation.png."""
-    import rheology
-    from rheology.data import EMPTY_OK, describe, read_relaxation_curves
-    from rheology.fit import PARAMETER_EMPTY_OK, parameter_table
-    from rheology.materials import FIELD_UNITS
-
-    from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
-
     out = prepare_out("--out", args.out)
     if args.name is not None and not args.name.strip():
         raise ValueError(f"--name = {args.name!r} is empty; valid: a non-empty name (default: "
@@ -743,13 +716,6 @@ def cmd_fit_relaxation(args) -> str:
 
 def relaxation_figure(out: Path, res) -> str:
     """relaxation.png: data and model against the time after cessation (log-log), residuals."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from rheology.io import atomic_savefig
-
     fig, ax = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True, constrained_layout=True,
                            gridspec_kw={"height_ratios": [3, 1]})
     colours = plt.cm.viridis(np.linspace(0, 0.85, len(res.curves)))

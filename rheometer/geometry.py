@@ -31,7 +31,7 @@ with lambda = 0.3 (swelling) and beta = 0.1 (pore space) by default, rho_cs the 
 liquid and rho_w the water density. Where the material gives none (the steady fits): rho_cs =
 1620 kg/m^3 (the cornstarch grain density of Tables 4-7), rho_l = rho_w = 1000 kg/m^3 (water).
 
-Defaults per material (:func:`default_fractions`, from :mod:`rheology.defaults` so that every
+Defaults per material (:func:`default_fractions`, from :mod:`rheology.materials` so that every
 tier uses it), one rule for every command: a set with DST
 (finite eta_B: the Table 2-7 sets and Singh (b)) gets phi = phi_c + s (phi_j - phi_c) with
 s = 0.45, 0.65, 0.85 (all inside the DST window, phi_c <= phi < phi_j), a set without DST (eta_B
@@ -55,7 +55,7 @@ import numpy as np
 import pandas as pd
 
 import rheology
-from rheology.checks import check_positive, check_range
+from runkit.params import check_positive, check_range
 from rheology.materials import Material
 
 GEOMETRIES = ("cone-plate", "parallel-plate", "couette")
@@ -271,9 +271,9 @@ from rheology.sample import (BETA, LAMBDA, RHO_GRAIN, RHO_LIQUID, RHO_WATER,  # 
 
 # ------------------------------------------------------------------ defaults per material
 # the rule lives in rheology (shared with shear1d and mpm2d scenes)
-from rheology.defaults import (DST_POSITIONS, NO_DST_POSITIONS, default_fraction,  # noqa: E402
+from rheology.materials import (DST_POSITIONS, NO_DST_POSITIONS, default_fraction,  # noqa: E402
                                default_fractions, has_dst)
-from rheology.defaults import RULE as DEFAULT_RULE  # noqa: E402
+from rheology.materials import RULE as DEFAULT_RULE  # noqa: E402
 
 # ------------------------------------------------------------------ normalised columns
 _SUFFIXES = (("_Pa_s", "_eta0"), ("_N_m", "_eta0_gdot0_m3"), ("_rad_per_s", "_rad_gdot0"),

@@ -1,12 +1,12 @@
-"""The instrument's words on the ``rheometer`` command line (issue 15), kept apart from the
+"""The instrument's words on the ``rheometer`` command line, kept apart from the
 command bodies of :mod:`rheometer.cli`, which call four hooks:
 
-- :func:`add_instrument_options` (from ``_common``): ``--geometry cone-plate|parallel-plate|couette``
+- :func:`add_instrument_options` (from ``common_options``): ``--geometry cone-plate|parallel-plate|couette``
   with ``--cone-angle`` [deg], ``--radius``, ``--gap``, ``--bob-radius``, ``--cup-radius``,
   ``--bob-length`` [m]; ``--mass-fraction W [W ...]`` (Eq. 20) with ``--grain-density``,
   ``--liquid-density``, ``--water-density`` [kg/m^3], ``--swelling`` (lambda) and
   ``--pore-fraction`` (beta);
-- :func:`resolve_sample` (from ``_material``): the default volume fractions of the material (one
+- :func:`resolve_sample` (from ``sample_material``): the default volume fractions of the material (one
   rule, :func:`rheometer.geometry.default_fractions`) when ``--phi`` is not given, or the fractions
   of ``--mass-fraction``;
 - :func:`finish_table` (from ``_write``): the mass-fraction column, the instrument columns (torque
@@ -15,167 +15,29 @@ command bodies of :mod:`rheometer.cli`, which call four hooks:
   (``<out>_parallel_plate.csv`` and ``.png``);
 - :func:`add_subcommands` (from ``build_parser``): ``rheometer oscillation``.
 
-Every numeric option is a :class:`rheology.cli_common.Number`.
+Every numeric option is a :class:`runkit.params.Number`.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
+from runkit.plotting import plt
 import numpy as np
 import pandas as pd
 
-from rheology.cli_common import Number
-from rheology.sample import add_mass_fraction_options, mass_fraction_phi
+import rheology
+from rheology.elastic import ELASTIC_STRAIN_LIMIT
+from rheology.run_end import EndedEarly, run_record
+from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, check_finite,
+                       check_output_path)
+from runkit.params import Number
 
 from . import geometry as geo
-
-#: Largest dimension accepted [m].
-LENGTH_MAX = 10.0
-
-
-# ------------------------------------------------------------------ options
-def add_instrument_options(p) -> None:
-    """Geometry and mass-fraction options of every measuring command."""
-    g = p.add_argument_group("measuring geometry (torque, rotation speed, apparent stress and "
-                             "rate by the standard conversions)")
-    g.add_argument("--geometry", choices=geo.GEOMETRIES, default=None,
-                   help="cone-plate | parallel-plate | couette (default: none, sample values only)")
-    length = lambda name: Number(name, 0.0, LENGTH_MAX, lo_closed=False, unit="m")  # noqa: E731
-    d = geo.DEFAULTS
-    g.add_argument("--cone-angle", type=Number("--cone-angle", 0.0, 10.0, lo_closed=False,
-                                               unit="deg"), default=None,
-                   help=f"cone angle [deg] (cone-plate; {d['cone_angle_deg']:g})")
-    g.add_argument("--radius", type=length("--radius"), default=None,
-                   help=f"cone or plate radius [m] ({d['cone_radius']:g} cone, "
-                        f"{d['plate_radius']:g} plate)")
-    g.add_argument("--gap", type=length("--gap"), default=None,
-                   help=f"plate gap [m] (parallel-plate; {d['gap']:g})")
-    g.add_argument("--bob-radius", type=length("--bob-radius"), default=None,
-                   help=f"bob radius [m] (couette; {d['bob_radius']:g})")
-    g.add_argument("--cup-radius", type=length("--cup-radius"), default=None,
-                   help=f"cup radius [m] (couette; {d['cup_radius']:g})")
-    g.add_argument("--bob-length", type=length("--bob-length"), default=None,
-                   help=f"immersed bob length [m] (couette; {d['bob_length']:g})")
-    add_mass_fraction_options(p)
-
-
-def geometry_of(args) -> geo.Geometry | None:
-    """The geometry of ``--geometry`` and its dimensions (None without it); ValueError when a
-    dimension of another geometry is given."""
-    kind = getattr(args, "geometry", None)
-    own = {"cone-plate": ("cone_angle", "radius"), "parallel-plate": ("radius", "gap"),
-           "couette": ("bob_radius", "cup_radius", "bob_length")}
-    given = [k for k in ("cone_angle", "radius", "gap", "bob_radius", "cup_radius", "bob_length")
-             if getattr(args, k, None) is not None]
-    if kind is None:
-        if given:
-            raise ValueError(f"--{given[0].replace('_', '-')} needs --geometry "
-                             f"(cone-plate, parallel-plate or couette)")
-        return None
-    wrong = [k for k in given if k not in own[kind]]
-    if wrong:
-        raise ValueError(f"--{wrong[0].replace('_', '-')} is not a dimension of --geometry {kind} "
-                         f"(its dimensions: "
-                         f"{', '.join('--' + k.replace('_', '-') for k in own[kind])})")
-    dims = {k: getattr(args, k, None) for k in own[kind]}
-    try:
-        return _geometry(kind, dims)
-    except (ValueError, ArithmeticError) as exc:
-        raise _about_dimension(kind, dims, exc) from None
-
-
-#: the option's default among geometry.DEFAULTS, per geometry
-_DEFAULT_KEY = {("cone-plate", "radius"): "cone_radius", ("parallel-plate", "radius"):
-                "plate_radius", ("cone-plate", "cone_angle"): "cone_angle_deg"}
-
-
-def _geometry(kind: str, dims: dict) -> geo.Geometry:
-    """The geometry with its conversion factors checked: a dimension in its range whose factor
-    is not a finite positive number (a bob radius of 1e-300: 1/(2 pi R^2 L) divided by zero
-    after the run, in the table's instrument columns) is refused here, before the run."""
-    names = {"cone_angle": "cone_angle_deg"}
-    g = geo.Geometry.make(kind, **{names.get(k, k): v for k, v in dims.items()})
-    with np.errstate(all="ignore"):
-        factors = (g.stress_factor(), g.rate_factor())
-    bad = [f for f in factors if not (np.isfinite(f) and f > 0)]
-    if bad:
-        raise ValueError(f"{g.describe()}: its conversion factors (stress, rate) are "
-                         f"{factors[0]:g}, {factors[1]:g}, not finite positive numbers")
-    return g
-
-
-def _about_dimension(kind: str, dims: dict, exc: Exception) -> ValueError:
-    """A geometry refusal said about a dimension the user gave, with its valid range at the
-    other dimensions (bisection, :func:`rheometer.cli.valid_interval`): ``--cup-radius 1e-300``
-    or ``--bob-radius 1e-300`` (whose conversion factor divided by zero)."""
-    from .cli import valid_interval
-
-    limit = {"cone_angle": 10.0}
-    for key, v in dims.items():
-        if v is None:
-            continue
-        x0 = geo.DEFAULTS[_DEFAULT_KEY.get((kind, key), key)]
-        static = Number(f"--{key.replace('_', '-')}", 0.0, limit.get(key, LENGTH_MAX),
-                        lo_closed=False, unit="deg" if key == "cone_angle" else "m")
-
-        def ok(x, key=key, static=static):
-            if not static.contains(x):
-                return False
-            try:
-                _geometry(kind, {**dims, key: x})
-            except (ValueError, ArithmeticError):
-                return False
-            return True
-
-        if not ok(x0):
-            continue
-        lo, lo_closed, hi, hi_closed = valid_interval(ok, x0)
-        rng = Number(static.name, lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
-                     unit=static.unit)
-        if rng.contains(float(v)):
-            continue
-        others = ", ".join(f"--{k.replace('_', '-')} {dims[k] if dims[k] is not None else d:g}"
-                           for k, d in ((k, geo.DEFAULTS[_DEFAULT_KEY.get((kind, k), k)])
-                                        for k in dims) if k != key)
-        return ValueError(f"{static.name} = {v:g} is outside the valid range {rng.range_text} "
-                          f"(--geometry {kind} with {others}: {exc})")
-    return exc if isinstance(exc, ValueError) else ValueError(str(exc))
-
-
-# ------------------------------------------------------------------ hooks
-def resolve_sample(args, m) -> None:
-    """Set ``args.phi`` from ``--mass-fraction`` or the material's defaults (when ``--phi`` is
-    not given), and remember the material and the geometry on ``args`` for :func:`finish_table`.
-    ValueError (one line, exit 2) for --phi with --mass-fraction, or a fraction >= phi_j."""
-    if not hasattr(args, "phi"):
-        return
-    args._material_obj = m
-    args._geometry = geometry_of(args)
-    args._mass = None
-    if getattr(args, "mass_fraction", None) is not None:
-        if args.phi is not None:
-            raise ValueError("give --phi or --mass-fraction, not both")
-        args.phi, args._mass_note = mass_fraction_phi(args, m)
-        twice = next((w for i, w in enumerate(args.mass_fraction)
-                      if float(w) in map(float, args.mass_fraction[:i])), None)
-        if twice is not None:
-            raise ValueError(f"--mass-fraction {float(twice):g} is given twice: its curves would "
-                             "repeat; give distinct mass fractions")
-        args._mass = dict(zip(args.phi, map(float, args.mass_fraction)))
-    elif args.phi is None:
-        count = getattr(args, "_phi_count", 1)
-        args.phi = geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]
-    else:
-        twice = next((p for i, p in enumerate(args.phi) if p in args.phi[:i]), None)
-        if twice is not None:
-            raise ValueError(f"--phi {twice:g} is given twice: its curves would repeat; give "
-                             "distinct fractions")
-        bad = [p for p in args.phi if p >= m.phi_j]
-        if bad:
-            raise ValueError(f"--phi = {bad[0]:g} is outside the valid range (0, {m.phi_j:g}) "
-                             f"of {m.name} (below phi_j)")
-
+from . import oscillation as osc
+from . import plots
+from .limits import FREQUENCY_MIN, RATE_MAX, STRESS_MAX
+from .options import common_options, k0, modulus, plot_path, sample_material
 
 def _phi_column(df: pd.DataFrame) -> str | None:
     return "phi0" if "phi0" in df.columns else ("phi" if "phi" in df.columns else None)
@@ -249,10 +111,6 @@ def extra_outputs(args, df: pd.DataFrame, plot=None) -> str:
             msg += (" (the sample is taken homogeneous at the rim rate: the radial integration "
                     "is done for steady flow curves)")
         if g.kind == "parallel-plate" and getattr(args, "cmd", "") == "flow-curve":
-            from rheology.io import atomic_savefig, atomic_write_csv
-
-            from . import plots
-
             base = Path(args.out)
             csv = base.with_name(base.stem + "_parallel_plate.csv")
             pp = pd.concat([geo.parallel_plate_flow_curve(m, float(ph), g) for ph in args.phi],
@@ -260,8 +118,6 @@ def extra_outputs(args, df: pd.DataFrame, plot=None) -> str:
             atomic_write_csv(csv, geo.normalise_columns(pp, m))
             msg += f"\nwrote {csv} ({len(pp)} rows: true, apparent and corrected rim stress)"
             if plot is not None:
-                import matplotlib.pyplot as plt
-
                 png = base.with_name(base.stem + "_parallel_plate.png")
                 fig = plots.parallel_plate_figure(pp, df, f"{m.name}: {g.describe()}")
                 try:
@@ -274,8 +130,6 @@ def extra_outputs(args, df: pd.DataFrame, plot=None) -> str:
 
 def materials_note() -> str:
     """The default-fraction rule and each material's defaults (for ``rheometer materials``)."""
-    import rheology
-
     lines = [f"Defaults ({geo.DEFAULT_RULE}):"]
     for name in rheology.materials.material_names():
         m = rheology.get_material(name)
@@ -289,10 +143,6 @@ def materials_note() -> str:
 # ------------------------------------------------------------------ rheometer oscillation
 def add_subcommands(sub) -> dict:
     """Add ``oscillation`` to the ``rheometer`` subparsers; return its command function."""
-    from . import oscillation as osc
-    from .cli import RATE_MAX, STRESS_MAX, _common, _k0, _modulus
-    from .limits import FREQUENCY_MIN
-
     p = sub.add_parser(
         "oscillation", help="oscillatory shear: amplitude and frequency sweeps (G', G'', I3/I1, "
                             "Lissajous curves)",
@@ -303,7 +153,7 @@ def add_subcommands(sub) -> dict:
                     "model's G*; the last cycle of every point in <out>_waveforms.csv "
                     "(Lissajous-Bowditch curves, <out>_lissajous.png). Default: an amplitude "
                     "sweep 1e-3..1 at 1 Hz.")
-    _common(p, 1, "oscillation")
+    common_options(p, 1, "oscillation")
     p.add_argument("--control", choices=("strain", "stress"), default="strain",
                    help="imposed strain (default) or imposed mixture shear stress")
     p.add_argument("--strain-amplitude", type=Number("--strain-amplitude", 0.0, 1e3,
@@ -332,30 +182,21 @@ def add_subcommands(sub) -> dict:
                    help=f"samples per cycle ({osc.DEFAULT_SAMPLES})")
     p.add_argument("--start", choices=("rest", "previous"), default="rest",
                    help="each point from rest (default), or from the previous point's state")
-    p.add_argument("--G", type=_modulus("--G"), default=None, help="granular shear modulus [Pa]")
-    p.add_argument("--K0", type=_k0(), default=None, help="structure-rate scale K0 [-]")
+    p.add_argument("--G", type=modulus("--G"), default=None, help="granular shear modulus [Pa]")
+    p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale K0 [-]")
     p.add_argument("--rtol", type=Number("--rtol", 1e-12, 1e-3), default=osc.DEFAULT_RTOL,
                    help=f"IDA relative tolerance ({osc.DEFAULT_RTOL:g})")
     return {"oscillation": _cmd_oscillation}
 
 
 def _cmd_oscillation(args) -> str:
-    from rheology.elastic import ELASTIC_STRAIN_LIMIT
-    from rheology.io import atomic_savefig, atomic_write_csv, atomic_write_json, check_finite
-    from rheology.io import check_output_path
-    from rheology.run_end import EndedEarly, run_record
-
-    from . import oscillation as osc
-    from . import plots
-    from .cli import _material, _plot_path
-
-    plot = _plot_path(args)
+    plot = plot_path(args)
     base = Path(args.out)
     waves_csv = base.with_name(base.stem + "_waveforms.csv")
     liss_png = base.with_name(base.stem + "_lissajous.png")
     record = base.with_suffix(".json")
     check_output_path("--out", str(waves_csv), ["csv"])
-    m = _material(args)
+    m = sample_material(args)
     if args.control == "strain":
         if args.stress_amplitude is not None:
             raise ValueError("--stress-amplitude needs --control stress")
@@ -395,8 +236,6 @@ def _cmd_oscillation(args) -> str:
     msg = f"wrote {args.out} ({len(table)} points) and {waves_csv} ({len(wtable)} rows)"
     past = points[points["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT]
     if plot is not None:
-        import matplotlib.pyplot as plt
-
         dst = None
         if len(args.phi) == 1:
             try:

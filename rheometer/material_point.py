@@ -27,7 +27,7 @@ Sub-stepping (safe at any rate). Each step dt is split into n equal local update
   direction error O(x) remains: x <= 0.01 (:data:`STRAIN_PER_SUBSTEP`). An unyielded (elastic)
   update keeps the spurious growth, exp(gamma x/2) over a strain gamma: a step with an elastic
   sub-step is redone with x <= 2 SPIN_GROWTH/(gdot t_end) (1% over the whole run). With dt
-  gdot ~ 1 (the issue's rate 1000 1/s at dt = 1e-3 s) the unsplit update had grown a jammed
+  gdot ~ 1 (a rate of 1000 1/s at dt = 1e-3 s) the unsplit update had grown a jammed
   point's stress to -3400 Pa and, at 1e4 1/s, -2e28 Pa.
 - cancellation: the update forms taubar = tau* - G h gdot_p, which keeps a relative precision of
   eps G h gdot_p/taubar; a step where that ratio exceeds :data:`Q_MAX` = 1e6 (2e-10 relative) is
@@ -50,7 +50,7 @@ import numpy as np
 import pandas as pd
 
 import rheology
-from rheology.checks import check_nonnegative, check_positive, check_range
+from runkit.params import check_nonnegative, check_positive, check_range
 from rheology.elastic import past_elastic_limit
 from rheology.local_update import (CASE_NAMES, COMPACTION, ELASTIC, FAILED, NOUT, OUT_FIELDS,
                                    SHEAR_FLOW, update_point)
@@ -104,7 +104,7 @@ def yield_residual(out):
 
 
 @_jit
-def _step(sig, phi, f, gdot, e, dt, P, sig_out, out):
+def local_step(sig, phi, f, gdot, e, dt, P, sig_out, out):
     """One local update of simple shear with dilation rate e; returns phi at the end of the step."""
     L = np.zeros((3, 3))
     L[0, 1] = gdot
@@ -117,12 +117,12 @@ def _step(sig, phi, f, gdot, e, dt, P, sig_out, out):
 @_jit
 def _pressure_residual(e, sig, phi, f, gdot, dt, p_target, P, sig_out, out):
     """p_{n+1}(e) - p_target after the step with dilation rate e; NaN if the update failed."""
-    _step(sig, phi, f, gdot, e, dt, P, sig_out, out)
+    local_step(sig, phi, f, gdot, e, dt, P, sig_out, out)
     return np.nan if out[12] == FAILED else out[11] - p_target
 
 
 @_jit
-def _pressure_step(sig, phi, f, gdot, e_guess, dt, p_target, K, P, sig_out, out):
+def pressure_step(sig, phi, f, gdot, e_guess, dt, p_target, K, P, sig_out, out):
     """Step with the dilation rate e that gives end pressure p_target; returns (e, ok).
 
     r(e) = p_{n+1}(e) - p_target decreases with e (dilating lowers both the trial pressure and,
@@ -189,11 +189,11 @@ def _advance(sig, phi, f, e, gdot, h, nsub, mode, p_target, K, G, P, sig_out, ou
     elastic = False
     for _ in range(nsub):
         if mode == 0:
-            phi_new = _step(sig_w, phi, f, gdot, 0.0, h, P, sig_out, out)
+            phi_new = local_step(sig_w, phi, f, gdot, 0.0, h, P, sig_out, out)
             if out[12] == FAILED:
                 return UPDATE_FAILED, phi, f, e, q, elastic
         else:
-            e, ok = _pressure_step(sig_w, phi, f, gdot, e, h, p_target, K, P, sig_out, out)
+            e, ok = pressure_step(sig_w, phi, f, gdot, e, h, p_target, K, P, sig_out, out)
             phi_new = phi / (1.0 + e * h)
             if not ok:
                 return PRESSURE_FAILED, phi, f, e, q, elastic

@@ -1,85 +1,61 @@
 """Oscillatory shear of the 0-D model: imposed strain gamma0 sin(omega t) or mixture stress
 sigma0 sin(omega t), run to the periodic steady state on SUNDIALS IDA, analysed by harmonics.
 
-The model is the reduced 0-D law of :mod:`rheometer.model` (paper Eqs. 35-37 with the Table 8
-structure law): the granular shear stress ``taubar`` and the jamming gap are differential, the
-plastic rate is the critical-state rate ``gdot_p = gdot_cs(taubar, gap)`` and the mixture stress is
-``sigma = taubar + eta_F gdot`` with ``eta_F = eta0 (1 + 5/2 phi)`` (Table 8's fluid viscosity).
-Under oscillation the shear rate is imposed (strain control, ``gdot = gamma0 omega cos(omega t)``)
-or follows from the imposed mixture stress (``gdot = (sigma(t) - taubar)/eta_F``); the unknowns
-``y = [taubar, gap, strain]`` obey::
+The model is the reduced 0-D law of :mod:`rheometer.model` (paper Eqs. 35-37, the Table 8
+structure law) with the mixture stress ``sigma = taubar + eta_F gdot``, ``eta_F = eta0 (1 + 5/2
+phi)``. The shear rate is imposed (strain control, ``gdot = gamma0 omega cos(omega t)``) or
+follows from the imposed stress (``gdot = (sigma(t) - taubar)/eta_F``); ``y = [taubar, gap,
+strain]`` obey::
 
     taubar' = G (gdot - sign(taubar) gdot_cs(|taubar|, gap))       Eq. (36) with the imposed drive
     gap'    = -(phi_j - phi_c) df/dt(f, |taubar|, |gdot_p|)         Table 8 structure law
     strain' = gdot
 
-solved by IDA (residual ``yp - rhs``, exact Jacobian by the complex-step partials): the
-eliminated form of :mod:`rheometer.model` with its sinusoidal control (:func:`drive`), the same
-equations as a program step ``oscillate at F Hz with strain A for N cycles``. The stress is signed:
-where it reverses the plastic rate follows its sign, ``gdot_p = sign(taubar) gdot_cs(|taubar|,
-gap)``, and the structure law sees |taubar| and |gdot_p| (see :mod:`rheometer.model`). The laws are
-rheology's (through :mod:`rheometer.model`), not re-derived.
+solved by IDA (residual ``yp - rhs``, exact Jacobian by complex-step partials), as a program
+step ``oscillate at F Hz with strain A for N cycles`` does.
 
-Linear viscoelasticity (the small-amplitude limit), derived here. At rest ``taubar = 0`` and
-``f = 0``. For a small drive the structure equation gives ``df/dt = K0 gdot_p H (f_m - f) - ...``
-with ``H = (taubar/tau*)^(3/2)``: f grows only at order ``|taubar/tau*|^(3/2)`` and stays 0 to first
-order. With f = 0 the critical-state rate is linear in the stress to first order (the grain-inertia
-term ``A gdot^2`` of :func:`rheology.laws.critical_shear_rate` is second order),
-``gdot_p = taubar/eta_g``, with ``eta_g = eta0 [2 mu* (a0 phi/(phi_j - phi))^2 + 5/2 phi^2/(phi_j -
-phi)]`` the granular part of Eq. (24) (the low-stress plateau). So
-``taubar' = G (gdot - taubar/eta_g)``: a Maxwell element of modulus G and relaxation time
-``lambda = eta_g/G``, in parallel with the Newtonian fluid ``eta_F``. With ``gamma = Re[gamma*
-e^(i omega t)]`` and ``sigma = Re[G* gamma* e^(i omega t)]``::
+Linear viscoelasticity (the small-amplitude limit). From rest (``taubar = 0``, ``f = 0``) f grows
+only at order ``|taubar/tau*|^(3/2)`` and the grain-inertia term of
+:func:`rheology.laws.critical_shear_rate` is second order, so to first order
+``gdot_p = taubar/eta_g``, ``eta_g = eta0 [2 mu* (a0 phi/(phi_j - phi))^2 + 5/2 phi^2/(phi_j -
+phi)]`` (the low-stress plateau of Eq. 24), and ``taubar' = G (gdot - taubar/eta_g)``: a Maxwell
+element of modulus G and relaxation time ``lambda = eta_g/G`` in parallel with the Newtonian
+fluid ``eta_F``. With ``gamma = Re[gamma* e^(i omega t)]``, ``sigma = Re[G* gamma* e^(i omega t)]``::
 
     G*(omega) = G i omega lambda/(1 + i omega lambda) + i omega eta_F
     G'  = G (omega lambda)^2/(1 + (omega lambda)^2)
     G'' = G omega lambda/(1 + (omega lambda)^2) + omega eta0 (1 + 5/2 phi)
 
-At low frequency the sample is the Newtonian plateau of Eq. (24) (``G'' -> omega (eta_g +
-eta_F)``); at high frequency the skeleton is elastic (``G' -> G``) and ``G'' -> omega eta0 (1 + 5/2
-phi)`` (the fluid dominates the loss) once ``omega >> G/sqrt(eta_g eta_F)``, with the relative
-excess ``G^2/(omega^2 eta_g eta_F)``.
+At low frequency: the Newtonian plateau of Eq. (24); at high, ``G' -> G`` and the fluid
+dominates the loss once ``omega >> G/sqrt(eta_g eta_F)``.
 
-Analysis of a cycle (``N`` samples at uniform phase, period ``T = 2 pi/omega``, phase origin at
-t = 0): the complex harmonic ``c_n = (2/N) sum_k s_k e^(-i n omega t_k)`` of a signal s (exact
-for band-limited periodic signals). With ``gamma = gamma0 sin(omega t)`` (``c_gamma,1 = -i
-gamma0``), ``G* = G' + i G'' = c_sigma,1/c_gamma,1``; under stress control the same ratio with the
-strain's harmonic (a linear drift of the strain over the cycle removed first). ``I3/I1 =
-|c_3|/|c_1|`` of the response (the stress under strain control, the strain under stress control).
-``|eta*| = |G*|/omega``. The Lissajous-Bowditch projections are stress against strain (elastic)
-and against rate (viscous); Ewoldt's elastic and viscous stresses ``sigma'(t) = (sigma(t) -
-sigma(-t))/2`` and ``sigma''(t) = (sigma(t) + sigma(-t))/2`` (the points (-gamma, gdot) and (gamma,
-gdot) of the cycle) are written for strain control.
+Analysis of a cycle (``N`` samples at uniform phase, period ``T = 2 pi/omega``): the harmonic
+``c_n = (2/N) sum_k s_k e^(-i n omega t_k)`` of a signal s; with ``gamma = gamma0 sin(omega t)``,
+``G* = G' + i G'' = c_sigma,1/c_gamma,1`` (under stress control with the strain's harmonic, its
+linear drift over the cycle removed first); ``I3/I1 = |c_3|/|c_1|`` of the response.
+``|eta*| = |G*|/omega``. Lissajous-Bowditch projections: stress against strain and rate;
+Ewoldt's elastic and viscous stresses ``(sigma(t) -+ sigma(-t))/2`` (strain control).
 
 Periodic steady state: cycles are run until the cycle-to-cycle change of ``c_1``, ``c_3`` and the
 mean stress (strain control) or the strain's drift over a cycle (stress control), relative to
-``|c_1|``, and of the cycle-mean structure f (absolute), is below ``tol`` and so is its geometric projection
-``change r/(1 - r)`` (``r`` the ratio of the last two changes; the remaining drift of a slowly
-converging structure). The number of cycles used is reported; a point that does not converge
-within ``max_cycles`` is returned with ``converged = False`` (never silently).
+``|c_1|``, and of the cycle-mean structure f (absolute), is below ``tol`` and so is its geometric
+projection ``change r/(1 - r)`` (``r`` the ratio of the last two changes). The cycles used are
+reported; a point not converged within ``max_cycles`` has ``converged = False``.
 
-Acceleration: the structure f relaxes at the rate K0 |gdot_p| (H + 1), so a cycle with little
-plastic strain (small amplitude, high frequency) moves f only a little, and the Maxwell mean
-stress decays over lambda/T cycles: the approach to the periodic state can take thousands of
-cycles. When the cycle-to-cycle change shrinks by less than a factor 2 per cycle, the state
-jumps: by Aitken extrapolation along the slow mode when the last cycle-start differences are
-parallel and shrink geometrically (r < 0.99), else by one Newton step on the cycle map Phi (state (taubar, gap) at a cycle start -> one period later;
-the periodic state solves Phi(x) = x), its 2 x 2 Jacobian by finite differences (three
-one-period IDA solves at 1e-2 rtol, steps of 1e-3 in taubar/taubar_scale and f); then cycles resume from the new state and the convergence test starts
-afresh, so the reported state is always an integrated cycle that repeats itself to ``tol``
-(column ``extrapolations``: the jumps taken). A jump moves taubar by at most the last cycle's
-stress range and f by at most 0.2, and is undone (the state put back, no more jumps for this
-point) when the cycle-to-cycle change two cycles later is ten times larger than before it (jumps
-also stop after three in a row that did not halve it): a jammed sample,
-whose mean stress no cycle relaxes, gives a singular cycle map.
+Acceleration: where the change per cycle shrinks by less than a factor 2 per cycle, the state
+jumps: by Aitken extrapolation along the slow mode (cycle-start differences parallel, r < 0.99),
+else by one Newton step on the cycle map Phi (state (taubar, gap) at a cycle start -> one period
+later; the periodic state solves Phi(x) = x) with a finite-difference 2 x 2 Jacobian. Cycles then
+resume and the test starts afresh, so the reported state is always an integrated cycle that
+repeats itself to ``tol`` (column ``extrapolations``). A jump moves taubar by at most the last
+cycle's stress range and f by at most 0.2, and is undone when the change two cycles later is ten
+times larger (a jammed sample's cycle map is singular; rules: docs/measurements.md).
 
-Where the paper is silent: G and K0 default to the material's, else G = 1e4 Pa and K0 = 1 (as in
-every transient of :mod:`rheometer.transient`). Each point starts from rest (f = 0) carrying the
-periodic stress of the linearised model (taubar(0) = Re[G_M* c_drive], G_M* the Maxwell part;
-under stress control also the strain's linear phase), so that the Maxwell transient
-exp(-t/lambda), which lasts lambda/T cycles, need not be waited out; or, with
-``start="previous"``, from the final state of the previous point of the sweep (as an instrument
-runs a sweep).
+Where the paper is silent: G and K0 default to the material's, else G = 1e4 Pa and K0 = 1. Each
+point starts from rest (f = 0) carrying the periodic stress of the linearised model (taubar(0) =
+Re[G_M* c_drive], G_M* the Maxwell part; under stress control also the strain's linear phase)
+so that the Maxwell transient need not be waited out; or, with ``start="previous"``, from the
+final state of the previous point (as an instrument runs a sweep).
 """
 
 from __future__ import annotations
@@ -93,9 +69,11 @@ from sksundae.ida import IDA
 
 import rheology
 from rheology import laws
-from rheology.checks import check_positive, check_range
+from rheology.steady import steady_fold
+from runkit.params import check_positive, check_range
 
 from . import model
+from .harmonics import elastic_viscous, harmonics
 from .transient import DEFAULT_G, DEFAULT_K0
 
 
@@ -192,8 +170,6 @@ def dst_onset_stress(material, phi: float) -> float:
     Eq. 1). Raises ValueError if the steady curve of ``phi`` has no fold (no DST)."""
     from scipy.optimize import minimize_scalar
 
-    from .program import steady_fold
-
     m = rheology.get_material(material)
     fold = steady_fold(m, phi)
     if fold is None:
@@ -218,24 +194,6 @@ def drive(mode: int, amplitude: float, omega: float, t0: float = 0.0) -> np.ndar
 
 
 # ------------------------------------------------------------------ harmonics
-def harmonics(samples, orders=(1, 3)) -> np.ndarray:
-    """Complex harmonics c_n = (2/N) sum_k s_k exp(-i n 2 pi k/N) of one period sampled at
-    uniform phase 2 pi k/N, k = 0..N-1 (last axis); returns shape (..., len(orders))."""
-    s = np.asarray(samples, dtype=float)
-    N = s.shape[-1]
-    k = np.arange(N)
-    E = np.exp(-1j * 2.0 * np.pi * np.outer(k, np.asarray(orders)) / N)
-    return (2.0 / N) * (s @ E)
-
-
-def elastic_viscous(stress) -> tuple[np.ndarray, np.ndarray]:
-    """Ewoldt's elastic and viscous stresses of a strain-controlled cycle sampled at uniform
-    phase from 0: sigma'(t) = (sigma(t) - sigma(-t))/2, sigma''(t) = (sigma(t) + sigma(-t))/2 [Pa]."""
-    s = np.asarray(stress, dtype=float)
-    mirror = s[(-np.arange(s.size)) % s.size]
-    return 0.5 * (s - mirror), 0.5 * (s + mirror)
-
-
 # ------------------------------------------------------------------ one point
 def _periodic(changes, tol: float) -> bool:
     """Periodic steady state: the last cycle-to-cycle change and its geometric projection

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 import rheology  # noqa: E402
+from rheology.elastic import ELASTIC_STRAIN_LIMIT
+from rheology.run_end import mark_end
 
 
 def _colors(n: int):
@@ -263,8 +262,6 @@ def oscillation_figure(points: pd.DataFrame, title: str, dst_stress: float | Non
     its small-strain range) are drawn hollow over a shaded band; points whose solve failed
     (empty results, ``reason`` set) as crosses on the axis. Where ``dst_stress`` [Pa] is given,
     the amplitude where the peak stress first exceeds it is marked. One legend, below."""
-    from rheology.elastic import ELASTIC_STRAIN_LIMIT
-
     fig, axs = plt.subplots(1, 3, figsize=(15, 4.8))
     amp_sweep = points.groupby(["phi", "frequency_Hz"]).size().max() > 1
     keys = ["phi", "frequency_Hz"] if amp_sweep else ["phi", "strain_amplitude"]
@@ -373,8 +370,6 @@ def lissajous_figure(waves: pd.DataFrame, title: str, max_curves: int = 8,
     are drawn. With the sweep's ``points`` (and ``dst_stress`` [Pa]) the first point whose peak
     stress reaches the DST stress (where thickening starts) is always drawn, and curves past
     the elastic-strain limit are dash-dotted and say so. One legend, below the panels."""
-    from rheology.elastic import ELASTIC_STRAIN_LIMIT
-
     fig, axs = plt.subplots(1, 2, figsize=(11, 5.6))
     groups = []                              # [point indices, normalised cycle]
     for k in np.unique(waves["point"]):
@@ -492,8 +487,6 @@ def normalise_units(fig) -> None:
 def mark_ends(fig, ends) -> None:
     """Mark where runs ended early (:class:`rheology.run_end.RunEnd`, at the time of the last
     row written) on every time axis of ``fig``: a dashed line and the end's label."""
-    from rheology.run_end import mark_end
-
     for ax in fig.axes:
         if not ax.get_xlabel().startswith("time"):
             continue

@@ -42,8 +42,12 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from rheology.steady import dst_fold
+
 from . import limits
 from .transient import DEFAULT_MAX_TIME, Step
+import rheology
+from rheology.materials import default_fraction
 
 _NUM = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
 _RATE_U = r"(1/s|/s|s\^-1|s-1)"
@@ -261,37 +265,6 @@ def _sig(x: float) -> str:
     return f"{float(f'{x:.2g}'):g}"
 
 
-def dst_fold(material, phi: float) -> tuple[float, float] | None:
-    """(shear rate [1/s], mixture shear stress [Pa]) of the fold of the steady curve: the largest
-    steady shear rate, where DST sets in (above it no steady flow exists under rate control and
-    the sample shear-jams); None if the curve of ``phi`` has no fold (no DST). Eq. (13) with
-    Eq. (1), on 1201 granular stresses over tau* 1e-4 .. 1e8 (0.8% steps)."""
-    fold = steady_fold(material, phi)
-    if fold is None:
-        return None
-    taus, st, g, i = fold
-    return float(g[i]), float(st.shear_stress[i])
-
-
-def steady_fold(material, phi: float):
-    """The first fold of the steady curve on a grid of 1201 granular stresses over tau* 1e-4 ..
-    1e8 (0.8% steps): ``(taus, steady, rates, i)`` with ``i`` the grid maximum of the shear rate
-    (jammed states count as rate 0), or None if the curve of ``phi`` has no fold. Shared by
-    :func:`dst_fold` and :func:`rheometer.oscillation.dst_onset_stress` (which refines it)."""
-    import numpy as np
-
-    import rheology
-
-    m = rheology.get_material(material)
-    taus = m.tau_star * np.logspace(-4, 8, 1201)
-    st = rheology.steady_state_stress(taus, phi, m)
-    g = np.where(st.jammed, 0.0, st.shear_rate)
-    k = np.flatnonzero((g[1:-1] >= g[:-2]) & (g[1:-1] > g[2:]))
-    if k.size == 0:
-        return None
-    return taus, st, g, int(k[0]) + 1
-
-
 def hysteresis_program(material, phi: float) -> str:
     """The built-in demonstration program for ``material`` at volume fraction ``phi`` (text).
 
@@ -308,8 +281,6 @@ def hysteresis_program(material, phi: float) -> str:
     state (a stress step below the lagging stress of a rate sweep's end would reverse the flow).
     Without DST at this phi: a rate sweep over 0.01-10 1/s up and down.
     """
-    import rheology
-
     m = rheology.get_material(material)
     fold = dst_fold(m, phi)
     lines = [f"# {m.name} at phi = {phi:g}"]
@@ -340,10 +311,8 @@ def hysteresis_program(material, phi: float) -> str:
 
 
 #: The built-in program of ``rheometer program`` (no file): :func:`hysteresis_program` of the
-#: default material (hermes2016) at its default volume fraction (0.50, rheology.defaults).
+#: default material (hermes2016) at its default volume fraction (0.50, rheology.materials).
 def _default_program() -> str:
-    from rheology.defaults import default_fraction
-
     return hysteresis_program("hermes2016", default_fraction("hermes2016"))
 
 

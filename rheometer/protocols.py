@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 import rheology
-from rheology.checks import check_positive, check_range
+from runkit.params import check_positive, check_range
 from rheology.run_end import EndedEarly
 
 from .program import Program, Start, parse_program

@@ -45,6 +45,9 @@ from rheology.materials import Material
 
 from .limits import K0_MAX, STRESS_MAX
 from .protocols import relax
+from rheology.elastic import ELASTIC_STRAIN_LIMIT
+from runkit.params import check_range
+from .material_point import K_OVER_G
 
 #: Search bounds of G [Pa] and K0 [-].
 G_RANGE = (1e-2, STRESS_MAX)
@@ -166,10 +169,6 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
     RuntimeError
         The model fails at the start values (its diagnostics).
     """
-    from rheology.checks import check_range
-
-    from .material_point import K_OVER_G
-
     t_start = time.perf_counter()
     check_range("confidence", confidence, 0.5, 1.0, lo_closed=False, hi_closed=False)
     m = rheology.get_material(material)
@@ -371,7 +370,6 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
                         f"rms (sd {sigma:.3g} in log10 stress, more than {MISFIT_LOG10:g}): it "
                         "does not describe these data; check --stress0 (the steady stress "
                         "before cessation), --phi and --material of each curve")
-    from rheology.elastic import ELASTIC_STRAIN_LIMIT
 
     strain = max(c.stress0 for c in curves) / G
     if strain > ELASTIC_STRAIN_LIMIT:

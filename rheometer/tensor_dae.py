@@ -31,16 +31,16 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 import pandas as pd
-from sksundae.ida import IDA
 
 import rheology
 from rheology import laws
-from rheology.checks import check_positive
+from runkit.params import check_positive
 from rheology.local_update import CASE_NAMES, COMPACTION, NOUT, SHEAR_FLOW
 from rheology.materials import KERNEL_FIELDS
 from rheology.numba_cache import guard
+from runkit.ida import IDAFailed, Solver
 
-from .material_point import _pressure_step, _step, initial_point, point_parameters
+from .material_point import initial_point, local_step, point_parameters, pressure_step
 
 guard(__file__)                          # drop cached kernels if rheology's laws changed
 _jit = nb.njit(cache=True, error_model="numpy")
@@ -143,10 +143,10 @@ def _probe(sig, phi, f, gdot, dt, ctrl, p_target, m, P):
     sig_out = np.empty((3, 3))
     out = np.zeros(NOUT)
     if ctrl == 0:
-        _step(sig, phi, f, gdot, 0.0, dt, P, sig_out, out)
+        local_step(sig, phi, f, gdot, 0.0, dt, P, sig_out, out)
         e = 0.0
     else:
-        e, ok = _pressure_step(sig, phi, f, gdot, 0.0, dt, p_target, m.K, P, sig_out, out)
+        e, ok = pressure_step(sig, phi, f, gdot, 0.0, dt, p_target, m.K, P, sig_out, out)
         if not ok:
             raise RuntimeError("tensor reference: no dilation rate holds the pressure at the start")
     case = int(out[12])
@@ -208,15 +208,13 @@ def tensor_reference(material, phi: float, rate: float, t_end: float, *, control
         eventsfn.terminal = [True, True, True]
         eventsfn.direction = [-1, -1, -1]
         grid = np.concatenate([[t0], times[times > t0 * (1 + 1e-14) + 1e-300]])
-        if grid.size == 2:
-            grid = np.array([grid[0], 0.5 * (grid[0] + grid[1]), grid[1]])
-        solver = IDA(resfn, rtol=rtol, atol=1e-3 * rtol * _scales(y), algebraic_idx=alg,
-                     calc_initcond="yp0", calc_init_dt=1e-6 * t_end, eventsfn=eventsfn,
-                     num_events=3, max_num_steps=500_000)
-        sol = solver.solve(grid, y, np.zeros(NV))
-        if not sol.success:
-            raise RuntimeError(f"tensor reference: IDA failed at t = {sol.t[-1]:.6g} s: "
-                               f"{sol.message}")
+        solver = Solver(resfn, rtol=rtol, atol=1e-3 * rtol * _scales(y), algebraic_idx=alg,
+                        calc_initcond="yp0", calc_init_dt=1e-6 * t_end, eventsfn=eventsfn,
+                        num_events=3, max_num_steps=500_000)
+        try:
+            sol, _ = solver.solve(grid, y, np.zeros(NV))
+        except IDAFailed as exc:
+            raise RuntimeError(f"tensor reference: {exc}") from None
         keep = np.isin(sol.t, times)
         for ti, yi in zip(sol.t[keep], sol.y[keep]):
             if not rows or ti > rows[-1][0]:

@@ -39,13 +39,15 @@ from sksundae.ida import IDA
 
 import rheology
 from rheology import laws
-from rheology.checks import check_nonnegative, check_positive, check_range
+from runkit.params import check_nonnegative, check_positive, check_range
 from rheology.elastic import (ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress,
                               past_elastic_limit)
 from rheology.materials import Material
 from rheology.run_end import EndedEarly, RunEnd
+from runkit.ida import captured
 
 from . import limits, model
+from .harmonics import harmonics
 from .model import GAP, GD, GP, NEVENTS, NVAR, STRAIN, TAU
 
 #: Defaults for materials without G or K0 (see module docstring).
@@ -64,53 +66,6 @@ _ADVICE = ("impose a lower rate or stress or a shorter time (a shear-jammed samp
 COLUMNS = ("time_s", "step", "strain", "shear_rate_per_s", "shear_stress_Pa",
            "granular_shear_stress_Pa", "plastic_shear_rate_per_s", "f", "granular_pressure_Pa",
            "viscosity_Pa_s", "jamming_gap")
-
-
-class _CapturedC:
-    """Redirect the process's stdout and stderr file descriptors (where SUNDIALS' C code prints
-    its error messages) into a temporary file for the duration of a solve; ``.text`` holds what
-    was printed. The command line thus prints one line per error, never C-level text."""
-
-    _file = None
-
-    def __enter__(self):
-        import ctypes
-        import os
-        import sys
-        import tempfile
-
-        self.text = ""
-        try:
-            sys.stdout.flush()
-            sys.stderr.flush()
-            if _CapturedC._file is None:
-                _CapturedC._file = tempfile.TemporaryFile()
-            self._libc = ctypes.CDLL(None)
-            self._libc.fflush(None)
-            self._saved = (os.dup(1), os.dup(2))
-            f = _CapturedC._file
-            f.seek(0)
-            f.truncate()
-            os.dup2(f.fileno(), 1)
-            os.dup2(f.fileno(), 2)
-        except (OSError, AttributeError, ValueError):   # no file descriptors to redirect
-            self._saved = None
-        return self
-
-    def __exit__(self, *exc):
-        import os
-
-        if self._saved is None:
-            return False
-        self._libc.fflush(None)
-        os.dup2(self._saved[0], 1)
-        os.dup2(self._saved[1], 2)
-        os.close(self._saved[0])
-        os.close(self._saved[1])
-        f = _CapturedC._file
-        f.seek(0)
-        self.text = f.read(4096).decode("utf-8", "replace").strip()
-        return False
 
 
 @dataclass(frozen=True)
@@ -657,10 +612,10 @@ class Rheometer:
                      jacfn=jacfn if self.jacobian else None, max_num_steps=200_000, **events)
         tspan = grid if grid.size > 2 else np.array([grid[0], 0.5 * (grid[0] + grid[-1]),
                                                       grid[-1]])
-        with _CapturedC() as c_text:
+        with captured() as printed:
             sol = solver.solve(tspan, y, yp)
-        if c_text.text:                  # SUNDIALS' own C-level messages: into the diagnostics
-            sol.message = f"{sol.message} [{' '.join(c_text.text.split())[:300]}]"
+        if printed.text:                 # what SUNDIALS printed: into the diagnostics
+            sol.message = f"{sol.message} [SUNDIALS: {printed.text.lstrip('[')[:300]}]"
         return sol
 
     def _full(self, t, y, C) -> np.ndarray:
@@ -770,8 +725,6 @@ class Rheometer:
         mean_stress_Pa, cycle_change (relative change of c_1 from the cycle before; NaN with one
         cycle). Fewer than one full cycle: only step, control, frequency_Hz, cycles.
         """
-        from .oscillation import harmonics
-
         out = dict(step=index + 1, control=step.control, frequency_Hz=step.frequency,
                    cycles=step.cycles)
         full = int(np.floor(step.cycles * (1 + 1e-12)))

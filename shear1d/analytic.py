@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rheology.checks import check_nonnegative, check_positive
+from runkit.params import check_nonnegative, check_positive
 
 
 def plane_couette_startup(y, t: float, gap: float, speed: float, nu: float) -> np.ndarray:

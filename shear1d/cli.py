@@ -22,9 +22,25 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
-from rheology.cli_common import TIME_MAX, TIME_MIN, Number, OneLineParser, run_command
-from rheology.sample import add_mass_fraction_options
+import rheology
+from rheology.materials import scene_material, set_argument, set_overrides
+from rheology.sample import add_mass_fraction_options, mass_fraction_phi
+from runkit import limits as physical
+from runkit.command import OneLineParser
+from runkit.command import run as run_command
+from runkit.io import load_checkpoint, previous_checkpoint
+from runkit.params import Number
+
+from .dae import check_material
+from .geometry import CELL_MIN_GRAINS, R_INNER_MIN_GRAINS, min_gap
+from .integrate import METHODS
+from .model import ELASTIC_STRAIN_LIMIT, MODES, max_wall_speed
+from .scenes import (R_INNER, R_OUTER, ROTATION_END, SPEEDS, plane_couette, run_annular,
+                     run_couette, run_tag)
+
+TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
 
 #: Size bounds of --cells and --outputs (a memory estimate is checked as well, before the run).
 #: The explicit method's cost grows as cells^2 (hours at 20000). The grain size bounds the cells
@@ -35,13 +51,6 @@ MAX_OUTPUTS = 100000
 
 
 def _parser() -> argparse.ArgumentParser:
-    import rheology
-    from rheology.materials import set_argument
-
-    from .model import ELASTIC_STRAIN_LIMIT, MODES, max_wall_speed
-    from .integrate import METHODS
-    from .scenes import R_INNER, R_OUTER, ROTATION_END, SPEEDS
-
     m = rheology.get_material("annular_shear")
     u_max = max_wall_speed(m, m.phi0)
     ap = OneLineParser(prog="shear1d", description=__doc__,
@@ -134,8 +143,6 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _modes(mode: str | None, default: tuple[str, ...]) -> tuple[str, ...]:
-    from .model import MODES
-
     if mode is None:
         return default
     return MODES if mode == "both" else (mode,)
@@ -144,9 +151,6 @@ def _modes(mode: str | None, default: tuple[str, ...]) -> tuple[str, ...]:
 def _sample(args):
     """The material (the user's steady fit on Table 4's moduli) and phi0 (from --phi or
     --mass-fraction, else the material's), with the conversion printed."""
-    from rheology.materials import scene_material, set_overrides
-    from rheology.sample import mass_fraction_phi
-
     m = scene_material("annular_shear", args.material, **set_overrides(args.set))
     if args.phi is not None and args.mass_fraction is not None:
         raise ValueError("give --phi or --mass-fraction, not both")
@@ -164,8 +168,6 @@ def _check_drive(option: str, values, material, phi0, *, stress: bool = False) -
     """Range of --u-inner / --speed (0 < u <= 0.1 c_s) or --stress (0 < tau <= 0.1 G) for this
     material and phi (shear1d.model: beyond, the hypoelastic law is strained past 10 %),
     refused by the option's name with the range in its own units (ValueError)."""
-    from .model import ELASTIC_STRAIN_LIMIT, max_wall_speed
-
     phi = material.phi0 if phi0 is None else phi0
     if phi is None:                   # no phi at all: the Couette problem refuses it by name
         return
@@ -205,7 +207,6 @@ def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
         raise ValueError("--method dae is for --mode locked only "
                          f"(got modes {', '.join(modes)}); add --mode locked or use --method "
                          "ida|explicit")
-    from .dae import check_material
 
     phi = material.phi0 if phi0 is None else phi0
     if phi is not None:                 # no phi at all is refused by the Couette problem
@@ -214,7 +215,7 @@ def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
 
 def _check_out(out: str) -> None:
     """An empty --out (``--out ''``) would write into the current folder: refused by name
-    (rheology.io.check_output_dir, called by the scene, checks the rest before the run)."""
+    (runkit.io.check_output_dir, called by the scene, checks the rest before the run)."""
     if not str(out).strip():
         raise ValueError(f"--out = {out!r} is empty: give the output folder's name (use "
                          "--out . for the current folder)")
@@ -239,8 +240,6 @@ def _check_lengths(material, option: str, value: float, hi: float, cells: int,
     base`` holds ``cells`` cells of at least CELL_MIN_GRAINS grains each (``option`` is --gap, or
     --r-outer with ``base`` = --r-inner), the bob's radius ``r_inner`` R_INNER_MIN_GRAINS grains.
     ValueError naming the option with its range at the other options' values."""
-    from .geometry import CELL_MIN_GRAINS, R_INNER_MIN_GRAINS, min_gap
-
     d = getattr(material, "d", None)
     if not d or d <= 0:
         return
@@ -262,10 +261,8 @@ def _check_lengths(material, option: str, value: float, hi: float, cells: int,
 
 def _check_resume(paths) -> None:
     """With --resume: read each checkpoint that is there before the run starts, so that a corrupt
-    one is refused (exit 2) before anything is printed or written (rheology.io.load_checkpoint:
+    one is refused (exit 2) before anything is printed or written (runkit.io.load_checkpoint:
     CorruptCheckpoint names the file; a readable previous checkpoint is the run's fallback)."""
-    from rheology.io import load_checkpoint, previous_checkpoint
-
     for ck in paths:
         if ck.is_file() or previous_checkpoint(ck).is_file():
             load_checkpoint(ck, log=lambda *a, **k: None)
@@ -274,8 +271,6 @@ def _check_resume(paths) -> None:
 def _in_out(out: str, run) -> None:
     """Run ``run()``; if it fails or is refused and leaves the --out folder that it created
     empty, the folder is removed (a run that wrote nothing leaves nothing)."""
-    from pathlib import Path
-
     path = Path(out)
     existed = path.exists()
     try:
@@ -287,8 +282,6 @@ def _in_out(out: str, run) -> None:
 
 
 def _annular(args) -> None:
-    from .scenes import R_OUTER, run_annular
-
     _check_out(args.out)
     m, phi0 = _sample(args)
     default_outer = args.r_outer is None
@@ -304,10 +297,6 @@ def _annular(args) -> None:
     _check_lengths(m, "--r-outer" + (" (the default)" if default_outer else ""), args.r_outer,
                    2.0, args.cells, base=args.r_inner, r_inner=args.r_inner)
     if args.resume:
-        from pathlib import Path
-
-        from .scenes import run_tag
-
         _check_resume([Path(args.out) / f"{run_tag(u, mode)}.checkpoint.npz"
                        for u in args.u_inner for mode in modes])
     _in_out(args.out, lambda: run_annular(args.out, tuple(args.u_inner), modes,
@@ -319,8 +308,6 @@ def _annular(args) -> None:
 
 
 def _couette(args) -> None:
-    from .scenes import plane_couette, run_couette
-
     _check_out(args.out)
     m, phi0 = _sample(args)
     if args.speed is not None:
@@ -330,8 +317,6 @@ def _couette(args) -> None:
     _check_dae(args.method, _modes(args.mode, ("locked",)), m, phi0)
     _check_lengths(m, "--gap", args.gap, 1.0, args.cells)
     if args.resume:
-        from pathlib import Path
-
         _check_resume([Path(args.out) / "couette.checkpoint.npz"])
     pb = plane_couette(args.speed, stress=args.stress, gap=args.gap, n_cells=args.cells,
                        mode=_modes(args.mode, ("locked",))[0], phi0=phi0, material=m)

@@ -1,14 +1,10 @@
-"""Method ``"dae"``: the locked-mode Couette problem with the FULL Table 8 law as a smooth DAE on
-SUNDIALS IDA.
+"""Method ``"dae"``: locked-mode Couette with the FULL Table 8 law as a smooth DAE on SUNDIALS IDA.
 
-Why: the ``"ida"`` method integrates the Table 8 local update as a rate,
-``(U_delta(state) - state)/delta``; a flowing cell sits on the update's switch between
-compaction and dilatant flow (the critical state is that switch), so IDA sees a right-hand side
-whose Jacobian jumps, cuts its steps each time a cell crosses it and its cost grows as
-cells^2.4 on the fast Fig. 3 case. Here the same law is written in its continuous (dt -> 0) form,
-with the plastic state as an algebraic unknown and the flow rule as its equation (as the 0-D
-rheometer's DAE does), and with no switch left in the residual but one C1-smoothed compaction
-term (below).
+Why: the ``"ida"`` method integrates the Table 8 local update as a rate; a flowing cell sits on
+the update's switch between compaction and dilatant flow, where the right-hand side's Jacobian
+jumps. Here the law is written in its continuous (dt -> 0) form, the plastic state an algebraic
+unknown and the flow rule its equation (as the 0-D rheometer's DAE), with one C1-smoothed
+compaction term as the only switch (below).
 
 Unknowns, interleaved cell by cell (banded Jacobian, half bandwidth :data:`BANDWIDTH` = 7)::
 
@@ -34,15 +30,12 @@ The flow rule, in terms of x (x = I_m >= 0 where the cell flows): gdot_p is the 
 ``p x^2 = rho_s d^2 gdot_p^2 + 2 eta0 gdot_p`` (Table 8's I_m), I_v = eta0 gdot_p/p,
 beta = K3 (phi - phi_m/(1 + a x)) and Y(x) = mu_p(I_v, x) + beta(x), so ``taubar = Y(x) p`` is
 f_1 = 0 exactly. Below x = 0 the yield ratio is continued linearly, Y(0) + Y'(0) x, and
-gdot_p = 0: a cell under its yield stress (taubar < Y(0) p, a jammed band loading elastically)
-has x < 0 and no plastic flow. gdot_p grows as x^2 from zero, so the elastic-plastic switch of
-f_1 is continuously differentiable in x, with no complementarity left for IDA.
+gdot_p = 0: a cell under its yield stress (a jammed band loading elastically) has x < 0 and no
+plastic flow; gdot_p grows as x^2, so the switch of f_1 is C1 in x, no complementarity left.
 
 The compaction rule (f_3 <= 0, xi_2 <= 0, f_3 xi_2 = 0): with K4 = 0 f_3 <= 0 is beta >= 0,
-i.e. x >= I_cs = max(gap, 0)/(a phi) (phi at or above the critical-state packing). The rule is
-rate-independent: a cell pressed above its critical-state pressure compacts at once. Here it
-compacts at a finite, large rate: the compaction rule of Table 8 with K4 > 0 (zeta = gdot_p - K4
-xi_2; K4 is the paper's parameter, 0 for every material of the paper, which is the limit)::
+i.e. x >= I_cs = max(gap, 0)/(a phi); that rule compacts at once, here at a finite, large rate:
+Table 8's rule with K4 > 0 (zeta = gdot_p - K4 xi_2; K4 = 0 in the paper is the limit)::
 
     xi_2 = -s_w(zeta_cs - gdot_p)/K4 * (1 - p_floor/p),  zeta_cs = gdot_p(x = I_cs, p)
 
@@ -50,30 +43,19 @@ where zeta_cs - gdot_p > 0 exactly when beta < 0, and s_w(u) = 0 (u <= 0), u^2/(
 u - w/2 (u >= w), w = COMPACTION_WIDTH zeta_cs, is the max(u, 0) of f_3's complementarity
 smoothed to C1. At a steady critical state u = 0 and s_w = 0, so the smoothing does not move the
 steady states; K4 -> 0 is the law itself. The factor (1 - p_floor/p) is the explicit method's
-contact-pressure floor (:func:`shear1d.kernels.local_updates`): compaction stops at p_floor
-(p_floor = the problem's contact_pressure, 1e-3 Pa by default) and below it pushes p back, so
-p > 0 always. Separation (p <= 0) cannot occur.
+contact-pressure floor (:func:`shear1d.kernels.local_updates`, the problem's contact_pressure,
+1e-3 Pa by default): compaction stops there and below it pushes p back, so p > 0 always.
 
-The defaults K4 = :data:`K4_REG` = 0.1 and :data:`COMPACTION_WIDTH` = 0.1 were chosen (the paper
-has no such parameters) by their effect on the fast Fig. 3 case, 100 cells, against the explicit
-method: K4 = 1, 0.1, 0.01 give the same front speed within 0.05 % and velocity profiles 2.7, 1.5,
-1.2 % of u_i from the explicit one while the band grows (f 0.011, 0.005, 0.004); widths 0.01-1
-move the front by < 0.1 %. Smaller K4 stiffens compaction: K4 = 0.01 needs rtol <= 1e-5 (at
-rtol 1e-4 IDA's error moved the 100-cell front by 1.6-5 %) and twice the work. Checked in
-tests/test_shear1d_dae.py; cost and fronts at 50-800 cells in the benchmark
-``shear1d_cost_vs_cells``.
+The defaults K4 = :data:`K4_REG` = 0.1 and :data:`COMPACTION_WIDTH` = 0.1 (the paper has no
+such parameters) were chosen against the explicit method on the fast Fig. 3 case (front speed
+within 0.05 %, profiles within 1.5 % of u_i; docs/measurements.md; tests/test_shear1d_dae.py).
 
-Kept against the explicit method: the whole law (normal-stress differences and Jaumann terms,
-dilatancy pressure K beta gdot_p, the structure law, grain inertia, the fluid stress, the contact
-floor); changed: compaction is fast instead of instantaneous (K4_REG) and its on/off switch is
-C1 instead of a kink. Needs ``mu1 + K3 (phi0 - phi_j) > 0`` (Y(0) > 0: the yield ratio of a loose
-cell at rest is positive, so f_1's max(., 0) never acts) and b > 0 unless mu_2 = mu_1 (the
-friction continuous at I_m = 0); refused with a ValueError otherwise, as is the two-phase mode
-(the Darcy flux needs the pressure gradient of the two-phase kernels; use ``"ida"``).
-
-The Jacobian is SUNDIALS' banded difference quotient (2 x 7 + 1 residual calls per evaluation);
-results are returned in the layout of :class:`shear1d.model.Couette` (sigma = s - p I, f, face
-velocities) so every analysis, file and figure of the other methods applies unchanged.
+Changed against the explicit method (which keeps the same whole law): compaction is fast
+instead of instantaneous (K4_REG), its switch C1 instead of a kink. Needs ``mu1 + K3 (phi0 -
+phi_j) > 0`` (Y(0) > 0) and b > 0 unless mu_2 = mu_1 (friction continuous at I_m = 0), else a
+ValueError, as for the two-phase mode (its Darcy flux needs the two-phase kernels: ``"ida"``).
+The Jacobian is SUNDIALS' banded difference quotient; results come in the layout of
+:class:`shear1d.model.Couette`, so every analysis, file and figure of the other methods applies.
 """
 
 from __future__ import annotations
@@ -86,7 +68,6 @@ from rheology.local_update import COMPACTION, ELASTIC, SHEAR_FLOW
 from rheology.numba_cache import guard
 
 from . import kernels
-from .integrate import _Events, _run_ida, ida_failure_message
 from .model import Couette
 
 guard(__file__)                          # drop cached kernels if rheology's laws changed
@@ -322,6 +303,7 @@ class FullLawDAE:
                              "'explicit'")
         self.pb = problem
         self.P = parameters(problem, k4, width)
+        self.k4, self.width = float(self.P[_K4]), float(self.P[_WIDTH])
         n = problem.grid.n
         i_c = np.empty(n, dtype=np.int64)
         i_v = np.full(n + 1, -1, dtype=np.int64)
@@ -389,51 +371,3 @@ class FullLawDAE:
                         self.i_v, self.mt["cg"], self.mt["w"], self.P, self.c_S, self.c_f,
                         self.c_v, self.c_size, diag)
         return yc, diag
-
-
-class _DAEEvents(_Events):
-    """The events of :mod:`shear1d.integrate` evaluated on the converted state."""
-
-    def __init__(self, problem: Couette, dae: FullLawDAE):
-        super().__init__(problem)
-        self.dae = dae
-
-    def values(self, t, y):
-        if len(y) == self.dae.size:
-            y = self.dae.convert(t, y)[0]
-        return super().values(t, y)
-
-
-def solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar, stop_hook,
-              k4=None, width=None):
-    """Integrate with IDA (banded difference-quotient Jacobian, BDF order <= max_order, x
-    algebraic) on the stepping loop of method ``"ida"`` (:func:`shear1d.integrate._run_ida`), so
-    with the same outputs, events, checkpoints and stats as :func:`shear1d.integrate.solve` with
-    ``method="ida"`` (called from there with ``method="dae"``); the outputs and checks see the
-    DAE state converted to the Couette layout (:meth:`FullLawDAE.convert`), and the checkpoint
-    also keeps the DAE state (y, y') a resume restarts from. ``k4`` and ``width`` default to the
-    module's :data:`K4_REG` and :data:`COMPACTION_WIDTH` at call time. Raises ValueError when the
-    checkpoint's DAE state does not fit the grid, RuntimeError with diagnostics (min p included)
-    when IDA fails or a state is unphysical."""
-    dae = FullLawDAE(problem, K4_REG if k4 is None else k4,
-                     COMPACTION_WIDTH if width is None else width)
-    events = _DAEEvents(problem, dae)
-    events.times = outs.events.times
-    outs.events = events
-    if ck is not None and ck["y"].shape != (dae.size,):
-        raise ValueError("--resume: the checkpoint's DAE state does not match this grid")
-
-    def stats(counters):
-        return dict(nfev=int(counters[0]), njev=int(counters[1]), rtol=rtol,
-                    bandwidth=BANDWIDTH, k4=float(dae.P[_K4]), width=float(dae.P[_WIDTH]))
-
-    def failure(sol, t_target):
-        return ida_failure_message(problem, sol, t_target, rtol, dae.convert(sol.t, sol.y)[0],
-                                   solver="IDA (method dae)", with_mode=False,
-                                   extra=f", min p = {sol.y[dae.i_p].min():.6g} Pa")
-
-    return _run_ida(problem, "dae", times, rtol, stop_on, outs, ck, max_step, max_order, bar,
-                    stop_hook, residual=dae.residual, start=dae.initial_state, convert=dae.convert,
-                    options=dict(atol=dae.tolerances(rtol), lband=BANDWIDTH, uband=BANDWIDTH,
-                                 algebraic_idx=dae.algebraic()),
-                    stats=stats, failure=failure)

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rheology.checks import check_range
+from runkit.params import check_range
 
 KINDS = ("plane", "annular")
 

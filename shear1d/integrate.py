@@ -25,7 +25,7 @@ p/K of every cell within :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT`). An outp
 check, a failed IDA step or a failed local update ends the run there:
 :class:`rheology.run_end.EndedEarly` with the diagnostics and the :class:`Result` of the outputs
 before it (``Result.end`` says where and why, :mod:`rheology.run_end`). Runs can checkpoint to an
-``.npz`` file and resume from it (:mod:`rheology.io`, atomic; an ended run resumes as ended).
+``.npz`` file and resume from it (:mod:`runkit.io`, atomic; an ended run resumes as ended).
 """
 
 from __future__ import annotations
@@ -39,20 +39,21 @@ from pathlib import Path
 import numpy as np
 
 from rheology import f_jam
-from rheology.checks import check_positive, check_range
+from runkit.params import check_positive, check_range
 from rheology.elastic import past_elastic_limit
 from rheology.flow_rule import invariants
-from rheology.io import CorruptCheckpoint, load_checkpoint, save_checkpoint
+from runkit.io import CorruptCheckpoint, load_checkpoint, save_checkpoint
 from rheology.run_end import EndedEarly, RunEnd
+from runkit.ida import IDAFailed, Solver
 
 from . import analysis, kernels
+from . import dae as dae_mod
 from .model import STRESS_COMPONENTS, Couette
 
 METHODS = ("ida", "explicit", "dae")
 EVENTS = ("front_at_wall", "flow_stopped")
 #: flow_stopped fires when the bulk speed (analysis.bulk_speed) falls below this fraction of u_wall.
 FLOW_STOP_LEVEL = 0.1
-_IDA_ROOT_RETURN = 2
 
 
 @dataclass
@@ -178,25 +179,9 @@ class _Events:
                          - (g.inner + analysis.WALL_FRACTION * g.gap),
                          analysis.bulk_speed(g, st["v"], u) - FLOW_STOP_LEVEL])
 
-    def ida_function(self):
-        def eventsfn(t, y, yp, events):
-            events[:] = self.values(t, y)
-        eventsfn.terminal = [False, False]
-        eventsfn.direction = list(self.directions)
-        return eventsfn
-
-    def record_roots(self, sol, seen: int) -> tuple[int, list[str]]:
-        """Record the roots IDA has reported since the first ``seen`` (IDA keeps them all);
-        returns the new count and the names of the events that fired."""
-        te = np.atleast_1d(sol.t_events) if sol.t_events is not None else []
-        ie = np.atleast_2d(sol.i_events) if sol.i_events is not None else []
-        fired = []
-        for k in range(seen, len(te)):
-            for i, name in enumerate(EVENTS):
-                if ie[k][i] != 0:
-                    self.times[name].append(float(te[k]))
-                    fired.append(name)
-        return len(te), fired
+    def ida_events(self, t, y, yp, out) -> None:
+        """The root functions as IDA takes them (:class:`runkit.ida.Solver`)."""
+        out[:] = self.values(t, y)
 
     def sample(self, t: float, y: np.ndarray) -> list[str]:
         """Record crossings between the previous sample and (t, y) (explicit scheme)."""
@@ -491,14 +476,14 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     stop_on : iterable of str
         Event names (``front_at_wall``, ``flow_stopped``) that end the run when they fire.
     checkpoint : path, optional
-        ``.npz`` checkpoint (:func:`rheology.io.save_checkpoint`, the previous one kept as
+        ``.npz`` checkpoint (:func:`runkit.io.save_checkpoint`, the previous one kept as
         ``.prev.npz``) written at an output at most every ``checkpoint_every`` seconds of wall
         time, at the end, and when the run is interrupted (KeyboardInterrupt: Ctrl-C, or SIGTERM
-        under :func:`rheology.cli_common.run_command`); the interrupt is re-raised with a message
+        under :func:`runkit.command.run`); the interrupt is re-raised with a message
         naming the checkpoint.
     resume : bool
         Continue from ``checkpoint`` (ValueError if there is none or it belongs to another run;
-        :class:`rheology.io.CorruptCheckpoint` if it and its predecessor are unreadable). The
+        :class:`runkit.io.CorruptCheckpoint` if it and its predecessor are unreadable). The
         run restarts from the checkpoint's last output: with the explicit method the result is
         bit-for-bit the uninterrupted one; IDA restarts its BDF history there, so the result
         agrees with the uninterrupted one to the integration tolerance (measured: see
@@ -566,8 +551,7 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
         bar = _Progress(progress, times[-1], label)
         try:
             if method == "dae":
-                from .dae import solve_dae
-                return solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order,
+                return _solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order,
                                  bar, stop_hook)
             return _solve_ida(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar,
                               stop_hook)
@@ -661,74 +645,24 @@ def ida_failure_message(problem: Couette, sol, t_target: float, rtol: float, sta
 
 def _run_ida(problem, method, times, rtol, stop_on, outs, ck, max_step, max_order, bar,
              stop_hook, *, residual, start, convert, options, stats, failure) -> Result:
-    """Integrate a DAE ``residual(t, y, yp) = 0`` on SUNDIALS IDA from rest or from a checkpoint,
-    recording the outputs: the one stepping loop of methods ``"ida"`` (:func:`_solve_ida`) and
-    ``"dae"`` (:func:`shear1d.dae.solve_dae`).
+    """Integrate a DAE ``residual(t, y, yp, res)`` on SUNDIALS IDA (:class:`runkit.ida.Solver`,
+    banded Jacobian) from ``start() -> (y0, yp0)`` at t = 0 or from the checkpoint ``ck``'s last
+    output (y, yp, counters; a finished run is returned as it is): the one stepping loop of
+    methods ``"ida"`` and ``"dae"``.
 
-    Starts from ``start()`` (recorded as the output at t = 0) or, when ``ck`` (the checkpoint's
-    arrays, read by :meth:`_Outputs.load`) is given, from its last output's solver state ``y``,
-    ``yp`` and counters (a finished run is returned as it is). Steps to every output time of
-    ``times`` after that (IDA restarts its BDF history there), with the root events of
-    ``outs.events`` when they are active (``stop_on`` names those that end the run); at each
-    output the state is converted, checked (:func:`check_state`, f within 100 rtol of [0, 1]),
-    recorded with the solver's y and y' (what a resume restarts from), shown on ``bar`` and
-    checkpointed at the end or when ``outs.due()``; ``stop_hook(t)`` follows every output but
-    the last.
+    Steps to every output time of ``times`` (IDA restarts its BDF history there) with the root
+    events of ``outs.events`` when active (``stop_on`` names those that end the run). At each
+    output ``convert(t, y) -> (state, diag)`` gives the Couette layout, which is checked
+    (:func:`check_state`, f within 100 rtol of [0, 1]), recorded with the solver's y and y' (what
+    a resume restarts from), shown on ``bar`` and checkpointed at the end or when
+    ``outs.due()``; ``stop_hook(t)`` follows every output but the last. ``options``: the
+    method's IDA options (``atol`` array, ``lband``, ``uband``, ...); ``stats(counters)``: the
+    result's stats; ``failure(sol, t_target)``: the message of a failed step.
 
-    Parameters
-    ----------
-    problem : Couette
-    method : str
-        The method named in the result and the checkpoint (``"ida"``, ``"dae"``).
-    times : (n_out + 1,) float array
-        Output times [s], from 0.
-    rtol : float
-        IDA's relative tolerance.
-    stop_on : tuple of str
-        Events (names of :data:`EVENTS`) that end the run.
-    outs : _Outputs
-        Where the outputs go (its ``events`` evaluate the root functions on the solver's y).
-    ck : dict or None
-        The checkpoint to resume from.
-    max_step : float
-        Largest IDA step [s] (0: unbounded).
-    max_order : int
-        Largest BDF order (1-5).
-    bar : _Progress
-    stop_hook : callable or None
-    residual : callable
-        ``residual(t, y, yp, res)``: the DAE residual into ``res``.
-    start : callable
-        ``start() -> (y0, yp0)``: the solver's consistent state at t = 0.
-    convert : callable
-        ``convert(t, y) -> (state, diag)``: the solver's y at t as a new array in the layout of
-        :meth:`Couette.layout` and the per-cell diagnostics (n, :data:`kernels.NDIAG`).
-    options : dict
-        IDA options of the method: ``atol`` (array), ``lband``, ``uband`` of the banded
-        Jacobian, and any other (e.g. ``algebraic_idx``); rtol, the band solver, 500000 steps at
-        most, ``max_step``, ``max_order`` and the events are added here.
-    stats : callable
-        ``stats(counters) -> dict``: the result's stats from the counters (nfev, njev, 0), counted
-        since t = 0.
-    failure : callable
-        ``failure(sol, t_target) -> str``: the message of a failed step (e.g.
-        :func:`ida_failure_message`).
-
-    Returns
-    -------
-    Result
-
-    Raises
-    ------
-    rheology.run_end.EndedEarly (a RuntimeError)
-        IDA failed (``failure``'s message) or an output fails :meth:`_Outputs.end_at`; the
-        Result of the outputs before it (:meth:`_Outputs.ended`).
-    KeyboardInterrupt
-        Interrupted; the checkpoint is saved and the message says where
-        (:meth:`_Outputs.interrupted`).
+    Raises :class:`rheology.run_end.EndedEarly` (IDA or the law failed, or an output fails
+    :meth:`_Outputs.end_at`: the Result of the outputs before it) and KeyboardInterrupt after
+    saving the checkpoint (:meth:`_Outputs.interrupted`).
     """
-    from sksundae.ida import IDA
-
     wall0 = time.perf_counter()
     events = outs.events
     if ck is None:
@@ -744,34 +678,34 @@ def _run_ida(problem, method, times, rtol, stop_on, outs, ck, max_step, max_orde
             return _resumed_finished(ck, _result(problem, method, outs, wall0, stats(base)))
     t0 = outs.t_last
     i_next = int(np.searchsorted(times, t0, side="right"))
-    opts = dict(rtol=rtol, linsolver="band", max_num_steps=500000, max_step=max_step,
-                max_order=max_order, **options)
+    opts = dict(options)
     if events.active:
-        opts.update(eventsfn=events.ida_function(), num_events=len(EVENTS))
-    solver = IDA(residual, **opts)
-    solver.init_step(t0, y0, yp0)
+        opts.update(events=events.ida_events, names=EVENTS, direction=events.directions)
+    solver = Solver(residual, rtol=rtol, atol=opts.pop("atol"), linsolver="band",
+                    max_num_steps=500000, max_step=max_step, max_order=max_order, **opts)
+    solver.start(t0, y0, yp0)
     bar.to(t0)
-    seen, stopped, end = 0, False, None
+    stopped, end = False, None
     counters = base.copy()
     try:
         for t_target in times[i_next:]:
-            while True:
-                try:
-                    sol = solver.step(float(t_target))
-                except RuntimeError as exc:      # the law failed inside a residual
-                    end = RunEnd("law_failure", f"{' '.join(str(exc).split())} (in IDA's "
-                                                f"residual, stepping to t = {t_target:.6g} s)")
-                    break
+            try:
+                sol, fired = solver.advance(float(t_target), stop_on=stop_on)
+            except IDAFailed as exc:
+                sol = exc.sol
                 counters = base + np.array([sol.nfev, sol.njev, 0.0])
-                if sol.status == _IDA_ROOT_RETURN:
-                    seen, fired = events.record_roots(sol, seen)
-                    stopped = stopped or any(name in stop_on for name in fired)
-                    if stopped:
-                        break
-                    continue
-                if not sol.success:
-                    end = RunEnd("solver_failure", failure(sol, t_target), past_s=float(sol.t))
-                break
+                said = f" [SUNDIALS: {exc.printed.lstrip('[')[:300]}]" if exc.printed else ""
+                end = RunEnd("solver_failure", failure(sol, t_target) + said, past_s=exc.t)
+                fired = []
+            except RuntimeError as exc:          # the law failed inside a residual
+                end = RunEnd("law_failure", f"{' '.join(str(exc).split())} (in IDA's "
+                                            f"residual, stepping to t = {t_target:.6g} s)")
+                fired = []
+            else:
+                counters = base + np.array([sol.nfev, sol.njev, 0.0])
+            for t_root, name, _ in fired:
+                events.times[name].append(t_root)
+                stopped = stopped or name in stop_on
             if end is None:
                 t_now = float(sol.t)
                 yc, diag = convert(t_now, sol.y)
@@ -861,3 +795,51 @@ def _solve_explicit(problem, times, dt, lim, stop_on, outs, ck, bar, stop_hook):
     except KeyboardInterrupt:
         raise outs.interrupted(outs.wall_before + time.perf_counter() - wall0) from None
     return _result(problem, "explicit", outs, wall0, stats(steps))
+
+
+class _DAEEvents(_Events):
+    """The events of :mod:`shear1d.integrate` evaluated on the converted state."""
+
+    def __init__(self, problem: Couette, dae: "dae_mod.FullLawDAE"):
+        super().__init__(problem)
+        self.dae = dae
+
+    def values(self, t, y):
+        if len(y) == self.dae.size:
+            y = self.dae.convert(t, y)[0]
+        return super().values(t, y)
+
+
+def _solve_dae(problem, times, rtol, stop_on, outs, ck, max_step, max_order, bar, stop_hook,
+              k4=None, width=None):
+    """Integrate with IDA (banded difference-quotient Jacobian, BDF order <= max_order, x
+    algebraic) on the stepping loop of method ``"ida"`` (:func:`_run_ida`), so
+    with the same outputs, events, checkpoints and stats as :func:`solve` with
+    ``method="ida"`` (called from there with ``method="dae"``); the outputs and checks see the
+    DAE state converted to the Couette layout (:meth:`shear1d.dae.FullLawDAE.convert`), and the checkpoint
+    also keeps the DAE state (y, y') a resume restarts from. ``k4`` and ``width`` default to the
+    module's :data:`shear1d.dae.K4_REG` and :data:`shear1d.dae.COMPACTION_WIDTH` at call time. Raises ValueError when the
+    checkpoint's DAE state does not fit the grid, RuntimeError with diagnostics (min p included)
+    when IDA fails or a state is unphysical."""
+    dae = dae_mod.FullLawDAE(problem, dae_mod.K4_REG if k4 is None else k4,
+                             dae_mod.COMPACTION_WIDTH if width is None else width)
+    events = _DAEEvents(problem, dae)
+    events.times = outs.events.times
+    outs.events = events
+    if ck is not None and ck["y"].shape != (dae.size,):
+        raise ValueError("--resume: the checkpoint's DAE state does not match this grid")
+
+    def stats(counters):
+        return dict(nfev=int(counters[0]), njev=int(counters[1]), rtol=rtol,
+                    bandwidth=dae_mod.BANDWIDTH, k4=dae.k4, width=dae.width)
+
+    def failure(sol, t_target):
+        return ida_failure_message(problem, sol, t_target, rtol, dae.convert(sol.t, sol.y)[0],
+                                   solver="IDA (method dae)", with_mode=False,
+                                   extra=f", min p = {sol.y[dae.i_p].min():.6g} Pa")
+
+    return _run_ida(problem, "dae", times, rtol, stop_on, outs, ck, max_step, max_order, bar,
+                    stop_hook, residual=dae.residual, start=dae.initial_state, convert=dae.convert,
+                    options=dict(atol=dae.tolerances(rtol), lband=dae_mod.BANDWIDTH, uband=dae_mod.BANDWIDTH,
+                                 algebraic_idx=dae.algebraic()),
+                    stats=stats, failure=failure)

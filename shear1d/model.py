@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rheology import granular_viscosity, kernel_parameters
-from rheology.checks import check_nonnegative, check_positive, check_range
+from runkit.params import check_nonnegative, check_positive, check_range
 from rheology.materials import Material
 
 from rheology.elastic import ELASTIC_STRAIN_LIMIT

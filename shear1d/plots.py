@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 
 import rheology  # noqa: E402
-from rheology.io import atomic_savefig  # noqa: E402
+from runkit.io import atomic_savefig  # noqa: E402
 from rheology.run_end import mark_end  # noqa: E402
 
 from .analytic import annular_steady  # noqa: E402
+from .summary import band_front, couette_frames, front_frame, jammed, rotation_of  # noqa: E402
 
 
 def _finish(fig, path):
@@ -30,7 +28,6 @@ def _label(run) -> str:
 
 def _end_rotation(run):
     """(bob rotation [rad] at the last output, label) of a run that ended early, else None."""
-    from .scenes import rotation_of
 
     end = run.result.end
     if end is None:
@@ -41,7 +38,6 @@ def _end_rotation(run):
 def _what_happened(run) -> str:
     """What the run shows, in lines: jammed or not, where the band reached the outer wall, when
     the flow stopped and started again, and how Newtonian the last profile is."""
-    from .scenes import jammed
 
     s = run.summary
     dev = {float(k): v for k, v in s["newtonian_deviation_max_over_u"].items()}
@@ -81,7 +77,6 @@ def velocity_profiles_figure(runs, rotations=(0.0, 0.1, 0.2, 0.31)):
     Each panel's title says what its run shows (:func:`_what_happened`: jammed or not, the band
     at the outer wall, the flow stopping and starting again, the last profile against the
     Newtonian one); one legend below the panels."""
-    from .scenes import rotation_of
 
     speeds = sorted({r.summary["u_inner_m_per_s"] for r in runs})
     modes = sorted({r.summary["mode"] for r in runs}, key=lambda m: m != "locked")
@@ -146,7 +141,6 @@ def front_positions_figure(runs):
     coincide with an earlier run's (within :data:`COINCIDE` of the gap) is drawn thin and dashed
     on top of it and its legend entry says so; the runs without a band are named in the title;
     the legend is below the axes."""
-    from .scenes import front_frame, jammed
 
     fig, ax = plt.subplots(figsize=(8, 6.6))
     none = [_label(r) for r in runs if not jammed(r.summary)]
@@ -226,7 +220,6 @@ def run_fields_figure(run):
     """Space-time maps of one run: v/(omega r), f, plastic shear rate and granular pressure,
     each colour scale spanning its data (v/(omega r) at least 0-1.1, f/f_jam at least 0-1); the
     front is drawn only where a jammed band exists (as in <tag>_front.csv)."""
-    from .scenes import band_front, rotation_of
 
     res, g = run.result, run.result.problem.grid
     u = res.problem.drive_amplitude
@@ -275,7 +268,6 @@ def mode_comparison(path, runs):
     line for all). A two-phase curve that coincides with the locked one (within
     :data:`COINCIDE`) is drawn thin and dashed on top and its legend entry says so. Legends
     below the panels."""
-    from .scenes import front_frame
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 6.0))
     drawn = []
@@ -324,7 +316,6 @@ def couette_figure(res, idx):
     """Plane Couette: velocity profiles at the outputs ``idx`` (left) and, against time, the wall
     shear stress and the mean shear rate on two axes that both start at 0, with one legend for
     both (right). The data are those of couette_profiles.csv and couette_wall.csv."""
-    from .scenes import couette_frames
 
     g = res.problem.grid
     prof, wall = couette_frames(res)

@@ -24,29 +24,30 @@ Command: ``shear1d annular [--u-inner U ...] [--out DIR]``. Python::
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
-
 import rheology
-from rheology.checks import check_memory, check_positive, check_range
-from rheology.cli_common import TIME_MAX, TIME_MIN
-from rheology.io import atomic_write_csv, atomic_write_json, check_output_dir, previous_checkpoint
+from runkit.limits import check_memory
+from runkit.params import check_positive, check_range
+from runkit import limits as physical
+from runkit.io import atomic_write_csv, atomic_write_json, check_output_dir, previous_checkpoint
 from rheology.run_end import EndedEarly, run_record
 
-from . import analysis
-from .analytic import annular_steady
+from . import plots
 from .geometry import Grid
-from .integrate import (EVENTS, METHODS, Result, check_time_step, memory_estimate,
+from .integrate import (METHODS, Result, check_time_step, memory_estimate,
                         output_times, solve, stable_time_step)
 from .model import Couette
+from .summary import (FRONT_EMPTY_OK, NULLABLE, SceneRun, couette_frames, couette_profile_outputs,
+                      fields_frame, front_frame, jammed, profile_frames, run_tag, summarize)
+
+TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
+#: largest explicit run accepted, in cell-steps (about 3 hours at ~1e8 cell-steps per second)
+MAX_CELL_STEPS = physical.MAX_CELL_STEPS
 
 R_INNER = 12.5e-3
 R_OUTER = 36e-3
 SPEEDS = (0.84e-3, 84e-3)
-ROTATIONS = (0.0, 0.1, 0.2, 0.31)
 ROTATION_END = 0.31
 
 
@@ -64,7 +65,7 @@ def annular_shear_jamming(u_inner: float = 0.084, *, n_cells: int = 200, mode: s
     ------
     ValueError
         A parameter out of its range, or a t_end outside the durations of every tier
-        [TIME_MIN, TIME_MAX] (rheology.cli_common: 1 ps to 30 years), naming u_inner and rotation
+        [TIME_MIN, TIME_MAX] (runkit.limits: 1 ps to 30 years), naming u_inner and rotation
         with their ranges at the other's value (u_inner = 1e-300 asked for 3.9e297 s and failed
         in the law; rotation = 1e-300 ran 1.5e-301 s and wrote its files).
     """
@@ -97,219 +98,6 @@ def plane_couette(speed: float | None = None, *, stress: float | None = None, ga
                    wall_stress=stress, phi0=phi0, ramp_time=ramp_time, rate_step=rate_step)
 
 
-# ----------------------------------------------------------------------------- run summaries
-@dataclass
-class SceneRun:
-    """One solved scene: its tag (file prefix), result and summary numbers."""
-
-    tag: str
-    result: Result
-    summary: dict
-
-
-def run_tag(u_inner: float, mode: str) -> str:
-    return f"u{u_inner * 1e3:g}mm_s_{mode}"
-
-
-def rotation_of(result: Result, t) -> np.ndarray:
-    """Bob rotation [rad] at times t [s] (integral of u(t)/R_i, ramp included)."""
-    pb = result.problem
-    t = np.asarray(t, dtype=float)
-    u, ramp = pb.drive_amplitude, pb.ramp_time
-    dist = np.where(t < ramp, 0.5 * u * t ** 2 / ramp if ramp > 0 else 0.0, u * (t - 0.5 * ramp))
-    return dist / pb.grid.inner
-
-
-def flow_stop_time(result: Result) -> float | None:
-    """Time [s] the flow stopped after the band reached the outer wall (None if it did not)."""
-    ev = result.events
-    wall_t = ev.get("front_at_wall", [])[:1]
-    wall = wall_t[0] if wall_t else None
-    return next((x for x in ev.get("flow_stopped", []) if wall is None or x >= wall), None)
-
-
-def flow_restart_time(result: Result) -> float | None:
-    """The first output time [s] after the flow stopped (:func:`flow_stop_time`) at which the
-    bulk speed is back above FLOW_STOP_LEVEL of the wall speed (None: it stays stopped)."""
-    from .integrate import FLOW_STOP_LEVEL
-
-    stop = flow_stop_time(result)
-    if stop is None:
-        return None
-    g, u, v = result.problem.grid, result.problem.drive_amplitude, result.field("v")
-    return next((float(t) for t, vk in zip(result.t, v)
-                 if t > stop and analysis.bulk_speed(g, vk, u) >= FLOW_STOP_LEVEL), None)
-
-
-def band_present(result: Result) -> np.ndarray:
-    """(n_out,) bool: outputs at which a jammed band grows from the moving wall.
-
-    A band exists where f >= f_jam(phi0)/2 in the cell at the moving wall (the structure front
-    has left it); it grows until it reaches the outer wall (the ``front_at_wall`` event) or the
-    flow stops (``flow_stopped``), whichever comes first. From then on the band fills the gap (or
-    has stopped), and the rigid-ratio threshold crossing is only the edge of the decelerating
-    layer at the bob, which falls back and oscillates with the elastic waves - no front of a band.
-    """
-    pb = result.problem
-    fjam = float(rheology.f_jam(pb.phi0, pb.material))
-    f = result.field("f")
-    band = f[:, 0] >= 0.5 * fjam
-    ends = [ts[0] for ts in (result.events.get("front_at_wall", []),
-                             result.events.get("flow_stopped", [])) if ts]
-    if ends:
-        band &= result.t <= min(ends)
-    return band
-
-
-def band_front(result: Result) -> np.ndarray:
-    """Kinematic front position [m] where a jammed band exists (:func:`band_present`), NaN
-    elsewhere (undefined by construction: no band, no front)."""
-    return np.where(band_present(result), result.front(), np.nan)
-
-
-#: Summary keys that are null where undefined by construction: the front fit when no jammed band
-#: crossed 10 % of the gap (the slow case, or a run stopped early) or fewer than 3 outputs fell in
-#: the crossing; the band rigidity and the largest front position when no band formed.
-NULLABLE = ("front_speed_m_per_s", "front_speed_over_u_inner", "front_fit_r2",
-            "front_fit_gap_reached", "front_fit_intercept_m", "front_fit_rotation_rad",
-            "structure_front_speed_m_per_s", "structure_front_fit_r2", "band_rigidity_mean",
-            "band_rigidity_min", "max_front_position_m")
-
-
-def summarize(result: Result) -> dict:
-    """Front speed and linearity, rigidity, events, conservation and Newtonian deviation, and
-    how the run ended (``status``, ``ends``: :func:`rheology.run_end.run_record`).
-
-    Values undefined by construction are NaN (written as null: see :data:`NULLABLE`). The wall
-    time is not part of the summary (it is printed): a resumed run's files are the same bytes as
-    an uninterrupted run's.
-    """
-    pb, g = result.problem, result.problem.grid
-    m, u = pb.material, pb.drive_amplitude
-    v, f, phi = result.field("v"), result.field("f"), result.field("phi")
-    band = band_present(result)
-    front = np.where(band, result.front(), np.nan)
-    fjam = float(rheology.f_jam(pb.phi0, m))
-    sfront = np.array([analysis.structure_front(g, ff, fjam) for ff in f])
-    sfront = np.where(band, sfront, np.nan)
-    fit = analysis.front_fit(result.t, front, g)
-    sfit = analysis.front_fit(result.t, sfront, g)
-    rot = rotation_of(result, result.t)
-    window = (result.t >= fit["t_start"]) & (result.t <= fit["t_end"]) & band
-    rigid = [analysis.band_rigidity(g, v[k], u, front[k]) for k in np.flatnonzero(window)]
-    rigid = [x for x in rigid if np.isfinite(x)]
-    vol = g.cell_volumes()
-    solids = phi @ vol
-    ev = {k: [float(x) for x in result.events.get(k, [])] for k in EVENTS}
-    wall_t = ev["front_at_wall"][0] if ev["front_at_wall"] else None
-    stop_t = flow_stop_time(result)
-    again_t = flow_restart_time(result)
-    newt = {}
-    for target in ROTATIONS[1:]:
-        k = int(np.argmin(np.abs(rot - target)))
-        if abs(rot[k] - target) < 1e-3 + 0.5 * np.max(np.diff(rot), initial=0.0):
-            vn = annular_steady(g.faces, g.inner, g.outer, u)
-            newt[f"{target:g}"] = float(np.max(np.abs(v[k] - vn)) / u)
-    tau = np.abs(result.field("shear_stress"))
-    nan = float("nan")
-    stats = {k: (float(x) if isinstance(x, (float, np.floating)) else int(x))
-             for k, x in result.stats.items()}
-    return dict(
-        u_inner_m_per_s=u, mode=pb.mode, method=result.method, n_cells=g.n, r_inner_m=g.inner,
-        r_outer_m=g.outer, phi0=pb.phi0, t_end_s=float(result.t[-1]),
-        rotation_end_rad=float(rot[-1]), solver=stats,
-        front_speed_m_per_s=fit["speed"], front_speed_over_u_inner=fit["speed"] / u,
-        front_fit_r2=fit["r2"], front_fit_intercept_m=fit["intercept"],
-        front_fit_rotation_rad=[float(rotation_of(result, fit["t_start"])),
-                                float(rotation_of(result, fit["t_end"]))],
-        front_fit_gap_reached=fit["gap_reached"],
-        front_crossed_gap=bool(fit["gap_reached"] >= analysis.WALL_FRACTION),
-        structure_front_speed_m_per_s=sfit["speed"], structure_front_fit_r2=sfit["r2"],
-        band_rigidity_mean=float(np.mean(rigid)) if rigid else nan,
-        band_rigidity_min=float(np.min(rigid)) if rigid else nan,
-        max_front_position_m=float(np.nanmax(front)) if band.any() else nan,
-        front_at_wall_rotation_rad=None if wall_t is None else float(rotation_of(result, wall_t)),
-        flow_stopped_rotation_rad=None if stop_t is None else float(rotation_of(result, stop_t)),
-        flow_restarted_rotation_rad=None if again_t is None else float(rotation_of(result,
-                                                                                   again_t)),
-        events_s=ev,
-        newtonian_deviation_max_over_u=newt,
-        f_max=float(f.max()), f_jam=fjam, phi_min=float(phi.min()), phi_max=float(phi.max()),
-        solid_volume_drift=float(np.max(np.abs(solids - solids[0])) / solids[0]),
-        bob_shear_stress_max_Pa=float(np.max(tau[:, 0] * (g.centres[0] / g.inner) ** 2)),
-        granular_pressure_max_Pa=float(result.field("pressure").max()),
-        **run_record([result.end] if result.end else []),
-    )
-
-
-# ----------------------------------------------------------------------------- files
-def profile_frames(result: Result, rotations=ROTATIONS) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Velocity profiles (faces) and cell profiles at the outputs nearest the given rotations."""
-    pb, g = result.problem, result.problem.grid
-    rot = rotation_of(result, result.t)
-    u = pb.drive_amplitude
-    fields = {k: result.field(k) for k in ("v", "f", "phi", "sigma_rth", "pressure",
-                                           "shear_stress", "shear_rate", "plastic_shear_rate")}
-    vrows, crows = [], []
-    for target in rotations:
-        k = int(np.argmin(np.abs(rot - target)))
-        vk = fields["v"][k]
-        vrows.append(pd.DataFrame({
-            "rotation_rad": rot[k], "time_s": result.t[k], "r_m": g.faces, "v_m_per_s": vk,
-            "v_over_u_inner": vk / u, "v_over_omega_r": analysis.rigid_ratio(g, vk, u)}))
-        crows.append(pd.DataFrame({
-            "rotation_rad": rot[k], "time_s": result.t[k], "r_m": g.centres, "f": fields["f"][k],
-            "phi": fields["phi"][k], "granular_shear_stress_Pa": np.abs(fields["sigma_rth"][k]),
-            "granular_pressure_Pa": fields["pressure"][k],
-            "shear_stress_Pa": np.abs(fields["shear_stress"][k]),
-            "shear_rate_per_s": np.abs(fields["shear_rate"][k]),
-            "plastic_shear_rate_per_s": fields["plastic_shear_rate"][k]}))
-    return pd.concat(vrows, ignore_index=True), pd.concat(crows, ignore_index=True)
-
-
-#: Columns of <tag>_front.csv left empty where undefined by construction: the front and the
-#: band's rigidity where no jammed band exists (:func:`band_present`).
-FRONT_EMPTY_OK = ("front_m", "band_rigidity")
-
-
-def front_frame(result: Result) -> pd.DataFrame:
-    """Front position and bob stress against time (front_m and band_rigidity empty where no
-    jammed band exists)."""
-    pb, g = result.problem, result.problem.grid
-    u = pb.drive_amplitude
-    v, f = result.field("v"), result.field("f")
-    front = band_front(result)
-    fjam = float(rheology.f_jam(pb.phi0, pb.material))
-    tau = np.abs(result.field("shear_stress"))[:, 0] * (g.centres[0] / g.inner) ** 2
-    rigidity = [analysis.band_rigidity(g, vv, u, fr) if np.isfinite(fr) else np.nan
-                for vv, fr in zip(v, front)]
-    return pd.DataFrame({
-        "time_s": result.t, "rotation_rad": rotation_of(result, result.t), "front_m": front,
-        "structure_front_m": [analysis.structure_front(g, ff, fjam) for ff in f],
-        "band_rigidity": rigidity,
-        "bulk_speed_over_u_inner": [analysis.bulk_speed(g, vv, u) for vv in v],
-        "bob_shear_stress_Pa": tau,
-        "bob_torque_per_height_N": 2 * np.pi * g.inner ** 2 * tau})
-
-
-def fields_frame(result: Result, every: int = 1) -> pd.DataFrame:
-    """Space-time fields at cell centres (long format): f, phi, v/(omega r), rates, pressure."""
-    pb, g = result.problem, result.problem.grid
-    u = pb.drive_amplitude
-    idx = np.arange(0, len(result.t), max(1, every))
-    v = result.field("v")[idx]
-    vc = 0.5 * (v[:, 1:] + v[:, :-1])
-    nt, n = len(idx), g.n
-    return pd.DataFrame({
-        "time_s": np.repeat(result.t[idx], n),
-        "rotation_rad": np.repeat(rotation_of(result, result.t[idx]), n),
-        "r_m": np.tile(g.centres, nt),
-        "v_over_omega_r": (vc / g.rigid_speed(u, g.centres)).ravel(),
-        "f": result.field("f")[idx].ravel(), "phi": result.field("phi")[idx].ravel(),
-        "plastic_shear_rate_per_s": result.field("plastic_shear_rate")[idx].ravel(),
-        "granular_pressure_Pa": result.field("pressure")[idx].ravel()})
-
-
 def write_run(out: Path, run: SceneRun) -> list[Path]:
     """Write a run's CSV files and summary JSON into ``out`` (atomic, finite; empty cells and
     nulls only where undefined by construction); return the paths."""
@@ -325,9 +113,6 @@ def write_run(out: Path, run: SceneRun) -> list[Path]:
     return paths
 
 
-#: Largest explicit run accepted, in cell-steps (cells x steps): about 3 hours at the ~1e8
-#: cell-steps per second of the explicit kernel; longer runs are refused with the estimate.
-MAX_CELL_STEPS = 1e12
 
 
 def precheck(problem: Couette, method: str, rtol: float, dt: float | None,
@@ -368,7 +153,7 @@ def precheck(problem: Couette, method: str, rtol: float, dt: float | None,
 
 def check_out_dir(out) -> Path:
     """The output folder as a Path; ValueError if it exists and is not a folder or cannot be
-    written (rheology.io.check_output_dir)."""
+    written (runkit.io.check_output_dir)."""
     return check_output_dir("--out", out)
 
 
@@ -433,8 +218,6 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
     KeyboardInterrupt
         Interrupted; the message names the checkpoints kept (or says nothing was saved).
     """
-    from . import plots
-
     out = check_out_dir(out)
     problems = []
     for u in speeds:                         # validate everything before the first long run
@@ -521,8 +304,6 @@ def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_o
     ``out`` (checkpoint ``couette.checkpoint.npz`` until the files are written; same resume rules
     as :func:`run_annular`). A run that ends early writes them from its outputs so far and then
     raises :class:`rheology.run_end.EndedEarly` (``partial``: the Result)."""
-    from . import plots
-
     out = check_out_dir(out)
     output_times(t_end, n_out)
     precheck(problem, method, rtol, dt, t_end)
@@ -559,34 +340,9 @@ def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_o
     return res
 
 
-def couette_profile_outputs(res: Result) -> np.ndarray:
-    """Indices of the (up to 6) outputs whose velocity profiles are written and drawn."""
-    return np.unique(np.linspace(0, len(res.t) - 1, 6).astype(int))
-
-
-def couette_frames(res: Result) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """(profiles, wall history) of a plane Couette run: v(y) at a few times; wall speed, wall
-    shear stress, mean shear rate and mean f against time."""
-    g = res.problem.grid
-    v, tau = res.field("v"), np.abs(res.field("shear_stress"))
-    idx = couette_profile_outputs(res)
-    prof = pd.concat([pd.DataFrame({"time_s": res.t[k], "y_m": g.faces, "v_m_per_s": v[k]})
-                      for k in idx], ignore_index=True)
-    wall = pd.DataFrame({"time_s": res.t, "wall_speed_m_per_s": v[:, 0],
-                         "wall_shear_stress_Pa": tau[:, 0],
-                         "mean_shear_rate_per_s": (v[:, 0] - v[:, -1]) / g.gap,
-                         "f_mean": res.field("f").mean(axis=1)})
-    return prof, wall
-
-
-def jammed(summary: dict) -> bool:
-    """Whether a run grew a jammed band (f reached half of f_jam(phi0) somewhere)."""
-    return summary["f_max"] >= 0.5 * summary["f_jam"]
-
-
 def _fmt_rot(x) -> str:
     return "-" if x is None else f"{x:.3f} rad"
 
 
-__all__ = ["annular_shear_jamming", "plane_couette", "run_annular", "run_couette", "summarize",
-           "SceneRun", "band_present", "band_front", "R_INNER", "R_OUTER", "SPEEDS", "ROTATIONS"]
+__all__ = ["annular_shear_jamming", "plane_couette", "run_annular", "run_couette", "R_INNER", "R_OUTER",
+           "SPEEDS"]

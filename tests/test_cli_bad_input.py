@@ -1,6 +1,6 @@
 """Every numeric option of every subcommand of every CLI refuses bad values the same way.
 
-The mechanism is ``rheology.cli_common.Number``: every option that takes a number declares it as
+The mechanism is ``runkit.params.Number``: every option that takes a number declares it as
 its argparse ``type`` with the valid range. This test walks the parsers (so a new option is covered
 the day it is added), fails on any numeric option that bypasses ``Number``, and draws bad values
 (NaN, inf, out of range, not a number, huge) for each: the command must exit with status 2 and
@@ -19,7 +19,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from rheology.cli_common import Number
+from runkit.params import Number
 
 #: console script -> module with ``main(argv)``
 CLIS = {"rheometer": "rheometer.cli", "shear1d": "shear1d.cli", "mpm2d": "mpm2d.cli"}
@@ -75,7 +75,7 @@ def test_every_numeric_option_uses_number():
     """No option parses numbers with bare float/int (those accept nan and inf)."""
     bare = [f"{cli} {sub} {a.option_strings[-1]}" for cli, sub, a in OPTIONS
             if a.type in (float, int)]
-    assert not bare, f"options bypassing rheology.cli_common.Number: {bare}"
+    assert not bare, f"options bypassing runkit.params.Number: {bare}"
     assert len(NUMERIC) >= 20          # the walk found the options (guards an empty walk)
 
 
@@ -147,7 +147,7 @@ def test_help_of_every_subcommand(cli, capsys):
 def test_unwritable_outputs_are_refused_before_any_work(tmp_path):
     """An output under a folder where nothing can be created (or a file where a folder is
     needed) is refused with one line naming the option, before anything runs or is written."""
-    from rheology.io import check_output_dir, check_output_path
+    from runkit.io import check_output_dir, check_output_path
 
     with pytest.raises(ValueError, match="--plot = '/proc/x.png': cannot write in /proc"):
         check_output_path("--plot", "/proc/x.png", ["figure"])
@@ -194,8 +194,8 @@ def test_rheometer_set_refusal_names_the_parameter_set(argv, words, tmp_path, mo
 
 
 def test_valid_interval_finds_the_bounds():
-    """rheology.checks.valid_interval on checks with known bounds: open/closed, 0 and unbounded."""
-    from rheology.checks import valid_interval
+    """runkit.params.valid_interval on checks with known bounds: open/closed, 0 and unbounded."""
+    from runkit.params import valid_interval
 
     assert valid_interval(lambda x: 0.25 < x <= 0.75, 0.5) == (0.25, False, 0.75, True)
     assert valid_interval(lambda x: x > 0, 3.0) == (0.0, False, None, True)

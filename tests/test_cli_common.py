@@ -1,4 +1,4 @@
-"""rheology.cli_common.OneLineParser: a negative number given as a separate word is a value.
+"""runkit.command.OneLineParser: a negative number given as a separate word is a value.
 
 argparse's own matcher reads only ``-1`` and ``-.5`` as negative numbers; ``--G -1e4``,
 ``--G -inf`` or ``--frames -3e0`` became "expected one argument" with no range. Every CLI's
@@ -12,7 +12,8 @@ import argparse
 
 import pytest
 
-from rheology.cli_common import NEGATIVE_NUMBER, Number, OneLineParser
+from runkit.command import NEGATIVE_NUMBER, OneLineParser
+from runkit.params import Number
 
 
 @pytest.mark.parametrize("word", ["-1", "-.5", "-1.", "-1e4", "-1E4", "-1.5e-3", "-.5e+2",
@@ -48,8 +49,8 @@ def _run(argv, tmp_path, monkeypatch, capsys):
 
 
 @pytest.mark.parametrize("argv, match", [
-    (["rheometer", "relax", "--G", "-1e4"], "--G = -1e4 is outside the valid range (0, 1e+12] Pa"),
-    (["rheometer", "relax", "--G", "-inf"], "--G = -inf: must be finite; valid range (0, 1e+12]"),
+    (["rheometer", "relax", "--G", "-1e4"], "--G = -1e4 is outside the valid range [1, 1e+12] Pa"),
+    (["rheometer", "relax", "--G", "-inf"], "--G = -inf: must be finite; valid range [1, 1e+12]"),
     (["rheometer", "startup", "--rate", "-1e-3"], "--rate = -1e-3 is outside the valid range"),
     (["rheometer", "flow-curve", "--phi", "0.5", "-1e-2"], "--phi = -1e-2 is outside"),
     (["rheometer", "relax", "--phi", "-nan"], "--phi = -nan: must be finite"),
@@ -78,7 +79,6 @@ def test_number_refuses_subnormals_and_shows_values_unrounded():
     """A nonzero value below the smallest normal double is held with lost precision (a creep at
     1e-320 Pa gave a wrong viscosity): refused by name; a float that 6 digits would round onto the
     bound is shown in full, so the message does not contradict itself."""
-    from rheology.cli_common import Number
 
     n = Number("--stress", 0.0, 1e12, lo_closed=False, unit="Pa")
     with pytest.raises(ValueError, match=r"--stress = 1e-320 is subnormal"):
@@ -108,7 +108,8 @@ def test_extreme_rate_range_is_refused_not_a_traceback(capsys):
 def test_run_command_turns_an_arithmetic_error_into_one_failure_line(capsys):
     """The last net under the tiers' checks: an OverflowError from a library (rheometer fit
     --f-scale 1e300 reached scipy) is one 'failed' line, exit 1, no traceback."""
-    from rheology.cli_common import FAILED, run_command
+    from runkit.command import FAILED
+    from runkit.command import run as run_command
 
     def body():
         raise OverflowError(34, "Numerical result out of range")

@@ -10,9 +10,9 @@ import meshio
 import numpy as np
 
 from mpm2d.output import vtu_name
-from mpm2d.progress import Progress
 from mpm2d.run import run_scene
 from mpm2d.scenes import disks, shear
+from runkit.run import Progress
 
 #: a unit suffix of the project's column convention, or a dimensionless field
 _UNIT = re.compile(r"_(m|m_per_s|Pa|per_s|m3_per_(m|rad)|kg_per_(m|rad)|kg_per_m3)$")
@@ -69,9 +69,9 @@ def test_vtu_names_carry_units_per_thickness_or_radian():
 
 def test_progress_is_plain_periodic_lines_when_not_a_terminal(monkeypatch):
     clock = [0.0]
-    monkeypatch.setattr("mpm2d.progress.time.perf_counter", lambda: clock[0])
+    monkeypatch.setattr("runkit.run.time.perf_counter", lambda: clock[0])
     buf = io.StringIO()
-    bar = Progress(0.0, 2.0, 0, stream=buf, label="demo", line_every=30.0)
+    bar = Progress(0.0, 2.0, 0, stream=buf, label="demo", every=30.0)
     for k in range(1, 201):                  # 200 steps, 1 s of wall time each
         clock[0] = float(k)
         bar.update(0.01 * k, k)

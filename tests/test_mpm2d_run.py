@@ -331,13 +331,15 @@ def test_a_run_that_would_never_end_is_refused_up_front(tmp_path, capsys):
     assert not out.exists()
 
 
-def test_set_up_arithmetic_failure_names_the_parameters(tmp_path, capsys):
-    """d = 1e-300 is inside terzaghi's declared range (0, 0.1] but divides by zero in the set-up
-    (a traceback before): one line naming the parameter and value, exit 2, nothing written."""
+def test_a_grain_size_below_its_physical_limit_is_refused_with_the_reason(tmp_path, capsys):
+    """d = 1e-300 divided by zero in terzaghi's set-up: the grain size's physical range (a grain
+    many liquid molecules across) refuses it first, one line naming the parameter, its value,
+    the range and the reason, exit 2, nothing written."""
     out = tmp_path / "o"
     assert main(["run", "terzaghi", "--set", "d=1e-300", "--out", str(out), "--quiet"]) == 2
     err = [l for l in capsys.readouterr().err.strip().splitlines() if l]
-    assert len(err) == 1 and "with d = 1e-300 the set-up breaks down (ZeroDivisionError" in err[0]
+    assert len(err) == 1 and "d = 1e-300 is outside the valid range [1e-08, 0.01] m" in err[0]
+    assert "liquid molecules" in err[0]
     assert not out.exists()
 
 
@@ -456,13 +458,12 @@ def test_values_leaving_the_analysis_undefined_are_refused_up_front(tmp_path, ca
 
 def test_values_breaking_the_first_step_are_refused_up_front(tmp_path, capsys):
     """column d=1e-300 failed with 'a point left the grid at t = 0' and left empty frames/ and
-    vtk/: a value with which the first step itself fails is bad input, refused naming it with
-    the bound (found on the first step of a copy), nothing written."""
+    vtk/: refused up front by the grain size's physical range, naming it, nothing written."""
     out = tmp_path / "c"
     rc, so, err = _cli(["run", "column", "--set", "d=1e-300", "--set", "t_end=0.05", "--set",
                         "cells=8", "--out", str(out)], capsys)
     assert rc == 2 and so == [] and len(err) == 1, err
-    assert "d = 1e-300 breaks the first step" in err[0] and "valid: d >= " in err[0]
+    assert "d = 1e-300 is outside the valid range [1e-08, 0.01] m (a grain must be" in err[0]
     assert not out.exists()
 
 
@@ -573,3 +574,22 @@ def test_a_run_killed_before_its_first_checkpoint_leaves_a_folder_that_can_be_re
     monkeypatch.setattr(runmod, "write_frame", real)
     res = _run(bar.setup, out, params=dict(cells=8, periods=0.05), vtk=False)
     assert res["complete"] and res["manifest"]["status"] == "complete"
+
+
+@pytest.mark.parametrize("key, words", [
+    ("d", "d = 1e-300 is outside the valid range [1e-08, 0.01] m (a grain must be many liquid"),
+    ("gravity", "gravity = 1e-300 is outside the valid range [0.001, 1000] m/s^2 (below the "
+                "surface gravity of the smallest bodies"),
+    ("K", "K = 1e-300 is outside the valid range [1, 1e+12] Pa (the weakest colloidal gels"),
+    ("G", "G = 1e-300 is outside the valid range [1, 1e+12] Pa (the weakest colloidal gels"),
+    ("kappa", "kappa = 1e-300 is outside the valid range [1, 1e+12] Pa"),
+])
+def test_column_refuses_values_below_physical_limits_with_the_reason(tmp_path, capsys, key,
+                                                                     words):
+    """mpm2d run column with a grain size, gravity or modulus of 1e-300 ran to meaningless
+    numbers with exit 0 (or failed on arithmetic): each is refused by its physical limit
+    (runkit.limits) with the reason, exit 2, nothing written."""
+    out = tmp_path / "c"
+    rc, so, err = _cli(["run", "column", "--set", f"{key}=1e-300", "--out", str(out)], capsys)
+    assert rc == 2 and so == [] and len(err) == 1 and words in err[0], err
+    assert not out.exists()

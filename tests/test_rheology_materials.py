@@ -118,7 +118,7 @@ def test_scene_material_puts_a_steady_fit_on_a_scene():
 
 def test_scene_material_phi0_stays_below_the_users_jamming_fraction():
     """A fit jamming below the scene's phi0 gets the default-fraction rule's phi0 instead."""
-    from rheology.defaults import default_fraction
+    from rheology.materials import default_fraction
     from rheology.materials import scene_material
 
     loose = r.get_material("hermes2016", phi_c=0.40, phi_j=0.48)

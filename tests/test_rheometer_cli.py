@@ -132,8 +132,8 @@ def test_program_and_material_point_and_materials(tmp_path, monkeypatch, capsys)
     (["flow-curve", "--set", "eta0=-1"], "eta0 = -1 is outside"),
     (["flow-curve", "--set", "colour=3"], "unknown material parameter"),
     (["flow-curve", "--stress-range", "10", "1"], "--stress-range 10 1 must satisfy"),
-    (["relax", "--G", "-5"], "--G = -5 is outside the valid range (0, 1e+12] Pa"),
-    (["startup", "--G", "1e300"], "--G = 1e300 is outside the valid range (0, 1e+12] Pa"),
+    (["relax", "--G", "-5"], "--G = -5 is outside the valid range [1, 1e+12] Pa (the weakest"),
+    (["startup", "--G", "1e300"], "--G = 1e300 is outside the valid range [1, 1e+12] Pa (five"),
     (["relax", "--phi", "nan"], "--phi = nan: must be finite"),
     (["startup", "--rate", "-1"], "--rate = -1 is outside"),
     (["flow-curve", "--set", "eta0=inf"], "--set eta0 = inf: must be finite"),
@@ -226,11 +226,12 @@ def test_unknown_and_unset_overrides_name_the_key(tmp_path, monkeypatch, capsys)
 
 def test_phi_help_states_the_default_the_run_uses():
     """Each command's --phi help names the fractions a run without --phi uses (relax said 0.52
-    and ran at 0.50; program said 0.46): the help is generated from rheology.defaults."""
+    and ran at 0.50; program said 0.46): the help is generated from rheology.materials."""
     import argparse
     import re
 
-    from rheometer.cli import DEFAULT_MATERIAL, _material, build_parser
+    from rheometer.cli import build_parser
+    from rheometer.options import DEFAULT_MATERIAL, sample_material
 
     ap = build_parser()
     sub = next(a for a in ap._actions if isinstance(a, argparse._SubParsersAction))
@@ -242,7 +243,7 @@ def test_phi_help_states_the_default_the_run_uses():
         stated = [float(x) for x in
                   re.search(rf"{DEFAULT_MATERIAL}: ([0-9. ]+)\)", helptext).group(1).split()]
         args = ap.parse_args([name, "x.txt"] if name == "program" else [name])
-        _material(args)                                # fills args.phi with the defaults
+        sample_material(args)                                # fills args.phi with the defaults
         assert args.phi == pytest.approx(stated), (name, helptext, args.phi)
         checked.append(name)
     assert {"flow-curve", "startup", "creep", "relax", "program", "material-point",

@@ -131,7 +131,7 @@ def test_set_scales_at_their_bounds_give_the_scaled_flow_curve():
     """tau* at both ends of its range: the stress-controlled curve is self-similar in
     taubar/tau* (Eqs. 1-2 depend on the stress only through it), so the viscosity at
     taubar = x tau* is the same function of x at tau* = 1e-8 and 1e8 Pa."""
-    from rheometer.cli import material_with
+    from rheometer.options import material_with
     from rheometer.protocols import flow_curve
 
     x = np.logspace(-3, 3, 7)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import rheology
-from rheology.defaults import default_fraction
+from rheology.materials import default_fraction
 from rheometer import HYSTERESIS_PROGRAM, Step, parse_program, run_program
 from rheometer import oscillation as osc
 from rheometer.program import dst_fold, hysteresis_program

@@ -172,7 +172,7 @@ def test_unphysical_solution_ends_the_run_before_it():
 
 @pytest.mark.parametrize("kwargs, match", [
     (dict(phi=0.6), "phi = 0.6 is outside"),
-    (dict(phi=float("nan")), "phi must be finite"),
+    (dict(phi=float("nan")), "phi = nan: must be finite"),
     (dict(G=-1.0), "G"),
     (dict(K0=-1.0), "K0"),
     (dict(rtol=1.0), "rtol"),

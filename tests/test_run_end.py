@@ -21,20 +21,26 @@ TAU_LIMIT = ELASTIC_STRAIN_LIMIT * G
 
 @pytest.fixture
 def figures(monkeypatch):
-    """The figures the commands save (rheology.io.atomic_savefig, also as shear1d.plots'), by
+    """The figures the commands save (runkit.io.atomic_savefig, wherever it is imported), by
     file name: per axes its lines' (x, y) data and its texts."""
-    import rheology.io
-    import shear1d.plots
+    import sys
 
-    saved, real = {}, rheology.io.atomic_savefig
+    import mpm2d.cli  # noqa: F401  (every command's modules, imported)
+    import rheometer.cli  # noqa: F401
+    import runkit.io
+    import shear1d.cli  # noqa: F401
+
+    saved, real = {}, runkit.io.atomic_savefig
 
     def keep(fig, path, **kw):
         saved[Path(path).name] = [([(ln.get_xdata(), ln.get_ydata()) for ln in ax.lines],
                                    [t.get_text() for t in ax.texts]) for ax in fig.axes]
         return real(fig, path, **kw)
 
-    monkeypatch.setattr(rheology.io, "atomic_savefig", keep)
-    monkeypatch.setattr(shear1d.plots, "atomic_savefig", keep)
+    for name, mod in list(sys.modules.items()):         # every module that imported it
+        if name.split(".")[0] in ("runkit", "rheometer", "shear1d", "mpm2d") and getattr(
+                mod, "atomic_savefig", None) is real:
+            monkeypatch.setattr(mod, "atomic_savefig", keep)
     return saved
 
 
@@ -193,7 +199,8 @@ def test_material_point_ends_at_the_step_before_the_limit(tmp_path, monkeypatch,
 
 
 def test_run_command_statuses():
-    from rheology.cli_common import FAILED, run_command
+    from runkit.command import FAILED
+    from runkit.command import run as run_command
 
     end = RunEnd("validity_limit", "x past it", 1.0, "elastic strain taubar/G", 0.2, 0.1, 2.0)
 
@@ -331,7 +338,9 @@ def test_mpm2d_run_whose_step_fails_ends_there_with_its_history(tmp_path, capsys
         return sc
 
     setup.spec = bar.setup.spec
-    monkeypatch.setattr(mpm2d.scenes, "get_setup", lambda name: setup)
+    import mpm2d.cli
+
+    monkeypatch.setattr(mpm2d.cli, "get_setup", lambda name: setup)
     out = tmp_path / "run"
     assert main(argv + ["--out", str(out)]) == ENDED_EARLY
     err = [line for line in capsys.readouterr().err.splitlines() if line]
@@ -352,13 +361,11 @@ def test_shear1d_ida_failure_at_the_first_output_fails_and_leaves_nothing(tmp_pa
                                                                           monkeypatch):
     """IDA allowed 5 steps cannot reach the first output: nothing to keep, so the run fails
     (exit 1, IDA's diagnostics) and leaves no folder, no checkpoint."""
-    import sksundae.ida
-
+    import runkit.ida
     from shear1d.cli import main
 
-    real = sksundae.ida.IDA
-    monkeypatch.setattr(sksundae.ida, "IDA", lambda *a, **k: real(*a, **{**k,
-                                                                         "max_num_steps": 5}))
+    real = runkit.ida.IDA
+    monkeypatch.setattr(runkit.ida, "IDA", lambda *a, **k: real(*a, **{**k, "max_num_steps": 5}))
     out = tmp_path / "c"
     assert main(COUETTE[:-3] + ["--quiet", "--out", str(out)]) == 1
     err = capsys.readouterr().err.strip().splitlines()

@@ -12,7 +12,7 @@ import sys
 import pandas as pd
 import pytest
 
-from rheology.cli_common import Number
+from runkit.params import Number
 from shear1d.cli import _parser, main
 
 
@@ -155,7 +155,7 @@ def test_bad_input_exits_2_with_one_line_and_writes_nothing(tmp_path, args, word
 
 
 def test_a_run_too_large_for_memory_is_refused_with_its_estimate(tmp_path, capsys, monkeypatch):
-    import rheology.checks as checks
+    import runkit.limits as checks
 
     monkeypatch.setattr(checks, "available_memory", lambda: 2e9)
     out = tmp_path / "big"
@@ -285,14 +285,14 @@ def test_ramp_time_bound_is_the_rotation_time_of_the_fastest_speed():
 def test_sundials_error_lines_stay_off_stdout(tmp_path, monkeypatch, capsys):
     """Fault 10: sksundae prints SUNDIALS' errors on stdout ('[IDASolve, Error: -22] ...'). They
     are kept off it and the failure's one line (exit 1) carries their words."""
-    import sksundae.ida
+    import runkit.ida
 
-    real = sksundae.ida.IDA
+    real = runkit.ida.IDA
 
     def few_steps(*a, **kw):                      # IDA gives up after 3 steps: a real failure
         kw["max_num_steps"] = 3
         return real(*a, **kw)
-    monkeypatch.setattr(sksundae.ida, "IDA", few_steps)
+    monkeypatch.setattr(runkit.ida, "IDA", few_steps)
     rc = main(["couette", "--speed", "0.01", "--cells", "4", "--time", "0.2", "--outputs", "2",
                "--quiet", "--out", str(tmp_path / "o")])
     cap = capsys.readouterr()
@@ -306,7 +306,7 @@ def test_sundials_error_lines_stay_off_stdout(tmp_path, monkeypatch, capsys):
 def test_sundials_filter_passes_every_other_line():
     import io as _io
 
-    from rheology.cli_common import SundialsFilter as _SundialsFilter
+    from runkit.command import SundialsFilter as _SundialsFilter
 
     buf = _io.StringIO()
     f = _SundialsFilter(buf)
@@ -424,11 +424,11 @@ def test_resume_from_a_corrupt_checkpoint_prints_only_the_refusal(args, name, tm
 
 
 def test_csv_writes_no_negative_zero(tmp_path):
-    """rheology.io.atomic_write_csv writes -0.0 as 0.0 in every float column (shear1d couette
+    """runkit.io.atomic_write_csv writes -0.0 as 0.0 in every float column (shear1d couette
     --speed 1e-300 wrote f_mean = -0.0), NaN still empty where allowed, the frame unchanged."""
     import numpy as np
 
-    from rheology.io import atomic_write_csv
+    from runkit.io import atomic_write_csv
 
     df = pd.DataFrame({"a": [-0.0, 1.5, -2.0], "b": np.array([-0.0, 0.0, np.nan], np.float32),
                        "n": [0, -1, 2], "s": ["-0.0", "x", "y"]})

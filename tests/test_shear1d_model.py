@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import rheology
-from rheology.io import load_checkpoint
+from runkit.io import load_checkpoint
 from shear1d import analysis
 from shear1d.geometry import Grid
 from shear1d.integrate import check_state, output_times, solve, stable_time_step
@@ -156,9 +156,11 @@ def test_summary_reports_newtonian_slow_case():
 @pytest.mark.parametrize("kw", [dict(u_inner=1e-300), dict(u_inner=0.084, rotation=1e-300)])
 def test_annular_duration_outside_the_tiers_durations_is_refused(kw):
     """u_inner = 1e-300 asked for a 3.9e297 s run (it failed in the law); rotation = 1e-300 ran
-    1.5e-301 s: t_end must lie in rheology.cli_common's [TIME_MIN, TIME_MAX], and the message
+    1.5e-301 s: t_end must lie in runkit.limits' [TIME_MIN, TIME_MAX], and the message
     gives both parameters' ranges, which hold (a value at the edge is accepted)."""
-    from rheology.cli_common import TIME_MAX, TIME_MIN
+    from runkit import limits
+
+    TIME_MIN, TIME_MAX = limits.TIME_MIN.value, limits.TIME_MAX.value
 
     with pytest.raises(ValueError, match=r"outside the valid durations \[1e-12, 1e\+09\] s"):
         annular_shear_jamming(n_cells=8, **kw)

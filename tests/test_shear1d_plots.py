@@ -123,7 +123,7 @@ def test_titles_say_what_the_runs_show_as_their_summaries_do(fast_run, slow_run)
 def test_flow_restart_is_where_the_bulk_speed_is_back_above_the_stop_level(fast_run):
     from shear1d import analysis
     from shear1d.integrate import FLOW_STOP_LEVEL
-    from shear1d.scenes import flow_restart_time, flow_stop_time, rotation_of
+    from shear1d.summary import flow_restart_time, flow_stop_time, rotation_of
 
     res, s = fast_run.result, fast_run.summary
     stop, again = flow_stop_time(res), flow_restart_time(res)

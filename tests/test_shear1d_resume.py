@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rheology.io import CorruptCheckpoint
+from runkit.io import CorruptCheckpoint
 from shear1d.cli import main
 from shear1d.scenes import run_annular
 

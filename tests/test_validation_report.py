@@ -297,8 +297,8 @@ def test_no_slow_skips_slow_cases_at_full_size(registry, capsys, tmp_path):
 
 
 def test_io_json_writer_stays_strict(tmp_path):
-    """rheology.io writes strict JSON: a NaN is refused unless its key is nullable."""
-    from rheology.io import atomic_write_json
+    """runkit.io writes strict JSON: a NaN is refused unless its key is nullable."""
+    from runkit.io import atomic_write_json
 
     with pytest.raises(RuntimeError, match=r"x\[1\] = nan is not finite"):
         atomic_write_json(tmp_path / "a.json", {"x": [1.0, NAN]})

@@ -21,7 +21,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rheology.cli_common import OneLineParser, run_command
+from runkit.command import OneLineParser
+from runkit.command import run as run_command
+from .report import select, write_report
 
 _QUICK_HELP = ("small sizes (as in the test suite). Cases marked slow (their criteria hold at "
                "full size only; 'list' marks them) are skipped and listed as skipped in the "
@@ -56,8 +58,6 @@ def build_parser() -> OneLineParser:
 
 
 def _list() -> int:
-    from .report import select
-
     for e in select():
         slow = "slow" if e.slow and e.kind == "case" else ""
         print(f"{e.tier:10s} {e.kind:9s} {e.name:40s} {slow:4s} {e.title}")
@@ -65,8 +65,6 @@ def _list() -> int:
 
 
 def _report(args) -> int:
-    from .report import write_report
-
     rep = write_report(args.out, args.tier, args.only, args.quick, not args.no_bench,
                        not args.no_slow, args.resume)
     ran = [r for r in rep.entries if r["skipped"] is None]

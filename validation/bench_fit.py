@@ -24,6 +24,8 @@ from rheology.fit import FlowData, fit_flow_curves, mixture_steady_state, synthe
 
 from .framework import BenchResult, benchmark
 from .report import machine_description
+from rheometer.protocols import relax
+from rheometer.relaxation_fit import POINTS, fit_relaxation, synthetic_relaxation
 
 
 def _median(fn, repeats):
@@ -66,9 +68,6 @@ def fit_speed(out: Path, quick: bool) -> BenchResult:
 @benchmark("rheometer", "bench_fit_relaxation_speed",
            "Relaxation fit: 2 curves, time and model runs (rheometer relax)")
 def fit_relaxation_speed(out: Path, quick: bool) -> BenchResult:
-    from rheometer.protocols import relax
-    from rheometer.relaxation_fit import POINTS, fit_relaxation, synthetic_relaxation
-
     m = r.get_material("hermes2016")
     curves = [synthetic_relaxation(m, 0.52, tau0, G=1e4, K0=1.0, offset=0.002, seed=k)
               for k, tau0 in enumerate((1e3, 300.0))]

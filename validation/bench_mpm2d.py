@@ -54,13 +54,16 @@ import mpm2d.shape as _shape
 from mpm2d.shape import APIC_D_INV, weights
 from mpm2d.transfer import chunk_bounds
 from rheology import get_material
-from mpm2d.materials import _trial
+from mpm2d.materials import trial_stress
 from rheology.local_update import (BLOCK, NOUT, NSTRESS, NWORK, SHEAR_FLOW, block_finish,
                                    block_handed, block_inv_eta_B, block_newton, block_start,
                                    block_test, kernel_parameters, update_points_serial)
 from rheology.numba_cache import guard
 
 from .framework import BenchResult, benchmark
+import pandas as pd
+from mpm2d.plots import plt, save
+from runkit.io import atomic_write_csv
 
 guard(__file__, _shape.__file__)   # its bare kernels inline mpm2d.shape's weights
 
@@ -215,14 +218,14 @@ def sheared_locked(cells: int) -> Simulation:
 @nb.njit(error_model="numpy")
 def _law_upto(stop, stress, L, Lw, phi, f0, g0, dt, P, S, W, fb, gb, cb):
     """The suspension kernel's law on blocks of BLOCK points up to stage ``stop`` (0: the trial
-    in mpm2d's layout, mpm2d.materials._trial; 1-6: update_block's stages in turn), on copies
+    in mpm2d's layout, mpm2d.materials.trial_stress; 1-6: update_block's stages in turn), on copies
     of f and gdot (the inputs are not changed)."""
     N = phi.shape[0]
     G, K = P[16], P[17]
     for lo in range(0, N, BLOCK):
         n = min(lo + BLOCK, N) - lo
         for k in range(n):
-            _trial(stress, L, Lw, lo + k, dt, G, K, S, k)
+            trial_stress(stress, L, Lw, lo + k, dt, G, K, S, k)
             fb[k], gb[k] = f0[lo + k], g0[lo + k]
         ph, f, g, case = phi[lo:lo + n], fb[:n], gb[:n], cb[:n]
         if stop >= 1:
@@ -400,7 +403,7 @@ def taichi_elastic_rate(cells: int, steps: int, reps: int = 3):
     (rate, note); rate None when Taichi is not installed.
     """
     # Taichi wraps every kernel call with a print-buffer flush when sys.stdout is not the
-    # console's own (it is a filter under rheology.cli_common.run_command): a per-call cost
+    # console's own (it is a filter under runkit.command.run): a per-call cost
     # that is not Taichi's speed (seen: 6.6 instead of 11-13 M point-steps/s). Our kernels
     # do not print, so the buffer is off.
     os.environ.setdefault("TI_ENABLE_PYBUF", "0")
@@ -501,11 +504,6 @@ def taichi_elastic_rate(cells: int, steps: int, reps: int = 3):
            "loop (elastic, two-phase, locked mixture; 1 and 2 threads), memory traffic, the Table 8 "
            "update per stage, and Taichi")
 def speed(out: Path, quick: bool) -> BenchResult:
-    import pandas as pd
-
-    from rheology.io import atomic_write_csv
-    from mpm2d.plots import plt, save
-
     threads = min(THREADS, nb.config.NUMBA_NUM_THREADS)
     cells = {"elastic": 64 if quick else 256, "two-phase suspension": 32 if quick else 128,
              "locked mixture": 32 if quick else 128}

@@ -14,17 +14,14 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+from runkit.plotting import plt
 import numpy as np
 from scipy.optimize import brentq
 
 import rheology as r
-from rheology.io import atomic_savefig
+from runkit.io import atomic_savefig
 from rheology.local_update import NOUT, kernel_parameters, update_points, update_points_serial
-from rheology.steady import _residual
+from rheology.steady import steady_residual
 
 from .framework import BenchResult, benchmark
 from .report import machine_description
@@ -50,7 +47,7 @@ def scalar_flow_curve(taus, phis, m):
         fhi = min(fm, y0 / dphi)
         for j, t in enumerate(taus):
             H = (t / m.tau_star) ** 1.5
-            f = brentq(lambda x: _residual(x, y0 - x * dphi, x - fm, t, phi, H, t * k0, m), 0.0, fhi,
+            f = brentq(lambda x: steady_residual(x, y0 - x * dphi, x - fm, t, phi, H, t * k0, m), 0.0, fhi,
                        xtol=1e-300, rtol=4 * np.finfo(float).eps)
             out[i, j] = float(r.critical_shear_rate(t, phi, f, m))
     return out

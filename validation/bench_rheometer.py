@@ -18,21 +18,22 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
 import rheology  # noqa: E402
-from rheology.io import atomic_savefig  # noqa: E402
+from runkit.io import atomic_savefig  # noqa: E402
 from rheometer import model  # noqa: E402
 from rheometer.protocols import flow_curve, relax, startup  # noqa: E402
 from rheometer.transient import Rheometer, Step  # noqa: E402
 
 from .framework import BenchResult, benchmark  # noqa: E402
 from .report import machine_description  # noqa: E402
+import pandas as pd
+from rheometer.program import parse_program
+from rheometer.protocols import initial_state
+from runkit.io import atomic_write_csv
 
 TARGET_ERR = 1e-6
 PROBLEMS = {
@@ -279,9 +280,6 @@ def random_program(rng: np.random.Generator, nsteps: int) -> str:
 def _time_program(m, phi: float, text: str):
     """(per-step wall times [s], per-step residual counts, program) of one run; the initial
     state (a steady solve) is not a step and is not timed."""
-    from rheometer.program import parse_program
-    from rheometer.protocols import initial_state
-
     prog = parse_program(text)
     r = Rheometer(m, phi, G=1e4, K0=1.0)
     st = initial_state(r, prog.start)
@@ -332,7 +330,6 @@ def random_programs(out: Path, quick: bool) -> BenchResult:
                              kind=step.label.split()[0] + (" " + step.label.split()[1]
                                                            if step.ramp != "const" else ""),
                              seconds=float(dt), residuals=int(nf), line=step.label))
-    import pandas as pd
 
     df = pd.DataFrame(rows)
     ok = df[df["kind"] != "FAILED"]
@@ -343,7 +340,6 @@ def random_programs(out: Path, quick: bool) -> BenchResult:
     failed = int((df["kind"] == "FAILED").sum())
     worst = ok.nlargest(5, "seconds")
     by_kind = ok.groupby("kind")["seconds"].agg(["median", "max", "count"]).reset_index()
-    from rheology.io import atomic_write_csv
 
     atomic_write_csv(Path(out) / "random_program_steps.csv", df, empty_ok=("seconds",))
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.2))

@@ -8,13 +8,10 @@ import os
 import time
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 
-from rheology.io import atomic_savefig  # noqa: E402
+from runkit.io import atomic_savefig  # noqa: E402
 from shear1d.integrate import solve, stable_time_step  # noqa: E402
 from shear1d.scenes import annular_shear_jamming, summarize  # noqa: E402
 

@@ -26,14 +26,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 
 from rheology import f_jam  # noqa: E402
-from rheology.io import atomic_write_csv  # noqa: E402
+from runkit.io import atomic_write_csv  # noqa: E402
 from shear1d import analysis  # noqa: E402
 from shear1d.analytic import annular_steady  # noqa: E402
 from shear1d.integrate import solve  # noqa: E402

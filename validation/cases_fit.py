@@ -25,17 +25,19 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+from runkit.plotting import plt
 import numpy as np
 
 import rheology as r
 from rheology.fit import FlowData, fit_flow_curves, recovery_errors, synthetic_table
-from rheology.io import atomic_savefig, atomic_write_csv
+from runkit.io import atomic_savefig, atomic_write_csv
 
 from .framework import Verdict, case
+import pandas as pd
+from rheology.data import describe, read_flow_curves, read_relaxation_curves
+from rheology.fit import mixture_steady_state
+from rheometer.fit_cli import write_figures
+from rheometer.relaxation_fit import RelaxationCurve, fit_relaxation, synthetic_relaxation
 
 #: Offsets of the synthetic volume fractions from phi_c, in units of phi_j - phi_c.
 RECOVERY_OFFSETS = np.array([-0.6, -0.25, 0.15, 0.45, 0.75])
@@ -89,7 +91,6 @@ def fit_recovery(out: Path, quick: bool) -> Verdict:
             s, v, _ = d.sorted_curve(c)
             ax.loglog(s, v, "o", ms=3)
             grid = np.logspace(np.log10(s.min()), np.log10(s.max()), 100)
-            from rheology.fit import mixture_steady_state
 
             ax.loglog(grid, mixture_steady_state(grid, phis[c], res.material)["viscosity"], "k-",
                       lw=0.8)
@@ -99,7 +100,6 @@ def fit_recovery(out: Path, quick: bool) -> Verdict:
     fig.tight_layout()
     png = atomic_savefig(fig, out / "recovery.png")
     plt.close(fig)
-    import pandas as pd
 
     atomic_write_csv(out / "recovery.csv", pd.DataFrame(rows),
                      empty_ok=("err_gdot_dst",))
@@ -173,7 +173,6 @@ def fit_table1a(out: Path, quick: bool) -> Verdict:
     got = {"phi_j": f.phi_j, "a0": f.a0, "phi_c": f.phi_c, "a_inf": f.a_inf}
     want = {"phi_j": 0.65, "a0": 0.455, "phi_c": 0.585, "a_inf": 0.841}
     err = {k: abs(got[k] / want[k] - 1) for k in want}
-    from rheometer.fit_cli import write_figures
 
     pngs = [out / n for n in write_figures(out, data, res)[2:]]
     return Verdict(
@@ -187,8 +186,6 @@ def fit_table1a(out: Path, quick: bool) -> Verdict:
 @case("rheology", "fit_example_exports",
       "Fit: the shipped example exports (RheoCompass layout) give back hermes2016")
 def fit_examples(out: Path, quick: bool) -> Verdict:
-    from rheology.data import describe, read_flow_curves
-
     folder = Path(__file__).resolve().parent.parent / "rheometer" / "examples"
     files = sorted(folder.glob("rheocompass_phi_*.csv"))
     phis = [float(f.stem.split("_")[-1]) for f in files]
@@ -213,8 +210,6 @@ def fit_examples(out: Path, quick: bool) -> Verdict:
 @case("rheology", "fit_instrument_exports",
       "Fit: the shipped TRIOS text, TRIOS CSV and rSpace CSV examples give back hermes2016")
 def fit_instrument_exports(out: Path, quick: bool) -> Verdict:
-    from rheology.data import describe, read_flow_curves
-
     folder = Path(__file__).resolve().parent.parent / "rheometer" / "examples"
     files = [folder / n for n in ("trios_phi_0.42.txt", "trios_phi_0.45.csv",
                                   "rspace_phi_0.48.csv")]
@@ -242,8 +237,6 @@ RELAX_STRESSES = (1e3, 300.0)
 def _relaxation_curves(G: float, K0: float, seed: int, record=None, stresses=RELAX_STRESSES):
     """Curves at each taubar0; ``record``: the record's length in units of eta_g/G (None: until
     the stress reaches the 1e-3 taubar0 floor)."""
-    from rheometer.relaxation_fit import synthetic_relaxation
-
     m = r.get_material("hermes2016")
     out = []
     for i, tau0 in enumerate(stresses):
@@ -257,10 +250,6 @@ def _relaxation_curves(G: float, K0: float, seed: int, record=None, stresses=REL
 @case("rheometer", "fit_relaxation_recovery",
       "Fit: G and K0 back from stress relaxations at Fig. 15's settings (Eqs. 35-37)", slow=True)
 def fit_relaxation_recovery(out: Path, quick: bool) -> Verdict:
-    import pandas as pd
-
-    from rheometer.relaxation_fit import fit_relaxation
-
     m = r.get_material("hermes2016")
     settings = [(G, K0, None) for G in (1e3, 1e4, 1e5) for K0 in (0.1, 1.0, 10.0)]
     settings.append((1e4, 1.0, 0.3))           # a record that ends before it decays
@@ -314,8 +303,6 @@ def fit_relaxation_recovery(out: Path, quick: bool) -> Verdict:
 @case("rheometer", "fit_relaxation_calibration",
       "Fit: the relaxation fit's 95% intervals over 50 noise seeds contain G and K0", slow=True)
 def fit_relaxation_calibration(out: Path, quick: bool) -> Verdict:
-    from rheometer.relaxation_fit import fit_relaxation
-
     m = r.get_material("hermes2016")
     G, K0, n = 1e4, 1.0, (6 if quick else 50)
     hits = {"G": [], "K0": []}
@@ -336,9 +323,6 @@ def fit_relaxation_calibration(out: Path, quick: bool) -> Verdict:
 @case("rheometer", "fit_relaxation_example",
       "Fit: the shipped TRIOS stress-relaxation example (torque only) gives back G and K0")
 def fit_relaxation_example(out: Path, quick: bool) -> Verdict:
-    from rheology.data import read_relaxation_curves
-    from rheometer.relaxation_fit import RelaxationCurve, fit_relaxation
-
     f = Path(__file__).resolve().parent.parent / "rheometer" / "examples" / \
         "trios_relaxation_phi_0.52.txt"
     t = read_relaxation_curves([f])

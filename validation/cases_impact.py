@@ -15,17 +15,14 @@ import math
 import time
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from mpm2d.run import run_scene  # noqa: E402
 from mpm2d.scenes import impact  # noqa: E402
 from rheology import get_material  # noqa: E402
-from rheology.io import atomic_savefig, atomic_write_csv, atomic_write_json  # noqa: E402
+from runkit.io import atomic_savefig, atomic_write_csv, atomic_write_json  # noqa: E402
 
 from .framework import Verdict, case  # noqa: E402
 

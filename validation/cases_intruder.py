@@ -55,19 +55,16 @@ import math
 import time
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+from mpm2d.run import run_scene
+from mpm2d.scenes import get_setup
+from mpm2d.scenes.intruder import draw_uz, event_fields, reference_lines, uz_norm
+from runkit.io import atomic_savefig, atomic_write_csv
+from runkit.plotting import plt
 
-from mpm2d.run import run_scene  # noqa: E402
-from mpm2d.scenes import get_setup  # noqa: E402
-from mpm2d.scenes.intruder import draw_uz, event_fields, reference_lines, uz_norm  # noqa: E402
-from rheology.io import atomic_savefig, atomic_write_csv  # noqa: E402
-
-from .framework import Verdict, case  # noqa: E402
+from .framework import Verdict, case
 
 #: the (rules, layout) combinations, in the order they are reported
 COMBINATIONS = (("table8", "default"), ("table8", "mpm_3d"), ("mpm_3d", "default"),

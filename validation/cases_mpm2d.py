@@ -8,10 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
@@ -19,9 +16,15 @@ from mpm2d.analytic import observed_orders  # noqa: E402
 from mpm2d.run import run_scene  # noqa: E402
 from mpm2d.scenes import (bar, column, couette, cylinder, disks, piston, shear,  # noqa: E402
                           terzaghi)
-from rheology.io import atomic_savefig, atomic_write_csv  # noqa: E402
+from runkit.io import atomic_savefig, atomic_write_csv  # noqa: E402
 
 from .framework import NO_COARSER, Verdict, case  # noqa: E402
+from mpm2d import (Grid, Grid as _Grid, LinearElastic, NewtonianFluid, ParticleSet, RigidBody,
+                   Simulation, Suspension, box, disk)
+from mpm2d.geostatic import geostatic
+from rheology import get_material, steady_states_rate
+from rheometer import simple_shear_point
+from shear1d import plane_couette, solve
 
 
 def _run(setup, out: Path, **params):
@@ -171,8 +174,6 @@ def _couette_vs_shear1d(run_dir: Path, params: dict) -> float:
     Einstein correction and the solid density change nu by ~1e-6) with its moving wall at y = 0,
     so the MPM's y maps to gap - y.
     """
-    from shear1d import plane_couette, solve
-
     prof = couette.profiles(run_dir)
     pb = plane_couette(params["U"], gap=params["gap"], n_cells=256, phi0=1e-6,
                        eta0=params["eta"], rho_f=params["rho"])
@@ -222,26 +223,17 @@ def couette_case(out: Path, quick: bool) -> Verdict:
 @case("mpm2d", "mpm2d_homogeneous_shear",
       "mpm2d: homogeneous simple shear of the suspension law vs the rheometer's material point")
 def homogeneous_shear(out: Path, quick: bool) -> Verdict:
-    from rheology import get_material, steady_states_rate
-
     t_end = 0.05 if quick else 0.5
     res = _run(shear.setup, out, t_end=t_end, rate=50.0, phi=0.40, p0=1.0)
     params = res["scene"].params
     hist = res["history"]
-    try:
-        from rheometer import simple_shear_point
-
-        steps = int(round(t_end / params["dt"]))
-        point = simple_shear_point(params["material"], params["phi"], params["rate"],
-                                   steps * params["dt"], params["dt"], control="volume",
-                                   pressure0=params["p0"], f0=params["f0"], points=steps)
-        source = "rheometer.simple_shear_point (control='volume')"
-        columns = {"granular_shear_stress_Pa": "shear_stress_Pa",       # MPM sigma_xy : point's
-                   "granular_pressure_Pa": "granular_pressure_Pa", "f": "f"}
-    except ImportError:                                               # pragma: no cover
-        point = shear.point_history(params, hist["time_s"].to_numpy())
-        source = "rheology.local_update driven directly (rheometer not importable)"
-        columns = {k: k for k in ("granular_shear_stress_Pa", "granular_pressure_Pa", "f")}
+    steps = int(round(t_end / params["dt"]))
+    point = simple_shear_point(params["material"], params["phi"], params["rate"],
+                               steps * params["dt"], params["dt"], control="volume",
+                               pressure0=params["p0"], f0=params["f0"], points=steps)
+    source = "rheometer.simple_shear_point (control='volume')"
+    columns = {"granular_shear_stress_Pa": "shear_stress_Pa",           # MPM sigma_xy : point's
+               "granular_pressure_Pa": "granular_pressure_Pa", "f": "f"}
     t_pt = point["time_s"].to_numpy()
     idx = np.array([int(np.argmin(np.abs(t_pt - t))) for t in hist["time_s"]])
     matched = np.abs(t_pt[idx] - hist["time_s"].to_numpy()) < 1e-9 * t_end
@@ -327,9 +319,8 @@ def column_case(out: Path, quick: bool) -> Verdict:
         passed=ok, figures=[out / "column.png"])
 
 
-# ---------------------------------------------------------------- issue 10: contact, axis, rest
+# ---------------------------------------------------------------- contact, axis, rest
 def _block_on_floor(h, gap=0.0, theta=0.0, mu=0.0, v0=0.0, geostatic=False):
-    from mpm2d import Grid, LinearElastic, ParticleSet, RigidBody, Simulation, box
     g0, rho, nu = 9.81, 1000.0, 0.3
     grid = Grid(int(round(0.4 / h)), int(round(0.24 / h)), h,
                 boundaries=dict(xmin="free", xmax="free", ymin="free", ymax="free"))
@@ -349,7 +340,6 @@ def _block_on_floor(h, gap=0.0, theta=0.0, mu=0.0, v0=0.0, geostatic=False):
 
 
 def _onset_time(gap, h, v0=0.5):
-    from mpm2d import Grid, LinearElastic, ParticleSet, RigidBody, Simulation, box
     grid = Grid(16, 16, h, boundaries=dict(xmin="slip", xmax="slip", ymin="noslip", ymax="free"))
     x, a = box((0.0, 0.0), (16 * h, 6 * h), h / 2)
     bed = ParticleSet("bed", LinearElastic(1000.0, 1e5, 1e5), x, a)
@@ -438,8 +428,6 @@ def contact_case(out: Path, quick: bool) -> Verdict:
     axs[1].legend()
     # rigid bodies on a deformable bed: frictionless sliding (criterion) and no-slip rolling of a
     # disk (reported: a known weakness, the stuck contact patch of a few nodes resists rolling)
-    from mpm2d import LinearElastic, ParticleSet, RigidBody, Simulation, box, disk
-    from mpm2d import Grid as _Grid
     for shape, mu in (("box", 0.0), ("disk", 0.0), ("disk", np.inf)):
         th = np.radians(20.0)
         grid = _Grid(60, 20, h, boundaries=dict(xmin="free", xmax="free", ymin="noslip",
@@ -501,9 +489,6 @@ def contact_case(out: Path, quick: bool) -> Verdict:
 
 
 def _axis_bed(mode, h, nx, nz, axi=True):
-    from mpm2d import (Grid, LinearElastic, NewtonianFluid, ParticleSet, Simulation,
-                       Suspension, box)
-    from rheology import get_material
     m = get_material("rod_impact", K=8.3e5, G=3.8e5, kappa=8.3e5)
     grid = Grid(nx, nz + 2, h, axisymmetric=axi,
                 boundaries=dict(xmin="axis" if axi else "slip", xmax="slip", ymin="noslip",
@@ -533,7 +518,6 @@ def axis_rest_case(out: Path, quick: bool) -> Verdict:
     was -19.5 % (-4.2 % in the second measure) and the second row -0.9 %, in every mode, at any
     r, in plane strain too: the particle quadrature's free-surface residual, not the axis.
     """
-    from mpm2d.geostatic import geostatic
     rows, ok = [], True
     for h in ((2e-3,) if quick else (2e-3, 1e-3)):
         nx, nz = (6, 12) if quick else (10, 16)
@@ -578,9 +562,6 @@ def axis_rest_case(out: Path, quick: bool) -> Verdict:
 
 @case("mpm2d", "mpm2d_bed_rest", "mpm2d: the rod_drop bed (geostatic) left alone 0.1 s")
 def bed_rest_case(out: Path, quick: bool) -> Verdict:
-    from mpm2d import Grid, ParticleSet, Simulation, Suspension, box
-    from mpm2d.geostatic import geostatic
-    from rheology import get_material
     m = get_material("rod_impact", K=8.3e5, G=3.8e5, kappa=8.3e5)
     h = 2e-3 if quick else 1e-3
     R = D = 0.01 if quick else 0.03

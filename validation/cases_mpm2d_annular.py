@@ -10,19 +10,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from mpm2d.analytic import observed_orders  # noqa: E402
 from mpm2d.run import run_scene  # noqa: E402
 from mpm2d.scenes import annular  # noqa: E402
-from rheology.io import atomic_savefig, atomic_write_csv  # noqa: E402
+from runkit.io import atomic_savefig, atomic_write_csv  # noqa: E402
 
 from .framework import NO_COARSER, Verdict, case  # noqa: E402
+from shear1d.integrate import solve
+from shear1d.scenes import annular_shear_jamming, summarize
 
 #: the paper's grid mapped onto the gap: 24 cells of 23.5/24 mm (see mpm2d.scenes.annular)
 PAPER_CELLS = 24
@@ -63,9 +62,6 @@ def swirl_newtonian(out: Path, quick: bool) -> Verdict:
 
 
 def _shear1d_front(u_inner: float, n_cells: int) -> dict:
-    from shear1d.integrate import solve
-    from shear1d.scenes import annular_shear_jamming, summarize
-
     problem, t_end = annular_shear_jamming(u_inner, n_cells=n_cells)
     res = solve(problem, t_end, method="explicit", n_out=310)
     s = summarize(res)

@@ -1,4 +1,4 @@
-"""Validation of the rheometer's oscillation and measuring geometries (issue 15).
+"""Validation of the rheometer's oscillation and measuring geometries.
 
 - ``oscillation_linear_limit``: small-amplitude G'(omega), G''(omega) from the time-domain
   periodic state against the linearised Maxwell-type G*(omega) derived in
@@ -8,7 +8,7 @@
   stiffens) at the amplitude where the peak stress first crosses the DST onset stress.
 - ``parallel_plate_weissenberg_rabinowitsch``: the apparent parallel-plate flow curve (radial
   integration of the local steady state) against the true one, and the correction recovering it.
-- benchmark ``oscillation_amplitude_sweep``: one 20-point amplitude sweep (issue target < 2 s),
+- benchmark ``oscillation_amplitude_sweep``: one 20-point amplitude sweep (target < 2 s),
   with its ratio to a reference run in the same process.
 
 Choices: G = 1e4 Pa and K0 = 1 (the transient defaults; the steady fits give none); 1 Hz; the
@@ -20,10 +20,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 
 import rheology  # noqa: E402
@@ -34,6 +31,7 @@ from rheometer.protocols import flow_curve, startup  # noqa: E402
 
 from .framework import BenchResult, Verdict, benchmark, case, save_figure  # noqa: E402
 from .report import machine_description  # noqa: E402
+import pandas as pd
 
 HERMES = "hermes2016"
 
@@ -162,7 +160,6 @@ def parallel_plate(out: Path, quick: bool) -> Verdict:
     m = rheology.get_material(HERMES)
     phis = (0.42, 0.50)
     frames = [geo.parallel_plate_flow_curve(m, ph, points=800 if quick else 2000) for ph in phis]
-    import pandas as pd
 
     df = pd.concat(frames, ignore_index=True)
     true = flow_curve(m, list(phis), stress=np.logspace(-5, 6, 400))

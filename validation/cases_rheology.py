@@ -10,14 +10,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
+from runkit.plotting import plt
 import numpy as np
 
 import rheology as r
-from rheology.io import atomic_savefig
+from runkit.io import atomic_savefig
 from rheology.local_update import NOUT, kernel_parameters, update_points_serial
 
 from .framework import Verdict, case

@@ -22,10 +22,7 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+from runkit.plotting import plt
 import numpy as np  # noqa: E402
 
 import rheology  # noqa: E402

@@ -29,6 +29,9 @@ from mpm2d.run import run_scene
 from mpm2d.scenes import wheel
 
 from .framework import Verdict, case
+import numpy as np
+from mpm2d.sweep import parse_grid, run_sweep
+from runkit.io import atomic_write_csv
 
 #: the tiny (quick) wheel: R = 0.1 m, h = R/4, a 0.8 x 0.1 m bed, 0.03 s
 QUICK = dict(radius=0.1, hub_radius=0.035, spoke_width=0.04, width=0.8, bed_depth=0.1,
@@ -87,8 +90,6 @@ def run_or_sink(out: Path, quick: bool) -> Verdict:
 @case("mpm2d", "mpm2d_wheel_sweep", "mpm2d: wheel sink depth against omega (Dask sweep)",
       slow=True)
 def sweep(out: Path, quick: bool) -> Verdict:
-    from mpm2d.sweep import parse_grid, run_sweep
-
     if quick:
         grid = [f"{k}={v}" for k, v in QUICK.items()] + ["omega=1,10"]
     else:
@@ -132,7 +133,6 @@ def convergence(out: Path, quick: bool) -> Verdict:
             rows.append({"h_m": h, "omega_per_s": float(k), "sink_depth_m": r["sink_depth_m"],
                          "wall_s": s["wall_s"], "steps": s["steps"], "points": s["points"]})
     df = pd.DataFrame(rows)
-    from rheology.io import atomic_write_csv
 
     atomic_write_csv(out / "convergence.csv", df)
     diffs = {}
@@ -155,10 +155,6 @@ def fig14_table(out: Path, rows: list, t: float):
     moduli_factor, transfer, steps, points, wall_s. Adds the noise, the largest granular
     pressure under the wheel over the bed's K (its elastic volumetric strain) and the sink depth
     at t; writes fig14.png and fig14.csv; returns the DataFrame."""
-    import numpy as np
-
-    from rheology.io import atomic_write_csv
-
     def params_of(folder):
         return json.loads((Path(folder) / "manifest.json").read_text())["params"]
 

@@ -44,7 +44,9 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Callable
 
-from rheology.io import strict_json
+from runkit.io import atomic_savefig, strict_json
+from runkit.plotting import plt
+import validation
 
 
 @dataclass
@@ -131,10 +133,6 @@ def benchmark(tier: str, name: str, title: str):
 
 def save_figure(fig, out, name: str) -> Path:
     """Save a case's figure atomically as ``out/name`` and close it; returns the path."""
-    import matplotlib.pyplot as plt
-
-    from rheology.io import atomic_savefig
-
     path = atomic_savefig(fig, Path(out) / name)
     plt.close(fig)
     return path
@@ -142,8 +140,6 @@ def save_figure(fig, out, name: str) -> Path:
 
 def load_all() -> dict[str, Entry]:
     """Import every ``validation.cases_*`` and ``validation.bench_*`` module; return the registry."""
-    import validation
-
     for mod in sorted(pkgutil.iter_modules(validation.__path__), key=lambda m: m.name):
         if mod.name.startswith(("cases_", "bench_")):
             importlib.import_module(f"validation.{mod.name}")

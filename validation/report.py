@@ -24,16 +24,15 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from rheology.cli_common import one_line
-from rheology.io import atomic_write_json, atomic_write_text, check_output_dir
+from runkit.command import one_line
+from runkit.io import atomic_write_json, atomic_write_text, check_output_dir
 
 from .framework import NOTE, TIERS, Entry, Outcome, fingerprint, load_all, run_entry
+import numpy as np
 
 
 def machine_description() -> str:
     """CPU model, core count and Python/numpy versions, for timings."""
-    import numpy as np
-
     cpu = platform.processor() or platform.machine()
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -352,7 +351,7 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
                  slow: bool = True, resume: bool = False, log=print) -> Report:
     """Run the selected cases (and benchmarks); write ``out/results.json`` and ``report.html``.
 
-    The selection (:func:`plan`), the folder (``rheology.io.check_output_dir``) and, with
+    The selection (:func:`plan`), the folder (``runkit.io.check_output_dir``) and, with
     ``resume``, the earlier report are checked before anything is written or run. Both files are
     rewritten atomically after every entry (``results.json`` first; ``"complete": false`` and
     ``"status": "running"`` until the last entry is done), so a crash, a full disk or a kill loses

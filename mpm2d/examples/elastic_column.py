@@ -40,7 +40,7 @@ from mpm2d.particles import ParticleSet
 from mpm2d.run import Scene
 from mpm2d.scenes import spec
 from mpm2d.simulation import Simulation
-from rheology.io import atomic_write_csv
+from runkit.io import atomic_write_csv
 
 
 @spec.parameters_of(

@@ -62,7 +62,7 @@ import numpy as np
 import pandas as pd
 
 from rheology import f_jam
-from rheology.io import atomic_write_csv, atomic_write_json
+from runkit.io import atomic_write_csv, atomic_write_json
 from rheology.materials import scene_material
 
 from .. import plots

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from rheology.io import atomic_write_csv
+from runkit.io import atomic_write_csv
 
 from .. import analytic, plots
 from ..bodies import box

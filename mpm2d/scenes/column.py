@@ -37,7 +37,7 @@ import pandas as pd
 
 from rheology import get_material
 from rheology.fluid import drag_coefficient
-from rheology.io import atomic_write_csv
+from runkit.io import atomic_write_csv
 
 from .. import analytic, plots
 from ..bodies import box
@@ -59,14 +59,14 @@ from ..simulation import Drag, Simulation
     material=spec.Param(choices=spec.materials_where(
         lambda m: m.rho_s and m.rho_f and m.rho_s > m.rho_f, "sets with grains denser than the fluid"),
         doc="rheology parameter set (grains must be denser than the fluid)"),
-    d=spec.positive(0.01, "m", "grain diameter (sets the drag)"),
+    d=spec.grain_size(),
     eta0=spec.Param(1e-6, 1e3, unit="Pa s", doc="fluid viscosity",
                     note="a liquid: water is 1e-3 Pa s; eta0 = 1e-300 made the drag's Reynolds "
                          "number infinite"),
     K=spec.modulus("granular bulk modulus"), G=spec.modulus("granular shear modulus"),
     kappa=spec.modulus("fluid bulk modulus"),
     t_end=spec.positive(100.0, "s", "end time"),
-    gravity=spec.positive(1000.0, "m/s^2", "gravitational acceleration (downwards)"),
+    gravity=spec.gravity("gravitational acceleration (downwards)"),
     rules=spec.rules(),
     cfl=spec.cfl(),
     size=lambda p: (2 * p["width_cells"] * p["cells"] * p["ppc"] ** 2,

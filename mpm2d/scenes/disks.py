@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from rheology.io import atomic_write_csv
+from runkit.io import atomic_write_csv
 
 from .. import plots
 from ..bodies import disk

@@ -9,93 +9,41 @@ then sinks slowly as in a liquid.
 Equations: axisymmetric (r, z) MPM of the Table 8 law (rheology.local_update) with the Table 5
 set: ``rod_impact`` (eta0 = 7 mPa s, Fig. 4) or ``rod_impact_1cp`` (eta0 = 1 mPa s, Fig. 5), both
 on the Hermes 2016 steady fit (Tables 2-3), rho_s = 1620, rho_f = 1000 kg/m^3, G = 3.8e7 Pa,
-K = 8.3e7 Pa, K0 = 1; d = 5.85 um, K3 = 4.715, K4 = 0 as in the paper's previous section;
-kappa = K (rheology's choice: the paper gives no fluid modulus). The rod is a free rigid body
-(mass, gravity, axial translation) meeting the bed through multi-velocity-field contact
-(mpm2d.contact: only where the surfaces touch, while they approach, free to separate), solved
-implicitly with the rod's velocity:
+K = 8.3e7 Pa, K0 = 1; d = 5.85 um, K3 = 4.715, K4 = 0; kappa = K (the paper gives no fluid
+modulus). The rod is a free rigid body (mass, gravity, axial translation) meeting the bed through
+multi-velocity-field contact (mpm2d.contact), solved implicitly with the rod's velocity:
+``M dV/dt = -M g + F_contact``. Default mode: the locked mixture (one velocity field, undrained
+pore pressure: the drainage time L^2/c_v of the plug exceeds the run, docs/measurements.md);
+``mode=two-phase`` runs grains and fluid on two fields with implicit Beetstra drag.
 
-    M dV/dt = -M g + F_contact,   a_rod = F_contact/M - g   (raw, every step)
+Choices where the paper is silent:
 
-Default mode: the locked mixture (one velocity field, undrained pore pressure); ``mode=two-phase``
-runs grains and fluid on two fields with implicit Beetstra drag (for the comparison).
+- ``size=fig4``: container radius 10 cm, depth 10 cm on the paper's 100 x 120 grid at 1 mm,
+  ``rod_impact``, v0 = 1.0 m/s, 60 ms; ``size=fig5``: radius 15 cm, depth 20.5 cm on the
+  paper's 150 x 225 grid, ``rod_impact_1cp``, 60 ms (speeds by ``mpm2d sweep impact --set
+  size=fig5 --set v0=0.5,1,2``); ``size=default``: Fig. 4 at 2 mm cells (50 x 60), 60 ms;
+- rod: radius 9.5 mm (the paper), aluminium 2700 kg/m^3, length 20 cm (mass 153 g). Only its
+  lowest 15 mm are body points, their density raised to rod_density rod_length/15 mm so that
+  the body has the whole rod's mass; the lattice is fitted to the radius;
+- launch: the face on the free surface moving down at v0 at t = 0 (times are "after impact");
+  the free-drop height H = v0^2/(2 g) is reported, air drag neglected;
+- phi0 = 0.47 (default, fig4) and 0.50 (fig5), between Hermes 2016's phi_c = 0.436 and
+  phi_j = 0.535 (DST and shear jamming, a liquid at rest); fig5's eta0 = 1 mPa s needs the
+  denser bed for a plug to form (docs/measurements.md);
+- contact no-slip (mu_w = inf; ``rod_contact=frictionless`` for mu_w = 0), free to separate;
+  container: no-slip floor and outer wall, axis r = 0, free top; the bed starts at rest
+  (mpm2d.geostatic: the pore pressure carries the weight, f = 0).
 
-Drained or undrained (the drainage time L^2/c_v against the run's duration), numbers for phi0 = 0.47 and Table 5 (validation
-case ``impact_locked_vs_two_phase`` computes them): Beetstra F = 10 phi/(1 - phi)^2 + (1 - phi)^2
-(1 + 1.5 sqrt(phi)) = 17.3, Darcy permeability k = (1 - phi) d^2/(18 phi F) = 1.24e-13 m^2 (d =
-5.85 um); constrained modulus of a jammed skeleton M = K + 4G/3 = 1.34e8 Pa, fluid storage
-(1 - phi)/kappa = 6.4e-9 1/Pa, so c_v = k/(eta0 (1/M + (1 - phi)/kappa)) = 1.3e-3 m^2/s at
-eta0 = 7 mPa s (9.0e-3 m^2/s at 1 mPa s). The pore pressure over the plug (L = 1-5 cm) needs
-L^2/c_v = 78 ms - 2 s (11-280 ms at 1 mPa s) to drain: longer than the stiff phase (~3 ms)
-and, beyond the first centimetre, than the whole 60 ms of Fig. 4. The impact is undrained: the
-grains and the fluid move together (relative Darcy flux (k/eta0) grad p ~ 1.8e-11 m^2/(Pa s) x
-(1e5 Pa/2 cm) = 9e-5 m/s against the rod's 1 m/s; Han et al. 2016 measured no change of packing
-fraction at the front), which is what the locked mixture assumes; it is also 1.7x fewer
-point-steps and ~2-3x less wall time. So the locked mixture is the default; the two-phase run is
-the check. (Without the fluid's storage, k M/eta0 = 1.24e-13 x 1.34e8/7e-3 = 2.4e-3 m^2/s: the
-same conclusion.)
-
-Geometry and the choices where the paper is silent:
-
-- ``size=fig4``: container (mixture) radius 10 cm, depth 10 cm, on the paper's 100 x 120 grid at
-  1 mm (the 20 cells above the bed hold the represented rod and the free surface's heave),
-  eta0 = 7 mPa s (``rod_impact``), v0 = 1.0 m/s, 60 ms after impact;
-- ``size=fig5``: the "large container" on the paper's 150 x 225 grid at 1 mm: radius 15 cm and
-  depth 20.5 cm (the same 2 cm above the bed as Fig. 4), eta0 = 1 mPa s (``rod_impact_1cp``),
-  60 ms after impact; the speeds (0.5, 1, 2 m/s) by ``mpm2d sweep impact --set size=fig5
-  --set v0=0.5,1,2``;
-- ``size=default`` (``mpm2d run impact``): the Fig. 4 scene at 2 mm cells (50 x 60 grid), the
-  whole 60 ms; 4x fewer points and 2x fewer steps than Fig. 4 (point-steps in the README);
-- rod: radius 9.5 mm (the paper), aluminium 2700 kg/m^3, length 20 cm (mass 153 g): our choice,
-  a rod long enough to be guided by a linear bearing; Waitukaitis & Jaeger's exact rod mass could
-  not be checked from here (``rod_length``, ``rod_density`` change it). Only the rod's lowest
-  15 mm are represented by body points in the grid (the rod meets the suspension through its
-  face and side only); their density is raised to rod_density rod_length/15 mm so that the body
-  has the whole rod's mass. The lattice of the rod's points is fitted to its radius (exact at
-  every h);
-- launch: the rod starts with its face on the free surface moving down at v0 (impact at t = 0,
-  every time in the outputs is "after impact"); the launch height of a free drop that gives v0
-  is H = v0^2/(2 g) (5.1 cm for 1 m/s; reported), air drag neglected;
-- volume fraction phi0 = 0.47 (default, fig4) and 0.50 (fig5): the paper gives none; Hermes
-  2016's fit has phi_c = 0.436 and phi_j = 0.535, and the impact fronts need phi_c < phi0 < phi_j
-  (DST and shear jamming, but a liquid at rest); 0.47 sits a third of the way in, as in the
-  intruder scene (Han et al. 2016, the same group's suspensions, Fig. 6 of the paper). At
-  eta0 = 1 mPa s (fig5) the rate scale of shear thickening, tau*/eta0, is 7x higher and a bed at
-  0.47 hardly answers a 1 m/s rod: on the paper's 150 x 225 grid it gave k = 1.2, a peak
-  deceleration of 42 m/s^2 and a rod still sinking at 0.57 m/s after 60 ms (v0 = 0.5/1/2 m/s:
-  late 0.53/0.57/0.60 m/s), where Waitukaitis & Jaeger's rods stop; at 0.50 (2 mm probe, 20 ms,
-  1 m/s) the plug forms again: peak 156 m/s^2, k = 13.5, late 0.22 m/s (0.47: 27 m/s^2, k = 1.9,
-  0.71 m/s). So fig5 uses 0.50, two thirds of the way from phi_c to phi_j;
-- contact no-slip (mu_w = inf: the suspension wets the rod; ``rod_contact=frictionless`` for
-  mu_w = 0), free to separate; container: no-slip floor and outer wall, axis r = 0, free top;
-- the bed starts at rest (mpm2d.geostatic): loose, so the pore pressure carries the weight, f = 0.
-
-Measures (outputs):
-
-- rod z(t): the height of the rod's face above the initial free surface (0 at impact, negative
-  below); v(t) and a(t) from z by the paper's first-order finite difference over a stencil of
-  length ``stencil`` (default the longest shear-wave round trip to a wall, 2 max(depth, radius)/c_s
-  with c_s = sqrt(G/rho_mix): 1.2 ms for Fig. 4, 2.4 ms for Fig. 5), placed at the stencil's
-  centre: v_i = (z_{i+n/2} - z_{i-n/2})/stencil, a likewise from v (a > 0 decelerates a falling
-  rod). The elastic waves reflected by the walls make the raw acceleration F/M - g ring with the
-  P-wave period 4 L/c_p (~1 ms); averaging z over one round trip of the slowest wave removes them.
-  The raw a(t) (contact force every recorded step) is drawn beside it (``rod_raw.csv``);
-- the jamming front: where u_z = v_rod/2 on the axis column of cells below the rod's face
-  (mpm2d.fronts.longitudinal_front with the rod's current velocity; Han et al. 2016's criterion),
-  as a depth below the initial free surface, while the rod moves faster than 0.1 v0; its speed is
-  a straight-line fit over the window from the first record where the front is 2 cells ahead of
-  the face until the rod has lost half its speed or the front is within 2 cells of the floor;
-  k = (front speed)/(mean rod speed over the window) (lab frame, the ratio of Waitukaitis &
-  Jaeger); ``k_penetration`` = d(front depth)/d(rod depth) over the window, the same ratio free of
-  the time base. The rod loses up to half its speed over the window and the front's speed is
-  proportional to the rod's (z_front = k z_rod, Waitukaitis & Jaeger), so a constant rate is
-  expected per unit of rod travel, not per unit time: both R^2 are reported (``front_r2`` against
-  time, ``front_r2_penetration`` against the rod's depth), the validation cases hold the latter;
-- |Delta z| below the rod (Fig. 4c): the mean |z - z_initial| of the bed's points with r < rod
-  radius, per row of initial depth; the plug is the stretch from the surface down to where
-  |Delta z| first drops below 5% of the rod's displacement; linearity = R^2 of a straight line
-  through it;
-- co-moving points (Fig. 4a): |Delta z| >= 90% of the rod's displacement.
+Measures: rod z(t) of its face above the initial free surface; v(t), a(t) by the paper's
+first-order difference over ``stencil`` (default the longest shear-wave round trip to a wall,
+2 max(depth, radius)/c_s, c_s = sqrt(G/rho_mix)), centred; the raw a = F/M - g beside it. The
+jamming front: where u_z = v_rod/2 on the axis below the face (mpm2d.fronts.longitudinal_front,
+Han et al. 2016's criterion), while the rod moves faster than 0.1 v0; its speed by a straight-line
+fit from the first record 2 cells ahead of the face until the rod has lost half its speed or the
+front is within 2 cells of the floor; k = front speed/mean rod speed (Waitukaitis & Jaeger),
+``k_penetration`` = d(front depth)/d(rod depth), with ``front_r2`` and ``front_r2_penetration``.
+|Delta z| below the rod per initial depth (Fig. 4c): the plug reaches down to where it drops
+below 5% of the rod's displacement; co-moving points (Fig. 4a): |Delta z| >= 90% of it.
 
 Parameters: size (default|fig4|fig5), v0 [m/s], phi0, radius, depth [m], cells_per_mm (1/h in
 1/mm), t_end [s] (after impact), material, rod_radius, rod_length [m], rod_density [kg/m^3],
@@ -105,17 +53,11 @@ defaults) takes the size's value.
 Outputs (besides history.csv, frames, manifest): ``rod.csv`` (v0_m_per_s, time_s, z_m,
 v_m_per_s, a_m_per_s2), ``rod_raw.csv`` (time_s, z_m, force_N, a_raw_m_per_s2), ``front.csv``
 (v0_m_per_s, time_s, front_depth_m), ``displacement_vs_depth.csv`` (depth_m, displacement_m),
-``summary.json`` (also the largest heave of the bed's points and the share rising more than
-1 mm, and the front's speed after the fit window and its k there), and the figures, drawn from
-these files and the first and last snapshots (:func:`figures`): ``displacement.png`` (Fig. 4a,
-on a diverging scale centred at 0 spanning the field: the heave beside the rod shows),
-``displacement_vs_depth.png`` (Fig. 4c), ``rod.png`` (Fig. 5 for one v0) and ``front.png`` (the
-fit window shaded, what the front does after it in the title). A sweep over v0 writes the same
-tables for all speeds together (``sweep_report``) with ``rod.png`` (Fig. 5), ``speeds.csv`` and
-``summary.json``.
+``summary.json``, ``displacement.png`` (Fig. 4a), ``displacement_vs_depth.png`` (Fig. 4c),
+``rod.png`` (Fig. 5) and ``front.png``; a sweep over v0 writes them for all speeds together
+(``sweep_report``) with ``speeds.csv``.
 
-Run: ``mpm2d run impact --out impact`` (mode: locked mixture)
-"""
+Run: ``mpm2d run impact --out impact`` (locked mixture)."""
 
 from __future__ import annotations
 
@@ -129,7 +71,7 @@ import numpy as np
 import pandas as pd
 
 from rheology import get_material
-from rheology.io import atomic_write_csv, atomic_write_json
+from runkit.io import atomic_write_csv, atomic_write_json
 
 from .. import plots
 from ..bodies import RigidBody, fill
@@ -707,7 +649,7 @@ def front_figure(front, z, s):
 
 # ---------------------------------------------------------------- sweeps (Fig. 5)
 def sweep_report(table, out) -> list:
-    """All speeds together: ``out/rod.csv``, ``out/front.csv`` (the columns of a single run, every
+    """All speeds together: ``out/rod.csv``, ``out/front.csv`` (the same columns, every
     case), ``out/rod.png`` (Fig. 5), ``out/speeds.csv`` (per v0: peak deceleration, late
     velocity, k, R^2) and ``out/summary.json`` (with the log-log slope of the peak deceleration
     against v0 and whether it grows monotonically)."""

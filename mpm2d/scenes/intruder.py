@@ -66,7 +66,7 @@ import numpy as np
 import pandas as pd
 
 from rheology import get_material
-from rheology.io import atomic_write_csv, atomic_write_json
+from runkit.io import atomic_write_csv, atomic_write_json
 
 from .. import plots
 from ..bodies import RigidBody, fill

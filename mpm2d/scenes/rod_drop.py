@@ -14,7 +14,7 @@ rod (radius 5 mm, length 20 mm, 2700 kg/m^3) hits a bed of cornstarch suspension
 at h = 1 mm; this demonstration uses the Table 4 moduli (K = 8.3e5, G = 3.8e5 Pa,
 kappa = 8.3e5 Pa) for dt ~ 1e-5 s, with elastic strains still below 1%. The bed starts at rest
 (mpm2d.geostatic): phi0 < phi_j, so its grains carry nothing and the pore pressure the whole
-weight, rho_mix g depth. The paper's full scene belongs to the impact issue; this one proves the coupling.
+weight, rho_mix g depth. The paper's full scene is mpm2d.scenes.impact; this one proves the coupling.
 
 Parameters: radius (container) [m], depth (bed) [m], cells_per_mm (1/h in 1/mm), rod_radius,
 rod_length [m], rod_density [kg/m^3], v0 [m/s], phi0, K, G, kappa [Pa], t_end [s], cfl.
@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from rheology import get_material
-from rheology.io import atomic_write_csv
+from runkit.io import atomic_write_csv
 
 from .. import plots
 from ..bodies import RigidBody, box

@@ -31,7 +31,7 @@ import pandas as pd
 
 from rheology.materials import scene_material
 from rheology.local_update import NOUT, kernel_parameters, update_points
-from rheology.io import atomic_write_csv
+from runkit.io import atomic_write_csv
 
 from .. import plots
 from ..bodies import box

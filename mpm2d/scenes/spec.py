@@ -34,8 +34,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rheology.checks import check_memory, valid_interval
-from rheology.cli_common import Number
+from runkit import limits
+from runkit.limits import Bound, check_memory
+from runkit.params import valid_interval
+from runkit.params import Number
+from rheology import get_material, material_names
+from rheology.materials import RULES, scene_material
 
 #: memory estimate: bytes per material point (kinematic arrays ~40 float64, material state,
 #: the output copies of a snapshot and the permutation copies of a sort) and per grid node (per
@@ -86,6 +90,8 @@ class Param:
     fill : callable(params) -> value, optional
         The value an optional parameter left at ``None`` takes (the scene's choice from the
         others); its derived bounds are checked on that value.
+    lo_why, hi_why : str
+        The physical reason of a static bound (:mod:`runkit.limits`), printed with a refusal.
     """
 
     lo: float | Callable | None = None
@@ -102,6 +108,8 @@ class Param:
     material_of: str | None = None
     fraction_of: Callable | None = None
     fill: Callable | None = None
+    lo_why: str = ""
+    hi_why: str = ""
 
     @property
     def kind(self) -> str:
@@ -115,7 +123,7 @@ class Param:
         return callable(self.lo) or callable(self.hi)
 
     def number(self, name: str, params: dict | None = None) -> Number:
-        """The :class:`~rheology.cli_common.Number` of this parameter (bounds resolved against
+        """The :class:`~runkit.params.Number` of this parameter (bounds resolved against
         ``params`` where they are derived; unresolved derived bounds are left open)."""
         lo = _resolve(self.lo, params) if (params is not None or not callable(self.lo)) else None
         hi = _resolve(self.hi, params) if (params is not None or not callable(self.hi)) else None
@@ -153,8 +161,6 @@ class Param:
                                                 and value.strip().lower() in ("none", ""))):
             return None
         if self.kind == "material":
-            from rheology.materials import scene_material
-
             if not isinstance(value, str) or not value.strip():
                 raise ValueError(f"{name} = {value!r} is not a parameter set name or a material "
                                  "file")
@@ -182,7 +188,13 @@ class Param:
         if isinstance(value, bool) or not (isinstance(value, str) or _is_real(value)):
             kind = "an integer" if self.integer else "a number"
             raise ValueError(f"{name} = {value!r} is not {kind}; valid range {static.range_text}")
-        return static.check(value.strip() if isinstance(value, str) else value)
+        try:
+            return static.check(value.strip() if isinstance(value, str) else value)
+        except ValueError as exc:
+            x = float(value) if _is_real(value) else _as_float(value)
+            why = self.lo_why if static.lo is not None and x <= static.lo else self.hi_why
+            raise ValueError(f"{exc} ({why})" if why and "outside" in str(exc) else str(exc)) \
+                from None
 
     def check_derived(self, name: str, value, params: dict):
         """Check ``value`` (``None``: its ``fill``) against the bounds resolved at ``params``
@@ -196,6 +208,13 @@ class Param:
         except ValueError as exc:
             note = self.note_text(params)
             raise ValueError(f"{exc}{f' ({note})' if note else ''}") from None
+
+
+def _as_float(text) -> float:
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return math.nan
 
 
 def _is_real(value) -> bool:
@@ -408,8 +427,6 @@ class SceneSpec:
         if not _is_real(cfl) or key is None:
             return None
         try:
-            from rheology import get_material
-
             name = self.params[key].fraction_of(params)
             m = get_material(name)
             factor = min(1.0, float(params.get("moduli_factor", 1.0)))
@@ -507,12 +524,22 @@ def count(lo, hi, doc=""):
     return Param(lo, hi, integer=True, doc=doc)
 
 
-def modulus(doc="", hi=1e12):
-    return positive(hi, "Pa", doc)
+def physical(lo: Bound, hi: Bound, unit: str, doc: str = "") -> Param:
+    """A number between two physical limits of :mod:`runkit.limits`, with their reasons."""
+    return Param(lo.value, hi.value, lo_closed=lo.closed, hi_closed=hi.closed, unit=unit,
+                 doc=doc, lo_why=lo.why, hi_why=hi.why)
 
 
-def density(doc="", hi=1e5):
-    return positive(hi, "kg/m^3", doc)
+def modulus(doc=""):
+    return physical(limits.MODULUS_MIN, limits.MODULUS_MAX, "Pa", doc)
+
+
+def density(doc=""):
+    return physical(limits.DENSITY_MIN, limits.DENSITY_MAX, "kg/m^3", doc)
+
+
+def grain_size(doc="grain diameter (sets the drag)"):
+    return physical(limits.GRAIN_MIN, limits.GRAIN_MAX, "m", doc)
 
 
 def cfl(doc="safety factor of the stable step"):
@@ -527,16 +554,13 @@ def flip_alpha():
     return Param(0.0, 1.0, doc="FLIP fraction of the FLIP/PIC blend (transfer=flip)")
 
 
-def gravity(hi=1000.0):
-    """Gravity of a scene whose bed starts at rest under it (mpm2d.geostatic): > 0."""
-    return Param(0.0, hi, lo_closed=False, unit="m/s^2",
-                 doc="gravitational acceleration (downwards; the bed rests under it)")
+def gravity(doc="gravitational acceleration (downwards; the bed rests under it)"):
+    """Gravity of a scene whose bed starts at rest under it (mpm2d.geostatic)."""
+    return physical(limits.GRAVITY_MIN, limits.GRAVITY_MAX, "m/s^2", doc)
 
 
 def rules() -> Param:
     """The ``rules`` of the scene's suspension material (:data:`rheology.materials.RULES`)."""
-    from rheology.materials import RULES
-
     return Param(choices=RULES, doc="yield rules of the Table 8 law: table8 (the paper's) or "
                                     "mpm_3d (the author's code; rheology.local_update)")
 
@@ -553,8 +577,6 @@ def materials_where(predicate: Callable, what: str) -> Callable[[], tuple]:
     which, for ``mpm2d show``)."""
 
     def names():
-        from rheology import get_material, material_names
-
         return tuple(n for n in material_names() if predicate(get_material(n)))
 
     names.what = what
@@ -570,8 +592,6 @@ def phi_below_jamming(material_key="material", fixed=None, doc="initial solid vo
         return fixed if fixed else p[material_key]
 
     def phi_j(p):
-        from rheology import get_material
-
         return get_material(name(p)).phi_j
 
     return Param(0.0, phi_j, lo_closed=False, hi_closed=False, doc=doc, optional=optional,

@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from rheology import laws
-from rheology.io import atomic_write_csv
+from runkit.io import atomic_write_csv
 
 from .. import analytic, plots
 from ..bodies import box
@@ -72,7 +72,7 @@ def constants(params: dict) -> dict:
     rho_s=spec.density("grain density"), rho_f=spec.density("fluid density"),
     phi=spec.Param(0.0, 1.0, lo_closed=False, hi_closed=False, doc="solid volume fraction"),
     eta0=spec.positive(1e6, "Pa s", "fluid viscosity"),
-    d=spec.positive(0.1, "m", "grain diameter (sets the drag)"),
+    d=spec.grain_size(),
     kappa=spec.modulus("fluid bulk modulus"),
     load=spec.Param(lambda p: 1e-9 * (p["K"] + 4.0 * p["G"] / 3.0), 1e9, unit="Pa",
                     doc="load q on the drained top",

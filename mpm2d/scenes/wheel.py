@@ -4,75 +4,48 @@ cornstarch bed; fast (omega = 10 1/s) it runs along the surface, slow (omega = 1
 
 Equations: plane-strain MPM. The bed is the Table 8 law (rheology.local_update) with the Table 7
 parameter set ``wheel`` on the Hermes 2016 steady fit (eta0 = 1 mPa s, rho_s = rho_f = 1620
-kg/m^3, G = 3.8e5 Pa, K = 8.3e5 Pa, K0 = 1; d = 5.85 um, K3 = 4.715, K4 = 0; fluid modulus kappa =
-K, the material's stated choice) as a LOCKED MIXTURE (one velocity field, undrained pore pressure;
-see "drained or undrained" below). The wheel is a rigid body whose angular velocity is prescribed
-(-omega: clockwise, driving to +x, from t = 0) and whose translation is free (mass, gravity,
-contact: it falls, rolls and sinks freely; mpm2d.bodies), meeting the bed through the engine's
-contact (mpm2d.contact: no slip mu_w = inf, free separation); ``spokes=elastic`` makes the spokes
-plane-strain linear elastic points (Jaumann rate, E, nu) on their own velocity field, bonded to a
-rigid hub. The bed starts at rest under gravity (mpm2d.geostatic: pore pressure rho g depth,
-granular stress 0, f = 0).
+kg/m^3, G = 3.8e5 Pa, K = 8.3e5 Pa, K0 = 1; d = 5.85 um, K3 = 4.715, K4 = 0; kappa = K) as a
+LOCKED MIXTURE (one velocity field, undrained pore pressure: the drainage time L^2/c_v against
+the run's duration, docs/measurements.md). The wheel is
+a rigid body whose angular velocity is prescribed (-omega: clockwise, driving to +x, from t = 0)
+and whose translation is free (mass, gravity, contact; mpm2d.bodies), meeting the bed through
+mpm2d.contact (no slip mu_w = inf, free separation); ``spokes=elastic`` makes the spokes
+plane-strain linear elastic points (Jaumann rate, E, nu) bonded to a rigid hub. The bed starts
+at rest under gravity (mpm2d.geostatic: pore pressure rho g depth, granular stress 0, f = 0).
 
 The paper's set-up: 2 m x 1 m periodic in x, 150 x 75 elements (h = 13.3 mm), wheel radius 15 cm,
 density 3000 kg/m^3, four spokes, Table 7. Our choices where the paper is silent:
 
 - wheel geometry after the author's generator (aaronbaumgarten/mpm_3d,
-  mpm_pygen/GenerateWheel2D_v2.py, ``WheelOne``): a hub of radius 5 cm and four spokes 10 cm long
-  (R = 15 cm along each spoke's axis), NO rim (a paddle wheel: the spokes strike the surface), each
-  spoke as wide as the author's tread at the hub, the chord 2 r_hub sin((1 - 0.25) pi/4) = 55.6
-  mm (shaft fraction 0.25); spokes straight (rectangles); mass 89.9 kg per metre of thickness;
-- the start ("driven with constant rotation rate omega starting on the mixture's surface"): at
-  rest, spinning at omega from t = 0, the spokes at ``start_angle`` = 45 deg to the vertical, so
-  the wheel rests on two spoke tips (its lowest point faces touch the bed's top faces; the hub
-  centre 0.81-0.83 R above the undisturbed surface, depending on the point lattice): the
-  symmetric position in which a wheel set down on a surface rests (``start_angle = 0``: one spoke
-  straight down);
-- contact: no slip (``mu_w`` none) as the rod of the impact scene (the suspension wets the
-  spokes);
-- wheel stiffness: rigid by default. The author's driver (mpm_3d src/objects/bodies/
-  wheel_body.cpp) sets every wheel node's tangential velocity to omega r about the wheel's centre
-  of mass, i.e. the wheel turns rigidly; with elastic spokes (E = 1e7 Pa, nu = 0.3) the spokes
-  tear off the hub in this engine under the impact loads (the bond is only on the nodes the hub
-  covers), so ``spokes=elastic`` is kept for short runs and the bonding test;
-- bed 2.0 m x 0.5 m (the author's 0.5 m; with his other generator's 0.3 m the slow wheel's
-  jammed plug reaches the floor);
-- phi0 = 0.5075, inside the author's 0.50-0.51: between phi_c = 0.436 and phi_j = 0.535 of the
-  set, i.e. loose at rest (f = 0, no granular stress: the grains are density matched, the pore
-  fluid carries the weight, the bed has no strength until it is sheared) but shear-jammable
-  (phi_m(f) = phi0 at f_jam = 0.28). This is a CALIBRATION inside the author's range, not a
-  prediction: the contrast of the two wheels exists only in a narrow window of phi0, and 0.5075
-  is the middle of the window measured (the measurements: README, "Running on oobleck");
-- run length t_end = 1.0 s (the paper's Fig. 14 snapshot time): omega = 10 turns the wheel 1.6
-  times; the wheel starts 0.25 m from the left edge: the engine does not wrap a rigid body through
-  a periodic side, so a wheel coming within R + 3 h of the right edge stops the run with that
-  message (START_X + omega R t_end + R + 3 h <= width is checked first).
+  mpm_pygen/GenerateWheel2D_v2.py, ``WheelOne``): a hub of radius 5 cm and four straight spokes
+  10 cm long, NO rim, each as wide as the author's tread at the hub, 2 r_hub sin((1 - 0.25) pi/4)
+  = 55.6 mm; mass 89.9 kg per metre of thickness;
+- the start: at rest, spinning at omega from t = 0, the spokes at ``start_angle`` = 45 deg to the
+  vertical, resting on two spoke tips (``start_angle = 0``: one spoke straight down);
+- contact: no slip (``mu_w`` none: the suspension wets the spokes);
+- rigid by default: the author's driver (mpm_3d src/objects/bodies/wheel_body.cpp) turns the
+  wheel rigidly (every node's tangential velocity omega r about the centre of mass);
+  ``spokes=elastic`` is for short runs (docs/measurements.md);
+- bed 2.0 m x 0.5 m (the author's 0.5 m);
+- phi0 = 0.5075, inside the author's 0.50-0.51, between phi_c = 0.436 and phi_j = 0.535: loose
+  at rest (f = 0, the pore fluid carries the weight) but shear-jammable (phi_m(f) = phi0 at
+  f_jam = 0.28); a calibration inside the author's range, not a prediction;
+- t_end = 1.0 s (Fig. 14's snapshot time); the wheel starts 0.25 m from the left edge: a rigid
+  body does not wrap through a periodic side, so START_X + omega R t_end + R + 3 h <= width is
+  checked first and a wheel within R + 3 h of the right edge stops the run.
 
-Drained or undrained (the drainage time L^2/c_v against the run's duration): Beetstra F ~ 20 at phi = 0.5 gives a Darcy
-permeability k = (1 - phi) d^2/(18 phi F) ~ 1e-13 m^2; with M = K + 4G/3 = 1.3e6 Pa and the
-fluid's storage (1 - phi)/kappa, c_v = k/(eta0 (1/M + (1 - phi)/kappa)) ~ 0.07 m^2/s, so over the
-spoke's 5 cm the pore pressure diffuses in ~ 0.04 s: slower than a spoke's impact (~ 0.01 s at
-omega = 10), comparable to the slow wheel's time. The locked mixture (undrained) is the default
-for the speed budget; a two-phase wheel run is left as a check (it doubles the points).
-
-Default ``mpm2d run wheel``: ``omega = none`` runs BOTH omegas: 10 1/s in DIR (the main run)
-then 1 1/s in DIR/omega_1 (a sub-run of the same parameters, launched by the report; resumable
-the same way), and writes the combined ``DIR/hub.csv`` (omega_per_s, time_s, x_m, y_m),
+Default ``mpm2d run wheel``: ``omega = none`` runs BOTH omegas: 10 1/s in DIR then 1 1/s in
+DIR/omega_1 (a resumable sub-run), and writes ``DIR/hub.csv`` (omega_per_s, time_s, x_m, y_m),
 ``DIR/summary.json`` (sink depth per omega and the checks), ``hub.png``, ``fig8.png`` (omega =
-10), ``fig9.png`` (omega = 1), ``wheel.gif`` (both). ``--set omega=1`` runs one omega. Each run
-keeps ``frames`` = 8 snapshots (every 0.125 s: the Fig. 8-9 times 0.25, 0.5, 0.75, 1 s) with
-the fields the report reads (:data:`FRAME_FIELDS`) and no VTK unless asked (``mpm2d run wheel
---vtk``), and its final checkpoint: about 45 MB for the default run.
+10), ``fig9.png`` (omega = 1), ``wheel.gif``. ``--set omega=1`` runs one omega. Each run keeps
+``frames`` = 8 snapshots (every 0.125 s) with :data:`FRAME_FIELDS`, no VTK unless asked
+(``--vtk``), and its final checkpoint.
 
-Figures 8-9: the bed's f as cell averages (every cell of bed in its colour, one scale for the
-four times), velocity vectors (block averages) drawn with lengths l_i = 1.215 v_i sqrt(R/g),
-the grid volume fraction phi = 0.1 contour (phi on the nodes: sum_p N_ip phi_p V_p / h^2) as
-the surface.
-
-Fig. 14 (where the method fails): ``moduli_factor`` multiplies the granular G and K (not kappa)
-and ``transfer`` selects APIC or FLIP; :func:`pressure_noise` measures the noise of the granular
-pressure p~ under the wheel (RMS cell-to-cell jump over its mean), :func:`pressure_figure` draws
-the cases (validation/cases_wheel.py).
+Figures 8-9: the bed's f as cell averages, velocity vectors (block averages) of lengths
+l_i = 1.215 v_i sqrt(R/g), the grid volume fraction phi = 0.1 contour as the surface. Fig. 14:
+``moduli_factor`` multiplies the granular G and K (not kappa), ``transfer`` selects APIC or FLIP;
+:func:`pressure_noise` is the RMS cell-to-cell jump of the granular pressure under the wheel over
+its mean, :func:`pressure_figure` draws the cases (validation/cases_wheel.py).
 
 Parameters: omega [1/s] (none: both 10 and 1), radius, hub_radius, spoke_width [m], density
 [kg/m^3], spokes (rigid or elastic), E [Pa], nu (elastic spokes), phi0, width, height,
@@ -92,7 +65,7 @@ import numpy as np
 import pandas as pd
 
 from rheology import get_material
-from rheology.io import atomic_write_csv, atomic_write_json
+from runkit.io import atomic_write_csv, atomic_write_json
 
 from .. import plots
 from ..bodies import RigidBody, fill
@@ -115,7 +88,7 @@ START_X = 0.25
 VECTOR_SCALE = 1.215
 #: the surface contour of Figs. 8-9 (grid volume fraction)
 SURFACE_PHI = 0.1
-#: check (issue 13): the fast wheel's hub stays within this fraction of R of its start height
+#: check: the fast wheel's hub stays within this fraction of R of its start height
 #: (while it advances at least R): 0.8 R is the hub centre's start height above the undisturbed
 #: surface (0.81-0.83 R, resting on two spoke tips), i.e. the hub never goes below the surface it
 #: started on; a wheel whose hub sinks below the surface is not "running along" it
@@ -669,9 +642,6 @@ def pressure_figure(cases, params_of, path, t=1.0, t_from=None):
 
 
 # ---------------------------------------------------------------- report
-def _run_params(folder) -> dict:
-    man = json.loads((Path(folder) / "manifest.json").read_text())
-    return man["params"]
 
 
 def report(sim, history, out, params, omega):

@@ -1,0 +1,311 @@
+"""The options every measuring command of ``rheometer`` shares (the sample: material, ``--set``,
+``--phi``, mass fraction, measuring geometry; the transient options; the figure path), and the
+sample they describe, resolved once for :mod:`rheometer.cli`, :mod:`rheometer.instrument_cli` and
+:mod:`rheometer.fit_cli`."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+import rheology
+from runkit.params import valid_interval
+from runkit.params import Number
+from rheology.materials import FIELD_UNITS, default_fraction, default_fractions, set_argument
+from rheology.sample import add_mass_fraction_options, mass_fraction_phi
+from runkit import limits as physical
+from runkit.io import check_output_path
+
+from . import geometry as geo
+from . import limits
+from .limits import K0_MAX
+
+DEFAULT_MATERIAL = "hermes2016"
+
+
+
+# ------------------------------------------------------------------ options
+def add_instrument_options(p) -> None:
+    """Geometry and mass-fraction options of every measuring command."""
+    g = p.add_argument_group("measuring geometry (torque, rotation speed, apparent stress and "
+                             "rate by the standard conversions)")
+    g.add_argument("--geometry", choices=geo.GEOMETRIES, default=None,
+                   help="cone-plate | parallel-plate | couette (default: none, sample values only)")
+    length = lambda name: Number(name, 0.0, physical.LENGTH_MAX, lo_closed=False, unit="m")  # noqa: E731
+    d = geo.DEFAULTS
+    g.add_argument("--cone-angle", type=Number("--cone-angle", 0.0, 10.0, lo_closed=False,
+                                               unit="deg"), default=None,
+                   help=f"cone angle [deg] (cone-plate; {d['cone_angle_deg']:g})")
+    g.add_argument("--radius", type=length("--radius"), default=None,
+                   help=f"cone or plate radius [m] ({d['cone_radius']:g} cone, "
+                        f"{d['plate_radius']:g} plate)")
+    g.add_argument("--gap", type=length("--gap"), default=None,
+                   help=f"plate gap [m] (parallel-plate; {d['gap']:g})")
+    g.add_argument("--bob-radius", type=length("--bob-radius"), default=None,
+                   help=f"bob radius [m] (couette; {d['bob_radius']:g})")
+    g.add_argument("--cup-radius", type=length("--cup-radius"), default=None,
+                   help=f"cup radius [m] (couette; {d['cup_radius']:g})")
+    g.add_argument("--bob-length", type=length("--bob-length"), default=None,
+                   help=f"immersed bob length [m] (couette; {d['bob_length']:g})")
+    add_mass_fraction_options(p)
+
+
+def geometry_of(args) -> geo.Geometry | None:
+    """The geometry of ``--geometry`` and its dimensions (None without it); ValueError when a
+    dimension of another geometry is given."""
+    kind = getattr(args, "geometry", None)
+    own = {"cone-plate": ("cone_angle", "radius"), "parallel-plate": ("radius", "gap"),
+           "couette": ("bob_radius", "cup_radius", "bob_length")}
+    given = [k for k in ("cone_angle", "radius", "gap", "bob_radius", "cup_radius", "bob_length")
+             if getattr(args, k, None) is not None]
+    if kind is None:
+        if given:
+            raise ValueError(f"--{given[0].replace('_', '-')} needs --geometry "
+                             f"(cone-plate, parallel-plate or couette)")
+        return None
+    wrong = [k for k in given if k not in own[kind]]
+    if wrong:
+        raise ValueError(f"--{wrong[0].replace('_', '-')} is not a dimension of --geometry {kind} "
+                         f"(its dimensions: "
+                         f"{', '.join('--' + k.replace('_', '-') for k in own[kind])})")
+    dims = {k: getattr(args, k, None) for k in own[kind]}
+    try:
+        return _geometry(kind, dims)
+    except (ValueError, ArithmeticError) as exc:
+        raise _about_dimension(kind, dims, exc) from None
+
+
+#: the option's default among geometry.DEFAULTS, per geometry
+_DEFAULT_KEY = {("cone-plate", "radius"): "cone_radius", ("parallel-plate", "radius"):
+                "plate_radius", ("cone-plate", "cone_angle"): "cone_angle_deg"}
+
+
+def _geometry(kind: str, dims: dict) -> geo.Geometry:
+    """The geometry with its conversion factors checked: a dimension in its range whose factor
+    is not a finite positive number (a bob radius of 1e-300: 1/(2 pi R^2 L) divided by zero
+    after the run, in the table's instrument columns) is refused here, before the run."""
+    names = {"cone_angle": "cone_angle_deg"}
+    g = geo.Geometry.make(kind, **{names.get(k, k): v for k, v in dims.items()})
+    with np.errstate(all="ignore"):
+        factors = (g.stress_factor(), g.rate_factor())
+    bad = [f for f in factors if not (np.isfinite(f) and f > 0)]
+    if bad:
+        raise ValueError(f"{g.describe()}: its conversion factors (stress, rate) are "
+                         f"{factors[0]:g}, {factors[1]:g}, not finite positive numbers")
+    return g
+
+
+def _about_dimension(kind: str, dims: dict, exc: Exception) -> ValueError:
+    """A geometry refusal said about a dimension the user gave, with its valid range at the
+    other dimensions (bisection, :func:`rheometer.cli.valid_interval`): ``--cup-radius 1e-300``
+    or ``--bob-radius 1e-300`` (whose conversion factor divided by zero)."""
+    limit = {"cone_angle": 10.0}
+    for key, v in dims.items():
+        if v is None:
+            continue
+        x0 = geo.DEFAULTS[_DEFAULT_KEY.get((kind, key), key)]
+        static = Number(f"--{key.replace('_', '-')}", 0.0, limit.get(key, physical.LENGTH_MAX.value),
+                        lo_closed=False, unit="deg" if key == "cone_angle" else "m")
+
+        def ok(x, key=key, static=static):
+            if not static.contains(x):
+                return False
+            try:
+                _geometry(kind, {**dims, key: x})
+            except (ValueError, ArithmeticError):
+                return False
+            return True
+
+        if not ok(x0):
+            continue
+        lo, lo_closed, hi, hi_closed = valid_interval(ok, x0)
+        rng = Number(static.name, lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
+                     unit=static.unit)
+        if rng.contains(float(v)):
+            continue
+        others = ", ".join(f"--{k.replace('_', '-')} {dims[k] if dims[k] is not None else d:g}"
+                           for k, d in ((k, geo.DEFAULTS[_DEFAULT_KEY.get((kind, k), k)])
+                                        for k in dims) if k != key)
+        return ValueError(f"{static.name} = {v:g} is outside the valid range {rng.range_text} "
+                          f"(--geometry {kind} with {others}: {exc})")
+    return exc if isinstance(exc, ValueError) else ValueError(str(exc))
+
+
+# ------------------------------------------------------------------ hooks
+def resolve_sample(args, m) -> None:
+    """Set ``args.phi`` from ``--mass-fraction`` or the material's defaults (when ``--phi`` is
+    not given), and remember the material and the geometry on ``args`` for :func:`finish_table`.
+    ValueError (one line, exit 2) for --phi with --mass-fraction, or a fraction >= phi_j."""
+    if not hasattr(args, "phi"):
+        return
+    args._material_obj = m
+    args._geometry = geometry_of(args)
+    args._mass = None
+    if getattr(args, "mass_fraction", None) is not None:
+        if args.phi is not None:
+            raise ValueError("give --phi or --mass-fraction, not both")
+        args.phi, args._mass_note = mass_fraction_phi(args, m)
+        twice = next((w for i, w in enumerate(args.mass_fraction)
+                      if float(w) in map(float, args.mass_fraction[:i])), None)
+        if twice is not None:
+            raise ValueError(f"--mass-fraction {float(twice):g} is given twice: its curves would "
+                             "repeat; give distinct mass fractions")
+        args._mass = dict(zip(args.phi, map(float, args.mass_fraction)))
+    elif args.phi is None:
+        count = getattr(args, "_phi_count", 1)
+        args.phi = geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]
+    else:
+        twice = next((p for i, p in enumerate(args.phi) if p in args.phi[:i]), None)
+        if twice is not None:
+            raise ValueError(f"--phi {twice:g} is given twice: its curves would repeat; give "
+                             "distinct fractions")
+        bad = [p for p in args.phi if p >= m.phi_j]
+        if bad:
+            raise ValueError(f"--phi = {bad[0]:g} is outside the valid range (0, {m.phi_j:g}) "
+                             f"of {m.name} (below phi_j)")
+
+
+def material_with(name, overrides: dict, option: str = "--set"):
+    """``rheology.get_material(name, **overrides)`` whose refusal names the parameter set.
+
+    The Material checks its fields together (phi_c < phi_j, a_inf >= a0, mu_2 >= mu_c, phi0 <
+    phi_j), so its refusal may name a parameter the user did not set (``--set phi_j=0.3``
+    breaks phi_c < phi_j); such a refusal is restated about the set parameter with its valid
+    range at the material's other values (bisection on the Material's checks,
+    :func:`valid_interval`).
+
+    Raises
+    ------
+    ValueError
+        ``--set NAME = VALUE is outside the valid range R (with material M's other parameters:
+        <the check it breaks>)``, or the Material's own message when that already names a set
+        parameter with a range that holds.
+    """
+    limits.check_set(overrides, option)
+    try:
+        return rheology.get_material(name, **overrides)
+    except ValueError as exc:
+        try:
+            base = rheology.get_material(name)
+        except ValueError:
+            raise exc from None
+        raise about_set(base, overrides, exc, option, FIELD_UNITS) from None
+
+
+def about_set(base, overrides: dict, exc: ValueError, option: str, units: dict) -> ValueError:
+    for key, v in overrides.items():
+        x0 = getattr(base, key, None)
+        if not isinstance(v, (int, float)) or isinstance(v, bool) or not isinstance(
+                x0, (int, float)):
+            continue
+
+        def ok(x, key=key):
+            try:
+                with np.errstate(all="ignore"):
+                    base.replace(**{**overrides, key: x})
+            except (ValueError, ArithmeticError):
+                return False
+            return True
+
+        if not ok(float(x0)):
+            continue
+        lo, lo_closed, hi, hi_closed = valid_interval(ok, float(x0))
+        unit = units.get(key, "-")
+        rng = Number(f"{option} {key}", lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
+                     unit="" if unit == "-" else unit)
+        if rng.contains(float(v)):
+            continue
+        cause = str(exc)
+        # "phi_c = 0.436 is outside the valid range (0, 0.3) (material M; NOTE)": keep the
+        # parameter, its value and the note (the range printed there is phi_c's, not key's)
+        m = re.match(r"(\w+) = (\S+) is outside the valid range .*?(?:\(material [^;)]*"
+                     r"(?:; (.+))?\))?$", cause)
+        named, note = (m.group(1), m.group(3)) if m else (None, None)
+        if named == key:
+            why = f" ({note})" if note else ""
+        elif m:
+            why = (f" (with material {base.name}'s other parameters: {named} = {m.group(2)}"
+                   + (f"; {note}" if note else "") + ")")
+        else:
+            why = f" (with material {base.name}'s other parameters: {cause})"
+        return ValueError(f"{option} {key} = {v:g} is outside the valid range {rng.range_text}"
+                          f"{why}")
+    return exc
+
+
+def sample_material(args):
+    names = [k for k, _ in args.set or []]
+    twice = sorted({k for k in names if names.count(k) > 1})
+    if twice:
+        raise ValueError(f"--set {twice[0]} given twice; give each parameter once")
+    overrides = dict(args.set or [])
+    m = material_with(args.material, overrides)
+    resolve_sample(args, m)        # --phi default per material, --mass-fraction, geometry
+    return m
+
+
+def default_phis(count: int) -> list[float]:
+    """The fractions a command with ``count`` default fractions runs at on DEFAULT_MATERIAL
+    (rheology.materials, the rule resolve_sample applies): three, or the middle one."""
+    return default_fractions(DEFAULT_MATERIAL) if count > 1 else [default_fraction(DEFAULT_MATERIAL)]
+
+
+def common_options(p, phi_count, out_default):
+    """Options of every measuring command; ``phi_count`` (1 or 3) default fractions."""
+    phi_default = default_phis(phi_count)
+    p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
+                   help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
+    p.add_argument("--phi", type=Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False),
+                   nargs="+", default=None, metavar="PHI",
+                   help=("volume fraction(s) (default: "
+                         + ("the material's reference fraction" if len(phi_default) == 1 else
+                            f"{len(phi_default)} fractions around the material's reference")
+                         + f", see 'rheometer materials'; for {DEFAULT_MATERIAL}: "
+                         f"{' '.join(f'{x:g}' for x in phi_default)})"))
+    p.set_defaults(_phi_count=len(phi_default))
+    p.add_argument("--set", action="append", type=set_argument, metavar="NAME=VALUE",
+                   help="override a numeric material parameter, e.g. --set eta0=0.01, or unset "
+                        "an optional one (G=none); repeatable; the text fields name, citation, "
+                        "units, notes are not settable")
+    p.add_argument("--out", default=f"{out_default}.csv", metavar="FILE.csv",
+                   help=f"CSV output (default {out_default}.csv)")
+    p.add_argument("--plot", default=None, metavar="FILE.png",
+                   help=f"figure (default: the --out name with .png, {out_default}.png; 'none' "
+                        f"for no figure)")
+    add_instrument_options(p)      # --geometry and dimensions, --mass-fraction
+
+
+def modulus(name):
+    return Number(name, physical.MODULUS_MIN, physical.MODULUS_MAX, unit="Pa")
+
+
+def k0():
+    return Number("--K0", 0.0, K0_MAX)
+
+
+def t_end_option():
+    return limits.duration("--t-end")
+
+
+def transient_options(p, t_end=None):
+    p.add_argument("--G", type=modulus("--G"), default=None, help="granular shear modulus [Pa]")
+    p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale K0 [-]")
+    if t_end is not None:
+        p.add_argument("--t-end", type=t_end_option(), default=t_end,
+                       help=f"duration [s] (default {t_end:g})")
+    p.add_argument("--rtol", type=Number("--rtol", 1e-13, 1e-2), default=1e-7,
+                   help="IDA relative tolerance (1e-7)")
+    p.add_argument("--points", type=Number("--points", 3, 10 ** 6, integer=True), default=300,
+                   help="output rows per step (300)")
+
+
+def plot_path(args):
+    """The figure path (None for no figure), checked with --out BEFORE any work is done."""
+    check_output_path("--out", args.out, ["csv"])
+    plot = args.plot if args.plot is not None else str(Path(args.out).with_suffix(".png"))
+    if plot.lower() == "none":
+        return None
+    check_output_path("--plot", plot, ["figure"])
+    return plot
