@@ -117,6 +117,9 @@ def main(argv=None) -> int:
                                                       lo_closed=False, unit="s"),
                     default=60.0, help="wall seconds between a case's checkpoints")
     sw.add_argument("--vtk", action="store_true", help="write the VTK snapshots of every case")
+    sw.add_argument("--yes", action="store_true",
+                    help="run cases past 1e10 point-steps (about an hour or more each on two "
+                    "cores); without it such a case is refused with its estimate")
     sw.add_argument("--quiet", action="store_true",
                     help="no progress bar and no progress lines (failed cases still on stderr)")
     args = ap.parse_args(argv)
@@ -152,7 +155,7 @@ def _command(args) -> None:
         table = run_sweep(args.scene, parse_grid(args.set), out,
                           scheduler=args.scheduler, workers=args.workers,
                           checkpoint_every=args.checkpoint_every, vtk=args.vtk,
-                          progress=not args.quiet, quiet=args.quiet)
+                          progress=not args.quiet, quiet=args.quiet, yes=args.yes)
         return 0 if (table["status"] != "failed").all() else 1
     if args.threads:
         cap = numba.config.NUMBA_NUM_THREADS

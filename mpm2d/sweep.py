@@ -35,6 +35,10 @@ import pandas as pd
 from runkit.command import one_line
 from runkit.io import atomic_write_csv, check_output_dir
 
+from . import estimate
+from .run import check_step_bound, coerce, run_scene, spec_of
+from .scenes import get_setup
+
 #: parameter-name pattern of a case folder (stable across reruns)
 _SAFE = re.compile(r"[^A-Za-z0-9.+\-]+")
 
@@ -132,9 +136,6 @@ def run_case(scene: str, out: str, params: dict, checkpoint_every: float = 60.0,
     """
     import numba
 
-    from .run import run_scene
-    from .scenes import get_setup
-
     name = case_name(params)
     final, partial = Path(out) / name, Path(out) / f"{name}.partial"
     if _complete(final):
@@ -175,7 +176,8 @@ def _client(scheduler: str | None, workers: int | None):
 
 def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | None = None,
               workers: int | None = None, checkpoint_every: float = 60.0, vtk: bool = False,
-              progress: bool = True, log=print, quiet: bool = False) -> pd.DataFrame:
+              progress: bool = True, log=print, quiet: bool = False,
+              yes: bool = False) -> pd.DataFrame:
     """Run every case of ``grid`` for ``scene`` on Dask and write ``out/sweep.csv``.
 
     Parameters
@@ -192,6 +194,9 @@ def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | N
         Workers of the LocalCluster (default: one per core).
     quiet : bool
         No progress bar and no log lines except the failed cases (on stderr).
+    yes : bool
+        Run cases past :data:`mpm2d.estimate.CONFIRM_POINT_STEPS` point-steps (``mpm2d sweep
+        --yes``); without it such a case is refused with its estimate, as by ``mpm2d run``.
 
     Returns
     -------
@@ -204,9 +209,6 @@ def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | N
     RuntimeError
         Every case failed.
     """
-    from .run import coerce
-    from .scenes import get_setup
-
     if quiet:
         log, progress = (lambda msg: None), False
     if scheduler is not None and not scheduler.strip():     # '' ran on a local cluster
@@ -216,9 +218,16 @@ def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | N
     setup = get_setup(scene)
     cases = expand(grid)
     canonical: dict = {k: {} for k in grid}
+    spec = spec_of(setup)
     for params in cases:                     # bad input: refused before any work
-        for k, v in coerce(dict(params), setup).items():
+        given = coerce(dict(params), setup)
+        for k, v in given.items():
             canonical[k][params[k]] = v
+        # the size refusals of ``mpm2d run``, case by case, before the cluster starts
+        full = spec.validate(given)
+        check_step_bound(spec, full, scene, given)
+        estimate.check_before_setup(setup, spec, full, f"{scene} (case {case_name(params)})",
+                                    yes, log)
     check_distinct_cases(grid, canonical)
     names = [case_name(p) for p in cases]
     out = check_output_dir("--out", out)       # created once the cluster is reached

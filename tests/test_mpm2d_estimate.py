@@ -59,3 +59,19 @@ def test_the_coarse_probe_times_the_same_scene_at_fewer_points():
     params = setup.spec.validate({"cells_per_mm": 0.5})
     per, what = estimate._coarse_probe(setup, params, 1e5)
     assert 0 < per < 1e-3 and what.startswith("cells_per_mm = 0.224 (1936 points")
+
+
+def test_a_sweep_refuses_a_case_past_the_limit_before_any_case_runs(tmp_path, monkeypatch):
+    """mpm2d sweep applies run's size refusal to every case before the cluster starts: the
+    finer impact case (past a limit of 1e5 point-steps; the coarser has 5.5e4) is named and
+    nothing is written."""
+    from mpm2d.sweep import run_sweep
+
+    monkeypatch.setattr(estimate, "CONFIRM_POINT_STEPS", 1e5)
+    monkeypatch.setattr(estimate, "_coarse_probe", lambda *a: (2e-6, "cells_per_mm = 0.5"))
+    grid = {k: [str(v)] for k, v in TINY_IMPACT.items() if k != "cells_per_mm"}
+    grid["cells_per_mm"] = ["0.5", "1"]              # 320 and 1280 points
+    out = tmp_path / "never"
+    with pytest.raises(ValueError, match=r"\(case \S*cells-per-mm=1\): .*need --yes"):
+        run_sweep("impact", grid, out, progress=False, log=lambda m: None)
+    assert not out.exists()
