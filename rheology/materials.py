@@ -38,7 +38,8 @@ from typing import Callable
 
 import numpy as np
 
-from runkit.params import check_range
+from runkit import limits
+from runkit.params import Number, check_range
 
 #: Units of every numeric field (SI sets; Table 1 sets use eta0 = gdot_0 = 1 instead).
 FIELD_UNITS: dict[str, str] = {
@@ -46,6 +47,17 @@ FIELD_UNITS: dict[str, str] = {
     "tau_star": "Pa", "eta0": "Pa s", "varphi1": "1/(Pa s)", "alpha1": "-", "varphi2": "1/(Pa s)",
     "alpha2": "-", "Delta": "-", "xi_eps": "1/s", "K0": "-", "G": "Pa", "K": "Pa",
     "rho_s": "kg/m^3", "rho_f": "kg/m^3", "d": "m", "K3": "-", "K4": "-", "kappa": "Pa", "phi0": "-",
+}
+
+#: Physical limits (:mod:`runkit.limits`, each with its reason) of the dimensional fields a
+#: command line may set (``--set NAME=VALUE`` of every tier); the Material itself asks them only
+#: to be positive, which admits values no suspension has (G = 1e-300 Pa, d = 1e-155 m).
+FIELD_LIMITS: dict[str, tuple] = {
+    "tau_star": (limits.TAU_STAR_MIN, limits.TAU_STAR_MAX),
+    "eta0": (limits.VISCOSITY_MIN, limits.VISCOSITY_MAX),
+    **{k: (limits.MODULUS_MIN, limits.MODULUS_MAX) for k in ("G", "K", "kappa")},
+    **{k: (limits.DENSITY_MIN, limits.DENSITY_MAX) for k in ("rho_s", "rho_f")},
+    "d": (limits.GRAIN_MIN, limits.GRAIN_MAX),
 }
 
 #: The variants of the local update's yield rules (field ``rules``; its kernel code is the
@@ -501,8 +513,9 @@ def check_set_override(name: str, value, option: str = "--set"):
     """Validate one ``--set NAME=VALUE`` of a command line; return ``(name, value)``.
 
     ``value`` is a number, None (``none``: only for :data:`OPTIONAL_FIELDS`) or text as typed;
-    ``rules`` takes one of :data:`RULES` (returned as text). A number's range is checked by the
-    Material when it is built.
+    ``rules`` takes one of :data:`RULES` (returned as text). A field of :data:`FIELD_LIMITS` is
+    checked against its physical limits here; the rest of a number's range by the Material
+    when it is built.
 
     Raises
     ------
@@ -535,6 +548,8 @@ def check_set_override(name: str, value, option: str = "--set"):
                              f"[{FIELD_UNITS[name]}]") from None
     if isinstance(value, bool) or not np.isfinite(value):
         raise ValueError(f"{option} {name} = {value}: must be finite")
+    if name in FIELD_LIMITS:
+        Number(f"{option} {name}", *FIELD_LIMITS[name], unit=FIELD_UNITS[name]).check(value)
     return name, float(value)
 
 
