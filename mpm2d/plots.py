@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from pandas.api.types import is_bool_dtype, is_numeric_dtype
 
 from runkit.io import atomic_savefig
 from runkit.plotting import plt
@@ -42,3 +43,44 @@ def save(fig, path):
     atomic_savefig(fig, path)
     plt.close(fig)
     return path
+
+
+def ended_history(history, end, path, scene: str = ""):
+    """The recorded history of a run that ended before its end time, up to its last row, with
+    the end marked: one panel per numeric column of ``history`` against ``time_s`` (at most 12,
+    in the order recorded), a vertical line at ``end.time_s`` (the last row kept) and, where
+    known, at ``end.past_s`` (the step that failed), the reason in the title.
+
+    Parameters
+    ----------
+    history : pandas.DataFrame with a ``time_s`` column [s] (the rows kept).
+    end : rheology.run_end.RunEnd
+    path : output PNG (written atomically).
+    """
+    cols = [c for c in history.columns if c != "time_s"
+            and is_numeric_dtype(history[c]) and not is_bool_dtype(history[c])][:12]
+    n = max(len(cols), 1)
+    ncol = min(3, n)
+    nrow = -(-n // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 2.6 * nrow + 0.8), squeeze=False)
+    t = history["time_s"].to_numpy()
+    for ax, c in zip(axes.flat, cols):
+        ax.plot(t, history[c].to_numpy(), lw=1)
+        ax.set_ylabel(c, fontsize=8)
+        ax.set_xlabel("time_s", fontsize=8)
+        ax.tick_params(labelsize=7)
+        if end.time_s is not None:
+            ax.axvline(end.time_s, color="C3", lw=1, label="last row kept")
+        if end.past_s is not None and end.past_s != end.time_s:
+            ax.axvline(end.past_s, color="C3", lw=1, ls=":", label="run ended")
+    for ax in list(axes.flat)[len(cols):]:
+        ax.set_axis_off()
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="lower center", ncol=2, fontsize=8, frameon=False)
+    reason = end.reason if len(end.reason) <= 160 else end.reason[:157] + "..."
+    fig.suptitle(f"{scene + ': ' if scene else ''}ended early ({end.kind}) at t = "
+                 f"{end.past_s if end.past_s is not None else end.time_s:.4g} s; nothing past "
+                 f"the red line is a result\n{reason}", fontsize=8)
+    fig.tight_layout(rect=(0, 0.06 if handles else 0, 1, 0.92))
+    return save(fig, path)

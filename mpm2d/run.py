@@ -56,7 +56,7 @@ from runkit.limits import MAX_STEPS
 from runkit.run import TEMPORARY, Interrupts, Progress
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
-from . import estimate
+from . import estimate, plots
 from .output import write_frame, write_manifest, write_pvds
 from .scenes.spec import shown_value
 from .simulation import Simulation
@@ -887,7 +887,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
             try:
                 if end is not None:
                     write_history(pd.DataFrame(rows))
-                    manifest.update(run_record([end]))
+                    plots.ended_history(pd.DataFrame(rows), end, out / "history.png", name)
+                    manifest.update(run_record([end]), figures=["history.png"])
                 write_manifest(out, manifest)
             except (RuntimeError, ValueError, OSError):
                 end = None

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from runkit.plotting import plt
 
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
 from rheology.run_end import ENDED_EARLY, EndedEarly, RunEnd, mark_end, run_record
@@ -355,6 +356,38 @@ def test_mpm2d_run_whose_step_fails_ends_there_with_its_history(tmp_path, capsys
     t_end = json.loads((tmp_path / "ref" / "manifest.json").read_text())["t_end_s"]
     assert end["past_s"] == end["time_s"] > 0.4 * t_end > hist["time_s"].iloc[-2]
     pd.testing.assert_frame_equal(hist, ref.iloc[:n])
+    # the figure of the rows kept, with the end marked (the scene's report needs a whole run)
+    assert man["figures"] == ["history.png"]
+    img = plt.imread(out / "history.png")
+    assert img.ndim == 3 and min(img.shape[:2]) > 200
+
+
+def test_mpm2d_ended_history_figure_marks_the_end_on_every_panel(tmp_path):
+    """plots.ended_history: one panel per numeric column, the last row kept marked on each."""
+    from mpm2d.plots import ended_history
+    from rheology.run_end import RunEnd
+
+    hist = pd.DataFrame({"time_s": [0.0, 1.0, 2.0], "energy_J": [1.0, 0.9, 0.7],
+                         "steps": [0, 10, 20], "case": ["a", "a", "a"]})
+    end = RunEnd("solver_failure", "forced", time_s=2.0, past_s=2.5)
+    captured = {}
+    orig = plt.Figure.savefig
+
+    def keep(fig, *a, **k):
+        captured["fig"] = fig
+        return orig(fig, *a, **k)
+
+    plt.Figure.savefig = keep
+    try:
+        ended_history(hist, end, tmp_path / "h.png", "bar")
+    finally:
+        plt.Figure.savefig = orig
+    axes = [ax for ax in captured["fig"].axes if ax.axison]
+    assert [ax.get_ylabel() for ax in axes] == ["energy_J", "steps"]
+    for ax in axes:
+        xs = sorted(line.get_xdata()[0] for line in ax.lines[1:])
+        assert xs == [2.0, 2.5]
+    assert "ended early (solver_failure) at t = 2.5 s" in captured["fig"]._suptitle.get_text()
 
 
 def test_shear1d_ida_failure_at_the_first_output_fails_and_leaves_nothing(tmp_path, capsys,
