@@ -39,7 +39,7 @@ from typing import Callable
 import numpy as np
 
 from runkit import limits
-from runkit.params import Number, check_range
+from runkit.params import Param, check_range
 
 #: Units of every numeric field (SI sets; Table 1 sets use eta0 = gdot_0 = 1 instead).
 FIELD_UNITS: dict[str, str] = {
@@ -59,6 +59,14 @@ FIELD_LIMITS: dict[str, tuple] = {
     **{k: (limits.DENSITY_MIN, limits.DENSITY_MAX) for k in ("rho_s", "rho_f")},
     "d": (limits.GRAIN_MIN, limits.GRAIN_MAX),
 }
+
+
+def check_field_limit(label: str, name: str, value: float) -> None:
+    """ValueError naming ``label`` when a field of :data:`FIELD_LIMITS` lies outside its
+    physical limits (d = 0, the default, means no grain size: the grain-scale terms are off)."""
+    if name in FIELD_LIMITS:
+        Param(*FIELD_LIMITS[name], unit=FIELD_UNITS[name],
+              also=(0.0,) if name == "d" else ()).check(label, value, static=True)
 
 #: The variants of the local update's yield rules (field ``rules``; its kernel code is the
 #: index): ``table8``, the published Table 8, and ``mpm_3d``, the rules of the author's code
@@ -435,6 +443,9 @@ def load_material(path) -> Material:
     data = doc.get("material", doc) if isinstance(doc, dict) else doc
     if isinstance(data, dict):
         data = {k: v for k, v in data.items() if k not in ("format", "version")}
+        for k, v in data.items():           # the physical limits a --set meets, likewise
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                check_field_limit(f"material file {path.name}: {k}", k, float(v))
     return material_from_dict(data, f"material file {path.name}")
 
 
@@ -548,8 +559,7 @@ def check_set_override(name: str, value, option: str = "--set"):
                              f"[{FIELD_UNITS[name]}]") from None
     if isinstance(value, bool) or not np.isfinite(value):
         raise ValueError(f"{option} {name} = {value}: must be finite")
-    if name in FIELD_LIMITS:
-        Number(f"{option} {name}", *FIELD_LIMITS[name], unit=FIELD_UNITS[name]).check(value)
+    check_field_limit(f"{option} {name}", name, float(value))
     return name, float(value)
 
 

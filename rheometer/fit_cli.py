@@ -408,7 +408,7 @@ def cmd_fit(args) -> str:
             raise ValueError(f"--set {name} given twice; give each parameter once")
         fixed[name] = x
 
-    check_set(fixed)                         # the scales' ranges (rheometer.limits.SET_RANGES)
+    check_set(fixed)                         # the physical limits (rheology.materials.FIELD_LIMITS)
     if fixed:                                # refused as the parameter set, with its range
 
         try:

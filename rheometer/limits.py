@@ -13,13 +13,13 @@ reason. Here: the rheometer's own counts and how the limits apply to it.
   RATE_MIN = 1/TIME_MAX has none within 30 years; STRESS_MIN is what water alone carries at it.
 - K0 <= 1e6 (the paper's sets use 0.06-1); oscillation cycles <= 1e5 per step (each sampled at
   least 32 times); strains <= 1e6.
-- ``--set`` (SET_RANGES, from rheology.materials.FIELD_LIMITS; the Material itself only asks them
+- ``--set`` (rheology.materials.FIELD_LIMITS, :func:`check_set`; the Material itself only asks them
   to be positive): tau* in [1e-8, 1e8] Pa (the DST transition, taubar ~ 1e-4..1e4 tau*, within
   the stresses; the paper's sets have 0.1-423 Pa), eta0 in [1e-5, 1e6] Pa s (the paper's
   9e-4-1 Pa s), G, K, kappa as ``--G``, densities [1, 1e5] kg/m^3, grain size [1e-8, 1e-2] m.
 """
 
-from rheology.materials import FIELD_LIMITS, FIELD_UNITS
+from rheology.materials import check_field_limit
 from runkit import limits as physical
 from runkit.limits import CLOCK_RESOLUTION, clock_floor  # noqa: F401
 from runkit.params import Number
@@ -47,13 +47,9 @@ def duration(name: str) -> Number:
     return Number(name, physical.TIME_MIN, physical.TIME_MAX, unit="s")
 
 
-#: numeric --set parameters with physical limits: the material's table, one for every tier
-SET_RANGES = {k: (lo, hi, FIELD_UNITS[k]) for k, (lo, hi) in FIELD_LIMITS.items()}
-
-
 def check_set(overrides: dict, option: str = "--set") -> None:
-    """ValueError naming ``option NAME`` for an override outside :data:`SET_RANGES`."""
+    """ValueError naming ``option NAME`` for an override outside its physical limits
+    (:data:`rheology.materials.FIELD_LIMITS`, the one table of every tier)."""
     for key, value in overrides.items():
-        if key in SET_RANGES and value is not None:
-            lo, hi, unit = SET_RANGES[key]
-            Number(f"{option} {key}", lo, hi, unit=unit).check(value)
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            check_field_limit(f"{option} {key}", key, float(value))

@@ -104,7 +104,8 @@ def _parser() -> argparse.ArgumentParser:
                    help=f"bob surface speed(s) [m/s], in (0, 0.1 sqrt(G/rho)]: (0, {u_max:.6g}] "
                         f"for annular_shear at phi {m.phi0:g} (the model is a small-elastic-strain "
                         "law; default 0.00084 0.084)")
-    a.add_argument("--out", default="annular_shear_jamming", help="output folder (not empty)")
+    a.add_argument("--out", default="annular_shear_jamming",
+                   help="output folder (a non-empty path; created if absent)")
     a.add_argument("--r-inner", type=Number("--r-inner", 0, 1.0, lo_closed=False, unit="m"),
                    default=R_INNER, help=f"bob radius [m] (default {R_INNER})")
     a.add_argument("--r-outer", type=Number("--r-outer", 0, 2.0, lo_closed=False, unit="m"),
@@ -137,7 +138,8 @@ def _parser() -> argparse.ArgumentParser:
                    default=1.0, help=f"duration [s], in [{TIME_MIN:g}, {TIME_MAX:g}] (1 ps to 30 "
                    "years, the durations of every tier; default 1); the computing time grows "
                    "with it")
-    c.add_argument("--out", default="plane_couette", help="output folder (not empty)")
+    c.add_argument("--out", default="plane_couette",
+                   help="output folder (a non-empty path; created if absent)")
     numerics(c, 100, 200, MODES)
     return ap
 
