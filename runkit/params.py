@@ -39,6 +39,16 @@ from .limits import Bound, check_memory
 _TRUE, _FALSE = ("true", "1", "yes", "on"), ("false", "0", "no", "off")
 
 
+def as_bool(name: str, value) -> bool:
+    """A bool, or a command line's true/1/yes/on and false/0/no/off (any case); ValueError
+    naming ``name`` for anything else."""
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, str) and value.strip().lower() in _TRUE + _FALSE:
+        return value.strip().lower() in _TRUE
+    raise ValueError(f"{name} = {value!r} is not true or false")
+
+
 def _as_bound(b) -> Bound | None:
     return b if b is None or isinstance(b, Bound) else Bound(b)
 
@@ -135,11 +145,7 @@ class Param:
             return None
         rng = self.range_text(params, static) + "".join(f", or {a:g}" for a in self.also)
         if self.kind == "bool":
-            if isinstance(value, bool):
-                return value
-            if isinstance(value, str) and value.strip().lower() in _TRUE + _FALSE:
-                return value.strip().lower() in _TRUE
-            raise ValueError(f"{name} = {value!r} is not true or false")
+            return as_bool(name, value)
         if self.kind == "choice":
             opts = {str(o).lower(): o for o in self.options()}
             if not isinstance(value, str) or value.strip().lower() not in opts:

@@ -36,7 +36,7 @@ import numpy as np
 
 from runkit import limits
 from runkit.limits import Bound, check_memory
-from runkit.params import valid_interval
+from runkit.params import as_bool, valid_interval
 from runkit.params import Number
 from rheology import get_material, material_names
 from rheology.materials import RULES, scene_material
@@ -48,8 +48,6 @@ BYTES_PER_POINT = 1200
 BYTES_PER_NODE = 2 * 8 * (9 * 3 + 12)
 #: what any run takes besides its arrays (interpreter, numba and its compiled kernels)
 BASE_BYTES = 2e8
-
-_TRUE, _FALSE = ("true", "1", "yes", "on"), ("false", "0", "no", "off")
 
 
 def _resolve(x, params):
@@ -177,11 +175,7 @@ class Param:
                 raise ValueError(f"{name} = {value!r} is not one of {', '.join(map(str, opts))}")
             return next(o for o in opts if str(o).lower() == value.strip().lower())
         if self.kind == "bool":
-            if isinstance(value, bool):
-                return value
-            if isinstance(value, str) and value.strip().lower() in _TRUE + _FALSE:
-                return value.strip().lower() in _TRUE
-            raise ValueError(f"{name} = {value!r} is not true or false")
+            return as_bool(name, value)
         static = Param(None if callable(self.lo) else self.lo,
                        None if callable(self.hi) else self.hi, self.integer, self.lo_closed,
                        self.hi_closed, self.unit).number(name)
