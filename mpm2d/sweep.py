@@ -224,7 +224,7 @@ def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | N
         for k, v in given.items():
             canonical[k][params[k]] = v
         # the size refusals of ``mpm2d run``, case by case, before the cluster starts
-        full = spec.validate(given)
+        full = {**spec.defaults, **given}    # spec.validate without checking ``given`` again
         check_step_bound(spec, full, scene, given)
         estimate.check_before_setup(setup, spec, full, f"{scene} (case {case_name(params)})",
                                     yes, log)
