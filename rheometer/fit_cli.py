@@ -50,7 +50,7 @@ from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, chec
                        check_output_dir, check_output_path, strict_json)
 from runkit.params import Number
 
-from .limits import STRESS_MAX, check_set
+from .limits import STRESS_MAX
 from .options import about_set, k0
 from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
 
@@ -406,9 +406,7 @@ def cmd_fit(args) -> str:
         name, x = check_set_override(k, v)
         if name in fixed:
             raise ValueError(f"--set {name} given twice; give each parameter once")
-        fixed[name] = x
-
-    check_set(fixed)                         # the physical limits (rheology.materials.FIELD_LIMITS)
+        fixed[name] = x     # check_set_override: its physical limits (FIELD_LIMITS) included
     if fixed:                                # refused as the parameter set, with its range
 
         try:

@@ -13,7 +13,8 @@ import numpy as np
 import rheology
 from runkit.params import valid_interval
 from runkit.params import Number
-from rheology.materials import FIELD_UNITS, default_fraction, default_fractions, set_argument
+from rheology.materials import (FIELD_UNITS, default_fraction, default_fractions, set_argument,
+                                set_overrides)
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit import limits as physical
 from runkit.io import check_output_path
@@ -236,12 +237,7 @@ def about_set(base, overrides: dict, exc: ValueError, option: str, units: dict) 
 
 
 def sample_material(args):
-    names = [k for k, _ in args.set or []]
-    twice = sorted({k for k in names if names.count(k) > 1})
-    if twice:
-        raise ValueError(f"--set {twice[0]} given twice; give each parameter once")
-    overrides = dict(args.set or [])
-    m = material_with(args.material, overrides)
+    m = material_with(args.material, set_overrides(args.set))
     resolve_sample(args, m)        # --phi default per material, --mass-fraction, geometry
     return m
 
