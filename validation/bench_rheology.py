@@ -75,12 +75,10 @@ def flow_curve_throughput(out: Path, quick: bool) -> BenchResult:
     ax.loglog([q["points"] for q in rows], [q["points_per_s"] for q in rows], "o-", label="vectorised")
     ax.axhline(ref_rate, color="k", ls="--", label="scalar brentq loop")
     ax.axhline(1e5, color="r", ls=":", label="target 1e5 points/s")
-    ax.set_xlabel("points per call")
-    ax.set_ylabel("points / s")
+    ax.set(xlabel="points per call", ylabel="points / s")
     ax.legend()
     ax.set_title("Hermes 2016 flow curve, 10 volume fractions")
-    png = atomic_savefig(fig, out / "flow_curve_throughput.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "flow_curve_throughput.png")
     summary = (f"Machine: {machine_description()}. Scalar reference: {ref_rate:.3g} points/s "
                f"(brentq loop, {taus_ref.size * phis.size} points). Vectorised and scalar shear rates "
                f"agree to {agree:.1e} relative. Medians of repeated runs in the same process.")

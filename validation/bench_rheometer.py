@@ -158,8 +158,7 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
                 rows.append(dict(problem=pname, method=mth, rtol=r, error=ei, median_s=wi,
                                  min_s=wm))
         ax.axvline(TARGET_ERR, color="0.5", ls=":", lw=1)
-        ax.set_xlabel("max error (taubar, gdot_p relative; f absolute) vs reference")
-        ax.set_ylabel(f"wall time per solve [s] (median of {repeats})")
+        ax.set(xlabel="max error (taubar, gdot_p relative; f absolute) vs reference", ylabel=f"wall time per solve [s] (median of {repeats})")
         ax.set_title(f"{pname} (reference cross-check vs Radau: {cross:.1e})", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
@@ -233,8 +232,7 @@ def speed(out: Path, quick: bool) -> BenchResult:
     ax.legend(fontsize=7)
     ax.grid(True, axis="x", alpha=0.3)
     fig.tight_layout()
-    png = atomic_savefig(fig, Path(out) / "speed.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "speed.png")
     summary = (f"{machine_description()}. Medians of {repeats} interleaved repeats after a "
                f"warm-up (numba compile excluded); every call includes input checks and the "
                f"DataFrame.")
@@ -349,8 +347,7 @@ def random_programs(out: Path, quick: bool) -> BenchResult:
     ax1.axvline(10, color="C1", ls=":", label="10 ms (median target)")
     ax1.axvline(50, color="C3", ls=":", label="50 ms (max target)")
     ax1.axvline(1e3 * t_ref, color="k", ls="--", label=f"reference step {1e3 * t_ref:.1f} ms")
-    ax1.set_xlabel("wall time per step [ms]")
-    ax1.set_ylabel("steps")
+    ax1.set(xlabel="wall time per step [ms]", ylabel="steps")
     ax1.legend(fontsize=7)
     ax2.barh(range(len(by_kind)), 1e3 * by_kind["median"], color="C0", label="median")
     ax2.barh(range(len(by_kind)), 1e3 * by_kind["max"], color="C0", alpha=0.3, label="max")
@@ -358,8 +355,7 @@ def random_programs(out: Path, quick: bool) -> BenchResult:
     ax2.set_xlabel("wall time per step [ms]")
     ax2.legend(fontsize=7)
     fig.tight_layout()
-    png = atomic_savefig(fig, Path(out) / "random_programs.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "random_programs.png")
     targets = [
         ("max time per step < 50 ms", f"{1e3 * mx:.1f} ms ({mx / t_ref:.1f} x the reference step)",
          mx < 0.05),

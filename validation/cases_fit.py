@@ -95,11 +95,9 @@ def fit_recovery(out: Path, quick: bool) -> Verdict:
             ax.loglog(grid, mixture_steady_state(grid, phis[c], res.material)["viscosity"], "k-",
                       lw=0.8)
         ax.set_title(f"{name}: {'pass' if ok else 'FAIL'}", fontsize=9)
-        ax.set_xlabel("shear stress [Pa]")
-        ax.set_ylabel("viscosity [Pa s]")
+        ax.set(xlabel="shear stress [Pa]", ylabel="viscosity [Pa s]")
     fig.tight_layout()
-    png = atomic_savefig(fig, out / "recovery.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "recovery.png")
 
     atomic_write_csv(out / "recovery.csv", pd.DataFrame(rows),
                      empty_ok=("err_gdot_dst",))
@@ -139,8 +137,7 @@ def fit_calibration(out: Path, quick: bool) -> Verdict:
     ax.set_ylabel("coverage")
     ax.set_title(f"guy2015_b, {n} seeds (grey: flagged unidentifiable)")
     ax.legend(fontsize=8)
-    png = atomic_savefig(fig, out / "calibration.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "calibration.png")
     worst = min(cover[k] for k in identifiable) if identifiable else float("nan")
     need = 0.6 if quick else 0.85          # 6 seeds (quick) only check the machinery
     return Verdict(
@@ -279,8 +276,7 @@ def fit_relaxation_recovery(out: Path, quick: bool) -> Verdict:
         ax.loglog(c.time - res.t0[0], res.model_stress[0] / c.stress0, "k-", lw=0.6)
     ax.set(xlabel="time after cessation [s]", ylabel="taubar / taubar0",
            title="first curve of each setting: data (dots), fit (lines)")
-    png = atomic_savefig(fig, out / "relaxation_recovery.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "relaxation_recovery.png")
     df = pd.DataFrame(rows)
     atomic_write_csv(out / "relaxation_recovery.csv", df, empty_ok=("record_eta_over_G",))
     full = df[df["record_eta_over_G"].isna()]

@@ -268,15 +268,12 @@ def grid_convergence(out: Path, quick: bool) -> Verdict:
         axs[0].plot(r["profile"]["depth_m"] * 100, r["profile"]["displacement_m"] * 100, ".-",
                     ms=3, label=lab)
         axs[1].plot(r["rod"]["time_s"] * 1e3, r["rod"]["a_m_per_s2"], label=lab)
-    axs[0].set_xlabel("initial depth [cm]")
-    axs[0].set_ylabel("|dz| below the rod [cm]")
-    axs[1].set_xlabel("t after impact [ms]")
-    axs[1].set_ylabel("a from z [m/s^2]")
+    axs[0].set(xlabel="initial depth [cm]", ylabel="|dz| below the rod [cm]")
+    axs[1].set(xlabel="t after impact [ms]", ylabel="a from z [m/s^2]")
     for ax in axs:
         ax.legend()
     fig.suptitle(f"impact grid convergence at {t_end * 1e3:.0f} ms", fontsize=10)
-    png = atomic_savefig(fig, out / "grid_convergence.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "grid_convergence.png")
     ok = prof_diff <= 0.15 and pk_diff <= 0.25
     return Verdict(
         criterion=f"2 mm against 1 mm at {t_end * 1e3:.0f} ms: max |dz| profile difference <= 15% "

@@ -67,8 +67,7 @@ def linear_limit(out: Path, quick: bool) -> Verdict:
                 LL = osc.linear_modulus(m, phi, ff)
                 ax.loglog(ff, LL.real, "-", color=c, lw=1, label=f"phi = {phi:g}: linear G'")
                 ax.loglog(ff, LL.imag, "--", color=c, lw=1, label=f"phi = {phi:g}: linear G''")
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("G', G'' [Pa]")
+    ax.set(xlabel="frequency [Hz]", ylabel="G', G'' [Pa]")
     ax.set_title("Hermes 2016, G = 1e4 Pa, gamma0 = 1e-7: time domain vs linear G*", fontsize=9)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=6)
@@ -100,8 +99,7 @@ def high_frequency(out: Path, quick: bool) -> Verdict:
     w = 2 * np.pi * freqs
     ax.loglog(freqs, mx.G ** 2 / (w ** 2 * mx.eta_g * eta_F), "--",
               label="G^2/(omega^2 eta_g eta_F)")
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("relative excess of G'' over the fluid's")
+    ax.set(xlabel="frequency [Hz]", ylabel="relative excess of G'' over the fluid's")
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8)
     png = save_figure(fig, out, "high_frequency.png")
@@ -213,8 +211,7 @@ def sweep_benchmark(out: Path, quick: bool) -> BenchResult:
                                       results.attrs["point_seconds"], results["converged"])]
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.semilogx(amps, results.attrs["point_seconds"], "o-")
-    ax.set_xlabel("strain amplitude [-]")
-    ax.set_ylabel("seconds per point")
+    ax.set(xlabel="strain amplitude [-]", ylabel="seconds per point")
     ax.grid(True, which="both", alpha=0.25)
     png = save_figure(fig, out, "sweep_time.png")
     summary = (f"{machine_description()}. One amplitude sweep (Hermes 2016, phi = 0.50, 1 Hz, 20 "

@@ -176,8 +176,7 @@ def transient_long_time_limits(out: Path, quick: bool) -> Verdict:
                   ms=9, mew=2)
     ax.plot([], [], "ko", mfc="none", label="start-up end state (imposed rate)")
     ax.plot([], [], "ks", mfc="none", label="creep end state (imposed mixture stress)")
-    ax.set_xlabel("shear rate [1/s]")
-    ax.set_ylabel("mixture shear stress [Pa]")
+    ax.set(xlabel="shear rate [1/s]", ylabel="mixture shear stress [Pa]")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     ax.set_title(f"{HERMES}: transients (IDA, 60 structure times) end on the steady curves",
@@ -249,8 +248,7 @@ def material_point_steady_state(out: Path, quick: bool) -> Verdict:
                   label="normal: p/(eta0 gdot) vs Eq. (2)" if i == 0 else None)
     lim = np.array([min(r[5] for r in rows) * 0.5, max(r[7] for r in rows) * 2])
     ax.loglog(lim, lim, "k:", lw=1, label="equality")
-    ax.set_xlabel("Eq. (1) granular part / Eq. (2) at the end state's phi, f")
-    ax.set_ylabel("material point at steady state")
+    ax.set(xlabel="Eq. (1) granular part / Eq. (2) at the end state's phi, f", ylabel="material point at steady state")
     ax.set_title("circles: volume control; squares: pressure control (G = 1e6 Pa)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
@@ -321,8 +319,7 @@ def material_point_convergence(out: Path, quick: bool) -> Verdict:
     dts = next(iter(res.values()))[0]
     ax.loglog(dts, 0.5 * dts / dts[0] * max(e[1][0] for e in res.values()), "k:",
               label="slope 1")
-    ax.set_xlabel("time step dt [s]")
-    ax.set_ylabel("max relative error vs IDA (sigma_xy, p, f, phi)")
+    ax.set(xlabel="time step dt [s]", ylabel="max relative error vs IDA (sigma_xy, p, f, phi)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     dts_, errs_, ref, coarse = res[("pressure", 0.5)]
@@ -332,8 +329,7 @@ def material_point_convergence(out: Path, quick: bool) -> Verdict:
     for t, what in ref.attrs.get("switches", []):
         ax2.axvline(t, color="C3", ls=":", lw=1)
         ax2.text(t, ax2.get_ylim()[0], f" -> {what}", color="C3", fontsize=7, va="bottom")
-    ax2.set_xlabel("time [s]")
-    ax2.set_ylabel("volume fraction phi")
+    ax2.set(xlabel="time [s]", ylabel="volume fraction phi")
     ax2.set_title("pressure control, rate halved: compaction, then dilatant flow", fontsize=9)
     ax2.grid(True, alpha=0.3)
     ax2.legend(fontsize=8)
