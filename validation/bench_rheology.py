@@ -14,26 +14,20 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from runkit.plotting import plt
 import numpy as np
 from scipy.optimize import brentq
 
 import rheology as r
-from runkit.io import atomic_savefig
+from runkit.plotting import plt
 from rheology.local_update import NOUT, kernel_parameters, update_points, update_points_serial
 from rheology.steady import steady_residual
 
-from .framework import BenchResult, benchmark
+from .framework import BenchResult, benchmark, save_figure, timed
 from .report import machine_description
 
 
 def _median_time(fn, repeats: int, clock=time.perf_counter) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = clock()
-        fn()
-        times.append(clock() - t0)
-    return float(np.median(times))
+    return timed(fn, repeats, clock)[0]
 
 
 def scalar_flow_curve(taus, phis, m):

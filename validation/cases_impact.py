@@ -15,16 +15,16 @@ import math
 import time
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
+
+from mpm2d.run import run_scene
+from mpm2d.scenes import impact
+from rheology import get_material
+from runkit.io import atomic_write_json
 from runkit.plotting import plt
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
 
-from mpm2d.run import run_scene  # noqa: E402
-from mpm2d.scenes import impact  # noqa: E402
-from rheology import get_material  # noqa: E402
-from runkit.io import atomic_savefig, atomic_write_csv, atomic_write_json  # noqa: E402
-
-from .framework import Verdict, case  # noqa: E402
+from .framework import Verdict, case, save_figure, write_csv
 
 #: the test suite's sizes (quick): a 3 cm bed at 2 mm, 4 ms
 QUICK = dict(radius=0.03, depth=0.03, cells_per_mm=0.5, t_end=0.004)
@@ -112,6 +112,10 @@ def _base(quick: bool, **extra) -> dict:
     return {**(QUICK if quick else {}), **extra}
 
 
+def _nan(x):
+    return np.nan if x is None else x
+
+
 def _fmt(x, spec=".3g") -> str:
     return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, spec)
 
@@ -171,22 +175,15 @@ def _speeds_case(out: Path, quick: bool, size: str) -> Verdict:
     # default run gives the 60 ms numbers of v0 = 1); Fig. 5 to its full 60 ms
     extra = {} if quick or size != "default" else {"t_end": T_GRID}
     runs = [run_cached(out, _base(quick, size=size, v0=v, **extra)) for v in SPEEDS]
-    paths = []
-    rows = []
-    for v, r in zip(SPEEDS, runs):
-        s = r["summary"]
-        rows.append({k: (np.nan if s.get(k) is None else s[k]) for k in impact.SPEED_COLUMNS}
-                    | {"wall_s": r["wall_s"], "point_steps": r["point_steps"]})
-    df = pd.DataFrame(rows)
-    atomic_write_csv(out / "speeds.csv", df, empty_ok=impact.SPEED_COLUMNS[2:])
+    df = write_csv(out, "speeds.csv",
+                   [{k: _nan(r["summary"].get(k)) for k in impact.SPEED_COLUMNS}
+                    | {"wall_s": r["wall_s"], "point_steps": r["point_steps"]} for r in runs],
+                   impact.SPEED_COLUMNS[2:])
     scal = impact.peak_scaling(df["v0_m_per_s"], df["peak_deceleration_m_per_s2"])
     atomic_write_json(out / "scaling.json", scal, nullable=("loglog_slope", "loglog_r2"))
-    rod = pd.concat([r["rod"] for r in runs])
-    atomic_write_csv(out / "rod.csv", rod, empty_ok=("v_m_per_s", "a_m_per_s2"))
-    raws = []
-    for r in runs:
-        p = r["folder"] / "rod_raw.csv"
-        raws.append(pd.read_csv(p) if p.exists() else None)
+    write_csv(out, "rod.csv", pd.concat([r["rod"] for r in runs]), ("v_m_per_s", "a_m_per_s2"))
+    raws = [pd.read_csv(r["folder"] / "rod_raw.csv") if (r["folder"] / "rod_raw.csv").exists()
+            else None for r in runs]
     fig = impact.rod_figure([(v, r["rod"], raw) for v, r, raw in zip(SPEEDS, runs, raws)],
                             out / "rod.png")
     late = np.abs(df["late_velocity_m_per_s"].to_numpy())
@@ -219,7 +216,7 @@ def _speeds_case(out: Path, quick: bool, size: str) -> Verdict:
                  + f"; log-log slope {_fmt(scal['loglog_slope'])} (R^2 {_fmt(scal['loglog_r2'])}), "
                  f"monotone {scal['monotone']}; late-velocity spread {spread:.1%}; "
                  + "; ".join(_wall(r) for r in runs),
-        passed=bool(ok), figures=[Path(fig)] + [Path(p) for p in paths],
+        passed=bool(ok), figures=[Path(fig)],
         details=df.to_string())
 
 
@@ -241,10 +238,7 @@ def fig5_paper(out: Path, quick: bool) -> Verdict:
 def grid_convergence(out: Path, quick: bool) -> Verdict:
     t_end = QUICK["t_end"] if quick else T_GRID
     base = dict(QUICK, t_end=t_end) if quick else dict(t_end=t_end)
-    runs = {}
-    for cpm in (0.5, 1.0):
-        runs[cpm] = run_cached(out, dict(base, cells_per_mm=cpm))
-    c, f = runs[0.5], runs[1.0]
+    c, f = (run_cached(out, dict(base, cells_per_mm=cpm)) for cpm in (0.5, 1.0))
     pc, pf = c["profile"], f["profile"]
     dmax = min(pc["depth_m"].max(), pf["depth_m"].max())
     grid = pf["depth_m"][pf["depth_m"] <= dmax].to_numpy()
@@ -256,13 +250,11 @@ def grid_convergence(out: Path, quick: bool) -> Verdict:
     pk_c, pk_f = (r["summary"]["peak_deceleration_m_per_s2"] for r in (c, f))
     pk_diff = abs(pk_c - pk_f) / pk_f
     pen_diff = abs(c["summary"]["final_rod_depth_m"] - ref) / ref
-    table = pd.DataFrame([{"h_m": r["summary"]["h_m"],
-                           "peak_deceleration_m_per_s2": r["summary"]["peak_deceleration_m_per_s2"],
-                           "final_rod_depth_m": r["summary"]["final_rod_depth_m"],
-                           "plug_r2": r["summary"]["plug_r2"], "k": r["summary"]["k"],
-                           "point_steps": r["point_steps"], "wall_s": r["wall_s"]}
-                          for r in (c, f)])
-    atomic_write_csv(out / "grid.csv", table, empty_ok=("plug_r2", "k"))
+    table = write_csv(out, "grid.csv", [
+        {**{k: r["summary"][k] for k in ("h_m", "peak_deceleration_m_per_s2",
+                                         "final_rod_depth_m", "plug_r2", "k")},
+         "point_steps": r["point_steps"], "wall_s": r["wall_s"]} for r in (c, f)],
+        ("plug_r2", "k"))
     fig, axs = plt.subplots(1, 2, figsize=(12, 4.5))
     for r, lab in ((c, "h = 2 mm"), (f, "h = 1 mm")):
         axs[0].plot(r["profile"]["depth_m"] * 100, r["profile"]["displacement_m"] * 100, ".-",
@@ -308,11 +300,9 @@ def compare_runs(ref: dict, other: dict, labels, path: Path) -> dict:
     for ax, xl, yl in zip(axs, ("t after impact [ms]", "initial depth [cm]",
                                 "t after impact [ms]"),
                           ("rod face z [mm]", "|dz| below the rod [cm]", "front depth [mm]")):
-        ax.set_xlabel(xl)
-        ax.set_ylabel(yl)
+        ax.set(xlabel=xl, ylabel=yl)
         ax.legend()
-    png = atomic_savefig(fig, path)
-    plt.close(fig)
+    png = save_figure(fig, path.parent, path.name)
     return {"rod_z": float(np.max(np.abs(ref["rod"]["z_m"].to_numpy() - z_o)) / depth),
             "profile": float(np.max(np.abs(u_o - pr["displacement_m"])) / depth),
             "peak": pk, "peak_diff": abs(pk[1] - pk[0]) / pk[0], "ref_m": depth, "figure": png}

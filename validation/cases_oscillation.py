@@ -1,37 +1,30 @@
 """Validation of the rheometer's oscillation and measuring geometries.
 
-- ``oscillation_linear_limit``: small-amplitude G'(omega), G''(omega) from the time-domain
-  periodic state against the linearised Maxwell-type G*(omega) derived in
-  :mod:`rheometer.oscillation` (criterion 1e-4 relative in |G*|), Hermes 2016 at phi = 0.48, 0.50.
-- ``oscillation_high_frequency_loss``: G'' -> omega eta0 (1 + 5/2 phi) where the fluid dominates.
-- ``oscillation_strain_stiffening``: amplitude sweep above phi_c: the third harmonic jumps (and G'
-  stiffens) at the amplitude where the peak stress first crosses the DST onset stress.
-- ``parallel_plate_weissenberg_rabinowitsch``: the apparent parallel-plate flow curve (radial
-  integration of the local steady state) against the true one, and the correction recovering it.
-- benchmark ``oscillation_amplitude_sweep``: one 20-point amplitude sweep (target < 2 s),
-  with its ratio to a reference run in the same process.
+Small-amplitude G*(omega) against the linearised Maxwell-type model of
+:mod:`rheometer.oscillation`; G'' -> omega eta0 (1 + 5/2 phi) at high frequency; strain
+stiffening above phi_c where the peak stress crosses the DST onset stress; the parallel-plate
+flow curve and its Weissenberg-Rabinowitsch correction; the speed of an amplitude sweep.
 
-Choices: G = 1e4 Pa and K0 = 1 (the transient defaults; the steady fits give none); 1 Hz; the
-amplitudes 1e-3..10 (0.1 % to 1000 %).
+Choices: Hermes 2016; G = 1e4 Pa and K0 = 1 (the transient defaults; the steady fits give none);
+1 Hz; the amplitudes 1e-3..10 (0.1 % to 1000 %).
 """
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
-from runkit.plotting import plt
-import numpy as np  # noqa: E402
-
-import rheology  # noqa: E402
-from rheometer import geometry as geo  # noqa: E402
-from rheometer import oscillation as osc  # noqa: E402
-from rheometer import plots  # noqa: E402
-from rheometer.protocols import flow_curve, startup  # noqa: E402
-
-from .framework import BenchResult, Verdict, benchmark, case, save_figure  # noqa: E402
-from .report import machine_description  # noqa: E402
+import numpy as np
 import pandas as pd
+
+import rheology
+from rheometer import geometry as geo, oscillation as osc, plots
+from rheometer.protocols import flow_curve, startup
+from runkit.plotting import plt
+
+from .framework import BenchResult, Verdict, benchmark, case, save_figure
+from .report import machine_description
 
 HERMES = "hermes2016"
 
@@ -196,10 +189,7 @@ def sweep_benchmark(out: Path, quick: bool) -> BenchResult:
         t_sweep.append(time.perf_counter() - t0)
         c_sweep.append(time.process_time() - c0)
     ts, tr, cs = float(np.median(t_sweep)), float(np.median(t_ref)), float(np.median(c_sweep))
-    try:
-        load = open("/proc/loadavg").read().split()[0]
-    except OSError:
-        load = "?"
+    load = f"{os.getloadavg()[0]:.2f}"
     tight, _ = osc.oscillation_sweep(m, 0.50, frequency=1.0, amplitude=amps, rtol=1e-10,
                                      tol=1e-8, max_cycles=400)
     G = results["storage_modulus_Pa"] + 1j * results["loss_modulus_Pa"]

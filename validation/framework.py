@@ -142,8 +142,9 @@ def save_figure(fig, out, name: str) -> Path:
 
 
 def write_csv(out, name: str, rows, nullable=()) -> pd.DataFrame:
-    """A case's table (a DataFrame or a list of row dicts, None read as NaN) written atomically
-    as ``out/name``; NaN only in the ``nullable`` columns (empty cells). Returns the DataFrame."""
+    """A case's table (a DataFrame, or what builds one: row dicts, a dict of columns) written
+    atomically as ``out/name``; NaN only in the ``nullable`` columns (empty cells). Returns the
+    DataFrame."""
     df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
     atomic_write_csv(Path(out) / name, df, empty_ok=nullable)
     return df
