@@ -21,7 +21,7 @@ import pandas as pd
 from mpm2d.run import run_scene
 from mpm2d.scenes import impact
 from rheology import get_material
-from runkit.io import atomic_write_json
+from runkit.io import atomic_write_bytes, atomic_write_json
 from runkit.plotting import plt
 
 from .framework import Verdict, case, save_figure, write_csv
@@ -38,15 +38,6 @@ T_GRID = 0.01
 #: the steady late sinking: the velocity change over the last 20% of the run, at most this
 #: fraction of the late speed
 STEADY_CHANGE = 0.10
-
-
-def _load(folder: Path) -> dict:
-    hist = pd.read_csv(folder / "history.csv")
-    return {"folder": folder, "summary": json.loads((folder / "summary.json").read_text()),
-            "history": hist, "rod": pd.read_csv(folder / "rod.csv"),
-            "profile": pd.read_csv(folder / "displacement_vs_depth.csv"),
-            "front": pd.read_csv(folder / "front.csv"),
-            "manifest": json.loads((folder / "manifest.json").read_text())}
 
 
 def canonical(params: dict) -> dict:
@@ -82,12 +73,16 @@ def run_cached(out: Path, params: dict) -> dict:
         resume = (folder / "checkpoint.npz").exists() and same
         run_scene(impact.setup, folder, dict(params), resume=resume, progress=False, vtk=False,
                   log=lambda m: None, scene_name="impact")
-    res = _load(folder)
-    res["wall_s"] = 0.0 if reused else time.perf_counter() - t0
-    res["points"] = _points(folder)
-    res["steps"] = int(res["manifest"].get("steps", 0))
-    res["point_steps"] = float(res["points"]) * res["steps"]
-    return res
+    man = json.loads((folder / "manifest.json").read_text())
+    with np.load(folder / man["frames"][-1]["npz"]) as d:
+        points = int(sum(d[k].shape[0] for k in d.files if k.endswith(".id")))
+    steps = int(man.get("steps", 0))
+    return {"folder": folder, "summary": json.loads((folder / "summary.json").read_text()),
+            "manifest": man, "rod": pd.read_csv(folder / "rod.csv"),
+            "profile": pd.read_csv(folder / "displacement_vs_depth.csv"),
+            "front": pd.read_csv(folder / "front.csv"),
+            "wall_s": 0.0 if reused else time.perf_counter() - t0, "points": points,
+            "steps": steps, "point_steps": float(points) * steps}
 
 
 def _same(old, want) -> bool:
@@ -100,12 +95,6 @@ def _same(old, want) -> bool:
         return canonical(old) == canonical(want)
     except (ValueError, TypeError):
         return False
-
-
-def _points(folder: Path) -> int:
-    frames = json.loads((folder / "manifest.json").read_text())["frames"]
-    with np.load(folder / frames[-1]["npz"]) as d:
-        return int(sum(d[k].shape[0] for k in d.files if k.endswith(".id")))
 
 
 def _base(quick: bool, **extra) -> dict:
@@ -131,13 +120,9 @@ def _plug_case(out: Path, quick: bool, size: str) -> Verdict:
     s = r["summary"]
     ok = (s["plug_r2"] is not None and s["plug_r2"] >= 0.95
           and s.get("front_r2_penetration") is not None and s["front_r2_penetration"] >= 0.95)
-    figs = []
-    for png in ("displacement.png", "displacement_vs_depth.png", "rod.png", "front.png"):
-        src = r["folder"] / png
-        if src.exists():
-            dst = out / png
-            dst.write_bytes(src.read_bytes())
-            figs.append(dst)
+    figs = [atomic_write_bytes(out / png, (r["folder"] / png).read_bytes())
+            for png in ("displacement.png", "displacement_vs_depth.png", "rod.png", "front.png")
+            if (r["folder"] / png).exists()]
     return Verdict(
         criterion="|dz| below the rod linear over the plug (R^2 >= 0.95, plug = surface to "
                   "|dz| < 5% of the rod's displacement) and the front (u_z = v_rod/2) growing at "

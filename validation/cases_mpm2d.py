@@ -528,24 +528,19 @@ def bed_rest_case(out: Path, quick: bool) -> Verdict:
                     boundaries=dict(xmin="axis", xmax="slip", ymin="noslip", ymax="free"))
         x, a = box((0.0, 0.0), (nx * h, D), h / 2)
         d = D - x[:, 1]
+        pg = 0.47 * (m.rho_s - m.rho_f) * 9.81 * d
+        start = {} if init == "geostatic" else dict(stress=-pg[:, None, None] * np.eye(3),
+                                                    pf=m.rho_f * 9.81 * d)
+        bed = ParticleSet("bed", Suspension(m, locked=True), x, a, phi=0.47, f=0.0,
+                          axisymmetric=True, **start)
+        sim = Simulation(grid, [bed], gravity=(0.0, -9.81))
         if init == "geostatic":
-            bed = ParticleSet("bed", Suspension(m, locked=True), x, a, phi=0.47, f=0.0,
-                              axisymmetric=True)
-            sim = Simulation(grid, [bed], gravity=(0.0, -9.81))
             geostatic(sim)
-        else:
-            pg = 0.47 * (m.rho_s - m.rho_f) * 9.81 * d
-            bed = ParticleSet("bed", Suspension(m, locked=True), x, a, phi=0.47, f=0.0,
-                              stress=-pg[:, None, None] * np.eye(3), pf=m.rho_f * 9.81 * d,
-                              axisymmetric=True)
-            sim = Simulation(grid, [bed], gravity=(0.0, -9.81))
         bottom = bed.x[:, 1] < 0.25 * D
+
         def total():
             return float(np.mean(-bed.stress[bottom, 1, 1] + bed.pf[bottom]))
-        s0 = total()
-        pf0 = bed.pf.copy()
-        hist = []
-        vmax = 0.0
+        s0, pf0, hist, vmax = total(), bed.pf.copy(), [], 0.0
         while sim.t < 0.1:
             sim.step()
             vmax = max(vmax, float(np.abs(bed.v).max()))

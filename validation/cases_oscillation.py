@@ -34,12 +34,11 @@ HERMES = "hermes2016"
 def linear_limit(out: Path, quick: bool) -> Verdict:
     m = rheology.get_material(HERMES)
     freqs = np.logspace(-1, 6, 5 if quick else 15)
-    rows, lines = [], []
+    rows, worst = [], 0.0
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    worst = 0.0
     for c, phi in zip(("C0", "C1"), (0.48, 0.50)):
         for control in ("strain", "stress"):
-            pts = []
+            sim = []
             for f in freqs:
                 Glin = complex(osc.linear_modulus(m, phi, f))
                 amp = 1e-7 if control == "strain" else 1e-7 * abs(Glin)
@@ -47,15 +46,14 @@ def linear_limit(out: Path, quick: bool) -> Verdict:
                 G = complex(p["storage_modulus_Pa"], p["loss_modulus_Pa"])
                 err = abs(G - Glin) / abs(Glin)
                 worst = max(worst, err)
-                pts.append((f, G, Glin, err, p["cycles"]))
+                sim.append(G)
                 rows.append(f"phi={phi:g} {control:6s} f={f:9.3g} Hz  G'={G.real:.6g} "
                             f"(lin {Glin.real:.6g})  G''={G.imag:.6g} (lin {Glin.imag:.6g})  "
                             f"|dG*|/|G*|={err:.2e}  cycles={p['cycles']}")
             if control == "strain":
-                f_, G_, L_ = (np.array([q[0] for q in pts]), np.array([q[1] for q in pts]),
-                              np.array([q[2] for q in pts]))
-                ax.loglog(f_, G_.real, "o", color=c, mfc="none", label=f"phi = {phi:g}: G' sim")
-                ax.loglog(f_, G_.imag, "s", color=c, label=f"phi = {phi:g}: G'' sim")
+                sim = np.array(sim)
+                ax.loglog(freqs, sim.real, "o", color=c, mfc="none", label=f"phi = {phi:g}: G' sim")
+                ax.loglog(freqs, sim.imag, "s", color=c, label=f"phi = {phi:g}: G'' sim")
                 ff = np.logspace(-1, 6, 200)
                 LL = osc.linear_modulus(m, phi, ff)
                 ax.loglog(ff, LL.real, "-", color=c, lw=1, label=f"phi = {phi:g}: linear G'")

@@ -105,26 +105,21 @@ def plan(tiers=None, names=None, quick: bool = False, benchmarks: bool = True,
                          "('python -m validation list' shows them)")
     kinds = ("case", "benchmark") if benchmarks else ("case",)
     chosen = select(tiers, names, kinds)             # refuses unknown names
-    if names:
-        reg = load_all()
-        named = list(dict.fromkeys(names))
-        if tiers:
-            off = [n for n in named if reg[n].tier not in tiers]
-            if off:
-                raise ValueError(f"--only = {' '.join(off)!r}: not in --tier "
-                                 f"{' '.join(tiers)} (tier {', '.join(reg[n].tier for n in off)})")
-        if not benchmarks:
-            off = [n for n in named if reg[n].kind == "benchmark"]
-            if off:
-                raise ValueError(f"--only = {' '.join(off)!r}: benchmark"
-                                 f"{'s' if len(off) > 1 else ''}, which --no-bench leaves out")
-        if skip_opt:
-            off = [n for n in named if reg[n].kind == "case" and reg[n].slow]
-            if off:
-                raise ValueError(f"--only = {' '.join(off)!r}: slow case"
-                                 f"{'s' if len(off) > 1 else ''}" + (
-                                     " whose criteria hold at full size only" if quick else "")
-                                 + f"; run without {skip_opt}")
+    reg, named = load_all(), list(dict.fromkeys(names or ()))
+    refusals = (   # (left out, why) of a named entry the other options leave out
+        (lambda e: tiers and e.tier not in tiers,
+         lambda off: f"not in --tier {' '.join(tiers)} (tier "
+                     f"{', '.join(reg[n].tier for n in off)})"),
+        (lambda e: not benchmarks and e.kind == "benchmark",
+         lambda off: f"benchmark{'s' if len(off) > 1 else ''}, which --no-bench leaves out"),
+        (lambda e: skip_opt and e.kind == "case" and e.slow,
+         lambda off: f"slow case{'s' if len(off) > 1 else ''}"
+                     + (" whose criteria hold at full size only" if quick else "")
+                     + f"; run without {skip_opt}"))
+    for left_out, why in refusals:
+        off = [n for n in named if left_out(reg[n])]
+        if off:
+            raise ValueError(f"--only = {' '.join(off)!r}: {why(off)}")
     is_skipped = [bool(skip_opt) and e.kind == "case" and e.slow for e in chosen]
     run = [e for e, s in zip(chosen, is_skipped) if not s]
     why = SKIP_SLOW if quick else SKIP_NO_SLOW
