@@ -57,11 +57,13 @@ def perturbed_start(m):
 
 
 def recover(name: str, points: int = 30, seed: int = 1, profile: bool = True):
+    """Fit the synthetic curves of set ``name`` from :func:`perturbed_start`: (material, its
+    volume fractions, the data, the fit, the recovery errors)."""
     m = r.get_material(name)
     phis = recovery_phis(m)
     data = FlowData.from_table(synthetic_table(m, phis, points=points, seed=seed))
     res = fit_flow_curves(data, perturbed_start(m), profile=profile)
-    return m, phis, res, recovery_errors(res, m, phis)
+    return m, phis, data, res, recovery_errors(res, m, phis)
 
 
 @case("rheology", "fit_recovery_six_sets",
@@ -72,7 +74,7 @@ def fit_recovery(out: Path, quick: bool) -> Verdict:
     rows, lines, ok_all = [], [], True
     fig, axes = plt.subplots(2, 3, figsize=(13, 7.5))
     for ax, name in zip(axes.flat, names):
-        m, phis, res, e = recover(name, points=20 if quick else 30)
+        m, phis, d, res, e = recover(name, points=20 if quick else 30)
         flagged = {p.name for p in res.parameters if p.unidentifiable}
         verdicts = {}
         for k, tol in TOL.items():
@@ -86,12 +88,10 @@ def fit_recovery(out: Path, quick: bool) -> Verdict:
                      "passed": ok})
         lines.append(f"{name}: " + ", ".join(f"{k} {e[k]:.2g} ({verdicts[k]})" for k in TOL)
                      + f"; {res.seconds:.2f} s, {res.n_evaluations} evaluations")
-        d = FlowData.from_table(synthetic_table(m, phis, points=20 if quick else 30, seed=1))
         for c in range(d.n_curves):
             s, v, _ = d.sorted_curve(c)
             ax.loglog(s, v, "o", ms=3)
             grid = np.logspace(np.log10(s.min()), np.log10(s.max()), 100)
-
             ax.loglog(grid, mixture_steady_state(grid, phis[c], res.material)["viscosity"], "k-",
                       lw=0.8)
         ax.set_title(f"{name}: {'pass' if ok else 'FAIL'}", fontsize=9)
