@@ -13,22 +13,24 @@ two-phase) on one case (phi0 = 0.47, v0 = 0.5 m/s, 4 ms): k_l and k_t within 25%
 
 A single onset strain (the reference curves of the Fig. 7 scatter,
 mpm2d.scenes.intruder.onset_strain_k_l). Suppose an element jams once the equivalent shear strain
-it has taken, gamma = int gdot dt with gdot = sqrt(2 D':D'), reaches one value gamma_c whatever
-the flow, and both fronts are steady, running into material at rest with the plug behind them
-moving with the rod at v0. Beside the tip (transverse front, speed v_ft) an element is sheared
-simply, u_z going from 0 to -v0 across the front: gamma = v0/v_ft = 1/k_t. Below the tip
-(longitudinal front, speed v_fl) an element on the axis is compressed along z isochorically,
-D = D_zz diag(-1, 1) (planar) or diag(-1/2, -1/2, 1) (axisymmetric), so gdot = c |D_zz| with
-c = 2 (planar) or sqrt(3) (axisymmetric); it enters the front at v_fl and leaves at v_fl - v0, so
-int |D_zz| dt = ln(v_fl/(v_fl - v0)) = ln((k_l + 1)/k_l). One onset strain for both:
+it has taken, gamma = int gdot dt with gdot = sqrt(2 D':D') (the law's shear rate, with taubar =
+sqrt(s:s/2)), reaches one value gamma_c whatever the flow, and both fronts are steady, running into
+material at rest with the plug behind them moving with the rod at v0. Beside the tip (transverse
+front, speed v_ft) an element is sheared simply, u_z going from 0 to -v0 across the front: gamma =
+v0/v_ft = 1/k_t. Below the tip (longitudinal front, speed v_fl) an element on the axis is
+compressed along z isochorically, D = D_zz diag(-1, 1) (planar) or diag(-1/2, -1/2, 1)
+(axisymmetric), so gdot = c |D_zz| with c = 2 (planar) or sqrt(3) (axisymmetric); it enters the
+front at v_fl and leaves at v_fl - v0, so int |D_zz| dt = ln(v_fl/(v_fl - v0)) = ln((k_l + 1)/k_l).
+One onset strain for both:
 
     c ln(1 + 1/k_l) = 1/k_t,   k_l = 1 / (exp(1/(c k_t)) - 1),   c k_t - 1/2 < k_l < c k_t
 
-(x/(e^x - 1) lies between 1 - x/2 and 1 for x = 1/(c k_t) > 0). To first order in the strain at
-the front (the element's strain read as v0/v_fl), (k_l + 1)/k_t = c: 2 in planar and
-sqrt(3) = 1.73 in axisymmetric flow. Either way a single onset strain gives k_l/k_t < c, below
-Han et al.'s 2 in axisymmetry for every k_t; k_l/k_t ~ 2 needs jamming to need more strain along
-the axis (compression) than across it (shear), or fronts that are not this steady pair.
+(x/(e^x - 1) lies between 1 - x/2 and 1 for x = 1/(c k_t) > 0). To first order in the strain at the
+front (the element's strain read as v0/v_fl), (k_l + 1)/k_t = c: 2 in planar and sqrt(3) = 1.73 in
+axisymmetric flow; the path integral gives (k_l + 1/2)/k_t -> c for k_t >> 1. Either way a single
+onset strain gives k_l/k_t < c, below Han et al.'s 2 in axisymmetry for every k_t (sqrt(3) only as
+k_t -> infinity); k_l/k_t ~ 2 needs jamming to need more strain along the axis (compression) than
+across it (shear), or fronts that are not this steady pair.
 """
 
 from __future__ import annotations
