@@ -24,7 +24,7 @@ from rheology import get_material
 from runkit.io import atomic_write_bytes, atomic_write_json
 from runkit.plotting import plt
 
-from .framework import Verdict, case, save_figure, write_csv
+from .framework import Verdict, case, save_figure, table_cases, write_csv
 
 #: the test suite's sizes (quick): a 3 cm bed at 2 mm, 4 ms
 QUICK = dict(radius=0.03, depth=0.03, cells_per_mm=0.5, t_end=0.004)
@@ -142,16 +142,11 @@ def _plug_case(out: Path, quick: bool, size: str) -> Verdict:
         passed=bool(ok), figures=figs, details=json.dumps(s, indent=1))
 
 
-@case("mpm2d", "impact_plug_default", "mpm2d impact: Fig. 4 at 2 mm (the default run): plug "
-      "linearity, front speed, k", slow=True)
-def plug_default(out: Path, quick: bool) -> Verdict:
-    return _plug_case(out, quick, "default")
-
-
-@case("mpm2d", "impact_fig4_paper", "mpm2d impact: Fig. 4 on the paper's 100 x 120 grid at 1 mm, "
-      "60 ms", slow=True)
-def fig4_paper(out: Path, quick: bool) -> Verdict:
-    return _plug_case(out, quick, "fig4")
+table_cases("mpm2d", _plug_case, {
+    "impact_plug_default": ("mpm2d impact: Fig. 4 at 2 mm (the default run): plug linearity, "
+                            "front speed, k", dict(size="default")),
+    "impact_fig4_paper": ("mpm2d impact: Fig. 4 on the paper's 100 x 120 grid at 1 mm, 60 ms",
+                          dict(size="fig4"))}, slow=True)
 
 
 # ---------------------------------------------------------------- speeds (Fig. 5)
@@ -205,16 +200,11 @@ def _speeds_case(out: Path, quick: bool, size: str) -> Verdict:
         details=df.to_string())
 
 
-@case("mpm2d", "impact_speeds", "mpm2d impact: rod deceleration against v0 (0.5, 1, 2 m/s) on "
-      f"the Fig. 4 scene at 2 mm, {T_GRID * 1e3:.0f} ms", slow=True)
-def speeds(out: Path, quick: bool) -> Verdict:
-    return _speeds_case(out, quick, "default")
-
-
-@case("mpm2d", "impact_fig5_paper", "mpm2d impact: Fig. 5, large container 150 x 225 at 1 mm, "
-      "eta0 = 1 mPa s, v0 = 0.5, 1, 2 m/s", slow=True)
-def fig5_paper(out: Path, quick: bool) -> Verdict:
-    return _speeds_case(out, quick, "fig5")
+table_cases("mpm2d", _speeds_case, {
+    "impact_speeds": ("mpm2d impact: rod deceleration against v0 (0.5, 1, 2 m/s) on the Fig. 4 "
+                      f"scene at 2 mm, {T_GRID * 1e3:.0f} ms", dict(size="default")),
+    "impact_fig5_paper": ("mpm2d impact: Fig. 5, large container 150 x 225 at 1 mm, eta0 = 1 "
+                          "mPa s, v0 = 0.5, 1, 2 m/s", dict(size="fig5"))}, slow=True)
 
 
 # ---------------------------------------------------------------- grid convergence

@@ -49,7 +49,7 @@ from mpm2d.sweep import run_sweep
 from runkit.plotting import plt
 
 from .cases_mpm2d import run_quiet
-from .framework import Verdict, case, save_figure, write_csv
+from .framework import Verdict, case, save_figure, table_cases, write_csv
 
 #: the (rules, layout) combinations, in the order they are reported
 COMBINATIONS = (("table8", "default"), ("table8", "mpm_3d"), ("mpm_3d", "default"),
@@ -287,15 +287,12 @@ def _compare(out: Path, variants: dict, tol: float, title: str, png: str):
     return Verdict(f"k_l and k_t of the two within {100 * tol:.0f}%", measured, ok, [fig_path])
 
 
-@case("mpm2d", "mpm2d_intruder_convergence", "mpm2d: intruder fronts at h = 1 mm and 0.5 mm",
-      slow=True)
-def intruder_convergence(out: Path, quick: bool) -> Verdict:
-    variants = {"h_1mm": dict(REDUCED), "h_0.5mm": {**REDUCED, "cells_per_mm": 2.0}}
-    return _compare(out, variants, 0.25, "grid convergence", "intruder_convergence.png")
-
-
-@case("mpm2d", "mpm2d_intruder_modes", "mpm2d: intruder, locked mixture vs two-phase",
-      slow=True)
-def intruder_modes(out: Path, quick: bool) -> Verdict:
-    variants = {"locked": dict(REDUCED), "two_phase": {**REDUCED, "mode": "two-phase"}}
-    return _compare(out, variants, 0.25, "locked mixture vs two-phase", "intruder_modes.png")
+table_cases("mpm2d", lambda out, quick, **kw: _compare(out, tol=0.25, **kw), {
+    "mpm2d_intruder_convergence": (
+        "mpm2d: intruder fronts at h = 1 mm and 0.5 mm",
+        dict(variants={"h_1mm": dict(REDUCED), "h_0.5mm": {**REDUCED, "cells_per_mm": 2.0}},
+             title="grid convergence", png="intruder_convergence.png")),
+    "mpm2d_intruder_modes": (
+        "mpm2d: intruder, locked mixture vs two-phase",
+        dict(variants={"locked": dict(REDUCED), "two_phase": {**REDUCED, "mode": "two-phase"}},
+             title="locked mixture vs two-phase", png="intruder_modes.png"))}, slow=True)

@@ -22,7 +22,7 @@ from rheometer import simple_shear_point
 from runkit.plotting import plt
 from shear1d import plane_couette, solve
 
-from .framework import NO_COARSER, Verdict, case, save_figure, slope_plot, write_csv
+from .framework import NO_COARSER, Verdict, case, save_figure, slope_plot, table_cases, write_csv
 
 ERRORS = ("frequency_error", "amplitude_error", "max_error")
 
@@ -32,7 +32,7 @@ def run_quiet(setup, out: Path, **params):
     return run_scene(setup, out, params, progress=False, vtk=False, log=lambda m: None)
 
 
-def _vibration(scene, out: Path, quick: bool, title: str, png: str, criterion: str,
+def _vibration(out: Path, quick: bool, scene, title: str, png: str, criterion: str,
                finest: bool = False) -> Verdict:
     """A vibration mode's errors against h (``scene.analyse`` of each run, 2 periods), their
     observed orders (``convergence.csv``) and figure; passes for orders > 1.9 of the frequency
@@ -49,7 +49,8 @@ def _vibration(scene, out: Path, quick: bool, title: str, png: str, criterion: s
         df[f"order_{k}"] = np.concatenate([[np.nan], o])      # no order on the coarsest row
     write_csv(out, "convergence.csv", df, [f"order_{k}" for k in orders])
     fig, ax = plt.subplots(figsize=(6.5, 5))
-    slope_plot(ax, h, {k.replace("_", " "): (df[k], mk) for k, mk in zip(ERRORS, ("o-", "s-", "^-"))}, 2,
+    styles = dict(zip(ERRORS, ("o-", "s-", "^-")))
+    slope_plot(ax, h, {k.replace("_", " "): (df[k], styles[k]) for k in ERRORS}, 2,
                "grid spacing h [m]", "relative error", title, ref=df["max_error"].iloc[0])
     ok = all(np.all(orders[k] > 1.9) for k in ("frequency_error", "max_error"))
     measured = "; ".join(f"{k}: " + ", ".join(f"{o:.2f}" for o in v) for k, v in orders.items())
@@ -62,21 +63,18 @@ def _vibration(scene, out: Path, quick: bool, title: str, png: str, criterion: s
                    notes={f"order_{k}": NO_COARSER for k in orders})
 
 
-@case("mpm2d", "mpm2d_bar_convergence", "mpm2d: axial vibration of an elastic bar, error vs h")
-def bar_convergence(out: Path, quick: bool) -> Verdict:
-    return _vibration(bar, out, quick, "elastic bar, mode 1 (APIC, cfl 0.5)",
-                      "bar_convergence.png",
-                      "observed orders of the frequency error and of the max velocity error > 1.9 "
-                      "(second order, dt ~ h); finest frequency error < 1e-3", finest=True)
-
-
-@case("mpm2d", "mpm2d_axisym_cylinder", "mpm2d: axisymmetric radial vibration (J1 mode), error vs h")
-def axisym_cylinder(out: Path, quick: bool) -> Verdict:
-    return _vibration(cylinder, out, quick, "axisymmetric cylinder, J1 mode",
-                      "cylinder_convergence.png",
-                      "exact solution v_r = v0 J1(k r) cos(omega t): observed orders of the "
-                      "frequency and max modal-amplitude errors > 1.9 (hoop stress, L_thth = "
-                      "v_r/r, axis)")
+table_cases("mpm2d", _vibration, {
+    "mpm2d_bar_convergence": (
+        "mpm2d: axial vibration of an elastic bar, error vs h",
+        dict(scene=bar, title="elastic bar, mode 1 (APIC, cfl 0.5)", png="bar_convergence.png",
+             criterion="observed orders of the frequency error and of the max velocity error > "
+                       "1.9 (second order, dt ~ h); finest frequency error < 1e-3", finest=True)),
+    "mpm2d_axisym_cylinder": (
+        "mpm2d: axisymmetric radial vibration (J1 mode), error vs h",
+        dict(scene=cylinder, title="axisymmetric cylinder, J1 mode", png="cylinder_convergence.png",
+             criterion="exact solution v_r = v0 J1(k r) cos(omega t): observed orders of the "
+                       "frequency and max modal-amplitude errors > 1.9 (hoop stress, L_thth = "
+                       "v_r/r, axis)"))})
 
 
 @case("mpm2d", "mpm2d_disks_energy", "mpm2d: two elastic disks, energy histories by transfer")
@@ -91,7 +89,8 @@ def disks_energy(out: Path, quick: bool) -> Verdict:
     loss = []
     for n in ref:
         run_quiet(disks.setup, out / f"apic_{n}", cells=n, offset=0.1, walls="free")
-        loss.append(float(pd.read_csv(out / f"apic_{n}" / "disks_result.csv")["energy_loss"].iloc[0]))
+        loss.append(float(pd.read_csv(out / f"apic_{n}" / "disks_result.csv")["energy_loss"]
+                          .iloc[0]))
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 4.5))
     for tr, ls in (("apic", "-"), ("flip", "--"), ("pic", ":")):
         h = hist[tr]

@@ -40,7 +40,7 @@ import sys
 import time
 import traceback
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import lru_cache, wraps
 from pathlib import Path
 from typing import Callable
 
@@ -132,6 +132,16 @@ def case(tier: str, name: str, title: str, slow: bool = False):
 def benchmark(tier: str, name: str, title: str):
     """Register a benchmark ``func(out: Path, quick: bool) -> BenchResult``."""
     return _register("benchmark", tier, name, title, True)
+
+
+def table_cases(tier: str, func: Callable, table: dict, slow: bool = False) -> None:
+    """Register one case per row ``name: (title, params)`` of ``table``, cases that differ only
+    by data: each runs ``func(out, quick, **params) -> Verdict``."""
+    for name, (title, params) in table.items():
+        @wraps(func)            # the entry's module (its fingerprint) is func's
+        def run(out, quick, params=params):
+            return func(out, quick, **params)
+        case(tier, name, title, slow)(run)
 
 
 def save_figure(fig, out, name: str) -> Path:
