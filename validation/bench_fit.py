@@ -14,7 +14,6 @@ cost is its wall time, its number of model runs and their ratio.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -22,19 +21,17 @@ import numpy as np
 import rheology as r
 from rheology.fit import FlowData, fit_flow_curves, mixture_steady_state, synthetic_table
 
-from .framework import BenchResult, benchmark
-from .report import machine_description
 from rheometer.protocols import relax
 from rheometer.relaxation_fit import POINTS, fit_relaxation, synthetic_relaxation
 
+from .framework import BenchResult, benchmark, timed
+from .report import machine_description
+
 
 def _median(fn, repeats):
-    ts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        ts.append(time.perf_counter() - t0)
-    return float(np.median(ts)), out
+    """(median wall time [s], the last result) of ``repeats`` calls."""
+    med, _, out = timed(fn, repeats)
+    return med, out
 
 
 @benchmark("rheology", "bench_fit_speed", "Fit: 5 curves x 30 points, time and model evaluations")
@@ -43,7 +40,8 @@ def fit_speed(out: Path, quick: bool) -> BenchResult:
     phis = m.phi_c + (m.phi_j - m.phi_c) * np.array([-0.6, -0.25, 0.15, 0.45, 0.75])
     data = FlowData.from_table(synthetic_table(m, phis, points=30, seed=5, artefacts=False))
     start = m.replace(phi_j=0.55, phi_c=0.42, a0=1.0, a_inf=1.1, tau_star=15.0, varphi1=5e3)
-    t_eval, _ = _median(lambda: mixture_steady_state(data.stress, data.phi, m), 20 if quick else 200)
+    t_eval, _ = _median(lambda: mixture_steady_state(data.stress, data.phi, m),
+                        20 if quick else 200)
     t_ref, _ = _median(lambda: r.steady_states_mixture_stress(data.stress, data.phi, m),
                        1 if quick else 3)
     rows, targets = [], []

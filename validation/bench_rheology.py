@@ -14,26 +14,20 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from runkit.plotting import plt
 import numpy as np
 from scipy.optimize import brentq
 
 import rheology as r
-from runkit.io import atomic_savefig
+from runkit.plotting import plt
 from rheology.local_update import NOUT, kernel_parameters, update_points, update_points_serial
 from rheology.steady import steady_residual
 
-from .framework import BenchResult, benchmark
+from .framework import BenchResult, benchmark, save_figure, timed
 from .report import machine_description
 
 
 def _median_time(fn, repeats: int, clock=time.perf_counter) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = clock()
-        fn()
-        times.append(clock() - t0)
-    return float(np.median(times))
+    return timed(fn, repeats, clock)[0]
 
 
 def scalar_flow_curve(taus, phis, m):
@@ -75,12 +69,10 @@ def flow_curve_throughput(out: Path, quick: bool) -> BenchResult:
     ax.loglog([q["points"] for q in rows], [q["points_per_s"] for q in rows], "o-", label="vectorised")
     ax.axhline(ref_rate, color="k", ls="--", label="scalar brentq loop")
     ax.axhline(1e5, color="r", ls=":", label="target 1e5 points/s")
-    ax.set_xlabel("points per call")
-    ax.set_ylabel("points / s")
+    ax.set(xlabel="points per call", ylabel="points / s")
     ax.legend()
     ax.set_title("Hermes 2016 flow curve, 10 volume fractions")
-    png = atomic_savefig(fig, out / "flow_curve_throughput.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "flow_curve_throughput.png")
     summary = (f"Machine: {machine_description()}. Scalar reference: {ref_rate:.3g} points/s "
                f"(brentq loop, {taus_ref.size * phis.size} points). Vectorised and scalar shear rates "
                f"agree to {agree:.1e} relative. Medians of repeated runs in the same process.")

@@ -18,22 +18,18 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from runkit.plotting import plt
-import numpy as np  # noqa: E402
-from scipy.integrate import solve_ivp  # noqa: E402
+import numpy as np
+from scipy.integrate import solve_ivp
 
-import rheology  # noqa: E402
-from runkit.io import atomic_savefig  # noqa: E402
-from rheometer import model  # noqa: E402
-from rheometer.protocols import flow_curve, relax, startup  # noqa: E402
-from rheometer.transient import Rheometer, Step  # noqa: E402
-
-from .framework import BenchResult, benchmark  # noqa: E402
-from .report import machine_description  # noqa: E402
-import pandas as pd
+import rheology
+from rheometer import model
 from rheometer.program import parse_program
-from rheometer.protocols import initial_state
-from runkit.io import atomic_write_csv
+from rheometer.protocols import flow_curve, initial_state, relax, startup
+from rheometer.transient import Rheometer, Step
+from runkit.plotting import plt
+
+from .framework import BenchResult, benchmark, save_figure, write_csv
+from .report import machine_description
 
 TARGET_ERR = 1e-6
 PROBLEMS = {
@@ -158,8 +154,8 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
                 rows.append(dict(problem=pname, method=mth, rtol=r, error=ei, median_s=wi,
                                  min_s=wm))
         ax.axvline(TARGET_ERR, color="0.5", ls=":", lw=1)
-        ax.set_xlabel("max error (taubar, gdot_p relative; f absolute) vs reference")
-        ax.set_ylabel(f"wall time per solve [s] (median of {repeats})")
+        ax.set(xlabel="max error (taubar, gdot_p relative; f absolute) vs reference",
+               ylabel=f"wall time per solve [s] (median of {repeats})")
         ax.set_title(f"{pname} (reference cross-check vs Radau: {cross:.1e})", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
@@ -182,8 +178,7 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
         summaries.append("; ".join(line))
     fig.suptitle("Work-precision of the 0-D model (Hermes 2016, G = 1e4 Pa, K0 = 1)", fontsize=11)
     fig.tight_layout()
-    figures.append(atomic_savefig(fig, Path(out) / "work_precision.png"))
-    plt.close(fig)
+    figures.append(save_figure(fig, out, "work_precision.png"))
     summary = (f"{machine_description()}. Same process, methods interleaved, medians of {repeats}. "
                + " | ".join(summaries))
     return BenchResult(summary=summary, rows=rows, targets=targets, figures=figures)
@@ -233,8 +228,7 @@ def speed(out: Path, quick: bool) -> BenchResult:
     ax.legend(fontsize=7)
     ax.grid(True, axis="x", alpha=0.3)
     fig.tight_layout()
-    png = atomic_savefig(fig, Path(out) / "speed.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "speed.png")
     summary = (f"{machine_description()}. Medians of {repeats} interleaved repeats after a "
                f"warm-up (numba compile excluded); every call includes input checks and the "
                f"DataFrame.")
@@ -331,7 +325,7 @@ def random_programs(out: Path, quick: bool) -> BenchResult:
                                                            if step.ramp != "const" else ""),
                              seconds=float(dt), residuals=int(nf), line=step.label))
 
-    df = pd.DataFrame(rows)
+    df = write_csv(out, "random_program_steps.csv", rows, ("seconds",))
     ok = df[df["kind"] != "FAILED"]
     t_ref = float(np.median(ref))
     t_issue = float(np.median(issue))
@@ -341,7 +335,6 @@ def random_programs(out: Path, quick: bool) -> BenchResult:
     worst = ok.nlargest(5, "seconds")
     by_kind = ok.groupby("kind")["seconds"].agg(["median", "max", "count"]).reset_index()
 
-    atomic_write_csv(Path(out) / "random_program_steps.csv", df, empty_ok=("seconds",))
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.2))
     ax1.hist(1e3 * ok["seconds"], bins=np.geomspace(max(1e3 * ok["seconds"].min(), 0.1),
                                                      1e3 * mx * 1.01, 40), color="C0")
@@ -349,8 +342,7 @@ def random_programs(out: Path, quick: bool) -> BenchResult:
     ax1.axvline(10, color="C1", ls=":", label="10 ms (median target)")
     ax1.axvline(50, color="C3", ls=":", label="50 ms (max target)")
     ax1.axvline(1e3 * t_ref, color="k", ls="--", label=f"reference step {1e3 * t_ref:.1f} ms")
-    ax1.set_xlabel("wall time per step [ms]")
-    ax1.set_ylabel("steps")
+    ax1.set(xlabel="wall time per step [ms]", ylabel="steps")
     ax1.legend(fontsize=7)
     ax2.barh(range(len(by_kind)), 1e3 * by_kind["median"], color="C0", label="median")
     ax2.barh(range(len(by_kind)), 1e3 * by_kind["max"], color="C0", alpha=0.3, label="max")
@@ -358,8 +350,7 @@ def random_programs(out: Path, quick: bool) -> BenchResult:
     ax2.set_xlabel("wall time per step [ms]")
     ax2.legend(fontsize=7)
     fig.tight_layout()
-    png = atomic_savefig(fig, Path(out) / "random_programs.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "random_programs.png")
     targets = [
         ("max time per step < 50 ms", f"{1e3 * mx:.1f} ms ({mx / t_ref:.1f} x the reference step)",
          mx < 0.05),
@@ -386,15 +377,13 @@ def random_programs(out: Path, quick: bool) -> BenchResult:
                  f"per residual here {1e6 * float((ok['seconds'] / ok['residuals']).median()):.0f}"
                  f" us (sksundae's Python callbacks; ~20 us on an idle core): that, not the "
                  f"step count, sets the median; the machine is shared, so read the ratios.")
-    table = [dict(kind=r.kind, median_ms=1e3 * r.median, max_ms=1e3 * r.max, steps=int(r.count))
+    table = [dict(kind=r.kind, median_ms=1e3 * r.median, max_ms=1e3 * r.max, steps=int(r.count),
+                  median_residuals=int(ok[ok["kind"] == r.kind]["residuals"].median()),
+                  max_residuals=int(ok[ok["kind"] == r.kind]["residuals"].max()))
              for r in by_kind.itertuples()]
-    table.append(dict(kind="ALL", median_ms=1e3 * med, max_ms=1e3 * mx, steps=len(ok)))
+    table.append(dict(kind="ALL", median_ms=1e3 * med, max_ms=1e3 * mx, steps=len(ok),
+                      median_residuals=int(ok["residuals"].median()),
+                      max_residuals=int(ok["residuals"].max())))
     table.append(dict(kind="reference step", median_ms=1e3 * t_ref, max_ms=1e3 * max(ref),
-                      steps=len(ref)))
-    for row in table:
-        sel = ok if row["kind"] in ("ALL", "reference step") else ok[ok["kind"] == row["kind"]]
-        row["median_residuals"] = (ref_res if row["kind"] == "reference step"
-                                   else int(sel["residuals"].median()))
-        row["max_residuals"] = (ref_res if row["kind"] == "reference step"
-                                else int(sel["residuals"].max()))
+                      steps=len(ref), median_residuals=ref_res, max_residuals=ref_res))
     return BenchResult(summary=summary, rows=table, targets=targets, figures=[png])

@@ -8,26 +8,16 @@ import os
 import time
 from pathlib import Path
 
+import numpy as np
+
 from runkit.plotting import plt
-import numpy as np  # noqa: E402
+from shear1d.integrate import solve, stable_time_step
+from shear1d.scenes import annular_shear_jamming, summarize
 
-from runkit.io import atomic_savefig  # noqa: E402
-from shear1d.integrate import solve, stable_time_step  # noqa: E402
-from shear1d.scenes import annular_shear_jamming, summarize  # noqa: E402
-
-from .framework import BenchResult, benchmark  # noqa: E402
-from .report import machine_description  # noqa: E402
+from .framework import BenchResult, benchmark, save_figure, timed
+from .report import machine_description
 
 FAST = 84e-3
-
-
-def _timed(fn, reps: int):
-    times, out = [], None
-    for _ in range(reps):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)), times, out
 
 
 def _warm_up():
@@ -52,7 +42,7 @@ def fig3_speed(out: Path, quick: bool) -> BenchResult:
     rows, medians, speeds = [], {}, {}
     for method in ("dae", "explicit"):
         r = reps if method == "dae" or n <= 200 else 1
-        med, times, res = _timed(lambda: solve(pb, t_end, method=method, n_out=310), r)
+        med, times, res = timed(lambda: solve(pb, t_end, method=method, n_out=310), r)
         medians[method] = med
         speeds[method] = _front_speed(res)
         rows.append(dict(method=method, cells=n, median_s=med, min_s=min(times), max_s=max(times),
@@ -100,7 +90,7 @@ def cost_vs_cells(out: Path, quick: bool) -> BenchResult:
                 continue
             reps = 3 if method == "dae" or n <= 200 else 1
             load0 = os.getloadavg()[0]
-            med, times, res = _timed(lambda: solve(pb, t_end, method=method, n_out=62), reps)
+            med, times, res = timed(lambda: solve(pb, t_end, method=method, n_out=62), reps)
             data[method][n] = med
             speed[method][n] = _front_speed(res)
             load = 0.5 * (load0 + os.getloadavg()[0])
@@ -141,9 +131,7 @@ def cost_vs_cells(out: Path, quick: bool) -> BenchResult:
         a.legend(fontsize=8)
         a.grid(alpha=0.3)
     fig.tight_layout()
-    png = Path(out) / "cost_vs_cells.png"
-    atomic_savefig(fig, png)
-    plt.close(fig)
+    png = save_figure(fig, out, "cost_vs_cells.png")
     ratios = ", ".join(f"{n}: {data['dae'][n] / data['explicit'][n]:.3f}" for n in cells)
     front = {n: speed["dae"][n] / speed["explicit"][n] for n in cells}
     n_big = cells[-1]
@@ -201,11 +189,11 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
 
     rows = []
     for rtol in ([1e-3, 1e-4, 1e-5] if quick else [1e-3, 3e-4, 1e-4, 3e-5, 1e-5]):
-        med, _, res = _timed(lambda: solve(pb, t_end, n_out=15, rtol=rtol), 1)
+        med, _, res = timed(lambda: solve(pb, t_end, n_out=15, rtol=rtol), 1)
         rows.append(dict(method="ida", setting=f"rtol {rtol:g}", dt_over_limit=None,
                          seconds=med, error=error(res), failed=False))
     for frac in ([1.0, 0.5, 0.25] if quick else [1.0, 0.5, 0.25, 0.125]):
-        med, _, res = _timed(lambda: solve(pb, t_end, method="explicit", dt=frac * lim["dt"],
+        med, _, res = timed(lambda: solve(pb, t_end, method="explicit", dt=frac * lim["dt"],
                                            n_out=15), 1)
         rows.append(dict(method="explicit", setting=f"dt {frac:g} x limit", dt_over_limit=frac,
                          seconds=med, error=error(res), failed=False))
@@ -254,9 +242,7 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
     ax[1].set(xlabel="dt [s]", ylabel="max |v - v_ref| / u_i", title="explicit step size")
     ax[1].legend(fontsize=8)
     fig.tight_layout()
-    png = Path(out) / "work_precision.png"
-    atomic_savefig(fig, png)
-    plt.close(fig)
+    png = save_figure(fig, out, "work_precision.png")
     best_exp = min((r for r in exp), key=lambda r: r["seconds"])
     return BenchResult(
         summary=f"{machine_description()}. Fast Fig. 3 case, {n} cells, 0-0.15 rad; reference: "

@@ -26,17 +26,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
+from rheology import f_jam
 from runkit.plotting import plt
-import numpy as np  # noqa: E402
+from shear1d import analysis
+from shear1d.analytic import annular_steady
+from shear1d.integrate import solve
+from shear1d.scenes import annular_shear_jamming
 
-from rheology import f_jam  # noqa: E402
-from runkit.io import atomic_write_csv  # noqa: E402
-from shear1d import analysis  # noqa: E402
-from shear1d.analytic import annular_steady  # noqa: E402
-from shear1d.integrate import solve  # noqa: E402
-from shear1d.scenes import annular_shear_jamming  # noqa: E402
-
-from .framework import Verdict, case, save_figure  # noqa: E402
+from .framework import Verdict, case, save_figure, write_csv
 
 FAST = 0.084
 #: bulk-speed level of a stopped flow (shear1d's flow_stopped event)
@@ -91,9 +90,9 @@ def fig3_after_the_front(out: Path, quick: bool) -> Verdict:
              "bob_stress_end_Pa": r["tau_end"],
              "newtonian_deviation_end_over_u": r["newtonian_deviation_end"]}
             for k, r in runs.items()]
-    atomic_write_csv(out / "after_the_front.csv", __import__("pandas").DataFrame(rows),
-                     empty_ok=["stop_rad", "restart_rad", "f_bob_over_f_jam_after_stop_min",
-                               "bob_stress_at_stop_Pa"])
+    write_csv(out, "after_the_front.csv", rows, ["stop_rad", "restart_rad",
+                                                 "f_bob_over_f_jam_after_stop_min",
+                                                 "bob_stress_at_stop_Pa"])
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.3))
     for k, r in runs.items():
         ax[0].plot(r["rot"], r["bulk"], label=k)

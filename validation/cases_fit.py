@@ -25,20 +25,20 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from runkit.plotting import plt
 import numpy as np
 
 import rheology as r
-from rheology.fit import FlowData, fit_flow_curves, recovery_errors, synthetic_table
-from runkit.io import atomic_savefig, atomic_write_csv
-
-from .framework import Verdict, case
-import pandas as pd
 from rheology.data import describe, read_flow_curves, read_relaxation_curves
-from rheology.fit import mixture_steady_state
+from rheology.fit import (FlowData, fit_flow_curves, mixture_steady_state, recovery_errors,
+                          synthetic_table)
 from rheometer.fit_cli import write_figures
 from rheometer.relaxation_fit import RelaxationCurve, fit_relaxation, synthetic_relaxation
+from runkit.plotting import plt
 
+from .framework import Verdict, case, save_figure, write_csv
+
+#: the shipped example exports
+EXAMPLES = Path(__file__).resolve().parent.parent / "rheometer" / "examples"
 #: Offsets of the synthetic volume fractions from phi_c, in units of phi_j - phi_c.
 RECOVERY_OFFSETS = np.array([-0.6, -0.25, 0.15, 0.45, 0.75])
 TOL = {"phi_j": 0.005, "phi_c": 0.005, "a0": 0.10, "a_inf": 0.10, "tau_star": 0.10,
@@ -57,11 +57,13 @@ def perturbed_start(m):
 
 
 def recover(name: str, points: int = 30, seed: int = 1, profile: bool = True):
+    """Fit the synthetic curves of set ``name`` from :func:`perturbed_start`: (material, its
+    volume fractions, the data, the fit, the recovery errors)."""
     m = r.get_material(name)
     phis = recovery_phis(m)
     data = FlowData.from_table(synthetic_table(m, phis, points=points, seed=seed))
     res = fit_flow_curves(data, perturbed_start(m), profile=profile)
-    return m, phis, res, recovery_errors(res, m, phis)
+    return m, phis, data, res, recovery_errors(res, m, phis)
 
 
 @case("rheology", "fit_recovery_six_sets",
@@ -72,7 +74,7 @@ def fit_recovery(out: Path, quick: bool) -> Verdict:
     rows, lines, ok_all = [], [], True
     fig, axes = plt.subplots(2, 3, figsize=(13, 7.5))
     for ax, name in zip(axes.flat, names):
-        m, phis, res, e = recover(name, points=20 if quick else 30)
+        m, phis, d, res, e = recover(name, points=20 if quick else 30)
         flagged = {p.name for p in res.parameters if p.unidentifiable}
         verdicts = {}
         for k, tol in TOL.items():
@@ -86,23 +88,18 @@ def fit_recovery(out: Path, quick: bool) -> Verdict:
                      "passed": ok})
         lines.append(f"{name}: " + ", ".join(f"{k} {e[k]:.2g} ({verdicts[k]})" for k in TOL)
                      + f"; {res.seconds:.2f} s, {res.n_evaluations} evaluations")
-        d = FlowData.from_table(synthetic_table(m, phis, points=20 if quick else 30, seed=1))
         for c in range(d.n_curves):
             s, v, _ = d.sorted_curve(c)
             ax.loglog(s, v, "o", ms=3)
             grid = np.logspace(np.log10(s.min()), np.log10(s.max()), 100)
-
             ax.loglog(grid, mixture_steady_state(grid, phis[c], res.material)["viscosity"], "k-",
                       lw=0.8)
         ax.set_title(f"{name}: {'pass' if ok else 'FAIL'}", fontsize=9)
-        ax.set_xlabel("shear stress [Pa]")
-        ax.set_ylabel("viscosity [Pa s]")
+        ax.set(xlabel="shear stress [Pa]", ylabel="viscosity [Pa s]")
     fig.tight_layout()
-    png = atomic_savefig(fig, out / "recovery.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "recovery.png")
 
-    atomic_write_csv(out / "recovery.csv", pd.DataFrame(rows),
-                     empty_ok=("err_gdot_dst",))
+    write_csv(out, "recovery.csv", rows, ("err_gdot_dst",))
     return Verdict(
         criterion="per set: |phi_j|, |phi_c| errors <= 0.005; a0, a_inf, tau* and gdot_DST at the "
                   "data's DST volume fractions within 10% -- or, where a parameter misses, the "
@@ -139,8 +136,7 @@ def fit_calibration(out: Path, quick: bool) -> Verdict:
     ax.set_ylabel("coverage")
     ax.set_title(f"guy2015_b, {n} seeds (grey: flagged unidentifiable)")
     ax.legend(fontsize=8)
-    png = atomic_savefig(fig, out / "calibration.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "calibration.png")
     worst = min(cover[k] for k in identifiable) if identifiable else float("nan")
     need = 0.6 if quick else 0.85          # 6 seeds (quick) only check the machinery
     return Verdict(
@@ -186,8 +182,7 @@ def fit_table1a(out: Path, quick: bool) -> Verdict:
 @case("rheology", "fit_example_exports",
       "Fit: the shipped example exports (RheoCompass layout) give back hermes2016")
 def fit_examples(out: Path, quick: bool) -> Verdict:
-    folder = Path(__file__).resolve().parent.parent / "rheometer" / "examples"
-    files = sorted(folder.glob("rheocompass_phi_*.csv"))
+    files = sorted(EXAMPLES.glob("rheocompass_phi_*.csv"))
     phis = [float(f.stem.split("_")[-1]) for f in files]
     table = read_flow_curves(files, phi=phis)
     res = fit_flow_curves(FlowData.from_table(table), "hermes2016", profile=not quick)
@@ -210,9 +205,8 @@ def fit_examples(out: Path, quick: bool) -> Verdict:
 @case("rheology", "fit_instrument_exports",
       "Fit: the shipped TRIOS text, TRIOS CSV and rSpace CSV examples give back hermes2016")
 def fit_instrument_exports(out: Path, quick: bool) -> Verdict:
-    folder = Path(__file__).resolve().parent.parent / "rheometer" / "examples"
-    files = [folder / n for n in ("trios_phi_0.42.txt", "trios_phi_0.45.csv",
-                                  "rspace_phi_0.48.csv")]
+    files = [EXAMPLES / n for n in ("trios_phi_0.42.txt", "trios_phi_0.45.csv",
+                                    "rspace_phi_0.48.csv")]
     phis = [0.42, 0.45, 0.48]
     table = read_flow_curves(files, phi=phis)
     res = fit_flow_curves(FlowData.from_table(table), "hermes2016", profile=False)
@@ -279,10 +273,8 @@ def fit_relaxation_recovery(out: Path, quick: bool) -> Verdict:
         ax.loglog(c.time - res.t0[0], res.model_stress[0] / c.stress0, "k-", lw=0.6)
     ax.set(xlabel="time after cessation [s]", ylabel="taubar / taubar0",
            title="first curve of each setting: data (dots), fit (lines)")
-    png = atomic_savefig(fig, out / "relaxation_recovery.png")
-    plt.close(fig)
-    df = pd.DataFrame(rows)
-    atomic_write_csv(out / "relaxation_recovery.csv", df, empty_ok=("record_eta_over_G",))
+    png = save_figure(fig, out, "relaxation_recovery.png")
+    df = write_csv(out, "relaxation_recovery.csv", rows, ("record_eta_over_G",))
     full = df[df["record_eta_over_G"].isna()]
     short = df[df["record_eta_over_G"].notna()].iloc[0]
     return Verdict(
@@ -323,9 +315,7 @@ def fit_relaxation_calibration(out: Path, quick: bool) -> Verdict:
 @case("rheometer", "fit_relaxation_example",
       "Fit: the shipped TRIOS stress-relaxation example (torque only) gives back G and K0")
 def fit_relaxation_example(out: Path, quick: bool) -> Verdict:
-    f = Path(__file__).resolve().parent.parent / "rheometer" / "examples" / \
-        "trios_relaxation_phi_0.52.txt"
-    t = read_relaxation_curves([f])
+    t = read_relaxation_curves([EXAMPLES / "trios_relaxation_phi_0.52.txt"])
     curves = [RelaxationCurve(str(d["interval"].iloc[0]), d["time_s"].to_numpy(),
                               d["shear_stress_Pa"].to_numpy(), 0.52, tau0)
               for (_, d), tau0 in zip(t.groupby("curve"), (100.0, 30.0))]

@@ -15,16 +15,16 @@ import math
 import time
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
+
+from mpm2d.run import run_scene
+from mpm2d.scenes import impact
+from rheology import get_material
+from runkit.io import atomic_write_bytes, atomic_write_json
 from runkit.plotting import plt
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
 
-from mpm2d.run import run_scene  # noqa: E402
-from mpm2d.scenes import impact  # noqa: E402
-from rheology import get_material  # noqa: E402
-from runkit.io import atomic_savefig, atomic_write_csv, atomic_write_json  # noqa: E402
-
-from .framework import Verdict, case  # noqa: E402
+from .framework import Verdict, case, save_figure, table_cases, write_csv
 
 #: the test suite's sizes (quick): a 3 cm bed at 2 mm, 4 ms
 QUICK = dict(radius=0.03, depth=0.03, cells_per_mm=0.5, t_end=0.004)
@@ -38,15 +38,6 @@ T_GRID = 0.01
 #: the steady late sinking: the velocity change over the last 20% of the run, at most this
 #: fraction of the late speed
 STEADY_CHANGE = 0.10
-
-
-def _load(folder: Path) -> dict:
-    hist = pd.read_csv(folder / "history.csv")
-    return {"folder": folder, "summary": json.loads((folder / "summary.json").read_text()),
-            "history": hist, "rod": pd.read_csv(folder / "rod.csv"),
-            "profile": pd.read_csv(folder / "displacement_vs_depth.csv"),
-            "front": pd.read_csv(folder / "front.csv"),
-            "manifest": json.loads((folder / "manifest.json").read_text())}
 
 
 def canonical(params: dict) -> dict:
@@ -82,12 +73,16 @@ def run_cached(out: Path, params: dict) -> dict:
         resume = (folder / "checkpoint.npz").exists() and same
         run_scene(impact.setup, folder, dict(params), resume=resume, progress=False, vtk=False,
                   log=lambda m: None, scene_name="impact")
-    res = _load(folder)
-    res["wall_s"] = 0.0 if reused else time.perf_counter() - t0
-    res["points"] = _points(folder)
-    res["steps"] = int(res["manifest"].get("steps", 0))
-    res["point_steps"] = float(res["points"]) * res["steps"]
-    return res
+    man = json.loads((folder / "manifest.json").read_text())
+    with np.load(folder / man["frames"][-1]["npz"]) as d:
+        points = int(sum(d[k].shape[0] for k in d.files if k.endswith(".id")))
+    steps = int(man.get("steps", 0))
+    return {"folder": folder, "summary": json.loads((folder / "summary.json").read_text()),
+            "manifest": man, "rod": pd.read_csv(folder / "rod.csv"),
+            "profile": pd.read_csv(folder / "displacement_vs_depth.csv"),
+            "front": pd.read_csv(folder / "front.csv"),
+            "wall_s": 0.0 if reused else time.perf_counter() - t0, "points": points,
+            "steps": steps, "point_steps": float(points) * steps}
 
 
 def _same(old, want) -> bool:
@@ -102,14 +97,12 @@ def _same(old, want) -> bool:
         return False
 
 
-def _points(folder: Path) -> int:
-    frames = json.loads((folder / "manifest.json").read_text())["frames"]
-    with np.load(folder / frames[-1]["npz"]) as d:
-        return int(sum(d[k].shape[0] for k in d.files if k.endswith(".id")))
-
-
 def _base(quick: bool, **extra) -> dict:
     return {**(QUICK if quick else {}), **extra}
+
+
+def _nan(x):
+    return np.nan if x is None else x
 
 
 def _fmt(x, spec=".3g") -> str:
@@ -127,13 +120,9 @@ def _plug_case(out: Path, quick: bool, size: str) -> Verdict:
     s = r["summary"]
     ok = (s["plug_r2"] is not None and s["plug_r2"] >= 0.95
           and s.get("front_r2_penetration") is not None and s["front_r2_penetration"] >= 0.95)
-    figs = []
-    for png in ("displacement.png", "displacement_vs_depth.png", "rod.png", "front.png"):
-        src = r["folder"] / png
-        if src.exists():
-            dst = out / png
-            dst.write_bytes(src.read_bytes())
-            figs.append(dst)
+    figs = [atomic_write_bytes(out / png, (r["folder"] / png).read_bytes())
+            for png in ("displacement.png", "displacement_vs_depth.png", "rod.png", "front.png")
+            if (r["folder"] / png).exists()]
     return Verdict(
         criterion="|dz| below the rod linear over the plug (R^2 >= 0.95, plug = surface to "
                   "|dz| < 5% of the rod's displacement) and the front (u_z = v_rod/2) growing at "
@@ -153,16 +142,11 @@ def _plug_case(out: Path, quick: bool, size: str) -> Verdict:
         passed=bool(ok), figures=figs, details=json.dumps(s, indent=1))
 
 
-@case("mpm2d", "impact_plug_default", "mpm2d impact: Fig. 4 at 2 mm (the default run): plug "
-      "linearity, front speed, k", slow=True)
-def plug_default(out: Path, quick: bool) -> Verdict:
-    return _plug_case(out, quick, "default")
-
-
-@case("mpm2d", "impact_fig4_paper", "mpm2d impact: Fig. 4 on the paper's 100 x 120 grid at 1 mm, "
-      "60 ms", slow=True)
-def fig4_paper(out: Path, quick: bool) -> Verdict:
-    return _plug_case(out, quick, "fig4")
+table_cases("mpm2d", _plug_case, {
+    "impact_plug_default": ("mpm2d impact: Fig. 4 at 2 mm (the default run): plug linearity, "
+                            "front speed, k", dict(size="default")),
+    "impact_fig4_paper": ("mpm2d impact: Fig. 4 on the paper's 100 x 120 grid at 1 mm, 60 ms",
+                          dict(size="fig4"))}, slow=True)
 
 
 # ---------------------------------------------------------------- speeds (Fig. 5)
@@ -171,22 +155,15 @@ def _speeds_case(out: Path, quick: bool, size: str) -> Verdict:
     # default run gives the 60 ms numbers of v0 = 1); Fig. 5 to its full 60 ms
     extra = {} if quick or size != "default" else {"t_end": T_GRID}
     runs = [run_cached(out, _base(quick, size=size, v0=v, **extra)) for v in SPEEDS]
-    paths = []
-    rows = []
-    for v, r in zip(SPEEDS, runs):
-        s = r["summary"]
-        rows.append({k: (np.nan if s.get(k) is None else s[k]) for k in impact.SPEED_COLUMNS}
-                    | {"wall_s": r["wall_s"], "point_steps": r["point_steps"]})
-    df = pd.DataFrame(rows)
-    atomic_write_csv(out / "speeds.csv", df, empty_ok=impact.SPEED_COLUMNS[2:])
+    df = write_csv(out, "speeds.csv",
+                   [{k: _nan(r["summary"].get(k)) for k in impact.SPEED_COLUMNS}
+                    | {"wall_s": r["wall_s"], "point_steps": r["point_steps"]} for r in runs],
+                   impact.SPEED_COLUMNS[2:])
     scal = impact.peak_scaling(df["v0_m_per_s"], df["peak_deceleration_m_per_s2"])
     atomic_write_json(out / "scaling.json", scal, nullable=("loglog_slope", "loglog_r2"))
-    rod = pd.concat([r["rod"] for r in runs])
-    atomic_write_csv(out / "rod.csv", rod, empty_ok=("v_m_per_s", "a_m_per_s2"))
-    raws = []
-    for r in runs:
-        p = r["folder"] / "rod_raw.csv"
-        raws.append(pd.read_csv(p) if p.exists() else None)
+    write_csv(out, "rod.csv", pd.concat([r["rod"] for r in runs]), ("v_m_per_s", "a_m_per_s2"))
+    raws = [pd.read_csv(r["folder"] / "rod_raw.csv") if (r["folder"] / "rod_raw.csv").exists()
+            else None for r in runs]
     fig = impact.rod_figure([(v, r["rod"], raw) for v, r, raw in zip(SPEEDS, runs, raws)],
                             out / "rod.png")
     late = np.abs(df["late_velocity_m_per_s"].to_numpy())
@@ -219,20 +196,15 @@ def _speeds_case(out: Path, quick: bool, size: str) -> Verdict:
                  + f"; log-log slope {_fmt(scal['loglog_slope'])} (R^2 {_fmt(scal['loglog_r2'])}), "
                  f"monotone {scal['monotone']}; late-velocity spread {spread:.1%}; "
                  + "; ".join(_wall(r) for r in runs),
-        passed=bool(ok), figures=[Path(fig)] + [Path(p) for p in paths],
+        passed=bool(ok), figures=[Path(fig)],
         details=df.to_string())
 
 
-@case("mpm2d", "impact_speeds", "mpm2d impact: rod deceleration against v0 (0.5, 1, 2 m/s) on "
-      f"the Fig. 4 scene at 2 mm, {T_GRID * 1e3:.0f} ms", slow=True)
-def speeds(out: Path, quick: bool) -> Verdict:
-    return _speeds_case(out, quick, "default")
-
-
-@case("mpm2d", "impact_fig5_paper", "mpm2d impact: Fig. 5, large container 150 x 225 at 1 mm, "
-      "eta0 = 1 mPa s, v0 = 0.5, 1, 2 m/s", slow=True)
-def fig5_paper(out: Path, quick: bool) -> Verdict:
-    return _speeds_case(out, quick, "fig5")
+table_cases("mpm2d", _speeds_case, {
+    "impact_speeds": ("mpm2d impact: rod deceleration against v0 (0.5, 1, 2 m/s) on the Fig. 4 "
+                      f"scene at 2 mm, {T_GRID * 1e3:.0f} ms", dict(size="default")),
+    "impact_fig5_paper": ("mpm2d impact: Fig. 5, large container 150 x 225 at 1 mm, eta0 = 1 "
+                          "mPa s, v0 = 0.5, 1, 2 m/s", dict(size="fig5"))}, slow=True)
 
 
 # ---------------------------------------------------------------- grid convergence
@@ -241,10 +213,7 @@ def fig5_paper(out: Path, quick: bool) -> Verdict:
 def grid_convergence(out: Path, quick: bool) -> Verdict:
     t_end = QUICK["t_end"] if quick else T_GRID
     base = dict(QUICK, t_end=t_end) if quick else dict(t_end=t_end)
-    runs = {}
-    for cpm in (0.5, 1.0):
-        runs[cpm] = run_cached(out, dict(base, cells_per_mm=cpm))
-    c, f = runs[0.5], runs[1.0]
+    c, f = (run_cached(out, dict(base, cells_per_mm=cpm)) for cpm in (0.5, 1.0))
     pc, pf = c["profile"], f["profile"]
     dmax = min(pc["depth_m"].max(), pf["depth_m"].max())
     grid = pf["depth_m"][pf["depth_m"] <= dmax].to_numpy()
@@ -256,27 +225,22 @@ def grid_convergence(out: Path, quick: bool) -> Verdict:
     pk_c, pk_f = (r["summary"]["peak_deceleration_m_per_s2"] for r in (c, f))
     pk_diff = abs(pk_c - pk_f) / pk_f
     pen_diff = abs(c["summary"]["final_rod_depth_m"] - ref) / ref
-    table = pd.DataFrame([{"h_m": r["summary"]["h_m"],
-                           "peak_deceleration_m_per_s2": r["summary"]["peak_deceleration_m_per_s2"],
-                           "final_rod_depth_m": r["summary"]["final_rod_depth_m"],
-                           "plug_r2": r["summary"]["plug_r2"], "k": r["summary"]["k"],
-                           "point_steps": r["point_steps"], "wall_s": r["wall_s"]}
-                          for r in (c, f)])
-    atomic_write_csv(out / "grid.csv", table, empty_ok=("plug_r2", "k"))
+    table = write_csv(out, "grid.csv", [
+        {**{k: r["summary"][k] for k in ("h_m", "peak_deceleration_m_per_s2",
+                                         "final_rod_depth_m", "plug_r2", "k")},
+         "point_steps": r["point_steps"], "wall_s": r["wall_s"]} for r in (c, f)],
+        ("plug_r2", "k"))
     fig, axs = plt.subplots(1, 2, figsize=(12, 4.5))
     for r, lab in ((c, "h = 2 mm"), (f, "h = 1 mm")):
         axs[0].plot(r["profile"]["depth_m"] * 100, r["profile"]["displacement_m"] * 100, ".-",
                     ms=3, label=lab)
         axs[1].plot(r["rod"]["time_s"] * 1e3, r["rod"]["a_m_per_s2"], label=lab)
-    axs[0].set_xlabel("initial depth [cm]")
-    axs[0].set_ylabel("|dz| below the rod [cm]")
-    axs[1].set_xlabel("t after impact [ms]")
-    axs[1].set_ylabel("a from z [m/s^2]")
+    axs[0].set(xlabel="initial depth [cm]", ylabel="|dz| below the rod [cm]")
+    axs[1].set(xlabel="t after impact [ms]", ylabel="a from z [m/s^2]")
     for ax in axs:
         ax.legend()
     fig.suptitle(f"impact grid convergence at {t_end * 1e3:.0f} ms", fontsize=10)
-    png = atomic_savefig(fig, out / "grid_convergence.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "grid_convergence.png")
     ok = prof_diff <= 0.15 and pk_diff <= 0.25
     return Verdict(
         criterion=f"2 mm against 1 mm at {t_end * 1e3:.0f} ms: max |dz| profile difference <= 15% "
@@ -311,11 +275,9 @@ def compare_runs(ref: dict, other: dict, labels, path: Path) -> dict:
     for ax, xl, yl in zip(axs, ("t after impact [ms]", "initial depth [cm]",
                                 "t after impact [ms]"),
                           ("rod face z [mm]", "|dz| below the rod [cm]", "front depth [mm]")):
-        ax.set_xlabel(xl)
-        ax.set_ylabel(yl)
+        ax.set(xlabel=xl, ylabel=yl)
         ax.legend()
-    png = atomic_savefig(fig, path)
-    plt.close(fig)
+    png = save_figure(fig, path.parent, path.name)
     return {"rod_z": float(np.max(np.abs(ref["rod"]["z_m"].to_numpy() - z_o)) / depth),
             "profile": float(np.max(np.abs(u_o - pr["displacement_m"])) / depth),
             "peak": pk, "peak_diff": abs(pk[1] - pk[0]) / pk[0], "ref_m": depth, "figure": png}

@@ -3,49 +3,34 @@
 Every case runs at h = 1 mm (the paper's grid) for each combination of the law's rules
 (``rules``: ``table8``, the published Table 8 update, or ``mpm_3d``, the author's implementation)
 and the scene's layout (``layout``: ``default``, our reading of the paper, or ``mpm_3d``, the
-author's scene files; mpm2d.scenes.intruder):
+author's scene files; mpm2d.scenes.intruder). Fig. 6 (phi0 = 0.47, v0 = 0.175 m/s, 20 ms): does
+the bed jam (a point's f reaches f_jam), when, and the u_z fields. Fig. 7 (phi0 0.46-0.50 x v0
+0.2, 0.5 m/s, one ``mpm2d sweep`` on Dask per combination): a row per case (the ratio null with
+the fit's reason where a front cannot be fitted); it passes for a combination whose ten cases
+complete, each bed jammed (a bed that does not jam has no plug: its fronts are the rod's near
+field) with k_l/k_t in RATIO_RANGE. Convergence (h = 1 and 0.5 mm) and modes (locked against
+two-phase) on one case (phi0 = 0.47, v0 = 0.5 m/s, 4 ms): k_l and k_t within 25%.
 
-- ``mpm2d_intruder_fig6``: phi0 = 0.47, v0 = 0.175 m/s, 20 ms (Fig. 6(a)-(e), where the paper
-  shows a plug): per combination, whether the bed jams (a point's f reaches f_jam, phi_m(f_jam) =
-  phi0), when, and the largest f/f_jam, with the u_z fields at 6.2, 13.2 and 20 ms; passes for a
-  combination whose bed jams within the 20 ms, if one does;
-- ``mpm2d_intruder_fig7``: the ten cases of Fig. 7 (phi0 0.46-0.50 x v0 0.2, 0.5 m/s), one
-  ``mpm2d sweep`` (Dask) per combination with its ``fronts.csv``, and one k_l-k_t scatter of all
-  four with Han et al.'s k_l = 2 k_t and the single-onset-strain curves; a row per case (the
-  ratio null with the fit's reason where a front cannot be fitted); passes for a combination
-  that reproduces the paper: all ten cases complete, each bed jammed (a bed that does not jam
-  has no plug: its fronts are the rod's near field) with k_l/k_t in [1.5, 2.5], and otherwise
-  fails, stating the measured ratios;
-- ``mpm2d_intruder_convergence``: one case (phi0 = 0.47, v0 = 0.5 m/s, 4 ms, default layout) at
-  h = 1 mm and 0.5 mm: k_l and k_t within 25% of each other;
-- ``mpm2d_intruder_modes``: the locked mixture against two-phase on that case (default layout):
-  k_l and k_t within 25%.
+A single onset strain (the reference curves of the Fig. 7 scatter,
+mpm2d.scenes.intruder.onset_strain_k_l). Suppose an element jams once the equivalent shear strain
+it has taken, gamma = int gdot dt with gdot = sqrt(2 D':D') (the law's shear rate, with taubar =
+sqrt(s:s/2)), reaches one value gamma_c whatever the flow, and both fronts are steady, running into
+material at rest with the plug behind them moving with the rod at v0. Beside the tip (transverse
+front, speed v_ft) an element is sheared simply, u_z going from 0 to -v0 across the front: gamma =
+v0/v_ft = 1/k_t. Below the tip (longitudinal front, speed v_fl) an element on the axis is
+compressed along z isochorically, D = D_zz diag(-1, 1) (planar) or diag(-1/2, -1/2, 1)
+(axisymmetric), so gdot = c |D_zz| with c = 2 (planar) or sqrt(3) (axisymmetric); it enters the
+front at v_fl and leaves at v_fl - v0, so int |D_zz| dt = ln(v_fl/(v_fl - v0)) = ln((k_l + 1)/k_l).
+One onset strain for both:
 
-The single-onset-strain estimate (the reference curves of the Fig. 7 scatter,
-mpm2d.scenes.intruder.onset_strain_k_l). Suppose a material element jams once the equivalent shear
-strain it has taken, gamma = int gdot dt with gdot = sqrt(2 D':D') (the law's shear rate, with
-taubar = sqrt(s:s/2)), reaches one critical value gamma_c, whatever the flow, and that both fronts
-are steady and run into material at rest, behind them the plug moving with the rod at v0.
-Transverse front (beside the tip, speed v_ft outward): an element ahead of it is sheared simply,
-u_z going from 0 to -v0 across the front while it does not move radially; in the front's frame
-it crosses at speed v_ft, so gamma = int |du_z/dr| dr / v_ft = v0/v_ft = 1/k_t. Longitudinal
-front (below the tip, speed v_fl downward): on the axis an element is compressed along z, and
-isochorically (undrained) it extends across it: D = D_zz diag(-1, 1) (planar) or
-diag(-1/2, -1/2, 1) (axisymmetric, the hoop strain rate equal to the radial one), so
-gdot = c |D_zz| with c = 2 (planar) or sqrt(3) (axisymmetric). In the front's frame the element
-enters at v_fl and leaves at v_fl - v0 (moving with the plug), so along its path
-int |D_zz| dt = int |du_z/dz| dz / |u_z - v_fl| = ln(v_fl/(v_fl - v0)) = ln((k_l + 1)/k_l).
-One onset strain for both: c ln(1 + 1/k_l) = 1/k_t, i.e.
+    c ln(1 + 1/k_l) = 1/k_t,   k_l = 1 / (exp(1/(c k_t)) - 1),   c k_t - 1/2 < k_l < c k_t
 
-    k_l = 1 / (exp(1/(c k_t)) - 1),   c k_t - 1/2 < k_l < c k_t,
-
-(from x/(e^x - 1) bounds: 1 - x/2 < x/(e^x - 1) < 1 for x = 1/(c k_t) > 0). To first order in the
-strain at the front, with the element's strain read as its velocity change over the speed at
-which it meets the front (v0/v_fl), (k_l + 1)/k_t = c: 2 in planar and sqrt(3) = 1.73 in
-axisymmetric flow; the path integral above gives (k_l + 1/2)/k_t -> c for k_t >> 1. Either way a
-single onset strain gives k_l/k_t < c, below Han et al.'s 2 in axisymmetry for every k_t
-(sqrt(3) only as k_t -> infinity); k_l/k_t ~ 2 needs jamming to need more strain along the axis
-(compression) than across it (shear), or fronts that are not this steady pair.
+(x/(e^x - 1) lies between 1 - x/2 and 1 for x = 1/(c k_t) > 0). To first order in the strain at the
+front (the element's strain read as v0/v_fl), (k_l + 1)/k_t = c: 2 in planar and sqrt(3) = 1.73 in
+axisymmetric flow; the path integral gives (k_l + 1/2)/k_t -> c for k_t >> 1. Either way a single
+onset strain gives k_l/k_t < c, below Han et al.'s 2 in axisymmetry for every k_t (sqrt(3) only as
+k_t -> infinity); k_l/k_t ~ 2 needs jamming to need more strain along the axis (compression) than
+across it (shear), or fronts that are not this steady pair.
 """
 
 from __future__ import annotations
@@ -58,13 +43,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from mpm2d.run import run_scene
 from mpm2d.scenes import get_setup
 from mpm2d.scenes.intruder import draw_uz, event_fields, reference_lines, uz_norm
-from runkit.io import atomic_savefig, atomic_write_csv
+from mpm2d.sweep import run_sweep
 from runkit.plotting import plt
 
-from .framework import Verdict, case
+from .cases_mpm2d import run_quiet
+from .framework import Verdict, case, save_figure, table_cases, write_csv
 
 #: the (rules, layout) combinations, in the order they are reported
 COMBINATIONS = (("table8", "default"), ("table8", "mpm_3d"), ("mpm_3d", "default"),
@@ -88,8 +73,6 @@ def _opt(x):
 
 def _sweep(out: Path, grid: dict) -> tuple:
     """One ``mpm2d sweep intruder`` (Dask, WORKERS workers): (table, wall [s])."""
-    from mpm2d.sweep import run_sweep
-
     t0 = time.perf_counter()
     table = run_sweep("intruder", grid, out, workers=WORKERS, progress=False, quiet=True)
     return table, time.perf_counter() - t0
@@ -155,8 +138,7 @@ def fig6_verdict(folders: dict, out: Path) -> Verdict:
     fig.colorbar(im, ax=axs, label="u_z [m/s] (black: u_z = -v0/2)", shrink=0.5)
     fig.suptitle("Fig. 6 at h = 1 mm: phi0 0.47, v0 0.175 m/s; a row per rules/layout",
                  fontsize=10)
-    png = atomic_savefig(fig, out / "intruder_fig6_uz.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "intruder_fig6_uz.png")
     ok = any(r["jammed"] for r in rows)
     return Verdict("the bed jams within 20 ms (the paper's plug) for some combination of rules "
                    "and layout", "; ".join(parts), ok, [png], rows=rows)
@@ -203,11 +185,11 @@ def fig7_verdict(out: Path, walls: dict | None = None) -> Verdict:
                      f"{sum(r['jammed'] for r in mine)} jammed; k_l/k_t (phi0/v0) {listed}")
     figs = []
     if rows:
-        df = pd.DataFrame([{k: (np.nan if v is None else v) for k, v in r.items()
-                            if not k.endswith("_note")} for r in rows])
-        atomic_write_csv(out / "fronts_all.csv", df,
-                         empty_ok=("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal",
-                                   "r2_transverse", "t_jam_ms", "max_f_over_f_jam"))
+        df = write_csv(out, "fronts_all.csv",
+                       [{k: (np.nan if v is None else v) for k, v in r.items()
+                         if not k.endswith("_note")} for r in rows],
+                       ("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal", "r2_transverse",
+                        "t_jam_ms", "max_f_over_f_jam"))
         figs.append(_scatter(df, out / "intruder_fig7_all.png"))
         jam = df[df["jammed"]]["k_l_over_k_t"].dropna()
         if len(jam):
@@ -256,21 +238,17 @@ def _scatter(df: pd.DataFrame, path: Path) -> Path:
         ax.fill_between(kt, RATIO_RANGE[0] * kt, RATIO_RANGE[1] * kt, color="0.92", zorder=0,
                         label=f"k_l/k_t in [{RATIO_RANGE[0]}, {RATIO_RANGE[1]}]")
         reference_lines(ax, top)
-    ax.set_xlabel("k_t = v_ft/v0")
-    ax.set_ylabel("k_l = v_fl/v0 - 1")
+    ax.set(xlabel="k_t = v_ft/v0", ylabel="k_l = v_fl/v0 - 1")
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=0)
     ax.set_title(f"Fig. 7 at h = 1 mm (phi0 0.46-0.50, v0 0.2, 0.5 m/s): {len(ok)} of {n} "
                  "cases with both fronts fitted", fontsize=9)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    path = atomic_savefig(fig, path)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path.parent, path.name)
 
 
 def _run(out: Path, **params) -> dict:
-    res = run_scene(get_setup("intruder"), out, params, progress=False, vtk=False,
-                    log=lambda m: None)
+    res = run_quiet(get_setup("intruder"), out, **params)
     summary = json.loads((Path(out) / "summary.json").read_text())
     summary["steps"] = int(res["scene"].sim.step_count)
     summary["points"] = int(sum(len(s) for s in res["scene"].sim.sets))
@@ -287,9 +265,8 @@ def _compare(out: Path, variants: dict, tol: float, title: str, png: str):
                      "r2_longitudinal": _num(s["r2_longitudinal"]),
                      "r2_transverse": _num(s["r2_transverse"]), "steps": s["steps"],
                      "points": s["points"], "wall_s": time.perf_counter() - t0})
-    df = pd.DataFrame(rows)
-    atomic_write_csv(out / "comparison.csv", df, empty_ok=("k_l", "k_t", "k_l_over_k_t",
-                                                           "r2_longitudinal", "r2_transverse"))
+    df = write_csv(out, "comparison.csv", rows, ("k_l", "k_t", "k_l_over_k_t",
+                                                  "r2_longitudinal", "r2_transverse"))
     a, b = df.iloc[0], df.iloc[1]
     dl = abs(b["k_l"] - a["k_l"]) / abs(a["k_l"])
     dt = abs(b["k_t"] - a["k_t"]) / abs(a["k_t"])
@@ -299,12 +276,10 @@ def _compare(out: Path, variants: dict, tol: float, title: str, png: str):
         t = f["time_s"] * 1e3
         ax.plot(t, f["longitudinal_m"] * 1e3, c + "-", label=f"{name}: longitudinal")
         ax.plot(t, f["transverse_m"] * 1e3, c + "--", label=f"{name}: transverse")
-    ax.set_xlabel("t [ms]")
-    ax.set_ylabel("front position [mm]")
+    ax.set(xlabel="t [ms]", ylabel="front position [mm]")
     ax.set_title(f"{title}: k_l differs {100 * dl:.1f}%, k_t {100 * dt:.1f}%", fontsize=9)
     ax.legend(fontsize=7)
-    fig_path = atomic_savefig(fig, out / png)
-    plt.close(fig)
+    fig_path = save_figure(fig, out, png)
     measured = "; ".join(f"{r.variant}: k_l {r.k_l:.3g} k_t {r.k_t:.3g} ratio "
                          f"{r.k_l_over_k_t:.3g} ({r.wall_s:.0f} s)" for r in df.itertuples())
     measured += f"; relative differences k_l {dl:.3f}, k_t {dt:.3f}"
@@ -312,15 +287,12 @@ def _compare(out: Path, variants: dict, tol: float, title: str, png: str):
     return Verdict(f"k_l and k_t of the two within {100 * tol:.0f}%", measured, ok, [fig_path])
 
 
-@case("mpm2d", "mpm2d_intruder_convergence", "mpm2d: intruder fronts at h = 1 mm and 0.5 mm",
-      slow=True)
-def intruder_convergence(out: Path, quick: bool) -> Verdict:
-    variants = {"h_1mm": dict(REDUCED), "h_0.5mm": {**REDUCED, "cells_per_mm": 2.0}}
-    return _compare(out, variants, 0.25, "grid convergence", "intruder_convergence.png")
-
-
-@case("mpm2d", "mpm2d_intruder_modes", "mpm2d: intruder, locked mixture vs two-phase",
-      slow=True)
-def intruder_modes(out: Path, quick: bool) -> Verdict:
-    variants = {"locked": dict(REDUCED), "two_phase": {**REDUCED, "mode": "two-phase"}}
-    return _compare(out, variants, 0.25, "locked mixture vs two-phase", "intruder_modes.png")
+table_cases("mpm2d", lambda out, quick, **kw: _compare(out, tol=0.25, **kw), {
+    "mpm2d_intruder_convergence": (
+        "mpm2d: intruder fronts at h = 1 mm and 0.5 mm",
+        dict(variants={"h_1mm": dict(REDUCED), "h_0.5mm": {**REDUCED, "cells_per_mm": 2.0}},
+             title="grid convergence", png="intruder_convergence.png")),
+    "mpm2d_intruder_modes": (
+        "mpm2d: intruder, locked mixture vs two-phase",
+        dict(variants={"locked": dict(REDUCED), "two_phase": {**REDUCED, "mode": "two-phase"}},
+             title="locked mixture vs two-phase", png="intruder_modes.png"))}, slow=True)

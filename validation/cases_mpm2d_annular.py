@@ -10,18 +10,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+import pandas as pd
+
+from mpm2d.analytic import observed_orders
+from mpm2d.scenes import annular
 from runkit.plotting import plt
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from mpm2d.analytic import observed_orders  # noqa: E402
-from mpm2d.run import run_scene  # noqa: E402
-from mpm2d.scenes import annular  # noqa: E402
-from runkit.io import atomic_savefig, atomic_write_csv  # noqa: E402
-
-from .framework import NO_COARSER, Verdict, case  # noqa: E402
 from shear1d.integrate import solve
 from shear1d.scenes import annular_shear_jamming, summarize
+
+from .cases_mpm2d import run_quiet
+from .framework import NO_COARSER, Verdict, case, save_figure, slope_plot, write_csv
 
 #: the paper's grid mapped onto the gap: 24 cells of 23.5/24 mm (see mpm2d.scenes.annular)
 PAPER_CELLS = 24
@@ -34,19 +33,14 @@ def swirl_newtonian(out: Path, quick: bool) -> Verdict:
     df = pd.DataFrame([annular.newtonian_check(n) for n in cells])
     orders = observed_orders(df["h_m"].to_numpy(), df["max_error"].to_numpy())
     df["order_max_error"] = np.concatenate([[np.nan], orders])
-    atomic_write_csv(out / "swirl_newtonian.csv", df, empty_ok=["order_max_error"])
+    write_csv(out, "swirl_newtonian.csv", df, ["order_max_error"])
     fig, ax = plt.subplots(figsize=(6.5, 5))
-    h = df["h_m"].to_numpy()
-    ax.loglog(h * 1e3, df["max_error"], "o-", label="max |v_theta - (A r + B/r)| / u_i")
-    ax.loglog(h * 1e3, df["rms_error"], "s-", label="rms")
-    ax.loglog(h * 1e3, df["max_error"].iloc[0] * (h / h[0]) ** 2, "k:", label="slope 2")
     ax.axhline(2e-3, color="r", lw=0.8, label="target 2e-3 u_i")
-    ax.set_xlabel("h [mm]")
-    ax.set_ylabel("error / u_i")
-    ax.set_title("steady Newtonian annulus R_i = 12.5 mm, R_o = 36 mm (swirl engine)")
-    ax.legend(fontsize=8)
-    fig_path = atomic_savefig(fig, out / "swirl_newtonian.png")
-    plt.close(fig)
+    slope_plot(ax, df["h_m"] * 1e3, {"max |v_theta - (A r + B/r)| / u_i": (df["max_error"], "o-"),
+                                     "rms": (df["rms_error"], "s-")}, 2, "h [mm]", "error / u_i",
+               "steady Newtonian annulus R_i = 12.5 mm, R_o = 36 mm (swirl engine)",
+               legend=dict(fontsize=8))
+    fig_path = save_figure(fig, out, "swirl_newtonian.png")
     paper = df.loc[df["cells"] == PAPER_CELLS, "max_error"].iloc[0]
     ok = bool(paper < 2e-3) and bool(np.all(orders > 1.8))
     ok &= bool(df["max_meridional_over_u"].max() < 1e-6)
@@ -99,8 +93,7 @@ def annular_front(out: Path, quick: bool) -> Verdict:
     rows_out, hist = [], {}
     for k, run in enumerate(_mpm_runs(quick)):
         p = {"u_inner": u, "cells": run["cells"], "rows": run["rows"], **run["set"]}
-        r = run_scene(annular.setup, out / f"mpm_{k}", p, progress=False, vtk=False,
-                      log=lambda m: None)
+        r = run_quiet(annular.setup, out / f"mpm_{k}", **p)
         s = annular.summarise(r["scene"].params, r["history"])
         hist[run["label"]] = r["history"]
         rows_out.append({"model": f"mpm2d {run['label']}", "role": run["role"],
@@ -117,9 +110,8 @@ def annular_front(out: Path, quick: bool) -> Verdict:
                   "kappa_Pa": np.nan, "dt_s": np.nan,
                   **{k: s[k] for k in ("front_speed_m_per_s", "front_speed_over_u_inner",
                                        "front_fit_r2")}} for n, s in s1.items()]
-    table = pd.DataFrame(rows_out)
-    atomic_write_csv(out / "annular_front_speeds.csv", table,
-                     empty_ok=["cfl", "swirl_flip", "kappa_Pa", "dt_s"])
+    table = write_csv(out, "annular_front_speeds.csv", rows_out,
+                      ["cfl", "swirl_flip", "kappa_Pa", "dt_s"])
     fig, ax = plt.subplots(figsize=(6.5, 5))
     gap = annular.R_OUTER - annular.R_INNER
     for label, h in hist.items():
@@ -128,12 +120,10 @@ def annular_front(out: Path, quick: bool) -> Verdict:
     for n, s in s1.items():
         ax.plot(np.asarray(s["t"]) * 1e3, (np.asarray(s["front"]) - annular.R_INNER) / gap,
                 "k--" if n == 200 else "k:", label=f"shear1d explicit, {n} cells")
-    ax.set_xlabel("t [ms]")
-    ax.set_ylabel("(front - R_i) / gap")
-    ax.set_title("Fig. 3 fast case, u_i = 84 mm/s: kinematic front (v/(u_i r/R_i) = 1/2)")
+    ax.set(xlabel="t [ms]", ylabel="(front - R_i) / gap",
+           title="Fig. 3 fast case, u_i = 84 mm/s: kinematic front (v/(u_i r/R_i) = 1/2)")
     ax.legend(fontsize=7)
-    fig_path = atomic_savefig(fig, out / "annular_front.png")
-    plt.close(fig)
+    fig_path = save_figure(fig, out, "annular_front.png")
 
     def speed(role):
         return table.loc[table["role"] == role, "front_speed_m_per_s"].to_numpy()

@@ -1,37 +1,30 @@
 """Validation of the rheometer's oscillation and measuring geometries.
 
-- ``oscillation_linear_limit``: small-amplitude G'(omega), G''(omega) from the time-domain
-  periodic state against the linearised Maxwell-type G*(omega) derived in
-  :mod:`rheometer.oscillation` (criterion 1e-4 relative in |G*|), Hermes 2016 at phi = 0.48, 0.50.
-- ``oscillation_high_frequency_loss``: G'' -> omega eta0 (1 + 5/2 phi) where the fluid dominates.
-- ``oscillation_strain_stiffening``: amplitude sweep above phi_c: the third harmonic jumps (and G'
-  stiffens) at the amplitude where the peak stress first crosses the DST onset stress.
-- ``parallel_plate_weissenberg_rabinowitsch``: the apparent parallel-plate flow curve (radial
-  integration of the local steady state) against the true one, and the correction recovering it.
-- benchmark ``oscillation_amplitude_sweep``: one 20-point amplitude sweep (target < 2 s),
-  with its ratio to a reference run in the same process.
+Small-amplitude G*(omega) against the linearised Maxwell-type model of
+:mod:`rheometer.oscillation`; G'' -> omega eta0 (1 + 5/2 phi) at high frequency; strain
+stiffening above phi_c where the peak stress crosses the DST onset stress; the parallel-plate
+flow curve and its Weissenberg-Rabinowitsch correction; the speed of an amplitude sweep.
 
-Choices: G = 1e4 Pa and K0 = 1 (the transient defaults; the steady fits give none); 1 Hz; the
-amplitudes 1e-3..10 (0.1 % to 1000 %).
+Choices: Hermes 2016; G = 1e4 Pa and K0 = 1 (the transient defaults; the steady fits give none);
+1 Hz; the amplitudes 1e-3..10 (0.1 % to 1000 %).
 """
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
-from runkit.plotting import plt
-import numpy as np  # noqa: E402
-
-import rheology  # noqa: E402
-from rheometer import geometry as geo  # noqa: E402
-from rheometer import oscillation as osc  # noqa: E402
-from rheometer import plots  # noqa: E402
-from rheometer.protocols import flow_curve, startup  # noqa: E402
-
-from .framework import BenchResult, Verdict, benchmark, case, save_figure  # noqa: E402
-from .report import machine_description  # noqa: E402
+import numpy as np
 import pandas as pd
+
+import rheology
+from rheometer import geometry as geo, oscillation as osc, plots
+from rheometer.protocols import flow_curve, startup
+from runkit.plotting import plt
+
+from .framework import BenchResult, Verdict, benchmark, case, save_figure
+from .report import machine_description
 
 HERMES = "hermes2016"
 
@@ -41,12 +34,11 @@ HERMES = "hermes2016"
 def linear_limit(out: Path, quick: bool) -> Verdict:
     m = rheology.get_material(HERMES)
     freqs = np.logspace(-1, 6, 5 if quick else 15)
-    rows, lines = [], []
+    rows, worst = [], 0.0
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    worst = 0.0
     for c, phi in zip(("C0", "C1"), (0.48, 0.50)):
         for control in ("strain", "stress"):
-            pts = []
+            sim = []
             for f in freqs:
                 Glin = complex(osc.linear_modulus(m, phi, f))
                 amp = 1e-7 if control == "strain" else 1e-7 * abs(Glin)
@@ -54,21 +46,19 @@ def linear_limit(out: Path, quick: bool) -> Verdict:
                 G = complex(p["storage_modulus_Pa"], p["loss_modulus_Pa"])
                 err = abs(G - Glin) / abs(Glin)
                 worst = max(worst, err)
-                pts.append((f, G, Glin, err, p["cycles"]))
+                sim.append(G)
                 rows.append(f"phi={phi:g} {control:6s} f={f:9.3g} Hz  G'={G.real:.6g} "
                             f"(lin {Glin.real:.6g})  G''={G.imag:.6g} (lin {Glin.imag:.6g})  "
                             f"|dG*|/|G*|={err:.2e}  cycles={p['cycles']}")
             if control == "strain":
-                f_, G_, L_ = (np.array([q[0] for q in pts]), np.array([q[1] for q in pts]),
-                              np.array([q[2] for q in pts]))
-                ax.loglog(f_, G_.real, "o", color=c, mfc="none", label=f"phi = {phi:g}: G' sim")
-                ax.loglog(f_, G_.imag, "s", color=c, label=f"phi = {phi:g}: G'' sim")
+                sim = np.array(sim)
+                ax.loglog(freqs, sim.real, "o", color=c, mfc="none", label=f"phi = {phi:g}: G' sim")
+                ax.loglog(freqs, sim.imag, "s", color=c, label=f"phi = {phi:g}: G'' sim")
                 ff = np.logspace(-1, 6, 200)
                 LL = osc.linear_modulus(m, phi, ff)
                 ax.loglog(ff, LL.real, "-", color=c, lw=1, label=f"phi = {phi:g}: linear G'")
                 ax.loglog(ff, LL.imag, "--", color=c, lw=1, label=f"phi = {phi:g}: linear G''")
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("G', G'' [Pa]")
+    ax.set(xlabel="frequency [Hz]", ylabel="G', G'' [Pa]")
     ax.set_title("Hermes 2016, G = 1e4 Pa, gamma0 = 1e-7: time domain vs linear G*", fontsize=9)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=6)
@@ -100,8 +90,7 @@ def high_frequency(out: Path, quick: bool) -> Verdict:
     w = 2 * np.pi * freqs
     ax.loglog(freqs, mx.G ** 2 / (w ** 2 * mx.eta_g * eta_F), "--",
               label="G^2/(omega^2 eta_g eta_F)")
-    ax.set_xlabel("frequency [Hz]")
-    ax.set_ylabel("relative excess of G'' over the fluid's")
+    ax.set(xlabel="frequency [Hz]", ylabel="relative excess of G'' over the fluid's")
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8)
     png = save_figure(fig, out, "high_frequency.png")
@@ -198,10 +187,7 @@ def sweep_benchmark(out: Path, quick: bool) -> BenchResult:
         t_sweep.append(time.perf_counter() - t0)
         c_sweep.append(time.process_time() - c0)
     ts, tr, cs = float(np.median(t_sweep)), float(np.median(t_ref)), float(np.median(c_sweep))
-    try:
-        load = open("/proc/loadavg").read().split()[0]
-    except OSError:
-        load = "?"
+    load = f"{os.getloadavg()[0]:.2f}"
     tight, _ = osc.oscillation_sweep(m, 0.50, frequency=1.0, amplitude=amps, rtol=1e-10,
                                      tol=1e-8, max_cycles=400)
     G = results["storage_modulus_Pa"] + 1j * results["loss_modulus_Pa"]
@@ -213,8 +199,7 @@ def sweep_benchmark(out: Path, quick: bool) -> BenchResult:
                                       results.attrs["point_seconds"], results["converged"])]
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.semilogx(amps, results.attrs["point_seconds"], "o-")
-    ax.set_xlabel("strain amplitude [-]")
-    ax.set_ylabel("seconds per point")
+    ax.set(xlabel="strain amplitude [-]", ylabel="seconds per point")
     ax.grid(True, which="both", alpha=0.25)
     png = save_figure(fig, out, "sweep_time.png")
     summary = (f"{machine_description()}. One amplitude sweep (Hermes 2016, phi = 0.50, 1 Hz, 20 "

@@ -10,14 +10,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from runkit.plotting import plt
 import numpy as np
 
 import rheology as r
-from runkit.io import atomic_savefig
 from rheology.local_update import NOUT, kernel_parameters, update_points_serial
+from runkit.plotting import plt
 
-from .framework import Verdict, case
+from .framework import Verdict, case, save_figure
 
 FIG1_PHI = (0.45, 0.50, 0.54, 0.56, 0.57, 0.58, 0.60, 0.62, 0.63, 0.64)
 
@@ -35,6 +34,17 @@ def _colours(n):
     return plt.cm.viridis(np.linspace(0, 0.9, n))
 
 
+def limit_errors(phi, m, high: bool) -> tuple[float, float]:
+    """Relative errors of the steady viscosity at 1e-8 tau* against Eq. (24) and (``high``) at
+    1e14 tau* against Eq. (25) (0 when not ``high``)."""
+    low = r.steady_state_stress(1e-8 * m.tau_star, phi, m)
+    lo = abs(low.viscosity / m.eta0 / r.viscosity_low_limit(phi, m) - 1)
+    if not high:
+        return float(lo), 0.0
+    top = r.steady_state_stress(1e14 * m.tau_star, phi, m)
+    return float(lo), float(abs(top.viscosity / m.eta0 / r.viscosity_high_limit(phi, m) - 1))
+
+
 @case("rheology", "fig1_singh_model_curves",
       "Fig. 1: steady curves of Table 1 (a) and (b) at the caption's volume fractions")
 def fig1(out: Path, quick: bool) -> Verdict:
@@ -50,23 +60,19 @@ def fig1(out: Path, quick: bool) -> Verdict:
             flowing = ~flow.jammed
             jams[fit, phi] = bool(flow.jammed.any())
             sshape[fit, phi] = bool(np.any(np.diff(flow.shear_rate[flowing]) < 0))
-            ax.loglog(flow.shear_stress[flowing], flow.shear_rate[flowing], ls, color=colour, lw=1)
-            low = r.steady_state_stress(1e-8 * m.tau_star, phi, m)
-            lo_err = max(lo_err, abs(low.viscosity / m.eta0 / r.viscosity_low_limit(phi, m) - 1))
-            if phi < m.phi_c and fit == "b":
-                high = r.steady_state_stress(1e14 * m.tau_star, phi, m)
-                hi_err = max(hi_err, abs(high.viscosity / m.eta0 / r.viscosity_high_limit(phi, m) - 1))
+            ax.loglog(flow.shear_stress[flowing], flow.shear_rate[flowing], ls, color=colour,
+                      lw=1)
+            lo, hi = limit_errors(phi, m, high=phi < m.phi_c and fit == "b")
+            lo_err, hi_err = max(lo_err, lo), max(hi_err, hi)
             rows.append(f"fit ({fit}) phi = {phi:.2f}: {'jams' if jams[fit, phi] else 'flows'}, "
                         f"{'S-shaped' if sshape[fit, phi] else 'monotone'}, "
                         f"max gdot/gdot0 = {flow.shear_rate.max():.3g}")
-    ax.set_xlabel(r"$\tau/(\eta_0\dot\gamma_0)$")
-    ax.set_ylabel(r"$\dot\gamma/\dot\gamma_0$")
-    ax.set_title("Table 1 fits: (a) red dashed, (b) blue solid")
-    ax.set_ylim(1e-6, 1e4)
-    png = atomic_savefig(fig, out / "fig1.png")
-    plt.close(fig)
+    ax.set(xlabel=r"$\tau/(\eta_0\dot\gamma_0)$", ylabel=r"$\dot\gamma/\dot\gamma_0$",
+           title="Table 1 fits: (a) red dashed, (b) blue solid", ylim=(1e-6, 1e4))
+    png = save_figure(fig, out, "fig1.png")
     phi_c = r.get_material("singh2018_a").phi_c
-    jam_ok = all(jams["a", p] == (p > phi_c) for p in FIG1_PHI) and not any(jams["b", p] for p in FIG1_PHI)
+    jam_ok = (all(jams["a", p] == (p > phi_c) for p in FIG1_PHI)
+              and not any(jams["b", p] for p in FIG1_PHI))
     s_ok = all(sshape["b", p] == (p > phi_c) for p in FIG1_PHI)
     passed = res <= 1e-10 and lo_err <= 1e-6 and hi_err <= 1e-3 and jam_ok and s_ok
     return Verdict(
@@ -98,26 +104,22 @@ def fig2(out: Path, quick: bool) -> Verdict:
         for phi, colour in zip(list(phis) + extra, list(_colours(len(phis))) + ["tab:red"]):
             flow = r.steady_state_stress(taus, phi, m)
             res = max(res, eq13_residual(flow, m))
-            ax.loglog(flow.shear_stress, flow.viscosity, "--" if phi in extra else "-", color=colour,
-                      label=f"$\\phi$ = {phi:.3f}")
-            low = r.steady_state_stress(1e-8 * m.tau_star, phi, m)
-            lo_err = max(lo_err, abs(low.viscosity / m.eta0 / r.viscosity_low_limit(phi, m) - 1))
-            if phi < m.phi_c:
-                high = r.steady_state_stress(1e14 * m.tau_star, phi, m)
-                hi_err = max(hi_err, abs(high.viscosity / m.eta0 / r.viscosity_high_limit(phi, m) - 1))
-            else:
+            ax.loglog(flow.shear_stress, flow.viscosity, "--" if phi in extra else "-",
+                      color=colour, label=f"$\\phi$ = {phi:.3f}")
+            lo, hi = limit_errors(phi, m, high=phi < m.phi_c)
+            lo_err, hi_err = max(lo_err, lo), max(hi_err, hi)
+            if phi >= m.phi_c:
                 g = r.steady_state_stress(1e12 * m.tau_star, phi, m).shear_rate
                 e = abs(g / r.gdot_dst(phi, m) - 1)
                 dst_err = max(dst_err, e)
                 rows.append(f"{name} phi = {phi:.3f}: gdot(1e12 tau*) / gdot_DST - 1 = {e:.1e}")
         ax.set_title(f"({panel}) {name}", fontsize=10)
-        ax.set_xlabel(r"mixture shear stress $\tau$ [Pa]")
-        ax.set_ylabel(r"viscosity $\tau/\dot\gamma$ [Pa s]")
+        ax.set(xlabel=r"mixture shear stress $\tau$ [Pa]",
+               ylabel=r"viscosity $\tau/\dot\gamma$ [Pa s]")
         ax.set_ylim(top=min(ax.get_ylim()[1], 1e6))
         ax.legend(fontsize=7)
     fig.tight_layout()
-    png = atomic_savefig(fig, out / "fig2.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "fig2.png")
     return Verdict(
         criterion="Eq. 13 residual <= 1e-10; low-stress plateau = Eq. 24 to 1e-6; for phi < phi_c "
                   "the high-stress plateau = Eq. 25 to 1e-3; for phi_c <= phi < phi_j the rate at "
@@ -138,11 +140,9 @@ def fig10(out: Path, quick: bool) -> Verdict:
     ax.semilogx(x, ours, "k-", label=r"Eq. (16): $H/(H+1)$, $H = (\tau/\tau^*)^{3/2}$")
     ax.semilogx(x, wc, "--", label=r"Wyart & Cates: $1 - e^{-\tau/\tau^*}$")
     ax.semilogx(x, singh, "-.", label=r"Singh et al.: $e^{-\tau^*/\tau}$")
-    ax.set_xlabel(r"$\tau/\tau^*$")
-    ax.set_ylabel("f")
+    ax.set(xlabel=r"$\tau/\tau^*$", ylabel="f")
     ax.legend(fontsize=8)
-    png = atomic_savefig(fig, out / "fig10.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "fig10.png")
     return Verdict(
         criterion="Eq. 16 lies between the Singh (below) and Wyart-Cates (above) forms for all "
                   "tau/tau* in [1e-3, 1e3]",
@@ -168,12 +168,10 @@ def gdot_dst_case(out: Path, quick: bool) -> Verdict:
         x = m.phi_j - phis
         ax.loglog(x, eq33, "-", color=colour, label=name)
         ax.loglog(x, limit, "o", color=colour, ms=4, mfc="none")
-    ax.set_xlabel(r"$\phi_j - \phi$")
-    ax.set_ylabel(r"$\dot\gamma_{DST}$ [1/s]")
-    ax.set_title("lines: Eq. (33); circles: steady solver at high stress")
+    ax.set(xlabel=r"$\phi_j - \phi$", ylabel=r"$\dot\gamma_{DST}$ [1/s]",
+           title="lines: Eq. (33); circles: steady solver at high stress")
     ax.legend(fontsize=7)
-    png = atomic_savefig(fig, out / "gdot_dst.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "gdot_dst.png")
     return Verdict(criterion="extrapolated high-stress rate equals Eq. 33 to 1e-6 relative for "
                              "phi_c <= phi < phi_j, six materials",
                    measured=f"max relative difference {worst:.1e}", passed=worst <= 1e-6,
@@ -209,14 +207,11 @@ def local_update_steady_shear(out: Path, quick: bool) -> Verdict:
         axes[0].axhline(target.taubar[0], color=colour, ls=":")
         axes[1].semilogx(strain, hist[:, 2], color=colour)
         axes[1].axhline(target.f[0], color=colour, ls=":")
-    axes[0].set_xlabel("strain")
-    axes[0].set_ylabel(r"$\sigma_{xy}$ [Pa] (dotted: Eq. 1)")
-    axes[1].set_xlabel("strain")
-    axes[1].set_ylabel("f (dotted: Eq. 13)")
+    axes[0].set(xlabel="strain", ylabel=r"$\sigma_{xy}$ [Pa] (dotted: Eq. 1)")
+    axes[1].set(xlabel="strain", ylabel="f (dotted: Eq. 13)")
     axes[0].legend(fontsize=8)
     fig.suptitle(f"Hermes 2016, phi = {phi}, G = 1 MPa, K = 2 MPa, K0 = 1")
-    png = atomic_savefig(fig, out / "local_update_steady_shear.png")
-    plt.close(fig)
+    png = save_figure(fig, out, "local_update_steady_shear.png")
     tol = 1e-6 if quick else 1e-8
     return Verdict(criterion=f"shear stress, pressure and f at steady state equal Eqs. (1), (2), "
                              f"(13) to {tol:g} relative at three rates",

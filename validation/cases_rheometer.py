@@ -1,15 +1,9 @@
 """Validation cases of the rheometer tier (0-D): Fig. 15, transient limits, the material point.
 
-- ``fig15_relaxation``: stress relaxation after cessation (Eqs. 35-37) at phi = 0.52 with the
-  Hermes 2016 fit, for several G and K0, against exact properties of the equations.
-- ``transient_long_time_limits``: start-up at stable rates and creep at mixture stresses
-  (including the DST range) end on the steady states of :mod:`rheology.steady`.
-- ``material_point_steady_state``: the Table 8 local update driven through homogeneous simple
-  shear (volume and pressure control) ends on Eq. (1)-(2) and Eq. (13).
-- ``material_point_convergence``: its time-step error against the IDA solution of the same tensor
-  law converges at first order.
-- ``material_point_stability``: the step sizes where it stays stable, and where its solves fail
-  (reported as errors, never returned as data).
+Fig. 15's relaxation after cessation (Eqs. 35-37) against exact properties of the equations;
+start-up and creep ending on the steady states of :mod:`rheology.steady`; the Table 8 material
+point in homogeneous simple shear (volume and pressure control) against Eqs. (1)-(2), (13), its
+first-order convergence to the IDA solution of the same tensor law, and its step-size limits.
 
 Scene choices the paper does not state: Fig. 15's initial stress is not given; we relax from the
 steady state at taubar0 = 1 kPa (within the measured range, below the ~10 kPa of slip and
@@ -22,13 +16,13 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
+import numpy as np
+
+import rheology
+from rheometer import creep, relax, simple_shear_point, startup, tensor_reference
 from runkit.plotting import plt
-import numpy as np  # noqa: E402
 
-import rheology  # noqa: E402
-from rheometer import creep, relax, simple_shear_point, startup, tensor_reference  # noqa: E402
-
-from .framework import Verdict, case, save_figure  # noqa: E402
+from .framework import Verdict, case, save_figure
 
 HERMES = "hermes2016"
 
@@ -176,8 +170,7 @@ def transient_long_time_limits(out: Path, quick: bool) -> Verdict:
                   ms=9, mew=2)
     ax.plot([], [], "ko", mfc="none", label="start-up end state (imposed rate)")
     ax.plot([], [], "ks", mfc="none", label="creep end state (imposed mixture stress)")
-    ax.set_xlabel("shear rate [1/s]")
-    ax.set_ylabel("mixture shear stress [Pa]")
+    ax.set(xlabel="shear rate [1/s]", ylabel="mixture shear stress [Pa]")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     ax.set_title(f"{HERMES}: transients (IDA, 60 structure times) end on the steady curves",
@@ -198,15 +191,11 @@ def transient_long_time_limits(out: Path, quick: bool) -> Verdict:
 
 # ---------------------------------------------------------------------- material point
 @functools.lru_cache(maxsize=64)
-def _steady_point_cached(name, phi, rate):
+def _steady_point(name: str, phi: float, rate: float):
+    """(granular stress, pressure) of the lowest stable steady state of material ``name``."""
     ss = rheology.steady_states_rate(rate, phi, rheology.get_material(name))
     i = int(np.flatnonzero(ss.stable)[0])
     return float(ss.taubar[i]), float(ss.pressure[i])
-
-
-def _steady_point(m, phi, rate):
-    """(granular stress, pressure) of the lowest stable steady state at this rate."""
-    return _steady_point_cached(m.name, float(phi), float(rate))
 
 
 @case("rheometer", "material_point_steady_state",
@@ -219,7 +208,7 @@ def material_point_steady_state(out: Path, quick: bool) -> Verdict:
               (0.52, 0.05, "volume"), (0.45, 1.0, "pressure"), (0.50, 0.5, "pressure")]
     rows, worst = [], 0.0
     for phi, rate, ctrl in cases:
-        tau_ss, p_ss = _steady_point(m, phi, rate)
+        tau_ss, p_ss = _steady_point(m.name, float(phi), float(rate))
         # G = 1e6 Pa for volume control (the Jaumann normal-stress error ~(taubar/G)^2 is
         # ~1e-12); 1e4 Pa under pressure control, whose step must stay below p/(K |dphi/dt|)
         G = 1e6 if ctrl == "volume" else 1e4
@@ -249,8 +238,8 @@ def material_point_steady_state(out: Path, quick: bool) -> Verdict:
                   label="normal: p/(eta0 gdot) vs Eq. (2)" if i == 0 else None)
     lim = np.array([min(r[5] for r in rows) * 0.5, max(r[7] for r in rows) * 2])
     ax.loglog(lim, lim, "k:", lw=1, label="equality")
-    ax.set_xlabel("Eq. (1) granular part / Eq. (2) at the end state's phi, f")
-    ax.set_ylabel("material point at steady state")
+    ax.set(xlabel="Eq. (1) granular part / Eq. (2) at the end state's phi, f",
+           ylabel="material point at steady state")
     ax.set_title("circles: volume control; squares: pressure control (G = 1e6 Pa)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
@@ -321,8 +310,7 @@ def material_point_convergence(out: Path, quick: bool) -> Verdict:
     dts = next(iter(res.values()))[0]
     ax.loglog(dts, 0.5 * dts / dts[0] * max(e[1][0] for e in res.values()), "k:",
               label="slope 1")
-    ax.set_xlabel("time step dt [s]")
-    ax.set_ylabel("max relative error vs IDA (sigma_xy, p, f, phi)")
+    ax.set(xlabel="time step dt [s]", ylabel="max relative error vs IDA (sigma_xy, p, f, phi)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
     dts_, errs_, ref, coarse = res[("pressure", 0.5)]
@@ -332,8 +320,7 @@ def material_point_convergence(out: Path, quick: bool) -> Verdict:
     for t, what in ref.attrs.get("switches", []):
         ax2.axvline(t, color="C3", ls=":", lw=1)
         ax2.text(t, ax2.get_ylim()[0], f" -> {what}", color="C3", fontsize=7, va="bottom")
-    ax2.set_xlabel("time [s]")
-    ax2.set_ylabel("volume fraction phi")
+    ax2.set(xlabel="time [s]", ylabel="volume fraction phi")
     ax2.set_title("pressure control, rate halved: compaction, then dilatant flow", fontsize=9)
     ax2.grid(True, alpha=0.3)
     ax2.legend(fontsize=8)
@@ -353,7 +340,7 @@ def material_point_convergence(out: Path, quick: bool) -> Verdict:
 
 def _classify(m, phi, rate, K0, dt, ctrl, fine=None):
     """'ok', 'inaccurate' (>10% from the fine run or oscillating) or 'failed' (RuntimeError)."""
-    tau_ss, p_ss = _steady_point(m, phi, rate)
+    tau_ss, p_ss = _steady_point(m.name, float(phi), float(rate))
     kw = dict(G=1e4, K0=K0, stress0=0.5 * tau_ss)
     if ctrl == "pressure":
         kw.update(control="pressure", pressure=p_ss)

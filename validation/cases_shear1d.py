@@ -9,23 +9,21 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+from scipy.integrate import solve_ivp
+
+import rheology
+from rheometer import creep
+from runkit.io import atomic_write_json
 from runkit.plotting import plt
-import numpy as np  # noqa: E402
-from scipy.integrate import solve_ivp  # noqa: E402
+from shear1d import analysis, kernels, plots
+from shear1d.analytic import annular_steady, plane_couette_startup
+from shear1d.integrate import solve
+from shear1d.model import Couette
+from shear1d.scenes import SceneRun, annular_shear_jamming, plane_couette
+from shear1d.summary import NULLABLE, rotation_of, summarize
 
-import rheology  # noqa: E402
-from runkit.io import atomic_savefig, atomic_write_json  # noqa: E402
-from shear1d import analysis, kernels  # noqa: E402
-from shear1d.analytic import annular_steady, plane_couette_startup  # noqa: E402
-from shear1d.integrate import solve  # noqa: E402
-from shear1d.model import Couette  # noqa: E402
-from shear1d.scenes import annular_shear_jamming, plane_couette  # noqa: E402
-from shear1d.summary import NULLABLE, rotation_of, summarize  # noqa: E402
-from rheometer import creep  # noqa: E402
-
-from .framework import Verdict, case  # noqa: E402
-from shear1d import plots
-from shear1d.scenes import SceneRun
+from .framework import Verdict, case, save_figure, slope_plot
 
 TIER = "shear1d"
 FAST, SLOW = 84e-3, 0.84e-3
@@ -34,20 +32,10 @@ FAST, SLOW = 84e-3, 0.84e-3
 PHI_NEWTONIAN = 1e-6
 
 
-def _save(fig, path) -> Path:
-    atomic_savefig(fig, path)
-    plt.close(fig)
-    return Path(path)
-
-
-def _orders(errors) -> np.ndarray:
-    e = np.asarray(errors, dtype=float)
-    return np.log2(e[:-1] / e[1:])
-
-
 def _convergence(errors) -> tuple[np.ndarray, str]:
-    """Observed orders and the 'errors ...; orders ...' text of a refinement study."""
-    orders = _orders(errors)
+    """Observed orders log2(e_h/e_h/2) and the 'errors ...; orders ...' text of a refinement."""
+    e = np.asarray(errors, dtype=float)
+    orders = np.log2(e[:-1] / e[1:])
     return orders, (f"errors {', '.join(f'{e:.2e}' for e in errors)}; orders "
                     f"{', '.join(f'{o:.3f}' for o in orders)}")
 
@@ -76,13 +64,9 @@ def couette_startup_order(out: Path, quick: bool) -> Verdict:
     ax[0].plot(y * 1e3, v / speed, "o", ms=3, label=f"shear1d, {cells[-1]} cells")
     ax[0].set(xlabel="y [mm]", ylabel="v/U", title="t = 0.05 H^2/nu")
     ax[0].legend()
-    ax[1].loglog(np.array(cells), errors, "o-", label="RMS error / U")
-    ax[1].loglog(np.array(cells), errors[0] * (cells[0] / np.array(cells)) ** 2, "k--",
-                 label="slope -2")
-    ax[1].set(xlabel="cells", ylabel="error")
-    ax[1].legend()
+    slope_plot(ax[1], cells, {"RMS error / U": (errors, "o-")}, -2, "cells", "error")
     fig.tight_layout()
-    png = _save(fig, out / "couette_startup.png")
+    png = save_figure(fig, out, "couette_startup.png")
     return Verdict(criterion="observed order log2(e_h/e_h/2) > 1.9 for every refinement "
                              "(IDA rtol 1e-9, phi = 1e-6)",
                    measured=text, passed=bool(np.all(orders > 1.9)), figures=[png])
@@ -108,7 +92,7 @@ def annular_newtonian_steady(out: Path, quick: bool) -> Verdict:
     ax.plot(g.faces * 1e3, v / speed, "o", ms=3, label=f"shear1d, {cells[-1]} cells, t = 3 gap^2/nu")
     ax.set(xlabel="r [mm]", ylabel="v/u_i")
     ax.legend()
-    png = _save(fig, out / "annular_steady.png")
+    png = save_figure(fig, out, "annular_steady.png")
     return Verdict(criterion="max |v - (A r + B/r)|/u_i < 1e-3 on the finest grid and observed "
                              "order > 1.9 (t = 3 gap^2/nu, phi = 1e-6)",
                    measured=text, passed=bool(errors[-1] < 1e-3 and np.all(orders > 1.9)),
@@ -148,7 +132,7 @@ def narrow_gap_steady(out: Path, quick: bool) -> Verdict:
     ax.loglog([r["shear_rate_1d"] for r in rows], stresses, "o", label="shear1d narrow gap, t = 400 s")
     ax.set(xlabel="shear rate [1/s]", ylabel="mixture shear stress [Pa]", title="phi = 0.505")
     ax.legend()
-    png = _save(fig, out / "narrow_gap_steady.png")
+    png = save_figure(fig, out, "narrow_gap_steady.png")
     return Verdict(criterion="relative difference of the steady shear rate and f from "
                              "rheology.steady_states_mixture_stress < 1e-3 (1 mm gap, 16 cells, "
                              "t = 400 s; rate-form step fixed at 10 ms: fixed points do not "
@@ -176,7 +160,7 @@ def narrow_gap_creep(out: Path, quick: bool) -> Verdict:
     ax.semilogx(res.t[1:], rate[1:], "o", ms=3, label="shear1d, 1 mm gap, full law")
     ax.set(xlabel="t [s]", ylabel="shear rate [1/s]", title=f"creep at {tau:g} Pa, phi = 0.505")
     ax.legend()
-    png = _save(fig, out / "narrow_gap_creep.png")
+    png = save_figure(fig, out, "narrow_gap_creep.png")
     return Verdict(criterion="max relative difference of the shear rate from rheometer.creep "
                              "< 1 % for t >= 1 s (after the elastic/inertial start)",
                    measured=f"max deviation {dev:.2e} over {sel.sum()} outputs to {t_end:g} s; "
@@ -257,7 +241,7 @@ def reduced_vs_full_law(out: Path, quick: bool) -> Verdict:
         else:
             ok &= agree < 1e-4
     fig.tight_layout()
-    png = _save(fig, out / "reduced_vs_full.png")
+    png = save_figure(fig, out, "reduced_vs_full.png")
     return Verdict(criterion="homogeneous isochoric shear from rest, strain >= 0.1: the reduced law "
                              "is the K -> inf limit of the full law, so they agree (within 1e-4 "
                              "at the slow rate; within 2 % at the fast rate while f <= f_jam/2); "
@@ -308,7 +292,7 @@ def _fig3_profiles(path, res, rotations=(0.0, 0.1, 0.2, 0.31)):
     ax.set(xlabel="r [mm]", ylabel="v/u_i", ylim=(-0.05, 1.6),
            title=f"u_i = {u * 1e3:g} mm/s, {res.problem.mode}, {g.n} cells")
     ax.legend(fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path.parent, path.name)
 
 
 @case(TIER, "shear1d_fig3_fast_front",
@@ -405,7 +389,7 @@ def ida_vs_explicit(out: Path, quick: bool) -> Verdict:
     ax.plot(rot, (res.front() - pb.grid.inner) * 1e3, "C1--", label="IDA rtol 3e-5")
     ax.set(xlabel="bob rotation [rad]", ylabel="front - R_i [mm]")
     ax.legend()
-    png = _save(fig, out / "ida_vs_explicit.png")
+    png = save_figure(fig, out, "ida_vs_explicit.png")
     errs = [r[1] for r in rows]
     passed = errs[-1] < 0.01 and errs[-1] <= errs[0]
     return Verdict(criterion="front positions of IDA within 1 % of the gap of the explicit scheme "

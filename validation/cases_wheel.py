@@ -1,18 +1,11 @@
 """mpm2d wheel scene (running on oobleck, Figs. 8, 9 and 14).
 
-- ``mpm2d_wheel_run_or_sink``: the default ``mpm2d run wheel`` (both omegas, the paper's 150 x 75
-  grid): at omega = 10 1/s the hub stays within FAST_BAND R of its start height while it advances
-  at least R; at omega = 1 1/s it sinks at least 3x deeper over the same time;
-- ``mpm2d_wheel_sweep``: sink depth against omega (1, 2, 4, 6, 10 1/s) through
-  ``mpm2d.sweep.run_sweep`` on Dask (reduced: h = 20 mm, 0.6 s), with the transition omega;
-- ``mpm2d_wheel_convergence``: the sink depth of both omegas at h = 20 mm and at the paper's
-  13.3 mm;
-- ``mpm2d_wheel_fig14``: the granular pressure under the wheel for moduli x1, x10, x100 with APIC
-  and FLIP and its noise (RMS cell-to-cell jump over the mean) per case, with the largest p~/K
-  (elastic strain) and the sink depth; criterion (the paper's statement): the noise (its mean over
-  the snapshots of the last two thirds of the run) grows with the moduli for both transfers; FLIP
-  against APIC is reported.
-
+The default ``mpm2d run wheel`` (both omegas, the paper's 150 x 75 grid): at omega = 10 1/s the
+hub stays up while it advances, at omega = 1 1/s it sinks; the sink depth against omega through
+``mpm2d.sweep.run_sweep`` on Dask (reduced: h = 20 mm, 0.6 s) with the transition omega; the
+sink depths at h = 20 mm and 13.3 mm; and Fig. 14, the granular pressure noise under the wheel
+(RMS cell-to-cell jump over the mean, averaged over the snapshots of the last two thirds of the
+run) for moduli x1, x10, x100 with APIC and FLIP, which the paper says grows with the moduli.
 Quick mode (the test suite) runs tiny versions that check the machinery only.
 """
 
@@ -23,15 +16,14 @@ import math
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
-from mpm2d.run import run_scene
 from mpm2d.scenes import wheel
-
-from .framework import Verdict, case
-import numpy as np
 from mpm2d.sweep import parse_grid, run_sweep
-from runkit.io import atomic_write_csv
+
+from .cases_mpm2d import run_quiet
+from .framework import Verdict, case, write_csv
 
 #: the tiny (quick) wheel: R = 0.1 m, h = R/4, a 0.8 x 0.1 m bed, 0.03 s
 QUICK = dict(radius=0.1, hub_radius=0.035, spoke_width=0.04, width=0.8, bed_depth=0.1,
@@ -54,7 +46,7 @@ CONV_TOL_R = 0.25
 
 def _run(out: Path, **params):
     t0 = time.perf_counter()
-    res = run_scene(wheel.setup, out, params, progress=False, vtk=False, log=lambda m: None)
+    res = run_quiet(wheel.setup, out, **params)
     wall = time.perf_counter() - t0
     s = json.loads((Path(out) / "summary.json").read_text())
     sim = res["scene"].sim
@@ -132,9 +124,7 @@ def convergence(out: Path, quick: bool) -> Verdict:
         for k, r in s["runs"].items():
             rows.append({"h_m": h, "omega_per_s": float(k), "sink_depth_m": r["sink_depth_m"],
                          "wall_s": s["wall_s"], "steps": s["steps"], "points": s["points"]})
-    df = pd.DataFrame(rows)
-
-    atomic_write_csv(out / "convergence.csv", df)
+    df = write_csv(out, "convergence.csv", rows)
     diffs = {}
     for w, g in df.groupby("omega_per_s"):
         diffs[w] = abs(g["sink_depth_m"].iloc[0] - g["sink_depth_m"].iloc[1]) / R
@@ -173,10 +163,8 @@ def fig14_table(out: Path, rows: list, t: float):
         hub = pd.read_csv(Path(r["folder"]) / "hub.csv")
         k = int(np.argmin(np.abs(hub["time_s"].to_numpy() - t)))
         r["sink_depth_m"] = float(hub["y_m"].iloc[0] - hub["y_m"].iloc[k])
-    df = pd.DataFrame([{k: v for k, v in r.items() if k != "folder"} for r in rows])
-    atomic_write_csv(out / "fig14.csv", df,
-                     empty_ok=("noise", "noise_sem", "noise_at_t", "max_pressure_Pa",
-                               "max_strain_p_over_K"))
+    df = write_csv(out, "fig14.csv", [{k: v for k, v in r.items() if k != "folder"} for r in rows],
+                   ("noise", "noise_sem", "noise_at_t", "max_pressure_Pa", "max_strain_p_over_K"))
     return df, path
 
 

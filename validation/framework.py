@@ -40,11 +40,14 @@ import sys
 import time
 import traceback
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import lru_cache, wraps
 from pathlib import Path
 from typing import Callable
 
-from runkit.io import atomic_savefig, strict_json
+import numpy as np
+import pandas as pd
+
+from runkit.io import atomic_savefig, atomic_write_csv, strict_json
 from runkit.plotting import plt
 import validation
 
@@ -131,11 +134,54 @@ def benchmark(tier: str, name: str, title: str):
     return _register("benchmark", tier, name, title, True)
 
 
+def table_cases(tier: str, func: Callable, table: dict, slow: bool = False) -> None:
+    """Register one case per row ``name: (title, params)`` of ``table``, cases that differ only
+    by data: each runs ``func(out, quick, **params) -> Verdict``."""
+    for name, (title, params) in table.items():
+        @wraps(func)            # the entry's module (its fingerprint) is func's
+        def run(out, quick, params=params):
+            return func(out, quick, **params)
+        case(tier, name, title, slow)(run)
+
+
 def save_figure(fig, out, name: str) -> Path:
     """Save a case's figure atomically as ``out/name`` and close it; returns the path."""
     path = atomic_savefig(fig, Path(out) / name)
     plt.close(fig)
     return path
+
+
+def write_csv(out, name: str, rows, nullable=()) -> pd.DataFrame:
+    """A case's table (a DataFrame, or what builds one: row dicts, a dict of columns) written
+    atomically as ``out/name``; NaN only in the ``nullable`` columns (empty cells). Returns the
+    DataFrame."""
+    df = rows if isinstance(rows, pd.DataFrame) else pd.DataFrame(rows)
+    atomic_write_csv(Path(out) / name, df, empty_ok=nullable)
+    return df
+
+
+def slope_plot(ax, x, series: dict, slope: float, xlabel: str, ylabel: str, title=None,
+               ref=None, legend=None):
+    """The standard convergence figure: each ``label: (y, style)`` of ``series`` on log-log
+    axes and the reference line of ``slope`` through (x[0], ``ref``), by default the first
+    point of the first series."""
+    x = np.asarray(x, dtype=float)
+    for label, (y, style) in series.items():
+        ax.loglog(x, y, style, label=label)
+    y0 = np.asarray(next(iter(series.values()))[0], dtype=float)[0] if ref is None else ref
+    ax.loglog(x, y0 * (x / x[0]) ** slope, "k:", label=f"slope {slope:g}")
+    ax.set(xlabel=xlabel, ylabel=ylabel, **({} if title is None else {"title": title}))
+    ax.legend(**(legend or {}))
+
+
+def timed(fn, repeats: int, clock=time.perf_counter):
+    """``repeats`` calls of ``fn``: (median time [s], every time [s], the last call's result)."""
+    times, result = [], None
+    for _ in range(repeats):
+        t0 = clock()
+        result = fn()
+        times.append(clock() - t0)
+    return float(np.median(times)), times, result
 
 
 def load_all() -> dict[str, Entry]:

@@ -78,32 +78,19 @@ class Plan:
 
 def plan(tiers=None, names=None, quick: bool = False, benchmarks: bool = True,
          slow: bool = True) -> Plan:
-    """Check a selection and decide what runs, before anything is written.
-
-    Parameters
-    ----------
-    tiers : list of str or None
-        ``--tier``: None for every tier; each must be one of ``framework.TIERS``.
-    names : list of str or None
-        ``--only``: None for every entry; otherwise registered case or benchmark names.
-    quick : bool
-        ``--quick``: small sizes. A case registered ``slow=True`` states criteria that hold at
-        full size only, so ``--quick`` skips it (reason :data:`SKIP_SLOW`) unless it is named in
-        ``--only``, which is refused: a quick run of it would report a failure that is no
-        finding. Benchmarks are not skipped (their sizes shrink; ``--no-bench`` leaves them out).
-    benchmarks : bool
-        False for ``--no-bench``.
-    slow : bool
-        False for ``--no-slow``: the slow cases are skipped (:data:`SKIP_NO_SLOW`) and the rest
-        run at full size; naming a slow case in ``--only`` is refused as with ``--quick``.
+    """Check a selection (``--tier``, ``--only``: None for all) and decide what runs, before
+    anything is written. ``quick`` (``--quick``) and ``slow`` False (``--no-slow``) skip the
+    cases registered ``slow=True``, whose criteria hold at full size only (reasons
+    :data:`SKIP_SLOW`, :data:`SKIP_NO_SLOW`); benchmarks shrink under ``--quick`` and are left
+    out by ``benchmarks`` False (``--no-bench``).
 
     Raises
     ------
     ValueError
         One line naming the option and value: an empty or unknown ``--tier`` or ``--only``, a
         named entry the other options leave out (its tier not in ``--tier``, a benchmark with
-        ``--no-bench``, a slow case with ``--quick`` or ``--no-slow``), or a selection with
-        nothing to run.
+        ``--no-bench``, a slow case with ``--quick`` or ``--no-slow``: a quick run of it would
+        report a failure that is no finding), or a selection with nothing to run.
     """
     skip_opt = "--quick" if quick else ("--no-slow" if not slow else None)
     if tiers is not None:
@@ -118,26 +105,21 @@ def plan(tiers=None, names=None, quick: bool = False, benchmarks: bool = True,
                          "('python -m validation list' shows them)")
     kinds = ("case", "benchmark") if benchmarks else ("case",)
     chosen = select(tiers, names, kinds)             # refuses unknown names
-    if names:
-        reg = load_all()
-        named = list(dict.fromkeys(names))
-        if tiers:
-            off = [n for n in named if reg[n].tier not in tiers]
-            if off:
-                raise ValueError(f"--only = {' '.join(off)!r}: not in --tier "
-                                 f"{' '.join(tiers)} (tier {', '.join(reg[n].tier for n in off)})")
-        if not benchmarks:
-            off = [n for n in named if reg[n].kind == "benchmark"]
-            if off:
-                raise ValueError(f"--only = {' '.join(off)!r}: benchmark"
-                                 f"{'s' if len(off) > 1 else ''}, which --no-bench leaves out")
-        if skip_opt:
-            off = [n for n in named if reg[n].kind == "case" and reg[n].slow]
-            if off:
-                raise ValueError(f"--only = {' '.join(off)!r}: slow case"
-                                 f"{'s' if len(off) > 1 else ''}" + (
-                                     " whose criteria hold at full size only" if quick else "")
-                                 + f"; run without {skip_opt}")
+    reg, named = load_all(), list(dict.fromkeys(names or ()))
+    refusals = (   # (left out, why) of a named entry the other options leave out
+        (lambda e: tiers and e.tier not in tiers,
+         lambda off: f"not in --tier {' '.join(tiers)} (tier "
+                     f"{', '.join(reg[n].tier for n in off)})"),
+        (lambda e: not benchmarks and e.kind == "benchmark",
+         lambda off: f"benchmark{'s' if len(off) > 1 else ''}, which --no-bench leaves out"),
+        (lambda e: skip_opt and e.kind == "case" and e.slow,
+         lambda off: f"slow case{'s' if len(off) > 1 else ''}"
+                     + (" whose criteria hold at full size only" if quick else "")
+                     + f"; run without {skip_opt}"))
+    for left_out, why in refusals:
+        off = [n for n in named if left_out(reg[n])]
+        if off:
+            raise ValueError(f"--only = {' '.join(off)!r}: {why(off)}")
     is_skipped = [bool(skip_opt) and e.kind == "case" and e.slow for e in chosen]
     run = [e for e, s in zip(chosen, is_skipped) if not s]
     why = SKIP_SLOW if quick else SKIP_NO_SLOW
@@ -349,30 +331,16 @@ def _earlier(root: Path, out, quick: bool) -> dict[str, dict]:
 
 def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: bool = True,
                  slow: bool = True, resume: bool = False, log=print) -> Report:
-    """Run the selected cases (and benchmarks); write ``out/results.json`` and ``report.html``.
+    """Run the selection (:func:`plan`) and write ``out/results.json`` and ``report.html``.
 
-    The selection (:func:`plan`), the folder (``runkit.io.check_output_dir``) and, with
-    ``resume``, the earlier report are checked before anything is written or run. Both files are
-    rewritten atomically after every entry (``results.json`` first; ``"complete": false`` and
-    ``"status": "running"`` until the last entry is done), so a crash, a full disk or a kill loses
-    at most the entry running. An entry that raises is recorded with its traceback (``error``);
-    values that are not results fail their entry only (:func:`framework.clean`). A failed write
-    is reported and tried again after the next entry; the file written before stays whole.
-
-    Parameters
-    ----------
-    out : str or Path
-        ``--out`` folder.
-    tiers, names, quick, benchmarks, slow
-        The selection (:func:`plan`); ``slow`` False for ``--no-slow``.
-    resume : bool
-        ``--resume``: keep the entries of the report already in ``out`` whose
-        :func:`framework.fingerprint` (sizes and source hash) is this run's and which did not
-        raise; run the others; entries of that report outside this selection are kept too.
-
-    Returns
-    -------
-    Report
+    The selection, the folder (``runkit.io.check_output_dir``) and, with ``resume``, the earlier
+    report are checked before anything is written or run. Both files are rewritten atomically
+    after every entry (``results.json`` first; ``"status": "running"`` until the last is done),
+    so a crash or a kill loses at most the entry running; an entry that raises is recorded with
+    its traceback, values that are not results fail their entry only (:func:`framework.clean`),
+    and a failed write is tried again after the next entry. ``resume`` (``--resume``) keeps the
+    entries of the report in ``out`` whose :func:`framework.fingerprint` is this run's and which
+    did not raise, runs the others and keeps the entries outside this selection.
 
     Raises
     ------
