@@ -2,44 +2,35 @@
 
 Stages (Baumgarten & Kamrin, Supplement, Figs. 11-13):
 
-1. (Fig. 11, Eq. 24) the low-stress viscosity plateau of each curve (its minimum, after a 3-point
-   running mean in log viscosity against noise) -> ``a0, phi_j``, with ``mu_c`` held, and
-   ``eta0`` (the suspending liquid's viscosity: the plateaus' dilute limit, eta_r -> 1 + 5/2 phi
-   as phi -> 0) unless it is given (``fixed``); needs three curves when eta0 is estimated.
-2. (Fig. 12, Eq. 25) the high-stress plateau of the curves that have one (the viscosity flattens
-   at the top of the ramp: local log-log slope < 0.3, and it has thickened) -> ``a_inf, phi_c``.
-3. (Fig. 13, Eqs. 33-34) the DST rates of the curves whose shear rate saturates at the top of the
-   ramp (log-log slope of the viscosity > 0.6: phi above phi_c) -> the eta_B(phi) form, one term
-   (``varphi1, alpha1``: linear least squares in log) or two (``varphi2`` with ``alpha2`` held).
-   Eq. (33) needs tau*: a first estimate is fitted just before (1-D, full model, on the non-DST
-   curves).
-4. every free parameter refined together on all curves: the model evaluated at each measured
-   MIXTURE stress through its stress-controlled steady state (:func:`mixture_steady_state`),
-   residuals in log10 viscosity, a robust loss (soft L1) against outliers (wall slip, artefacts);
-   then points beyond 4 robust standard deviations are flagged as outliers and the fit is polished
-   by plain least squares on the rest, which defines the confidence intervals.
+1. (Fig. 11, Eq. 24) each curve's low-stress plateau (the minimum of a 3-point running mean of
+   log viscosity) -> ``a0, phi_j`` with ``mu_c`` held, and ``eta0`` (the liquid's viscosity, the
+   plateaus' dilute limit eta_r -> 1 + 5/2 phi) unless ``fixed``; three curves when eta0 is
+   estimated.
+2. (Fig. 12, Eq. 25) the high-stress plateau of the curves that thicken and flatten at the top of
+   the ramp (log-log slope < 0.3) -> ``a_inf, phi_c``.
+3. (Fig. 13, Eqs. 33-34) the DST rates of the curves whose rate saturates at the top (slope >
+   0.6: phi above phi_c) -> eta_B(phi), one term (``varphi1, alpha1``, linear least squares in
+   log) or two (``varphi2``, alpha2 held); tau* first fitted alone on the non-DST curves.
+4. every free parameter together on all curves, the model at each measured MIXTURE stress
+   (:func:`mixture_steady_state`), residuals in log10 viscosity, a soft-L1 loss against outliers
+   (wall slip, artefacts); points beyond 4 robust standard deviations are then flagged outliers
+   and plain least squares on the rest defines the confidence intervals.
 
-Uncertainty: the covariance from the Jacobian at the optimum (s^2 (J^T J)^-1, in the
-coordinates of :data:`SCALE`: log for scale parameters, linear for fractions and exponents;
-:func:`jacobian_covariance`), Student-t intervals; for phi_j and phi_c also the profile likelihood
-(refits at fixed values until the sum of squares has grown by s^2 t^2), which replaces the
-Jacobian interval when it is computed. Three distinct flags per parameter:
+Uncertainty: covariance s^2 (J^T J)^-1 at the optimum in the coordinates of :data:`SCALE` (ln for
+scale parameters; :func:`jacobian_covariance`), Student-t intervals; for phi_j and phi_c the
+profile likelihood (refits at fixed values until the sum of squares grows by s^2 t^2) replaces it.
+Flags per parameter:
 
-- ``at_bound``: it ended on a bound of the search (one-sided interval); a bound that is a limit of
-  the law itself (a_inf = a0, alpha_i = 0, Delta = 0 or 1) is a result, any other is a problem;
-- ``unidentifiable``: its interval is wider than a factor of 2 (scale parameters), +-0.02
-  (fractions), +-1 (exponents), unbounded or undefined (written as null), it is correlated with
-  another beyond |r| = 0.99 (except the pairs correlated by the equations' form: varphi_i with
-  alpha_i, eta0 with a0 and a_inf), or
-  it lies in a direction of (numerically) zero curvature;
+- ``at_bound``: it ended on a search bound (one-sided interval); a limit of the law itself
+  (a_inf = a0, alpha_i = 0, Delta = 0 or 1) is a result, any other bound a problem;
+- ``unidentifiable``: interval wider than a factor 2 (scale parameters), +-0.02 (fractions), +-1
+  (exponents), unbounded or undefined (null), correlated beyond |r| = 0.99 with another (except
+  the pairs correlated by the equations' form, :data:`_PIVOT_PAIRS`), or along a direction of zero
+  curvature;
 - ``converged``: the optimiser stopped on its tolerances, not on its evaluation limit.
 
-:func:`assess` lists what makes a result unphysical (phi_c far below phi_j, a0 or a_inf outside
-the range of the paper's sets, a search bound reached, the evaluation limit hit, an estimated eta0
-not identified), in words a user can act on.
-
-Everything is SI. The model is the viscous limit of Eq. (1) (grain inertia neglected, as in the
-paper's fits); the material's mu_2 and b are honoured.
+:func:`assess` words what makes a result unphysical. SI throughout; the model is the viscous
+limit of Eq. (1) (grain inertia neglected, as in the paper's fits), honouring mu_2 and b.
 """
 
 from __future__ import annotations
@@ -59,7 +50,7 @@ from .materials import Material, get_material
 from .numba_cache import guard
 from .steady import gdot_dst
 import pandas as pd
-from .data import COLUMNS, Curve, clean
+from .data import Curve, curve_table
 from .materials import FIELD_UNITS
 
 #: Every parameter the fitter can vary, with its reporting coordinate: "log" (intervals and
@@ -409,6 +400,14 @@ def _clip_inside(x, lo, hi):
 
 
 # ============================================================================ parametrisation
+#: Search box in the optimiser's coordinates (ln for log-scale parameters) where no other free
+#: parameter sets it.
+_BOX = {"tau_star": (np.log(1e-8), np.log(1e9)), "varphi1": (-120.0, 120.0),
+        "varphi2": (-120.0, 120.0), "a0": (np.log(1e-3), np.log(1e2)),
+        "eta0": (np.log(1e-8), np.log(1e4)), "mu_c": (np.log(1e-3), np.log(1e2)),
+        "alpha1": (0.0, 30.0), "alpha2": (0.0, 30.0), "Delta": (0.0, 1.0)}
+
+
 class _Params:
     """Maps the free natural parameters to the optimiser's box-bounded coordinates theta.
 
@@ -418,53 +417,26 @@ class _Params:
 
     def __init__(self, base: Material, free: list[str], phi_max: float):
         self.base, self.free, self.phi_max = base, list(free), phi_max
-        names, lo, hi = [], [], []
-        phys = []                # (low, high) bound is a limit of the law itself, not the search's
+        boxes, phys = [], []     # phys: (low, high) bound is a limit of the law, not the search's
         for p in self.free:
             phys.append((p in ("a_inf", "alpha1", "alpha2", "Delta") and
                          (p != "a_inf" or "a0" in self.free), p == "Delta"))
             if p == "phi_j":
-                names.append("phi_j")
-                lo.append(max(phi_max, 0.0 if "phi_c" in self.free else base.phi_c) + 1e-5)
-                hi.append(0.9999)
-            elif p == "phi_c":
-                if "phi_j" in self.free:
-                    names.append("dphi")
-                    lo.append(1e-4)
-                    hi.append(phi_max)          # phi_c = phi_j - dphi > phi_j - phi_max > 0
-                else:
-                    names.append("phi_c")
-                    lo.append(1e-4)
-                    hi.append(base.phi_j - 1e-4)
+                boxes.append(("phi_j", max(phi_max, 0.0 if "phi_c" in self.free else base.phi_c)
+                              + 1e-5, 0.9999))
+            elif p == "phi_c":        # phi_c = phi_j - dphi > phi_j - phi_max > 0
+                boxes.append(("dphi", 1e-4, phi_max) if "phi_j" in self.free
+                             else ("phi_c", 1e-4, base.phi_j - 1e-4))
             elif p == "a_inf" and "a0" in self.free:
-                names.append("ln_ainf_over_a0")
-                lo.append(0.0)
-                hi.append(np.log(100.0))
+                boxes.append(("ln_ainf_over_a0", 0.0, np.log(100.0)))
             elif p == "a0" and "a_inf" not in self.free:
-                names.append("ln_a0")
-                lo.append(np.log(1e-3))
-                hi.append(np.log(base.a_inf))
+                boxes.append(("ln_a0", np.log(1e-3), np.log(base.a_inf)))
             elif p == "a_inf":
-                names.append("ln_a_inf")
-                lo.append(np.log(base.a0))
-                hi.append(np.log(1e3))
-            elif SCALE[p] == "log":
-                names.append("ln_" + p)
-                lo.append({"tau_star": np.log(1e-8), "varphi1": -120.0, "varphi2": -120.0,
-                           "a0": np.log(1e-3), "eta0": np.log(1e-8), "mu_c": np.log(1e-3)}[p])
-                hi.append({"tau_star": np.log(1e9), "varphi1": 120.0, "varphi2": 120.0,
-                           "a0": np.log(1e2), "eta0": np.log(1e4), "mu_c": np.log(1e2)}[p])
-            elif p in ("alpha1", "alpha2"):
-                names.append(p)
-                lo.append(0.0)
-                hi.append(30.0)
-            elif p == "Delta":
-                names.append(p)
-                lo.append(0.0)
-                hi.append(1.0)
-            else:  # pragma: no cover
-                raise ValueError(f"cannot fit {p}")
-        self.names, self.lo, self.hi = names, np.array(lo), np.array(hi)
+                boxes.append(("ln_a_inf", np.log(base.a0), np.log(1e3)))
+            else:
+                boxes.append((("ln_" if SCALE[p] == "log" else "") + p, *_BOX[p]))
+        names, lo, hi = zip(*boxes) if boxes else ((), (), ())
+        self.names, self.lo, self.hi = list(names), np.array(lo, float), np.array(hi, float)
         self.physical_lo = np.array([a for a, _ in phys], bool)
         self.physical_hi = np.array([b for _, b in phys], bool)
 
@@ -826,20 +798,21 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         # Eq. (33) solved for 1/eta_B at each DST rate
         inv_target = (2 * m.mu_c) ** 0.5 * (a * phd / x) / m.eta0 * (
             m.tau_star / (m.eta0 * g)) ** -1.5
-        if etaB_terms == 2 and len(dst_ok) >= 3:
+        if etaB_terms == 2 and (len(dst_ok) >= 3 or len(dst_ok) == 2 and np.ptp(np.log(x)) > 0):
+            three = len(dst_ok) >= 3          # alpha1 fitted too; two curves: both alphas held
+
             def r3(q):
-                return np.log(np.exp(q[0]) * x ** q[1] + np.exp(q[2]) * x ** al2) - np.log(inv_target)
-            q0 = [np.log(max(v1, 1e-30)), al1, np.log(max(v2, 1e-30) if v2 > 0 else 1e-3)]
-            q = least_squares(r3, q0, bounds=([-120, 0, -120], [120, 30, 120])).x
-            v1, al1, v2 = float(np.exp(q[0])), float(q[1]), float(np.exp(q[2]))
-        elif etaB_terms == 2 and len(dst_ok) == 2 and np.ptp(np.log(x)) > 0:
-            def r2(q):
-                return np.log(np.exp(q[0]) * x ** al1 + np.exp(q[1]) * x ** al2) - np.log(inv_target)
-            q0 = [np.log(max(v1, 1e-30)), np.log(v2 if v2 > 0 else 1e-3)]
-            q = least_squares(r2, q0, bounds=([-120, -120], [120, 120])).x
-            v1, v2 = float(np.exp(q[0])), float(np.exp(q[1]))
-            messages.append("stage 3: two DST curves for two eta_B terms: alpha1, alpha2 held "
-                            f"at {al1:.4g}, {al2:.4g}")
+                return np.log(np.exp(q[0]) * x ** (q[1] if three else al1)
+                              + np.exp(q[-1]) * x ** al2) - np.log(inv_target)
+            q = least_squares(r3, [np.log(max(v1, 1e-30)), *[al1] * three,
+                                   np.log(max(v2, 1e-30) if v2 > 0 else 1e-3)],
+                              bounds=([-120, *[0] * three, -120], [120, *[30] * three, 120])).x
+            v1, v2 = float(np.exp(q[0])), float(np.exp(q[-1]))
+            if three:
+                al1 = float(q[1])
+            else:
+                messages.append("stage 3: two DST curves for two eta_B terms: alpha1, alpha2 held "
+                                f"at {al1:.4g}, {al2:.4g}")
         elif len(dst_ok) >= 2 and "alpha1" not in fixed and np.ptp(np.log(x)) > 0:
             A = np.column_stack([np.ones_like(x), np.log(x)])
             coef = np.linalg.lstsq(A, np.log(inv_target), rcond=None)[0]
@@ -1212,18 +1185,13 @@ def synthetic_table(m: Material, phis, **kw):
     frames = []
     for c, ph in zip(syn["curves"], syn["phi"]):
         s, r = c["stress"], c["rate"]
-        flagged = np.array(["ME-" in x for x in c["status"]])
         with np.errstate(invalid="ignore", divide="ignore"):
             v = s / r
-        cur = Curve("synthetic", "Viscosity curve 1", np.arange(1.0, s.size + 1),
-                    np.arange(1.0, s.size + 1) * 6, r, s, v, None, flagged)
-        kept, why = clean(cur)
-        frames.append(pd.DataFrame({"source_file": f"synthetic_phi_{ph:.4f}", "interval":
-                                    cur.interval, "phi": ph, "point": cur.point,
-                                    "time_s": cur.time_s, "shear_rate_per_s": r,
-                                    "shear_stress_Pa": s, "viscosity_Pa_s": v, "kept": kept,
-                                    "dropped_reason": why}))
-    return pd.concat(frames, ignore_index=True)[list(COLUMNS)]
+        n = np.arange(1.0, s.size + 1)
+        cur = Curve("synthetic", "Viscosity curve 1", n, n * 6, r, s, v, None,
+                    np.array(["ME-" in x for x in c["status"]]))
+        frames.append(curve_table(cur, ph, source=f"synthetic_phi_{ph:.4f}"))
+    return pd.concat(frames, ignore_index=True)
 
 
 def recovery_errors(fit: FitResult, truth: Material, phis) -> dict[str, float]:

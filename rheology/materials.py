@@ -267,93 +267,64 @@ def _singh(fit: str) -> Material:
                     **common)
 
 
-def _table2(name, ref, phi_c, phi_j, a0, a_inf, tau_star, eta0_mPas, mu_c, v1, a1, v2, a2):
+#: Tables 2-3: name -> (reference, phi_c, phi_j, a0, a_inf, tau* [Pa], eta0 [mPa s], mu_c,
+#: varphi1 [1/(Pa s)], alpha1, varphi2 [1/(Pa s)], alpha2).
+_TABLE2 = {
+    "dhaene1993": ("d'Haene, Mewis & Fuller, J. Colloid Interface Sci. 156, 350 (1993), PMMA",
+                   0.57, 0.65, 1.08, 1.08, 5.21, 56, 0.3, 8.83e6, 6, 0, 0),
+    "frith1996": ("Frith, d'Haene, Buscall & Mewis, J. Rheol. 40, 531 (1996), PMMA",
+                  0.548, 0.642, 1.08, 1.08, 17.93, 130, 0.3, 1.79e11, 12, 4.5, 0.1),
+    "guy2015_a": ("Guy, Hermes & Poon, PRL 115, 088304 (2015), PMMA, fit (a)",
+                  0.56, 0.617, 1.577, 1.577, 423.0, 2.4, 0.3, 3e6, 5, 9e-2, 0.1),
+    "guy2015_b": ("Guy, Hermes & Poon, PRL 115, 088304 (2015), PMMA, fit (b)",
+                  0.563, 0.610, 1.09, 1.538, 3.5, 2.4, 0.3, 1.0e6, 6, 0, 0),
+    "fall2015": ("Fall et al., PRL 114, 098301 (2015), cornstarch",
+                 0.38, 0.454, 1.00, 1.00, 0.116, 0.89, 1.19, 4.0e4, 3, 0, 0),
+    "hermes2016": ("Hermes et al., J. Rheol. 60, 905 (2016), cornstarch",
+                   0.436, 0.535, 0.8, 0.8, 5.35, 6, 1.19, 1.86e4, 4, 9.3e-3, 0.1),
+}
+
+
+def _table2(name: str) -> Material:
+    ref, phi_c, phi_j, a0, a_inf, tau_star, eta0_mPas, mu_c, v1, a1, v2, a2 = _TABLE2[name]
     return Material(name=name, citation=f"{ref}; fit of {_PAPER}, Tables 2-3", phi_c=phi_c,
                     phi_j=phi_j, a0=a0, a_inf=a_inf, mu_c=mu_c, tau_star=tau_star,
                     eta0=eta0_mPas * 1e-3, varphi1=v1, alpha1=a1, varphi2=v2, alpha2=a2,
                     Delta=0.0, notes=_STEADY_NOTE)
 
 
-def _dhaene1993():
-    return _table2("dhaene1993", "d'Haene, Mewis & Fuller, J. Colloid Interface Sci. 156, 350 "
-                   "(1993), PMMA", 0.57, 0.65, 1.08, 1.08, 5.21, 56, 0.3, 8.83e6, 6, 0, 0)
-
-
-def _frith1996():
-    return _table2("frith1996", "Frith, d'Haene, Buscall & Mewis, J. Rheol. 40, 531 (1996), PMMA",
-                   0.548, 0.642, 1.08, 1.08, 17.93, 130, 0.3, 1.79e11, 12, 4.5, 0.1)
-
-
-def _guy2015_a():
-    return _table2("guy2015_a", "Guy, Hermes & Poon, PRL 115, 088304 (2015), PMMA, fit (a)",
-                   0.56, 0.617, 1.577, 1.577, 423.0, 2.4, 0.3, 3e6, 5, 9e-2, 0.1)
-
-
-def _guy2015_b():
-    return _table2("guy2015_b", "Guy, Hermes & Poon, PRL 115, 088304 (2015), PMMA, fit (b)",
-                   0.563, 0.610, 1.09, 1.538, 3.5, 2.4, 0.3, 1.0e6, 6, 0, 0)
-
-
-def _fall2015():
-    return _table2("fall2015", "Fall et al., PRL 114, 098301 (2015), cornstarch",
-                   0.38, 0.454, 1.00, 1.00, 0.116, 0.89, 1.19, 4.0e4, 3, 0, 0)
-
-
-def _hermes2016():
-    return _table2("hermes2016", "Hermes et al., J. Rheol. 60, 905 (2016), cornstarch",
-                   0.436, 0.535, 0.8, 0.8, 5.35, 6, 1.19, 1.86e4, 4, 9.3e-3, 0.1)
-
-
 _SCENE_NOTE = ("d = 5.85 um, K3 = 4.715, K4 = 0 from the text; kappa (fluid bulk modulus) is not "
                "given by the paper: our choice kappa = K keeps the fluid and skeleton wave speeds "
                "alike and elastic strains small")
+_NO_PHI0 = "; phi0 not given by the paper (set it per run)"
 
 
 def _scene(name, table, ref, eta0, rho_s, rho_f, G, K, K0, phi0=None, extra_note=""):
-    base = _hermes2016()
-    return base.replace(
+    """A scene's set of Tables 4-7: the Hermes 2016 steady fit with its moduli and densities."""
+    return _table2("hermes2016").replace(
         name=name, citation=f"{ref}; {_PAPER}, Table {table} with the Hermes 2016 steady fit",
         eta0=eta0, rho_s=rho_s, rho_f=rho_f, G=G, K=K, K0=K0, d=5.85e-6, K3=4.715, K4=0.0,
         kappa=K, phi0=phi0, notes=_SCENE_NOTE + extra_note)
 
 
-def _annular_shear():
-    return _scene("annular_shear", 4, "Peters, Majumdar & Jaeger, Nature 532, 214 (2016)",
-                  10e-3, 1620.0, 1620.0, 3.8e5, 8.3e5, 0.06, phi0=0.505,
-                  extra_note="; density matched: rho_s = rho_f = rho = 1620 kg/m^3")
-
-
-def _rod_impact(name: str, eta0: float, fig: int):
-    return _scene(name, 5, f"Waitukaitis & Jaeger, Nature 487, 205 (2012), Fig. {fig}",
-                  eta0, 1620.0, 1000.0, 3.8e7, 8.3e7, 1.0,
-                  extra_note="; phi0 not given by the paper (set it per run)")
-
-
-def _intruder():
-    return _scene("intruder", 6, "Han, Peters & Jaeger, Nat. Commun. 7, 12243 (2016)",
-                  4.6e-3, 1620.0, 1620.0, 3.8e7, 8.3e7, 0.2, phi0=0.47,
-                  extra_note="; phi0 = 0.47 as in Fig. 6(a)-(e); Fig. 7 varies 0.46-0.50")
-
-
-def _wheel():
-    return _scene("wheel", 7, "running on oobleck, Figs. 8-9", 1e-3, 1620.0, 1620.0, 3.8e5, 8.3e5,
-                  1.0, extra_note="; phi0 not given by the paper (set it per run)")
-
-
 _REGISTRY: dict[str, Callable[[], Material]] = {
     "singh2018_a": lambda: _singh("a"),
     "singh2018_b": lambda: _singh("b"),
-    "dhaene1993": _dhaene1993,
-    "frith1996": _frith1996,
-    "guy2015_a": _guy2015_a,
-    "guy2015_b": _guy2015_b,
-    "fall2015": _fall2015,
-    "hermes2016": _hermes2016,
-    "annular_shear": _annular_shear,
-    "rod_impact": lambda: _rod_impact("rod_impact", 7e-3, 4),
-    "rod_impact_1cp": lambda: _rod_impact("rod_impact_1cp", 1e-3, 5),
-    "intruder": _intruder,
-    "wheel": _wheel,
+    **{k: (lambda k=k: _table2(k)) for k in _TABLE2},
+    "annular_shear": lambda: _scene(
+        "annular_shear", 4, "Peters, Majumdar & Jaeger, Nature 532, 214 (2016)", 10e-3, 1620.0,
+        1620.0, 3.8e5, 8.3e5, 0.06, phi0=0.505,
+        extra_note="; density matched: rho_s = rho_f = rho = 1620 kg/m^3"),
+    **{name: (lambda name=name, eta0=eta0, fig=fig: _scene(
+        name, 5, f"Waitukaitis & Jaeger, Nature 487, 205 (2012), Fig. {fig}", eta0, 1620.0,
+        1000.0, 3.8e7, 8.3e7, 1.0, extra_note=_NO_PHI0))
+       for name, eta0, fig in (("rod_impact", 7e-3, 4), ("rod_impact_1cp", 1e-3, 5))},
+    "intruder": lambda: _scene(
+        "intruder", 6, "Han, Peters & Jaeger, Nat. Commun. 7, 12243 (2016)", 4.6e-3, 1620.0,
+        1620.0, 3.8e7, 8.3e7, 0.2, phi0=0.47,
+        extra_note="; phi0 = 0.47 as in Fig. 6(a)-(e); Fig. 7 varies 0.46-0.50"),
+    "wheel": lambda: _scene("wheel", 7, "running on oobleck, Figs. 8-9", 1e-3, 1620.0, 1620.0,
+                            3.8e5, 8.3e5, 1.0, extra_note=_NO_PHI0),
 }
 
 #: The six experimental steady fits of Fig. 2, in the paper's panel order (a)-(f).
