@@ -42,8 +42,10 @@ import bisect
 import csv
 import io
 import re
+from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from itertools import groupby
 from pathlib import Path
 
 import numpy as np
@@ -406,20 +408,15 @@ def rspace_blocks(text: str) -> list[Block]:
     header, units = _split_units(rows[k])
     low = [h.lower() for h in header]
     act = next((low.index(a) for a in ("action name", "action", "step name") if a in low), None)
-    runs: list[tuple[str, list]] = []
-    for r in rows[k + 1:]:
-        if not any(r):
-            continue
-        name = (r[act] if act is not None and act < len(r) else "") or meta.get("sequence", "table")
-        if not runs or runs[-1][0] != name:
-            runs.append((name, []))
-        runs[-1][1].append(r)
-    seen: dict[str, int] = {}
-    blocks = []
-    for name, data in runs:
-        seen[name] = seen.get(name, 0) + 1
+
+    def action(r):
+        return (r[act] if act is not None and act < len(r) else "") or meta.get("sequence", "table")
+
+    blocks, seen = [], Counter()
+    for name, data in groupby((r for r in rows[k + 1:] if any(r)), key=action):
+        seen[name] += 1
         label = name if seen[name] == 1 else f"{name} ({seen[name]})"
-        blocks.append(Block(label, header, units, data, meta))
+        blocks.append(Block(label, header, units, list(data), meta))
     return blocks
 
 

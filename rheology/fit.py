@@ -44,14 +44,14 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import least_squares
 
-from . import laws
+import pandas as pd
 from runkit.params import check_range
-from .materials import Material, get_material
+
+from . import laws
+from .data import Curve, curve_table
+from .materials import FIELD_UNITS, Material, get_material
 from .numba_cache import guard
 from .steady import gdot_dst
-import pandas as pd
-from .data import Curve, curve_table
-from .materials import FIELD_UNITS
 
 #: Every parameter the fitter can vary, with its reporting coordinate: "log" (intervals and
 #: correlations in ln, always positive) or "lin".
@@ -313,7 +313,8 @@ class CurveFeatures:
     kind : 'plateau' (stage 2), 'dst' (stage 3), 'jamming' (the rate falls: eta_B = inf) or
         'neither'
     gdot_dst : DST rate [1/s] (median rate of the top quarter), for kind 'dst'
-    stress_min, stress_dst : where the plateau minimum and the DST rates were read [Pa]
+    stress_min, stress_max : where the plateau minimum and maximum were read [Pa]
+    dst_stress : (lowest, highest) stress of the top quarter, where the DST rate was read [Pa]
     """
 
     phi: float
@@ -712,7 +713,6 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     mu_c = base.mu_c
     eta_min = np.array([f.eta_min for f in feats])
     pj0 = base.phi_j if base.phi_j > phi_max else phi_max + 0.02
-    phi_j, a0 = base.phi_j, base.a0
     if "phi_j" in fixed and "a0" in fixed and not estimate_eta0:
         messages.append("stage 1 skipped: phi_j and a0 both fixed")
     phi_j, a0, eta0 = _plateau_fit(
@@ -757,8 +757,7 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
                         + ("; a_inf stays fixed" if "a_inf" in fixed else
                            "; stage 4 fits a_inf with the rest (its status is in the table)"))
     else:
-        lo_c = 1e-3
-        phi_c = _clip_inside(phi_c, lo_c, phi_c_hi)
+        phi_c = _clip_inside(phi_c, 1e-3, phi_c_hi)
         messages.append("stage 2: no curve with a high-stress plateau: phi_c and a_inf start "
                         "from the start material's (phi_j - phi_c, a_inf/a0) and are left to "
                         "stage 4")
@@ -847,10 +846,9 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     if m.a0 == m.a_inf and "a_inf" in free_list:
         m = dataclasses.replace(m, a_inf=m.a0 * (1 + 1e-6))
     if stages_only:
-        out = _finish(data, m, base, [], free_list, np.zeros(data.stress.size, bool), stages,
-                      messages, n_eval, t0, confidence, None, None, name, citation, model,
-                      fixed=fixed)
-        return out
+        return _finish(data, m, base, [], free_list, np.zeros(data.stress.size, bool), stages,
+                       messages, n_eval, t0, confidence, None, None, name, citation, model,
+                       fixed=fixed)
     P = _Params(m, free_list, phi_max)
     th0 = P.theta(m)
 
@@ -962,7 +960,7 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
                     top = ((final.phi_j if p == "phi_c" else 1.0)
                            if p in ("phi_c", "phi_j", "Delta") else np.inf)
                     lo_, hi_ = float(np.maximum(lo_, 0.0)), float(np.minimum(hi_, top))
-            why = []
+            why, bound = [], ""
             half = tq * sd[k]
             wide = not flat and ((half > np.log(2.0)) if SCALE[p] == "log" else (
                 half > (0.02 if p.startswith("phi") else 1.0 if p.startswith("alpha") else 0.2)))
@@ -976,27 +974,19 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
                             "at 0 or 1"}.get(p, f"{p} = 0") + ")" if physical else
                             f"at the fitter's {'lower' if at_low else 'upper'} search bound "
                             f"{val:.4g}, not a physical limit") + ": one-sided interval")
-                if at_low:
-                    lo_ = float(val)
-                else:
-                    hi_ = float(val)
+                lo_, hi_ = (float(val), hi_) if at_low else (lo_, float(val))
                 bound = "law" if physical else "search"
-            else:
-                bound = ""
             unbounded = not flat and not (np.isfinite(lo_) and np.isfinite(hi_))
-            if p in degenerate:
-                why.append("no curvature of the misfit along it")
-            if wide:
-                why.append("interval wider than " + ("a factor 2" if SCALE[p] == "log" else
-                                                     "the identifiability width"))
-            if partners:
-                why.append(f"correlation > {CORR_FLAG} with " + ", ".join(partners))
-            if flat or unbounded:
-                why.append("interval " + ("undefined" if flat else "unbounded") + " (null)")
+            why += [w for w, on in (
+                ("no curvature of the misfit along it", p in degenerate),
+                ("interval wider than " + ("a factor 2" if SCALE[p] == "log" else
+                                           "the identifiability width"), wide),
+                (f"correlation > {CORR_FLAG} with " + ", ".join(partners), partners),
+                ("interval " + ("undefined" if flat else "unbounded") + " (null)",
+                 flat or unbounded),
+                ("the optimiser stopped at its evaluation limit", not converged)) if on]
             unident = bool(p in degenerate or wide or partners or flat or unbounded)
             lo_, hi_ = (x if np.isfinite(x) else np.nan for x in (lo_, hi_))
-            if not converged:
-                why.append("the optimiser stopped at its evaluation limit")
             note = "; ".join(why)
             if unident:
                 messages.append(f"{p} is not identified by these data ({note})")

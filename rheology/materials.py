@@ -178,23 +178,19 @@ class Material:
         check_range("a0", self.a0, 0.0, None, lo_closed=False, note=n)
         check_range("a_inf", self.a_inf, self.a0, None,
                     note=f"{n}; a_inf >= a0 makes the stress-controlled steady state unique")
-        check_range("mu_c", self.mu_c, 0.0, None, lo_closed=False, note=n)
+        def from_zero(keys, **kw):     # an unset optional field (None) is not checked
+            for k in keys:
+                if getattr(self, k) is not None or k not in OPTIONAL_FIELDS:
+                    check_range(k, getattr(self, k), 0.0, None, note=n, **kw)
+
+        from_zero(("mu_c", "tau_star", "eta0", "G", "K", "rho_s", "rho_f", "kappa"),
+                      lo_closed=False)
         if self.mu_2 is not None:
             check_range("mu_2", self.mu_2, self.mu_c, None, note=f"{n}; mu_2 >= mu_c")
-        check_range("b", self.b, 0.0, None, note=n)
-        check_range("tau_star", self.tau_star, 0.0, None, lo_closed=False, note=n)
-        check_range("eta0", self.eta0, 0.0, None, lo_closed=False, note=n)
-        for k in ("varphi1", "alpha1", "varphi2", "alpha2", "xi_eps", "d", "K3"):
-            check_range(k, getattr(self, k), 0.0, None, note=n)
+        from_zero(("b", "varphi1", "alpha1", "varphi2", "alpha2", "xi_eps", "d", "K3", "K0"))
         check_range("Delta", self.Delta, 0.0, 1.0, note=n)
         check_range("K4", self.K4, 0.0, 0.0,
                     note=f"{n}; only K4 = 0, the value of every scene of the paper, is implemented")
-        for k in ("K0",):
-            if getattr(self, k) is not None:
-                check_range(k, getattr(self, k), 0.0, None, note=n)
-        for k in ("G", "K", "rho_s", "rho_f", "kappa"):
-            if getattr(self, k) is not None:
-                check_range(k, getattr(self, k), 0.0, None, lo_closed=False, note=n)
         if self.phi0 is not None:
             check_range("phi0", self.phi0, 0.0, self.phi_j, lo_closed=False, hi_closed=False,
                         note=f"{n}; below phi_j = {self.phi_j}")
