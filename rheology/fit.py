@@ -729,10 +729,11 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     plat = [i for i, f in enumerate(feats) if f.kind == "plateau"]
     dst = [i for i, f in enumerate(feats) if f.kind == "dst"]
     ratio0 = base.a_inf / base.a0
-    phi_c_hi = min([phis[i] for i in dst], default=phi_j) if dst else phi_j
-    phi_c_hi = min(phi_c_hi, phi_j - 1e-4)
+    phi_c_hi = min([phis[i] for i in dst] + [phi_j - 1e-4])
     phi_c, a_inf = base.phi_c - base.phi_j + phi_j, max(a0, a0 * ratio0)
     eta_r_max = np.array([feats[i].eta_max for i in plat]) / eta0
+    lo = float(phis[plat].max()) + 1e-5 if plat else 0.0       # phi_c above every plateau's phi
+    hi = max(phi_c_hi, lo + 2e-5)
     if "phi_c" in fixed:
         phi_c = base.phi_c
         if len(plat) >= 1 and "a_inf" not in fixed:
@@ -741,13 +742,9 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         if not plat:
             messages.append("stage 2: phi_c fixed, no high-stress plateau to fit a_inf")
     elif len(plat) >= 2 and "a_inf" not in fixed:
-        lo = float(max(phis[plat])) + 1e-5
-        hi = max(phi_c_hi, lo + 2e-5)
         phi_c, a_inf, _ = _plateau_fit(phis[plat], eta_r_max, mu_c, _clip_inside(phi_c, lo, hi),
                                        max(a_inf, a0 * 1.0001), (lo, hi), (a0, 100.0))
     elif len(plat) >= 1:
-        lo = float(max(phis[plat])) + 1e-5
-        hi = max(phi_c_hi, lo + 2e-5)
         if "a_inf" in fixed:
             a_inf = base.a_inf
         phi_c = _plateau_fit(phis[plat], eta_r_max, mu_c, _clip_inside(phi_c, lo, hi), a_inf,
@@ -1000,13 +997,11 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
         params += [ParameterEstimate(p, float(getattr(final, p)), float("nan"), float("nan"),
                                      float("nan"), "none", STAGE_OF[p], "stages 1-3")
                    for p in free_list]
-    held = [p for p in SCALE if p not in free_list]
-    for p in held:
+    for p in [p for p in SCALE if p not in free_list]:
+        v = float(getattr(final, p))
         reason = ("held at the given value" if p in fixed else "held (not fitted by default)"
                   if p in OPTIONAL_FREE else "held (no data for it)")
-        params.append(ParameterEstimate(p, float(getattr(final, p)), float(getattr(final, p)),
-                                        float(getattr(final, p)), 0.0, "fixed", "fixed", "fixed",
-                                        reason))
+        params.append(ParameterEstimate(p, v, v, v, 0.0, "fixed", "fixed", "fixed", reason))
     out = FitResult(material=final, parameters=params, correlation=(names_corr, corr),
                     stages=stages, residual_log10=r_all, outlier=outlier,
                     model_viscosity=st["viscosity"], model_rate=st["shear_rate"],
