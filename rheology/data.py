@@ -51,7 +51,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from runkit.io import atomic_write_bytes
 from runkit.params import check_range
+
+from .steady import phi_from_mass_fraction
 
 #: Columns of the tidy flow-curve table, in order (units in the names).
 COLUMNS: tuple[str, ...] = ("source_file", "interval", "phi", "point", "time_s",
@@ -707,8 +710,6 @@ def read_flow_curves(paths: Sequence, *, fmt: str = "auto", columns: dict[str, s
         A file missing, unreadable, in no known layout or with no usable curve (named), a --phi
         count that does not match the files, a phi outside (0, 1).
     """
-    from .steady import phi_from_mass_fraction
-
     paths = _check_paths(paths, fmt, phi, "--phi")
     frames, formats, skipped = [], {}, []
     for i, p, chosen in _chosen_blocks(paths, fmt, columns, "flow", intervals, formats, skipped):
@@ -888,8 +889,6 @@ def write_rheocompass(path, curves: Iterable[dict], *, project: str = "synthetic
     ``status`` (list of str, e.g. ``"Dy_auto,ME-"``), ``time`` [s]. Used for the shipped example
     exports and the tests of the reader. Written atomically.
     """
-    from runkit.io import atomic_write_bytes
-
     lines = [f"Project:\t{project}", "", f"Test:\t{test}", ""]
     head = ("Interval data:\tPoint No.\tTime\tShear Rate\tShear Stress\tViscosity\tTorque\t"
             "Normal Force\tGap\tTemperature\tStatus")
@@ -924,8 +923,6 @@ def write_export(path, layout: str, steps: Iterable[dict], header: dict) -> Path
 
     The TRIOS text is Latin-1 with CRLF line ends, the CSVs UTF-8 with a BOM.
     """
-    from runkit.io import atomic_write_bytes
-
     steps = list(steps)
     if layout in ("trios", "trios-csv"):
         d = "\t" if layout == "trios" else ","

@@ -935,7 +935,7 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
                 if p in free_list:
                     k = free_list.index(p)
                     prof[p] = _profile(data, final, free_list, p, psi[k], sd[k], tq, s2,
-                                       float(np.sum(res.fun ** 2)), inl, P.phi_max, base, model)
+                                       float(np.sum(res.fun ** 2)), inl, P.phi_max, model)
         converged = res.status > 0
         for k, p in enumerate(free_list):
             val = getattr(final, p)
@@ -1065,7 +1065,7 @@ def assess(res: FitResult, eta0_estimated: bool = False) -> list[str]:
     return out
 
 
-def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max, base, model):
+def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max, model):
     """Profile-likelihood interval of phi_j or phi_c: refit the others at fixed values and find
     where the inlier sum of squares reaches ssq_best + s2 tq^2 (secant on its square root)."""
     others = [q for q in free_list if q != p]

@@ -31,7 +31,9 @@ wheel           paper Table 7 on hermes2016 (Figs. 8-9, 'running on oobleck')
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -39,6 +41,7 @@ from typing import Callable
 import numpy as np
 
 from runkit import limits
+from runkit.io import atomic_write_json
 from runkit.params import Param, check_range
 
 #: Units of every numeric field (SI sets; Table 1 sets use eta0 = gdot_0 = 1 instead).
@@ -378,8 +381,6 @@ def material_from_dict(data: dict, source: str = "material file") -> Material:
 def save_material(path, m: Material, **extra) -> Path:
     """Write ``m`` as a material file (strict JSON, atomically): ``{"format", "material":
     {fields}, **extra}`` (e.g. ``provenance=...``, ``fit=...``). :func:`get_material` reads it."""
-    from runkit.io import atomic_write_json
-
     doc = {"format": MATERIAL_FILE_FORMAT, "version": 1, "material": material_to_dict(m), **extra}
     return atomic_write_json(path, doc)
 
@@ -393,8 +394,6 @@ def load_material(path) -> Material:
     ValueError
         The file is missing, not JSON, or its material is invalid (named with the file).
     """
-    import json
-
     def no_nan(token):
         raise ValueError(f"{token} is not a number in strict JSON")
 
@@ -533,8 +532,6 @@ def check_set_override(name: str, value, option: str = "--set"):
 def set_argument(text: str):
     """``type=`` of a command line's ``--set NAME=VALUE`` (argparse): :func:`split_set_item` then
     :func:`check_set_override`; a refusal is one ``argparse.ArgumentTypeError`` line."""
-    import argparse
-
     try:
         return check_set_override(*split_set_item(text))
     except ValueError as exc:
