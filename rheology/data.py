@@ -517,13 +517,17 @@ def block_curve(block: Block, source: str, columns: dict[str, str] | None = None
         return block_values(block, q, where, columns)
 
     stress, rate, visc = _complete(get("stress"), get("rate"), get("viscosity"), where)
-    k = column_index(block, "status")
-    flagged = np.array([k is not None and k < len(r) and any(
-        s.strip().upper().startswith("ME") for s in r[k].split(",")) for r in block.rows], bool)
     point, time = get("point"), get("time")
     return Curve(source, block.name, point if point is not None else np.arange(1.0, n + 1),
                  time if time is not None else np.full(n, np.nan), rate, stress, visc,
-                 get("torque"), flagged, get("phi"))
+                 get("torque"), _status_me(block), get("phi"))
+
+
+def _status_me(block: Block) -> np.ndarray:
+    """Rows whose status holds an ``ME`` flag (RheoCompass ``ME-``: below the torque range)."""
+    k = column_index(block, "status")
+    return np.array([k is not None and k < len(r) and any(
+        s.strip().upper().startswith("ME") for s in r[k].split(",")) for r in block.rows], bool)
 
 
 # ------------------------------------------------------------------ registry
@@ -815,11 +819,9 @@ def read_relaxation_curves(paths: Sequence, *, fmt: str = "auto",
                                  f"{', '.join(b.header)})")
             if s is None:
                 s = torque * 1e-3 * stress_constant(b.meta, where)
-            k = column_index(b, "status")
-            flagged = [k is not None and k < len(r) and "ME" in r[k].upper() for r in b.rows]
             reason = _reasons(t.size, [
                 ("missing_value", ~(np.isfinite(t) & np.isfinite(s))),
-                ("below_torque_floor", _below_floor(flagged, torque, torque_floor, t.size)),
+                ("below_torque_floor", _below_floor(_status_me(b), torque, torque_floor, t.size)),
                 ("nonpositive_stress", s <= 0),
                 ("below_stress_floor", s < (stress_floor or 0.0))])
             _monotone(np.where(reason == "", t, 0.0), reason, direction=1.0)

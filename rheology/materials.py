@@ -595,14 +595,10 @@ def scene_material(scene_set: str | Material, material: str | Material | None = 
     return user.replace(**fill, **overrides) if (fill or overrides) else user
 
 
-
-# Default volume fractions per material, one rule for every command of every tier. A set with
-# DST (a finite buckling resistance eta_B, Eq. 9: the Table 2-7 sets and Singh (b)) gets
-# phi = phi_c + s (phi_j - phi_c) with s = 0.45, 0.65, 0.85, all inside the DST window
-# phi_c <= phi < phi_j (Hermes 2016: 0.48, 0.50, 0.52). A set without DST (eta_B infinite:
-# Singh (a), which shear-jams above phi_c) gets s = -1.5, -0.75, -0.25: below phi_c, where it
-# flows at every stress. Each value is rounded to 0.005 and kept inside (0, phi_j); a command
-# or scene with one fraction takes the middle one.
+#: Default volume fractions, one rule (:data:`RULE`) for every command of every tier: phi_c + s
+#: (phi_j - phi_c), inside the DST window phi_c <= phi < phi_j for a set with DST (finite eta_B,
+#: Eq. 9; Hermes 2016: 0.48, 0.50, 0.52), below phi_c, where it flows at every stress, for a set
+#: without (Singh (a) shear-jams above phi_c); rounded to 0.005 and kept inside (0, phi_j).
 DST_POSITIONS = (0.45, 0.65, 0.85)
 NO_DST_POSITIONS = (-1.5, -0.75, -0.25)
 RULE = ("default phi: sets with DST (finite eta_B) phi_c + (0.45, 0.65, 0.85)(phi_j - phi_c), "
