@@ -442,16 +442,11 @@ class _Params:
         self.physical_hi = np.array([b for _, b in phys], bool)
 
     def values(self, theta) -> dict[str, float]:
-        v = {}
-        for p, x in zip(self.free, theta):
-            if p == "phi_c" and "phi_j" in self.free:
-                continue
-            if p == "a_inf" and "a0" in self.free:
-                continue
-            v[p] = float(np.exp(x)) if SCALE[p] == "log" else float(x)
-        if "phi_c" in self.free and "phi_j" in self.free:
+        v = {p: float(np.exp(x)) if SCALE[p] == "log" else float(x)
+             for p, x in zip(self.free, theta)}
+        if "phi_c" in v and "phi_j" in v:           # theta holds phi_j - phi_c, ln(a_inf/a0)
             v["phi_c"] = v["phi_j"] - float(theta[self.free.index("phi_c")])
-        if "a_inf" in self.free and "a0" in self.free:
+        if "a_inf" in v and "a0" in v:
             v["a_inf"] = v["a0"] * float(np.exp(theta[self.free.index("a_inf")]))
         return v
 
