@@ -318,6 +318,10 @@ def trios_blocks(text: str, delim: str = "\t") -> list[Block]:
             k += 1
         return k
 
+    def body(k):                  # the step's column names, past an optional point count
+        k = next_row(k)
+        return next_row(k + 1) if k < n and rows[k][:1] == ["Number of points"] else k
+
     while i < n:
         full = [c for c in rows[i] if c]
         if not full:
@@ -328,9 +332,7 @@ def trios_blocks(text: str, delim: str = "\t") -> list[Block]:
             k = next_row(i + 1)
             name, i = (rows[k][0] if k < n else ""), k + 1
         elif len(full) == 1 and not full[0].startswith("["):
-            k = next_row(i + 1)
-            if k < n and rows[k][:1] == ["Number of points"]:
-                k = next_row(k + 1)
+            k = body(i + 1)
             if k < n and _is_header(rows[k]):
                 name, i = full[0], i + 1
         if name is None:
@@ -338,18 +340,14 @@ def trios_blocks(text: str, delim: str = "\t") -> list[Block]:
                 meta[full[0].lower()] = " ".join(full[1:])
             i += 1
             continue
-        i = next_row(i)
-        if i < n and rows[i][:1] == ["Number of points"]:
-            i = next_row(i + 1)
+        i = body(i)
         header = rows[i] if i < n else []
         i += 1
         units = [""] * len(header)
         if i < n and any(rows[i]) and not _numeric(rows[i]):
             units, i = rows[i], i + 1
-        data = []
-        while i < n and any(rows[i]) and not rows[i][0].startswith("["):
-            if not _numeric(rows[i]):
-                break                             # the next step's name (CSV)
+        data = []                 # up to a blank, bracketed or text row (a CSV's next step)
+        while i < n and any(rows[i]) and not rows[i][0].startswith("[") and _numeric(rows[i]):
             data.append(rows[i])
             i += 1
         blocks.append(Block(name, header, units, data, meta))
