@@ -401,8 +401,7 @@ def load_material(path) -> Material:
     if not path.is_file():
         raise ValueError(f"material file {str(path)!r} not found")
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"),
-                         parse_constant=no_nan)
+        doc = json.loads(path.read_text(encoding="utf-8"), parse_constant=no_nan)
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise ValueError(f"material file {str(path)!r} is not valid JSON "
                          f"({' '.join(str(exc).split())[:100]})") from None
