@@ -21,7 +21,8 @@ columns and missing units tolerated):
   ``59683.1 Pa/N.m``, converts torque to stress), then per ``[step]``: its name (``Flow sweep -
   3``), optionally ``Number of points<TAB>N``, column names, units (``Pa``, ``1/s``, ``Pa.s``,
   ``s``, ``µN.m``) and the points, up to a blank or bracketed line.
-- ``trios-csv``: the same comma separated, each step introduced by a row holding only its name.
+- ``trios-csv``: the same comma separated, each step introduced by a row holding only its name
+  (or a ``[step]`` row, then its name).
 - ``rspace``: Malvern rSpace (Kinexus) CSV: ``key,value`` preamble rows, then one table whose
   column names carry units in parentheses (``Shear stress(Pa)``, ``Shear rate(s-¹)``) and whose
   ``Action Name`` column names each row's action (consecutive rows of one action are a block);
