@@ -25,8 +25,8 @@ Flags per parameter:
   (a_inf = a0, alpha_i = 0, Delta = 0 or 1) is a result, any other bound a problem;
 - ``unidentifiable``: interval wider than a factor 2 (scale parameters), +-0.02 (fractions), +-1
   (exponents), unbounded or undefined (null), correlated beyond |r| = 0.99 with another (except
-  the pairs correlated by the equations' form, :data:`_PIVOT_PAIRS`), or along a direction of zero
-  curvature;
+  pairs correlated by the equations' form: varphi_i with alpha_i, eta0 with a0 and a_inf), or
+  along a direction of zero curvature;
 - ``converged``: the optimiser stopped on its tolerances, not on its evaluation limit.
 
 :func:`assess` words what makes a result unphysical. SI throughout; the model is the viscous
