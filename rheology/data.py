@@ -719,22 +719,20 @@ def read_flow_curves(paths: Sequence, *, fmt: str = "auto", columns: dict[str, s
         usable = 0
         for b in chosen:
             c = block_curve(b, str(p), columns)
-            if c.phi is not None and phi is not None:
-                raise ValueError(f"data file {p.name!r} has a phi column and --phi was given too: "
-                                 "use one")
             if c.phi is not None:
+                if phi is not None:
+                    raise ValueError(f"data file {p.name!r} has a phi column and --phi was given "
+                                     "too: use one")
                 if np.isnan(c.phi).any():
                     raise ValueError(f"data file {p.name!r}: the phi column has "
                                      f"{int(np.isnan(c.phi).sum())} blank or non-numeric cell(s)")
                 ph = c.phi
-            elif phi is not None:
-                ph = np.full(c.shear_stress.size, float(phi[i]))
+            elif phi is None and require_phi:
+                raise ValueError(f"data file {p.name!r} carries no volume fraction: give --phi, "
+                                 "one per file in order (or map a phi column with --columns "
+                                 "phi=NAME)")
             else:
-                if require_phi:
-                    raise ValueError(f"data file {p.name!r} carries no volume fraction: give "
-                                     "--phi, one per file in order (or map a phi column with "
-                                     "--columns phi=NAME)")
-                ph = np.full(c.shear_stress.size, np.nan)
+                ph = np.full(c.shear_stress.size, np.nan if phi is None else float(phi[i]))
             if mass_fraction is not None and np.isfinite(ph).all():
                 ph = phi_from_mass_fraction(ph, **mass_fraction) * np.ones_like(ph)
             if np.isfinite(ph).all():
