@@ -266,10 +266,9 @@ class FlowData:
         if t["phi"].isna().any():
             bad = t.loc[t["phi"].isna(), "source_file"].iloc[0]
             raise ValueError(f"data file {bad!r} carries no volume fraction: give --phi")
-        keys = list(dict.fromkeys(zip(t["source_file"], t["interval"], t["phi"])))
-        idx = {k: i for i, k in enumerate(keys)}
-        curve = np.array([idx[k] for k in zip(t["source_file"], t["interval"], t["phi"])])
-        labels = [f"{s} [{i}] phi={p:.4g}" for s, i, p in keys]
+        keys = ["source_file", "interval", "phi"]
+        curve = t.groupby(keys, sort=False).ngroup().to_numpy()       # in order of appearance
+        labels = [f"{s} [{i}] phi={p:.4g}" for s, i, p in t[keys].drop_duplicates().to_numpy()]
         return cls(t["shear_stress_Pa"].to_numpy(float), t["shear_rate_per_s"].to_numpy(float),
                    t["viscosity_Pa_s"].to_numpy(float), t["phi"].to_numpy(float), curve, labels)
 
