@@ -848,18 +848,18 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
 
     x_scale = np.where(np.char.startswith(np.array(P.names), "ln_"), 1.0, 0.01)
     x_scale[np.isin(P.names, ["alpha1", "alpha2"])] = 1.0
+    box = dict(bounds=(P.lo, P.hi), x_scale=x_scale, method="trf", max_nfev=100)
+
+    def mad(r):                                      # robust standard deviation
+        return 1.4826 * float(np.median(np.abs(r - np.median(r))))
+
     try:
-        r1 = least_squares(resid, th0, bounds=(P.lo, P.hi), loss="soft_l1", f_scale=0.1,
-                           x_scale=x_scale, method="trf", xtol=1e-8, ftol=1e-9, max_nfev=100)
-        sig = 1.4826 * float(np.median(np.abs(r1.fun - np.median(r1.fun))))
-        fs = f_scale if f_scale is not None else max(3 * sig, 1e-3)
-        r2 = least_squares(resid, r1.x, bounds=(P.lo, P.hi), loss="soft_l1", f_scale=fs,
-                           x_scale=x_scale, method="trf", xtol=1e-10, ftol=1e-11, max_nfev=100)
-        sig = max(1.4826 * float(np.median(np.abs(r2.fun - np.median(r2.fun)))), 1e-12)
-        outlier = np.abs(r2.fun - np.median(r2.fun)) > 4 * sig
+        r1 = least_squares(resid, th0, loss="soft_l1", f_scale=0.1, xtol=1e-8, ftol=1e-9, **box)
+        fs = f_scale if f_scale is not None else max(3 * mad(r1.fun), 1e-3)
+        r2 = least_squares(resid, r1.x, loss="soft_l1", f_scale=fs, xtol=1e-10, ftol=1e-11, **box)
+        outlier = np.abs(r2.fun - np.median(r2.fun)) > 4 * max(mad(r2.fun), 1e-12)
         inl = ~outlier
-        r3 = least_squares(lambda th: resid(th, inl), r2.x, bounds=(P.lo, P.hi),
-                           x_scale=x_scale, method="trf", xtol=1e-10, ftol=1e-11, max_nfev=100)
+        r3 = least_squares(lambda th: resid(th, inl), r2.x, xtol=1e-10, ftol=1e-11, **box)
     except (ValueError, FloatingPointError) as exc:
         raise RuntimeError(f"stage 4 failed: {exc}") from None
     if r3.status < 0:
