@@ -898,8 +898,7 @@ def write_rheocompass(path, curves: Iterable[dict], *, project: str = "synthetic
         t = np.arange(1, s.size + 1) * 6.0 if t is None else np.asarray(t, float)
         lines += [f"Result:\t{c['name']}", "", f"Interval and data points:\t{k}\t{s.size}", head,
                   "\t" * 10, "\t\t[s]\t[1/s]\t[Pa]\t[Pa·s]\t[mN·m]\t[N]\t[mm]\t[°C]\t"]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            v = np.where(r != 0, s / np.where(r != 0, r, 1.0), np.nan)
+        v = _complete(s, r, None, "")[2]             # stress/rate, NaN at rate 0
         for i in range(s.size):
             lines.append(f"\t{i + 1}\t{_g(t[i])}\t{_g(r[i])}\t{_g(s[i])}\t{_g(v[i])}\t"
                          f"{_g(s[i] * 0.0368)}\t-0.03\t1.000\t20\t{status[i]}")
