@@ -12,10 +12,6 @@ Every tier (rheometer, shear1d, mpm2d) takes its physics from here and nowhere e
 - :mod:`rheology.laws`: the point-wise arithmetic shared by all of the above and the kernels
 """
 
-from runkit.limits import check_memory
-from runkit.params import check_nonnegative, check_positive, check_range
-from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, atomic_write_text,
-                 check_finite, check_output_path, load_checkpoint, save_checkpoint)
 from .fluid import beetstra_F, drag_coefficient, fluid_viscosity, pore_pressure, reynolds_number
 from .flow_rule import (dilation_angle, friction, inertial_numbers, invariants, phi_equilibrium,
                         plastic_dissipation, plastic_flow_rate, yield_functions)

@@ -1,62 +1,61 @@
 """Measured curves from rheometer files: readers, cleaning, and one tidy table.
 
-Two entry points read any number of files (any mix of formats) into one tidy table, one row per
-measured point, every point kept with ``kept`` and, where it is dropped, a ``dropped_reason``
-(:data:`DROP_REASONS`; nothing is dropped silently, :func:`drop_counts` counts them):
+:func:`read_flow_curves` (columns :data:`COLUMNS`) and :func:`read_relaxation_curves` (stress
+relaxation after cessation of shear, :data:`RELAXATION_COLUMNS`) read any mix of files into one
+table, one row per measured point; a dropped point keeps its row with ``kept`` false and a
+``dropped_reason`` (:data:`DROP_REASONS`, counted by :func:`drop_counts`).
 
-- :func:`read_flow_curves`: steady flow curves, columns :data:`COLUMNS`;
-- :func:`read_relaxation_curves`: stress relaxation after cessation of shear, columns
-  :data:`RELAXATION_COLUMNS`.
+Each format of :data:`READERS` parses a file into *blocks* (an interval, procedure step or action:
+name, column names, units, rows), detected from the content, never the extension. A block's
+columns are found by name (:data:`ALIASES`; units by :func:`unit_factor`: Pa, mPa, kPa, MPa; Pa s,
+mPa s, cP; 1/s, s-1; s, min, ms; mN m, uN m, N m; %) and its name says whether it is a flow curve
+or a relaxation (:func:`step_kind`); the others are listed in ``table.attrs["skipped"]`` with the
+reason. The vendors publish no specification; the layouts as assumed here (blank lines, extra
+columns and missing units tolerated):
 
-Every format is a parser of *blocks* (an interval, procedure step or action: a name, column names,
-units and rows) registered in :data:`READERS` with a detector on the decoded content (never the
-file name's extension). A block becomes a curve by the name of its columns (:data:`ALIASES`,
-units converted by :func:`unit_factor`: Pa, mPa, kPa, MPa; Pa s, mPa s, cP; 1/s, s-1; s, min, ms;
-mN m, uN m, N m; %), and is read as a flow curve or a relaxation by its name (:func:`step_kind`);
-the others are listed in ``table.attrs["skipped"]`` with the reason. Layouts, as this module
-assumes them (the vendors publish no specification; each reader tolerates blank lines, extra
-columns and missing units):
+- ``rheocompass``: Anton Paar RheoCompass text (UTF-16 or UTF-8, tabs): ``Result:`` names,
+  ``Interval and data points:``, ``Interval data:`` column names, a units row (``[Pa]``), the
+  points (first cell empty); ``ME-`` in the ``Status`` column marks readings below torque range.
+- ``trios``: TA Instruments TRIOS "Export to LIMS" text (tabs, any 8-bit or Unicode encoding):
+  ``key<TAB>value`` header lines in bracketed sections (the geometry's ``Stress constant``, e.g.
+  ``59683.1 Pa/N.m``, converts torque to stress), then per ``[step]``: its name (``Flow sweep -
+  3``), optionally ``Number of points<TAB>N``, column names, units (``Pa``, ``1/s``, ``Pa.s``,
+  ``s``, ``µN.m``) and the points, up to a blank or bracketed line.
+- ``trios-csv``: the same comma separated, each step introduced by a row holding only its name
+  (or a ``[step]`` row, then its name).
+- ``rspace``: Malvern rSpace (Kinexus) CSV: ``key,value`` preamble rows, then one table whose
+  column names carry units in parentheses (``Shear stress(Pa)``, ``Shear rate(s-¹)``) and whose
+  ``Action Name`` column names each row's action (consecutive rows of one action are a block);
+  comma or semicolon separated.
+- ``csv``: a plain delimited table (comma, semicolon or tab) with a header row, mapped with
+  ``columns={"stress": NAME, ...}`` (keys of :data:`ALIASES`) or by common names; an
+  ``interval`` or ``phi`` column splits it into curves. Tried last; a file in none of these
+  layouts is refused in one line naming them.
 
-- ``rheocompass``: Anton Paar RheoCompass text export (UTF-16 or UTF-8, tab separated):
-  ``Result:`` names, ``Interval and data points:``, ``Interval data:`` rows of column names, a
-  units row (``[Pa]``), the points (first cell empty), a ``Status`` column whose ``ME-`` flag marks
-  readings below the torque range.
-- ``trios``: TA Instruments TRIOS "Export to LIMS" text (tab separated, any 8-bit or Unicode
-  encoding): ``key<TAB>value`` header lines grouped in bracketed sections (``[Sample]``,
-  ``[Geometry]``, ``[Procedure]``; the geometry's ``Stress constant`` with its unit, e.g. ``59683.1
-  Pa/N.m``, converts torque to stress), then one ``[step]`` block per procedure step: the step's
-  name (``Flow sweep - 3``), optionally ``Number of points<TAB>N``, a row of column names
-  (``Stress``, ``Shear rate``, ``Viscosity``, ``Step time``, ``Torque``, ...), a row of units
-  (``Pa``, ``1/s``, ``Pa.s``, ``s``, ``µN.m``) and the points, up to a blank line or the next
-  bracketed line.
-- ``trios-csv``: a TRIOS CSV export: the same content comma separated, the header as ``key,value``
-  rows (sections optional), each step introduced by a row holding only its name (or a ``[step]``
-  row and then its name).
-- ``rspace``: a Malvern rSpace (Kinexus) CSV export: ``key,value`` preamble rows (sample,
-  sequence, geometry), then one table whose column names carry their units in parentheses
-  (``Shear stress(Pa)``, ``Shear rate(s-¹)``, ``Shear viscosity(Pa s)``, ``Time(s)``, ``Torque(µN
-  m)``) and whose ``Action Name`` column names the sequence action of each row (consecutive rows
-  of one action are one block); comma or semicolon separated, decimal point or comma.
-- ``csv``: a plain delimited table (comma, semicolon or tab; sniffed) with a header row of any
-  column names, mapped with ``columns={"stress": NAME, "rate": NAME, ...}`` (keys of
-  :data:`ALIASES`) or recognised among common names; an ``interval`` or ``phi`` column splits it
-  into curves. Tried last: a file in none of these layouts is refused in one line naming them.
-
-Volume fractions: from a phi column, else ``phi=[...]`` one per file in order; mass fractions are
-converted with Eq. (20) of the Supplement (:func:`rheology.steady.phi_from_mass_fraction`).
+Cells may use a decimal comma. Volume fractions: from a phi column, else ``phi=[...]`` one per
+file; mass fractions are converted with Eq. (20) of the Supplement
+(:func:`rheology.steady.phi_from_mass_fraction`).
 """
 
 from __future__ import annotations
 
+import bisect
 import csv
 import io
 import re
+from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from itertools import groupby
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from runkit.io import atomic_write_bytes
+from runkit.params import check_range
+
+from .steady import phi_from_mass_fraction
 
 #: Columns of the tidy flow-curve table, in order (units in the names).
 COLUMNS: tuple[str, ...] = ("source_file", "interval", "phi", "point", "time_s",
@@ -320,6 +319,10 @@ def trios_blocks(text: str, delim: str = "\t") -> list[Block]:
             k += 1
         return k
 
+    def body(k):                  # the step's column names, past an optional point count
+        k = next_row(k)
+        return next_row(k + 1) if k < n and rows[k][:1] == ["Number of points"] else k
+
     while i < n:
         full = [c for c in rows[i] if c]
         if not full:
@@ -330,9 +333,7 @@ def trios_blocks(text: str, delim: str = "\t") -> list[Block]:
             k = next_row(i + 1)
             name, i = (rows[k][0] if k < n else ""), k + 1
         elif len(full) == 1 and not full[0].startswith("["):
-            k = next_row(i + 1)
-            if k < n and rows[k][:1] == ["Number of points"]:
-                k = next_row(k + 1)
+            k = body(i + 1)
             if k < n and _is_header(rows[k]):
                 name, i = full[0], i + 1
         if name is None:
@@ -340,26 +341,18 @@ def trios_blocks(text: str, delim: str = "\t") -> list[Block]:
                 meta[full[0].lower()] = " ".join(full[1:])
             i += 1
             continue
-        i = next_row(i)
-        if i < n and rows[i][:1] == ["Number of points"]:
-            i = next_row(i + 1)
+        i = body(i)
         header = rows[i] if i < n else []
         i += 1
         units = [""] * len(header)
         if i < n and any(rows[i]) and not _numeric(rows[i]):
             units, i = rows[i], i + 1
-        data = []
-        while i < n and any(rows[i]) and not rows[i][0].startswith("["):
-            if not _numeric(rows[i]):
-                break                             # the next step's name (CSV)
+        data = []                 # up to a blank, bracketed or text row (a CSV's next step)
+        while i < n and any(rows[i]) and not rows[i][0].startswith("[") and _numeric(rows[i]):
             data.append(rows[i])
             i += 1
         blocks.append(Block(name, header, units, data, meta))
     return blocks
-
-
-def trios_csv_blocks(text: str) -> list[Block]:
-    return trios_blocks(text, ",")
 
 
 def stress_constant(meta: dict, where: str) -> float:
@@ -380,6 +373,13 @@ def stress_constant(meta: dict, where: str) -> float:
 
 # ------------------------------------------------------------------ rSpace
 _UNIT_IN_NAME = re.compile(r"^(.*?)\s*[\[(]([^\])]*)[\])]\s*$")
+
+
+def _split_units(row: list[str]) -> tuple[list[str], list[str]]:
+    """Column names with their units (``Shear stress(Pa)``, ``Time [s]``) as (names, units)."""
+    split = [_UNIT_IN_NAME.match(c) for c in row]
+    return ([m.group(1).strip() if m else c for m, c in zip(split, row)],
+            [m.group(2).strip() if m else "" for m in split])
 
 
 def is_rspace(text: str) -> bool:
@@ -407,49 +407,43 @@ def rspace_blocks(text: str) -> list[Block]:
     if rows is None:
         return []
     meta = {r[0].lower(): " ".join(c for c in r[1:] if c) for r in rows[:k] if len(r) >= 2 and r[0]}
-    split = [_UNIT_IN_NAME.match(c) for c in rows[k]]
-    header = [s.group(1).strip() if s else c for s, c in zip(split, rows[k])]
-    units = [s.group(2).strip() if s else "" for s in split]
+    header, units = _split_units(rows[k])
     low = [h.lower() for h in header]
     act = next((low.index(a) for a in ("action name", "action", "step name") if a in low), None)
-    runs: list[tuple[str, list]] = []
-    for r in rows[k + 1:]:
-        if not any(r):
-            continue
-        name = (r[act] if act is not None and act < len(r) else "") or meta.get("sequence", "table")
-        if not runs or runs[-1][0] != name:
-            runs.append((name, []))
-        runs[-1][1].append(r)
-    seen: dict[str, int] = {}
-    blocks = []
-    for name, data in runs:
-        seen[name] = seen.get(name, 0) + 1
+
+    def action(r):
+        return (r[act] if act is not None and act < len(r) else "") or meta.get("sequence", "table")
+
+    blocks, seen = [], Counter()
+    for name, data in groupby((r for r in rows[k + 1:] if any(r)), key=action):
+        seen[name] += 1
         label = name if seen[name] == 1 else f"{name} ({seen[name]})"
-        blocks.append(Block(label, header, units, data, meta))
+        blocks.append(Block(label, header, units, list(data), meta))
     return blocks
 
 
 # ------------------------------------------------------------------ plain tables
+def _table_lines(text: str) -> tuple[list[str], str]:
+    """The lines that are neither blank nor ``#`` comments, and the delimiter of the first (the
+    most frequent of tab, semicolon and comma)."""
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    return lines, (max(("\t", ";", ","), key=lines[0].count) if lines else ",")
+
+
 def is_table(text: str) -> bool:
     """A delimited table: a header row with a comma, semicolon or tab, then a row holding a
     number."""
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    if len(lines) < 2:
-        return False
-    delim = max(("\t", ";", ","), key=lines[0].count)
-    return lines[0].count(delim) > 0 and any(_numeric(ln.split(delim)) for ln in lines[1:6])
+    lines, delim = _table_lines(text)
+    return (len(lines) >= 2 and lines[0].count(delim) > 0
+            and any(_numeric(ln.split(delim)) for ln in lines[1:6]))
 
 
 def table_blocks(text: str, columns: dict[str, str] | None = None) -> list[Block]:
     """A delimited table as blocks: one per (interval, phi) group when it has such columns
     (located as :func:`column_index` does, with the same ``columns`` mapping)."""
-    body = "\n".join(ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#"))
-    first = body.splitlines()[0]
-    delim = max(("\t", ";", ","), key=first.count)
-    rows = _cells(body, delim)
-    split = [_UNIT_IN_NAME.match(h) for h in rows[0]]
-    header = [s.group(1).strip() if s else h for s, h in zip(split, rows[0])]
-    units = [s.group(2) if s else "" for s, h in zip(split, rows[0])]
+    lines, delim = _table_lines(text)
+    rows = _cells("\n".join(lines), delim)
+    header, units = _split_units(rows[0])
     probe = Block("table", header, units, rows[1:], {"_full": rows[0]})
     k_int = column_index(probe, "interval", columns)
     k_phi = column_index(probe, "phi", columns)
@@ -522,13 +516,17 @@ def block_curve(block: Block, source: str, columns: dict[str, str] | None = None
         return block_values(block, q, where, columns)
 
     stress, rate, visc = _complete(get("stress"), get("rate"), get("viscosity"), where)
-    k = column_index(block, "status")
-    flagged = np.array([k is not None and k < len(r) and any(
-        s.strip().upper().startswith("ME") for s in r[k].split(",")) for r in block.rows], bool)
     point, time = get("point"), get("time")
     return Curve(source, block.name, point if point is not None else np.arange(1.0, n + 1),
                  time if time is not None else np.full(n, np.nan), rate, stress, visc,
-                 get("torque"), flagged, get("phi"))
+                 get("torque"), _status_me(block), get("phi"))
+
+
+def _status_me(block: Block) -> np.ndarray:
+    """Rows whose status holds an ``ME`` flag (RheoCompass ``ME-``: below the torque range)."""
+    k = column_index(block, "status")
+    return np.array([k is not None and k < len(r) and any(
+        s.strip().upper().startswith("ME") for s in r[k].split(",")) for r in block.rows], bool)
 
 
 # ------------------------------------------------------------------ registry
@@ -536,7 +534,7 @@ def block_curve(block: Block, source: str, columns: dict[str, str] | None = None
 READERS: dict[str, tuple[Callable[[str], bool], Callable[..., list[Block]]]] = {
     "rheocompass": (is_rheocompass, lambda text, columns=None: rheocompass_blocks(text)),
     "trios": (is_trios, lambda text, columns=None: trios_blocks(text)),
-    "trios-csv": (is_trios_csv, lambda text, columns=None: trios_csv_blocks(text)),
+    "trios-csv": (is_trios_csv, lambda text, columns=None: trios_blocks(text, ",")),
     "rspace": (is_rspace, lambda text, columns=None: rspace_blocks(text)),
     "csv": (is_table, table_blocks),
 }
@@ -644,8 +642,6 @@ def _monotone(x: np.ndarray, reason: np.ndarray, direction: float | None = None)
         return
     if direction is None:
         direction = 1.0 if np.median(np.diff(x[ok])) >= 0 else -1.0
-    import bisect
-
     seen: list[float] = []                # accepted values, increasing
     for k in ok:
         y = direction * x[k]
@@ -717,51 +713,64 @@ def read_flow_curves(paths: Sequence, *, fmt: str = "auto", columns: dict[str, s
         A file missing, unreadable, in no known layout or with no usable curve (named), a --phi
         count that does not match the files, a phi outside (0, 1).
     """
-    from .checks import check_range
-    from .steady import phi_from_mass_fraction
-
     paths = _check_paths(paths, fmt, phi, "--phi")
     frames, formats, skipped = [], {}, []
-    for i, p in enumerate(paths):
-        kind, blocks = read_blocks(p, fmt=fmt, columns=columns)
-        formats[str(p)] = kind
-        chosen, skip = select_blocks(blocks, "flow", intervals, kind, p.name)
-        skipped += [(p.name, n, why) for n, why in skip]
+    for i, p, chosen in _chosen_blocks(paths, fmt, columns, "flow", intervals, formats, skipped):
         usable = 0
         for b in chosen:
             c = block_curve(b, str(p), columns)
-            if c.phi is not None and phi is not None:
-                raise ValueError(f"data file {p.name!r} has a phi column and --phi was given too: "
-                                 "use one")
             if c.phi is not None:
+                if phi is not None:
+                    raise ValueError(f"data file {p.name!r} has a phi column and --phi was given "
+                                     "too: use one")
                 if np.isnan(c.phi).any():
                     raise ValueError(f"data file {p.name!r}: the phi column has "
                                      f"{int(np.isnan(c.phi).sum())} blank or non-numeric cell(s)")
                 ph = c.phi
-            elif phi is not None:
-                ph = np.full(c.shear_stress.size, float(phi[i]))
+            elif phi is None and require_phi:
+                raise ValueError(f"data file {p.name!r} carries no volume fraction: give --phi, "
+                                 "one per file in order (or map a phi column with --columns "
+                                 "phi=NAME)")
             else:
-                if require_phi:
-                    raise ValueError(f"data file {p.name!r} carries no volume fraction: give "
-                                     "--phi, one per file in order (or map a phi column with "
-                                     "--columns phi=NAME)")
-                ph = np.full(c.shear_stress.size, np.nan)
+                ph = np.full(c.shear_stress.size, np.nan if phi is None else float(phi[i]))
             if mass_fraction is not None and np.isfinite(ph).all():
                 ph = phi_from_mass_fraction(ph, **mass_fraction) * np.ones_like(ph)
             if np.isfinite(ph).all():
                 check_range("phi", ph, 0.0, 1.0, lo_closed=False, hi_closed=False,
                             note=f"data file {p.name}")
-            kept, why = clean(c, torque_floor)
-            usable += int(kept.sum() >= 3)
-            frames.append(pd.DataFrame({
-                "source_file": p.name, "interval": c.interval, "phi": np.asarray(ph, float),
-                "point": c.point, "time_s": c.time_s, "shear_rate_per_s": c.shear_rate,
-                "shear_stress_Pa": c.shear_stress, "viscosity_Pa_s": c.viscosity,
-                "kept": kept, "dropped_reason": why}))
+            frames.append(curve_table(c, ph, torque_floor, p.name))
+            usable += int(frames[-1]["kept"].sum() >= 3)
         if usable == 0:
             raise ValueError(f"data file {p.name!r} has no usable flow curve (fewer than 3 good "
                              "points in every block read)")
-    out = pd.concat(frames, ignore_index=True)[list(COLUMNS)]
+    return _tidy(frames, COLUMNS, formats, skipped)
+
+
+def curve_table(c: Curve, phi, torque_floor: float | None = None,
+                source: str | None = None) -> pd.DataFrame:
+    """One curve cleaned (:func:`clean`) as rows of the tidy table (:data:`COLUMNS`); ``phi``
+    a scalar or one per point, ``source`` the file name (default ``c.source_file``)."""
+    kept, why = clean(c, torque_floor)
+    return pd.DataFrame({
+        "source_file": c.source_file if source is None else source, "interval": c.interval,
+        "phi": np.asarray(phi, float), "point": c.point, "time_s": c.time_s,
+        "shear_rate_per_s": c.shear_rate, "shear_stress_Pa": c.shear_stress,
+        "viscosity_Pa_s": c.viscosity, "kept": kept, "dropped_reason": why})[list(COLUMNS)]
+
+
+def _chosen_blocks(paths, fmt, columns, kind, intervals, formats, skipped):
+    """``(index, path, blocks chosen as kind)`` per file, recording the formats and the blocks
+    skipped."""
+    for i, p in enumerate(paths):
+        fmt_p, blocks = read_blocks(p, fmt=fmt, columns=columns)
+        formats[str(p)] = fmt_p
+        chosen, skip = select_blocks(blocks, kind, intervals, fmt_p, p.name)
+        skipped += [(p.name, n, why) for n, why in skip]
+        yield i, p, chosen
+
+
+def _tidy(frames, columns, formats, skipped) -> pd.DataFrame:
+    out = pd.concat(frames, ignore_index=True)[list(columns)]
     out.attrs.update(formats=formats, skipped=skipped)
     return out
 
@@ -793,11 +802,8 @@ def read_relaxation_curves(paths: Sequence, *, fmt: str = "auto",
     """
     paths = _check_paths(paths, fmt, None, "")
     frames, formats, skipped = [], {}, []
-    for p in paths:
-        kind, blocks = read_blocks(p, fmt=fmt, columns=columns)
-        formats[str(p)] = kind
-        chosen, skip = select_blocks(blocks, "relaxation", intervals, kind, p.name)
-        skipped += [(p.name, n, why) for n, why in skip]
+    for _, p, chosen in _chosen_blocks(paths, fmt, columns, "relaxation", intervals, formats,
+                                       skipped):
         for b in chosen:
             where = f"data file {p.name!r}, {b.name}"
             t = block_values(b, "time", where, columns)
@@ -810,11 +816,9 @@ def read_relaxation_curves(paths: Sequence, *, fmt: str = "auto",
                                  f"{', '.join(b.header)})")
             if s is None:
                 s = torque * 1e-3 * stress_constant(b.meta, where)
-            k = column_index(b, "status")
-            flagged = [k is not None and k < len(r) and "ME" in r[k].upper() for r in b.rows]
             reason = _reasons(t.size, [
                 ("missing_value", ~(np.isfinite(t) & np.isfinite(s))),
-                ("below_torque_floor", _below_floor(flagged, torque, torque_floor, t.size)),
+                ("below_torque_floor", _below_floor(_status_me(b), torque, torque_floor, t.size)),
                 ("nonpositive_stress", s <= 0),
                 ("below_stress_floor", s < (stress_floor or 0.0))])
             _monotone(np.where(reason == "", t, 0.0), reason, direction=1.0)
@@ -828,9 +832,7 @@ def read_relaxation_curves(paths: Sequence, *, fmt: str = "auto",
                 "point": point if point is not None else np.arange(1.0, t.size + 1),
                 "time_s": t, "shear_stress_Pa": s, "kept": reason == "",
                 "dropped_reason": reason}))
-    out = pd.concat(frames, ignore_index=True)[list(RELAXATION_COLUMNS)]
-    out.attrs.update(formats=formats, skipped=skipped)
-    return out
+    return _tidy(frames, RELAXATION_COLUMNS, formats, skipped)
 
 
 def drop_counts(table: pd.DataFrame) -> dict[str, int]:
@@ -886,8 +888,6 @@ def write_rheocompass(path, curves: Iterable[dict], *, project: str = "synthetic
     ``status`` (list of str, e.g. ``"Dy_auto,ME-"``), ``time`` [s]. Used for the shipped example
     exports and the tests of the reader. Written atomically.
     """
-    from runkit.io import atomic_write_bytes
-
     lines = [f"Project:\t{project}", "", f"Test:\t{test}", ""]
     head = ("Interval data:\tPoint No.\tTime\tShear Rate\tShear Stress\tViscosity\tTorque\t"
             "Normal Force\tGap\tTemperature\tStatus")
@@ -898,8 +898,7 @@ def write_rheocompass(path, curves: Iterable[dict], *, project: str = "synthetic
         t = np.arange(1, s.size + 1) * 6.0 if t is None else np.asarray(t, float)
         lines += [f"Result:\t{c['name']}", "", f"Interval and data points:\t{k}\t{s.size}", head,
                   "\t" * 10, "\t\t[s]\t[1/s]\t[Pa]\t[Pa·s]\t[mN·m]\t[N]\t[mm]\t[°C]\t"]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            v = np.where(r != 0, s / np.where(r != 0, r, 1.0), np.nan)
+        v = _complete(s, r, None, "")[2]             # stress/rate, NaN at rate 0
         for i in range(s.size):
             lines.append(f"\t{i + 1}\t{_g(t[i])}\t{_g(r[i])}\t{_g(s[i])}\t{_g(v[i])}\t"
                          f"{_g(s[i] * 0.0368)}\t-0.03\t1.000\t20\t{status[i]}")
@@ -922,8 +921,6 @@ def write_export(path, layout: str, steps: Iterable[dict], header: dict) -> Path
 
     The TRIOS text is Latin-1 with CRLF line ends, the CSVs UTF-8 with a BOM.
     """
-    from runkit.io import atomic_write_bytes
-
     steps = list(steps)
     if layout in ("trios", "trios-csv"):
         d = "\t" if layout == "trios" else ","

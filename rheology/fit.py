@@ -2,44 +2,35 @@
 
 Stages (Baumgarten & Kamrin, Supplement, Figs. 11-13):
 
-1. (Fig. 11, Eq. 24) the low-stress viscosity plateau of each curve (its minimum, after a 3-point
-   running mean in log viscosity against noise) -> ``a0, phi_j``, with ``mu_c`` held, and
-   ``eta0`` (the suspending liquid's viscosity: the plateaus' dilute limit, eta_r -> 1 + 5/2 phi
-   as phi -> 0) unless it is given (``fixed``); needs three curves when eta0 is estimated.
-2. (Fig. 12, Eq. 25) the high-stress plateau of the curves that have one (the viscosity flattens
-   at the top of the ramp: local log-log slope < 0.3, and it has thickened) -> ``a_inf, phi_c``.
-3. (Fig. 13, Eqs. 33-34) the DST rates of the curves whose shear rate saturates at the top of the
-   ramp (log-log slope of the viscosity > 0.6: phi above phi_c) -> the eta_B(phi) form, one term
-   (``varphi1, alpha1``: linear least squares in log) or two (``varphi2`` with ``alpha2`` held).
-   Eq. (33) needs tau*: a first estimate is fitted just before (1-D, full model, on the non-DST
-   curves).
-4. every free parameter refined together on all curves: the model evaluated at each measured
-   MIXTURE stress through its stress-controlled steady state (:func:`mixture_steady_state`),
-   residuals in log10 viscosity, a robust loss (soft L1) against outliers (wall slip, artefacts);
-   then points beyond 4 robust standard deviations are flagged as outliers and the fit is polished
-   by plain least squares on the rest, which defines the confidence intervals.
+1. (Fig. 11, Eq. 24) each curve's low-stress plateau (the minimum of a 3-point running mean of
+   log viscosity) -> ``a0, phi_j`` with ``mu_c`` held, and ``eta0`` (the liquid's viscosity, the
+   plateaus' dilute limit eta_r -> 1 + 5/2 phi) unless ``fixed``; three curves when eta0 is
+   estimated.
+2. (Fig. 12, Eq. 25) the high-stress plateau of the curves that thicken and flatten at the top of
+   the ramp (log-log slope < 0.3) -> ``a_inf, phi_c``.
+3. (Fig. 13, Eqs. 33-34) the DST rates of the curves whose rate saturates at the top (slope >
+   0.6: phi above phi_c) -> eta_B(phi), one term (``varphi1, alpha1``, linear least squares in
+   log) or two (``varphi2``, alpha2 held); tau* first fitted alone on the non-DST curves.
+4. every free parameter together on all curves, the model at each measured MIXTURE stress
+   (:func:`mixture_steady_state`), residuals in log10 viscosity, a soft-L1 loss against outliers
+   (wall slip, artefacts); points beyond 4 robust standard deviations are then flagged outliers
+   and plain least squares on the rest defines the confidence intervals.
 
-Uncertainty: the covariance from the Jacobian at the optimum (s^2 (J^T J)^-1, in the
-coordinates of :data:`SCALE`: log for scale parameters, linear for fractions and exponents;
-:func:`jacobian_covariance`), Student-t intervals; for phi_j and phi_c also the profile likelihood
-(refits at fixed values until the sum of squares has grown by s^2 t^2), which replaces the
-Jacobian interval when it is computed. Three distinct flags per parameter:
+Uncertainty: covariance s^2 (J^T J)^-1 at the optimum in the coordinates of :data:`SCALE` (ln for
+scale parameters; :func:`jacobian_covariance`), Student-t intervals; for phi_j and phi_c the
+profile likelihood (refits at fixed values until the sum of squares grows by s^2 t^2) replaces it.
+Flags per parameter:
 
-- ``at_bound``: it ended on a bound of the search (one-sided interval); a bound that is a limit of
-  the law itself (a_inf = a0, alpha_i = 0, Delta = 0 or 1) is a result, any other is a problem;
-- ``unidentifiable``: its interval is wider than a factor of 2 (scale parameters), +-0.02
-  (fractions), +-1 (exponents), unbounded or undefined (written as null), it is correlated with
-  another beyond |r| = 0.99 (except the pairs correlated by the equations' form: varphi_i with
-  alpha_i, eta0 with a0 and a_inf), or
-  it lies in a direction of (numerically) zero curvature;
+- ``at_bound``: it ended on a search bound (one-sided interval); a limit of the law itself
+  (a_inf = a0, alpha_i = 0, Delta = 0 or 1) is a result, any other bound a problem;
+- ``unidentifiable``: interval wider than a factor 2 (scale parameters), +-0.02 (fractions), +-1
+  (exponents), unbounded or undefined (null), correlated beyond |r| = 0.99 with another (except
+  pairs correlated by the equations' form: varphi_i with alpha_i, eta0 with a0 and a_inf), or
+  along a direction of zero curvature;
 - ``converged``: the optimiser stopped on its tolerances, not on its evaluation limit.
 
-:func:`assess` lists what makes a result unphysical (phi_c far below phi_j, a0 or a_inf outside
-the range of the paper's sets, a search bound reached, the evaluation limit hit, an estimated eta0
-not identified), in words a user can act on.
-
-Everything is SI. The model is the viscous limit of Eq. (1) (grain inertia neglected, as in the
-paper's fits); the material's mu_2 and b are honoured.
+:func:`assess` words what makes a result unphysical. SI throughout; the model is the viscous
+limit of Eq. (1) (grain inertia neglected, as in the paper's fits), honouring mu_2 and b.
 """
 
 from __future__ import annotations
@@ -53,14 +44,14 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import least_squares
 
-from . import laws
+import pandas as pd
 from runkit.params import check_range
-from .materials import Material, get_material
+
+from . import laws
+from .data import Curve, curve_table
+from .materials import FIELD_UNITS, Material, get_material
 from .numba_cache import guard
 from .steady import gdot_dst
-import pandas as pd
-from .data import COLUMNS, Curve, clean
-from .materials import FIELD_UNITS
 
 #: Every parameter the fitter can vary, with its reporting coordinate: "log" (intervals and
 #: correlations in ln, always positive) or "lin".
@@ -275,10 +266,9 @@ class FlowData:
         if t["phi"].isna().any():
             bad = t.loc[t["phi"].isna(), "source_file"].iloc[0]
             raise ValueError(f"data file {bad!r} carries no volume fraction: give --phi")
-        keys = list(dict.fromkeys(zip(t["source_file"], t["interval"], t["phi"])))
-        idx = {k: i for i, k in enumerate(keys)}
-        curve = np.array([idx[k] for k in zip(t["source_file"], t["interval"], t["phi"])])
-        labels = [f"{s} [{i}] phi={p:.4g}" for s, i, p in keys]
+        keys = ["source_file", "interval", "phi"]
+        curve = t.groupby(keys, sort=False).ngroup().to_numpy()       # in order of appearance
+        labels = [f"{s} [{i}] phi={p:.4g}" for s, i, p in t[keys].drop_duplicates().to_numpy()]
         return cls(t["shear_stress_Pa"].to_numpy(float), t["shear_rate_per_s"].to_numpy(float),
                    t["viscosity_Pa_s"].to_numpy(float), t["phi"].to_numpy(float), curve, labels)
 
@@ -322,7 +312,8 @@ class CurveFeatures:
     kind : 'plateau' (stage 2), 'dst' (stage 3), 'jamming' (the rate falls: eta_B = inf) or
         'neither'
     gdot_dst : DST rate [1/s] (median rate of the top quarter), for kind 'dst'
-    stress_min, stress_dst : where the plateau minimum and the DST rates were read [Pa]
+    stress_min, stress_max : where the plateau minimum and maximum were read [Pa]
+    dst_stress : (lowest, highest) stress of the top quarter, where the DST rate was read [Pa]
     """
 
     phi: float
@@ -409,6 +400,14 @@ def _clip_inside(x, lo, hi):
 
 
 # ============================================================================ parametrisation
+#: Search box in the optimiser's coordinates (ln for log-scale parameters) where no other free
+#: parameter sets it.
+_BOX = {"tau_star": (np.log(1e-8), np.log(1e9)), "varphi1": (-120.0, 120.0),
+        "varphi2": (-120.0, 120.0), "a0": (np.log(1e-3), np.log(1e2)),
+        "eta0": (np.log(1e-8), np.log(1e4)), "mu_c": (np.log(1e-3), np.log(1e2)),
+        "alpha1": (0.0, 30.0), "alpha2": (0.0, 30.0), "Delta": (0.0, 1.0)}
+
+
 class _Params:
     """Maps the free natural parameters to the optimiser's box-bounded coordinates theta.
 
@@ -418,67 +417,35 @@ class _Params:
 
     def __init__(self, base: Material, free: list[str], phi_max: float):
         self.base, self.free, self.phi_max = base, list(free), phi_max
-        names, lo, hi = [], [], []
-        phys = []                # (low, high) bound is a limit of the law itself, not the search's
+        boxes, phys = [], []     # phys: (low, high) bound is a limit of the law, not the search's
         for p in self.free:
             phys.append((p in ("a_inf", "alpha1", "alpha2", "Delta") and
                          (p != "a_inf" or "a0" in self.free), p == "Delta"))
             if p == "phi_j":
-                names.append("phi_j")
-                lo.append(max(phi_max, 0.0 if "phi_c" in self.free else base.phi_c) + 1e-5)
-                hi.append(0.9999)
-            elif p == "phi_c":
-                if "phi_j" in self.free:
-                    names.append("dphi")
-                    lo.append(1e-4)
-                    hi.append(phi_max)          # phi_c = phi_j - dphi > phi_j - phi_max > 0
-                else:
-                    names.append("phi_c")
-                    lo.append(1e-4)
-                    hi.append(base.phi_j - 1e-4)
+                boxes.append(("phi_j", max(phi_max, 0.0 if "phi_c" in self.free else base.phi_c)
+                              + 1e-5, 0.9999))
+            elif p == "phi_c":        # phi_c = phi_j - dphi > phi_j - phi_max > 0
+                boxes.append(("dphi", 1e-4, phi_max) if "phi_j" in self.free
+                             else ("phi_c", 1e-4, base.phi_j - 1e-4))
             elif p == "a_inf" and "a0" in self.free:
-                names.append("ln_ainf_over_a0")
-                lo.append(0.0)
-                hi.append(np.log(100.0))
+                boxes.append(("ln_ainf_over_a0", 0.0, np.log(100.0)))
             elif p == "a0" and "a_inf" not in self.free:
-                names.append("ln_a0")
-                lo.append(np.log(1e-3))
-                hi.append(np.log(base.a_inf))
+                boxes.append(("ln_a0", np.log(1e-3), np.log(base.a_inf)))
             elif p == "a_inf":
-                names.append("ln_a_inf")
-                lo.append(np.log(base.a0))
-                hi.append(np.log(1e3))
-            elif SCALE[p] == "log":
-                names.append("ln_" + p)
-                lo.append({"tau_star": np.log(1e-8), "varphi1": -120.0, "varphi2": -120.0,
-                           "a0": np.log(1e-3), "eta0": np.log(1e-8), "mu_c": np.log(1e-3)}[p])
-                hi.append({"tau_star": np.log(1e9), "varphi1": 120.0, "varphi2": 120.0,
-                           "a0": np.log(1e2), "eta0": np.log(1e4), "mu_c": np.log(1e2)}[p])
-            elif p in ("alpha1", "alpha2"):
-                names.append(p)
-                lo.append(0.0)
-                hi.append(30.0)
-            elif p == "Delta":
-                names.append(p)
-                lo.append(0.0)
-                hi.append(1.0)
-            else:  # pragma: no cover
-                raise ValueError(f"cannot fit {p}")
-        self.names, self.lo, self.hi = names, np.array(lo), np.array(hi)
+                boxes.append(("ln_a_inf", np.log(base.a0), np.log(1e3)))
+            else:
+                boxes.append((("ln_" if SCALE[p] == "log" else "") + p, *_BOX[p]))
+        names, lo, hi = zip(*boxes) if boxes else ((), (), ())
+        self.names, self.lo, self.hi = list(names), np.array(lo, float), np.array(hi, float)
         self.physical_lo = np.array([a for a, _ in phys], bool)
         self.physical_hi = np.array([b for _, b in phys], bool)
 
     def values(self, theta) -> dict[str, float]:
-        v = {}
-        for p, x in zip(self.free, theta):
-            if p == "phi_c" and "phi_j" in self.free:
-                continue
-            if p == "a_inf" and "a0" in self.free:
-                continue
-            v[p] = float(np.exp(x)) if SCALE[p] == "log" else float(x)
-        if "phi_c" in self.free and "phi_j" in self.free:
+        v = {p: float(np.exp(x)) if SCALE[p] == "log" else float(x)
+             for p, x in zip(self.free, theta)}
+        if "phi_c" in v and "phi_j" in v:           # theta holds phi_j - phi_c, ln(a_inf/a0)
             v["phi_c"] = v["phi_j"] - float(theta[self.free.index("phi_c")])
-        if "a_inf" in self.free and "a0" in self.free:
+        if "a_inf" in v and "a0" in v:
             v["a_inf"] = v["a0"] * float(np.exp(theta[self.free.index("a_inf")]))
         return v
 
@@ -740,7 +707,6 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     mu_c = base.mu_c
     eta_min = np.array([f.eta_min for f in feats])
     pj0 = base.phi_j if base.phi_j > phi_max else phi_max + 0.02
-    phi_j, a0 = base.phi_j, base.a0
     if "phi_j" in fixed and "a0" in fixed and not estimate_eta0:
         messages.append("stage 1 skipped: phi_j and a0 both fixed")
     phi_j, a0, eta0 = _plateau_fit(
@@ -757,10 +723,11 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     plat = [i for i, f in enumerate(feats) if f.kind == "plateau"]
     dst = [i for i, f in enumerate(feats) if f.kind == "dst"]
     ratio0 = base.a_inf / base.a0
-    phi_c_hi = min([phis[i] for i in dst], default=phi_j) if dst else phi_j
-    phi_c_hi = min(phi_c_hi, phi_j - 1e-4)
+    phi_c_hi = min([phis[i] for i in dst] + [phi_j - 1e-4])
     phi_c, a_inf = base.phi_c - base.phi_j + phi_j, max(a0, a0 * ratio0)
     eta_r_max = np.array([feats[i].eta_max for i in plat]) / eta0
+    lo = float(phis[plat].max()) + 1e-5 if plat else 0.0       # phi_c above every plateau's phi
+    hi = max(phi_c_hi, lo + 2e-5)
     if "phi_c" in fixed:
         phi_c = base.phi_c
         if len(plat) >= 1 and "a_inf" not in fixed:
@@ -769,13 +736,9 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         if not plat:
             messages.append("stage 2: phi_c fixed, no high-stress plateau to fit a_inf")
     elif len(plat) >= 2 and "a_inf" not in fixed:
-        lo = float(max(phis[plat])) + 1e-5
-        hi = max(phi_c_hi, lo + 2e-5)
         phi_c, a_inf, _ = _plateau_fit(phis[plat], eta_r_max, mu_c, _clip_inside(phi_c, lo, hi),
                                        max(a_inf, a0 * 1.0001), (lo, hi), (a0, 100.0))
     elif len(plat) >= 1:
-        lo = float(max(phis[plat])) + 1e-5
-        hi = max(phi_c_hi, lo + 2e-5)
         if "a_inf" in fixed:
             a_inf = base.a_inf
         phi_c = _plateau_fit(phis[plat], eta_r_max, mu_c, _clip_inside(phi_c, lo, hi), a_inf,
@@ -785,8 +748,7 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
                         + ("; a_inf stays fixed" if "a_inf" in fixed else
                            "; stage 4 fits a_inf with the rest (its status is in the table)"))
     else:
-        lo_c = 1e-3
-        phi_c = _clip_inside(phi_c, lo_c, phi_c_hi)
+        phi_c = _clip_inside(phi_c, 1e-3, phi_c_hi)
         messages.append("stage 2: no curve with a high-stress plateau: phi_c and a_inf start "
                         "from the start material's (phi_j - phi_c, a_inf/a0) and are left to "
                         "stage 4")
@@ -826,20 +788,21 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         # Eq. (33) solved for 1/eta_B at each DST rate
         inv_target = (2 * m.mu_c) ** 0.5 * (a * phd / x) / m.eta0 * (
             m.tau_star / (m.eta0 * g)) ** -1.5
-        if etaB_terms == 2 and len(dst_ok) >= 3:
+        if etaB_terms == 2 and (len(dst_ok) >= 3 or len(dst_ok) == 2 and np.ptp(np.log(x)) > 0):
+            three = len(dst_ok) >= 3          # alpha1 fitted too; two curves: both alphas held
+
             def r3(q):
-                return np.log(np.exp(q[0]) * x ** q[1] + np.exp(q[2]) * x ** al2) - np.log(inv_target)
-            q0 = [np.log(max(v1, 1e-30)), al1, np.log(max(v2, 1e-30) if v2 > 0 else 1e-3)]
-            q = least_squares(r3, q0, bounds=([-120, 0, -120], [120, 30, 120])).x
-            v1, al1, v2 = float(np.exp(q[0])), float(q[1]), float(np.exp(q[2]))
-        elif etaB_terms == 2 and len(dst_ok) == 2 and np.ptp(np.log(x)) > 0:
-            def r2(q):
-                return np.log(np.exp(q[0]) * x ** al1 + np.exp(q[1]) * x ** al2) - np.log(inv_target)
-            q0 = [np.log(max(v1, 1e-30)), np.log(v2 if v2 > 0 else 1e-3)]
-            q = least_squares(r2, q0, bounds=([-120, -120], [120, 120])).x
-            v1, v2 = float(np.exp(q[0])), float(np.exp(q[1]))
-            messages.append("stage 3: two DST curves for two eta_B terms: alpha1, alpha2 held "
-                            f"at {al1:.4g}, {al2:.4g}")
+                return np.log(np.exp(q[0]) * x ** (q[1] if three else al1)
+                              + np.exp(q[-1]) * x ** al2) - np.log(inv_target)
+            q = least_squares(r3, [np.log(max(v1, 1e-30)), *[al1] * three,
+                                   np.log(max(v2, 1e-30) if v2 > 0 else 1e-3)],
+                              bounds=([-120, *[0] * three, -120], [120, *[30] * three, 120])).x
+            v1, v2 = float(np.exp(q[0])), float(np.exp(q[-1]))
+            if three:
+                al1 = float(q[1])
+            else:
+                messages.append("stage 3: two DST curves for two eta_B terms: alpha1, alpha2 held "
+                                f"at {al1:.4g}, {al2:.4g}")
         elif len(dst_ok) >= 2 and "alpha1" not in fixed and np.ptp(np.log(x)) > 0:
             A = np.column_stack([np.ones_like(x), np.log(x)])
             coef = np.linalg.lstsq(A, np.log(inv_target), rcond=None)[0]
@@ -874,10 +837,9 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     if m.a0 == m.a_inf and "a_inf" in free_list:
         m = dataclasses.replace(m, a_inf=m.a0 * (1 + 1e-6))
     if stages_only:
-        out = _finish(data, m, base, [], free_list, np.zeros(data.stress.size, bool), stages,
-                      messages, n_eval, t0, confidence, None, None, name, citation, model,
-                      fixed=fixed)
-        return out
+        return _finish(data, m, base, [], free_list, np.zeros(data.stress.size, bool), stages,
+                       messages, n_eval, t0, confidence, None, None, name, citation, model,
+                       fixed=fixed)
     P = _Params(m, free_list, phi_max)
     th0 = P.theta(m)
 
@@ -886,18 +848,18 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
 
     x_scale = np.where(np.char.startswith(np.array(P.names), "ln_"), 1.0, 0.01)
     x_scale[np.isin(P.names, ["alpha1", "alpha2"])] = 1.0
+    box = dict(bounds=(P.lo, P.hi), x_scale=x_scale, method="trf", max_nfev=100)
+
+    def mad(r):                                      # robust standard deviation
+        return 1.4826 * float(np.median(np.abs(r - np.median(r))))
+
     try:
-        r1 = least_squares(resid, th0, bounds=(P.lo, P.hi), loss="soft_l1", f_scale=0.1,
-                           x_scale=x_scale, method="trf", xtol=1e-8, ftol=1e-9, max_nfev=100)
-        sig = 1.4826 * float(np.median(np.abs(r1.fun - np.median(r1.fun))))
-        fs = f_scale if f_scale is not None else max(3 * sig, 1e-3)
-        r2 = least_squares(resid, r1.x, bounds=(P.lo, P.hi), loss="soft_l1", f_scale=fs,
-                           x_scale=x_scale, method="trf", xtol=1e-10, ftol=1e-11, max_nfev=100)
-        sig = max(1.4826 * float(np.median(np.abs(r2.fun - np.median(r2.fun)))), 1e-12)
-        outlier = np.abs(r2.fun - np.median(r2.fun)) > 4 * sig
+        r1 = least_squares(resid, th0, loss="soft_l1", f_scale=0.1, xtol=1e-8, ftol=1e-9, **box)
+        fs = f_scale if f_scale is not None else max(3 * mad(r1.fun), 1e-3)
+        r2 = least_squares(resid, r1.x, loss="soft_l1", f_scale=fs, xtol=1e-10, ftol=1e-11, **box)
+        outlier = np.abs(r2.fun - np.median(r2.fun)) > 4 * max(mad(r2.fun), 1e-12)
         inl = ~outlier
-        r3 = least_squares(lambda th: resid(th, inl), r2.x, bounds=(P.lo, P.hi),
-                           x_scale=x_scale, method="trf", xtol=1e-10, ftol=1e-11, max_nfev=100)
+        r3 = least_squares(lambda th: resid(th, inl), r2.x, xtol=1e-10, ftol=1e-11, **box)
     except (ValueError, FloatingPointError) as exc:
         raise RuntimeError(f"stage 4 failed: {exc}") from None
     if r3.status < 0:
@@ -967,7 +929,7 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
                 if p in free_list:
                     k = free_list.index(p)
                     prof[p] = _profile(data, final, free_list, p, psi[k], sd[k], tq, s2,
-                                       float(np.sum(res.fun ** 2)), inl, P.phi_max, base, model)
+                                       float(np.sum(res.fun ** 2)), inl, P.phi_max, model)
         converged = res.status > 0
         for k, p in enumerate(free_list):
             val = getattr(final, p)
@@ -989,7 +951,7 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
                     top = ((final.phi_j if p == "phi_c" else 1.0)
                            if p in ("phi_c", "phi_j", "Delta") else np.inf)
                     lo_, hi_ = float(np.maximum(lo_, 0.0)), float(np.minimum(hi_, top))
-            why = []
+            why, bound = [], ""
             half = tq * sd[k]
             wide = not flat and ((half > np.log(2.0)) if SCALE[p] == "log" else (
                 half > (0.02 if p.startswith("phi") else 1.0 if p.startswith("alpha") else 0.2)))
@@ -1003,27 +965,19 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
                             "at 0 or 1"}.get(p, f"{p} = 0") + ")" if physical else
                             f"at the fitter's {'lower' if at_low else 'upper'} search bound "
                             f"{val:.4g}, not a physical limit") + ": one-sided interval")
-                if at_low:
-                    lo_ = float(val)
-                else:
-                    hi_ = float(val)
+                lo_, hi_ = (float(val), hi_) if at_low else (lo_, float(val))
                 bound = "law" if physical else "search"
-            else:
-                bound = ""
             unbounded = not flat and not (np.isfinite(lo_) and np.isfinite(hi_))
-            if p in degenerate:
-                why.append("no curvature of the misfit along it")
-            if wide:
-                why.append("interval wider than " + ("a factor 2" if SCALE[p] == "log" else
-                                                     "the identifiability width"))
-            if partners:
-                why.append(f"correlation > {CORR_FLAG} with " + ", ".join(partners))
-            if flat or unbounded:
-                why.append("interval " + ("undefined" if flat else "unbounded") + " (null)")
+            why += [w for w, on in (
+                ("no curvature of the misfit along it", p in degenerate),
+                ("interval wider than " + ("a factor 2" if SCALE[p] == "log" else
+                                           "the identifiability width"), wide),
+                (f"correlation > {CORR_FLAG} with " + ", ".join(partners), partners),
+                ("interval " + ("undefined" if flat else "unbounded") + " (null)",
+                 flat or unbounded),
+                ("the optimiser stopped at its evaluation limit", not converged)) if on]
             unident = bool(p in degenerate or wide or partners or flat or unbounded)
             lo_, hi_ = (x if np.isfinite(x) else np.nan for x in (lo_, hi_))
-            if not converged:
-                why.append("the optimiser stopped at its evaluation limit")
             note = "; ".join(why)
             if unident:
                 messages.append(f"{p} is not identified by these data ({note})")
@@ -1037,13 +991,11 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
         params += [ParameterEstimate(p, float(getattr(final, p)), float("nan"), float("nan"),
                                      float("nan"), "none", STAGE_OF[p], "stages 1-3")
                    for p in free_list]
-    held = [p for p in SCALE if p not in free_list]
-    for p in held:
+    for p in [p for p in SCALE if p not in free_list]:
+        v = float(getattr(final, p))
         reason = ("held at the given value" if p in fixed else "held (not fitted by default)"
                   if p in OPTIONAL_FREE else "held (no data for it)")
-        params.append(ParameterEstimate(p, float(getattr(final, p)), float(getattr(final, p)),
-                                        float(getattr(final, p)), 0.0, "fixed", "fixed", "fixed",
-                                        reason))
+        params.append(ParameterEstimate(p, v, v, v, 0.0, "fixed", "fixed", "fixed", reason))
     out = FitResult(material=final, parameters=params, correlation=(names_corr, corr),
                     stages=stages, residual_log10=r_all, outlier=outlier,
                     model_viscosity=st["viscosity"], model_rate=st["shear_rate"],
@@ -1107,7 +1059,7 @@ def assess(res: FitResult, eta0_estimated: bool = False) -> list[str]:
     return out
 
 
-def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max, base, model):
+def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max, model):
     """Profile-likelihood interval of phi_j or phi_c: refit the others at fixed values and find
     where the inlier sum of squares reaches ssq_best + s2 tq^2 (secant on its square root)."""
     others = [q for q in free_list if q != p]
@@ -1212,18 +1164,13 @@ def synthetic_table(m: Material, phis, **kw):
     frames = []
     for c, ph in zip(syn["curves"], syn["phi"]):
         s, r = c["stress"], c["rate"]
-        flagged = np.array(["ME-" in x for x in c["status"]])
         with np.errstate(invalid="ignore", divide="ignore"):
             v = s / r
-        cur = Curve("synthetic", "Viscosity curve 1", np.arange(1.0, s.size + 1),
-                    np.arange(1.0, s.size + 1) * 6, r, s, v, None, flagged)
-        kept, why = clean(cur)
-        frames.append(pd.DataFrame({"source_file": f"synthetic_phi_{ph:.4f}", "interval":
-                                    cur.interval, "phi": ph, "point": cur.point,
-                                    "time_s": cur.time_s, "shear_rate_per_s": r,
-                                    "shear_stress_Pa": s, "viscosity_Pa_s": v, "kept": kept,
-                                    "dropped_reason": why}))
-    return pd.concat(frames, ignore_index=True)[list(COLUMNS)]
+        n = np.arange(1.0, s.size + 1)
+        cur = Curve("synthetic", "Viscosity curve 1", n, n * 6, r, s, v, None,
+                    np.array(["ME-" in x for x in c["status"]]))
+        frames.append(curve_table(cur, ph, source=f"synthetic_phi_{ph:.4f}"))
+    return pd.concat(frames, ignore_index=True)
 
 
 def recovery_errors(fit: FitResult, truth: Material, phis) -> dict[str, float]:

@@ -31,7 +31,9 @@ wheel           paper Table 7 on hermes2016 (Figs. 8-9, 'running on oobleck')
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -39,6 +41,7 @@ from typing import Callable
 import numpy as np
 
 from runkit import limits
+from runkit.io import atomic_write_json
 from runkit.params import Param, check_range
 
 #: Units of every numeric field (SI sets; Table 1 sets use eta0 = gdot_0 = 1 instead).
@@ -178,23 +181,19 @@ class Material:
         check_range("a0", self.a0, 0.0, None, lo_closed=False, note=n)
         check_range("a_inf", self.a_inf, self.a0, None,
                     note=f"{n}; a_inf >= a0 makes the stress-controlled steady state unique")
-        check_range("mu_c", self.mu_c, 0.0, None, lo_closed=False, note=n)
+        def from_zero(keys, **kw):     # an unset optional field (None) is not checked
+            for k in keys:
+                if getattr(self, k) is not None or k not in OPTIONAL_FIELDS:
+                    check_range(k, getattr(self, k), 0.0, None, note=n, **kw)
+
+        from_zero(("mu_c", "tau_star", "eta0", "G", "K", "rho_s", "rho_f", "kappa"),
+                      lo_closed=False)
         if self.mu_2 is not None:
             check_range("mu_2", self.mu_2, self.mu_c, None, note=f"{n}; mu_2 >= mu_c")
-        check_range("b", self.b, 0.0, None, note=n)
-        check_range("tau_star", self.tau_star, 0.0, None, lo_closed=False, note=n)
-        check_range("eta0", self.eta0, 0.0, None, lo_closed=False, note=n)
-        for k in ("varphi1", "alpha1", "varphi2", "alpha2", "xi_eps", "d", "K3"):
-            check_range(k, getattr(self, k), 0.0, None, note=n)
+        from_zero(("b", "varphi1", "alpha1", "varphi2", "alpha2", "xi_eps", "d", "K3", "K0"))
         check_range("Delta", self.Delta, 0.0, 1.0, note=n)
         check_range("K4", self.K4, 0.0, 0.0,
                     note=f"{n}; only K4 = 0, the value of every scene of the paper, is implemented")
-        for k in ("K0",):
-            if getattr(self, k) is not None:
-                check_range(k, getattr(self, k), 0.0, None, note=n)
-        for k in ("G", "K", "rho_s", "rho_f", "kappa"):
-            if getattr(self, k) is not None:
-                check_range(k, getattr(self, k), 0.0, None, lo_closed=False, note=n)
         if self.phi0 is not None:
             check_range("phi0", self.phi0, 0.0, self.phi_j, lo_closed=False, hi_closed=False,
                         note=f"{n}; below phi_j = {self.phi_j}")
@@ -267,93 +266,64 @@ def _singh(fit: str) -> Material:
                     **common)
 
 
-def _table2(name, ref, phi_c, phi_j, a0, a_inf, tau_star, eta0_mPas, mu_c, v1, a1, v2, a2):
+#: Tables 2-3: name -> (reference, phi_c, phi_j, a0, a_inf, tau* [Pa], eta0 [mPa s], mu_c,
+#: varphi1 [1/(Pa s)], alpha1, varphi2 [1/(Pa s)], alpha2).
+_TABLE2 = {
+    "dhaene1993": ("d'Haene, Mewis & Fuller, J. Colloid Interface Sci. 156, 350 (1993), PMMA",
+                   0.57, 0.65, 1.08, 1.08, 5.21, 56, 0.3, 8.83e6, 6, 0, 0),
+    "frith1996": ("Frith, d'Haene, Buscall & Mewis, J. Rheol. 40, 531 (1996), PMMA",
+                  0.548, 0.642, 1.08, 1.08, 17.93, 130, 0.3, 1.79e11, 12, 4.5, 0.1),
+    "guy2015_a": ("Guy, Hermes & Poon, PRL 115, 088304 (2015), PMMA, fit (a)",
+                  0.56, 0.617, 1.577, 1.577, 423.0, 2.4, 0.3, 3e6, 5, 9e-2, 0.1),
+    "guy2015_b": ("Guy, Hermes & Poon, PRL 115, 088304 (2015), PMMA, fit (b)",
+                  0.563, 0.610, 1.09, 1.538, 3.5, 2.4, 0.3, 1.0e6, 6, 0, 0),
+    "fall2015": ("Fall et al., PRL 114, 098301 (2015), cornstarch",
+                 0.38, 0.454, 1.00, 1.00, 0.116, 0.89, 1.19, 4.0e4, 3, 0, 0),
+    "hermes2016": ("Hermes et al., J. Rheol. 60, 905 (2016), cornstarch",
+                   0.436, 0.535, 0.8, 0.8, 5.35, 6, 1.19, 1.86e4, 4, 9.3e-3, 0.1),
+}
+
+
+def _table2(name: str) -> Material:
+    ref, phi_c, phi_j, a0, a_inf, tau_star, eta0_mPas, mu_c, v1, a1, v2, a2 = _TABLE2[name]
     return Material(name=name, citation=f"{ref}; fit of {_PAPER}, Tables 2-3", phi_c=phi_c,
                     phi_j=phi_j, a0=a0, a_inf=a_inf, mu_c=mu_c, tau_star=tau_star,
                     eta0=eta0_mPas * 1e-3, varphi1=v1, alpha1=a1, varphi2=v2, alpha2=a2,
                     Delta=0.0, notes=_STEADY_NOTE)
 
 
-def _dhaene1993():
-    return _table2("dhaene1993", "d'Haene, Mewis & Fuller, J. Colloid Interface Sci. 156, 350 "
-                   "(1993), PMMA", 0.57, 0.65, 1.08, 1.08, 5.21, 56, 0.3, 8.83e6, 6, 0, 0)
-
-
-def _frith1996():
-    return _table2("frith1996", "Frith, d'Haene, Buscall & Mewis, J. Rheol. 40, 531 (1996), PMMA",
-                   0.548, 0.642, 1.08, 1.08, 17.93, 130, 0.3, 1.79e11, 12, 4.5, 0.1)
-
-
-def _guy2015_a():
-    return _table2("guy2015_a", "Guy, Hermes & Poon, PRL 115, 088304 (2015), PMMA, fit (a)",
-                   0.56, 0.617, 1.577, 1.577, 423.0, 2.4, 0.3, 3e6, 5, 9e-2, 0.1)
-
-
-def _guy2015_b():
-    return _table2("guy2015_b", "Guy, Hermes & Poon, PRL 115, 088304 (2015), PMMA, fit (b)",
-                   0.563, 0.610, 1.09, 1.538, 3.5, 2.4, 0.3, 1.0e6, 6, 0, 0)
-
-
-def _fall2015():
-    return _table2("fall2015", "Fall et al., PRL 114, 098301 (2015), cornstarch",
-                   0.38, 0.454, 1.00, 1.00, 0.116, 0.89, 1.19, 4.0e4, 3, 0, 0)
-
-
-def _hermes2016():
-    return _table2("hermes2016", "Hermes et al., J. Rheol. 60, 905 (2016), cornstarch",
-                   0.436, 0.535, 0.8, 0.8, 5.35, 6, 1.19, 1.86e4, 4, 9.3e-3, 0.1)
-
-
 _SCENE_NOTE = ("d = 5.85 um, K3 = 4.715, K4 = 0 from the text; kappa (fluid bulk modulus) is not "
                "given by the paper: our choice kappa = K keeps the fluid and skeleton wave speeds "
                "alike and elastic strains small")
+_NO_PHI0 = "; phi0 not given by the paper (set it per run)"
 
 
 def _scene(name, table, ref, eta0, rho_s, rho_f, G, K, K0, phi0=None, extra_note=""):
-    base = _hermes2016()
-    return base.replace(
+    """A scene's set of Tables 4-7: the Hermes 2016 steady fit with its moduli and densities."""
+    return _table2("hermes2016").replace(
         name=name, citation=f"{ref}; {_PAPER}, Table {table} with the Hermes 2016 steady fit",
         eta0=eta0, rho_s=rho_s, rho_f=rho_f, G=G, K=K, K0=K0, d=5.85e-6, K3=4.715, K4=0.0,
         kappa=K, phi0=phi0, notes=_SCENE_NOTE + extra_note)
 
 
-def _annular_shear():
-    return _scene("annular_shear", 4, "Peters, Majumdar & Jaeger, Nature 532, 214 (2016)",
-                  10e-3, 1620.0, 1620.0, 3.8e5, 8.3e5, 0.06, phi0=0.505,
-                  extra_note="; density matched: rho_s = rho_f = rho = 1620 kg/m^3")
-
-
-def _rod_impact(name: str, eta0: float, fig: int):
-    return _scene(name, 5, f"Waitukaitis & Jaeger, Nature 487, 205 (2012), Fig. {fig}",
-                  eta0, 1620.0, 1000.0, 3.8e7, 8.3e7, 1.0,
-                  extra_note="; phi0 not given by the paper (set it per run)")
-
-
-def _intruder():
-    return _scene("intruder", 6, "Han, Peters & Jaeger, Nat. Commun. 7, 12243 (2016)",
-                  4.6e-3, 1620.0, 1620.0, 3.8e7, 8.3e7, 0.2, phi0=0.47,
-                  extra_note="; phi0 = 0.47 as in Fig. 6(a)-(e); Fig. 7 varies 0.46-0.50")
-
-
-def _wheel():
-    return _scene("wheel", 7, "running on oobleck, Figs. 8-9", 1e-3, 1620.0, 1620.0, 3.8e5, 8.3e5,
-                  1.0, extra_note="; phi0 not given by the paper (set it per run)")
-
-
 _REGISTRY: dict[str, Callable[[], Material]] = {
     "singh2018_a": lambda: _singh("a"),
     "singh2018_b": lambda: _singh("b"),
-    "dhaene1993": _dhaene1993,
-    "frith1996": _frith1996,
-    "guy2015_a": _guy2015_a,
-    "guy2015_b": _guy2015_b,
-    "fall2015": _fall2015,
-    "hermes2016": _hermes2016,
-    "annular_shear": _annular_shear,
-    "rod_impact": lambda: _rod_impact("rod_impact", 7e-3, 4),
-    "rod_impact_1cp": lambda: _rod_impact("rod_impact_1cp", 1e-3, 5),
-    "intruder": _intruder,
-    "wheel": _wheel,
+    **{k: (lambda k=k: _table2(k)) for k in _TABLE2},
+    "annular_shear": lambda: _scene(
+        "annular_shear", 4, "Peters, Majumdar & Jaeger, Nature 532, 214 (2016)", 10e-3, 1620.0,
+        1620.0, 3.8e5, 8.3e5, 0.06, phi0=0.505,
+        extra_note="; density matched: rho_s = rho_f = rho = 1620 kg/m^3"),
+    **{name: (lambda name=name, eta0=eta0, fig=fig: _scene(
+        name, 5, f"Waitukaitis & Jaeger, Nature 487, 205 (2012), Fig. {fig}", eta0, 1620.0,
+        1000.0, 3.8e7, 8.3e7, 1.0, extra_note=_NO_PHI0))
+       for name, eta0, fig in (("rod_impact", 7e-3, 4), ("rod_impact_1cp", 1e-3, 5))},
+    "intruder": lambda: _scene(
+        "intruder", 6, "Han, Peters & Jaeger, Nat. Commun. 7, 12243 (2016)", 4.6e-3, 1620.0,
+        1620.0, 3.8e7, 8.3e7, 0.2, phi0=0.47,
+        extra_note="; phi0 = 0.47 as in Fig. 6(a)-(e); Fig. 7 varies 0.46-0.50"),
+    "wheel": lambda: _scene("wheel", 7, "running on oobleck, Figs. 8-9", 1e-3, 1620.0, 1620.0,
+                            3.8e5, 8.3e5, 1.0, extra_note=_NO_PHI0),
 }
 
 #: The six experimental steady fits of Fig. 2, in the paper's panel order (a)-(f).
@@ -411,8 +381,6 @@ def material_from_dict(data: dict, source: str = "material file") -> Material:
 def save_material(path, m: Material, **extra) -> Path:
     """Write ``m`` as a material file (strict JSON, atomically): ``{"format", "material":
     {fields}, **extra}`` (e.g. ``provenance=...``, ``fit=...``). :func:`get_material` reads it."""
-    from runkit.io import atomic_write_json
-
     doc = {"format": MATERIAL_FILE_FORMAT, "version": 1, "material": material_to_dict(m), **extra}
     return atomic_write_json(path, doc)
 
@@ -426,8 +394,6 @@ def load_material(path) -> Material:
     ValueError
         The file is missing, not JSON, or its material is invalid (named with the file).
     """
-    import json
-
     def no_nan(token):
         raise ValueError(f"{token} is not a number in strict JSON")
 
@@ -435,8 +401,7 @@ def load_material(path) -> Material:
     if not path.is_file():
         raise ValueError(f"material file {str(path)!r} not found")
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"),
-                         parse_constant=no_nan)
+        doc = json.loads(path.read_text(encoding="utf-8"), parse_constant=no_nan)
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise ValueError(f"material file {str(path)!r} is not valid JSON "
                          f"({' '.join(str(exc).split())[:100]})") from None
@@ -566,8 +531,6 @@ def check_set_override(name: str, value, option: str = "--set"):
 def set_argument(text: str):
     """``type=`` of a command line's ``--set NAME=VALUE`` (argparse): :func:`split_set_item` then
     :func:`check_set_override`; a refusal is one ``argparse.ArgumentTypeError`` line."""
-    import argparse
-
     try:
         return check_set_override(*split_set_item(text))
     except ValueError as exc:
@@ -631,14 +594,10 @@ def scene_material(scene_set: str | Material, material: str | Material | None = 
     return user.replace(**fill, **overrides) if (fill or overrides) else user
 
 
-
-# Default volume fractions per material, one rule for every command of every tier. A set with
-# DST (a finite buckling resistance eta_B, Eq. 9: the Table 2-7 sets and Singh (b)) gets
-# phi = phi_c + s (phi_j - phi_c) with s = 0.45, 0.65, 0.85, all inside the DST window
-# phi_c <= phi < phi_j (Hermes 2016: 0.48, 0.50, 0.52). A set without DST (eta_B infinite:
-# Singh (a), which shear-jams above phi_c) gets s = -1.5, -0.75, -0.25: below phi_c, where it
-# flows at every stress. Each value is rounded to 0.005 and kept inside (0, phi_j); a command
-# or scene with one fraction takes the middle one.
+#: Default volume fractions, one rule (:data:`RULE`) for every command of every tier: phi_c + s
+#: (phi_j - phi_c), inside the DST window phi_c <= phi < phi_j for a set with DST (finite eta_B,
+#: Eq. 9; Hermes 2016: 0.48, 0.50, 0.52), below phi_c, where it flows at every stress, for a set
+#: without (Singh (a) shear-jams above phi_c); rounded to 0.005 and kept inside (0, phi_j).
 DST_POSITIONS = (0.45, 0.65, 0.85)
 NO_DST_POSITIONS = (-1.5, -0.75, -0.25)
 RULE = ("default phi: sets with DST (finite eta_B) phi_c + (0.45, 0.65, 0.85)(phi_j - phi_c), "

@@ -72,29 +72,25 @@ def softening(taubar, gdot_p, phi, m: Material | str) -> np.ndarray:
     return 1.0 + (check_nonnegative("taubar", taubar) * inv + m.xi_eps) / g
 
 
-def structure_rate(f, taubar, gdot_p, phi, m: Material | str) -> np.ndarray:
-    """Table 8 structure law df/dt [1/s] with gdot_p the plastic shear rate [1/s]."""
-    m = get_material(m)
+def _law_args(f, taubar, gdot_p, phi, m: Material) -> tuple:
+    """The checked arguments of :func:`rheology.laws.structure_rate` (and ``structure_step``)."""
     m.require("K0")
     phi = _phi(phi, m)
     inv = laws.inv_eta_B(phi, m.phi_j, m.varphi1, m.alpha1, m.varphi2, m.alpha2)
-    return laws.structure_rate(_f(f), _taubar(taubar, m),
-                               check_nonnegative("gdot_p", gdot_p),
-                               laws.f_max(phi, m.phi_c, m.phi_j, m.Delta), m.tau_star, inv, m.K0,
-                               m.xi_eps)
+    return (_f(f), _taubar(taubar, m), check_nonnegative("gdot_p", gdot_p),
+            laws.f_max(phi, m.phi_c, m.phi_j, m.Delta), m.tau_star, inv, m.K0, m.xi_eps)
+
+
+def structure_rate(f, taubar, gdot_p, phi, m: Material | str) -> np.ndarray:
+    """Table 8 structure law df/dt [1/s] with gdot_p the plastic shear rate [1/s]."""
+    return laws.structure_rate(*_law_args(f, taubar, gdot_p, phi, get_material(m)))
 
 
 def structure_step(f, taubar, gdot_p, phi, dt: float, m: Material | str) -> np.ndarray:
     """One backward-Euler step of the structure law at fixed (taubar, gdot_p) [-]; dt [s] > 0."""
-    m = get_material(m)
-    m.require("K0")
-    phi = _phi(phi, m)
+    args = _law_args(f, taubar, gdot_p, phi, get_material(m))
     check_range("dt", dt, 0.0, None, lo_closed=False)
-    inv = laws.inv_eta_B(phi, m.phi_j, m.varphi1, m.alpha1, m.varphi2, m.alpha2)
-    return laws.structure_step(_f(f), _taubar(taubar, m),
-                               check_nonnegative("gdot_p", gdot_p),
-                               laws.f_max(phi, m.phi_c, m.phi_j, m.Delta), m.tau_star, inv, m.K0,
-                               m.xi_eps, dt)
+    return laws.structure_step(*args, dt)
 
 
 # ------------------------------------------------------------- steady f(tau): Eq. (16) and rivals
