@@ -51,6 +51,7 @@ from . import laws
 from .data import Curve, curve_table
 from .materials import FIELD_UNITS, Material, get_material
 from .numba_cache import guard
+from .roots import brent
 from .steady import gdot_dst
 
 #: Every parameter the fitter can vary, with its reporting coordinate: "log" (intervals and
@@ -108,65 +109,21 @@ def _structure_residual(u, tau, phi, fm, fhi, yhi, inv, ef, dphi, a0, a_inf, mu_
 @nb.njit(cache=True, error_model="numpy")
 def _solve_structure(tau, phi, fm, fhi, yhi, inv, ef, dphi, a0, a_inf, mu_c, mu2, b, tau_star,
                      eta0, xi):
-    """Brent's method (zeroin) on u in [0, 1] for every point; NaN where no sign change."""
-    n = tau.size
-    out = np.empty(n)
-    eps = 2.220446049250313e-16
-    for i in range(n):
+    """Brent's method (rheology.roots.brent) on u in [0, 1] for every point; NaN where no sign
+    change."""
+    out = np.empty(tau.size)
+    for i in range(tau.size):
         args = (tau[i], phi[i], fm[i], fhi[i], yhi[i], inv[i], ef[i], dphi, a0, a_inf, mu_c,
                 mu2, b, tau_star, eta0, xi)
-        a, bb = 0.0, 1.0
-        fa = _structure_residual(a, *args)
-        fb = _structure_residual(bb, *args)
-        if fa == 0.0:
-            out[i] = a
-            continue
-        if fb == 0.0:
-            out[i] = bb
-            continue
-        if (fa > 0.0) == (fb > 0.0):
+        fa = _structure_residual(0.0, *args)
+        fb = _structure_residual(1.0, *args)
+        if fa == 0.0 or fb == 0.0:
+            out[i] = 0.0 if fa == 0.0 else 1.0
+        elif (fa > 0.0) == (fb > 0.0):
             out[i] = np.nan
-            continue
-        c, fc = a, fa
-        d = e = bb - a
-        for _ in range(300):
-            if (fb > 0.0) == (fc > 0.0):
-                c, fc = a, fa
-                d = e = bb - a
-            if abs(fc) < abs(fb):
-                a, bb, c = bb, c, bb
-                fa, fb, fc = fb, fc, fb
-            tol = 2.0 * eps * abs(bb) + 0.5e-16
-            m = 0.5 * (c - bb)
-            if abs(m) <= tol or fb == 0.0:
-                break
-            if abs(e) >= tol and abs(fa) > abs(fb):
-                s = fb / fa
-                if a == c:
-                    p = 2.0 * m * s
-                    q = 1.0 - s
-                else:
-                    q = fa / fc
-                    r = fb / fc
-                    p = s * (2.0 * m * q * (q - r) - (bb - a) * (r - 1.0))
-                    q = (q - 1.0) * (r - 1.0) * (s - 1.0)
-                if p > 0.0:
-                    q = -q
-                else:
-                    p = -p
-                if 2.0 * p < min(3.0 * m * q - abs(tol * q), abs(e * q)):
-                    e = d
-                    d = p / q
-                else:
-                    d = m
-                    e = m
-            else:
-                d = m
-                e = m
-            a, fa = bb, fb
-            bb = bb + d if abs(d) > tol else bb + (tol if m > 0.0 else -tol)
-            fb = _structure_residual(bb, *args)
-        out[i] = bb
+        else:
+            out[i] = brent(_structure_residual, args, 0.0, 1.0, fa, fb, 4.440892098500626e-16,
+                           0.5e-16, 0.0, 300)[0]        # rtol: 2 machine epsilons
     return out
 
 

@@ -87,6 +87,7 @@ from . import laws
 from .checks import check_range
 from .materials import KERNEL_FIELDS, Material, get_material
 from .numba_cache import guard
+from .roots import brent
 
 guard(__file__)
 _jit = nb.njit(cache=True, error_model="numpy")
@@ -100,6 +101,8 @@ ELASTIC, SEPARATED, SHEAR_FLOW, COMPACTION, FAILED = 0, 1, 2, 3, -1
 CASE_NAMES = {ELASTIC: "elastic", SEPARATED: "separated", SHEAR_FLOW: "shear flow",
               COMPACTION: "shear flow + compaction", FAILED: "failed"}
 _P = {name: i for i, name in enumerate(KERNEL_FIELDS)}
+#: rheology.roots.brent's relative bracket tolerance and evaluation limit
+_XTOL = 1e-14
 _MAXIT = 200
 
 
@@ -145,7 +148,7 @@ def _beta_of_rate(g, phi, phim, a, p_tr, Kdt, eta0, rd2, K3, lo, hi):
 
 
 @_jit
-def _residual(mode, x, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b, blo, bhi):
+def _residual(x, mode, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b, blo, bhi):
     """R = tau* - G dt gdot - (mu_p + beta) p on the dilatant branch, parametrised by beta (mode 0,
     closed form, fast), by gdot (mode 1, inner solve for beta, well conditioned when p* << p) or,
     for p* <= 0, by h = gdot - g_min (mode 2, :func:`_dilatant_tension`)."""
@@ -170,53 +173,6 @@ def _residual(mode, x, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1,
         Im = (phim - xe) / (a * xe)
     Iv = eta0 * g / p
     return tau_tr - Gdt * g - (laws.friction(Iv, Im, phi, a, mu1, mu2, b) + beta) * p
-
-
-@_jit
-def _brent(mode, lo, hi, rlo, rhi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2,
-           b, blo, bhi, rtol_abs):
-    """Brent's method for R = 0 on [lo, hi], R(lo) > 0 > R(hi); returns (root, R(root), iters)."""
-    xa, xb, fa, fb = lo, hi, rlo, rhi
-    xc, fc = xa, fa
-    d = e = xb - xa
-    for it in range(_MAXIT):
-        if (fb > 0.0) == (fc > 0.0):
-            xc, fc = xa, fa
-            d = e = xb - xa
-        if abs(fc) < abs(fb):
-            xa, xb, xc = xb, xc, xb
-            fa, fb, fc = fb, fc, fb
-        tol = 1e-14 * abs(xb) + 1e-300
-        xm = 0.5 * (xc - xb)
-        if abs(xm) <= tol or fb == 0.0 or abs(fb) <= rtol_abs:
-            return xb, fb, it
-        if abs(e) >= tol and abs(fa) > abs(fb) and np.isfinite(fa) and np.isfinite(fc):
-            s = fb / fa
-            if xa == xc:
-                pp = 2.0 * xm * s
-                q = 1.0 - s
-            else:
-                q = fa / fc
-                r = fb / fc
-                pp = s * (2.0 * xm * q * (q - r) - (xb - xa) * (r - 1.0))
-                q = (q - 1.0) * (r - 1.0) * (s - 1.0)
-            if pp > 0.0:
-                q = -q
-            pp = abs(pp)
-            if 2.0 * pp < min(3.0 * xm * q - abs(tol * q), abs(e * q)):
-                e = d
-                d = pp / q
-            else:
-                d = xm
-                e = d
-        else:
-            d = xm
-            e = d
-        xa, fa = xb, fb
-        xb = xb + d if abs(d) > tol else xb + (tol if xm > 0 else -tol)
-        fb = _residual(mode, xb, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
-                       blo, bhi)
-    return xb, fb, -1
 
 
 @_jit
@@ -281,17 +237,25 @@ def _critical_state(tau_tr, phi, y, a, Gdt, mu1, mu2, b, eta0, rho_s, d):
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def _newton_2d_step(beta, g, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, iK3, mu1, mu2, b):
-    """One Newton step (d beta, d gdot_p) on the pair F1, F2 of :func:`_newton_2d` at (beta, g);
-    iK3 = 1/K3. Branch-free, so that update_block's loop over a block becomes SIMD code; two
-    divisions (1/(a x), I_m, 1/I_m and 1/(I_m + b) from one reciprocal of their product)."""
+def _im_terms(beta, phi, phim, a, b, eta0, iK3):
+    """The dilatant branch's I_m terms at beta from one reciprocal (shared by the Newton step and
+    update_block's test): x = phi_eq = phi - beta iK3, w = phi_m - x, a x, wb = w + b a x,
+    q = 1/(a x w wb), 1/(a x) = w wb q, I_m = w/(a x) and V = 5/2 phi eta0/(a I_m)."""
     x = phi - beta * iK3
     w = phim - x
     ax = a * x
     wb = w + b * ax
     q = 1.0 / (ax * w * wb)
     iax = w * wb * q
-    Im = w * iax
+    return x, w, ax, wb, q, iax, w * iax, 2.5 * phi * eta0 * x * ax * wb * q
+
+
+@nb.njit(cache=True, error_model="numpy", inline="always")
+def _newton_2d_step(beta, g, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, iK3, mu1, mu2, b):
+    """One Newton step (d beta, d gdot_p) on the pair F1, F2 of :func:`_newton_2d` at (beta, g);
+    iK3 = 1/K3. Branch-free, so that update_block's loop over a block becomes SIMD code; two
+    divisions (1/(a x), I_m, 1/I_m and 1/(I_m + b) from one reciprocal of their product)."""
+    x, w, ax, wb, q, iax, Im, V = _im_terms(beta, phi, phim, a, b, eta0, iK3)
     ib = ax * ax * w * q                     # 1/(I_m + b)
     p = p_tr + Kdt * beta * g
     Ag = rd2 * g * g + 2.0 * eta0 * g
@@ -301,7 +265,6 @@ def _newton_2d_step(beta, g, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, iK
     dIm = phim * a * iax * iax * iK3
     M = mu1 + beta + (mu2 - mu1) * Im * ib
     iIm = ax * ax * wb * q                   # 1/I_m
-    V = 2.5 * phi * eta0 * x * ax * wb * q   # 5/2 phi eta0/(a I_m)
     F2 = tau_tr - Gdt * g - M * p - V * g
     F2b = -(1.0 + (mu2 - mu1) * b * ib * ib * dIm) * p - M * Kdt * g + V * g * dIm * iIm
     F2g = -Gdt - M * Kdt * beta - V
@@ -398,7 +361,7 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, ta
                 break
             x = xn
     if not (r_lo == r_lo):                                   # R(beta_lo) not evaluated yet
-        r_lo = _residual(0, beta_lo, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1,
+        r_lo = _residual(beta_lo, 0, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1,
                          mu2, b, 0.0, 0.0)
         n += 1
     if hi_known and not np.isfinite(r_hi):
@@ -407,7 +370,7 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, ta
         step = max(1e-14 * beta_max, 1e-8 * lo, 2.0 * beta_guess)
         hi = min(lo + step, beta_top)
         while True:
-            r_hi = _residual(0, hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2,
+            r_hi = _residual(hi, 0, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2,
                              b, 0.0, 0.0)
             n += 1
             if r_hi < 0.0 or hi >= beta_top:
@@ -416,8 +379,9 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, ta
             step *= 10.0
             hi = min(lo + step, beta_top)
     if r_hi < 0.0:
-        beta, r, it = _brent(0, lo, hi, r_lo, r_hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2,
-                             K3, mu1, mu2, b, 0.0, 0.0, floor)
+        beta, r, it = brent(_residual, (0, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
+                                        mu1, mu2, b, 0.0, 0.0), lo, hi, r_lo, r_hi, _XTOL,
+                            1e-300, floor, _MAXIT)
         g, p, Im = _dilatant_rate(beta, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
         n += max(it, 0)
         if it >= 0 and abs(r) <= 1e-12 * (tau_tr - Gdt * g + mu1 * p) + floor:
@@ -425,14 +389,15 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, ta
     # fallback: gdot on [gdot(beta_lo), tau*/(G dt)], where R > 0 and R < 0
     g_lo, _, _ = _dilatant_rate(beta_lo, phi, phim, a, p_tr, Kdt, eta0, rd2, K3)
     g_hi = tau_tr / Gdt
-    r0 = _residual(1, g_lo, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
+    r0 = _residual(g_lo, 1, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
                    beta_lo, beta_top)
-    r1 = _residual(1, g_hi, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
+    r1 = _residual(g_hi, 1, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
                    beta_lo, beta_top)
     if not (r0 > 0.0 and r1 < 0.0):
         return beta_lo, 0.0, p_tr, 0.0, -1
-    g, r, it = _brent(1, g_lo, g_hi, r0, r1, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3,
-                      mu1, mu2, b, beta_lo, beta_top, floor)
+    g, r, it = brent(_residual, (1, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2,
+                                 b, beta_lo, beta_top), g_lo, g_hi, r0, r1, _XTOL, 1e-300,
+                     floor, _MAXIT)
     beta = _beta_of_rate(g, phi, phim, a, p_tr, Kdt, eta0, rd2, K3, beta_lo, beta_top)
     p = p_tr + Kdt * beta * g
     xe = phi - beta / K3
@@ -503,12 +468,13 @@ def _dilatant_tension(phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, 
     """
     g_min = -p_tr / (Kdt * K3 * phi)
     h_max = (p_tr + Kdt * tau_tr / Gdt * K3 * phi) / (Kdt * K3 * phi)   # > 0: not separated
-    r1 = _residual(2, h_max, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
+    r1 = _residual(h_max, 2, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
                    g_min, h_max)
     if not r1 < 0.0:
         return K3 * phi, tau_tr / Gdt, 0.0, np.inf, -1
-    h, r, it = _brent(2, 0.0, h_max, Gdt * h_max, r1, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0,
-                      rd2, K3, mu1, mu2, b, g_min, h_max, floor)
+    h, r, it = brent(_residual, (2, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2,
+                                 b, g_min, h_max), 0.0, h_max, Gdt * h_max, r1, _XTOL,
+                     1e-300, floor, _MAXIT)
     x, p, g = _tension_state(h, g_min, phi, phim, a, Kdt, eta0, rd2, K3)
     n = max(it, 0) + 1
     if it < 0 or not p > 0.0 or abs(r) > 1e-10 * (Gdt * (h_max - h) + mu1 * p) + 10.0 * floor:
@@ -820,17 +786,10 @@ def block_test(phi, f, dt, P, W):
         # R = tau* - G dt g - (mu_p + beta) p with laws.friction's terms multiplied through by
         # p: (mu_1 + beta) p + (mu_2 - mu_1) U p + V g, U = I_m/(I_m + b), V = 5/2 phi eta0/(a I_m)
         # (F2 of _newton_2d at g = gdot(beta)); 1/(a x), U and V from one reciprocal
-        x = ph - beta * iK3
-        w = phim - x
-        ax = a * x
-        wb = w + b * ax
-        q = 1.0 / (ax * w * wb)
-        iax = w * wb * q
-        Im = w * iax
+        x, w, ax, wb, q, iax, Im, V = _im_terms(beta, ph, phim, a, b, eta0, iK3)
         Im2 = Im * Im
         U = w * w * ax * q
         c = 2.5 * ph * eta0
-        V = c * x * ax * wb * q
         bq = 2.0 * eta0 - Kdt * beta * Im2
         cq = p_tr * Im2
         sq = np.sqrt(bq * bq + 4.0 * rd2 * cq)

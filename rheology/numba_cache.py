@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numba
 
-_SOURCES = ("laws.py", "local_update.py", "vecmath.py")
+_SOURCES = ("laws.py", "local_update.py", "roots.py", "vecmath.py")
 
 
 def source_stamp(folders=()) -> str:
