@@ -58,7 +58,7 @@ from rheology.run_end import EndedEarly, RunEnd, run_record
 
 from . import estimate, plots
 from .output import write_frame, write_manifest, write_pvds
-from .scenes.spec import shown_value
+from runkit.params import shown as shown_value
 from .simulation import Simulation
 
 
