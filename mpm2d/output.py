@@ -155,7 +155,7 @@ def write_pvd(path: Path, entries: list[tuple[float, str]]) -> Path:
                              'version="0.1"><Collection>\n' + rows + "</Collection></VTKFile>\n")
 
 
-def _weights_1d(g):
+def bspline_weights(g):
     """Quadratic B-spline base node and the three weights at cell coordinates g (vectorised;
     the same formulas as :func:`mpm2d.shape.weights`)."""
     b = np.floor(g - 0.5)
@@ -171,8 +171,8 @@ def project_to_nodes(grid, x, m, values: dict) -> dict:
     shape = grid.shape
     gx = (x[:, 0] - grid.origin[0]) / grid.h
     gy = (x[:, 1] - grid.origin[1]) / grid.h
-    bx, wx = _weights_1d(gx)
-    by, wy = _weights_1d(gy)
+    bx, wx = bspline_weights(gx)
+    by, wy = bspline_weights(gy)
     mass = np.zeros(shape)
     acc = {k: np.zeros(shape) for k in values}
     for a in range(3):

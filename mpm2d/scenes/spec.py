@@ -410,12 +410,13 @@ class SceneSpec:
         return lines
 
 
-def parameters_of(size: Callable | None = None, **params: Param):
+def parameters_of(size: Callable | None = None, /, **params: Param):
     """Decorator declaring the valid range of every parameter of a scene's ``setup``.
 
-    ``size(params) -> (points, grid nodes)`` estimates the run's size for the memory check.
-    The wrapped ``setup`` validates its keyword arguments on every call (see
-    :meth:`SceneSpec.coerce`) and has ``setup.spec``.
+    ``size(params) -> (points, grid nodes)`` estimates the run's size for the memory check
+    (positional, or the keyword ``size`` when it is not a :class:`Param`: a scene may have a
+    parameter named ``size``). The wrapped ``setup`` validates its keyword arguments on every
+    call (see :meth:`SceneSpec.coerce`) and has ``setup.spec``.
 
     Raises
     ------
@@ -423,6 +424,8 @@ def parameters_of(size: Callable | None = None, **params: Param):
         At import: the declaration and the signature do not name the same parameters, or a
         parameter has no default (a programming error, not bad input).
     """
+    if size is None and callable(params.get("size")) and not isinstance(params["size"], Param):
+        size = params.pop("size")
 
     def wrap(setup):
         sig = inspect.signature(setup)

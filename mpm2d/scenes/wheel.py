@@ -72,7 +72,7 @@ from ..bodies import RigidBody, fill
 from ..geostatic import geostatic
 from ..grid import Grid
 from ..materials import LinearElastic, Suspension
-from ..output import load_frames
+from ..output import bspline_weights, load_frames
 from ..particles import ParticleSet
 from . import spec
 from ..run import Scene
@@ -334,18 +334,12 @@ def _finite(d):
 
 
 # ---------------------------------------------------------------- grid fields
-def _bspline(g):
-    b = np.floor(g - 0.5)
-    f = g - b
-    return b.astype(np.int64), (0.5 * (1.5 - f) ** 2, 0.75 - (f - 1.0) ** 2, 0.5 * (f - 0.5) ** 2)
-
-
 def grid_phi(x, svol, h, nx, ny) -> np.ndarray:
     """The grains' volume fraction on the nodes, (nx, ny + 1) (periodic in x): sum_p N_ip
     phi_p V_p / h^2 (quadratic B-splines; 0 where no point reaches)."""
     out = np.zeros((nx, ny + 3))
-    bx, wx = _bspline(x[:, 0] / h)
-    by, wy = _bspline(x[:, 1] / h)
+    bx, wx = bspline_weights(x[:, 0] / h)
+    by, wy = bspline_weights(x[:, 1] / h)
     for a in range(3):
         for b in range(3):
             np.add.at(out, (np.mod(bx + a, nx), np.clip(by + b, 0, ny + 2)), wx[a] * wy[b] * svol)
