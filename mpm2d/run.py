@@ -60,10 +60,8 @@ class Scene:
         End time [s].
     params : dict
         The parameters used (for the manifest and resume).
-    frames : int
-        Number of snapshots after the initial one.
-    history_rows : int
-        Approximate number of history rows.
+    frames, history_rows : int
+        Snapshots after the initial one; about how many history rows.
     record : callable(sim) -> dict, optional
         Extra history columns (units in the names).
     report : callable(sim, history DataFrame, out Path) -> list of Path, optional
@@ -71,31 +69,22 @@ class Scene:
     before_step : callable(sim), optional
         Called before every step (time-dependent loading).
     frame_times : tuple of float
-        Extra snapshot times [s] (written at the first step reaching each, tagged ``event`` in
-        the manifest), e.g. the profile times a report compares; reports read them back with
-        :func:`mpm2d.output.load_frames`, so they survive ``--resume``.
+        Extra snapshot times [s], tagged ``event`` (reports read them back with
+        :func:`mpm2d.output.load_frames`, so they survive ``--resume``).
     frame_fields : tuple of str
-        The point fields a snapshot keeps besides ``id`` and ``x`` (``v``, ``m``, ``f``...);
-        empty: every field (a scene whose snapshots would be too large keeps what its report
-        reads).
+        The point fields a snapshot keeps besides ``id`` and ``x``; empty: every field.
     vtk : bool
-        Whether VTK snapshots are written by default (``mpm2d run --vtk``/``--no-vtk`` choose).
+        Whether VTK snapshots are written by default (``mpm2d run --vtk``/``--no-vtk``).
     notes : str
         Written to the manifest.
     undefined : tuple of str
-        History columns that may be undefined by construction at some rows (NaN, written as an
-        empty cell), e.g. a stress behind a front before the front has formed; every other
-        history value must be finite (else the run fails with diagnostics).
+        History columns that may be undefined by construction (NaN, an empty cell), e.g. a
+        stress behind a front not yet formed; every other value must be finite.
     min_steps : int
-        The fewest steps the run (and the scene's analysis) needs: a run whose end time is
-        shorter than ``min_steps`` first stable steps is refused before anything is written
-        (at least one step, else the results would be made up from the initial state).
+        The fewest first stable steps the run (and its analysis) needs, at least one.
     divides_by : tuple of str
-        History columns whose initial value the scene's analysis divides by (the disks' energy
-        loss is relative to the initial energy): with parameters that make one of them zero or
-        non-finite at t = 0 (speed = 1e-300: the kinetic energy underflows to 0) the analysis is
-        undefined and the run is refused before anything is written, naming the parameter set
-        with its bound.
+        History columns whose initial value the analysis divides by (the disks' energy loss):
+        zero or non-finite at t = 0 (speed = 1e-300), the run is refused.
     """
 
     sim: Simulation
@@ -113,17 +102,6 @@ class Scene:
     undefined: tuple = ()
     min_steps: int = 1
     divides_by: tuple = ()
-
-
-def history_row(sim: Simulation, scene: Scene) -> dict:
-    """The standard history columns plus the scene's."""
-    row = {"time_s": sim.t, "step": int(sim.step_count), "dt_s": sim.last_dt}
-    row.update(sim.energies())
-    p = sim.momentum()
-    row["momentum_x_kg_m_per_s"], row["momentum_y_kg_m_per_s"] = float(p[0]), float(p[1])
-    if scene.record is not None:
-        row.update(scene.record(sim))
-    return row
 
 
 def history_row(sim: Simulation, scene: Scene) -> dict:
@@ -623,7 +601,7 @@ def _set_up(setup, params: dict, given: dict, name: str, resuming: str, log):
         announce.start()
     try:
         with HeldWarnings() as held:
-            scene = setup(**params)
+            scene = getattr(setup, "raw", setup)(**params)     # params are checked already
     except KeyboardInterrupt:
         raise KeyboardInterrupt("during the scene's set-up, nothing written"
                                 + (f"; {resuming} is as it was" if resuming else "")) from None
@@ -777,7 +755,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
     saved, options = None, {"frames": frames, "vtk": vtk}
     if resume:
         saved, used, given = _resumed(out, spec, name, given, options, log)
-    params = spec.validate(given)
+    params = {**spec.defaults, **given}           # checked once, by coerce
     check_step_bound(spec, params, name, given)   # before the set-up where the parameters tell
     if saved is None:                             # a long run needs --yes (mpm2d.estimate)
         estimate.check_before_setup(setup, spec, params, name, yes, log)

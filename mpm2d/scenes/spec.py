@@ -30,7 +30,7 @@ import numpy as np
 
 from runkit import limits
 from runkit.limits import Bound, check_memory
-from runkit.params import Number, shown, valid_interval
+from runkit.params import Number, integer_range, shown
 from runkit.params import Param as SchemaParam
 from rheology import get_material, material_names
 from rheology.materials import RULES, scene_material
@@ -267,8 +267,7 @@ class SceneSpec:
         declared default; None when the default itself is not valid there (no interval to
         report) or ``key`` is not a number."""
         p = self.params[key]
-        x0 = self.defaults.get(key)
-        if p.kind != "number" or not _is_real(x0):
+        if p.kind != "number":
             return None
         lo, lc, _, hi, hc, _ = p.schema.bounds(static=True)
         static = Number(key, lo, hi, lo_closed=lc, hi_closed=hc)
@@ -276,15 +275,11 @@ class SceneSpec:
         def ok(x):
             return static.contains(x) and self._derived_ok({**full, key: x})
 
-        if not ok(float(x0)):
+        rng = integer_range(ok, [self.defaults.get(key)], integer=p.integer)
+        if rng is None:
             return None
-        lo, lo_closed, hi, hi_closed = valid_interval(ok, float(x0))
-        if p.integer:                        # the integers inside
-            lo = None if lo is None else float(math.ceil(lo) if lo_closed else math.floor(lo) + 1)
-            hi = None if hi is None else float(math.floor(hi) if hi_closed else math.ceil(hi) - 1)
-            lo_closed = hi_closed = True
-        return Number(key, lo, hi, integer=p.integer, lo_closed=lo_closed, hi_closed=hi_closed,
-                      unit=p.unit)
+        lo, lc, hi, hc = rng
+        return Number(key, lo, hi, integer=p.integer, lo_closed=lc, hi_closed=hc, unit=p.unit)
 
     def _explain(self, key: str, exc: ValueError, full: dict, given: dict) -> ValueError:
         """The refusal of a derived bound of ``key``, said about the parameter the user set.
@@ -416,7 +411,8 @@ def parameters_of(size: Callable | None = None, /, **params: Param):
     ``size(params) -> (points, grid nodes)`` estimates the run's size for the memory check
     (positional, or the keyword ``size`` when it is not a :class:`Param`: a scene may have a
     parameter named ``size``). The wrapped ``setup`` validates its keyword arguments on every
-    call (see :meth:`SceneSpec.coerce`) and has ``setup.spec``.
+    call (see :meth:`SceneSpec.coerce`) and has ``setup.spec``; ``setup.raw`` is the function
+    itself, for a caller whose values are checked already (``mpm2d run``).
 
     Raises
     ------
@@ -445,7 +441,7 @@ def parameters_of(size: Callable | None = None, /, **params: Param):
         def checked(**kwargs):
             return setup(**spec.validate(kwargs))
 
-        checked.spec = spec
+        checked.spec, checked.raw = spec, setup
         return checked
 
     return wrap

@@ -75,7 +75,7 @@ from ..materials import LinearElastic, Suspension
 from ..output import bspline_weights, load_frames
 from ..particles import ParticleSet
 from . import spec
-from ..run import Scene
+from ..run import Scene, run_scene
 from ..simulation import Simulation
 
 #: the default run's omegas [1/s]: the main run first (DIR), then the others (DIR/omega_<w>)
@@ -645,8 +645,6 @@ def report(sim, history, out, params, omega):
     R = params["radius"]
     runs = [(omega, out, history)]
     if params["omega"] is None:
-        from ..run import run_scene
-
         for w in OMEGAS[1:]:
             sub = out / f"omega_{_omega_key(w)}"
             resume = (sub / "checkpoint.npz").exists()
