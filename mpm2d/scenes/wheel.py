@@ -75,7 +75,8 @@ from ..materials import LinearElastic, Suspension
 from ..output import bspline_weights, load_frames
 from ..particles import ParticleSet
 from . import spec
-from ..run import Scene, run_scene
+from .. import run as runner
+from ..run import Scene
 from ..simulation import Simulation
 
 #: the default run's omegas [1/s]: the main run first (DIR), then the others (DIR/omega_<w>)
@@ -649,9 +650,9 @@ def report(sim, history, out, params, omega):
             sub = out / f"omega_{_omega_key(w)}"
             resume = (sub / "checkpoint.npz").exists()
             given = {k: v for k, v in params.items() if k != "omega"}
-            res = run_scene(setup, sub, {**given, "omega": w}, resume=resume,
-                            progress=True, vtk=(out / "vtk").exists(),
-                            log=lambda msg: print(msg, flush=True))
+            res = runner.run_scene(setup, sub, {**given, "omega": w}, resume=resume,
+                                   progress=True, vtk=(out / "vtk").exists(),
+                                   log=lambda msg: print(msg, flush=True))
             runs.append((w, sub, res["history"]))
     hub = pd.concat([hub_table(h_, w) for w, _, h_ in runs], ignore_index=True)
     results = {_omega_key(w): analyse(h_, params, w) for w, _, h_ in runs}
