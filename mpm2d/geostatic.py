@@ -42,6 +42,7 @@ import numpy as np
 from rheology import laws
 
 from .materials import LinearElastic, NewtonianFluid, Suspension
+from .simulation import Simulation
 
 
 def _k_oed(K, G):
@@ -187,8 +188,6 @@ def geostatic(sim, surface=None, K_lat=None, sets=None, relax=True, v_tol=None,
 
 def _relax(sim, bed, surface, gy, v_tol, max_steps, log):
     """Damped relaxation of the bed alone; keeps the material state, resets the kinematics."""
-    from .simulation import Simulation
-
     depth = surface - min(float(np.min(s.x[:, 1])) for s in bed)
     if v_tol is None:
         v_tol = 1e-5 * math.sqrt(gy * max(depth, sim.grid.h))

@@ -47,9 +47,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import meshio
 import numpy as np
 
 from runkit.io import atomic_savez, atomic_write_json, atomic_write_text, atomic_write_with
+
+from .grid import M, PAD
 
 
 #: VTU names of the snapshot fields that carry no unit in their npz name ("{per}": per m in
@@ -125,8 +128,6 @@ def write_vtu(path: Path, points, fields: dict, cells=None) -> Path:
     """VTK XML UnstructuredGrid through meshio: ``points`` (N, 2) or (N, 3); ``fields`` point
     data, each (N,), (N, k) or (N, 3, 3) (written as 9 components, ParaView's tensor layout);
     ``cells`` a meshio cell list (default: one vertex cell per point)."""
-    import meshio
-
     pts = _points3(points)
     n = pts.shape[0]
     if cells is None:
@@ -138,8 +139,6 @@ def write_vtu(path: Path, points, fields: dict, cells=None) -> Path:
 
 def read_vtu(path) -> dict[str, np.ndarray]:
     """Point coordinates (``Points``) and point data of a .vtu file, read by meshio."""
-    import meshio
-
     mesh = meshio.read(path, file_format="vtu")
     return {"Points": mesh.points, **{k: np.asarray(v) for k, v in mesh.point_data.items()}}
 
@@ -155,7 +154,7 @@ def write_pvd(path: Path, entries: list[tuple[float, str]]) -> Path:
                              'version="0.1"><Collection>\n' + rows + "</Collection></VTKFile>\n")
 
 
-def _weights_1d(g):
+def bspline_weights(g):
     """Quadratic B-spline base node and the three weights at cell coordinates g (vectorised;
     the same formulas as :func:`mpm2d.shape.weights`)."""
     b = np.floor(g - 0.5)
@@ -166,13 +165,11 @@ def _weights_1d(g):
 def project_to_nodes(grid, x, m, values: dict) -> dict:
     """Mass-weighted B-spline average of point scalars at the real nodes, shape (nx+1, ny+1)
     each: q_i = sum_p N_ip m_p q_p / sum_p N_ip m_p (NaN where no point reaches a node)."""
-    from .grid import PAD
-
     shape = grid.shape
     gx = (x[:, 0] - grid.origin[0]) / grid.h
     gy = (x[:, 1] - grid.origin[1]) / grid.h
-    bx, wx = _weights_1d(gx)
-    by, wy = _weights_1d(gy)
+    bx, wx = bspline_weights(gx)
+    by, wy = bspline_weights(gy)
     mass = np.zeros(shape)
     acc = {k: np.zeros(shape) for k in values}
     for a in range(3):
@@ -191,8 +188,6 @@ def project_to_nodes(grid, x, m, values: dict) -> dict:
 def grid_fields(sim) -> dict[str, np.ndarray]:
     """The nodal fields of the real nodes, each (nx+1, ny+1[, k]): per velocity field
     ``P.velocity`` and ``P.mass``, ``phi`` (two-phase), and the sets' projected scalars."""
-    from .grid import M, PAD
-
     g = sim.grid
     real = (slice(PAD, PAD + g.nx + 1), slice(PAD, PAD + g.ny + 1))
     out = {}

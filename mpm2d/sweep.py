@@ -23,6 +23,7 @@ any case runs, exactly as ``mpm2d run`` refuses it.
 from __future__ import annotations
 
 import itertools
+import json
 import os
 import re
 import shutil
@@ -30,7 +31,9 @@ import sys
 import time
 from pathlib import Path
 
+import numba
 import pandas as pd
+from tqdm import tqdm
 
 from runkit.command import one_line
 from runkit.io import atomic_write_csv, check_output_dir
@@ -117,8 +120,6 @@ def check_distinct_cases(grid: dict[str, list[str]], canonical: dict | None = No
 
 
 def _complete(folder: Path) -> bool:
-    import json
-
     try:
         return json.loads((folder / "manifest.json").read_text())["status"] == "complete"
     except (OSError, ValueError, KeyError):
@@ -134,8 +135,6 @@ def run_case(scene: str, out: str, params: dict, checkpoint_every: float = 60.0,
     dict with ``case``, ``status`` (``done`` or ``skipped``), ``wall_s``. Errors propagate (the
     sweep records them per case).
     """
-    import numba
-
     name = case_name(params)
     final, partial = Path(out) / name, Path(out) / f"{name}.partial"
     if _complete(final):
@@ -281,8 +280,6 @@ def _run_on_dask(scene, out, todo, rows, scheduler, workers, checkpoint_every, v
                                 key=f"{scene}-{name}", pure=False)
             futures[fut] = name
         if progress:
-            from tqdm import tqdm
-
             bar = tqdm(total=len(futures), desc=f"sweep {scene}", unit="case")
         for fut in as_completed(futures):
             name = futures[fut]

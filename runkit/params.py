@@ -316,6 +316,21 @@ def valid_interval(ok: Callable[[float], bool], x0: float, lo=None, hi=None) -> 
     return tuple(out)
 
 
+def integer_range(ok: Callable[[float], bool], starts, lo=None, hi=None, integer=False):
+    """(lo, lo_closed, hi, hi_closed) of :func:`valid_interval` around the first of ``starts``
+    that is valid (None when none is); ``integer``: the integers inside, closed."""
+    x0 = next((float(s) for s in starts if isinstance(s, (int, float)) and not
+               isinstance(s, bool) and math.isfinite(s) and ok(float(s))), None)
+    if x0 is None:
+        return None
+    lo, lc, hi, hc = valid_interval(ok, x0, lo, hi)
+    if integer:
+        lo = None if lo is None else float(math.ceil(lo) if lc else math.floor(lo) + 1)
+        hi = None if hi is None else float(math.floor(hi) if hc else math.ceil(hi) - 1)
+        lc = hc = True
+    return lo, lc, hi, hc
+
+
 class Schema:
     """The parameters of one command, scene or parameter set (see the module docstring).
 
@@ -383,17 +398,8 @@ class Schema:
         def ok(x):                       # the bounds only: an integer's are found on the floats
             return p._outside(x, None, True) is None and self.holds({**values, key: x})
 
-        starts = [self.defaults.get(key), values[key], lo, hi]
-        x0 = next((float(s) for s in starts if isinstance(s, (int, float)) and not
-                   isinstance(s, bool) and math.isfinite(s) and ok(float(s))), None)
-        if x0 is None:
-            return None
-        lo, lc, hi, hc = valid_interval(ok, x0, lo, hi)
-        if p.kind == "integer":
-            lo = None if lo is None else float(math.ceil(lo) if lc else math.floor(lo) + 1)
-            hi = None if hi is None else float(math.floor(hi) if hc else math.ceil(hi) - 1)
-            lc = hc = True
-        return lo, lc, hi, hc
+        return integer_range(ok, [self.defaults.get(key), values[key], lo, hi], lo, hi,
+                             p.kind == "integer")
 
     def _why_at(self, key, values, x) -> str:
         """The reasons of the derived bounds that fail at ``values`` with ``key`` = x."""
@@ -496,4 +502,4 @@ def checked(size=None, label: Callable[[str], str] = str, **params: Param):
 
 
 __all__ = ["Param", "Schema", "Option", "checked", "check_range", "valid_interval",
-           "interval_text", "shown"]
+           "integer_range", "interval_text", "shown"]

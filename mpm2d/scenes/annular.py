@@ -59,14 +59,15 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import pandas as pd
 
 from rheology import f_jam
+from rheology.elastic import ELASTIC_STRAIN_LIMIT
 from runkit.io import atomic_write_csv, atomic_write_json
 from rheology.materials import scene_material
 
 from .. import plots
 from ..bodies import box
+from ..fronts import fit_speed
 from ..grid import Grid
 from ..materials import NewtonianFluid, Suspension
 from ..particles import ParticleSet
@@ -163,20 +164,15 @@ def front_fit(t, front, r_inner, r_outer, lo=FIT_LO, hi=FIT_HI) -> dict:
     tt, ff = t[i0:i1 + 1], front[i0:i1 + 1]
     if tt.size < 3:
         return out
-    c = np.polyfit(tt, ff, 1)
-    res = ff - np.polyval(c, tt)
-    ss = float(np.sum((ff - ff.mean()) ** 2))
-    out.update(speed=float(c[0]), r2=1.0 - float(np.sum(res ** 2)) / ss if ss > 0 else 1.0,
-               t_start=float(tt[0]), t_end=float(tt[-1]), points=int(tt.size),
-               gap_reached=float(np.max(x[i0:i1 + 1])))
+    fit = fit_speed(tt, ff)
+    out.update(speed=fit["speed"], r2=fit["r2"], t_start=float(tt[0]), t_end=float(tt[-1]),
+               points=int(tt.size), gap_reached=float(np.max(x[i0:i1 + 1])))
     return out
 
 
 def _u_inner_max(p) -> float:
     """0.1 sqrt(G/rho) [m/s] of the run's material at phi0: the small-elastic-strain limit of
     the hypoelastic law (rheology.elastic), the bound shear1d's --u-inner has on the same cell."""
-    from rheology.elastic import ELASTIC_STRAIN_LIMIT
-
     m = scene_material("annular_shear", p["material"])
     rho = p["phi0"] * m.rho_s + (1.0 - p["phi0"]) * m.rho_f
     return ELASTIC_STRAIN_LIMIT * float(np.sqrt(m.G / rho))

@@ -23,6 +23,8 @@ Run: ``mpm2d run disks --out disks`` (``--set transfer=flip`` to compare)
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pandas as pd
 
@@ -92,8 +94,6 @@ def null_space_energy(sim) -> float:
     """
     if sim.transfer == "apic" or sim.flip_alpha == 0.0:
         return 0.0
-    import copy
-
     probe = copy.deepcopy(sim)
     probe._p2g()
     probe._grid_update(0.0)

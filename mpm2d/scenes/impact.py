@@ -61,8 +61,6 @@ Run: ``mpm2d run impact --out impact`` (locked mixture)."""
 
 from __future__ import annotations
 
-import functools
-import inspect
 import json
 import math
 from pathlib import Path
@@ -137,43 +135,12 @@ def _nodes(p) -> float:
     return (q["radius"] * c + 5) * ((q["depth"] + HEADROOM) * c + 5)
 
 
-def _declare(estimate, **params):
-    """:func:`mpm2d.scenes.spec.parameters_of` for a scene with a parameter named ``size``.
-
-    ``parameters_of(size=..., **params)`` takes the memory estimate under the keyword ``size``,
-    so a scene parameter of that name (``--set size=fig4``) cannot be declared
-    through it; this builds the same :class:`~mpm2d.scenes.spec.SceneSpec` and validating
-    wrapper (same checks: the declaration and the signature name the same parameters, every
-    parameter has a default)."""
-
-    def wrap(setup):
-        sig = inspect.signature(setup)
-        names = list(sig.parameters)
-        missing = [k for k in names if k not in params]
-        extra = [k for k in params if k not in names]
-        if missing or extra:
-            raise TypeError(f"{setup.__module__}.setup: parameters without a declared range "
-                            f"{missing}, declared but not in the signature {extra}")
-        defaults = {k: q.default for k, q in sig.parameters.items()}
-        sc = spec.SceneSpec(setup.__module__.rsplit(".", 1)[-1], dict(params), defaults,
-                            estimate)
-
-        @functools.wraps(setup)
-        def checked(**kwargs):
-            return setup(**sc.validate(kwargs))
-
-        checked.spec = sc
-        return checked
-
-    return wrap
-
-
 def _geo(key, lo, hi, unit, doc, note="", **kw):
     return spec.Param(lo, hi, unit=unit, doc=doc + " (none: the size's value)", optional=True,
                       note=note, **kw)
 
 
-@_declare(
+@spec.parameters_of(
     lambda p: (_points(p), _nodes(p)),
     size=spec.Param(choices=tuple(SIZES), doc="scene: default (Fig. 4 at 2 mm), fig4 (100 x 120 "
                     "at 1 mm, 7 mPa s), fig5 (150 x 225 at 1 mm, 1 mPa s)"),
@@ -419,11 +386,6 @@ def front_fit(t, front, z, v, v0, h, depth) -> dict:
         res.update(front_speed_after_fit_m_per_s=g["slope"],
                    k_after_fit=g["slope"] / float(np.mean(np.abs(v[after]))))
     return res
-
-
-def _clean(d: dict) -> dict:
-    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-            for k, v in d.items()}
 
 
 # ---------------------------------------------------------------- report

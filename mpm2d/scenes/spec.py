@@ -1,27 +1,21 @@
-"""Parameter validation of the scenes: one mechanism for every scene.
+"""The parameters of the scenes: one declaration per ``setup`` parameter, one check.
 
-Every scene declares the valid range of every ``setup`` parameter with the :func:`parameters_of`
-decorator and :class:`Param` entries::
+Every scene declares each ``setup`` parameter with :func:`parameters_of` and a :class:`Param`::
 
     @parameters_of(
         cells=Param(2, 4096, integer=True, doc="cells along L"),
-        phi0=Param(0.0, lambda p: material_of(p).phi_j, lo_closed=False, hi_closed=False,
-                   note=lambda p: f"phi_j of material {p['material']!r}"),
+        phi0=phi_below_jamming(),                # (0, phi_j of the material)
         material=Param(choices=suspension_materials),
-        size=lambda p: (points, cells),          # memory estimate before anything is built
+        size=lambda p: (points, nodes),          # memory estimate before anything is built
     )
     def setup(cells=32, phi0=0.3, material="rod_impact"): ...
 
-The decorator checks that the declaration and the signature name the same parameters, attaches
-the :class:`SceneSpec` as ``setup.spec`` and makes ``setup`` validate its arguments on every call
-(CLI strings are converted; Python values are type-checked). :meth:`SceneSpec.validate` checks,
-for every key: the type (number, integer, bool, one of the choices, or None where optional), the
-finiteness and the range; a bound may be a function of the other parameters (a material's
-phi_j, a geometric limit), evaluated once every parameter has passed its own static check, so
-derived bounds go through the same path and the same message. Then the memory estimate of the
-run (points x bytes per point + nodes x bytes per node) is checked against the available memory
-(:func:`rheology.checks.check_memory`). Every refusal is one ``ValueError`` line naming the
-parameter, its value and the valid range, raised before anything is built or written.
+The decorated ``setup`` validates its keyword arguments on every call (:meth:`SceneSpec.coerce`):
+each value alone through :meth:`runkit.params.Param.check` (type, finiteness, static range with
+its physical reason from :mod:`runkit.limits`), then every bound that is a function of the other
+parameters (a material's phi_j, a geometric limit), then the memory estimate. A refusal is one
+``ValueError`` line naming the parameter the user set, its value and its valid range at the
+other values (found by bisection, :func:`runkit.params.valid_interval`).
 """
 
 from __future__ import annotations
@@ -36,8 +30,8 @@ import numpy as np
 
 from runkit import limits
 from runkit.limits import Bound, check_memory
-from runkit.params import as_bool, valid_interval
-from runkit.params import Number
+from runkit.params import Number, integer_range, shown
+from runkit.params import Param as SchemaParam
 from rheology import get_material, material_names
 from rheology.materials import RULES, scene_material
 
@@ -50,35 +44,24 @@ BYTES_PER_NODE = 2 * 8 * (9 * 3 + 12)
 BASE_BYTES = 2e8
 
 
-def _resolve(x, params):
-    return x(params) if callable(x) else x
-
-
 @dataclass(frozen=True)
 class Param:
-    """The valid values of one scene parameter.
+    """The valid values of one scene parameter, declared as the scenes read it; the check is
+    :meth:`runkit.params.Param.check` of :attr:`schema`.
 
     Parameters
     ----------
     lo, hi : float, None or callable(params) -> float
         Bounds (None: unbounded); a callable receives the dict of every (already individually
         checked) parameter, e.g. ``lambda p: get_material(p["material"]).phi_j``.
-    integer : bool
-        An integer (``"3"`` or 3; ``3.5`` and ``True`` are refused).
-    lo_closed, hi_closed : bool
-        Whether the bounds are valid values.
-    unit : str
-        Printed after the range.
+    integer, lo_closed, hi_closed, unit, optional, doc
+        As :class:`runkit.params.Param` (``optional``: ``none`` is valid too).
     choices : tuple of str, or callable() -> tuple
         A text parameter: one of these (case-insensitive).
     boolean : bool
         A switch (``true/false/1/0/yes/no``).
-    optional : bool
-        ``None`` (``--set dt=none``) is valid too.
-    doc : str
-        What the parameter is (printed by ``mpm2d show``).
     note : str or callable(params) -> str
-        Where a derived bound comes from (appended to the message), e.g. ``phi_j of material``.
+        Where a derived bound comes from (the reason printed with its refusal).
     material_of : str, optional
         A material parameter: any SI set or a material file, on this scene set
         (:func:`scene_material_param`).
@@ -120,30 +103,51 @@ class Param:
         """Whether a bound depends on the other parameters."""
         return callable(self.lo) or callable(self.hi)
 
+    @functools.cached_property
+    def schema(self) -> SchemaParam:
+        """The :class:`runkit.params.Param` that checks this parameter."""
+        if self.kind == "material":
+            return SchemaParam(kind="text", convert=self._material, optional=self.optional)
+        if self.kind in ("choice", "bool"):
+            return SchemaParam(kind=self.kind, choices=self.choices or (),
+                               optional=self.optional)
+
+        def bound(x, closed, why):
+            return None if x is None else Bound(x, closed, self.note if callable(x) else why)
+
+        return SchemaParam(bound(self.lo, self.lo_closed, self.lo_why),
+                           bound(self.hi, self.hi_closed, self.hi_why), unit=self.unit,
+                           kind="integer" if self.integer else "number", optional=self.optional)
+
+    def _material(self, value) -> str:
+        name = "material"
+        if not isinstance(value, str) or not value.strip():
+            raise ValueError(f"{name} = {value!r} is not a parameter set name or a material file")
+        try:
+            scene_material(self.material_of, value.strip())
+        except ValueError as exc:
+            raise ValueError(f"{name} = {value!r} is not one of the SI parameter sets or a "
+                             f"valid material file: {exc}") from None
+        return value.strip()
+
     def number(self, name: str, params: dict | None = None) -> Number:
         """The :class:`~runkit.params.Number` of this parameter (bounds resolved against
         ``params`` where they are derived; unresolved derived bounds are left open)."""
-        lo = _resolve(self.lo, params) if (params is not None or not callable(self.lo)) else None
-        hi = _resolve(self.hi, params) if (params is not None or not callable(self.hi)) else None
-        return Number(name, lo, hi, integer=self.integer, lo_closed=self.lo_closed,
-                      hi_closed=self.hi_closed, unit=self.unit)
+        lo, lc, _, hi, hc, _ = self.schema.bounds(params, static=params is None)
+        return Number(name, lo, hi, integer=self.integer, lo_closed=lc, hi_closed=hc,
+                      unit=self.unit)
 
     def options(self) -> tuple:
-        return tuple(self.choices() if callable(self.choices) else self.choices)
+        return self.schema.options()
 
     def range_text(self, params: dict | None = None) -> str:
         """The valid values as text, with derived bounds evaluated at ``params``."""
         if self.kind == "material":
             text = ("an SI parameter set (rheometer materials) or a material file *.json; the "
                     f"moduli, densities, d and K0 it leaves unset come from {self.material_of}")
-        elif self.kind == "choice":
-            text = "one of " + ", ".join(map(str, self.options()))
-        elif self.kind == "bool":
-            text = "true or false"
+            text += ", or none" if self.optional else ""
         else:
-            text = ("integer in " if self.integer else "") + self.number("x", params).range_text
-        if self.optional:
-            text += ", or none"
+            text = self.schema.range_text(params, static=params is None, typed=True)
         note = self.note_text(params)
         return text + (f" ({note})" if note else "")
 
@@ -153,42 +157,9 @@ class Param:
         return self.note
 
     def convert(self, name: str, value):
-        """Type check and conversion of one value (static range included; derived bounds are
+        """Type check and conversion of one value, static range included (derived bounds are
         checked by :meth:`check_derived`)."""
-        if self.optional and (value is None or (isinstance(value, str)
-                                                and value.strip().lower() in ("none", ""))):
-            return None
-        if self.kind == "material":
-            if not isinstance(value, str) or not value.strip():
-                raise ValueError(f"{name} = {value!r} is not a parameter set name or a material "
-                                 "file")
-            try:
-                scene_material(self.material_of, value.strip())
-            except ValueError as exc:
-                raise ValueError(f"{name} = {value!r} is not one of the SI parameter sets or a "
-                                 f"valid material file: {exc}") from None
-            return value.strip()
-        if self.kind == "choice":
-            opts = self.options()
-            if not isinstance(value, str) or value.strip().lower() not in [str(o).lower()
-                                                                           for o in opts]:
-                raise ValueError(f"{name} = {value!r} is not one of {', '.join(map(str, opts))}")
-            return next(o for o in opts if str(o).lower() == value.strip().lower())
-        if self.kind == "bool":
-            return as_bool(name, value)
-        static = Param(None if callable(self.lo) else self.lo,
-                       None if callable(self.hi) else self.hi, self.integer, self.lo_closed,
-                       self.hi_closed, self.unit).number(name)
-        if isinstance(value, bool) or not (isinstance(value, str) or _is_real(value)):
-            kind = "an integer" if self.integer else "a number"
-            raise ValueError(f"{name} = {value!r} is not {kind}; valid range {static.range_text}")
-        try:
-            return static.check(value.strip() if isinstance(value, str) else value)
-        except ValueError as exc:
-            x = float(value) if _is_real(value) else _as_float(value)
-            why = self.lo_why if static.lo is not None and x <= static.lo else self.hi_why
-            raise ValueError(f"{exc} ({why})" if why and "outside" in str(exc) else str(exc)) \
-                from None
+        return self.schema.check(name, value, static=True)
 
     def check_derived(self, name: str, value, params: dict):
         """Check ``value`` (``None``: its ``fill``) against the bounds resolved at ``params``
@@ -196,37 +167,12 @@ class Param:
         shown = self.fill(params) if value is None and self.fill is not None else value
         if shown is None or self.kind != "number" or not self.derived:
             return value
-        try:
-            checked = self.number(name, params).check(shown)
-            return value if value is None else checked
-        except ValueError as exc:
-            note = self.note_text(params)
-            raise ValueError(f"{exc}{f' ({note})' if note else ''}") from None
-
-
-def _as_float(text) -> float:
-    try:
-        return float(text)
-    except (TypeError, ValueError):
-        return math.nan
+        checked = self.schema.check(name, shown, params)
+        return value if value is None else checked
 
 
 def _is_real(value) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating))
-
-
-def shown_value(x) -> str:
-    """A parameter value as a refusal shows it: a float at 6 significant digits when that is
-    exact, else in full (repr); anything else as str."""
-    if isinstance(x, float):
-        return f"{x:.6g}" if float(f"{x:.6g}") == x else repr(x)
-    return str(x)
-
-
-def _quiet_numpy():
-    """numpy's floating-point warnings off inside a check (an overflow or a division by zero in
-    a derived bound is the check's answer, not a line of its own before the refusal)."""
-    return np.errstate(all="ignore")
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
 
 
 def _empty(number: Number) -> bool:
@@ -295,7 +241,7 @@ class SceneSpec:
         # keys first, so a bad value is named itself
         for k in [*out, *(k for k in self.params if k not in out)]:
             try:
-                with _quiet_numpy():
+                with np.errstate(all="ignore"):
                     full[k] = self.params[k].check_derived(k, full[k], full)
             except ValueError as exc:
                 raise self._explain(k, exc, full, out) from None
@@ -307,7 +253,7 @@ class SceneSpec:
     def _derived_ok(self, full: dict) -> bool:
         """Whether every derived bound holds at ``full`` (arithmetic failures count as no)."""
         try:
-            with _quiet_numpy():
+            with np.errstate(all="ignore"):
                 for k, p in self.params.items():
                     p.check_derived(k, full[k], full)
         except (ValueError, ArithmeticError, TypeError):
@@ -321,24 +267,19 @@ class SceneSpec:
         declared default; None when the default itself is not valid there (no interval to
         report) or ``key`` is not a number."""
         p = self.params[key]
-        x0 = self.defaults.get(key)
-        if p.kind != "number" or not _is_real(x0) or isinstance(x0, bool):
+        if p.kind != "number":
             return None
-        static = Param(None if callable(p.lo) else p.lo, None if callable(p.hi) else p.hi,
-                       False, p.lo_closed, p.hi_closed).number(key)
+        lo, lc, _, hi, hc, _ = p.schema.bounds(static=True)
+        static = Number(key, lo, hi, lo_closed=lc, hi_closed=hc)
 
         def ok(x):
             return static.contains(x) and self._derived_ok({**full, key: x})
 
-        if not ok(float(x0)):
+        rng = integer_range(ok, [self.defaults.get(key)], integer=p.integer)
+        if rng is None:
             return None
-        lo, lo_closed, hi, hi_closed = valid_interval(ok, float(x0))
-        if p.integer:                        # the integers inside
-            lo = None if lo is None else float(math.ceil(lo) if lo_closed else math.floor(lo) + 1)
-            hi = None if hi is None else float(math.floor(hi) if hi_closed else math.ceil(hi) - 1)
-            lo_closed = hi_closed = True
-        return Number(key, lo, hi, integer=p.integer, lo_closed=lo_closed, hi_closed=hi_closed,
-                      unit=p.unit)
+        lo, lc, hi, hc = rng
+        return Number(key, lo, hi, integer=p.integer, lo_closed=lc, hi_closed=hc, unit=p.unit)
 
     def _explain(self, key: str, exc: ValueError, full: dict, given: dict) -> ValueError:
         """The refusal of a derived bound of ``key``, said about the parameter the user set.
@@ -355,11 +296,11 @@ class SceneSpec:
             rng = self.valid_range(g, full)
             if rng is None or rng.contains(float(full[g])) or _empty(rng):
                 continue
-            shown = shown_value(float(full[g]))
+            value = shown(float(full[g]))
             note = p.note_text(full)
             if g != key:
                 val = full[key] if full[key] is not None or p.fill is None else p.fill(full)
-                why = (f" at the other parameters' values ({key} = {shown_value(val)}"
+                why = (f" at the other parameters' values ({key} = {shown(val)}"
                        + (f" must be within {note}" if note else " must stay valid") + ")")
             else:
                 try:
@@ -369,7 +310,7 @@ class SceneSpec:
                 others = "" if own else "the bounds of the others at their values"
                 why = "; ".join(filter(None, [note, others]))
                 why = f" ({why})" if why else ""
-            return ValueError(f"{g} = {shown} is outside the valid range {rng.range_text}{why}")
+            return ValueError(f"{g} = {value} is outside the valid range {rng.range_text}{why}")
         try:
             rng = p.number(key, full)
             empty = _empty(rng)
@@ -384,8 +325,7 @@ class SceneSpec:
                               + f"; change {change} ('mpm2d show {self.name}' lists the ranges)")
         if key in given or not given:
             return exc
-        shown = ", ".join(f"{g} = {v}" for g, v in given.items())
-        return ValueError(f"{exc}; with {shown}")
+        return ValueError(f"{exc}; with " + ", ".join(f"{g} = {v}" for g, v in given.items()))
 
     def step_bound(self, params: dict) -> tuple | None:
         """An upper bound of the run's first step from the parameters alone, before the set-up.
@@ -404,7 +344,7 @@ class SceneSpec:
         (dt_max [s], t_end [s], text naming the parameters and their values) or None.
         """
         t_end = params.get("t_end")
-        if not _is_real(t_end) or isinstance(t_end, bool) or t_end <= 0:
+        if not _is_real(t_end) or t_end <= 0:
             return None
         if _is_real(params.get("dt")) and params["dt"] > 0:
             return float(params["dt"]), float(t_end), f"dt = {params['dt']:g} s, t_end = " \
@@ -425,7 +365,7 @@ class SceneSpec:
             m = get_material(name)
             factor = min(1.0, float(params.get("moduli_factor", 1.0)))
             rho = max(x for x in (m.rho_s, m.rho_f) if x is not None)
-            with _quiet_numpy():
+            with np.errstate(all="ignore"):
                 c = math.sqrt(m.G * factor / rho)
         except (ValueError, TypeError, ArithmeticError):   # no G or densities: no estimate
             return None
@@ -440,12 +380,8 @@ class SceneSpec:
         return {**self.defaults, **self.coerce(given)}
 
     def estimate_bytes(self, params: dict) -> float:
-        """Memory estimate of a run with ``params`` [bytes] (0 if the scene has no size).
-
-        Measured (peak RSS growth of a run, 3 steps and a VTK frame, against this estimate):
-        bar 320k points 234 MB vs 759 MB, terzaghi 256k points 187-231 MB vs 540 MB, disks 264k
-        points 269 MB vs 683 MB, column 640k points 426 MB vs 1024 MB, wheel 44k points 98-139 MB
-        vs 279 MB: conservative by 2-3x."""
+        """Memory estimate of a run with ``params`` [bytes] (0 if the scene has no size): 2-3x
+        the peak RSS growth of the scenes' runs (docs/measurements.md)."""
         if self.size is None:
             return 0.0
         points, nodes = self.size(params)
@@ -469,12 +405,14 @@ class SceneSpec:
         return lines
 
 
-def parameters_of(size: Callable | None = None, **params: Param):
+def parameters_of(size: Callable | None = None, /, **params: Param):
     """Decorator declaring the valid range of every parameter of a scene's ``setup``.
 
-    ``size(params) -> (points, grid nodes)`` estimates the run's size for the memory check.
-    The wrapped ``setup`` validates its keyword arguments on every call (see
-    :meth:`SceneSpec.coerce`) and has ``setup.spec``.
+    ``size(params) -> (points, grid nodes)`` estimates the run's size for the memory check
+    (positional, or the keyword ``size`` when it is not a :class:`Param`: a scene may have a
+    parameter named ``size``). The wrapped ``setup`` validates its keyword arguments on every
+    call (see :meth:`SceneSpec.coerce`) and has ``setup.spec``; ``setup.raw`` is the function
+    itself, for a caller whose values are checked already (``mpm2d run``).
 
     Raises
     ------
@@ -482,6 +420,8 @@ def parameters_of(size: Callable | None = None, **params: Param):
         At import: the declaration and the signature do not name the same parameters, or a
         parameter has no default (a programming error, not bad input).
     """
+    if size is None and callable(params.get("size")) and not isinstance(params["size"], Param):
+        size = params.pop("size")
 
     def wrap(setup):
         sig = inspect.signature(setup)
@@ -501,7 +441,7 @@ def parameters_of(size: Callable | None = None, **params: Param):
         def checked(**kwargs):
             return setup(**spec.validate(kwargs))
 
-        checked.spec = spec
+        checked.spec, checked.raw = spec, setup
         return checked
 
     return wrap

@@ -72,9 +72,10 @@ from ..bodies import RigidBody, fill
 from ..geostatic import geostatic
 from ..grid import Grid
 from ..materials import LinearElastic, Suspension
-from ..output import load_frames
+from ..output import bspline_weights, load_frames
 from ..particles import ParticleSet
 from . import spec
+from .. import run as runner
 from ..run import Scene
 from ..simulation import Simulation
 
@@ -334,18 +335,12 @@ def _finite(d):
 
 
 # ---------------------------------------------------------------- grid fields
-def _bspline(g):
-    b = np.floor(g - 0.5)
-    f = g - b
-    return b.astype(np.int64), (0.5 * (1.5 - f) ** 2, 0.75 - (f - 1.0) ** 2, 0.5 * (f - 0.5) ** 2)
-
-
 def grid_phi(x, svol, h, nx, ny) -> np.ndarray:
     """The grains' volume fraction on the nodes, (nx, ny + 1) (periodic in x): sum_p N_ip
     phi_p V_p / h^2 (quadratic B-splines; 0 where no point reaches)."""
     out = np.zeros((nx, ny + 3))
-    bx, wx = _bspline(x[:, 0] / h)
-    by, wy = _bspline(x[:, 1] / h)
+    bx, wx = bspline_weights(x[:, 0] / h)
+    by, wy = bspline_weights(x[:, 1] / h)
     for a in range(3):
         for b in range(3):
             np.add.at(out, (np.mod(bx + a, nx), np.clip(by + b, 0, ny + 2)), wx[a] * wy[b] * svol)
@@ -651,15 +646,13 @@ def report(sim, history, out, params, omega):
     R = params["radius"]
     runs = [(omega, out, history)]
     if params["omega"] is None:
-        from ..run import run_scene
-
         for w in OMEGAS[1:]:
             sub = out / f"omega_{_omega_key(w)}"
             resume = (sub / "checkpoint.npz").exists()
             given = {k: v for k, v in params.items() if k != "omega"}
-            res = run_scene(setup, sub, {**given, "omega": w}, resume=resume,
-                            progress=True, vtk=(out / "vtk").exists(),
-                            log=lambda msg: print(msg, flush=True))
+            res = runner.run_scene(setup, sub, {**given, "omega": w}, resume=resume,
+                                   progress=True, vtk=(out / "vtk").exists(),
+                                   log=lambda msg: print(msg, flush=True))
             runs.append((w, sub, res["history"]))
     hub = pd.concat([hub_table(h_, w) for w, _, h_ in runs], ignore_index=True)
     results = {_omega_key(w): analyse(h_, params, w) for w, _, h_ in runs}
