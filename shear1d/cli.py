@@ -30,7 +30,6 @@ from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit import limits as physical
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
-from runkit.io import load_checkpoint, previous_checkpoint
 from runkit.params import Number
 
 from .dae import check_material
@@ -38,7 +37,7 @@ from .geometry import CELL_MIN_GRAINS, R_INNER_MIN_GRAINS, min_gap
 from .integrate import METHODS
 from .model import ELASTIC_STRAIN_LIMIT, MODES, max_wall_speed
 from .scenes import (R_INNER, R_OUTER, ROTATION_END, SPEEDS, plane_couette, run_annular,
-                     run_couette, run_tag)
+                     run_couette)
 
 TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
 
@@ -261,15 +260,6 @@ def _check_lengths(material, option: str, value: float, hi: float, cells: int,
                          f"describes{alt}")
 
 
-def _check_resume(paths) -> None:
-    """With --resume: read each checkpoint that is there before the run starts, so that a corrupt
-    one is refused (exit 2) before anything is printed or written (runkit.io.load_checkpoint:
-    CorruptCheckpoint names the file; a readable previous checkpoint is the run's fallback)."""
-    for ck in paths:
-        if ck.is_file() or previous_checkpoint(ck).is_file():
-            load_checkpoint(ck, log=lambda *a, **k: None)
-
-
 def _in_out(out: str, run) -> None:
     """Run ``run()``; if it fails or is refused and leaves the --out folder that it created
     empty, the folder is removed (a run that wrote nothing leaves nothing)."""
@@ -298,9 +288,6 @@ def _annular(args) -> None:
     _check_dae(args.method, modes, m, phi0)
     _check_lengths(m, "--r-outer" + (" (the default)" if default_outer else ""), args.r_outer,
                    2.0, args.cells, base=args.r_inner, r_inner=args.r_inner)
-    if args.resume:
-        _check_resume([Path(args.out) / f"{run_tag(u, mode)}.checkpoint.npz"
-                       for u in args.u_inner for mode in modes])
     _in_out(args.out, lambda: run_annular(args.out, tuple(args.u_inner), modes,
                 n_cells=args.cells, method=args.method, rtol=args.rtol, dt=args.dt,
                 n_out=args.outputs, r_inner=args.r_inner, r_outer=args.r_outer,
@@ -318,8 +305,6 @@ def _couette(args) -> None:
         _check_drive("--stress", [args.stress], m, phi0, stress=True)
     _check_dae(args.method, _modes(args.mode, ("locked",)), m, phi0)
     _check_lengths(m, "--gap", args.gap, 1.0, args.cells)
-    if args.resume:
-        _check_resume([Path(args.out) / "couette.checkpoint.npz"])
     pb = plane_couette(args.speed, stress=args.stress, gap=args.gap, n_cells=args.cells,
                        mode=_modes(args.mode, ("locked",))[0], phi0=phi0, material=m)
     _in_out(args.out, lambda: run_couette(
