@@ -35,7 +35,7 @@ from runkit.params import Number
 from .dae import check_material
 from .geometry import CELL_MIN_GRAINS, R_INNER_MIN_GRAINS, min_gap
 from .integrate import METHODS
-from .model import ELASTIC_STRAIN_LIMIT, MODES, max_wall_speed
+from .model import ELASTIC_STRAIN_LIMIT, MODES, drive_limit, max_wall_speed
 from .scenes import (R_INNER, R_OUTER, ROTATION_END, SPEEDS, plane_couette, run_annular,
                      run_couette)
 
@@ -173,15 +173,7 @@ def _check_drive(option: str, values, material, phi0, *, stress: bool = False) -
     if phi is None:                   # no phi at all: the Couette problem refuses it by name
         return
     material.require("G", "rho_s", "rho_f")
-    if stress:
-        top, unit = ELASTIC_STRAIN_LIMIT * material.G, "Pa"
-        why = (f"0.1 G, G = {material.G:g} Pa of {material.name}: a larger stress strains the "
-               "hypoelastic law past 10 % elastic strain")
-    else:
-        top, unit = max_wall_speed(material, phi), "m/s"
-        why = (f"0.1 c_s, c_s = sqrt(G/rho) = {top / ELASTIC_STRAIN_LIMIT:.4g} m/s for "
-               f"{material.name} at phi = {phi:g}: a faster wall strains the hypoelastic law past "
-               "10 % elastic strain")
+    top, unit, why = drive_limit(material, phi, stress)
     check = Number(option, 0.0, top, lo_closed=False, unit=unit)
     for v in values:
         try:
