@@ -284,8 +284,7 @@ class FullLawDAE:
         self.k4, self.width = float(self.P[_K4]), float(self.P[_WIDTH])
         n = problem.grid.n
         self.i_c, self.i_v, self.size = interleaved(n, BLOCK - 1, problem.stress_driven)
-        i_c = self.i_c
-        self.i_p, self.i_gap, self.i_x = i_c + 3, i_c + 4, i_c + 5
+        self.i_p, self.i_gap, self.i_x = self.i_c + 3, self.i_c + 4, self.i_c + 5
         self.mt = problem.metrics()
         self.rho_face = problem.coefficients(np.full(n, problem.phi0))[0]
         lay = problem.layout()

@@ -427,44 +427,26 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
           elastic_limit: bool = False) -> Result:
     """Integrate a Couette problem from rest (see the module docstring).
 
-    Parameters
-    ----------
-    problem : Couette
-    t_end : float
-        End time [s] (or give ``t_out``, output times [s] increasing from 0; else ``n_out``
-        output intervals).
-    method : {"ida", "explicit", "dae"}
-    rtol : float
-        IDA relative tolerance, in [1e-12, 1e-2] (absolute: rtol times the velocity scale for
-        v, tau* for stresses, 1 for f, 1e-2 for phi); it also sets the rate-form step delta.
-    dt : float, optional
-        Explicit step [s]; default half the stability limit. Beyond the limit: ValueError unless
-        ``check_stability=False`` (used to chart where the scheme fails).
-    checkpoint : path, optional
-        ``.npz`` checkpoint (:func:`runkit.io.save_checkpoint`, its predecessor kept) written at
-        most every ``checkpoint_every`` wall seconds, at the end and on an interrupt.
-    resume : bool
-        Continue from ``checkpoint``'s last output (ValueError if there is none or it is of
-        another run; :class:`runkit.io.CorruptCheckpoint`). Explicit: bit for bit the
-        uninterrupted run; IDA restarts its BDF history there (agrees to its tolerance).
-    progress, label : bool, str
-        A :class:`runkit.run.Progress` of the simulated time on stderr, and its label.
-    stop_hook : callable, optional
-        ``stop_hook(t)`` after every output but the last (tests interrupt a run with it).
-    log : callable, optional
-        Told when a corrupt checkpoint is replaced by its predecessor.
-    elastic_limit : bool
-        End the run where a cell's elastic strain taubar/G or p/K passes
-        :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT` (the scenes set it).
+    ``t_end`` [s] with ``n_out`` output intervals, or ``t_out`` (output times [s] increasing
+    from 0). ``rtol`` in [1e-12, 1e-2]: IDA's relative tolerance (absolute: rtol times the
+    velocity scale for v, tau* for stresses, 1 for f, 1e-2 for phi) and the rate-form step
+    (:meth:`Couette.rate_step_at`). ``dt`` [s]: the explicit step (default half the stability
+    limit; beyond it ValueError unless ``check_stability=False``, which charts where the scheme
+    fails). ``checkpoint``: an ``.npz`` path written at most every ``checkpoint_every`` wall
+    seconds, at the end and on an interrupt; ``resume`` continues from its last output (explicit:
+    bit for bit; IDA restarts its BDF history there and agrees to its tolerance). ``progress``:
+    a :class:`runkit.run.Progress` labelled ``label``; ``stop_hook(t)`` after every output but
+    the last (tests interrupt runs with it); ``log`` is told when a corrupt checkpoint is
+    replaced by its predecessor; ``elastic_limit`` ends the run where a cell's elastic strain
+    passes :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT`.
 
-    Returns
-    -------
-    Result (``stats`` and ``wall_time`` count the resumed parts too).
+    Returns the :class:`Result` (``stats`` and ``wall_time`` count resumed parts too).
 
     Raises
     ------
     ValueError
-        Bad input (method, times, rtol, an unstable dt, a missing or foreign checkpoint).
+        Bad input (method, times, rtol, an unstable dt, a missing or foreign checkpoint;
+        :class:`runkit.io.CorruptCheckpoint`).
     rheology.run_end.EndedEarly
         The integration failed (IDA, the explicit scheme, the local update), produced an
         unphysical state or passed the elastic-strain limit: ``partial`` is the Result of the
@@ -535,7 +517,7 @@ def _ida(problem: Couette, outs: _Outputs, ck, rtol: float, dae=None):
             problem.rhs(0.0, y0, yp0, problem.rate_step_at(rtol, 0.0))
             return y0, yp0
 
-        atol, opts, name, mode, more = _tolerances(problem, rtol), {}, "IDA", True, None
+        atol, opts, name = _tolerances(problem, rtol), {}, "IDA"
         outs.stats = lambda c: dict(nfev=int(c[0]), njev=int(c[1]), rtol=rtol, bandwidth=bw,
                                     rate_step_end=problem.rate_step_at(rtol, outs.t_last))
     else:
@@ -543,20 +525,17 @@ def _ida(problem: Couette, outs: _Outputs, ck, rtol: float, dae=None):
             raise ValueError("--resume: the checkpoint's DAE state does not match this grid")
         residual, convert, start, bw = dae.residual, dae.convert, dae.initial_state, \
             dae_mod.BANDWIDTH
-        atol, opts, name, mode = dae.tolerances(rtol), dict(algebraic_idx=dae.algebraic()), \
-            "IDA (method dae)", False
-
-        def more(y):
-            return f", min p = {y[dae.i_p].min():.6g} Pa"
-
+        atol, opts, name = dae.tolerances(rtol), dict(algebraic_idx=dae.algebraic()), \
+            "IDA (method dae)"
         outs.stats = lambda c: dict(nfev=int(c[0]), njev=int(c[1]), rtol=rtol, bandwidth=bw,
                                     k4=dae.k4, width=dae.width)
 
     def describe(t, y):
         st = problem.unpack(y if dae is None else dae.convert(t, y)[0], t)
-        return (f"{problem.grid.n} cells{f', mode {problem.mode}' if mode else ''}, rtol "
+        return (f"{problem.grid.n} cells{'' if dae else f', mode {problem.mode}'}, rtol "
                 f"{rtol:g}; max f = {st['f'].max():.6g}, max |sigma| = "
-                f"{np.abs(st['sigma']).max():.6g} Pa" + (more(y) if more else ""))
+                f"{np.abs(st['sigma']).max():.6g} Pa"
+                + (f", min p = {y[dae.i_p].min():.6g} Pa" if dae else ""))
 
     if ck is None:
         y0, yp0 = start()

@@ -272,19 +272,16 @@ class Couette:
 
     # ------------------------------------------------------------------ right-hand side
     def rate_step_at(self, rtol: float, t: float) -> float:
-        """delta [s] of the rate form at time t [s] for tolerance rtol.
+        """delta [s] of the rate form at time t [s] for tolerance rtol: ``rate_step`` if set,
+        else rtol times the longer of the flow time and the time elapsed.
 
-        ``rate_step`` if set; else rtol times the longer of the flow time (gap over the velocity
-        scale) and the time elapsed. Plastic relaxations faster than delta are capped at ~1/delta:
-        a start-up lets the fluid carry the load for ~delta instead of the Maxwell time (a strain
-        ~ delta times the fluid-only shear rate), while steady states and the elastic response
-        stay exact. Letting delta grow with t keeps the start-up accurate and the long
-        quasi-steady stretches cheap: there the state sits on the critical state, whose
-        compaction switch is a kink of the rates of sharpness 1/delta, and IDA's steps fall to a
-        few delta. In two-phase mode delta is also at most a tenth of a cell's consolidation
-        time: beyond it the volumetric strain of one delta-step outweighs a small contact
-        pressure and the local update, which tests separation on the elastic trial, would
-        separate a cell that dilatancy keeps in contact.
+        Plastic relaxations faster than delta are capped at ~1/delta: a start-up lets the fluid
+        carry the load for ~delta instead of the Maxwell time, while steady states and the
+        elastic response stay exact. Growing with t, delta keeps the start-up accurate and the
+        quasi-steady stretches cheap (there the compaction switch is a kink of sharpness
+        1/delta). Two-phase, delta is at most a tenth of a cell's consolidation time: beyond it
+        one delta-step's volumetric strain outweighs a small contact pressure and the local
+        update would separate a cell that dilatancy keeps in contact.
         """
         if self.rate_step is not None:
             return float(self.rate_step)
