@@ -41,10 +41,9 @@ from .scenes import (R_INNER, R_OUTER, ROTATION_END, SPEEDS, plane_couette, run_
 
 TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
 
-#: Size bounds of --cells and --outputs (a memory estimate is checked as well, before the run).
-#: The explicit method's cost grows as cells^2 (hours at 20000). The grain size bounds the cells
-#: too, per run: a cell holds at least one grain (shear1d.geometry.CELL_MIN_GRAINS; 4100 cells
-#: on the Fig. 3 gap of annular_shear), checked with the gap (_check_lengths).
+#: Size bounds of --cells (the explicit method's cost grows as cells^2: hours at 20000; a cell
+#: holds at least one grain, checked with the gap: _check_lengths) and --outputs; the memory a
+#: run needs is checked as well, before it starts.
 MAX_CELLS = 20000
 MAX_OUTPUTS = 100000
 
@@ -94,10 +93,8 @@ def _parser() -> argparse.ArgumentParser:
         add_mass_fraction_options(p, nargs=None)
 
     a = sub.add_parser("annular", help="Fig. 3: annular shear, dynamic shear-jamming fronts")
-    # --u-inner, --speed, --stress: their upper bound depends on the material and phi (0.1 c_s,
-    # 0.1 G). The parser checks --u-inner against annular_shear's (the scene's set), --speed and
-    # --stress (any material, plane cell) only for being finite numbers; _check_drive checks each
-    # against the material and phi of the run, by the option's name, in its units.
+    # --u-inner, --speed, --stress: bounded by the material and phi (model.drive_limit), checked
+    # by _check_drive; the parser holds --u-inner to annular_shear's, the others to numbers.
     a.add_argument("--u-inner", type=Number("--u-inner", 0, u_max, lo_closed=False, unit="m/s"),
                    nargs="+", default=list(SPEEDS),
                    help=f"bob surface speed(s) [m/s], in (0, 0.1 sqrt(G/rho)]: (0, {u_max:.6g}] "
@@ -166,9 +163,8 @@ def _sample(args):
 
 
 def _check_drive(option: str, values, material, phi0, *, stress: bool = False) -> None:
-    """Range of --u-inner / --speed (0 < u <= 0.1 c_s) or --stress (0 < tau <= 0.1 G) for this
-    material and phi (shear1d.model: beyond, the hypoelastic law is strained past 10 %),
-    refused by the option's name with the range in its own units (ValueError)."""
+    """--u-inner / --speed in (0, 0.1 c_s] or --stress in (0, 0.1 G] for this material and phi
+    (:func:`shear1d.model.drive_limit`); ValueError naming the option, in its units."""
     phi = material.phi0 if phi0 is None else phi0
     if phi is None:                   # no phi at all: the Couette problem refuses it by name
         return
@@ -193,7 +189,7 @@ def _check_annulus(r_inner: float, r_outer: float, default_outer: bool = False) 
 
 def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
     """Refuse --method dae with a two-phase run, or a material and phi outside its smooth form
-    (shear1d.dae.check_material), before anything is written."""
+    (:func:`shear1d.dae.check_material`)."""
     if method != "dae":
         return
     if "two-phase" in modes:
@@ -207,8 +203,8 @@ def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
 
 
 def _check_out(out: str) -> None:
-    """An empty --out (``--out ''``) would write into the current folder: refused by name
-    (runkit.io.check_output_dir, called by the scene, checks the rest before the run)."""
+    """An empty --out would write into the current folder: refused by name (the scene checks
+    the rest: runkit.io.check_output_dir)."""
     if not str(out).strip():
         raise ValueError(f"--out = {out!r} is empty: give the output folder's name (use "
                          "--out . for the current folder)")
@@ -229,10 +225,10 @@ def _check_ramp(ramp_time: float, rotation: float, r_inner: float, speeds) -> No
 
 def _check_lengths(material, option: str, value: float, hi: float, cells: int,
                    base: float = 0.0, r_inner: float | None = None) -> None:
-    """Lengths against the grain size d of the material (shear1d.geometry): the gap ``value -
-    base`` holds ``cells`` cells of at least CELL_MIN_GRAINS grains each (``option`` is --gap, or
-    --r-outer with ``base`` = --r-inner), the bob's radius ``r_inner`` R_INNER_MIN_GRAINS grains.
-    ValueError naming the option with its range at the other options' values."""
+    """Lengths against the grain size d (:mod:`shear1d.geometry`): the gap ``value - base``
+    (--gap, or --r-outer with ``base`` = --r-inner) holds ``cells`` cells of CELL_MIN_GRAINS
+    grains, the bob ``r_inner`` R_INNER_MIN_GRAINS grains; ValueError naming the option with its
+    range at the other options' values."""
     d = getattr(material, "d", None)
     if not d or d <= 0:
         return

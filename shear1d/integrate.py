@@ -195,8 +195,10 @@ class _Events:
 
 def check_state(problem: Couette, t: float, y: np.ndarray, diag: np.ndarray,
                 f_tol: float = 1e-6) -> None:
-    """Raise RuntimeError with diagnostics if a state is unphysical (non-finite, f or phi out of
-    bounds, negative pressure)."""
+    """Raise RuntimeError with diagnostics if a state is unphysical (non-finite, f outside
+    [0, 1] by more than ``f_tol``, phi outside (0, 1), a pressure below -f_tol tau*: f_tol is the
+    integrator's resolution, 100 rtol for IDA, whose absolute tolerance of f is rtol and of the
+    stresses rtol tau*)."""
     st = problem.unpack(y, t)
     problems = []
     if not np.all(np.isfinite(y)):
@@ -210,7 +212,7 @@ def check_state(problem: Couette, t: float, y: np.ndarray, diag: np.ndarray,
         j = int(np.argmax(np.abs(phi - 0.5)))
         problems.append(f"phi = {phi[j]:.6g} outside (0, 1) in cell {j}")
     p = diag[:, kernels.DIAG_FIELDS.index("pressure")]
-    if np.any(p < 0):
+    if np.any(p < -f_tol * problem.stress_scale()):
         problems.append(f"negative granular pressure {p.min():.6g} Pa")
     if problems:
         raise RuntimeError(f"unphysical state at t = {t:.6g} s ({problem.grid.kind}, "
