@@ -491,6 +491,7 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
         return outs.read_back(ck)
     run = _Run(outs, times, to, stop_hook)
     bar = Progress(run.t, run.t_end, run.steps, label=label or "shear1d") if progress else None
+    outs.wall0 = time.perf_counter()     # the integration's wall time, not the set-up's
     drive(run, checkpoint=outs if outs.path is not None else None, every=checkpoint_every,
           progress=bar)
     outs.save(outs.state(finished=True))
