@@ -172,16 +172,11 @@ class Couette:
         return 7 if self.two_phase else 6
 
     def layout(self) -> dict[str, np.ndarray]:
-        """Index arrays into the unknown vector, interleaved cell by cell (banded Jacobian).
-
-        Order: [v_0 if stress-driven], then per cell j: sigma (4, STRESS_COMPONENTS), f, [phi],
-        v_{j+1} (not after the last cell: that face is the fixed wall). -1 marks a face with a
-        prescribed velocity.
-        """
+        """Index arrays into the unknown vector (:func:`interleaved`; per cell sigma (4,
+        STRESS_COMPONENTS), f, [phi]; i_v -1 for a face with a prescribed velocity)."""
         if "layout" in self._cache:
             return self._cache["layout"]
-        per = 6 if self.two_phase else 5
-        first, i_v, size = interleaved(self.grid.n, per, self.stress_driven)
+        first, i_v, size = interleaved(self.grid.n, self.block - 1, self.stress_driven)
         i_S = first[:, None] + np.arange(4)
         i_phi = first + 5 if self.two_phase else np.full(self.grid.n, -1, dtype=np.int64)
         lay = dict(i_S=i_S, i_f=first + 4, i_phi=i_phi, i_v=i_v, size=np.int64(size))
