@@ -322,7 +322,7 @@ class FullLawDAE:
 
     def tolerances(self, rtol: float) -> np.ndarray:
         """Absolute tolerances: rtol times tau* (stresses, pressure), (phi_j - phi_c) (gap: f to
-        rtol), 1 (x, an inertial number) and the velocity scale (v)."""
+        rtol), X_SCALE (x, an inertial number) and the velocity scale (v)."""
         pb = self.pb
         atol = np.empty(self.size)
         for c in range(4):
