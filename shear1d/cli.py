@@ -30,22 +30,20 @@ from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit import limits as physical
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
-from runkit.io import load_checkpoint, previous_checkpoint
 from runkit.params import Number
 
 from .dae import check_material
 from .geometry import CELL_MIN_GRAINS, R_INNER_MIN_GRAINS, min_gap
 from .integrate import METHODS
-from .model import ELASTIC_STRAIN_LIMIT, MODES, max_wall_speed
+from .model import ELASTIC_STRAIN_LIMIT, MODES, drive_limit, max_wall_speed
 from .scenes import (R_INNER, R_OUTER, ROTATION_END, SPEEDS, plane_couette, run_annular,
-                     run_couette, run_tag)
+                     run_couette)
 
 TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
 
-#: Size bounds of --cells and --outputs (a memory estimate is checked as well, before the run).
-#: The explicit method's cost grows as cells^2 (hours at 20000). The grain size bounds the cells
-#: too, per run: a cell holds at least one grain (shear1d.geometry.CELL_MIN_GRAINS; 4100 cells
-#: on the Fig. 3 gap of annular_shear), checked with the gap (_check_lengths).
+#: Size bounds of --cells (the explicit method's cost grows as cells^2: hours at 20000; a cell
+#: holds at least one grain, checked with the gap: _check_lengths) and --outputs; the memory a
+#: run needs is checked as well, before it starts.
 MAX_CELLS = 20000
 MAX_OUTPUTS = 100000
 
@@ -95,10 +93,8 @@ def _parser() -> argparse.ArgumentParser:
         add_mass_fraction_options(p, nargs=None)
 
     a = sub.add_parser("annular", help="Fig. 3: annular shear, dynamic shear-jamming fronts")
-    # --u-inner, --speed, --stress: their upper bound depends on the material and phi (0.1 c_s,
-    # 0.1 G). The parser checks --u-inner against annular_shear's (the scene's set), --speed and
-    # --stress (any material, plane cell) only for being finite numbers; _check_drive checks each
-    # against the material and phi of the run, by the option's name, in its units.
+    # --u-inner, --speed, --stress: bounded by the material and phi (model.drive_limit), checked
+    # by _check_drive; the parser holds --u-inner to annular_shear's, the others to numbers.
     a.add_argument("--u-inner", type=Number("--u-inner", 0, u_max, lo_closed=False, unit="m/s"),
                    nargs="+", default=list(SPEEDS),
                    help=f"bob surface speed(s) [m/s], in (0, 0.1 sqrt(G/rho)]: (0, {u_max:.6g}] "
@@ -167,22 +163,13 @@ def _sample(args):
 
 
 def _check_drive(option: str, values, material, phi0, *, stress: bool = False) -> None:
-    """Range of --u-inner / --speed (0 < u <= 0.1 c_s) or --stress (0 < tau <= 0.1 G) for this
-    material and phi (shear1d.model: beyond, the hypoelastic law is strained past 10 %),
-    refused by the option's name with the range in its own units (ValueError)."""
+    """--u-inner / --speed in (0, 0.1 c_s] or --stress in (0, 0.1 G] for this material and phi
+    (:func:`shear1d.model.drive_limit`); ValueError naming the option, in its units."""
     phi = material.phi0 if phi0 is None else phi0
     if phi is None:                   # no phi at all: the Couette problem refuses it by name
         return
     material.require("G", "rho_s", "rho_f")
-    if stress:
-        top, unit = ELASTIC_STRAIN_LIMIT * material.G, "Pa"
-        why = (f"0.1 G, G = {material.G:g} Pa of {material.name}: a larger stress strains the "
-               "hypoelastic law past 10 % elastic strain")
-    else:
-        top, unit = max_wall_speed(material, phi), "m/s"
-        why = (f"0.1 c_s, c_s = sqrt(G/rho) = {top / ELASTIC_STRAIN_LIMIT:.4g} m/s for "
-               f"{material.name} at phi = {phi:g}: a faster wall strains the hypoelastic law past "
-               "10 % elastic strain")
+    top, unit, why = drive_limit(material, phi, stress)
     check = Number(option, 0.0, top, lo_closed=False, unit=unit)
     for v in values:
         try:
@@ -202,7 +189,7 @@ def _check_annulus(r_inner: float, r_outer: float, default_outer: bool = False) 
 
 def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
     """Refuse --method dae with a two-phase run, or a material and phi outside its smooth form
-    (shear1d.dae.check_material), before anything is written."""
+    (:func:`shear1d.dae.check_material`)."""
     if method != "dae":
         return
     if "two-phase" in modes:
@@ -216,8 +203,8 @@ def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
 
 
 def _check_out(out: str) -> None:
-    """An empty --out (``--out ''``) would write into the current folder: refused by name
-    (runkit.io.check_output_dir, called by the scene, checks the rest before the run)."""
+    """An empty --out would write into the current folder: refused by name (the scene checks
+    the rest: runkit.io.check_output_dir)."""
     if not str(out).strip():
         raise ValueError(f"--out = {out!r} is empty: give the output folder's name (use "
                          "--out . for the current folder)")
@@ -238,10 +225,10 @@ def _check_ramp(ramp_time: float, rotation: float, r_inner: float, speeds) -> No
 
 def _check_lengths(material, option: str, value: float, hi: float, cells: int,
                    base: float = 0.0, r_inner: float | None = None) -> None:
-    """Lengths against the grain size d of the material (shear1d.geometry): the gap ``value -
-    base`` holds ``cells`` cells of at least CELL_MIN_GRAINS grains each (``option`` is --gap, or
-    --r-outer with ``base`` = --r-inner), the bob's radius ``r_inner`` R_INNER_MIN_GRAINS grains.
-    ValueError naming the option with its range at the other options' values."""
+    """Lengths against the grain size d (:mod:`shear1d.geometry`): the gap ``value - base``
+    (--gap, or --r-outer with ``base`` = --r-inner) holds ``cells`` cells of CELL_MIN_GRAINS
+    grains, the bob ``r_inner`` R_INNER_MIN_GRAINS grains; ValueError naming the option with its
+    range at the other options' values."""
     d = getattr(material, "d", None)
     if not d or d <= 0:
         return
@@ -259,15 +246,6 @@ def _check_lengths(material, option: str, value: float, hi: float, cells: int,
                          f"{hi:g}] m{at} --cells = {cells}: each cell of the gap must hold at "
                          f"least {CELL_MIN_GRAINS:g} grain ({grains}), the continuum the model "
                          f"describes{alt}")
-
-
-def _check_resume(paths) -> None:
-    """With --resume: read each checkpoint that is there before the run starts, so that a corrupt
-    one is refused (exit 2) before anything is printed or written (runkit.io.load_checkpoint:
-    CorruptCheckpoint names the file; a readable previous checkpoint is the run's fallback)."""
-    for ck in paths:
-        if ck.is_file() or previous_checkpoint(ck).is_file():
-            load_checkpoint(ck, log=lambda *a, **k: None)
 
 
 def _in_out(out: str, run) -> None:
@@ -298,9 +276,6 @@ def _annular(args) -> None:
     _check_dae(args.method, modes, m, phi0)
     _check_lengths(m, "--r-outer" + (" (the default)" if default_outer else ""), args.r_outer,
                    2.0, args.cells, base=args.r_inner, r_inner=args.r_inner)
-    if args.resume:
-        _check_resume([Path(args.out) / f"{run_tag(u, mode)}.checkpoint.npz"
-                       for u in args.u_inner for mode in modes])
     _in_out(args.out, lambda: run_annular(args.out, tuple(args.u_inner), modes,
                 n_cells=args.cells, method=args.method, rtol=args.rtol, dt=args.dt,
                 n_out=args.outputs, r_inner=args.r_inner, r_outer=args.r_outer,
@@ -318,8 +293,6 @@ def _couette(args) -> None:
         _check_drive("--stress", [args.stress], m, phi0, stress=True)
     _check_dae(args.method, _modes(args.mode, ("locked",)), m, phi0)
     _check_lengths(m, "--gap", args.gap, 1.0, args.cells)
-    if args.resume:
-        _check_resume([Path(args.out) / "couette.checkpoint.npz"])
     pb = plane_couette(args.speed, stress=args.stress, gap=args.gap, n_cells=args.cells,
                        mode=_modes(args.mode, ("locked",))[0], phi0=phi0, material=m)
     _in_out(args.out, lambda: run_couette(

@@ -1,61 +1,42 @@
-"""Method ``"dae"``: locked-mode Couette with the FULL Table 8 law as a smooth DAE on SUNDIALS IDA.
+"""Method ``"dae"``: locked-mode Couette with the full Table 8 law as a smooth DAE on SUNDIALS IDA.
 
-Why: the ``"ida"`` method integrates the Table 8 local update as a rate; a flowing cell sits on
-the update's switch between compaction and dilatant flow, where the right-hand side's Jacobian
-jumps. Here the law is written in its continuous (dt -> 0) form, the plastic state an algebraic
-unknown and the flow rule its equation (as the 0-D rheometer's DAE), with one C1-smoothed
-compaction term as the only switch (below).
+The ``"ida"`` method integrates the Table 8 local update as a rate; a flowing cell sits on the
+update's switch between compaction and dilatant flow, where the Jacobian of that rate jumps. Here
+the law is written in its continuous (dt -> 0) form, the plastic state an algebraic unknown and
+the flow rule its equation (as the 0-D rheometer's DAE), one C1-smoothed compaction term the only
+switch. Unknowns, interleaved cell by cell (half bandwidth :data:`BANDWIDTH`)::
 
-Unknowns, interleaved cell by cell (banded Jacobian, half bandwidth :data:`BANDWIDTH` = 7)::
+    [v_0 if stress-driven], per cell j: s_rr, s_thth, s_rth, p, gap, x, then v_{j+1}
 
-    [v_0 if stress-driven], per cell j: s_rr, s_thth, s_rth, p, gap, x, then v_{j+1} (not after
-    the last cell: the fixed wall)
+with s the deviatoric granular stress (s_zz = -s_rr - s_thth, sigma = s - p I), gap =
+phi_m(f) - phi the jamming gap (f = f_jam - gap/(phi_j - phi_c)) and x the mixed inertial number
+I_m continued below zero. In the co-rotating basis of :mod:`shear1d.kernels` (L = gdot e_th e_r,
+D_kk = 0 locked), SI units::
 
-with s the deviatoric granular stress (s_zz = -s_rr - s_thth), p the granular pressure
-(sigma = s - p I), gap = phi_m(f) - phi the jamming gap (negative when jammed; f = f_jam -
-gap/(phi_j - phi_c)) and x the mixed inertial number I_m extended below zero (algebraic).
-
-Equations (SI units; co-rotating cylindrical basis as in :mod:`shear1d.kernels`, so the velocity
-gradient is L = [[0, 0, 0], [gdot, 0, 0], [0, 0, 0]] with gdot_j = cg_j (v_{j+1} w_{j+1} - v_j w_j);
-phi fixed (locked), so D_kk = 0)::
-
-    s'   = 2G D' + W s - s W - G gdot_p s/taubar       Table 8 effective stress (Jaumann, radial
-                                                      plastic flow), taubar = sqrt(s:s/2)
-    p'   = K (beta gdot_p + xi_2)                      Table 8 volumetric part, locked (D_kk = 0)
+    s'   = 2G D' + W s - s W - G gdot_p s/taubar       Table 8 (Jaumann, radial plastic flow)
+    p'   = K (beta gdot_p + xi_2)                      Table 8 volumetric part (D_kk = 0)
     gap' = -(phi_j - phi_c) df/dt(f, taubar, gdot_p)   Table 8 structure law
     0    = taubar - Y(x) p                             the flow rule f_1 = 0 (algebraic in x)
     rho M_k v_k' = A_k tau_k - A_{k-1} tau_{k-1},  tau = sigma_rth + eta0 (1 + 5/2 phi) gdot
 
-The flow rule, in terms of x (x = I_m >= 0 where the cell flows): gdot_p is the positive root of
-``p x^2 = rho_s d^2 gdot_p^2 + 2 eta0 gdot_p`` (Table 8's I_m), I_v = eta0 gdot_p/p,
-beta = K3 (phi - phi_m/(1 + a x)) and Y(x) = mu_p(I_v, x) + beta(x), so ``taubar = Y(x) p`` is
-f_1 = 0 exactly. Below x = 0 the yield ratio is continued linearly, Y(0) + Y'(0) x, and
-gdot_p = 0: a cell under its yield stress (a jammed band loading elastically) has x < 0 and no
-plastic flow; gdot_p grows as x^2, so the switch of f_1 is C1 in x, no complementarity left.
-
-The compaction rule (f_3 <= 0, xi_2 <= 0, f_3 xi_2 = 0): with K4 = 0 f_3 <= 0 is beta >= 0,
-i.e. x >= I_cs = max(gap, 0)/(a phi); that rule compacts at once, here at a finite, large rate:
-Table 8's rule with K4 > 0 (zeta = gdot_p - K4 xi_2; K4 = 0 in the paper is the limit)::
+gdot_p is the positive root of ``p x^2 = rho_s d^2 gdot_p^2 + 2 eta0 gdot_p`` (Table 8's I_m),
+I_v = eta0 gdot_p/p, beta = K3 (phi - phi_m/(1 + a x)), Y(x) = mu_p(I_v, x) + beta(x). Below
+x = 0, Y is continued linearly and gdot_p = 0 (a cell under its yield stress loads elastically);
+gdot_p grows as x^2, so the switch is C1. Compaction (f_3 <= 0, xi_2 <= 0, f_3 xi_2 = 0) at the
+finite rate of Table 8's rule with K4 > 0 (K4 = 0 in the paper is the limit)::
 
     xi_2 = -s_w(zeta_cs - gdot_p)/K4 * (1 - p_floor/p),  zeta_cs = gdot_p(x = I_cs, p)
 
-where zeta_cs - gdot_p > 0 exactly when beta < 0, and s_w(u) = 0 (u <= 0), u^2/(2w) (u < w),
-u - w/2 (u >= w), w = COMPACTION_WIDTH zeta_cs, is the max(u, 0) of f_3's complementarity
-smoothed to C1. At a steady critical state u = 0 and s_w = 0, so the smoothing does not move the
-steady states; K4 -> 0 is the law itself. The factor (1 - p_floor/p) is the explicit method's
-contact-pressure floor (:func:`shear1d.kernels.local_updates`, the problem's contact_pressure,
-1e-3 Pa by default): compaction stops there and below it pushes p back, so p > 0 always.
+with I_cs = max(gap, 0)/(a phi) (zeta_cs > gdot_p exactly when beta < 0) and s_w(u) the
+max(u, 0) of f_3's complementarity smoothed to C1 over w = COMPACTION_WIDTH zeta_cs; at a steady
+critical state u = 0, so the smoothing leaves the steady states. (1 - p_floor/p) is the explicit
+method's contact-pressure floor (:func:`shear1d.kernels.local_updates`): p > 0 always.
 
-The defaults K4 = :data:`K4_REG` = 0.1 and :data:`COMPACTION_WIDTH` = 0.1 (the paper has no
-such parameters) were chosen against the explicit method on the fast Fig. 3 case (front speed
-within 0.05 %, profiles within 1.5 % of u_i; docs/measurements.md; tests/test_shear1d_dae.py).
-
-Changed against the explicit method (which keeps the same whole law): compaction is fast
-instead of instantaneous (K4_REG), its switch C1 instead of a kink. Needs ``mu1 + K3 (phi0 -
-phi_j) > 0`` (Y(0) > 0) and b > 0 unless mu_2 = mu_1 (friction continuous at I_m = 0), else a
-ValueError, as for the two-phase mode (its Darcy flux needs the two-phase kernels: ``"ida"``).
-The Jacobian is SUNDIALS' banded difference quotient; results come in the layout of
-:class:`shear1d.model.Couette`, so every analysis, file and figure of the other methods applies.
+Parameters the paper does not have (our choice, checked against the explicit method on the fast
+Fig. 3 case in tests/test_shear1d_dae.py): :data:`K4_REG` = 0.1 and :data:`COMPACTION_WIDTH` =
+0.1. Needs ``mu1 + K3 (phi0 - phi_j) > 0`` (Y(0) > 0) and b > 0 unless mu_2 = mu_1, the table8
+rules and the locked mode (:func:`check_material`, :class:`FullLawDAE`: ValueError). Results
+come in the layout of :class:`shear1d.model.Couette`, so every analysis, file and figure applies.
 """
 
 from __future__ import annotations
@@ -68,7 +49,7 @@ from rheology.local_update import COMPACTION, ELASTIC, SHEAR_FLOW
 from rheology.numba_cache import guard
 
 from . import kernels
-from .model import Couette
+from .model import Couette, interleaved
 
 guard(__file__)                          # drop cached kernels if rheology's laws changed
 _jit = nb.njit(cache=True, error_model="numpy")
@@ -78,12 +59,9 @@ BLOCK = 7
 #: Half bandwidth of the Jacobian: a face's momentum residual couples to the neighbouring faces,
 #: one block (7 unknowns) away in the interleaved layout.
 BANDWIDTH = 7
-#: Regularising K4 of the compaction rule (see the module docstring). At K4 = 0.1 an over-pressed
-#: loose cell relaxes to its critical-state pressure at the rate K I_cs^2/(2 eta0 K4), 2e8 1/s for
-#: annular_shear at f = 0, ~1e7 times the fast Fig. 3 shear rate (slower near jamming, where
-#: I_cs -> 0). Measured on the fast Fig. 3 case at 100 cells: K4 = 1, 0.1, 0.01 give the same
-#: front speed within 0.05 % and velocity fields 2.7, 1.5, 1.2 % of u_i from the explicit
-#: method's while the band grows; K4 = 0.01 needs rtol <= 1e-5 and twice the work.
+#: Regularising K4 of the compaction rule: an over-pressed loose cell relaxes to its critical
+#: state at the rate K I_cs^2/(2 eta0 K4), 2e8 1/s for annular_shear at f = 0 (~1e7 times the fast
+#: Fig. 3 shear rate); K4 = 1, 0.1, 0.01 give the same front speed within 0.05 %.
 K4_REG = 0.1
 #: Width of the C1 smoothing of the compaction switch, as a fraction of zeta_cs.
 COMPACTION_WIDTH = 0.1
@@ -305,18 +283,8 @@ class FullLawDAE:
         self.P = parameters(problem, k4, width)
         self.k4, self.width = float(self.P[_K4]), float(self.P[_WIDTH])
         n = problem.grid.n
-        i_c = np.empty(n, dtype=np.int64)
-        i_v = np.full(n + 1, -1, dtype=np.int64)
-        pos = 0
-        if problem.stress_driven:
-            i_v[0], pos = 0, 1
-        for j in range(n):
-            i_c[j] = pos
-            pos += BLOCK - 1
-            if j < n - 1:
-                i_v[j + 1], pos = pos, pos + 1
-        self.i_c, self.i_v, self.size = i_c, i_v, pos
-        self.i_p, self.i_gap, self.i_x = i_c + 3, i_c + 4, i_c + 5
+        self.i_c, self.i_v, self.size = interleaved(n, BLOCK - 1, problem.stress_driven)
+        self.i_p, self.i_gap, self.i_x = self.i_c + 3, self.i_c + 4, self.i_c + 5
         self.mt = problem.metrics()
         self.rho_face = problem.coefficients(np.full(n, problem.phi0))[0]
         lay = problem.layout()
@@ -354,7 +322,7 @@ class FullLawDAE:
 
     def tolerances(self, rtol: float) -> np.ndarray:
         """Absolute tolerances: rtol times tau* (stresses, pressure), (phi_j - phi_c) (gap: f to
-        rtol), 1 (x, an inertial number) and the velocity scale (v)."""
+        rtol), X_SCALE (x, an inertial number) and the velocity scale (v)."""
         pb = self.pb
         atol = np.empty(self.size)
         for c in range(4):

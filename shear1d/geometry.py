@@ -28,13 +28,12 @@ from runkit.params import check_range
 
 KINDS = ("plane", "annular")
 
-#: Smallest cell, in grain diameters d: a finite-volume cell holds averages over grains (phi, f,
-#: the granular stress), which mean nothing in a cell narrower than one grain; so the gap must be
-#: at least ``n_cells`` d (``--gap 1e-300`` gave f = nan in the first Table 8 update). At the
-#: defaults (10 mm gap, 100 cells; Fig. 3's 24 mm, 200 cells) a cell is 17-20 grains of 5.85 um.
+#: Smallest cell, in grain diameters d: a cell holds averages over grains (phi, f, the granular
+#: stress), which mean nothing in a cell narrower than one grain (the defaults' cells are 17-20
+#: grains of 5.85 um).
 CELL_MIN_GRAINS = 1.0
 #: Smallest bob radius, in grain diameters: the bob is a continuum wall only if its curvature
-#: radius is many grains (``--r-inner 1e-300`` gave t_end = 4e-298 s and a failed first update).
+#: radius is many grains.
 R_INNER_MIN_GRAINS = 10.0
 
 
@@ -79,7 +78,6 @@ class Grid:
         object.__setattr__(self, "faces", faces)
         object.__setattr__(self, "centres", 0.5 * (faces[1:] + faces[:-1]))
 
-    # ------------------------------------------------------------------ basic sizes
     @property
     def gap(self) -> float:
         """Gap width [m]."""
@@ -94,7 +92,6 @@ class Grid:
     def annular(self) -> bool:
         return self.kind == "annular"
 
-    # ------------------------------------------------------------------ kernel metrics
     def shear_metric(self) -> tuple[np.ndarray, np.ndarray]:
         """(cg, w): ``gdot_j = cg[j] (v[j+1] w[j+1] - v[j] w[j])`` [1/m, -]."""
         if self.annular:

@@ -120,11 +120,9 @@ def local_updates(S, f, phi, gdot, drr, dtt, dt, P, p_floor, S_out, f_out, diag)
     """Advance every cell's granular state by dt with the shared Table 8 local update.
 
     A cell whose pressure falls below ``p_floor`` [Pa] (separation, or compaction at rest) is
-    given the isotropic contact pressure p_floor, the floor the rate form of the IDA method
-    needs (its pressure, a rate over delta, can overshoot below zero); the local update itself
-    is continuous at p = 0 (a sheared stress-free cell flows with the pressure its dilatancy
-    builds).
-    Returns the index of the first cell whose update failed, or -1.
+    given the isotropic contact pressure p_floor: the rate form of the IDA method needs the floor
+    (its pressure, a rate over delta, can overshoot below zero). Returns the index of the first
+    cell whose update failed, or -1.
     """
     sig = np.zeros((3, 3))
     L = np.zeros((3, 3))
@@ -216,14 +214,11 @@ def _scratch(n):
 @_jit
 def ode_rhs(y, u0, tau_wall, i_S, i_f, i_phi, i_v, phi_fixed, cg, w, A, M, A_wall, a, V, hoop_c,
             hoop_f, dx, eta0, d, rho_s, rho_f, P, delta, p_floor, ydot, diag, work):
-    """Time derivative of the unknown vector (method of lines), the local update used as a rate.
-
-    The granular rates are (U_delta(state) - state)/delta with U_delta the Table 8 local update
-    over a step delta [s] at the current velocity gradient: a plastic relaxation of rate lambda
-    proceeds at lambda/(1 + lambda delta) (the rate-independent compaction takes ~delta), elastic
-    response and steady states are exact. Returns the failed cell or -1. ``work`` is a scratch
-    array of shape (n, 12) (n cells).
-    """
+    """Time derivative of the unknown vector (method of lines) into ``ydot``: the granular rates
+    are (U_delta(state) - state)/delta, U_delta the Table 8 local update over delta [s] at the
+    current velocity gradient (a plastic relaxation of rate lambda proceeds at
+    lambda/(1 + lambda delta); elastic response and steady states are exact). ``work``: scratch
+    (n, 11). Returns the failed cell or -1."""
     n = i_f.shape[0]
     S = work[:, 0:4]
     S_out = work[:, 4:8]
@@ -258,15 +253,11 @@ def ode_rhs(y, u0, tau_wall, i_S, i_f, i_phi, i_v, phi_fixed, cg, w, A, M, A_wal
 @_jit
 def explicit_steps(nsteps, t0, dt, amp, ramp, stress_driven, v, S, f, phi, cg, w, A, M, A_wall,
                    a, V, hoop_c, hoop_f, dx, eta0, d, rho_s, rho_f, P, p_floor, diag, two_phase):
-    """``nsteps`` explicit steps of size dt [s] from t0, updating v (faces), S, f, phi in place.
-
-    Symplectic Euler: (two-phase) Darcy flux and phi; the Table 8 local update of every cell with
-    the velocity gradient of v^n; then v^{n+1} from the divergence of the new stresses plus the
-    fluid viscous stress eta_f gdot^n. Returns (steps done, failed cell or -1). Stable for
-    dt <= 4/(lambda + sqrt(lambda^2 + 4 omega^2)) with omega the fastest elastic shear mode and
-    lambda the fastest viscous-diffusion rate of the grid (see :mod:`shear1d.integrate`).
-    Stops early if a state is not finite.
-    """
+    """``nsteps`` symplectic Euler steps of dt [s] from t0, updating v (faces), S, f, phi in
+    place: (two-phase) Darcy flux and phi; the Table 8 local update of every cell at the velocity
+    gradient of v^n; v^{n+1} from the divergence of the new stresses plus eta_f gdot^n (stability:
+    :func:`shear1d.integrate.stable_time_step`). Returns (steps done, failed cell or -1); stops
+    early at a state that is not finite."""
     n = f.shape[0]
     i_v = np.full(n + 1, -1)
     if stress_driven:

@@ -39,18 +39,47 @@ from . import kernels
 from .geometry import Grid
 
 MODES = ("locked", "two-phase")
-# The small-elastic-strain limit of the hypoelastic Table 8 law (rheology.elastic). An
-# impulsively moved wall launches a shear wave of elastic strain u/c_s into the jammed skeleton,
-# and a wall stress tau strains it by tau/G, so the wall speed is limited to ELASTIC_STRAIN_LIMIT
-# c_s and the wall stress to ELASTIC_STRAIN_LIMIT G (annular_shear: 1.53 m/s, 18 times the fast
-# Fig. 3 speed; 3.8e4 Pa).
 
 
 def max_wall_speed(material, phi0: float) -> float:
-    """Largest wall speed [m/s] the model is used at: ELASTIC_STRAIN_LIMIT sqrt(G/rho) with the
-    mixture density rho = phi0 rho_s + (1 - phi0) rho_f (see ELASTIC_STRAIN_LIMIT)."""
+    """Largest wall speed [m/s] the model is used at: ELASTIC_STRAIN_LIMIT c_s, c_s =
+    sqrt(G/rho) with rho = phi0 rho_s + (1 - phi0) rho_f (see :func:`drive_limit`)."""
     rho = phi0 * material.rho_s + (1.0 - phi0) * material.rho_f
     return ELASTIC_STRAIN_LIMIT * float(np.sqrt(material.G / rho))
+
+
+def drive_limit(material, phi0: float, stress: bool = False) -> tuple[float, str, str]:
+    """(largest wall speed [m/s] or stress [Pa], unit, reason) of the small-elastic-strain
+    hypoelastic law (:data:`rheology.elastic.ELASTIC_STRAIN_LIMIT`): an impulsively moved wall
+    launches a shear wave of elastic strain u/c_s into the jammed skeleton, a wall stress tau
+    strains it by tau/G (annular_shear: 1.53 m/s, 18 times the fast Fig. 3 speed; 3.8e4 Pa)."""
+    if stress:
+        return ELASTIC_STRAIN_LIMIT * material.G, "Pa", (
+            f"0.1 G, G = {material.G:g} Pa of {material.name}: a larger stress strains the "
+            "hypoelastic law past 10 % elastic strain")
+    top = max_wall_speed(material, phi0)
+    return top, "m/s", (f"0.1 c_s, c_s = sqrt(G/rho) = {top / ELASTIC_STRAIN_LIMIT:.4g} m/s for "
+                        f"{material.name} at phi = {phi0:g}: a faster wall strains the "
+                        "hypoelastic law past 10 % elastic strain")
+
+
+def interleaved(n: int, per_cell: int, stress_driven: bool):
+    """Interleaved unknowns (banded Jacobian): [v_0 if stress-driven], then per cell j its
+    ``per_cell`` unknowns and v_{j+1} (not after the last cell: the fixed wall). Returns (index
+    of each cell's first unknown (n,), index of each face's velocity (n + 1,; -1: prescribed),
+    size)."""
+    first = np.empty(n, dtype=np.int64)
+    i_v = np.full(n + 1, -1, dtype=np.int64)
+    pos = int(stress_driven)
+    if stress_driven:
+        i_v[0] = 0
+    for j in range(n):
+        first[j], pos = pos, pos + per_cell
+        if j < n - 1:
+            i_v[j + 1], pos = pos, pos + 1
+    return first, i_v, pos
+
+
 #: Stress components stored per cell, in this order.
 STRESS_COMPONENTS = ("sigma_rr", "sigma_thth", "sigma_zz", "sigma_rth")
 
@@ -115,17 +144,11 @@ class Couette:
         check_range("phi0", phi0, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
                     note=f"below phi_j = {m.phi_j} of {m.name}")
         object.__setattr__(self, "phi0", float(phi0))
+        top, unit, why = drive_limit(m, self.phi0, stress=self.wall_speed is None)
         if self.wall_speed is not None:
-            u_max = max_wall_speed(m, self.phi0)
-            check_range("wall_speed", self.wall_speed, -u_max, u_max,
-                        note=f"m/s; |u| <= {ELASTIC_STRAIN_LIMIT:g} c_s, c_s = sqrt(G/rho) = "
-                             f"{u_max / ELASTIC_STRAIN_LIMIT:.4g} m/s the skeleton's shear-wave "
-                             "speed: faster walls strain the hypoelastic law beyond small "
-                             "elastic strain")
+            check_range("wall_speed", self.wall_speed, -top, top, note=f"{unit}, |u| <= {why}")
         else:
-            check_range("wall_stress", self.wall_stress, 0.0, ELASTIC_STRAIN_LIMIT * m.G,
-                        note=f"Pa; <= {ELASTIC_STRAIN_LIMIT:g} G: larger stresses strain the "
-                             "hypoelastic law beyond small elastic strain")
+            check_range("wall_stress", self.wall_stress, 0.0, top, note=f"{unit}, <= {why}")
         check_positive("contact_pressure", self.contact_pressure, note="Pa")
         if self.rate_step is not None:
             check_positive("rate_step", self.rate_step, note="s")
@@ -149,31 +172,14 @@ class Couette:
         return 7 if self.two_phase else 6
 
     def layout(self) -> dict[str, np.ndarray]:
-        """Index arrays into the unknown vector, interleaved cell by cell (banded Jacobian).
-
-        Order: [v_0 if stress-driven], then per cell j: sigma (4, STRESS_COMPONENTS), f, [phi],
-        v_{j+1} (not after the last cell: that face is the fixed wall). -1 marks a face with a
-        prescribed velocity.
-        """
+        """Index arrays into the unknown vector (:func:`interleaved`; per cell sigma (4,
+        STRESS_COMPONENTS), f, [phi]; i_v -1 for a face with a prescribed velocity)."""
         if "layout" in self._cache:
             return self._cache["layout"]
-        n = self.grid.n
-        i_S = np.empty((n, 4), dtype=np.int64)
-        i_f = np.empty(n, dtype=np.int64)
-        i_phi = np.full(n, -1, dtype=np.int64)
-        i_v = np.full(n + 1, -1, dtype=np.int64)
-        pos = 0
-        if self.stress_driven:
-            i_v[0], pos = 0, 1
-        for j in range(n):
-            i_S[j] = pos + np.arange(4)
-            i_f[j] = pos + 4
-            pos += 5
-            if self.two_phase:
-                i_phi[j], pos = pos, pos + 1
-            if j < n - 1:
-                i_v[j + 1], pos = pos, pos + 1
-        lay = dict(i_S=i_S, i_f=i_f, i_phi=i_phi, i_v=i_v, size=np.int64(pos))
+        first, i_v, size = interleaved(self.grid.n, self.block - 1, self.stress_driven)
+        i_S = first[:, None] + np.arange(4)
+        i_phi = first + 5 if self.two_phase else np.full(self.grid.n, -1, dtype=np.int64)
+        lay = dict(i_S=i_S, i_f=first + 4, i_phi=i_phi, i_v=i_v, size=np.int64(size))
         self._cache["layout"] = lay
         return lay
 
@@ -261,19 +267,16 @@ class Couette:
 
     # ------------------------------------------------------------------ right-hand side
     def rate_step_at(self, rtol: float, t: float) -> float:
-        """delta [s] of the rate form at time t [s] for tolerance rtol.
+        """delta [s] of the rate form at time t [s] for tolerance rtol: ``rate_step`` if set,
+        else rtol times the longer of the flow time and the time elapsed.
 
-        ``rate_step`` if set; else rtol times the longer of the flow time (gap over the velocity
-        scale) and the time elapsed. Plastic relaxations faster than delta are capped at ~1/delta:
-        a start-up lets the fluid carry the load for ~delta instead of the Maxwell time (a strain
-        ~ delta times the fluid-only shear rate), while steady states and the elastic response
-        stay exact. Letting delta grow with t keeps the start-up accurate and the long
-        quasi-steady stretches cheap: there the state sits on the critical state, whose
-        compaction switch is a kink of the rates of sharpness 1/delta, and IDA's steps fall to a
-        few delta. In two-phase mode delta is also at most a tenth of a cell's consolidation
-        time: beyond it the volumetric strain of one delta-step outweighs a small contact
-        pressure and the local update, which tests separation on the elastic trial, would
-        separate a cell that dilatancy keeps in contact.
+        Plastic relaxations faster than delta are capped at ~1/delta: a start-up lets the fluid
+        carry the load for ~delta instead of the Maxwell time, while steady states and the
+        elastic response stay exact. Growing with t, delta keeps the start-up accurate and the
+        quasi-steady stretches cheap (there the compaction switch is a kink of sharpness
+        1/delta). Two-phase, delta is at most a tenth of a cell's consolidation time: beyond it
+        one delta-step's volumetric strain outweighs a small contact pressure and the local
+        update would separate a cell that dilatancy keeps in contact.
         """
         if self.rate_step is not None:
             return float(self.rate_step)

@@ -2,20 +2,21 @@
 
 from __future__ import annotations
 
+import numpy as np
+
+import rheology
+from rheology.run_end import mark_end
+from runkit.io import atomic_savefig
 from runkit.plotting import plt
-import numpy as np  # noqa: E402
 
-import rheology  # noqa: E402
-from runkit.io import atomic_savefig  # noqa: E402
-from rheology.run_end import mark_end  # noqa: E402
-
-from .analytic import annular_steady  # noqa: E402
-from .summary import band_front, couette_frames, front_frame, jammed, rotation_of  # noqa: E402
+from .analytic import annular_steady
+from .summary import band_front, couette_frames, front_frame, jammed, rotation_of
 
 
-def _finish(fig, path):
-    """Lay out, save atomically, close; return the path."""
-    fig.tight_layout()
+def _finish(fig, path, layout: bool = True):
+    """Lay out (unless the figure did), save atomically, close; return the path."""
+    if layout:
+        fig.tight_layout()
     atomic_savefig(fig, path)
     plt.close(fig)
     return path
@@ -28,7 +29,6 @@ def _label(run) -> str:
 
 def _end_rotation(run):
     """(bob rotation [rad] at the last output, label) of a run that ended early, else None."""
-
     end = run.result.end
     if end is None:
         return None
@@ -38,7 +38,6 @@ def _end_rotation(run):
 def _what_happened(run) -> str:
     """What the run shows, in lines: jammed or not, where the band reached the outer wall, when
     the flow stopped and started again, and how Newtonian the last profile is."""
-
     s = run.summary
     dev = {float(k): v for k, v in s["newtonian_deviation_max_over_u"].items()}
     last = max(dev) if dev else None
@@ -66,10 +65,7 @@ def _what_happened(run) -> str:
 
 def velocity_profiles(path, runs, rotations=(0.0, 0.1, 0.2, 0.31)):
     """Write :func:`velocity_profiles_figure` to ``path``."""
-    fig = velocity_profiles_figure(runs, rotations)
-    atomic_savefig(fig, path)
-    plt.close(fig)
-    return path
+    return _finish(velocity_profiles_figure(runs, rotations), path, layout=False)
 
 
 def velocity_profiles_figure(runs, rotations=(0.0, 0.1, 0.2, 0.31)):
@@ -141,7 +137,6 @@ def front_positions_figure(runs):
     coincide with an earlier run's (within :data:`COINCIDE` of the gap) is drawn thin and dashed
     on top of it and its legend entry says so; the runs without a band are named in the title;
     the legend is below the axes."""
-
     fig, ax = plt.subplots(figsize=(8, 6.6))
     none = [_label(r) for r in runs if not jammed(r.summary)]
     runs = [r for r in runs if jammed(r.summary)]
@@ -220,7 +215,6 @@ def run_fields_figure(run):
     """Space-time maps of one run: v/(omega r), f, plastic shear rate and granular pressure,
     each colour scale spanning its data (v/(omega r) at least 0-1.1, f/f_jam at least 0-1); the
     front is drawn only where a jammed band exists (as in <tag>_front.csv)."""
-
     res, g = run.result, run.result.problem.grid
     u = res.problem.drive_amplitude
     rot = rotation_of(res, res.t)
@@ -268,7 +262,6 @@ def mode_comparison(path, runs):
     line for all). A two-phase curve that coincides with the locked one (within
     :data:`COINCIDE`) is drawn thin and dashed on top and its legend entry says so. Legends
     below the panels."""
-
     fig, axes = plt.subplots(1, 2, figsize=(12, 6.0))
     drawn = []
     no_band = []
@@ -316,7 +309,6 @@ def couette_figure(res, idx):
     """Plane Couette: velocity profiles at the outputs ``idx`` (left) and, against time, the wall
     shear stress and the mean shear rate on two axes that both start at 0, with one legend for
     both (right). The data are those of couette_profiles.csv and couette_wall.csv."""
-
     g = res.problem.grid
     prof, wall = couette_frames(res)
     fig, axes = plt.subplots(1, 2, figsize=(11.5, 4.4))

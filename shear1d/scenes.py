@@ -7,14 +7,12 @@ cup of radius R_o, from rest, until the bob has turned 0.31 rad (t_end = 0.31 R_
 u_i = 0.84 mm/s (slow: Newtonian-like profile) and 84 mm/s (fast: a jammed band grows from the
 bob).
 
-Radii (the paper gives none; Peters, Majumdar & Jaeger, Nature 532, 214 (2016), the experiment,
-was not available to us): R_o = 36 mm is the radial width of the paper's 36 x 50 element, 1 mm
-axisymmetric MPM grid, whose axis is at r = 0 (the axisymmetric weak form runs from the axis),
-with the cup wall at the grid edge; R_i = 12.5 mm (a 25 mm bob) makes the wide gap,
-R_o/R_i = 2.9, in which the Newtonian profile A r + B/r is strongly curved, as in Fig. 3a. Both
-are options (``--r-inner``, ``--r-outer``).
+Radii (the paper gives none; our choice): R_o = 36 mm, the radial width of the paper's 36 x 50
+element, 1 mm axisymmetric MPM grid (axis at r = 0, the cup wall at the grid edge); R_i =
+12.5 mm (a 25 mm bob) makes the wide gap, R_o/R_i = 2.9, in which the Newtonian profile
+A r + B/r is strongly curved, as in Fig. 3a. Both are options (``--r-inner``, ``--r-outer``).
 
-Command: ``shear1d annular [--u-inner U ...] [--out DIR]``. Python::
+Python::
 
     from shear1d.scenes import annular_shear_jamming
     from shear1d.integrate import solve
@@ -27,22 +25,21 @@ from __future__ import annotations
 from pathlib import Path
 
 import rheology
-from runkit.limits import check_memory
-from runkit.params import check_positive, check_range
-from runkit import limits as physical
-from runkit.io import atomic_write_csv, atomic_write_json, check_output_dir, previous_checkpoint
 from rheology.run_end import EndedEarly, run_record
+from runkit import limits as physical
+from runkit.io import (atomic_write_csv, atomic_write_json, check_output_dir, load_checkpoint,
+                       previous_checkpoint)
+from runkit.params import check_range
 
 from . import plots
 from .geometry import Grid
-from .integrate import (METHODS, Result, check_time_step, memory_estimate,
-                        output_times, solve, stable_time_step)
+from .integrate import METHODS, Result, check_time_step, memory_estimate, output_times, solve
+from .integrate import stable_time_step
 from .model import Couette
 from .summary import (FRONT_EMPTY_OK, NULLABLE, SceneRun, couette_frames, couette_profile_outputs,
                       fields_frame, front_frame, jammed, profile_frames, run_tag, summarize)
 
 TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
-#: largest explicit run accepted, in cell-steps (about 3 hours at ~1e8 cell-steps per second)
 MAX_CELL_STEPS = physical.MAX_CELL_STEPS
 
 R_INNER = 12.5e-3
@@ -65,18 +62,13 @@ def annular_shear_jamming(u_inner: float = 0.084, *, n_cells: int = 200, mode: s
     ------
     ValueError
         A parameter out of its range, or a t_end outside the durations of every tier
-        [TIME_MIN, TIME_MAX] (runkit.limits: 1 ps to 30 years), naming u_inner and rotation
-        with their ranges at the other's value (u_inner = 1e-300 asked for 3.9e297 s and failed
-        in the law; rotation = 1e-300 ran 1.5e-301 s and wrote its files).
+        [TIME_MIN, TIME_MAX] (:mod:`runkit.limits`), naming u_inner and rotation with their
+        ranges at the other's value.
     """
-    check_positive("u_inner", u_inner, note="m/s, bob surface speed")
-    check_positive("rotation", rotation, note="rad of bob rotation to simulate")
     m = rheology.get_material(material, **overrides)
     grid = Grid("annular", float(r_inner), float(r_outer), n_cells)
-    problem = Couette(m, grid, mode=mode, wall_speed=float(u_inner), ramp_time=ramp_time,
-                      phi0=phi0)
     t_end = float(rotation) * grid.inner / float(u_inner) + 0.5 * float(ramp_time)
-    if not TIME_MIN <= t_end <= TIME_MAX:
+    if not TIME_MIN <= t_end <= TIME_MAX:        # u_inner or rotation <= 0 or NaN among them
         arc = grid.inner / float(u_inner)           # s per rad of rotation
         raise ValueError(
             f"u_inner = {u_inner:g} m/s and rotation = {rotation:g} rad make a run of "
@@ -84,6 +76,8 @@ def annular_shear_jamming(u_inner: float = 0.084, *, n_cells: int = 200, mode: s
             f"rotation = {rotation:g} rad, u_inner in [{rotation * grid.inner / TIME_MAX:.6g}, "
             f"{rotation * grid.inner / TIME_MIN:.6g}] m/s; at u_inner = {u_inner:g} m/s, rotation "
             f"in [{TIME_MIN / arc:.6g}, {TIME_MAX / arc:.6g}] rad")
+    problem = Couette(m, grid, mode=mode, wall_speed=float(u_inner), ramp_time=ramp_time,
+                      phi0=phi0)
     return problem, t_end
 
 
@@ -101,60 +95,65 @@ def plane_couette(speed: float | None = None, *, stress: float | None = None, ga
 def write_run(out: Path, run: SceneRun) -> list[Path]:
     """Write a run's CSV files and summary JSON into ``out`` (atomic, finite; empty cells and
     nulls only where undefined by construction); return the paths."""
-    out = Path(out)
-    vel, cells = profile_frames(run.result)
-    paths = [atomic_write_csv(out / f"{run.tag}_velocity_profiles.csv", vel),
-             atomic_write_csv(out / f"{run.tag}_cell_profiles.csv", cells),
-             atomic_write_csv(out / f"{run.tag}_front.csv", front_frame(run.result),
-                              empty_ok=FRONT_EMPTY_OK),
-             atomic_write_csv(out / f"{run.tag}_fields.csv",
-                              fields_frame(run.result, every=max(1, len(run.result.t) // 160))),
-             atomic_write_json(out / f"{run.tag}_summary.json", run.summary, nullable=NULLABLE)]
-    return paths
-
-
+    out, tag, res = Path(out), run.tag, run.result
+    vel, cells = profile_frames(res)
+    return [atomic_write_csv(out / f"{tag}_velocity_profiles.csv", vel),
+            atomic_write_csv(out / f"{tag}_cell_profiles.csv", cells),
+            atomic_write_csv(out / f"{tag}_front.csv", front_frame(res), empty_ok=FRONT_EMPTY_OK),
+            atomic_write_csv(out / f"{tag}_fields.csv",
+                             fields_frame(res, every=max(1, len(res.t) // 160))),
+            atomic_write_json(out / f"{tag}_summary.json", run.summary, nullable=NULLABLE)]
 
 
 def precheck(problem: Couette, method: str, rtol: float, dt: float | None,
              t_end: float | None = None, duration: str = "--time") -> None:
     """Refuse a bad method, tolerance, an unstable explicit step or an explicit run longer than
     MAX_CELL_STEPS before anything is written. The cell-step refusal names every option that
-    sets the count, cells x t_end / dt: --cells, ``duration`` (the option(s) that set t_end,
-    e.g. ``"--rotation / --u-inner"``), --dt (or its default, half the stability limit), with
-    the smallest --dt that fits when one within the stability limit does."""
+    sets the count, cells x t_end / dt: --cells, ``duration`` (the option(s) that set t_end),
+    --dt (or its default, half the stability limit), with the smallest --dt that fits when one
+    within the stability limit does."""
     if method not in METHODS:
         raise ValueError(f"method = {method!r} must be one of {METHODS}")
     check_range("rtol", rtol, 1e-12, 1e-2)
-    if method == "explicit":
-        if dt is not None:
-            try:
-                check_time_step(problem, dt)
-            except ValueError as exc:     # named as the user's option (--dt, --method ida)
-                text = str(exc)
-                raise ValueError(("--" + text if text.startswith("dt ") else text)
-                                 .replace("method='ida'", "--method ida")) from None
-        if t_end is not None:
-            limit = stable_time_step(problem)["dt"]
-            step = dt if dt is not None else 0.5 * limit
-            n = problem.grid.n
-            work = n * t_end / step
-            if work > MAX_CELL_STEPS:
-                given = "" if dt is not None else " (the default, half the stability limit)"
-                need = n * t_end / MAX_CELL_STEPS
-                larger = (f"--dt >= {need:.3g} s (stability limit {limit:.3g} s), "
-                          if need <= limit else "")
-                raise ValueError(f"--method explicit: --cells {n} over t_end = {t_end:.4g} s "
-                                 f"({duration}) at --dt = {step:.3g} s{given} are {work:.2e} "
-                                 f"cell-steps (estimate), more than {MAX_CELL_STEPS:.0e} (hours); "
-                                 f"valid: {larger}{'fewer --cells, ' if n > 4 else ''}t_end <= "
-                                 f"{MAX_CELL_STEPS * step / n:.3g} s at these --cells and --dt "
-                                 f"(a smaller {duration}), or --method ida")
+    if method != "explicit":
+        return
+    if dt is not None:
+        check_time_step(problem, dt, "--dt", "--method ida")
+    if t_end is None:
+        return
+    limit = stable_time_step(problem)["dt"]
+    step, n = dt if dt is not None else 0.5 * limit, problem.grid.n
+    work = n * t_end / step
+    if work > MAX_CELL_STEPS:
+        given = "" if dt is not None else " (the default, half the stability limit)"
+        need = n * t_end / MAX_CELL_STEPS
+        larger = f"--dt >= {need:.3g} s (stability limit {limit:.3g} s), " if need <= limit else ""
+        raise ValueError(f"--method explicit: --cells {n} over t_end = {t_end:.4g} s "
+                         f"({duration}) at --dt = {step:.3g} s{given} are {work:.2e} "
+                         f"cell-steps (estimate), more than {MAX_CELL_STEPS:.0e} (hours); "
+                         f"valid: {larger}{'fewer --cells, ' if n > 4 else ''}t_end <= "
+                         f"{MAX_CELL_STEPS * step / n:.3g} s at these --cells and --dt "
+                         f"(a smaller {duration}), or --method ida")
 
 
-def check_out_dir(out) -> Path:
-    """The output folder as a Path; ValueError if it exists and is not a folder or cannot be
-    written (runkit.io.check_output_dir)."""
-    return check_output_dir("--out", out)
+def _files(ck: Path) -> list[Path]:
+    return [p for p in (ck, previous_checkpoint(ck)) if p.is_file()]
+
+
+def _checkpoints(out: Path, cks, resume: bool, missing: str) -> None:
+    """Before a run: with ``resume``, refuse it without any of the checkpoints ``cks``
+    (``missing``: the message) and read each one there, so that a corrupt one is refused
+    (:class:`runkit.io.CorruptCheckpoint`) before anything is printed; without, remove them
+    (stale checkpoints of an earlier run). Creates ``out``."""
+    if resume:
+        if not any(_files(ck) for ck in cks):
+            raise ValueError(missing)
+        for ck in cks:
+            if _files(ck):
+                load_checkpoint(ck, log=lambda *a, **k: None)
+    out.mkdir(parents=True, exist_ok=True)
+    for p in ([] if resume else [p for ck in cks for p in _files(ck)]):
+        p.unlink()
 
 
 def _solve_to_end(problem, t_end, ends: list, tag: str, **options) -> Result:
@@ -169,10 +168,6 @@ def _solve_to_end(problem, t_end, ends: list, tag: str, **options) -> Result:
             raise RuntimeError(exc.ends[0].reason) from None
         ends.append(res.end.replace(run=tag))
         return res
-
-
-def _checkpoint_files(ck: Path) -> list[Path]:
-    return [p for p in (ck, previous_checkpoint(ck)) if p.is_file()]
 
 
 def _interrupted(exc: KeyboardInterrupt, checkpoints) -> KeyboardInterrupt:
@@ -195,17 +190,12 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
                 log=print) -> list[SceneRun]:
     """Solve the Fig. 3 scene for every speed and mode; write CSV, JSON and PNG into ``out``.
 
-    Every run keeps a checkpoint ``<tag>.checkpoint.npz`` (written every ``checkpoint_every``
+    Every run keeps a checkpoint ``<tag>.checkpoint.npz`` (every ``checkpoint_every`` wall
     seconds, at its end and on an interrupt) until all runs' files are written; with
     ``resume=True`` finished runs are read back from theirs, an interrupted one continues from
-    its own, and runs that had not started start. ``resume=True`` with no checkpoint of these
-    runs in ``out`` is refused (ValueError). Every parameter and the memory the runs need are
-    checked before the first run.
-
-    A run that ends early (a solver or local-update failure, an unphysical state, a cell's
-    elastic strain past 0.1: :mod:`rheology.run_end`) keeps its outputs up to the end: its files
-    and figures are written from them (the end in its summary's ``status``/``ends`` and marked
-    on its figures) and the next run starts.
+    its own, and runs that had not started start. Every parameter and the memory the runs need
+    are checked before the first run. A run that ends early (:mod:`rheology.run_end`) keeps its
+    outputs up to the end: its files and figures are written from them and the next run starts.
 
     Raises
     ------
@@ -218,13 +208,10 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
     KeyboardInterrupt
         Interrupted; the message names the checkpoints kept (or says nothing was saved).
     """
-    out = check_out_dir(out)
-    problems = []
-    for u in speeds:                         # validate everything before the first long run
-        for mode in modes:
-            problems.append((u, mode) + annular_shear_jamming(
-                u, n_cells=n_cells, mode=mode, r_inner=r_inner, r_outer=r_outer,
-                rotation=rotation, ramp_time=ramp_time, material=material, phi0=phi0))
+    out = check_output_dir("--out", out)
+    problems = [(u, mode) + annular_shear_jamming(
+        u, n_cells=n_cells, mode=mode, r_inner=r_inner, r_outer=r_outer, rotation=rotation,
+        ramp_time=ramp_time, material=material, phi0=phi0) for u in speeds for mode in modes]
     if len(set(speeds)) != len(tuple(speeds)) or len(set(modes)) != len(tuple(modes)):
         raise ValueError(f"--u-inner {' '.join(f'{u:g}' for u in speeds)}: each speed (and "
                          "mode) once")
@@ -232,25 +219,18 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
         precheck(problem, method, rtol, dt, t_end,
                  duration="--rotation x --r-inner / --u-inner" + (" + --ramp-time/2"
                                                                   if ramp_time else ""))
-    check_memory("--cells x --outputs", f"{n_cells} x {n_out}",
-                 memory_estimate(n_cells, n_out, runs=len(problems)))
+    physical.check_memory("--cells x --outputs", f"{n_cells} x {n_out}",
+                          memory_estimate(n_cells, n_out, runs=len(problems)))
     cks = {run_tag(u, mode): out / f"{run_tag(u, mode)}.checkpoint.npz" for u, mode, *_ in problems}
-    if resume:
-        if not any(_checkpoint_files(ck) for ck in cks.values()):
-            raise ValueError(f"--resume: no checkpoint of these runs in {out}/ (looked for "
-                             f"{', '.join(p.name for p in cks.values())}); run without --resume "
-                             "to start")
-    out.mkdir(parents=True, exist_ok=True)
-    if not resume:
-        for ck in cks.values():              # stale checkpoints of an earlier run
-            for p in _checkpoint_files(ck):
-                p.unlink()
+    _checkpoints(out, cks.values(), resume,
+                 f"--resume: no checkpoint of these runs in {out}/ (looked for "
+                 f"{', '.join(p.name for p in cks.values())}); run without --resume to start")
     runs, ends = [], []
     try:
         for u, mode, problem, t_end in problems:
             tag = run_tag(u, mode)
             ck = cks[tag]
-            again = resume and bool(_checkpoint_files(ck))
+            again = resume and bool(_files(ck))
             log(f"shear1d: {tag}: {n_cells} cells, {method}, to {rotation:g} rad (t_end = "
                 f"{t_end:.4g} s){' resuming from ' + str(ck) if again else ''} ...", flush=True)
             res = _solve_to_end(problem, t_end, ends, tag, method=method, n_out=n_out,
@@ -268,9 +248,8 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
             figs.append(plots.mode_comparison(out / "mode_comparison.png", runs))
     except KeyboardInterrupt as exc:
         raise _interrupted(exc, list(cks.values())) from None
-    for ck in cks.values():
-        for p in _checkpoint_files(ck):
-            p.unlink()
+    for p in [p for ck in cks.values() for p in _files(ck)]:
+        p.unlink()
     log(f"shear1d: wrote {out}/ (" + ", ".join(p.name for p in figs) + " and per-run CSV/JSON)")
     if ends:
         raise EndedEarly(ends, partial=runs, written=[str(out)])
@@ -304,18 +283,14 @@ def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_o
     ``out`` (checkpoint ``couette.checkpoint.npz`` until the files are written; same resume rules
     as :func:`run_annular`). A run that ends early writes them from its outputs so far and then
     raises :class:`rheology.run_end.EndedEarly` (``partial``: the Result)."""
-    out = check_out_dir(out)
+    out = check_output_dir("--out", out)
     output_times(t_end, n_out)
     precheck(problem, method, rtol, dt, t_end)
-    check_memory("--cells x --outputs", f"{problem.grid.n} x {n_out}",
-                 memory_estimate(problem.grid.n, n_out))
+    physical.check_memory("--cells x --outputs", f"{problem.grid.n} x {n_out}",
+                          memory_estimate(problem.grid.n, n_out))
     ck = out / "couette.checkpoint.npz"
-    if resume and not _checkpoint_files(ck):
-        raise ValueError(f"--resume: no checkpoint at {ck}; run without --resume to start")
-    out.mkdir(parents=True, exist_ok=True)
-    if not resume:
-        for p in _checkpoint_files(ck):
-            p.unlink()
+    _checkpoints(out, [ck], resume,
+                 f"--resume: no checkpoint at {ck}; run without --resume to start")
     ends = []
     try:
         res = _solve_to_end(problem, t_end, ends, "couette", method=method, n_out=n_out,
@@ -330,11 +305,10 @@ def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_o
                                                            outputs=len(res.t)))
     except KeyboardInterrupt as exc:
         raise _interrupted(exc, [ck]) from None
-    for p in _checkpoint_files(ck):
+    for p in _files(ck):
         p.unlink()
-    g = problem.grid
-    log(f"shear1d: plane Couette, {g.n} cells, {res.method}, {res.wall_time:.2f} s; wrote "
-        f"{out}/couette_profiles.csv, couette_wall.csv, {png.name}, couette.json")
+    log(f"shear1d: plane Couette, {problem.grid.n} cells, {res.method}, {res.wall_time:.2f} s; "
+        f"wrote {out}/couette_profiles.csv, couette_wall.csv, {png.name}, couette.json")
     if ends:
         raise EndedEarly(ends, partial=res, written=[str(out)])
     return res
@@ -344,5 +318,5 @@ def _fmt_rot(x) -> str:
     return "-" if x is None else f"{x:.3f} rad"
 
 
-__all__ = ["annular_shear_jamming", "plane_couette", "run_annular", "run_couette", "R_INNER", "R_OUTER",
-           "SPEEDS"]
+__all__ = ["annular_shear_jamming", "plane_couette", "run_annular", "run_couette", "R_INNER",
+           "R_OUTER", "SPEEDS"]

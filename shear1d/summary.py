@@ -61,14 +61,10 @@ def flow_restart_time(result: Result) -> float | None:
 
 
 def band_present(result: Result) -> np.ndarray:
-    """(n_out,) bool: outputs at which a jammed band grows from the moving wall.
-
-    A band exists where f >= f_jam(phi0)/2 in the cell at the moving wall (the structure front
-    has left it); it grows until it reaches the outer wall (the ``front_at_wall`` event) or the
-    flow stops (``flow_stopped``), whichever comes first. From then on the band fills the gap (or
-    has stopped), and the rigid-ratio threshold crossing is only the edge of the decelerating
-    layer at the bob, which falls back and oscillates with the elastic waves - no front of a band.
-    """
+    """(n_out,) bool: outputs at which a jammed band grows from the moving wall: f >=
+    f_jam(phi0)/2 in the cell at the wall, until the band reaches the outer wall
+    (``front_at_wall``) or the flow stops (``flow_stopped``). After that the rigid-ratio crossing
+    is the edge of the decelerating layer at the bob, no front of a band."""
     pb = result.problem
     fjam = float(rheology.f_jam(pb.phi0, pb.material))
     f = result.field("f")
@@ -86,9 +82,8 @@ def band_front(result: Result) -> np.ndarray:
     return np.where(band_present(result), result.front(), np.nan)
 
 
-#: Summary keys that are null where undefined by construction: the front fit when no jammed band
-#: crossed 10 % of the gap (the slow case, or a run stopped early) or fewer than 3 outputs fell in
-#: the crossing; the band rigidity and the largest front position when no band formed.
+#: Summary keys null where undefined by construction: the front fit when no band crossed 10 % of
+#: the gap or fewer than 3 outputs fell in the crossing; the band's rigidity and front without one.
 NULLABLE = ("front_speed_m_per_s", "front_speed_over_u_inner", "front_fit_r2",
             "front_fit_gap_reached", "front_fit_intercept_m", "front_fit_rotation_rad",
             "structure_front_speed_m_per_s", "structure_front_fit_r2", "band_rigidity_mean",
@@ -96,13 +91,9 @@ NULLABLE = ("front_speed_m_per_s", "front_speed_over_u_inner", "front_fit_r2",
 
 
 def summarize(result: Result) -> dict:
-    """Front speed and linearity, rigidity, events, conservation and Newtonian deviation, and
-    how the run ended (``status``, ``ends``: :func:`rheology.run_end.run_record`).
-
-    Values undefined by construction are NaN (written as null: see :data:`NULLABLE`). The wall
-    time is not part of the summary (it is printed): a resumed run's files are the same bytes as
-    an uninterrupted run's.
-    """
+    """Front speed and linearity, rigidity, events, conservation, Newtonian deviation and how
+    the run ended (:func:`rheology.run_end.run_record`). Values undefined by construction are NaN
+    (null: :data:`NULLABLE`); no wall time (a resumed run's files are an uninterrupted run's)."""
     pb, g = result.problem, result.problem.grid
     m, u = pb.material, pb.drive_amplitude
     v, f, phi = result.field("v"), result.field("f"), result.field("phi")
@@ -229,7 +220,6 @@ def fields_frame(result: Result, every: int = 1) -> pd.DataFrame:
         "granular_pressure_Pa": result.field("pressure")[idx].ravel()})
 
 
-# ----------------------------------------------------------------------------- files
 def couette_profile_outputs(res: Result) -> np.ndarray:
     """Indices of the (up to 6) outputs whose velocity profiles are written and drawn."""
     return np.unique(np.linspace(0, len(res.t) - 1, 6).astype(int))
