@@ -35,7 +35,7 @@ import pandas as pd
 
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress
-from rheology.materials import set_argument
+from rheology.materials import set_argument, set_overrides
 from rheology.run_end import EndedEarly, run_record
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
@@ -49,8 +49,8 @@ from .fit_cli import add_subcommands
 from .instrument_cli import extra_outputs, finish_table, materials_note
 from .limits import RATE_MAX, STRESS_MAX, TIME_MAX
 from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP, simple_shear_point
-from .options import (common_options, k0, modulus, plot_path, sample_material, t_end_option,
-                      transient_options)
+from .options import (common_options, k0, material_with, modulus, plot_path, sample_material,
+                      t_end_option, transient_options)
 from .plots import mark_ends, normalise_units
 from .program import hysteresis_program, parse_program
 from .protocols import creep, flow_curve, relax, startup
@@ -174,22 +174,21 @@ def build_parser() -> argparse.ArgumentParser:
 EMPTY_OK = ("viscosity_Pa_s", "relative_viscosity")
 
 
-def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=None) -> str:
+def _write(args, sample, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=None):
     """Write the CSV and the figure; with ``record`` (the transients) also the run record
     ``<out>.json`` (rheology.run_end: status and the ends in ``df.attrs["ends"]``, those in
-    ``marked``, default all, marked on the figure); a run that ended early is then raised by
-    :func:`main` after the message (exit status 3)."""
+    ``marked``, default all, marked on the figure). Returns (message, the
+    :class:`~rheology.run_end.EndedEarly` :func:`main` raises after it (exit 3) or None)."""
     plot = plot_path(args)
     ends = list(df.attrs.get("ends") or []) if record else []
-    table, empty_ok = finish_table(args, df, EMPTY_OK)   # instrument, mass, units
+    table, empty_ok = finish_table(sample, df, EMPTY_OK, args.cmd)   # instrument, mass, units
     atomic_write_csv(args.out, table, empty_ok=empty_ok)
     written = [args.out]
     msg = f"wrote {args.out} ({len(df)} rows)"
     if plot is not None:
         fig = fig_maker()
         mark_ends(fig, ends if marked is None else marked)
-        m = getattr(args, "_material_obj", None)
-        if m is not None and m.units == "normalised":
+        if sample.material.units == "normalised":
             normalise_units(fig)
         try:
             atomic_savefig(fig, plot)
@@ -203,8 +202,7 @@ def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=No
                                            csv=Path(args.out).name, rows=len(df)))
         written.append(str(path))
         msg += f" and {path}"
-        if ends:
-            args._ended = EndedEarly(ends, partial=df, written=written)
+    ended = EndedEarly(ends, partial=df, written=written) if ends else None
     events = df.attrs.get("events") or []
     if events:
         shown = "; ".join(f"t = {t:.6g} s (step {k}): {what}" for t, k, what in events[:5])
@@ -213,14 +211,14 @@ def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=No
         msg += f"\n{df.attrs['substeps_note']}"
     for note in df.attrs.get("notes") or []:
         msg += f"\nnote: {note}"
-    return msg + extra_outputs(args, df, plot)
+    return msg + extra_outputs(args, sample, df, plot), ended
 
 
-def _per_phi(args, run) -> pd.DataFrame:
+def _per_phi(sample, run) -> pd.DataFrame:
     """``run(phi)`` at every --phi, concatenated; a run that ends early keeps its rows up to the
     end (rheology.run_end), its end in ``attrs["ends"]``; RuntimeError when no run has a row."""
     frames, ends = [], []
-    for ph in args.phi:
+    for ph in sample.phi:
         try:
             df = run(ph)
         except EndedEarly as exc:
@@ -242,7 +240,7 @@ def _cmd_materials(args) -> str:
     if args.out:
         check_output_path("--out", args.out, ["csv"])
     if args.material is not None:
-        print(sample_material(args).summary())
+        print(material_with(args.material, set_overrides(args.set)).summary())
         return ""
     if args.set:
         raise ValueError("--set needs --material NAME (the parameter set to change)")
@@ -262,7 +260,8 @@ def _cmd_materials(args) -> str:
 
 def _cmd_flow_curve(args) -> str:
     plot_path(args)
-    m = sample_material(args)
+    sample = sample_material(args)
+    m, phis = sample.material, sample.phi
     n = int(args.points)
     # a range of the other control would be ignored: refused (defaults: 1e-3 1e4 Pa, 1e-4 1e3 1/s)
     if args.control == "rate" and args.stress_range is not None:
@@ -277,11 +276,11 @@ def _cmd_flow_curve(args) -> str:
         which = "--rate-range" if args.control == "rate" else "--stress-range"
         raise ValueError(f"{which} {lo:g} {hi:g} must satisfy 0 < LO < HI")
     values = np.logspace(np.log10(lo), np.log10(hi), n)
-    df = (flow_curve(m, args.phi, rate=values, control="rate") if args.control == "rate" else
-          flow_curve(m, args.phi, stress=values, control=args.control))
+    df = (flow_curve(m, phis, rate=values, control="rate") if args.control == "rate" else
+          flow_curve(m, phis, stress=values, control=args.control))
     if args.control == "rate":      # rates without a steady state leave no row: say which
         notes = []
-        for ph in np.atleast_1d(args.phi if args.phi is not None else df["phi"].unique()):
+        for ph in phis:
             hit = set(df.loc[np.isclose(df["phi"], ph), "index"].astype(int))
             missing = [values[k] for k in range(n) if k not in hit]
             if missing:
@@ -291,7 +290,7 @@ def _cmd_flow_curve(args) -> str:
                              f"({min(missing):.4g}-{max(missing):.4g} 1/s; {why}); --control "
                              "stress shows the whole S-shaped curve")
         df.attrs["notes"] = notes
-    return _write(args, df, lambda: plots.flow_curve_figure(df, m))
+    return _write(args, sample, df, lambda: plots.flow_curve_figure(df, m))
 
 
 def _check_relax_stress(args, m) -> None:
@@ -311,21 +310,22 @@ def _check_relax_stress(args, m) -> None:
 
 def _transient(args, kind: str) -> str:
     plot_path(args)
-    m = sample_material(args)
+    sample = sample_material(args)
+    m = sample.material
     opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True)
     if kind == "startup":
-        df = _per_phi(args, lambda ph: startup(m, ph, args.rate, args.t_end, **opts))
+        df = _per_phi(sample, lambda ph: startup(m, ph, args.rate, args.t_end, **opts))
         what = f"start-up at {args.rate:g} 1/s"
     elif kind == "creep":
-        df = _per_phi(args, lambda ph: creep(m, ph, args.stress, args.t_end, **opts))
+        df = _per_phi(sample, lambda ph: creep(m, ph, args.stress, args.t_end, **opts))
         what = f"creep at mixture stress {args.stress:g} Pa"
     else:
         _check_relax_stress(args, m)
-        df = _per_phi(args, lambda ph: relax(m, ph, args.stress, args.t_end, **opts))
+        df = _per_phi(sample, lambda ph: relax(m, ph, args.stress, args.t_end, **opts))
         what = f"relaxation from steady granular stress {args.stress:g} Pa"
     title = f"{m.name}: {what} (G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})"
     frames = {f"phi = {ph:g}": d for ph, d in df.groupby("phi", sort=False)}
-    return _write(args, df, lambda: plots.transient_figure(frames, title, log_time=True),
+    return _write(args, sample, df, lambda: plots.transient_figure(frames, title, log_time=True),
                   record=True)
 
 
@@ -354,14 +354,15 @@ def read_program_file(name: str) -> tuple[str, str]:
 
 def _cmd_program(args) -> str:
     plot_path(args)
-    m = sample_material(args)
+    sample = sample_material(args)
+    m = sample.material
     if args.file is None:
-        text = hysteresis_program(m, args.phi[0])
-        name = f"built-in stress and rate sweeps up and down at phi = {args.phi[0]:g}"
+        text = hysteresis_program(m, sample.phi[0])
+        name = f"built-in stress and rate sweeps up and down at phi = {sample.phi[0]:g}"
     else:
         text, name = read_program_file(args.file)
     program = parse_program(text)
-    ck = ProgramCheckpoint(Path(args.out).with_suffix(".checkpoint.npz"), m, list(args.phi),
+    ck = ProgramCheckpoint(Path(args.out).with_suffix(".checkpoint.npz"), m, list(sample.phi),
                            text, dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points,
                                       elastic_limit=True),
                            every=args.checkpoint_every)
@@ -369,12 +370,12 @@ def _cmd_program(args) -> str:
     if args.resume:
         used = _load_checkpoint(ck)
     df = ck.run(program)
-    title = (f"{m.name}: program '{name}', phi = {', '.join(f'{p:g}' for p in args.phi)} "
+    title = (f"{m.name}: program '{name}', phi = {', '.join(f'{p:g}' for p in sample.phi)} "
              f"(G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})")
     drawn = float(df["phi"].iloc[0])           # the first phi with rows
     first = df[df["phi"] == drawn]
     first.attrs.update(df.attrs)
-    msg = _write(args, df, lambda: plots.program_figure(first, title), record=True,
+    msg, ended = _write(args, sample, df, lambda: plots.program_figure(first, title), record=True,
                  marked=[e for e in df.attrs["ends"] if e.run == f"phi = {drawn:g}"])
     for osc in df.attrs.get("oscillations") or []:
         msg += "\noscillation " + ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else
@@ -382,7 +383,7 @@ def _cmd_program(args) -> str:
     ck.remove()
     if args.resume:
         msg += f"\nresumed from {used}"
-    return msg
+    return msg, ended
 
 
 def _load_checkpoint(ck) -> Path:
@@ -411,15 +412,16 @@ def _cmd_material_point(args) -> str:
         raise ValueError("give --stress0 (start from the steady state at that stress) or "
                          "--pressure0 (start from rest under that pressure), not both")
     _check_update_count(args.rate, args.t_end, args.dt)
-    m = sample_material(args)
-    df = _per_phi(args, lambda ph: simple_shear_point(
+    sample = sample_material(args)
+    m = sample.material
+    df = _per_phi(sample, lambda ph: simple_shear_point(
         m, ph, args.rate, args.t_end, args.dt, control=args.control, pressure=args.pressure,
         f0=args.f0, stress0=args.stress0, pressure0=args.pressure0, G=args.G, K=args.K,
         K0=args.K0, points=args.points, elastic_limit=True))
     title = (f"{m.name}: material point, {args.control} control, rate {args.rate:g} 1/s, "
-             f"dt = {args.dt:g} s, phi0 = {', '.join(f'{p:g}' for p in args.phi)}")
+             f"dt = {args.dt:g} s, phi0 = {', '.join(f'{p:g}' for p in sample.phi)}")
     # every run, by its initial phi (phi itself evolves under pressure control)
-    return _write(args, df, lambda: plots.material_point_figure(df, title), record=True)
+    return _write(args, sample, df, lambda: plots.material_point_figure(df, title), record=True)
 
 
 def _check_update_count(rate: float, t_end: float, dt: float) -> None:
@@ -470,11 +472,12 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
 
     def body():
-        msg = _COMMANDS[args.cmd](args)
+        out = _COMMANDS[args.cmd](args)
+        msg, ended = out if isinstance(out, tuple) else (out, None)
         if msg:
             print(msg)
-        if getattr(args, "_ended", None) is not None:   # written up to its end: status 3
-            raise args._ended
+        if ended is not None:            # written up to its end: status 3
+            raise ended
 
     return run_command(f"rheometer {args.cmd}", body)
 

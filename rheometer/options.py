@@ -6,6 +6,7 @@ sample they describe, resolved once for :mod:`rheometer.cli`, :mod:`rheometer.in
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -13,7 +14,7 @@ import numpy as np
 import rheology
 from runkit.params import valid_interval
 from runkit.params import Number
-from rheology.materials import (FIELD_UNITS, default_fraction, default_fractions, set_argument,
+from rheology.materials import (FIELD_UNITS, Material, default_fraction, default_fractions, set_argument,
                                 set_overrides)
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit import limits as physical
@@ -134,38 +135,47 @@ def _about_dimension(kind: str, dims: dict, exc: Exception) -> ValueError:
     return exc if isinstance(exc, ValueError) else ValueError(str(exc))
 
 
-# ------------------------------------------------------------------ hooks
-def resolve_sample(args, m) -> None:
-    """Set ``args.phi`` from ``--mass-fraction`` or the material's defaults (when ``--phi`` is
-    not given), and remember the material and the geometry on ``args`` for :func:`finish_table`.
-    ValueError (one line, exit 2) for --phi with --mass-fraction, or a fraction >= phi_j."""
-    if not hasattr(args, "phi"):
-        return
-    args._material_obj = m
-    args._geometry = geometry_of(args)
-    args._mass = None
+# ------------------------------------------------------------------ the sample
+@dataclass(frozen=True)
+class Sample:
+    """What a measuring command runs on: the material, the volume fractions (``--phi``, from
+    ``--mass-fraction`` or the material's defaults; each in (0, phi_j)), the measuring geometry
+    (None: sample values only) and, from ``--mass-fraction``, phi -> mass fraction and the note
+    of the Eq. 20 conversion."""
+
+    material: Material
+    phi: list
+    geometry: geo.Geometry | None = None
+    mass: dict | None = None
+    mass_note: str = ""
+
+
+def _fractions(args, m) -> tuple[list, dict | None, str]:
+    """(phi, phi -> mass fraction or None, note) of the options. ValueError (one line, exit 2)
+    for --phi with --mass-fraction, a fraction given twice, or a fraction >= phi_j: the one
+    check of --phi against the material (its static range (0, 1) is the option's type)."""
     if getattr(args, "mass_fraction", None) is not None:
         if args.phi is not None:
             raise ValueError("give --phi or --mass-fraction, not both")
-        args.phi, args._mass_note = mass_fraction_phi(args, m)
+        phi, note = mass_fraction_phi(args, m)
         twice = next((w for i, w in enumerate(args.mass_fraction)
                       if float(w) in map(float, args.mass_fraction[:i])), None)
         if twice is not None:
             raise ValueError(f"--mass-fraction {float(twice):g} is given twice: its curves would "
                              "repeat; give distinct mass fractions")
-        args._mass = dict(zip(args.phi, map(float, args.mass_fraction)))
-    elif args.phi is None:
+        return phi, dict(zip(phi, map(float, args.mass_fraction))), note
+    if args.phi is None:
         count = getattr(args, "_phi_count", 1)
-        args.phi = geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]
-    else:
-        twice = next((p for i, p in enumerate(args.phi) if p in args.phi[:i]), None)
-        if twice is not None:
-            raise ValueError(f"--phi {twice:g} is given twice: its curves would repeat; give "
-                             "distinct fractions")
-        bad = [p for p in args.phi if p >= m.phi_j]
-        if bad:
-            raise ValueError(f"--phi = {bad[0]:g} is outside the valid range (0, {m.phi_j:g}) "
-                             f"of {m.name} (below phi_j)")
+        return (geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]), None, ""
+    twice = next((p for i, p in enumerate(args.phi) if p in args.phi[:i]), None)
+    if twice is not None:
+        raise ValueError(f"--phi {twice:g} is given twice: its curves would repeat; give "
+                         "distinct fractions")
+    bad = [p for p in args.phi if p >= m.phi_j]
+    if bad:
+        raise ValueError(f"--phi = {bad[0]:g} is outside the valid range (0, {m.phi_j:g}) "
+                         f"of {m.name} (below phi_j)")
+    return list(args.phi), None, ""
 
 
 def material_with(name, overrides: dict, option: str = "--set"):
@@ -236,15 +246,16 @@ def about_set(base, overrides: dict, exc: ValueError, option: str, units: dict) 
     return exc
 
 
-def sample_material(args):
+def sample_material(args) -> Sample:
+    """The :class:`Sample` of a measuring command's options (material with ``--set``)."""
     m = material_with(args.material, set_overrides(args.set))
-    resolve_sample(args, m)        # --phi default per material, --mass-fraction, geometry
-    return m
+    phi, mass, note = _fractions(args, m)
+    return Sample(m, phi, geometry_of(args), mass, note)
 
 
 def default_phis(count: int) -> list[float]:
     """The fractions a command with ``count`` default fractions runs at on DEFAULT_MATERIAL
-    (rheology.materials, the rule resolve_sample applies): three, or the middle one."""
+    (rheology.materials, the rule :class:`Sample` applies): three, or the middle one."""
     return default_fractions(DEFAULT_MATERIAL) if count > 1 else [default_fraction(DEFAULT_MATERIAL)]
 
 
