@@ -39,8 +39,7 @@ from rheology.materials import set_argument, set_overrides
 from rheology.run_end import EndedEarly, run_record
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
-from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, check_output_path,
-                       previous_checkpoint)
+from runkit.io import atomic_savefig, atomic_write_csv, atomic_write_json, check_output_path
 from runkit.params import Number
 
 from . import instrument_cli, limits, plots
@@ -368,7 +367,7 @@ def _cmd_program(args) -> str:
                            every=args.checkpoint_every)
     used = ck.path
     if args.resume:
-        used = _load_checkpoint(ck)
+        used = ck.load(log=lambda msg: print(msg, file=sys.stderr))
     df = ck.run(program)
     title = (f"{m.name}: program '{name}', phi = {', '.join(f'{p:g}' for p in sample.phi)} "
              f"(G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})")
@@ -384,22 +383,6 @@ def _cmd_program(args) -> str:
     if args.resume:
         msg += f"\nresumed from {used}"
     return msg, ended
-
-
-def _load_checkpoint(ck) -> Path:
-    """Load ``ck`` for --resume (its fallback notice on stderr) and return the file actually
-    read: runkit.io.load_checkpoint falls back to the previous checkpoint NAME.prev.npz when
-    NAME.npz is corrupt (and says so through ``log``) or absent (silently)."""
-    prev = previous_checkpoint(ck.path)
-    used = [prev if not ck.path.is_file() and prev.is_file() else ck.path]
-
-    def log(msg):
-        if str(prev) in msg:
-            used[0] = prev
-        print(msg, file=sys.stderr)
-
-    ck.load(log=log)
-    return used[0]
 
 
 def _cmd_material_point(args) -> str:
