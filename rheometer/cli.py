@@ -29,7 +29,6 @@ import math
 import sys
 from pathlib import Path
 
-from runkit.plotting import plt
 import numpy as np
 import pandas as pd
 
@@ -39,7 +38,7 @@ from rheology.materials import set_argument, set_overrides
 from rheology.run_end import EndedEarly, run_record
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
-from runkit.io import atomic_savefig, atomic_write_csv, atomic_write_json, check_output_path
+from runkit.io import atomic_write_csv, atomic_write_json, check_output_path
 from runkit.params import Number
 
 from . import instrument_cli, limits, plots
@@ -53,7 +52,7 @@ from .options import (common_options, k0, material_with, modulus, plot_path, sam
 from .plots import mark_ends, normalise_units
 from .program import hysteresis_program, parse_program
 from .protocols import creep, flow_curve, relax, startup
-from .transient import DEFAULT_G
+from .transient import skeleton
 
 _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
            "skeleton; 'mixture shear stress' = granular + eta0 (1 + 5/2 phi) gdot is what a "
@@ -189,12 +188,8 @@ def _write(args, sample, df: pd.DataFrame, fig_maker, *, record: bool = False, m
         mark_ends(fig, ends if marked is None else marked)
         if sample.material.units == "normalised":
             normalise_units(fig)
-        try:
-            atomic_savefig(fig, plot)
-        finally:
-            plt.close(fig)
+        written.append(plots.save(fig, plot))
         msg += f" and {plot}"
-        written.append(plot)
     if record:
         path = Path(args.out).with_suffix(".json")
         atomic_write_json(path, run_record(ends, command=f"rheometer {args.cmd}",
@@ -296,7 +291,7 @@ def _check_relax_stress(args, m) -> None:
     """``relax --stress`` starts from a steady state at that granular stress: its elastic strain
     stress/G is known before the run; past the small-strain limit (rheology.elastic) the run is
     refused here (exit 2) rather than failed by the solver's check (exit 1)."""
-    G = args.G if args.G is not None else (m.G or DEFAULT_G)
+    G, _ = skeleton(m, args.G)
     top = elastic_strain_limit_stress(G)
     if args.stress > top * (1.0 + 1e-12):
         src = "--G" if args.G is not None else (f"G of {m.name}" if m.G else "the default G")

@@ -46,15 +46,14 @@ from rheology.fit import (PARAMETER_EMPTY_OK, FlowData, fit_flow_curves, mixture
 from rheology.materials import (FIELD_UNITS, MATERIAL_FILE_FORMAT, check_set_override,
                                 material_to_dict, split_set_item)
 from rheology.steady import gdot_dst
-from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, check_finite,
+from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_dir, check_output_path, strict_json)
 from runkit.params import Number
 
+from . import plots
 from .limits import STRESS_MAX
-from .options import about_set, k0
+from .options import PHI, about_set, k0
 from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
-
-_PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
 
 #: What steady flow curves cannot determine (copied by --transient-from).
 TRANSIENT_FIELDS = ("G", "K", "K0", "rho_s", "rho_f", "d", "K3", "kappa", "phi0")
@@ -131,7 +130,7 @@ def _file_options(p, *, relaxation: bool = False):
 
 def _read_options(p):
     _file_options(p)
-    p.add_argument("--phi", nargs="+", type=_PHI, default=None, metavar="PHI",
+    p.add_argument("--phi", nargs="+", type=PHI, default=None, metavar="PHI",
                    help="volume fraction of each file, in order (files without a phi column)")
     p.add_argument("--mass-fraction", action="store_true",
                    help="the phi values are mass fractions: convert with Eq. (20) (needs "
@@ -227,7 +226,7 @@ def add_subcommands(sub) -> dict:
     _result_options(p, "relaxation")
     p.add_argument("--material", required=True, metavar="NAME|FILE.json",
                    help="the steady fit (e.g. fit/material.json from rheometer fit)")
-    p.add_argument("--phi", nargs="+", type=_PHI, required=True, metavar="PHI",
+    p.add_argument("--phi", nargs="+", type=PHI, required=True, metavar="PHI",
                    help="volume fraction: one for every curve, or one per curve in order")
     p.add_argument("--stress0", nargs="+", required=True, metavar="TAU0",
                    type=Number("--stress0", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"),
@@ -515,9 +514,7 @@ def write_figures(out: Path, data, res) -> list[str]:
     names = []
 
     def save(fig, name):
-        atomic_savefig(fig, out / name)
-        plt.close(fig)
-        names.append(name)
+        names.append(Path(plots.save(fig, out / name)).name)
 
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
     for c in range(data.n_curves):
@@ -732,6 +729,4 @@ def relaxation_figure(out: Path, res) -> str:
     _legend(ax[0])
     ax[1].axhline(0.0, color="k", lw=0.8)
     ax[1].set(xlabel="time after cessation t - t0 [s]", ylabel="log10(data/model)")
-    atomic_savefig(fig, out / "relaxation.png")
-    plt.close(fig)
-    return "relaxation.png"
+    return Path(plots.save(fig, out / "relaxation.png")).name

@@ -56,7 +56,6 @@ import pandas as pd
 
 import rheology
 from runkit.params import check_positive, check_range
-from rheology.materials import Material
 
 GEOMETRIES = ("cone-plate", "parallel-plate", "couette")
 #: Default dimensions: a 50 mm 1 degree cone (CP50-1), a 25 mm plate at 1 mm gap (PP25), a

@@ -1,35 +1,26 @@
-"""The instrument's words on the ``rheometer`` command line, kept apart from the
-command bodies of :mod:`rheometer.cli`, which call four hooks:
+"""The instrument's side of the ``rheometer`` command line and ``rheometer oscillation``.
 
-- :func:`add_instrument_options` (from ``common_options``): ``--geometry cone-plate|parallel-plate|couette``
-  with ``--cone-angle`` [deg], ``--radius``, ``--gap``, ``--bob-radius``, ``--cup-radius``,
-  ``--bob-length`` [m]; ``--mass-fraction W [W ...]`` (Eq. 20) with ``--grain-density``,
-  ``--liquid-density``, ``--water-density`` [kg/m^3], ``--swelling`` (lambda) and
-  ``--pore-fraction`` (beta);
-- :func:`resolve_sample` (from ``sample_material``): the default volume fractions of the material (one
-  rule, :func:`rheometer.geometry.default_fractions`) when ``--phi`` is not given, or the fractions
-  of ``--mass-fraction``;
-- :func:`finish_table` (from ``_write``): the mass-fraction column, the instrument columns (torque
-  [N m], rotation speed [rad/s], apparent stress and rate), normalised column names for the Table 1
-  sets; for the parallel plate the apparent flow curve of the radial integral beside the true one
-  (``<out>_parallel_plate.csv`` and ``.png``);
-- :func:`add_subcommands` (from ``build_parser``): ``rheometer oscillation``.
-
-Every numeric option is a :class:`runkit.params.Number`.
+- :func:`finish_table` (the table as written): the mass-fraction column of ``--mass-fraction``
+  (Eq. 20), the instrument columns of ``--geometry`` (torque [N m], rotation speed [rad/s],
+  apparent stress and rate; :mod:`rheometer.geometry`), normalised column names for the Table 1
+  sets;
+- :func:`extra_outputs`: for a parallel-plate flow curve the apparent curve of the radial
+  integral beside the true one (``<out>_parallel_plate.csv`` and ``.png``);
+- :func:`materials_note`: the default volume fractions of every material;
+- :func:`add_subcommands`: ``rheometer oscillation``.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from runkit.plotting import plt
 import numpy as np
 import pandas as pd
 
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
 from rheology.run_end import EndedEarly, run_record
-from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, check_finite,
+from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_path)
 from runkit.params import Number
 
@@ -37,7 +28,7 @@ from . import geometry as geo
 from . import oscillation as osc
 from . import plots
 from .limits import FREQUENCY_MIN, RATE_MAX, STRESS_MAX
-from .options import common_options, k0, modulus, plot_path, sample_material
+from .options import common_options, plot_path, sample_material, skeleton_options
 
 def _phi_column(df: pd.DataFrame) -> str | None:
     return "phi0" if "phi0" in df.columns else ("phi" if "phi" in df.columns else None)
@@ -118,11 +109,7 @@ def extra_outputs(args, sample, df: pd.DataFrame, plot=None) -> str:
             msg += f"\nwrote {csv} ({len(pp)} rows: true, apparent and corrected rim stress)"
             if plot is not None:
                 png = base.with_name(base.stem + "_parallel_plate.png")
-                fig = plots.parallel_plate_figure(pp, df, f"{m.name}: {g.describe()}")
-                try:
-                    atomic_savefig(fig, png)
-                finally:
-                    plt.close(fig)
+                plots.save(plots.parallel_plate_figure(pp, df, f"{m.name}: {g.describe()}"), png)
                 msg += f" and {png}"
     return msg
 
@@ -181,8 +168,7 @@ def add_subcommands(sub) -> dict:
                    help=f"samples per cycle ({osc.DEFAULT_SAMPLES})")
     p.add_argument("--start", choices=("rest", "previous"), default="rest",
                    help="each point from rest (default), or from the previous point's state")
-    p.add_argument("--G", type=modulus("--G"), default=None, help="granular shear modulus [Pa]")
-    p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale K0 [-]")
+    skeleton_options(p)
     p.add_argument("--rtol", type=Number("--rtol", 1e-12, 1e-3), default=osc.DEFAULT_RTOL,
                    help=f"IDA relative tolerance ({osc.DEFAULT_RTOL:g})")
     return {"oscillation": _cmd_oscillation}
@@ -249,11 +235,7 @@ def _cmd_oscillation(args) -> str:
                             (str(liss_png), lambda: plots.lissajous_figure(
                                 waves, f"{m.name}: Lissajous-Bowditch curves ({what})",
                                 points=points, dst_stress=dst))):
-            fig = maker()
-            try:
-                atomic_savefig(fig, path)
-            finally:
-                plt.close(fig)
+            plots.save(maker(), path)
         msg += f", {plot} and {liss_png}"
         written += [plot, str(liss_png)]
     atomic_write_json(record, run_record(ends, command="rheometer oscillation",

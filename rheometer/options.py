@@ -25,6 +25,8 @@ from . import limits
 from .limits import K0_MAX
 
 DEFAULT_MATERIAL = "hermes2016"
+#: ``--phi``: its static range; the bound phi < phi_j of the material is :class:`Sample`'s
+PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
 
 
 
@@ -264,8 +266,7 @@ def common_options(p, phi_count, out_default):
     phi_default = default_phis(phi_count)
     p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
                    help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
-    p.add_argument("--phi", type=Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False),
-                   nargs="+", default=None, metavar="PHI",
+    p.add_argument("--phi", type=PHI, nargs="+", default=None, metavar="PHI",
                    help=("volume fraction(s) (default: "
                          + ("the material's reference fraction" if len(phi_default) == 1 else
                             f"{len(phi_default)} fractions around the material's reference")
@@ -296,9 +297,14 @@ def t_end_option():
     return limits.duration("--t-end")
 
 
-def transient_options(p, t_end=None):
+def skeleton_options(p) -> None:
+    """``--G`` and ``--K0`` (default: the material's, else 1e4 Pa and 1)."""
     p.add_argument("--G", type=modulus("--G"), default=None, help="granular shear modulus [Pa]")
     p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale K0 [-]")
+
+
+def transient_options(p, t_end=None):
+    skeleton_options(p)
     if t_end is not None:
         p.add_argument("--t-end", type=t_end_option(), default=t_end,
                        help=f"duration [s] (default {t_end:g})")
