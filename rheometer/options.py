@@ -1,7 +1,12 @@
 """The options every measuring command of ``rheometer`` shares (the sample: material, ``--set``,
-``--phi``, mass fraction, measuring geometry; the transient options; the figure path), and the
-sample they describe, resolved once for :mod:`rheometer.cli`, :mod:`rheometer.instrument_cli` and
-:mod:`rheometer.fit_cli`."""
+``--phi``, mass fraction, measuring geometry; ``--G``, ``--K0`` and the transient options; the
+figure path) and the :class:`Sample` they describe, resolved once (:func:`sample_material`) and
+passed to :mod:`rheometer.cli`'s and :mod:`rheometer.instrument_cli`'s commands.
+
+Every option is checked once: its static range by its :class:`runkit.params.Number` while
+parsing, a bound that depends on the material (``--phi`` below phi_j, ``--set`` against the
+material's other fields, a geometry's dimensions against each other) when the sample is
+resolved, with the valid range at the other values."""
 
 from __future__ import annotations
 
@@ -12,13 +17,12 @@ from pathlib import Path
 import numpy as np
 
 import rheology
-from runkit.params import valid_interval
-from runkit.params import Number
-from rheology.materials import (FIELD_UNITS, Material, default_fraction, default_fractions, set_argument,
-                                set_overrides)
+from rheology.materials import (FIELD_UNITS, Material, default_fraction, default_fractions,
+                                set_argument, set_overrides)
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit import limits as physical
 from runkit.io import check_output_path
+from runkit.params import Number, valid_interval
 
 from . import geometry as geo
 from . import limits
@@ -37,7 +41,9 @@ def add_instrument_options(p) -> None:
                              "rate by the standard conversions)")
     g.add_argument("--geometry", choices=geo.GEOMETRIES, default=None,
                    help="cone-plate | parallel-plate | couette (default: none, sample values only)")
-    length = lambda name: Number(name, 0.0, physical.LENGTH_MAX, lo_closed=False, unit="m")  # noqa: E731
+    def length(name):
+        return Number(name, 0.0, physical.LENGTH_MAX, lo_closed=False, unit="m")
+
     d = geo.DEFAULTS
     g.add_argument("--cone-angle", type=Number("--cone-angle", 0.0, 10.0, lo_closed=False,
                                                unit="deg"), default=None,
@@ -101,17 +107,29 @@ def _geometry(kind: str, dims: dict) -> geo.Geometry:
     return g
 
 
+def _range_without(label: str, v: float, x0: float, ok, unit: str = "") -> str | None:
+    """The valid range of a value at the others' (bisection around the valid ``x0`` with the
+    check ``ok``, :func:`runkit.params.valid_interval`) as text, when ``v`` lies outside it;
+    else None (``v`` is valid, or ``x0`` is not)."""
+    if not ok(float(x0)):
+        return None
+    lo, lo_closed, hi, hi_closed = valid_interval(ok, float(x0))
+    rng = Number(label, lo, hi, lo_closed=lo_closed, hi_closed=hi_closed, unit=unit)
+    return None if rng.contains(float(v)) else rng.range_text
+
+
 def _about_dimension(kind: str, dims: dict, exc: Exception) -> ValueError:
     """A geometry refusal said about a dimension the user gave, with its valid range at the
-    other dimensions (bisection, :func:`rheometer.cli.valid_interval`): ``--cup-radius 1e-300``
+    other dimensions (bisection, :func:`runkit.params.valid_interval`): ``--cup-radius 1e-300``
     or ``--bob-radius 1e-300`` (whose conversion factor divided by zero)."""
     limit = {"cone_angle": 10.0}
     for key, v in dims.items():
         if v is None:
             continue
         x0 = geo.DEFAULTS[_DEFAULT_KEY.get((kind, key), key)]
-        static = Number(f"--{key.replace('_', '-')}", 0.0, limit.get(key, physical.LENGTH_MAX.value),
-                        lo_closed=False, unit="deg" if key == "cone_angle" else "m")
+        static = Number(f"--{key.replace('_', '-')}", 0.0,
+                        limit.get(key, physical.LENGTH_MAX.value), lo_closed=False,
+                        unit="deg" if key == "cone_angle" else "m")
 
         def ok(x, key=key, static=static):
             if not static.contains(x):
@@ -122,17 +140,13 @@ def _about_dimension(kind: str, dims: dict, exc: Exception) -> ValueError:
                 return False
             return True
 
-        if not ok(x0):
-            continue
-        lo, lo_closed, hi, hi_closed = valid_interval(ok, x0)
-        rng = Number(static.name, lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
-                     unit=static.unit)
-        if rng.contains(float(v)):
+        rng = _range_without(static.name, v, x0, ok, static.unit)
+        if rng is None:
             continue
         others = ", ".join(f"--{k.replace('_', '-')} {dims[k] if dims[k] is not None else d:g}"
                            for k, d in ((k, geo.DEFAULTS[_DEFAULT_KEY.get((kind, k), k)])
                                         for k in dims) if k != key)
-        return ValueError(f"{static.name} = {v:g} is outside the valid range {rng.range_text} "
+        return ValueError(f"{static.name} = {v:g} is outside the valid range {rng} "
                           f"(--geometry {kind} with {others}: {exc})")
     return exc if isinstance(exc, ValueError) else ValueError(str(exc))
 
@@ -222,13 +236,9 @@ def about_set(base, overrides: dict, exc: ValueError, option: str, units: dict) 
                 return False
             return True
 
-        if not ok(float(x0)):
-            continue
-        lo, lo_closed, hi, hi_closed = valid_interval(ok, float(x0))
         unit = units.get(key, "-")
-        rng = Number(f"{option} {key}", lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
-                     unit="" if unit == "-" else unit)
-        if rng.contains(float(v)):
+        rng = _range_without(f"{option} {key}", v, x0, ok, "" if unit == "-" else unit)
+        if rng is None:
             continue
         cause = str(exc)
         # "phi_c = 0.436 is outside the valid range (0, 0.3) (material M; NOTE)": keep the
@@ -243,7 +253,7 @@ def about_set(base, overrides: dict, exc: ValueError, option: str, units: dict) 
                    + (f"; {note}" if note else "") + ")")
         else:
             why = f" (with material {base.name}'s other parameters: {cause})"
-        return ValueError(f"{option} {key} = {v:g} is outside the valid range {rng.range_text}"
+        return ValueError(f"{option} {key} = {v:g} is outside the valid range {rng}"
                           f"{why}")
     return exc
 
@@ -258,7 +268,8 @@ def sample_material(args) -> Sample:
 def default_phis(count: int) -> list[float]:
     """The fractions a command with ``count`` default fractions runs at on DEFAULT_MATERIAL
     (rheology.materials, the rule :class:`Sample` applies): three, or the middle one."""
-    return default_fractions(DEFAULT_MATERIAL) if count > 1 else [default_fraction(DEFAULT_MATERIAL)]
+    return (default_fractions(DEFAULT_MATERIAL) if count > 1
+            else [default_fraction(DEFAULT_MATERIAL)])
 
 
 def common_options(p, phi_count, out_default):

@@ -397,15 +397,13 @@ class Rheometer:
         if step.oscillation:
             G_abs = abs(self.linear_modulus(step.omega))
             amp_strain = step.start if step.control == "strain" else step.start / G_abs
-            rate_max = amp_strain * step.omega if step.control == "strain" else 0.0
             stress_max = step.start if step.control == "stress" else amp_strain * G_abs
             tau = max(abs(st.taubar), stress_max, 1e-6 * self.material.tau_star)
             g = max(amp_strain * step.omega, tau / self.eta_low)
             # Under an imposed oscillating stress the rate gdot = (sigma(t) - taubar)/eta_f is
             # the small difference of two large signals: the error taubar may have by its own
-            # test, rtol |taubar|, IS an error rtol |taubar|/eta_f in gdot (>> rtol |gdot|). A
-            # tighter test of the algebraic gdot cannot be met (IDA: 80000 residuals for 3
-            # cycles at G = 10 Pa, Jacobian every other step); with this one: 850.
+            # test, rtol |taubar|, IS an error rtol |taubar|/eta_f in gdot (>> rtol |gdot|); a
+            # tighter test of the algebraic gdot cannot be met.
             gd = (max(g, tau / self.eta_fluid * self.rtol / self.atol) if step.control == "stress"
                   else g)
             return np.array([tau, 1e-8, g, gd, min(1.0, amp_strain)])
@@ -416,10 +414,9 @@ class Rheometer:
         g = max(rate_max, tau / self.eta_low)
         # Under an imposed mixture stress the shear rate is slaved to the granular stress,
         # gdot = (tau_imposed - taubar)/eta_f: an error atol_tau in taubar IS an error
-        # atol_tau/eta_f in gdot. A tighter gdot tolerance (the low-stress viscosity eta_low is
-        # ~1e3 eta_f near jamming) cannot be met by any step size on a curved (log) stress ramp:
-        # IDA then crawled at the fluid time eta_f/G (~1e-6 s; 1.5 million residuals, 12 s for a
-        # 0.23 s ramp). Consistent tolerances: 250 residuals, identical results to rtol.
+        # atol_tau/eta_f in gdot. A tighter gdot tolerance (eta_low ~1e3 eta_f near jamming)
+        # cannot be met by any step size on a curved (log) stress ramp: IDA crawls at the fluid
+        # time eta_f/G.
         gd = max(g, tau / self.eta_fluid) if step.control == "stress" else g
         return np.array([tau, 1e-8, g, gd, 1.0])
 
