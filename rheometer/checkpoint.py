@@ -2,20 +2,18 @@
 
 A program is run phi by phi and step by step (:meth:`rheometer.transient.Rheometer.run`). After
 every completed step, at most every ``every`` seconds of computing, and always on Ctrl-C or
-SIGTERM (which :func:`runkit.command.run` turns into ``KeyboardInterrupt``), the
-checkpoint ``<out>.checkpoint.npz`` is written atomically (:func:`runkit.io.save_checkpoint`,
-which keeps the previous one): the rows of the finished volume fractions, the rows of the
-completed steps of the current one, the exact state (t, taubar, jamming gap, strain) at the end of
-the last completed step, the events and solver counts, the ends of the fractions that ended early
-(:mod:`rheology.run_end`), and a fingerprint of the material, the volume fractions, the program
-text and the options.
+SIGTERM (:class:`runkit.run.Interrupts`), the checkpoint ``<out>.checkpoint.npz`` is written
+(:class:`runkit.run.Checkpoint`: atomic, the previous one kept): the rows of the finished volume
+fractions and of the completed steps of the current one, the exact state (t, taubar, jamming
+gap, strain) at the end of the last completed step, the events and solver counts, the ends of
+the fractions that ended early (:mod:`rheology.run_end`), and a fingerprint of the material,
+the volume fractions, the program text and the options.
 
-On ``--resume`` the fingerprint must match (else the resume is refused, naming what differs) and
-the run continues with the next step from the stored state. Every IDA solve of a step starts from
-a consistent state built from (taubar, gap, strain) alone, so the remaining steps are computed
-exactly as in the uninterrupted run: the resumed CSV is identical to it (tested value for value;
-the guarantee needed is only IDA's tolerance, rtol, and it holds to the last bit). A step
-interrupted half-way is computed again from its start; the work lost is at most one step.
+On ``--resume`` the fingerprint must match (else the resume is refused) and the run continues
+with the next step from the stored state. Every IDA solve of a step starts from a consistent
+state built from (taubar, gap, strain) alone, so the remaining steps are computed exactly as in
+the uninterrupted run: the resumed CSV is identical to it, bit for bit. A step interrupted
+half-way is computed again from its start.
 """
 
 from __future__ import annotations
@@ -29,8 +27,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from runkit.io import load_checkpoint, previous_checkpoint, save_checkpoint
-from runkit.run import Interrupts
+from runkit.io import previous_checkpoint
+from runkit.run import Checkpoint, Interrupts
 from rheology.run_end import EndedEarly, RunEnd
 
 from .program import Program
@@ -69,6 +67,7 @@ class ProgramCheckpoint:
 
     def __init__(self, path, material, phis, text: str, options: dict, every: float = 60.0):
         self.path = Path(path)
+        self.store = Checkpoint(self.path, {})       # the fingerprint: ours, compared in load
         self.material, self.phis, self.options = material, list(phis), dict(options)
         self.key = fingerprint(material, phis, text, options)
         self.every = float(every)
@@ -80,10 +79,21 @@ class ProgramCheckpoint:
         self._signals = Interrupts(defer=False)
 
     # ------------------------------------------------------------------ reading
-    def load(self, log=None) -> None:
-        """Read the checkpoint for ``--resume``; ValueError if there is none, it is corrupt
-        (naming the file) or it belongs to another run."""
-        data = load_checkpoint(self.path, required=_REQUIRED, log=log)
+    def load(self, log=None) -> Path:
+        """Read the checkpoint for ``--resume``; returns the file read (the previous checkpoint
+        NAME.prev.npz when NAME.npz is corrupt, with a notice through ``log``, or absent).
+        ValueError if there is none, it is corrupt (naming the file) or it belongs to another
+        run."""
+        prev = previous_checkpoint(self.path)
+        used = [prev if not self.path.is_file() and prev.is_file() else self.path]
+
+        def notice(msg):
+            if str(prev) in msg:
+                used[0] = prev
+            if log is not None:
+                log(msg)
+
+        data = self.store.load(required=_REQUIRED, log=notice)
         if str(data["fingerprint"]) != self.key:
             raise ValueError(f"--resume: the checkpoint {self.path} belongs to a different run "
                              f"(material, --phi, program file or options differ); rerun with the "
@@ -107,6 +117,7 @@ class ProgramCheckpoint:
                                            float(s[4])), nxt,
                                      [tuple(e) for e in json.loads(str(data["events"]))],
                                      int(counts[0]), int(counts[1]), int(counts[2]))
+        return used[0]
 
     # ------------------------------------------------------------------ writing
     def save(self) -> None:
@@ -114,8 +125,8 @@ class ProgramCheckpoint:
         done = pd.concat(self.done, ignore_index=True) if self.done else None
         pr = self.progress
         empty = np.zeros(0)
-        save_checkpoint(
-            self.path, fingerprint=np.array(self.key), done_phi=np.array(len(self.done)),
+        self.store.save(dict(
+            fingerprint=np.array(self.key), done_phi=np.array(len(self.done)),
             done_rows=(done.to_numpy(dtype=float) if done is not None else np.zeros((0, 0))),
             done_columns=np.array(list(done.columns) if done is not None else [], dtype=str),
             t=pr.t if pr else empty, y=pr.y if pr else np.zeros((0, 5)),
@@ -125,14 +136,12 @@ class ProgramCheckpoint:
             next_step=np.array(pr.next_step if pr else 0),
             events=np.array(json.dumps([list(e) for e in pr.events] if pr else [])),
             counts=np.array([pr.solves, pr.nfev, pr.njev] if pr else [0, 0, 0]),
-            ends=np.array(json.dumps([e.record() for e in self.ends])))
+            ends=np.array(json.dumps([e.record() for e in self.ends]))))
         self._last = time.monotonic()
 
     def remove(self) -> None:
         """Delete the checkpoint (and its predecessor) after the results are written."""
-        for p in (self.path, previous_checkpoint(self.path)):
-            if p.exists():
-                p.unlink()
+        self.store.remove()
 
     # ------------------------------------------------------------------ running
     def _on_step(self, progress: Progress) -> None:

@@ -29,18 +29,16 @@ import math
 import sys
 from pathlib import Path
 
-from runkit.plotting import plt
 import numpy as np
 import pandas as pd
 
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress
-from rheology.materials import set_argument
+from rheology.materials import set_argument, set_overrides
 from rheology.run_end import EndedEarly, run_record
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
-from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, check_output_path,
-                       previous_checkpoint)
+from runkit.io import atomic_write_csv, atomic_write_json, check_output_path
 from runkit.params import Number
 
 from . import instrument_cli, limits, plots
@@ -49,12 +47,12 @@ from .fit_cli import add_subcommands
 from .instrument_cli import extra_outputs, finish_table, materials_note
 from .limits import RATE_MAX, STRESS_MAX, TIME_MAX
 from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP, simple_shear_point
-from .options import (common_options, k0, modulus, plot_path, sample_material, t_end_option,
-                      transient_options)
+from .options import (common_options, k0, material_with, modulus, plot_path, sample_material,
+                      t_end_option, transient_options)
 from .plots import mark_ends, normalise_units
 from .program import hysteresis_program, parse_program
 from .protocols import creep, flow_curve, relax, startup
-from .transient import DEFAULT_G
+from .transient import skeleton
 
 _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
            "skeleton; 'mixture shear stress' = granular + eta0 (1 + 5/2 phi) gdot is what a "
@@ -174,37 +172,31 @@ def build_parser() -> argparse.ArgumentParser:
 EMPTY_OK = ("viscosity_Pa_s", "relative_viscosity")
 
 
-def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=None) -> str:
+def _write(args, sample, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=None):
     """Write the CSV and the figure; with ``record`` (the transients) also the run record
     ``<out>.json`` (rheology.run_end: status and the ends in ``df.attrs["ends"]``, those in
-    ``marked``, default all, marked on the figure); a run that ended early is then raised by
-    :func:`main` after the message (exit status 3)."""
+    ``marked``, default all, marked on the figure). Returns (message, the
+    :class:`~rheology.run_end.EndedEarly` :func:`main` raises after it (exit 3) or None)."""
     plot = plot_path(args)
     ends = list(df.attrs.get("ends") or []) if record else []
-    table, empty_ok = finish_table(args, df, EMPTY_OK)   # instrument, mass, units
+    table, empty_ok = finish_table(sample, df, EMPTY_OK, args.cmd)   # instrument, mass, units
     atomic_write_csv(args.out, table, empty_ok=empty_ok)
     written = [args.out]
     msg = f"wrote {args.out} ({len(df)} rows)"
     if plot is not None:
         fig = fig_maker()
         mark_ends(fig, ends if marked is None else marked)
-        m = getattr(args, "_material_obj", None)
-        if m is not None and m.units == "normalised":
+        if sample.material.units == "normalised":
             normalise_units(fig)
-        try:
-            atomic_savefig(fig, plot)
-        finally:
-            plt.close(fig)
+        written.append(plots.save(fig, plot))
         msg += f" and {plot}"
-        written.append(plot)
     if record:
         path = Path(args.out).with_suffix(".json")
         atomic_write_json(path, run_record(ends, command=f"rheometer {args.cmd}",
                                            csv=Path(args.out).name, rows=len(df)))
         written.append(str(path))
         msg += f" and {path}"
-        if ends:
-            args._ended = EndedEarly(ends, partial=df, written=written)
+    ended = EndedEarly(ends, partial=df, written=written) if ends else None
     events = df.attrs.get("events") or []
     if events:
         shown = "; ".join(f"t = {t:.6g} s (step {k}): {what}" for t, k, what in events[:5])
@@ -213,14 +205,14 @@ def _write(args, df: pd.DataFrame, fig_maker, *, record: bool = False, marked=No
         msg += f"\n{df.attrs['substeps_note']}"
     for note in df.attrs.get("notes") or []:
         msg += f"\nnote: {note}"
-    return msg + extra_outputs(args, df, plot)
+    return msg + extra_outputs(args, sample, df, plot), ended
 
 
-def _per_phi(args, run) -> pd.DataFrame:
+def _per_phi(sample, run) -> pd.DataFrame:
     """``run(phi)`` at every --phi, concatenated; a run that ends early keeps its rows up to the
     end (rheology.run_end), its end in ``attrs["ends"]``; RuntimeError when no run has a row."""
     frames, ends = [], []
-    for ph in args.phi:
+    for ph in sample.phi:
         try:
             df = run(ph)
         except EndedEarly as exc:
@@ -242,7 +234,7 @@ def _cmd_materials(args) -> str:
     if args.out:
         check_output_path("--out", args.out, ["csv"])
     if args.material is not None:
-        print(sample_material(args).summary())
+        print(material_with(args.material, set_overrides(args.set)).summary())
         return ""
     if args.set:
         raise ValueError("--set needs --material NAME (the parameter set to change)")
@@ -262,7 +254,8 @@ def _cmd_materials(args) -> str:
 
 def _cmd_flow_curve(args) -> str:
     plot_path(args)
-    m = sample_material(args)
+    sample = sample_material(args)
+    m, phis = sample.material, sample.phi
     n = int(args.points)
     # a range of the other control would be ignored: refused (defaults: 1e-3 1e4 Pa, 1e-4 1e3 1/s)
     if args.control == "rate" and args.stress_range is not None:
@@ -277,11 +270,11 @@ def _cmd_flow_curve(args) -> str:
         which = "--rate-range" if args.control == "rate" else "--stress-range"
         raise ValueError(f"{which} {lo:g} {hi:g} must satisfy 0 < LO < HI")
     values = np.logspace(np.log10(lo), np.log10(hi), n)
-    df = (flow_curve(m, args.phi, rate=values, control="rate") if args.control == "rate" else
-          flow_curve(m, args.phi, stress=values, control=args.control))
+    df = (flow_curve(m, phis, rate=values, control="rate") if args.control == "rate" else
+          flow_curve(m, phis, stress=values, control=args.control))
     if args.control == "rate":      # rates without a steady state leave no row: say which
         notes = []
-        for ph in np.atleast_1d(args.phi if args.phi is not None else df["phi"].unique()):
+        for ph in phis:
             hit = set(df.loc[np.isclose(df["phi"], ph), "index"].astype(int))
             missing = [values[k] for k in range(n) if k not in hit]
             if missing:
@@ -291,14 +284,14 @@ def _cmd_flow_curve(args) -> str:
                              f"({min(missing):.4g}-{max(missing):.4g} 1/s; {why}); --control "
                              "stress shows the whole S-shaped curve")
         df.attrs["notes"] = notes
-    return _write(args, df, lambda: plots.flow_curve_figure(df, m))
+    return _write(args, sample, df, lambda: plots.flow_curve_figure(df, m))
 
 
 def _check_relax_stress(args, m) -> None:
     """``relax --stress`` starts from a steady state at that granular stress: its elastic strain
     stress/G is known before the run; past the small-strain limit (rheology.elastic) the run is
     refused here (exit 2) rather than failed by the solver's check (exit 1)."""
-    G = args.G if args.G is not None else (m.G or DEFAULT_G)
+    G, _ = skeleton(m, args.G)
     top = elastic_strain_limit_stress(G)
     if args.stress > top * (1.0 + 1e-12):
         src = "--G" if args.G is not None else (f"G of {m.name}" if m.G else "the default G")
@@ -311,21 +304,22 @@ def _check_relax_stress(args, m) -> None:
 
 def _transient(args, kind: str) -> str:
     plot_path(args)
-    m = sample_material(args)
+    sample = sample_material(args)
+    m = sample.material
     opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True)
     if kind == "startup":
-        df = _per_phi(args, lambda ph: startup(m, ph, args.rate, args.t_end, **opts))
+        df = _per_phi(sample, lambda ph: startup(m, ph, args.rate, args.t_end, **opts))
         what = f"start-up at {args.rate:g} 1/s"
     elif kind == "creep":
-        df = _per_phi(args, lambda ph: creep(m, ph, args.stress, args.t_end, **opts))
+        df = _per_phi(sample, lambda ph: creep(m, ph, args.stress, args.t_end, **opts))
         what = f"creep at mixture stress {args.stress:g} Pa"
     else:
         _check_relax_stress(args, m)
-        df = _per_phi(args, lambda ph: relax(m, ph, args.stress, args.t_end, **opts))
+        df = _per_phi(sample, lambda ph: relax(m, ph, args.stress, args.t_end, **opts))
         what = f"relaxation from steady granular stress {args.stress:g} Pa"
     title = f"{m.name}: {what} (G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})"
     frames = {f"phi = {ph:g}": d for ph, d in df.groupby("phi", sort=False)}
-    return _write(args, df, lambda: plots.transient_figure(frames, title, log_time=True),
+    return _write(args, sample, df, lambda: plots.transient_figure(frames, title, log_time=True),
                   record=True)
 
 
@@ -354,27 +348,28 @@ def read_program_file(name: str) -> tuple[str, str]:
 
 def _cmd_program(args) -> str:
     plot_path(args)
-    m = sample_material(args)
+    sample = sample_material(args)
+    m = sample.material
     if args.file is None:
-        text = hysteresis_program(m, args.phi[0])
-        name = f"built-in stress and rate sweeps up and down at phi = {args.phi[0]:g}"
+        text = hysteresis_program(m, sample.phi[0])
+        name = f"built-in stress and rate sweeps up and down at phi = {sample.phi[0]:g}"
     else:
         text, name = read_program_file(args.file)
     program = parse_program(text)
-    ck = ProgramCheckpoint(Path(args.out).with_suffix(".checkpoint.npz"), m, list(args.phi),
+    ck = ProgramCheckpoint(Path(args.out).with_suffix(".checkpoint.npz"), m, list(sample.phi),
                            text, dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points,
                                       elastic_limit=True),
                            every=args.checkpoint_every)
     used = ck.path
     if args.resume:
-        used = _load_checkpoint(ck)
+        used = ck.load(log=lambda msg: print(msg, file=sys.stderr))
     df = ck.run(program)
-    title = (f"{m.name}: program '{name}', phi = {', '.join(f'{p:g}' for p in args.phi)} "
+    title = (f"{m.name}: program '{name}', phi = {', '.join(f'{p:g}' for p in sample.phi)} "
              f"(G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})")
     drawn = float(df["phi"].iloc[0])           # the first phi with rows
     first = df[df["phi"] == drawn]
     first.attrs.update(df.attrs)
-    msg = _write(args, df, lambda: plots.program_figure(first, title), record=True,
+    msg, ended = _write(args, sample, df, lambda: plots.program_figure(first, title), record=True,
                  marked=[e for e in df.attrs["ends"] if e.run == f"phi = {drawn:g}"])
     for osc in df.attrs.get("oscillations") or []:
         msg += "\noscillation " + ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else
@@ -382,23 +377,7 @@ def _cmd_program(args) -> str:
     ck.remove()
     if args.resume:
         msg += f"\nresumed from {used}"
-    return msg
-
-
-def _load_checkpoint(ck) -> Path:
-    """Load ``ck`` for --resume (its fallback notice on stderr) and return the file actually
-    read: runkit.io.load_checkpoint falls back to the previous checkpoint NAME.prev.npz when
-    NAME.npz is corrupt (and says so through ``log``) or absent (silently)."""
-    prev = previous_checkpoint(ck.path)
-    used = [prev if not ck.path.is_file() and prev.is_file() else ck.path]
-
-    def log(msg):
-        if str(prev) in msg:
-            used[0] = prev
-        print(msg, file=sys.stderr)
-
-    ck.load(log=log)
-    return used[0]
+    return msg, ended
 
 
 def _cmd_material_point(args) -> str:
@@ -411,15 +390,16 @@ def _cmd_material_point(args) -> str:
         raise ValueError("give --stress0 (start from the steady state at that stress) or "
                          "--pressure0 (start from rest under that pressure), not both")
     _check_update_count(args.rate, args.t_end, args.dt)
-    m = sample_material(args)
-    df = _per_phi(args, lambda ph: simple_shear_point(
+    sample = sample_material(args)
+    m = sample.material
+    df = _per_phi(sample, lambda ph: simple_shear_point(
         m, ph, args.rate, args.t_end, args.dt, control=args.control, pressure=args.pressure,
         f0=args.f0, stress0=args.stress0, pressure0=args.pressure0, G=args.G, K=args.K,
         K0=args.K0, points=args.points, elastic_limit=True))
     title = (f"{m.name}: material point, {args.control} control, rate {args.rate:g} 1/s, "
-             f"dt = {args.dt:g} s, phi0 = {', '.join(f'{p:g}' for p in args.phi)}")
+             f"dt = {args.dt:g} s, phi0 = {', '.join(f'{p:g}' for p in sample.phi)}")
     # every run, by its initial phi (phi itself evolves under pressure control)
-    return _write(args, df, lambda: plots.material_point_figure(df, title), record=True)
+    return _write(args, sample, df, lambda: plots.material_point_figure(df, title), record=True)
 
 
 def _check_update_count(rate: float, t_end: float, dt: float) -> None:
@@ -470,11 +450,12 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
 
     def body():
-        msg = _COMMANDS[args.cmd](args)
+        out = _COMMANDS[args.cmd](args)
+        msg, ended = out if isinstance(out, tuple) else (out, None)
         if msg:
             print(msg)
-        if getattr(args, "_ended", None) is not None:   # written up to its end: status 3
-            raise args._ended
+        if ended is not None:            # written up to its end: status 3
+            raise ended
 
     return run_command(f"rheometer {args.cmd}", body)
 

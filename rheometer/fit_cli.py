@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import hashlib
-import warnings
 from pathlib import Path
 
 from runkit.plotting import plt
@@ -46,15 +45,15 @@ from rheology.fit import (PARAMETER_EMPTY_OK, FlowData, fit_flow_curves, mixture
 from rheology.materials import (FIELD_UNITS, MATERIAL_FILE_FORMAT, check_set_override,
                                 material_to_dict, split_set_item)
 from rheology.steady import gdot_dst
-from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, check_finite,
+from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_dir, check_output_path, strict_json)
 from runkit.params import Number
+from runkit.run import HeldWarnings
 
+from . import plots
 from .limits import STRESS_MAX
-from .options import about_set, k0
+from .options import PHI, about_set, k0
 from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
-
-_PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
 
 #: What steady flow curves cannot determine (copied by --transient-from).
 TRANSIENT_FIELDS = ("G", "K", "K0", "rho_s", "rho_f", "d", "K3", "kappa", "phi0")
@@ -131,7 +130,7 @@ def _file_options(p, *, relaxation: bool = False):
 
 def _read_options(p):
     _file_options(p)
-    p.add_argument("--phi", nargs="+", type=_PHI, default=None, metavar="PHI",
+    p.add_argument("--phi", nargs="+", type=PHI, default=None, metavar="PHI",
                    help="volume fraction of each file, in order (files without a phi column)")
     p.add_argument("--mass-fraction", action="store_true",
                    help="the phi values are mass fractions: convert with Eq. (20) (needs "
@@ -227,7 +226,7 @@ def add_subcommands(sub) -> dict:
     _result_options(p, "relaxation")
     p.add_argument("--material", required=True, metavar="NAME|FILE.json",
                    help="the steady fit (e.g. fit/material.json from rheometer fit)")
-    p.add_argument("--phi", nargs="+", type=_PHI, required=True, metavar="PHI",
+    p.add_argument("--phi", nargs="+", type=PHI, required=True, metavar="PHI",
                    help="volume fraction: one for every curve, or one per curve in order")
     p.add_argument("--stress0", nargs="+", required=True, metavar="TAU0",
                    type=Number("--stress0", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"),
@@ -333,9 +332,36 @@ def _sha256(path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def _files_provenance(args, formats) -> list[dict]:
-    return [{"file": str(f), "sha256": _sha256(f), "format": formats.get(str(Path(f)), "?")}
-            for f in args.files]
+def _out_and_name(args) -> tuple[Path, str]:
+    """The --out folder (:func:`prepare_out`) and the fitted material's name (--name, else the
+    folder's name); ValueError for an empty --name."""
+    out = prepare_out("--out", args.out)
+    if args.name is not None and not args.name.strip():
+        raise ValueError(f"--name = {args.name!r} is empty; valid: a non-empty name (default: "
+                         "the --out folder's name)")
+    return out, (args.name.strip() if args.name is not None else out.resolve().name)
+
+
+def _provenance(command: str, args, table, donor, **fields) -> dict:
+    """The provenance of a fit: when, the command, the files read (sha256, format), the blocks
+    skipped, the material of --transient-from, and ``fields``."""
+    formats = table.attrs.get("formats", {})
+    created = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    return {"created": created, "command": command,
+            "transient_from": donor.name if donor else None,
+            "files": [{"file": str(f), "sha256": _sha256(f),
+                       "format": formats.get(str(Path(f)), "?")} for f in args.files],
+            "skipped_blocks": [list(x) for x in table.attrs.get("skipped", [])], **fields}
+
+
+def _fit_doc(provenance: dict, res, accept: bool) -> dict:
+    """What material.json holds besides the material: provenance and the fit's verdict."""
+    names, corr = res.correlation
+    return {"provenance": provenance,
+            "fit": {"confidence": res.confidence, "converged": res.converged,
+                    "problems": res.problems, "accepted": not res.problems or accept,
+                    "parameters": _params_json(res.parameters),
+                    "correlation": {"names": names, "matrix": corr}}}
 
 
 def _params_json(params) -> dict:
@@ -394,10 +420,7 @@ def _verdict(problems, out: Path, accept: bool) -> str:
 # ------------------------------------------------------------------ rheometer fit
 def cmd_fit(args) -> str:
     """``rheometer fit``: read, fit, write DIR/material.json, CSVs and figures."""
-    out = prepare_out("--out", args.out)
-    if args.name is not None and not args.name.strip():
-        raise ValueError(f"--name = {args.name!r} is empty; valid: a non-empty name (default: "
-                         "the --out folder's name)")
+    out, name = _out_and_name(args)
     start = rheology.get_material(args.material)
     fixed = {}
     for k, v in args.set or []:
@@ -421,25 +444,21 @@ def cmd_fit(args) -> str:
     table = _read(args)
     print(describe(table))
     data = FlowData.from_table(table)
-    name = args.name.strip() if args.name is not None else out.resolve().name
     # numpy's warnings of the fit (a singular covariance at an extreme held value) are held: a
     # failed fit cites the first in its one line, a finished one lists them as notes
-
-    try:
-        with warnings.catch_warnings(record=True) as held:
-            warnings.simplefilter("always", RuntimeWarning)
+    with HeldWarnings() as held:
+        try:
             res = fit_flow_curves(
                 data, start, fixed=fixed, free=args.free, etaB_terms=args.etaB_terms,
                 confidence=args.confidence, profile=not args.no_profile, f_scale=args.f_scale,
                 name=name, citation=f"fitted by 'rheometer fit' to {data.n_curves} flow curves "
                                     f"({', '.join(sorted(set(table['source_file'])))}) "
                                     f"starting from {start.name}")
-    except (RuntimeError, ArithmeticError, ValueError) as exc:
-        first = next((w for w in held if issubclass(w.category, RuntimeWarning)), None)
-        if first is None:
-            raise
-        raise type(exc)(f"{exc} (after numpy's '{first.message}')") from None
-    numpy_notes = sorted({f"numpy: {w.message}" for w in held
+        except (RuntimeError, ArithmeticError, ValueError) as exc:
+            if not held.after():
+                raise
+            raise type(exc)(f"{exc} ({held.after().strip()})") from None
+    numpy_notes = sorted({f"numpy: {w.message}" for w in held.held
                           if issubclass(w.category, RuntimeWarning)})
     m = res.material
     if args.transient_from:
@@ -454,25 +473,17 @@ def cmd_fit(args) -> str:
     names, corr = res.correlation
     corr_df = pd.DataFrame(corr, columns=names)
     corr_df.insert(0, "parameter", names)
-    provenance = {
-        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "command": "rheometer fit",
-        "start_material": start.name, "fixed": fixed, "freed": args.free or [],
-        "eta0": "given (--set)" if "eta0" in fixed else "estimated from the curves",
-        "transient_from": donor.name if donor else None,
-        "files": _files_provenance(args, table.attrs.get("formats", {})),
-        "skipped_blocks": [list(x) for x in table.attrs.get("skipped", [])],
-        "curves": [{"label": lab, "phi": float(p), "points_kept": int(np.sum(data.curve == c))}
-                   for c, (lab, p) in enumerate(zip(data.labels, data.curve_phi()))],
-        "points_kept": int(len(kept)), "points_dropped": int((~table["kept"]).sum()),
-        "dropped_by_reason": drop_counts(table), "outliers": int(res.outlier.sum()),
-        "sigma_log10": res.sigma_log10, "model_evaluations": res.n_evaluations,
-        "fit_seconds": res.seconds, "messages": res.messages}
-    doc = {"provenance": provenance,
-           "fit": {"confidence": res.confidence, "converged": res.converged,
-                   "problems": res.problems, "accepted": not res.problems or args.accept,
-                   "parameters": _params_json(res.parameters),
-                   "correlation": {"names": names, "matrix": corr}}}
+    provenance = _provenance(
+        "rheometer fit", args, table, donor, start_material=start.name, fixed=fixed,
+        freed=args.free or [],
+        eta0="given (--set)" if "eta0" in fixed else "estimated from the curves",
+        curves=[{"label": lab, "phi": float(p), "points_kept": int(np.sum(data.curve == c))}
+                for c, (lab, p) in enumerate(zip(data.labels, data.curve_phi()))],
+        points_kept=int(len(kept)), points_dropped=int((~table["kept"]).sum()),
+        dropped_by_reason=drop_counts(table), outliers=int(res.outlier.sum()),
+        sigma_log10=res.sigma_log10, model_evaluations=res.n_evaluations,
+        fit_seconds=res.seconds, messages=res.messages)
+    doc = _fit_doc(provenance, res, args.accept)
     tables = {"curves.csv": (table_to_csv_frame(table), EMPTY_OK), "fit.csv": (fit_df, ()),
               "parameters.csv": (res.table(), PARAMETER_EMPTY_OK),
               "correlation.csv": (corr_df, ())}
@@ -486,13 +497,16 @@ def cmd_fit(args) -> str:
     lines = [f"fitted {m.name} in {res.seconds:.2f} s ({res.n_evaluations} model evaluations; "
              f"residual sd {res.sigma_log10:.3g} in log10 viscosity; {int(res.outlier.sum())} "
              f"outlier(s); {'converged' if res.converged else 'NOT converged'})"]
-    lines += _summary(res.parameters)
-    lines += [f"  note: {msg}" for msg in [*res.messages, *numpy_notes]]
-    lines.append(f"wrote {', '.join(str(out / w) for w in written)}")
-    return _finish_message(lines, res.problems, out, args.accept)
+    return _finish_message(lines, res, numpy_notes, out, written, args.accept)
 
 
-def _finish_message(lines, problems, out, accept) -> str:
+def _finish_message(lines, res, notes, out, written, accept) -> str:
+    """The fit's message: ``lines``, the parameters, the notes, the files written and the
+    verdict; an unphysical result without --accept prints it and raises the verdict."""
+    lines = [*lines, *_summary(res.parameters),
+             *(f"  note: {msg}" for msg in [*res.messages, *notes]),
+             f"wrote {', '.join(str(out / w) for w in written)}"]
+    problems = res.problems
     verdict = _verdict(problems, out, accept)
     if problems and not accept:
         print("\n".join(lines))
@@ -515,9 +529,7 @@ def write_figures(out: Path, data, res) -> list[str]:
     names = []
 
     def save(fig, name):
-        atomic_savefig(fig, out / name)
-        plt.close(fig)
-        names.append(name)
+        names.append(Path(plots.save(fig, out / name)).name)
 
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
     for c in range(data.n_curves):
@@ -638,10 +650,7 @@ def _per_curve(option: str, values, n: int) -> list[float]:
 def cmd_fit_relaxation(args) -> str:
     """``rheometer fit-relaxation``: read relaxations, fit G and K0, write DIR/material.json,
     parameters.csv, fit.csv and relaxation.png."""
-    out = prepare_out("--out", args.out)
-    if args.name is not None and not args.name.strip():
-        raise ValueError(f"--name = {args.name!r} is empty; valid: a non-empty name (default: "
-                         "the --out folder's name)")
+    out, name = _out_and_name(args)
     m = rheology.get_material(args.material)
     donor = rheology.get_material(args.transient_from) if args.transient_from else None
     check_files(args)
@@ -659,7 +668,6 @@ def cmd_fit_relaxation(args) -> str:
         label = (f"{d['source_file'].iloc[0]} " if several else "") + str(d["interval"].iloc[0])
         curves.append(RelaxationCurve(label, d["time_s"].to_numpy(float),
                                       d["shear_stress_Pa"].to_numpy(float), phis[i], tau0[i]))
-    name = args.name.strip() if args.name is not None else out.resolve().name
     res = fit_relaxation(curves, m, K0=args.K0, t0=args.time_offset,
                          confidence=args.confidence, name=name)
     fitted = res.material
@@ -679,24 +687,16 @@ def cmd_fit_relaxation(args) -> str:
     for col in ("point", "time_s", "shear_stress_Pa"):
         v = fit_df[col].to_numpy(float)
         fit_df[col] = np.where(np.isfinite(v), v, np.nan)
-    provenance = {
-        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "command": "rheometer fit-relaxation", "steady_material": m.name,
-        "transient_from": donor.name if donor else None,
-        "files": _files_provenance(args, table.attrs.get("formats", {})),
-        "skipped_blocks": [list(x) for x in table.attrs.get("skipped", [])],
-        "curves": [{"label": c.label, "phi": c.phi, "stress0_Pa": c.stress0,
-                    "points_kept": int(c.time.size), "t0_s": float(res.t0[i]),
-                    "delta_f": float(res.delta_f[i])} for i, c in enumerate(curves)],
-        "K": f"K = {fitted.K:.6g} Pa keeps K/G of " + (m.name if m.K is not None and m.G else
-                                                        "the paper's Tables 4-7"),
-        "sigma_log10": res.sigma_log10, "model_runs": res.n_runs, "fit_seconds": res.seconds,
-        "messages": res.messages}
-    doc = {"provenance": provenance,
-           "fit": {"confidence": res.confidence, "converged": res.converged,
-                   "problems": res.problems, "accepted": not res.problems or args.accept,
-                   "parameters": _params_json(res.parameters),
-                   "correlation": {"names": res.correlation[0], "matrix": res.correlation[1]}}}
+    provenance = _provenance(
+        "rheometer fit-relaxation", args, table, donor, steady_material=m.name,
+        curves=[{"label": c.label, "phi": c.phi, "stress0_Pa": c.stress0,
+                 "points_kept": int(c.time.size), "t0_s": float(res.t0[i]),
+                 "delta_f": float(res.delta_f[i])} for i, c in enumerate(curves)],
+        K=f"K = {fitted.K:.6g} Pa keeps K/G of " + (m.name if m.K is not None and m.G else
+                                                     "the paper's Tables 4-7"),
+        sigma_log10=res.sigma_log10, model_runs=res.n_runs, fit_seconds=res.seconds,
+        messages=res.messages)
+    doc = _fit_doc(provenance, res, args.accept)
     units = {**FIELD_UNITS, **{p.name: "s" for p in res.parameters if p.name.startswith("t0")}}
     tables = {"fit.csv": (fit_df, (*EMPTY_OK, *extra)),
               "parameters.csv": (parameter_table(res.parameters, SCALE, units),
@@ -706,10 +706,7 @@ def cmd_fit_relaxation(args) -> str:
     lines = [f"fitted G and K0 of {fitted.name} to {len(curves)} relaxation curve(s) in "
              f"{res.seconds:.2f} s ({res.n_runs} model runs; residual sd {res.sigma_log10:.3g} "
              f"in log10 stress; {'converged' if res.converged else 'NOT converged'})"]
-    lines += _summary(res.parameters)
-    lines += [f"  note: {msg}" for msg in res.messages]
-    lines.append(f"wrote {', '.join(str(out / w) for w in written)}")
-    return _finish_message(lines, res.problems, out, args.accept)
+    return _finish_message(lines, res, [], out, written, args.accept)
 
 
 def relaxation_figure(out: Path, res) -> str:
@@ -732,6 +729,4 @@ def relaxation_figure(out: Path, res) -> str:
     _legend(ax[0])
     ax[1].axhline(0.0, color="k", lw=0.8)
     ax[1].set(xlabel="time after cessation t - t0 [s]", ylabel="log10(data/model)")
-    atomic_savefig(fig, out / "relaxation.png")
-    plt.close(fig)
-    return "relaxation.png"
+    return Path(plots.save(fig, out / "relaxation.png")).name

@@ -55,8 +55,12 @@ import numpy as np
 import pandas as pd
 
 import rheology
+from rheology.materials import (DST_POSITIONS, NO_DST_POSITIONS, default_fraction,  # noqa: F401
+                                default_fractions, has_dst)
+from rheology.materials import RULE as DEFAULT_RULE  # noqa: F401
+from rheology.sample import (BETA, LAMBDA, RHO_GRAIN, RHO_LIQUID, RHO_WATER,  # noqa: F401
+                             Densities, fractions_from_mass, mass_fraction, volume_fraction)
 from runkit.params import check_positive, check_range
-from rheology.materials import Material
 
 GEOMETRIES = ("cone-plate", "parallel-plate", "couette")
 #: Default dimensions: a 50 mm 1 degree cone (CP50-1), a 25 mm plate at 1 mm gap (PP25), a
@@ -262,18 +266,6 @@ def weissenberg_rabinowitsch(rim_rate, torque, geometry: Geometry) -> np.ndarray
     n = np.gradient(np.log(M), np.log(g))
     return M / (2.0 * math.pi * geometry.radius ** 3) * (3.0 + n)
 
-
-# ------------------------------------------------------------------ mass fractions
-# Eq. (20) lives in rheology (shared with shear1d and the mpm2d scenes)
-from rheology.sample import (BETA, LAMBDA, RHO_GRAIN, RHO_LIQUID, RHO_WATER,  # noqa: E402
-                             Densities, fractions_from_mass, mass_fraction, volume_fraction)
-
-
-# ------------------------------------------------------------------ defaults per material
-# the rule lives in rheology (shared with shear1d and mpm2d scenes)
-from rheology.materials import (DST_POSITIONS, NO_DST_POSITIONS, default_fraction,  # noqa: E402
-                               default_fractions, has_dst)
-from rheology.materials import RULE as DEFAULT_RULE  # noqa: E402
 
 # ------------------------------------------------------------------ normalised columns
 _SUFFIXES = (("_Pa_s", "_eta0"), ("_N_m", "_eta0_gdot0_m3"), ("_rad_per_s", "_rad_gdot0"),

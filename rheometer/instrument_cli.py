@@ -1,35 +1,26 @@
-"""The instrument's words on the ``rheometer`` command line, kept apart from the
-command bodies of :mod:`rheometer.cli`, which call four hooks:
+"""The instrument's side of the ``rheometer`` command line and ``rheometer oscillation``.
 
-- :func:`add_instrument_options` (from ``common_options``): ``--geometry cone-plate|parallel-plate|couette``
-  with ``--cone-angle`` [deg], ``--radius``, ``--gap``, ``--bob-radius``, ``--cup-radius``,
-  ``--bob-length`` [m]; ``--mass-fraction W [W ...]`` (Eq. 20) with ``--grain-density``,
-  ``--liquid-density``, ``--water-density`` [kg/m^3], ``--swelling`` (lambda) and
-  ``--pore-fraction`` (beta);
-- :func:`resolve_sample` (from ``sample_material``): the default volume fractions of the material (one
-  rule, :func:`rheometer.geometry.default_fractions`) when ``--phi`` is not given, or the fractions
-  of ``--mass-fraction``;
-- :func:`finish_table` (from ``_write``): the mass-fraction column, the instrument columns (torque
-  [N m], rotation speed [rad/s], apparent stress and rate), normalised column names for the Table 1
-  sets; for the parallel plate the apparent flow curve of the radial integral beside the true one
-  (``<out>_parallel_plate.csv`` and ``.png``);
-- :func:`add_subcommands` (from ``build_parser``): ``rheometer oscillation``.
-
-Every numeric option is a :class:`runkit.params.Number`.
+- :func:`finish_table` (the table as written): the mass-fraction column of ``--mass-fraction``
+  (Eq. 20), the instrument columns of ``--geometry`` (torque [N m], rotation speed [rad/s],
+  apparent stress and rate; :mod:`rheometer.geometry`), normalised column names for the Table 1
+  sets;
+- :func:`extra_outputs`: for a parallel-plate flow curve the apparent curve of the radial
+  integral beside the true one (``<out>_parallel_plate.csv`` and ``.png``);
+- :func:`materials_note`: the default volume fractions of every material;
+- :func:`add_subcommands`: ``rheometer oscillation``.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from runkit.plotting import plt
 import numpy as np
 import pandas as pd
 
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
 from rheology.run_end import EndedEarly, run_record
-from runkit.io import (atomic_savefig, atomic_write_csv, atomic_write_json, check_finite,
+from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_path)
 from runkit.params import Number
 
@@ -37,32 +28,32 @@ from . import geometry as geo
 from . import oscillation as osc
 from . import plots
 from .limits import FREQUENCY_MIN, RATE_MAX, STRESS_MAX
-from .options import common_options, k0, modulus, plot_path, sample_material
+from .options import common_options, plot_path, sample_material, skeleton_options
 
 def _phi_column(df: pd.DataFrame) -> str | None:
     return "phi0" if "phi0" in df.columns else ("phi" if "phi" in df.columns else None)
 
 
-def finish_table(args, df: pd.DataFrame, empty_ok=()) -> tuple[pd.DataFrame, tuple]:
-    """The table as written: mass fraction, instrument columns, normalised names. Returns it with
-    the (renamed) columns allowed to hold empty cells."""
+def finish_table(sample, df: pd.DataFrame, empty_ok=(), cmd: str = "") -> tuple[pd.DataFrame,
+                                                                               tuple]:
+    """The table as written: mass fraction, instrument columns, normalised names (``sample`` a
+    :class:`rheometer.options.Sample`, ``cmd`` the command). Returns it with the (renamed)
+    columns allowed to hold empty cells."""
     out = df
     empty = list(empty_ok)
-    m = getattr(args, "_material_obj", None)
-    mass = getattr(args, "_mass", None)
+    m, mass, g = sample.material, sample.mass, sample.geometry
     col = _phi_column(out)
     if mass and col is not None:
         out = out.copy()
         out.insert(out.columns.get_loc(col) + 1, "mass_fraction",
                    out[col].map(lambda p: mass.get(float(p), np.nan)))
-    g = getattr(args, "_geometry", None)
     if g is not None and "shear_stress_Pa" in out.columns and "shear_rate_per_s" in out.columns:
-        if g.kind == "parallel-plate" and getattr(args, "cmd", "") == "flow-curve":
+        if g.kind == "parallel-plate" and cmd == "flow-curve":
             out = _plate_columns(out, m, g)
             empty += list(geo.INSTRUMENT_COLUMNS)
         else:
             out = geo.instrument_columns(out, g)
-    if m is not None and m.units == "normalised":
+    if m.units == "normalised":
         out = geo.normalise_columns(out, m)
         empty = [geo.normalised_name(c) for c in empty]
     out.attrs.update(df.attrs)
@@ -98,32 +89,27 @@ def _plate_columns(df: pd.DataFrame, m, g: geo.Geometry) -> pd.DataFrame:
     return out
 
 
-def extra_outputs(args, df: pd.DataFrame, plot=None) -> str:
+def extra_outputs(args, sample, df: pd.DataFrame, plot=None) -> str:
     """Files beside the main output (parallel-plate flow curve: the apparent curve of the radial
     integral, its Weissenberg-Rabinowitsch correction and the true one, CSV and figure); returns
     the message. Also the notes of the run (mass fraction, geometry)."""
-    msg = f"\n{args._mass_note}" if getattr(args, "_mass_note", None) else ""
-    g = getattr(args, "_geometry", None)
-    m = getattr(args, "_material_obj", None)
+    msg = f"\n{sample.mass_note}" if sample.mass_note else ""
+    g, m = sample.geometry, sample.material
     if g is not None:
         msg += f"\ngeometry: {g.describe()}"
-        if g.kind == "parallel-plate" and getattr(args, "cmd", "") != "flow-curve":
+        if g.kind == "parallel-plate" and args.cmd != "flow-curve":
             msg += (" (the sample is taken homogeneous at the rim rate: the radial integration "
                     "is done for steady flow curves)")
-        if g.kind == "parallel-plate" and getattr(args, "cmd", "") == "flow-curve":
+        if g.kind == "parallel-plate" and args.cmd == "flow-curve":
             base = Path(args.out)
             csv = base.with_name(base.stem + "_parallel_plate.csv")
-            pp = pd.concat([geo.parallel_plate_flow_curve(m, float(ph), g) for ph in args.phi],
+            pp = pd.concat([geo.parallel_plate_flow_curve(m, float(ph), g) for ph in sample.phi],
                            ignore_index=True)
             atomic_write_csv(csv, geo.normalise_columns(pp, m))
             msg += f"\nwrote {csv} ({len(pp)} rows: true, apparent and corrected rim stress)"
             if plot is not None:
                 png = base.with_name(base.stem + "_parallel_plate.png")
-                fig = plots.parallel_plate_figure(pp, df, f"{m.name}: {g.describe()}")
-                try:
-                    atomic_savefig(fig, png)
-                finally:
-                    plt.close(fig)
+                plots.save(plots.parallel_plate_figure(pp, df, f"{m.name}: {g.describe()}"), png)
                 msg += f" and {png}"
     return msg
 
@@ -182,8 +168,7 @@ def add_subcommands(sub) -> dict:
                    help=f"samples per cycle ({osc.DEFAULT_SAMPLES})")
     p.add_argument("--start", choices=("rest", "previous"), default="rest",
                    help="each point from rest (default), or from the previous point's state")
-    p.add_argument("--G", type=modulus("--G"), default=None, help="granular shear modulus [Pa]")
-    p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale K0 [-]")
+    skeleton_options(p)
     p.add_argument("--rtol", type=Number("--rtol", 1e-12, 1e-3), default=osc.DEFAULT_RTOL,
                    help=f"IDA relative tolerance ({osc.DEFAULT_RTOL:g})")
     return {"oscillation": _cmd_oscillation}
@@ -196,7 +181,8 @@ def _cmd_oscillation(args) -> str:
     liss_png = base.with_name(base.stem + "_lissajous.png")
     record = base.with_suffix(".json")
     check_output_path("--out", str(waves_csv), ["csv"])
-    m = sample_material(args)
+    sample = sample_material(args)
+    m = sample.material
     if args.control == "strain":
         if args.stress_amplitude is not None:
             raise ValueError("--stress-amplitude needs --control stress")
@@ -206,21 +192,21 @@ def _cmd_oscillation(args) -> str:
             raise ValueError("--strain-amplitude needs --control strain (the default)")
         amps = args.stress_amplitude or list(m.tau_star * np.logspace(-2, 1, 10))
     points, waves = osc.oscillation_sweep(
-        m, args.phi, frequency=args.frequency, amplitude=amps, control=args.control,
+        m, sample.phi, frequency=args.frequency, amplitude=amps, control=args.control,
         start=args.start, G=args.G, K0=args.K0, max_cycles=args.cycles, tol=args.tol,
         samples=args.samples, rtol=args.rtol)
     ends = points.attrs["ends"]
     failed = points["reason"] != ""
     if not (~failed).any():
         raise RuntimeError(f"every point failed; the first: {ends[0].line()}")
-    g = getattr(args, "_geometry", None)
+    g = sample.geometry
     if g is not None:
         points = points.copy()
         points["torque_amplitude_N_m"] = g.torque(points["stress_amplitude_Pa"])
         points["angle_amplitude_rad"] = points["strain_amplitude"] / g.rate_factor()
         waves = geo.instrument_columns(waves, g)
-    table, _ = finish_table(args, points)
-    wtable, _ = finish_table(args, waves)
+    table, _ = finish_table(sample, points, cmd=args.cmd)
+    wtable, _ = finish_table(sample, waves, cmd=args.cmd)
     empty = ("elastic_stress_Pa", "viscous_stress_Pa") if args.control == "stress" else ()
     empty = tuple(geo.normalised_name(c) if m.units == "normalised" else c for c in empty)
     # empty where undefined: tan_delta if G' <= 0, cycle_change if fewer than two cycles
@@ -237,9 +223,9 @@ def _cmd_oscillation(args) -> str:
     past = points[points["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT]
     if plot is not None:
         dst = None
-        if len(args.phi) == 1:
+        if len(sample.phi) == 1:
             try:
-                dst = osc.dst_onset_stress(m, args.phi[0])
+                dst = osc.dst_onset_stress(m, sample.phi[0])
             except ValueError:
                 dst = None
         what = (f"{args.control} control, G = {points.attrs['G_Pa']:g} Pa, K0 = "
@@ -249,11 +235,7 @@ def _cmd_oscillation(args) -> str:
                             (str(liss_png), lambda: plots.lissajous_figure(
                                 waves, f"{m.name}: Lissajous-Bowditch curves ({what})",
                                 points=points, dst_stress=dst))):
-            fig = maker()
-            try:
-                atomic_savefig(fig, path)
-            finally:
-                plt.close(fig)
+            plots.save(maker(), path)
         msg += f", {plot} and {liss_png}"
         written += [plot, str(liss_png)]
     atomic_write_json(record, run_record(ends, command="rheometer oscillation",
@@ -280,7 +262,6 @@ def _cmd_oscillation(args) -> str:
                 f"first at amplitude {float(past.iloc[0]['strain_amplitude']):.3g}): the "
                 f"hypoelastic law is used there outside its small-strain range (the jammed "
                 f"sample answers elastically; drawn hollow on the figure)")
-    msg += extra_outputs(args, points)
-    if ends:          # the failed points are in the table with their reason: status 3
-        args._ended = EndedEarly(ends, partial=points, written=written)
-    return msg
+    msg += extra_outputs(args, sample, points)
+    # the failed points are in the table with their reason: status 3
+    return msg, (EndedEarly(ends, partial=points, written=written) if ends else None)

@@ -58,7 +58,7 @@ from rheology.materials import Material
 from rheology.numba_cache import guard
 from rheology.run_end import EndedEarly, RunEnd
 
-from .transient import DEFAULT_G, DEFAULT_K0
+from .transient import skeleton
 
 guard(__file__)                          # drop cached kernels if rheology's laws changed
 _jit = nb.njit(cache=True, error_model="numpy")
@@ -272,10 +272,8 @@ def _run(sig0, phi0, f0, gdot, dt, nsteps, every, mode, p_target, K, G, P, rec, 
 def point_parameters(m: Material, G=None, K=None, K0=None) -> tuple[Material, np.ndarray]:
     """The material with G, K, K0 filled in (given, the material's, or the defaults) and its
     kernel parameter vector. Defaults: G = 1e4 Pa, K = (8.3/3.8) G, K0 = 1."""
-    G = float(check_positive("G [Pa]", G if G is not None else (m.G or DEFAULT_G)))
+    G, K0 = skeleton(m, G, K0)
     K = float(check_positive("K [Pa]", K if K is not None else (m.K or K_OVER_G * G)))
-    K0 = float(check_nonnegative("K0", K0 if K0 is not None else
-                                 (m.K0 if m.K0 is not None else DEFAULT_K0)))
     m = m.replace(G=G, K=K, K0=K0)
     return m, rheology.kernel_parameters(m)
 
@@ -358,22 +356,22 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     ``attrs``: ``substeps`` (local updates in all), ``max_substeps_per_step``, ``retries``.
     """
     m0 = rheology.get_material(material)
-    phi = float(check_range("phi", phi, 0.0, 1.0, lo_closed=False, hi_closed=False))
+    if control not in ("volume", "pressure"):
+        raise ValueError(f"control = {control!r} must be 'volume' or 'pressure'")
+    volume = control == "volume"         # phi is kept: below phi_j; else it evolves, in (0, 1)
+    phi = float(check_range("phi", phi, 0.0, m0.phi_j if volume else 1.0, lo_closed=False,
+                            hi_closed=False, note=f"volume-controlled shear needs phi below "
+                                                  f"phi_j = {m0.phi_j}" if volume else ""))
     rate = float(check_nonnegative("rate [1/s]", rate))
     t_end = float(check_positive("t_end [s]", t_end))
     dt = float(check_range("dt [s]", dt, 0.0, t_end, lo_closed=False,
                            note="the time step must not exceed t_end"))
-    if control not in ("volume", "pressure"):
-        raise ValueError(f"control = {control!r} must be 'volume' or 'pressure'")
     if control == "pressure":
         if pressure is None:
             raise ValueError("pressure control needs the imposed granular pressure [Pa]")
         pressure = float(check_positive("pressure [Pa]", pressure))
         if pressure0 is None and stress0 is None:
             pressure0 = pressure
-    if control == "volume":
-        check_range("phi", phi, 0.0, m0.phi_j, lo_closed=False, hi_closed=False,
-                    note=f"volume-controlled shear needs phi below phi_j = {m0.phi_j}")
     m, P = point_parameters(m0, G, K, K0)
     sig0, f_init = initial_point(m, phi, stress0=stress0, f0=f0, pressure0=pressure0)
     nsteps = int(round(t_end / dt))

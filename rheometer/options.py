@@ -1,29 +1,36 @@
 """The options every measuring command of ``rheometer`` shares (the sample: material, ``--set``,
-``--phi``, mass fraction, measuring geometry; the transient options; the figure path), and the
-sample they describe, resolved once for :mod:`rheometer.cli`, :mod:`rheometer.instrument_cli` and
-:mod:`rheometer.fit_cli`."""
+``--phi``, mass fraction, measuring geometry; ``--G``, ``--K0`` and the transient options; the
+figure path) and the :class:`Sample` they describe, resolved once (:func:`sample_material`) and
+passed to :mod:`rheometer.cli`'s and :mod:`rheometer.instrument_cli`'s commands.
+
+Every option is checked once: its static range by its :class:`runkit.params.Number` while
+parsing, a bound that depends on the material (``--phi`` below phi_j, ``--set`` against the
+material's other fields, a geometry's dimensions against each other) when the sample is
+resolved, with the valid range at the other values."""
 
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 import rheology
-from runkit.params import valid_interval
-from runkit.params import Number
-from rheology.materials import (FIELD_UNITS, default_fraction, default_fractions, set_argument,
-                                set_overrides)
+from rheology.materials import (FIELD_UNITS, Material, default_fraction, default_fractions,
+                                set_argument, set_overrides)
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit import limits as physical
 from runkit.io import check_output_path
+from runkit.params import Number, valid_interval
 
 from . import geometry as geo
 from . import limits
 from .limits import K0_MAX
 
 DEFAULT_MATERIAL = "hermes2016"
+#: ``--phi``: its static range; the bound phi < phi_j of the material is :class:`Sample`'s
+PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
 
 
 
@@ -34,7 +41,9 @@ def add_instrument_options(p) -> None:
                              "rate by the standard conversions)")
     g.add_argument("--geometry", choices=geo.GEOMETRIES, default=None,
                    help="cone-plate | parallel-plate | couette (default: none, sample values only)")
-    length = lambda name: Number(name, 0.0, physical.LENGTH_MAX, lo_closed=False, unit="m")  # noqa: E731
+    def length(name):
+        return Number(name, 0.0, physical.LENGTH_MAX, lo_closed=False, unit="m")
+
     d = geo.DEFAULTS
     g.add_argument("--cone-angle", type=Number("--cone-angle", 0.0, 10.0, lo_closed=False,
                                                unit="deg"), default=None,
@@ -98,17 +107,29 @@ def _geometry(kind: str, dims: dict) -> geo.Geometry:
     return g
 
 
+def _range_without(label: str, v: float, x0: float, ok, unit: str = "") -> str | None:
+    """The valid range of a value at the others' (bisection around the valid ``x0`` with the
+    check ``ok``, :func:`runkit.params.valid_interval`) as text, when ``v`` lies outside it;
+    else None (``v`` is valid, or ``x0`` is not)."""
+    if not ok(float(x0)):
+        return None
+    lo, lo_closed, hi, hi_closed = valid_interval(ok, float(x0))
+    rng = Number(label, lo, hi, lo_closed=lo_closed, hi_closed=hi_closed, unit=unit)
+    return None if rng.contains(float(v)) else rng.range_text
+
+
 def _about_dimension(kind: str, dims: dict, exc: Exception) -> ValueError:
     """A geometry refusal said about a dimension the user gave, with its valid range at the
-    other dimensions (bisection, :func:`rheometer.cli.valid_interval`): ``--cup-radius 1e-300``
+    other dimensions (bisection, :func:`runkit.params.valid_interval`): ``--cup-radius 1e-300``
     or ``--bob-radius 1e-300`` (whose conversion factor divided by zero)."""
     limit = {"cone_angle": 10.0}
     for key, v in dims.items():
         if v is None:
             continue
         x0 = geo.DEFAULTS[_DEFAULT_KEY.get((kind, key), key)]
-        static = Number(f"--{key.replace('_', '-')}", 0.0, limit.get(key, physical.LENGTH_MAX.value),
-                        lo_closed=False, unit="deg" if key == "cone_angle" else "m")
+        static = Number(f"--{key.replace('_', '-')}", 0.0,
+                        limit.get(key, physical.LENGTH_MAX.value), lo_closed=False,
+                        unit="deg" if key == "cone_angle" else "m")
 
         def ok(x, key=key, static=static):
             if not static.contains(x):
@@ -119,53 +140,58 @@ def _about_dimension(kind: str, dims: dict, exc: Exception) -> ValueError:
                 return False
             return True
 
-        if not ok(x0):
-            continue
-        lo, lo_closed, hi, hi_closed = valid_interval(ok, x0)
-        rng = Number(static.name, lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
-                     unit=static.unit)
-        if rng.contains(float(v)):
+        rng = _range_without(static.name, v, x0, ok, static.unit)
+        if rng is None:
             continue
         others = ", ".join(f"--{k.replace('_', '-')} {dims[k] if dims[k] is not None else d:g}"
                            for k, d in ((k, geo.DEFAULTS[_DEFAULT_KEY.get((kind, k), k)])
                                         for k in dims) if k != key)
-        return ValueError(f"{static.name} = {v:g} is outside the valid range {rng.range_text} "
+        return ValueError(f"{static.name} = {v:g} is outside the valid range {rng} "
                           f"(--geometry {kind} with {others}: {exc})")
     return exc if isinstance(exc, ValueError) else ValueError(str(exc))
 
 
-# ------------------------------------------------------------------ hooks
-def resolve_sample(args, m) -> None:
-    """Set ``args.phi`` from ``--mass-fraction`` or the material's defaults (when ``--phi`` is
-    not given), and remember the material and the geometry on ``args`` for :func:`finish_table`.
-    ValueError (one line, exit 2) for --phi with --mass-fraction, or a fraction >= phi_j."""
-    if not hasattr(args, "phi"):
-        return
-    args._material_obj = m
-    args._geometry = geometry_of(args)
-    args._mass = None
+# ------------------------------------------------------------------ the sample
+@dataclass(frozen=True)
+class Sample:
+    """What a measuring command runs on: the material, the volume fractions (``--phi``, from
+    ``--mass-fraction`` or the material's defaults; each in (0, phi_j)), the measuring geometry
+    (None: sample values only) and, from ``--mass-fraction``, phi -> mass fraction and the note
+    of the Eq. 20 conversion."""
+
+    material: Material
+    phi: list
+    geometry: geo.Geometry | None = None
+    mass: dict | None = None
+    mass_note: str = ""
+
+
+def _fractions(args, m) -> tuple[list, dict | None, str]:
+    """(phi, phi -> mass fraction or None, note) of the options. ValueError (one line, exit 2)
+    for --phi with --mass-fraction, a fraction given twice, or a fraction >= phi_j: the one
+    check of --phi against the material (its static range (0, 1) is the option's type)."""
     if getattr(args, "mass_fraction", None) is not None:
         if args.phi is not None:
             raise ValueError("give --phi or --mass-fraction, not both")
-        args.phi, args._mass_note = mass_fraction_phi(args, m)
+        phi, note = mass_fraction_phi(args, m)
         twice = next((w for i, w in enumerate(args.mass_fraction)
                       if float(w) in map(float, args.mass_fraction[:i])), None)
         if twice is not None:
             raise ValueError(f"--mass-fraction {float(twice):g} is given twice: its curves would "
                              "repeat; give distinct mass fractions")
-        args._mass = dict(zip(args.phi, map(float, args.mass_fraction)))
-    elif args.phi is None:
+        return phi, dict(zip(phi, map(float, args.mass_fraction))), note
+    if args.phi is None:
         count = getattr(args, "_phi_count", 1)
-        args.phi = geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]
-    else:
-        twice = next((p for i, p in enumerate(args.phi) if p in args.phi[:i]), None)
-        if twice is not None:
-            raise ValueError(f"--phi {twice:g} is given twice: its curves would repeat; give "
-                             "distinct fractions")
-        bad = [p for p in args.phi if p >= m.phi_j]
-        if bad:
-            raise ValueError(f"--phi = {bad[0]:g} is outside the valid range (0, {m.phi_j:g}) "
-                             f"of {m.name} (below phi_j)")
+        return (geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]), None, ""
+    twice = next((p for i, p in enumerate(args.phi) if p in args.phi[:i]), None)
+    if twice is not None:
+        raise ValueError(f"--phi {twice:g} is given twice: its curves would repeat; give "
+                         "distinct fractions")
+    bad = [p for p in args.phi if p >= m.phi_j]
+    if bad:
+        raise ValueError(f"--phi = {bad[0]:g} is outside the valid range (0, {m.phi_j:g}) "
+                         f"of {m.name} (below phi_j)")
+    return list(args.phi), None, ""
 
 
 def material_with(name, overrides: dict, option: str = "--set"):
@@ -210,13 +236,9 @@ def about_set(base, overrides: dict, exc: ValueError, option: str, units: dict) 
                 return False
             return True
 
-        if not ok(float(x0)):
-            continue
-        lo, lo_closed, hi, hi_closed = valid_interval(ok, float(x0))
         unit = units.get(key, "-")
-        rng = Number(f"{option} {key}", lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
-                     unit="" if unit == "-" else unit)
-        if rng.contains(float(v)):
+        rng = _range_without(f"{option} {key}", v, x0, ok, "" if unit == "-" else unit)
+        if rng is None:
             continue
         cause = str(exc)
         # "phi_c = 0.436 is outside the valid range (0, 0.3) (material M; NOTE)": keep the
@@ -231,21 +253,23 @@ def about_set(base, overrides: dict, exc: ValueError, option: str, units: dict) 
                    + (f"; {note}" if note else "") + ")")
         else:
             why = f" (with material {base.name}'s other parameters: {cause})"
-        return ValueError(f"{option} {key} = {v:g} is outside the valid range {rng.range_text}"
+        return ValueError(f"{option} {key} = {v:g} is outside the valid range {rng}"
                           f"{why}")
     return exc
 
 
-def sample_material(args):
+def sample_material(args) -> Sample:
+    """The :class:`Sample` of a measuring command's options (material with ``--set``)."""
     m = material_with(args.material, set_overrides(args.set))
-    resolve_sample(args, m)        # --phi default per material, --mass-fraction, geometry
-    return m
+    phi, mass, note = _fractions(args, m)
+    return Sample(m, phi, geometry_of(args), mass, note)
 
 
 def default_phis(count: int) -> list[float]:
     """The fractions a command with ``count`` default fractions runs at on DEFAULT_MATERIAL
-    (rheology.materials, the rule resolve_sample applies): three, or the middle one."""
-    return default_fractions(DEFAULT_MATERIAL) if count > 1 else [default_fraction(DEFAULT_MATERIAL)]
+    (rheology.materials, the rule :class:`Sample` applies): three, or the middle one."""
+    return (default_fractions(DEFAULT_MATERIAL) if count > 1
+            else [default_fraction(DEFAULT_MATERIAL)])
 
 
 def common_options(p, phi_count, out_default):
@@ -253,8 +277,7 @@ def common_options(p, phi_count, out_default):
     phi_default = default_phis(phi_count)
     p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
                    help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
-    p.add_argument("--phi", type=Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False),
-                   nargs="+", default=None, metavar="PHI",
+    p.add_argument("--phi", type=PHI, nargs="+", default=None, metavar="PHI",
                    help=("volume fraction(s) (default: "
                          + ("the material's reference fraction" if len(phi_default) == 1 else
                             f"{len(phi_default)} fractions around the material's reference")
@@ -285,9 +308,14 @@ def t_end_option():
     return limits.duration("--t-end")
 
 
-def transient_options(p, t_end=None):
+def skeleton_options(p) -> None:
+    """``--G`` and ``--K0`` (default: the material's, else 1e4 Pa and 1)."""
     p.add_argument("--G", type=modulus("--G"), default=None, help="granular shear modulus [Pa]")
     p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale K0 [-]")
+
+
+def transient_options(p, t_end=None):
+    skeleton_options(p)
     if t_end is not None:
         p.add_argument("--t-end", type=t_end_option(), default=t_end,
                        help=f"duration [s] (default {t_end:g})")

@@ -65,16 +65,16 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from sksundae.ida import IDA
 
 import rheology
 from rheology import laws
 from rheology.steady import steady_fold
+from runkit.ida import IDAFailed, Solver, captured
 from runkit.params import check_positive, check_range
 
 from . import model
 from .harmonics import elastic_viscous, harmonics
-from .transient import DEFAULT_G, DEFAULT_K0
+from .transient import skeleton
 
 
 #: Drive modes.
@@ -141,10 +141,7 @@ def _moduli(material, phi, G, K0):
     m = rheology.get_material(material)
     phi = float(check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
                             note=f"below phi_j = {m.phi_j} of {m.name}"))
-    G = float(check_positive("G [Pa]", G if G is not None else (m.G or DEFAULT_G)))
-    K0 = K0 if K0 is not None else (m.K0 if m.K0 is not None else DEFAULT_K0)
-    check_range("K0", K0, 0.0, None)
-    return m, phi, G, float(K0)
+    return (m, phi, *skeleton(m, G, K0))
 
 
 def maxwell(material, phi: float, G: float | None = None) -> Maxwell:
@@ -341,9 +338,9 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
     def jacfn(t, y, yp, res, cj, JJ):
         model.ode_residual_jacobian(t, y, yp, cj, JJ, P, O)
 
-    solver = IDA(resfn, rtol=rtol, atol=atol, jacfn=jacfn, max_step=period / 16,
-                 max_num_steps=100_000)
-    solver.init_step(0.0, y0, yp0)
+    solver = Solver(resfn, rtol=rtol, atol=atol, jacfn=jacfn, max_step=period / 16,
+                    max_num_steps=100_000)
+    solver.start(0.0, y0, yp0)
     f_m = float(laws.f_max(phi, m.phi_c, m.phi_j, m.Delta))
     f_hi = max(f_m, float(model.structure_of_gap(st.gap, P)))
     phase = 2.0 * np.pi * np.arange(samples) / samples
@@ -366,24 +363,30 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
         y = np.array([x[0], x[1], 0.0])
         yp = np.empty(3)
         model.ode_rhs(t_start, y, yp, P, O)
-        s2 = IDA(resfn, rtol=rtol_fd, atol=atol * (rtol_fd / rtol), jacfn=jacfn,
-                 max_step=period / 16, max_num_steps=100_000)
-        sol = s2.solve(np.array([t_start, t_start + 0.5 * period, t_start + period]), y, yp)
-        if not sol.success:
+        s2 = Solver(resfn, rtol=rtol_fd, atol=atol * (rtol_fd / rtol), jacfn=jacfn,
+                    max_step=period / 16, max_num_steps=100_000)
+        try:
+            sol, _ = s2.solve(np.array([t_start, t_start + period]), y, yp)
+        except IDAFailed:
             return np.full(2, np.nan)
         return np.asarray(sol.y)[-1, :2]
     for cycle in range(1, max_cycles + 1):
         times = (cycle - 1 + np.arange(samples + 1) / samples) * period
         Y[0] = y0 if cycle == 1 else Y[-1]
-        for k in range(1, samples + 1):
-            sol = solver.step(times[k], tstop=times[-1])
-            if not sol.success:
-                raise RuntimeError(
-                    f"IDA failed in oscillation at phi = {phi:g}, {freq:g} Hz, {control} "
-                    f"amplitude {amp:g}, cycle {cycle}, t = {float(sol.t):.6g} s: {sol.message} "
-                    f"(taubar = {Y[k - 1, 0]:.6g} Pa, G = {G:g} Pa, K0 = {K0:g}, rtol = {rtol:g})")
-            Y[k] = np.asarray(sol.y).ravel()
-            nfev = int(getattr(sol, "nfev", nfev) or nfev)
+        with captured() as printed:      # per cycle: per step would cost a third more time
+            for k in range(1, samples + 1):
+                sol = solver.ida.step(times[k], tstop=times[-1])
+                if not sol.success:
+                    break
+                Y[k] = np.asarray(sol.y).ravel()
+                nfev = int(getattr(sol, "nfev", nfev) or nfev)
+        if not sol.success:
+            said = f" [SUNDIALS: {printed.text.lstrip('[')[:300]}]" if printed.text else ""
+            raise RuntimeError(
+                f"IDA failed in oscillation at phi = {phi:g}, {freq:g} Hz, {control} "
+                f"amplitude {amp:g}, cycle {cycle}, t = {float(sol.t):.6g} s: {sol.message} "
+                f"(taubar = {Y[k - 1, 0]:.6g} Pa, G = {G:g} Pa, K0 = {K0:g}, rtol = {rtol:g})"
+                f"{said}")
         f = model.structure_of_gap(Y[:, 1], P)
         bad = (~np.all(np.isfinite(Y), axis=1) | (f < -1e-6) | (f > f_hi + 1e-6))
         if np.any(bad):
@@ -421,7 +424,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
                 y_old = backup[0]
                 yp_old = np.empty(3)
                 model.ode_rhs(times[-1], y_old, yp_old, P, O)
-                solver.init_step(times[-1], y_old, yp_old)
+                solver.start(times[-1], y_old, yp_old)
                 Y[-1] = y_old
                 prev, changes, starts = None, [], [y_old[:2] / weights]
                 accelerate = False
@@ -453,7 +456,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
                 y_new = np.array([new[0] * weights[0], new[1] * weights[1], Y[-1, 2]])
                 yp_new = np.empty(3)
                 model.ode_rhs(times[-1], y_new, yp_new, P, O)
-                solver.init_step(times[-1], y_new, yp_new)
+                solver.start(times[-1], y_new, yp_new)
                 Y[-1] = y_new
                 prev, changes, starts = None, [], [y_new[:2] / weights]
                 jumps += 1

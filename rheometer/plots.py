@@ -2,13 +2,23 @@
 
 from __future__ import annotations
 
-from runkit.plotting import plt
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+import numpy as np
+import pandas as pd
 
-import rheology  # noqa: E402
+import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
 from rheology.run_end import mark_end
+from runkit.io import atomic_savefig
+from runkit.plotting import plt
+
+
+def save(fig, path) -> str:
+    """Write ``fig`` to ``path`` atomically and close it; returns the path as text."""
+    try:
+        atomic_savefig(fig, path)
+    finally:
+        plt.close(fig)
+    return str(path)
 
 
 def _colors(n: int):

@@ -216,8 +216,6 @@ def parse_program(text: str) -> Program:
                     if not _is_rate_unit(g[2]):
                         raise ValueError(f"program line {lineno}: a rate needs 1/s, got {g[2]}")
                     start = Start("rate", float(g[1]))
-                if start.value < 0:
-                    raise ValueError(f"program line {lineno}: the starting value must be >= 0")
                 if start.kind != "rest":
                     (limits.PROGRAM_STRESS if start.kind == "stress" else
                      limits.PROGRAM_RATE).check(start.value)

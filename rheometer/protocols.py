@@ -17,7 +17,6 @@ import numpy as np
 import pandas as pd
 
 import rheology
-from runkit.params import check_positive, check_range
 from rheology.run_end import EndedEarly
 
 from .program import Program, Start, parse_program
@@ -37,7 +36,7 @@ def flow_curve(material, phi, *, stress=None, rate=None, control: str = "stress"
     ----------
     material : str or Material
     phi : float or sequence of float
-        Volume fractions, each 0 < phi < phi_j.
+        Volume fractions, each 0 < phi < phi_j (checked by :mod:`rheology.steady`).
     stress : array_like, optional
         Imposed stresses [Pa] (default 200 values log-spaced over 1e-3..1e4 Pa). Granular shear
         stress for ``control="stress"``, mixture shear stress for ``control="mixture-stress"``.
@@ -59,8 +58,6 @@ def flow_curve(material, phi, *, stress=None, rate=None, control: str = "stress"
     phis = np.atleast_1d(np.asarray(phi, dtype=float)).ravel()
     if phis.size == 0:
         raise ValueError("give at least one volume fraction phi")
-    check_range("phi", phis, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
-                note=f"steady flow needs phi below phi_j = {m.phi_j} of {m.name}")
     if control not in CONTROLS:
         raise ValueError(f"control = {control!r} must be one of {', '.join(CONTROLS)}")
     if (rate is not None and control != "rate") or (stress is not None and control == "rate"):
@@ -69,10 +66,8 @@ def flow_curve(material, phi, *, stress=None, rate=None, control: str = "stress"
                          f"{'stress' if control == 'rate' else 'rate'}")
     if control == "rate":
         values = np.logspace(-4, 3, 200) if rate is None else np.asarray(rate, dtype=float)
-        check_positive("shear rate [1/s]", values)
     else:
         values = np.logspace(-3, 4, 200) if stress is None else np.asarray(stress, dtype=float)
-        check_positive("shear stress [Pa]", values)
     values = np.atleast_1d(values).ravel()
     if control == "stress":
         T, Ph = np.meshgrid(values, phis)
@@ -91,16 +86,12 @@ def flow_curve(material, phi, *, stress=None, rate=None, control: str = "stress"
 
 
 # ------------------------------------------------------------------ transients
-def _rheometer(material, phi, G, K0, options) -> Rheometer:
-    return Rheometer(material, phi, G=G, K0=K0, **options)
-
-
 def startup(material, phi: float, rate: float, t_end: float, *, G=None, K0=None, f0: float = 0.0,
             points: int = 300, **options) -> pd.DataFrame:
     """Start-up of steady shear: rate ``rate`` [1/s] imposed from rest (structure ``f0``) for
-    ``t_end`` [s]. ``options`` go to :class:`Rheometer` (rtol, atol, form, jacobian)."""
-    r = _rheometer(material, phi, G, K0, options)
-    check_positive("t_end [s]", t_end)
+    ``t_end`` [s]. ``options`` go to :class:`Rheometer` (rtol, atol, form, jacobian). Every
+    transient's inputs are checked once, by :class:`Rheometer` and :class:`Step`."""
+    r = Rheometer(material, phi, G=G, K0=K0, **options)
     return r.run([Step("rate", float(rate), duration=float(t_end), label=f"shear at {rate:g} 1/s")],
                  r.rest(f0), points=points)
 
@@ -109,8 +100,7 @@ def creep(material, phi: float, stress: float, t_end: float, *, G=None, K0=None,
           points: int = 300, **options) -> pd.DataFrame:
     """Creep: mixture shear stress ``stress`` [Pa] imposed from rest for ``t_end`` [s]; the
     fluid carries it at once (gdot(0) = stress/(eta0 (1 + 5/2 phi))), the skeleton loads up."""
-    r = _rheometer(material, phi, G, K0, options)
-    check_positive("t_end [s]", t_end)
+    r = Rheometer(material, phi, G=G, K0=K0, **options)
     return r.run([Step("stress", float(stress), duration=float(t_end),
                        label=f"stress {stress:g} Pa")], r.rest(f0), points=points)
 
@@ -123,9 +113,7 @@ def relax(material, phi: float, stress: float, t_end: float, *, G=None, K0=None,
     stops the flow (gdot = 0) and follows taubar(t), f(t) for ``t_end`` [s]. With gdot = 0 the
     mixture stress equals the granular one (column ``shear_stress_Pa``).
     """
-    r = _rheometer(material, phi, G, K0, options)
-    check_positive("stress [Pa]", stress)
-    check_positive("t_end [s]", t_end)
+    r = Rheometer(material, phi, G=G, K0=K0, **options)
     return r.run([Step("rate", 0.0, duration=float(t_end), label="rest")], r.steady(stress),
                  points=points)
 
@@ -136,7 +124,7 @@ def initial_state(r: Rheometer, start: Start) -> State:
         return r.rest()
     if start.kind == "stress":
         return r.steady(start.value)
-    branches = rheology.steady_states_rate(check_positive("starting rate [1/s]", start.value),
+    branches = rheology.steady_states_rate(start.value,
                                            r.phi, r.material)
     stable = np.flatnonzero(branches.stable)
     if stable.size == 0:
@@ -157,7 +145,7 @@ def run_program(material, phi: float, program, *, G=None, K0=None, points: int =
         program = parse_program(program)
     elif not isinstance(program, Program):
         program = Program(Start(), tuple(program))
-    r = _rheometer(material, phi, G, K0, options)
+    r = Rheometer(material, phi, G=G, K0=K0, **options)
     start = None if resume is not None else initial_state(r, program.start)
     where = f"{program.start.kind} {program.start.value:g}"
     try:

@@ -35,7 +35,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from sksundae.ida import IDA
 
 import rheology
 from rheology import laws
@@ -44,7 +43,7 @@ from rheology.elastic import (ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress,
                               past_elastic_limit)
 from rheology.materials import Material
 from rheology.run_end import EndedEarly, RunEnd
-from runkit.ida import captured
+from runkit.ida import IDAFailed, Solver
 
 from . import limits, model
 from .harmonics import harmonics
@@ -66,6 +65,15 @@ _ADVICE = ("impose a lower rate or stress or a shorter time (a shear-jammed samp
 COLUMNS = ("time_s", "step", "strain", "shear_rate_per_s", "shear_stress_Pa",
            "granular_shear_stress_Pa", "plastic_shear_rate_per_s", "f", "granular_pressure_Pa",
            "viscosity_Pa_s", "jamming_gap")
+
+
+def skeleton(m: Material, G=None, K0=None) -> tuple[float, float]:
+    """(G [Pa], K0 [-]): as given, else the material's, else :data:`DEFAULT_G`,
+    :data:`DEFAULT_K0`; ValueError for G <= 0 or K0 < 0."""
+    G = check_positive("G [Pa]", G if G is not None else (m.G or DEFAULT_G))
+    K0 = check_nonnegative("K0", K0 if K0 is not None else
+                           (m.K0 if m.K0 is not None else DEFAULT_K0))
+    return float(G), float(K0)
 
 
 @dataclass(frozen=True)
@@ -285,9 +293,7 @@ class Rheometer:
         m = self.material
         self.phi = float(check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
                                      note=f"below phi_j = {m.phi_j} of {m.name}"))
-        self.G = float(check_positive("G [Pa]", G if G is not None else (m.G or DEFAULT_G)))
-        self.K0 = float(check_nonnegative(
-            "K0", K0 if K0 is not None else (m.K0 if m.K0 is not None else DEFAULT_K0)))
+        self.G, self.K0 = skeleton(m, G, K0)
         self.rtol = float(check_range("rtol", rtol, 1e-13, 1e-2))
         self.atol = float(check_positive("atol", atol)) if atol is not None else 1e-3 * self.rtol
         if form not in ("dae", "ode"):
@@ -391,15 +397,13 @@ class Rheometer:
         if step.oscillation:
             G_abs = abs(self.linear_modulus(step.omega))
             amp_strain = step.start if step.control == "strain" else step.start / G_abs
-            rate_max = amp_strain * step.omega if step.control == "strain" else 0.0
             stress_max = step.start if step.control == "stress" else amp_strain * G_abs
             tau = max(abs(st.taubar), stress_max, 1e-6 * self.material.tau_star)
             g = max(amp_strain * step.omega, tau / self.eta_low)
             # Under an imposed oscillating stress the rate gdot = (sigma(t) - taubar)/eta_f is
             # the small difference of two large signals: the error taubar may have by its own
-            # test, rtol |taubar|, IS an error rtol |taubar|/eta_f in gdot (>> rtol |gdot|). A
-            # tighter test of the algebraic gdot cannot be met (IDA: 80000 residuals for 3
-            # cycles at G = 10 Pa, Jacobian every other step); with this one: 850.
+            # test, rtol |taubar|, IS an error rtol |taubar|/eta_f in gdot (>> rtol |gdot|); a
+            # tighter test of the algebraic gdot cannot be met.
             gd = (max(g, tau / self.eta_fluid * self.rtol / self.atol) if step.control == "stress"
                   else g)
             return np.array([tau, 1e-8, g, gd, min(1.0, amp_strain)])
@@ -410,10 +414,9 @@ class Rheometer:
         g = max(rate_max, tau / self.eta_low)
         # Under an imposed mixture stress the shear rate is slaved to the granular stress,
         # gdot = (tau_imposed - taubar)/eta_f: an error atol_tau in taubar IS an error
-        # atol_tau/eta_f in gdot. A tighter gdot tolerance (the low-stress viscosity eta_low is
-        # ~1e3 eta_f near jamming) cannot be met by any step size on a curved (log) stress ramp:
-        # IDA then crawled at the fluid time eta_f/G (~1e-6 s; 1.5 million residuals, 12 s for a
-        # 0.23 s ramp). Consistent tolerances: 250 residuals, identical results to rtol.
+        # atol_tau/eta_f in gdot. A tighter gdot tolerance (eta_low ~1e3 eta_f near jamming)
+        # cannot be met by any step size on a curved (log) stress ramp: IDA crawls at the fluid
+        # time eta_f/G.
         gd = max(g, tau / self.eta_fluid) if step.control == "stress" else g
         return np.array([tau, 1e-8, g, gd, 1.0])
 
@@ -592,7 +595,7 @@ class Rheometer:
         # with elastic_limit a third root, |taubar| - 0.1 G: the run ends on the limit itself
         limit = elastic_strain_limit_stress(self.G) if self.elastic_limit else None
 
-        def eventsfn(t, yy, yyp, ev):
+        def eventsfn(t, yy, yyp, ev):          # the jam, the strain target, the elastic limit
             ev_k(t, yy, ev, P, C)
             if limit is not None:
                 ev[NEVENTS] = abs(yy[TAU]) - limit
@@ -600,22 +603,22 @@ class Rheometer:
         events = {}
         if jam_events or np.isfinite(C[6]) or limit is not None:
             # a switched-off root function is held at -1 (never crosses); see model.events
-            eventsfn.terminal = [bool(terminal_jam), True] + [True] * (limit is not None)
-            eventsfn.direction = [1 if st.gap <= 0.0 else -1, 1] + [1] * (limit is not None)
-            if not jam_events:
-                eventsfn.terminal[0], eventsfn.direction[0] = False, 0
-            events = dict(eventsfn=eventsfn, num_events=len(eventsfn.terminal))
+            n = 2 + (limit is not None)
+            events = dict(events=eventsfn, names=("jam", "strain", "elastic_limit")[:n],
+                          stop=[bool(terminal_jam) and jam_events] + [True] * (n - 1),
+                          direction=[(1 if st.gap <= 0.0 else -1) if jam_events else 0]
+                          + [1] * (n - 1))
         if max_step is not None:
             events["max_step"] = float(max_step)
-        solver = IDA(resfn, rtol=self.rtol, atol=self.atol * atol,
-                     algebraic_idx=None if ode else [GP, GD],
-                     jacfn=jacfn if self.jacobian else None, max_num_steps=200_000, **events)
-        tspan = grid if grid.size > 2 else np.array([grid[0], 0.5 * (grid[0] + grid[-1]),
-                                                      grid[-1]])
-        with captured() as printed:
-            sol = solver.solve(tspan, y, yp)
-        if printed.text:                 # what SUNDIALS printed: into the diagnostics
-            sol.message = f"{sol.message} [SUNDIALS: {printed.text.lstrip('[')[:300]}]"
+        solver = Solver(resfn, rtol=self.rtol, atol=self.atol * atol,
+                        algebraic_idx=None if ode else [GP, GD],
+                        jacfn=jacfn if self.jacobian else None, max_num_steps=200_000, **events)
+        try:
+            sol, _ = solver.solve(grid, y, yp)
+        except IDAFailed as exc:         # the rows up to the failure are kept (_check_solution)
+            sol = exc.sol
+        if solver.printed:               # what SUNDIALS printed: into the diagnostics
+            sol.message = f"{sol.message} [SUNDIALS: {solver.printed.lstrip('[')[:300]}]"
         return sol
 
     def _full(self, t, y, C) -> np.ndarray:

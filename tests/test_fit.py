@@ -457,11 +457,11 @@ def test_stage_figures_label_stage_and_final_values_and_legends_sit_outside(tmp_
     import matplotlib
 
     matplotlib.use("Agg")
-    import rheometer.fit_cli
+    import rheometer.plots
     from rheometer.fit_cli import write_figures
 
     figs = {}
-    monkeypatch.setattr(rheometer.fit_cli, "atomic_savefig",
+    monkeypatch.setattr(rheometer.plots, "atomic_savefig",
                         lambda fig, path, **kw: figs.setdefault(Path(path).name, fig))
     m = r.get_material("hermes2016")
     phis = m.phi_c + (m.phi_j - m.phi_c) * np.array([-0.6, -0.25, 0.15, 0.45, 0.75])

@@ -143,13 +143,13 @@ def test_a_forced_ida_failure_keeps_the_rows_before_it(tmp_path, monkeypatch, ca
     argv = ["program", "p.txt", "--phi", "0.42", "--plot", "none"]
     assert main(argv + ["--out", "ref.csv"]) == 0
     capsys.readouterr()
-    real, made = tr.IDA, []
+    real, made = tr.Solver, []
 
     def starved(*a, **kw):
         made.append(1)
         return real(*a, **{**kw, "max_num_steps": 5} if len(made) >= 2 else kw)
 
-    monkeypatch.setattr(tr, "IDA", starved)
+    monkeypatch.setattr(tr, "Solver", starved)
     assert main(argv) == ENDED_EARLY
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "ended early at t = " in err[0] and "IDA failed in step 2" in err[0]
