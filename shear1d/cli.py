@@ -93,9 +93,10 @@ def _parser() -> argparse.ArgumentParser:
         add_mass_fraction_options(p, nargs=None)
 
     a = sub.add_parser("annular", help="Fig. 3: annular shear, dynamic shear-jamming fronts")
-    # --u-inner, --speed, --stress: bounded by the material and phi (model.drive_limit), checked
-    # by _check_drive; the parser holds --u-inner to annular_shear's, the others to numbers.
-    a.add_argument("--u-inner", type=Number("--u-inner", 0, u_max, lo_closed=False, unit="m/s"),
+    # --u-inner, --speed, --stress: bounded by the run's material and phi (model.drive_limit),
+    # checked once by _check_drive; the parser only reads numbers.
+    a.add_argument("--u-inner", type=Number("--u-inner", shown_range=(
+                       "(0, 0.1 sqrt(G/rho)] m/s for the run's material and phi")),
                    nargs="+", default=list(SPEEDS),
                    help=f"bob surface speed(s) [m/s], in (0, 0.1 sqrt(G/rho)]: (0, {u_max:.6g}] "
                         f"for annular_shear at phi {m.phi0:g} (the model is a small-elastic-strain "

@@ -101,16 +101,16 @@ def test_every_numeric_option_refuses_bad_values_with_one_line(tmp_path, capsys,
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and opt in err[0] and "Traceback" not in err[0], err
     assert not out.exists()
-    if opt in ("--speed", "--stress"):      # bounds of the run's material: stated, not (-inf, inf)
+    if opt in ("--speed", "--stress", "--u-inner"):   # the run's material's bounds, stated
         assert "inf)" not in err[0].split("valid range")[-1], err[0]
-        assert ("(0, 0.1 sqrt(G/rho)] m/s" if opt == "--speed" else "(0, 0.1 G] Pa") in err[0] \
+        assert ("(0, 0.1 G] Pa" if opt == "--stress" else "(0, 0.1 sqrt(G/rho)] m/s") in err[0] \
             or "outside the valid range (0, " in err[0], err[0]
 
 
 def test_the_options_have_physical_ranges():
     ranges = {(c, o): n for c, o, n in OPTIONS}
-    u = ranges[("annular", "--u-inner")]
-    assert u.hi is not None and 1.5 < u.hi < 1.54 and not u.contains(1e6)    # 0.1 sqrt(G/rho)
+    u = ranges[("annular", "--u-inner")]      # 0.1 sqrt(G/rho) of the run's material: later
+    assert u.hi is None and "0.1 sqrt(G/rho)" in u.shown_range
     assert ranges[("annular", "--cells")].hi == 20000
     assert ranges[("annular", "--outputs")].integer and ranges[("couette", "--cells")].integer
     assert not ranges[("annular", "--checkpoint-every")].contains(0.0)
@@ -223,6 +223,25 @@ def test_drive_range_follows_the_material_and_names_the_option():
     with pytest.raises(ValueError, match=r"--stress = 4e\+06 is outside the valid range "
                                          r"\(0, 3\.8e\+06\] Pa"):
         _check_drive("--stress", [4e6], stiff, 0.5, stress=True)
+
+
+def test_a_stiffer_material_allows_a_faster_bob(tmp_path, capsys):
+    """--u-inner is bounded by the run's material, not annular_shear's: 5 m/s is refused for
+    annular_shear (0.1 c_s = 1.53 m/s) and passes the checks for rod_impact (16 m/s); the
+    refusal is the one line of _check_drive."""
+    from shear1d.cli import main
+
+    args = ["annular", "--u-inner", "5", "--cells", "8", "--out", str(tmp_path / "a")]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--u-inner = 5 is outside the valid range (0, 1.5" in err[0], err
+    assert not (tmp_path / "a").exists()
+    stiff = ["--material", "rod_impact", "--phi", "0.5", "--r-outer", "0.0401", "--rotation",
+             "0.1"]
+    with pytest.raises(SystemExit):      # refused at --cells 0, parsed after --u-inner 5
+        main(args + stiff + ["--cells", "0"])
+    err = capsys.readouterr().err
+    assert "--u-inner" not in err and "--cells" in err, err
 
 
 def test_default_cup_radius_is_named_as_the_default(tmp_path, capsys):
