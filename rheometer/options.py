@@ -10,7 +10,6 @@ resolved, with the valid range at the other values."""
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,7 +21,7 @@ from rheology.materials import (FIELD_UNITS, Material, default_fraction, default
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit import limits as physical
 from runkit.io import check_output_path
-from runkit.params import Number, valid_interval
+from runkit.params import Number, OutOfRange, valid_interval
 
 from . import geometry as geo
 from . import limits
@@ -240,19 +239,17 @@ def about_set(base, overrides: dict, exc: ValueError, option: str, units: dict) 
         rng = _range_without(f"{option} {key}", v, x0, ok, "" if unit == "-" else unit)
         if rng is None:
             continue
-        cause = str(exc)
-        # "phi_c = 0.436 is outside the valid range (0, 0.3) (material M; NOTE)": keep the
-        # parameter, its value and the note (the range printed there is phi_c's, not key's)
-        m = re.match(r"(\w+) = (\S+) is outside the valid range .*?(?:\(material [^;)]*"
-                     r"(?:; (.+))?\))?$", cause)
-        named, note = (m.group(1), m.group(3)) if m else (None, None)
-        if named == key:
-            why = f" ({note})" if note else ""
-        elif m:
-            why = (f" (with material {base.name}'s other parameters: {named} = {m.group(2)}"
-                   + (f"; {note}" if note else "") + ")")
+        # the Material's refusal names the field it failed on, its value and the reason
+        # ("material M; NOTE"): keep the field, its value and the note, not its range
+        if isinstance(exc, OutOfRange):
+            note = exc.why.partition("; ")[2] if exc.why.startswith("material ") else exc.why
+            if exc.name == key:
+                why = f" ({note})" if note else ""
+            else:
+                why = (f" (with material {base.name}'s other parameters: {exc.name} = "
+                       f"{exc.value_text}" + (f"; {note}" if note else "") + ")")
         else:
-            why = f" (with material {base.name}'s other parameters: {cause})"
+            why = f" (with material {base.name}'s other parameters: {exc})"
         return ValueError(f"{option} {key} = {v:g} is outside the valid range {rng}"
                           f"{why}")
     return exc

@@ -68,6 +68,20 @@ def shown(value) -> str:
     return value if isinstance(value, str) else str(value)
 
 
+class OutOfRange(ValueError):
+    """A value outside its valid range: the one-line refusal, with its parts as attributes
+    (``name``; ``value_text``, the value as shown; ``why``, the failing bound's reason) so a
+    caller re-explaining it never parses the text."""
+
+    def __init__(self, name: str, value_text: str, range_text: str, why: str = ""):
+        self.name, self.value_text, self.range_text, self.why = name, value_text, range_text, why
+        super().__init__(f"{name} = {value_text} is outside the valid range {range_text}"
+                         + (f" ({why})" if why else ""))
+
+    def __reduce__(self):                # pickled whole (a Dask worker's refusal)
+        return type(self), (self.name, self.value_text, self.range_text, self.why)
+
+
 @dataclass(frozen=True)
 class Param:
     """The valid values of one parameter (see the module docstring).
@@ -171,8 +185,7 @@ class Param:
             raise ValueError(f"{name} = {text} is not an integer; valid range {rng}")
         why = None if x in self.also else self._outside(x, params, static)
         if why is not None:
-            raise ValueError(f"{name} = {text} is outside the valid range {rng}"
-                             + (f" ({why})" if why else ""))
+            raise OutOfRange(name, text, rng, why)
         return int(x) if self.kind == "integer" else x
 
 
@@ -501,5 +514,5 @@ def checked(size=None, label: Callable[[str], str] = str, **params: Param):
     return wrap
 
 
-__all__ = ["Param", "Schema", "Option", "checked", "check_range", "valid_interval",
+__all__ = ["OutOfRange", "Param", "Schema", "Option", "checked", "check_range", "valid_interval",
            "integer_range", "interval_text", "shown"]
