@@ -30,7 +30,7 @@ import numpy as np
 
 from runkit import limits
 from runkit.limits import Bound, check_memory
-from runkit.params import Number, integer_range, shown
+from runkit.params import Number, OutOfRange, integer_range, shown
 from runkit.params import Param as SchemaParam
 from rheology import get_material, material_names
 from rheology.materials import RULES, scene_material
@@ -211,7 +211,8 @@ class SceneSpec:
                 return exc
         except Exception:                    # a bound that cannot be evaluated: keep the first
             return exc
-        first = str(exc).split("; valid range")[0].split(" is outside")[0]
+        first = (f"{exc.name} = {exc.value_text}" if isinstance(exc, OutOfRange)
+                 else str(exc).split("; valid range")[0])
         return ValueError(f"{first}; valid range {text}")
 
     def coerce(self, given: dict) -> dict:
