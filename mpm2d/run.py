@@ -514,22 +514,6 @@ class _Quiet:
         return False
 
 
-class _Quiet:
-    """The quiet runs open now (a run inside one is quiet too)."""
-
-    depth = 0
-
-    def __init__(self, on: bool):
-        self.on = on
-
-    def __enter__(self):
-        _Quiet.depth += int(self.on)
-
-    def __exit__(self, *exc):
-        _Quiet.depth -= int(self.on)
-        return False
-
-
 def _resumed(out: Path, spec, name: str, given: dict, options: dict, log):
     """The checkpoint of ``out`` and where it was read from, with the run's stored parameters and
     options; ValueError where the resume does not match it (scene, parameters, --frames, --vtk,
