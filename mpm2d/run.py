@@ -809,6 +809,11 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                 after = held_run.after()
                 raise run.ended(f"{exc} ({after.strip()})" if after else str(exc),
                                 stepping) from None
+            except Exception as exc:         # a report's own fault: the run's files stay
+                if stepping:
+                    raise
+                raise run.ended(f"the report failed: {type(exc).__name__}: {exc}",
+                                False) from exc
         held_run.replay()                    # a run that succeeded: its warnings as they were
         manifest.update(history="history.csv", steps=sim.step_count)
         run.save()

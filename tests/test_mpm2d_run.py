@@ -439,6 +439,37 @@ def test_a_run_failing_mid_way_marks_its_manifest_and_prints_no_numpy_warnings(t
     assert (out / "history.csv").is_file() and (out / "checkpoint.npz").is_file()
 
 
+def test_a_report_with_a_fault_of_its_own_marks_the_manifest_failed(tmp_path):
+    """impact t_end=0.002 died in its rod figure (abs(None): no late sinking speed) with a
+    traceback and a manifest still 'running': any exception from a report is the run's
+    failure (RuntimeError naming it, manifest failed, files kept), not a traceback."""
+    def setup(**p):
+        sc = bar.setup(**p)
+        sc.report = lambda sim, hist, out: abs(None)
+        return sc
+
+    setup.spec = bar.setup.spec
+    out = tmp_path / "o"
+    with pytest.raises(RuntimeError, match="the report failed: TypeError: bad operand"):
+        _run(setup, out, params=dict(cells=8, periods=0.05), vtk=False)
+    man = json.loads((out / "manifest.json").read_text())
+    assert man["status"] == "failed" and "TypeError" in man["error"]
+    assert (out / "history.csv").is_file()
+
+
+def test_the_rod_figure_of_a_run_too_short_for_a_late_speed(tmp_path):
+    """A run ending before the late-sinking window has late_velocity null: the figure says so."""
+    from mpm2d.scenes.impact import rod_figure
+
+    t = np.linspace(0.0, 2e-3, 40)
+    rod = pd.DataFrame({"time_s": t, "z_m": 0.01 - 0.5 * t, "v_m_per_s": -0.5 + 0 * t,
+                        "a_m_per_s2": 0 * t})
+    summary = {"peak_deceleration_m_per_s2": None, "stencil_s": 1e-4,
+               "late_velocity_m_per_s": None, "final_rod_depth_m": 1e-3, "t_end_s": 2e-3}
+    fig = rod_figure([(1.0, rod, None)], summary=summary)
+    assert "late sinking undefined" in fig.texts[0].get_text()
+
+
 def test_values_leaving_the_analysis_undefined_are_refused_up_front(tmp_path, capsys):
     """disks speed=1e-300: the initial energy underflows to 0 and the energy loss (relative to
     it) was NaN after the whole run. Refused before anything is written (Scene.divides_by),

@@ -566,8 +566,10 @@ def rod_figure(runs, path=None, summary=None):
             (f"peak deceleration {peak:.3g} m/s^2 at {s['time_of_peak_s'] * 1e3:.2g} ms"
              if peak is not None else "no deceleration") +
             f" (v and a from z over the {s['stencil_s'] * 1e3:.3g} ms stencil); late sinking "
-            f"{abs(s['late_velocity_m_per_s']):.3g} m/s; rod {s['final_rod_depth_m'] * 1e3:.1f} "
-            f"mm deep at {s['t_end_s'] * 1e3:.0f} ms", fontsize=10)
+            + (f"{abs(late):.3g} m/s" if (late := s.get("late_velocity_m_per_s")) is not None
+               else "undefined (run too short)")
+            + f"; rod {s['final_rod_depth_m'] * 1e3:.1f} mm deep at {s['t_end_s'] * 1e3:.0f} ms",
+            fontsize=10)
     fig.tight_layout(rect=(0, 0.07, 1, 0.95))
     fig.legend(*axs[0].get_legend_handles_labels(), loc="lower center", ncol=min(len(runs), 6),
                fontsize=8, frameon=False)
