@@ -75,8 +75,11 @@ class IDAFailed(RuntimeError):
     ``status``, what SUNDIALS printed (``printed``), the caller's ``diagnostics`` and ``sol``
     (the outputs reached: the results up to the failure)."""
 
-    def __init__(self, sol, target, printed="", diagnostics="", solver="IDA"):
-        self.sol, self.t = sol, float(np.atleast_1d(sol.t)[-1])
+    def __init__(self, sol, target, printed="", diagnostics="", solver="IDA", t_reached=None):
+        t = float(np.atleast_1d(sol.t)[-1])
+        if t_reached is not None and not t_reached <= t <= target:
+            t = float(t_reached)     # a failed step's t is not always set: the last one reached
+        self.sol, self.t = sol, t
         self.target, self.message, self.status = float(target), sol.message, sol.status
         self.printed, self.diagnostics = printed, diagnostics
         super().__init__(f"{solver} failed at t = {self.t:.6g} s (target {self.target:.6g} s): "
@@ -116,7 +119,7 @@ class Solver:
                  solver: str = "IDA", band: int | None = None, **options):
         self.names = tuple(names)
         self.describe, self.solver_name = describe, solver
-        self.printed, self._seen = "", 0
+        self.printed, self._seen, self.t_reached = "", 0, None
         if band is not None:
             options.update(linsolver="band", lband=int(band), uband=int(band))
         if events is not None:
@@ -138,7 +141,7 @@ class Solver:
         y = np.asarray(sol.y)
         y = y[-1] if y.ndim > 1 else y
         diag = self.describe(float(np.atleast_1d(sol.t)[-1]), y) if self.describe else ""
-        return IDAFailed(sol, target, self.printed, diag, self.solver_name)
+        return IDAFailed(sol, target, self.printed, diag, self.solver_name, self.t_reached)
 
     def roots(self, sol) -> list[tuple[float, str, int]]:
         """The roots IDA reported since the last call: (t, name, direction)."""
@@ -151,7 +154,7 @@ class Solver:
 
     def start(self, t0: float, y0, yp0) -> None:
         """Initialise at ``t0`` with a consistent (y0, yp0); the roots are counted afresh."""
-        self._seen = 0
+        self._seen, self.t_reached = 0, float(t0)
         self._call(self.ida.init_step, float(t0), np.asarray(y0, float), np.asarray(yp0, float))
 
     def advance(self, t: float, stop_on=(), tstop: float | None = None):
@@ -163,6 +166,8 @@ class Solver:
         fired = []
         while True:
             sol = self._call(self.ida.step, float(t), "normal", tstop)
+            if sol.success or sol.status == ROOT_RETURN:
+                self.t_reached = float(np.atleast_1d(sol.t)[-1])
             if sol.status == ROOT_RETURN:
                 new = self.roots(sol)
                 fired += new

@@ -4,6 +4,7 @@ algebraic unknown, and a failure whose SUNDIALS text is captured into its one li
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 import pytest
@@ -70,6 +71,21 @@ def test_a_failure_is_one_line_with_what_sundials_printed_and_nothing_on_stdout(
     assert "\n" not in msg and e.value.sol.t.size >= 1          # the outputs reached are kept
     out, err = capfd.readouterr()
     assert out == "" and err == ""
+
+
+def test_a_failed_step_reports_a_time_it_reached():
+    """A step that fails may leave its t unset (shear1d printed "IDA failed at t = 6.9e-310 s"):
+    the failure names the last time reached, between the start and the target."""
+    s = Solver(lambda t, y, yp, r: r.__setitem__(0, yp[0] + 1e6 * y[0] ** 3), rtol=1e-8,
+               atol=1e-30, max_num_steps=5)
+    s.start(0.5, [1.0], [-1e6])
+    with pytest.raises(IDAFailed) as e:
+        s.advance(2.0)
+    assert 0.5 <= e.value.t <= 2.0 and s.t_reached >= 0.5
+    assert f"IDA failed at t = {e.value.t:.6g} s (target 2 s)" in str(e.value)
+    unset = types.SimpleNamespace(t=np.array([6.9e-310]), message="invalid input", status=-22)
+    assert IDAFailed(unset, 2.0, t_reached=0.75).t == 0.75
+    assert str(IDAFailed(unset, 2.0, t_reached=0.75)).startswith("IDA failed at t = 0.75 s")
 
 
 def test_captured_takes_python_and_c_level_output(capfd):
