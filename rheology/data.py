@@ -52,7 +52,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from runkit.io import atomic_write_bytes
+from runkit.io import atomic_write_bytes, check_input_file
 from runkit.params import check_range
 
 from .steady import phi_from_mass_fraction
@@ -666,8 +666,7 @@ def _check_paths(paths, fmt, per_file, label):
         raise ValueError(f"{label} has {len(per_file)} value(s) for {len(paths)} file(s): give "
                          "one per file, in order")
     for p in paths:
-        if not p.is_file():
-            raise ValueError(f"data file {str(p)!r} not found")
+        check_input_file("data file", p)
     return paths
 
 

@@ -41,7 +41,7 @@ from typing import Callable
 import numpy as np
 
 from runkit import limits
-from runkit.io import atomic_write_json
+from runkit.io import atomic_write_json, check_input_file
 from runkit.params import Param, check_range
 
 #: Units of every numeric field (SI sets; Table 1 sets use eta0 = gdot_0 = 1 instead).
@@ -397,9 +397,7 @@ def load_material(path) -> Material:
     def no_nan(token):
         raise ValueError(f"{token} is not a number in strict JSON")
 
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"material file {str(path)!r} not found")
+    path = check_input_file("material file", path)
     try:
         doc = json.loads(path.read_text(encoding="utf-8"), parse_constant=no_nan)
     except (OSError, UnicodeDecodeError, ValueError) as exc:

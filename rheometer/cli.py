@@ -38,7 +38,7 @@ from rheology.materials import set_argument, set_overrides
 from rheology.run_end import EndedEarly, run_record
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
-from runkit.io import atomic_write_csv, atomic_write_json, check_output_path
+from runkit.io import atomic_write_csv, atomic_write_json, check_input_file, check_output_path
 from runkit.params import Number
 
 from . import instrument_cli, limits, plots
@@ -328,11 +328,7 @@ def read_program_file(name: str) -> tuple[str, str]:
     is missing, a folder, or not UTF-8 text."""
     if name == "-":
         return sys.stdin.read(), "stdin"
-    path = Path(name)
-    if not path.exists():
-        raise ValueError(f"program file {name!r} not found")
-    if not path.is_file():
-        raise ValueError(f"program file {name!r} is not a file")
+    path = check_input_file("program file", name)
     data = path.read_bytes()
     try:
         text = data.decode("utf-8")

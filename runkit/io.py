@@ -195,6 +195,17 @@ def figure_formats() -> tuple[str, ...]:
     return tuple(sorted(FigureCanvasAgg.get_supported_filetypes()))
 
 
+def check_input_file(label: str, path) -> Path:
+    """``path`` as a Path if it is an existing file; else ValueError ``LABEL 'PATH' not found``
+    or ``... is a folder, not a file``."""
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{label} {str(path)!r} is a folder, not a file")
+    if not path.is_file():
+        raise ValueError(f"{label} {str(path)!r} not found")
+    return path
+
+
 def check_output_path(name: str, path, kinds: Iterable[str]) -> Path:
     """Check, before any work, that an output path has one of the allowed suffixes.
 

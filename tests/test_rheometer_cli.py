@@ -155,6 +155,27 @@ def test_bad_input_gives_one_line_and_status_2(argv, match, tmp_path, monkeypatc
     assert not any(tmp_path.iterdir()), list(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("argv, label", [
+    (["program", "d"], "program file 'd'"),
+    (["fit", "d", "--phi", "0.45"], "data file 'd'"),
+    (["fit-relaxation", "d", "--phi", "0.45", "--material", "hermes2016", "--stress0", "10"],
+     "data file 'd'"),
+    (["flow-curve", "--material", "./d"], "material file 'd'"),
+])
+def test_a_folder_given_for_a_file_is_named_as_one(argv, label, tmp_path, monkeypatch, capsys):
+    """A folder where an input file is expected was reported as 'not found'."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "d").mkdir()
+    try:
+        status = main(argv)
+    except SystemExit as exc:
+        status = exc.code
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1, err
+    assert f"{label} is a folder, not a file" in err, err
+    assert [p.name for p in tmp_path.iterdir()] == ["d"] and not any((tmp_path / "d").iterdir())
+
+
 def test_binary_program_file_is_named(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "garbage.bin").write_bytes(bytes(range(128, 256)) * 4)
