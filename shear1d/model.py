@@ -30,7 +30,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rheology import granular_viscosity, kernel_parameters
-from runkit.params import check_nonnegative, check_positive, check_range
+from runkit.limits import GRAIN_MAX, GRAIN_MIN
+from runkit.params import (OutOfRange, check_nonnegative, check_positive, check_range,
+                           interval_text, shown)
 from rheology.materials import Material
 
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
@@ -132,9 +134,11 @@ class Couette:
         if self.mode not in MODES:
             raise ValueError(f"mode = {self.mode!r} must be one of {MODES}")
         m.require("G", "K", "K0", "rho_s", "rho_f")
-        if self.mode == "two-phase":
-            check_positive("d", m.d, note=f"material {m.name}: the two-phase mode needs the grain "
-                                          "diameter for Darcy drag")
+        if self.mode == "two-phase" and not m.d > 0:     # a Material's d: 0 (unset) or physical
+            raise OutOfRange("d", shown(m.d), interval_text(GRAIN_MIN.value, True, GRAIN_MAX.value,
+                                                            True, "m"),
+                             f"material {m.name}: the two-phase mode needs the grain diameter "
+                             "for Darcy drag; set it, e.g. --set d=1e-5")
         if (self.wall_speed is None) == (self.wall_stress is None):
             raise ValueError("give exactly one of wall_speed [m/s] and wall_stress [Pa]")
         check_nonnegative("ramp_time", self.ramp_time, note="s")

@@ -244,6 +244,18 @@ def test_a_stiffer_material_allows_a_faster_bob(tmp_path, capsys):
     assert "--u-inner" not in err and "--cells" in err, err
 
 
+def test_two_phase_without_a_grain_size_names_the_physical_range(tmp_path, capsys):
+    """d = 0 (no grain size) with the two-phase mode said "valid range (0, inf)": the range is
+    the grain size's physical one."""
+    from shear1d.cli import main
+
+    out = tmp_path / "o"
+    assert main(["annular", "--set", "d=0", "--cells", "8", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "d = 0 is outside the valid range [1e-08, 0.01] m" in err[0], err
+    assert "Darcy drag" in err[0] and not out.exists()
+
+
 def test_default_cup_radius_is_named_as_the_default(tmp_path, capsys):
     """--r-inner beyond the default cup: the refusal says the --r-outer it names is the default
     (the user did not type it)."""
