@@ -196,8 +196,8 @@ def figure_formats() -> tuple[str, ...]:
 
 
 def check_input_file(label: str, path) -> Path:
-    """``path`` as a Path if it is an existing file; else ValueError ``LABEL 'PATH' not found``
-    or ``... is a folder, not a file``."""
+    """``path`` as a Path if it is an existing file; else ValueError: ``LABEL 'PATH' not found``
+    or ``LABEL 'PATH' is a folder, not a file``."""
     path = Path(path)
     if path.is_dir():
         raise ValueError(f"{label} {str(path)!r} is a folder, not a file")
