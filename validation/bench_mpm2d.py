@@ -62,7 +62,7 @@ from rheology.local_update import (BLOCK, NOUT, NSTRESS, NWORK, SHEAR_FLOW, bloc
                                    block_test, kernel_parameters, update_points_serial)
 from rheology.numba_cache import guard
 
-from .framework import BenchResult, benchmark
+from .framework import BenchResult, benchmark, timed
 import pandas as pd
 from mpm2d.plots import plt, save
 from runkit.io import atomic_write_csv
@@ -155,15 +155,6 @@ def _bare_step(sim, bare):
     _bare_grid[sim.par_grid](priv, vg)
     for x, v, C, m in sets:
         _bare_g2p[sim.par](x, v, C, vg, geo, dt)
-
-
-def _median_step(fn, steps: int, clock=time.perf_counter) -> float:
-    times = []
-    for _ in range(steps):
-        t0 = clock()
-        fn()
-        times.append(clock() - t0)
-    return float(np.median(times))
 
 
 def elastic_block(cells: int) -> Simulation:
@@ -310,7 +301,7 @@ def stream_bandwidth(parallel: bool, mb: int = 64, reps: int = 7) -> float:
     n = mb * (1 << 20) // 8
     a, b, c = np.zeros(n), np.ones(n), np.ones(n)
     _triad[parallel](a, b, c, 3.0)
-    return 24.0 * n / _median_step(lambda: _triad[parallel](a, b, c, 3.0), reps) / 1e9
+    return 24.0 * n / timed(lambda: _triad[parallel](a, b, c, 3.0), reps)[0] / 1e9
 
 
 def phase_bytes(sim) -> dict:
@@ -501,7 +492,7 @@ def taichi_elastic_rate(cells: int, steps: int, reps: int = 3):
         substep()
         ti.sync()
 
-    rate = float(np.median([n / _median_step(one, steps) for _ in range(reps)]))
+    rate = float(np.median([n / timed(one, steps)[0] for _ in range(reps)]))
     version = ".".join(map(str, ti.__version__))
     return rate, (f"Taichi {version} mpm88-style APIC elastic step, CPU backend, {THREADS} "
                   f"threads, float64, {n} points, {cells}^2 cells")
