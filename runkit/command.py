@@ -19,9 +19,10 @@ from __future__ import annotations
 
 import argparse
 import re
-import signal
 import sys
 from collections.abc import Callable
+
+from .run import Interrupts
 
 COMPLETE, FAILED, USAGE, ENDED_EARLY, INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -47,10 +48,6 @@ def one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
-def _sigterm(signum, frame):
-    raise KeyboardInterrupt
-
-
 def run(prog: str, body: Callable[[], int | None], *, on_interrupt: str = "") -> int:
     """Run a command's ``body`` and return its exit status (see the module docstring).
 
@@ -60,9 +57,9 @@ def run(prog: str, body: Callable[[], int | None], *, on_interrupt: str = "") ->
     early: one line per end, status 3; without ``written`` it failed. (What SUNDIALS prints
     is captured by :mod:`runkit.ida` and carried by the failure's message.)
     """
-    previous = signal.signal(signal.SIGTERM, _sigterm)
     try:
-        return int(body() or 0)
+        with Interrupts(defer=False):        # SIGTERM is a KeyboardInterrupt too
+            return int(body() or 0)
     except ValueError as exc:
         print(f"{prog}: error: {one_line(exc)}", file=sys.stderr)
         return USAGE
@@ -78,5 +75,3 @@ def run(prog: str, body: Callable[[], int | None], *, on_interrupt: str = "") ->
         note = one_line(exc) if str(exc) else on_interrupt
         print(f"{prog}: interrupted{' (' + note + ')' if note else ''}", file=sys.stderr)
         return INTERRUPTED
-    finally:
-        signal.signal(signal.SIGTERM, previous)
