@@ -172,7 +172,7 @@ def _table(rows: list[dict], notes: dict) -> str:
                       for w, n in foot.items()))
 
 
-def _section(r: dict, root: Path) -> str:
+def _section(r: dict) -> str:
     v = _verdict(r)
     body = [f"<h3 id='{_esc(r['name'])}'>{_esc(r['title'])} <small>({r['tier']} {r['kind']} "
             f"<code>{_esc(r['name'])}</code>, {v}, {r['seconds']:.1f} s"
@@ -201,7 +201,7 @@ def _section(r: dict, root: Path) -> str:
     return "\n".join(body)
 
 
-def _render(doc: dict, root: Path) -> str:
+def _render(doc: dict) -> str:
     """``report.html`` from the ``results.json`` document (so a resumed report renders the entries
     of earlier runs exactly as the new ones)."""
     entries = doc["entries"]
@@ -254,7 +254,7 @@ def _render(doc: dict, root: Path) -> str:
             f"{_esc(doc['machine'])}.</p>"
             f"<table><tr><th>tier</th><th>kind</th><th>name</th><th>criterion / target</th>"
             f"<th>measured</th><th>verdict</th><th>s</th></tr>{''.join(rows)}</table>"
-            + "\n<hr>\n".join(_section(r, root) for r in ran) + "</body></html>")
+            + "\n<hr>\n".join(_section(r) for r in ran) + "</body></html>")
 
 
 @dataclass
@@ -276,11 +276,9 @@ def _record(e: Entry, run: str, quick: bool, fp: str | None, o: Outcome | None =
     """One entry of ``results.json``: a run's outcome, or (``o`` None) a skipped entry."""
     d = o.data if o is not None else {}
     return {"tier": e.tier, "kind": e.kind, "name": e.name, "title": e.title,
-            "passed": None if o is None else o.passed, "skipped": skipped,
-            "reason": None if o is None else o.reason,
-            "seconds": None if o is None else o.seconds,
-            "error": None if o is None else o.error, "problems": [] if o is None else o.problems,
-            **{k: d.get(k) for k in _FIELDS},
+            "passed": getattr(o, "passed", None), "skipped": skipped,
+            **{k: getattr(o, k, None) for k in ("reason", "seconds", "error")},
+            "problems": getattr(o, "problems", []), **{k: d.get(k) for k in _FIELDS},
             "figures": [os.path.relpath(p, root) for p in d.get("figures") or []],
             "quick": quick, "fingerprint": fp, "run": run}
 
@@ -352,8 +350,6 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
         Ctrl-C or SIGTERM: what finished is written first, marked ``"status": "interrupted"``,
         and the message says so.
     """
-    if not str(out).strip():
-        raise ValueError(f"--out = {str(out)!r}: give a folder name")
     todo = plan(tiers, names, quick, benchmarks, slow)
     root = check_output_dir("--out", out)
     for fname in ("report.html", "results.json"):
@@ -389,7 +385,7 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
                "code_changed_since": changed,
                "entries": sorted(records.values(), key=_order)}
         atomic_write_json(json_path, doc)               # strict JSON: no NaN/Infinity tokens
-        atomic_write_text(html_path, _render(doc, root))
+        atomic_write_text(html_path, _render(doc))
         written = sum(r["skipped"] is None for r in doc["entries"])
 
     try:
