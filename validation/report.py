@@ -60,7 +60,13 @@ def select(tiers=None, names=None, kinds=("case", "benchmark")):
                          f"name{'s' if len(unknown) > 1 else ''}; valid: {', '.join(sorted(reg))}")
     out = [e for e in reg.values() if e.kind in kinds
            and (not tiers or e.tier in tiers) and (not names or e.name in names)]
-    return sorted(out, key=lambda e: (TIERS.index(e.tier), e.kind != "case", e.name))
+    return sorted(out, key=lambda e: _order(vars(e)))
+
+
+def _order(r: dict):
+    """The report's order of an entry (its fields as a dict): by tier, cases first, by name."""
+    tier = TIERS.index(r["tier"]) if r["tier"] in TIERS else len(TIERS)
+    return tier, r["kind"] != "case", r["name"]
 
 
 #: Why ``--quick`` leaves a slow case out (the console and the report say it).
@@ -284,11 +290,6 @@ def _record(e: Entry, run: str, quick: bool, fp: str | None, o: Outcome | None =
 
 
 _KEYS = tuple(_record(Entry("case", TIERS[0], "", "", print), "", False, None))
-
-
-def _order(r: dict):
-    tier = TIERS.index(r["tier"]) if r["tier"] in TIERS else len(TIERS)
-    return tier, r["kind"] != "case", r["name"]
 
 
 def _reject_constant(name):
