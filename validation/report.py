@@ -19,16 +19,17 @@ import html
 import json
 import os
 import platform
-import signal
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from runkit.command import one_line
 from runkit.io import atomic_write_json, atomic_write_text, check_output_dir
+from runkit.run import Interrupts
 
 from .framework import NOTE, TIERS, Entry, Outcome, fingerprint, load_all, run_entry
-import numpy as np
 
 
 def machine_description() -> str:
@@ -420,9 +421,9 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
         if done == len(kept) and not written:         # nothing new to write
             raise KeyboardInterrupt("no entry finished; " + (
                 f"{json_path} is as it was" if resume else "no report written")) from None
-        ignored = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
         try:
-            write("interrupted")
+            with Interrupts(defer=True):             # a second Ctrl-C waits for the write
+                write("interrupted")
             what = (f"{json_path} and {html_path.name} have the {done} of {len(todo.run)} "
                     "selected entries finished, marked incomplete; the same command with "
                     "--resume runs the rest")
@@ -430,9 +431,6 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
             what = (f"could not write the report ({one_line(exc)}); "
                     + (f"{json_path} holds {written} finished entries" if written
                        else "none written"))
-        finally:
-            for s, h in ignored.items():
-                signal.signal(s, h)
         raise KeyboardInterrupt(what) from None
     try:
         write("complete")
