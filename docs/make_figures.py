@@ -30,12 +30,11 @@ import sys
 import tempfile
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+from runkit.io import atomic_savefig
+from runkit.plotting import plt
 
 ROOT = Path(__file__).resolve().parents[1]
 IMAGES = ROOT / "docs" / "images"
@@ -52,8 +51,7 @@ def run(cmd: list[str], cwd: Path, done: Path) -> None:
 
 
 def save(fig, name: str) -> None:
-    path = IMAGES / name
-    fig.savefig(path, dpi=DPI, bbox_inches="tight", metadata={"Software": None})
+    path = atomic_savefig(fig, IMAGES / name, dpi=DPI, metadata={"Software": None})
     plt.close(fig)
     print(f"wrote {path.relative_to(ROOT)} ({path.stat().st_size / 1024:.0f} kB)")
 

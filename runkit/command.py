@@ -18,12 +18,11 @@ negative number (``--G -1e4``, ``-inf``) as a value, so that the option's check 
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
 import re
-import signal
 import sys
 from collections.abc import Callable
+
+from .run import Interrupts
 
 COMPLETE, FAILED, USAGE, ENDED_EARLY, INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -49,93 +48,30 @@ def one_line(exc: BaseException) -> str:
     return " ".join(str(exc).split()) or type(exc).__name__
 
 
-def _sigterm(signum, frame):
-    raise KeyboardInterrupt
-
-
-class SundialsFilter(io.TextIOBase):
-    """stdout without the error lines of sksundae's SUNDIALS error handler.
-
-    sksundae (1.2) prints every SUNDIALS error with ``print`` on stdout (``[IDASolve, Error:
-    -22] At t = ...`` between blank lines) besides returning the failed status the tiers turn
-    into their own one-line error. Those lines (and the blank lines around them) are kept in
-    ``caught`` for that message (:func:`run` appends the last); every other line passes."""
-
-    LINE = re.compile(r"^\[(IDA|CVode|CVODE|SUN)\w*, Error: -?\d+\] ")
-
-    def __init__(self, stream):
-        self.stream, self.caught = stream, []
-        self._part, self._blanks, self._after_error = "", 0, False
-
-    def writable(self):
-        return True
-
-    def write(self, text):
-        self._part += text
-        while "\n" in self._part:
-            line, self._part = self._part.split("\n", 1)
-            self._line(line)
-        return len(text)
-
-    def _line(self, line):
-        if not line.strip():
-            self._blanks += not self._after_error
-            return
-        if self.LINE.match(line):
-            self.caught.append(line.strip())
-            self._blanks, self._after_error = 0, True
-            return
-        self.stream.write("\n" * self._blanks + line + "\n")
-        self._blanks, self._after_error = 0, False
-
-    def flush(self):
-        if self._part:
-            part, self._part = self._part, ""
-            if self.LINE.match(part):
-                self.caught.append(part.strip())
-            else:
-                self.stream.write("\n" * self._blanks + part)
-                self._blanks = 0
-        self.stream.flush()
-
-    def close_stream(self):
-        """Flush, and write the blank lines held back after the last line."""
-        self.flush()
-        if self._blanks and not self._after_error:
-            self.stream.write("\n" * self._blanks)
-
-
 def run(prog: str, body: Callable[[], int | None], *, on_interrupt: str = "") -> int:
     """Run a command's ``body`` and return its exit status (see the module docstring).
 
     ``on_interrupt`` is added to the interruption line (how to resume: say it only where a
     checkpoint was written; a ``KeyboardInterrupt("message")`` replaces it). An exception whose
     ``ends`` (objects with ``line()`` and ``kind``) and ``written`` (the files) are set ended
-    early: one line per end, status 3; without ``written`` it failed. SUNDIALS' own error lines
-    on stdout are caught (:class:`SundialsFilter`); the last is added to a failure's line.
+    early: one line per end, status 3; without ``written`` it failed. (What SUNDIALS prints
+    is captured by :mod:`runkit.ida` and carried by the failure's message.)
     """
-    previous = signal.signal(signal.SIGTERM, _sigterm)
-    out = SundialsFilter(sys.stdout)
     try:
-        with contextlib.redirect_stdout(out):
+        with Interrupts(defer=False):        # SIGTERM is a KeyboardInterrupt too
             return int(body() or 0)
     except ValueError as exc:
         print(f"{prog}: error: {one_line(exc)}", file=sys.stderr)
         return USAGE
     except (RuntimeError, OSError, ArithmeticError) as exc:
-        sundials = f" [SUNDIALS: {out.caught[-1].lstrip('[')}" if out.caught else ""
         if getattr(exc, "ends", None) and getattr(exc, "written", None):
             for end in exc.ends:
-                tail = sundials if getattr(end, "kind", "") == "solver_failure" else ""
-                print(f"{prog}: {one_line(end.line())}{tail}", file=sys.stderr)
+                print(f"{prog}: {one_line(end.line())}", file=sys.stderr)
             return ENDED_EARLY
         kind = "" if isinstance(exc, (RuntimeError, OSError)) else f"{type(exc).__name__}: "
-        print(f"{prog}: failed: {kind}{one_line(exc)}{sundials}", file=sys.stderr)
+        print(f"{prog}: failed: {kind}{one_line(exc)}", file=sys.stderr)
         return FAILED
     except KeyboardInterrupt as exc:
         note = one_line(exc) if str(exc) else on_interrupt
         print(f"{prog}: interrupted{' (' + note + ')' if note else ''}", file=sys.stderr)
         return INTERRUPTED
-    finally:
-        out.close_stream()
-        signal.signal(signal.SIGTERM, previous)

@@ -222,10 +222,7 @@ def check_output_path(name: str, path, kinds: Iterable[str]) -> Path:
     ValueError
         ``"--plot = 'fig.xyz': format 'xyz' is not one of png, pdf, ..."``.
     """
-    kinds = list(kinds)
-    allowed: list[str] = []
-    for k in kinds:
-        allowed.extend(figure_formats() if k == "figure" else [k])
+    allowed = [s for k in kinds for s in (figure_formats() if k == "figure" else [k])]
     if str(path).endswith(("/", os.sep)):
         raise ValueError(f"{name} = {str(path)!r} names a folder (trailing separator), not a "
                          "file")
@@ -272,8 +269,7 @@ def check_output_dir(name: str, path) -> Path:
                          f"{name} . for the current folder)")
     p = Path(str(path))
     if p.exists() and not p.is_dir():
-        raise ValueError(f"--out = {str(path)!r} exists and is not a folder" if name == "--out"
-                         else f"{name} = {str(path)!r} exists and is not a folder")
+        raise ValueError(f"{name} = {str(path)!r} exists and is not a folder")
     _check_writable(name, path, p)
     return p
 
@@ -333,8 +329,7 @@ def load_checkpoint(path, *, required: Iterable[str] = (), log=None) -> dict[str
     required = tuple(required)
     if not path.is_file():
         if previous_checkpoint(path).is_file():     # stopped between the rotation and the move
-            path = previous_checkpoint(path)
-            return _read_npz(path, required)
+            return _read_npz(previous_checkpoint(path), required)
         raise ValueError(f"--resume: no checkpoint at {path}; run without --resume to start")
     try:
         return _read_npz(path, required)

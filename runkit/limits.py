@@ -10,7 +10,6 @@ quantity      range                   reason
 duration      [1e-12, 1e9] s          1 ps, the molecular relaxation time of the liquid
                                       (water ~1 ps: below it the Newtonian liquid, and the
                                       continuum suspension, has no meaning); 30 years
-clock         >= 1e-9 t_start         a step must be resolvable by a run's clock, one double
 shear rate    [1e-9, 1e9] 1/s         no steady state within 30 years below (a strain of
                                       order one); past impact and ultrasonic rheometry above
 stress        [1e-12, 1e12] Pa        water at 1e-9 1/s carries 1e-12 Pa; 5 x diamond's G
@@ -28,14 +27,17 @@ gravity       [1e-3, 1e3] m/s^2       below the surface gravity of the smallest 
                                       grain bed (Phobos 5.7e-3); 100 g, a geotechnical
                                       centrifuge
 frequency     [1e-9, 1e9] Hz          a period within the longest duration; the rate bound
-strain        (0, 1e6]                a strain past 1e6 is 1e6 turns of any rheometer
+strain        (0, 1e6]                about 1e4 turns of a cone-plate or narrow-gap Couette
+                                      (a strain of ~60-80 per turn), past any test
 memory        <= 1/2 of what is free  the rest of the machine keeps working
 ============  ======================  =====================================================
 
-Resource limits (not physics; stated with their reason): :data:`MAX_STEPS` explicit steps of a
-run (a day on one core at the smallest scene), :data:`MAX_CELL_STEPS` cell-steps of an explicit
-1-D run (hours). Sources: the structural (hydrogen-bond) relaxation time of water, ~1 ps; moduli
-and densities from standard tables (diamond G = 478 GPa, osmium 22,590 kg/m^3).
+Numerical and resource limits (not physics; stated with their reason): a step of a run starting
+at t lasts at least :data:`CLOCK_RESOLUTION` t (:func:`clock_floor`: the run's clock is one
+double), :data:`MAX_STEPS` explicit steps of a run (a day on one core at the smallest scene),
+:data:`MAX_CELL_STEPS` cell-steps of an explicit 1-D run (hours). Sources: the structural
+(hydrogen-bond) relaxation time of water, ~1 ps; moduli and densities from standard tables
+(diamond G = 478 GPa, osmium 22,590 kg/m^3).
 """
 
 from __future__ import annotations
@@ -113,7 +115,8 @@ GRAVITY_MIN = ge(1e-3, "below the surface gravity of the smallest bodies with a 
 GRAVITY_MAX = le(1e3, "100 g, a geotechnical centrifuge")
 FREQUENCY_MIN = ge(1.0 / TIME_MAX.value, "a period within the longest duration, 30 years")
 FREQUENCY_MAX = le(RATE_MAX.value, "the largest shear rate")
-STRAIN_MAX = le(1e6, "1e6 turns of any rheometer")
+STRAIN_MAX = le(1e6, "about 1e4 turns of a cone-plate or narrow-gap Couette (a strain of ~60-80 "
+                     "per turn), past any test")
 #: share of the free memory one run may take
 MEMORY_FRACTION = 0.5
 #: explicit steps of a run (1e8 steps of the smallest mpm2d scene take about a day on one core)

@@ -197,14 +197,23 @@ class Option:
         self.name, self.param = name, param
         self.__name__ = "integer" if param.kind == "integer" else "number"
 
+    @property
+    def range_text(self) -> str:
+        return self.param.range_text(static=True)
+
+    def check(self, value):
+        """``value`` converted and checked against the static bounds, or ValueError naming the
+        option."""
+        return self.param.check(self.name, value, static=True)
+
     def __call__(self, text):
         try:
-            return self.param.check(self.name, text, static=True)
+            return self.check(text)
         except ValueError as exc:
             raise argparse.ArgumentTypeError(str(exc)) from None
 
     def __repr__(self):
-        return f"Option({self.name!r}, {self.param.range_text(static=True)})"
+        return f"{type(self).__name__}({self.name!r}, {self.range_text})"
 
 
 class Number(Option):
@@ -238,22 +247,13 @@ class Number(Option):
 
     def check(self, value):
         """``value`` as int or float, or ValueError naming the option."""
-        if not self.shown_range:
-            return self.param.check(self.name, value, static=True)
         try:
             return self.param.check(self.name, value, static=True)
         except ValueError as exc:
+            if not self.shown_range:
+                raise
             raise ValueError(str(exc).replace(self.param.range_text(static=True),
                                               self.range_text)) from None
-
-    def __call__(self, text):
-        try:
-            return self.check(text)
-        except ValueError as exc:
-            raise argparse.ArgumentTypeError(str(exc)) from None
-
-    def __repr__(self):
-        return f"Number({self.name!r}, {self.range_text})"
 
 
 def check_range(name: str, value, lo=None, hi=None, *, lo_closed=True, hi_closed=True,
@@ -391,15 +391,24 @@ class Schema:
                          ", ".join(str(full[k]) for k in keys), float(self.size(full)))
         return full
 
+    def _failing(self, values: dict) -> dict[str, str]:
+        """The derived bounds that fail at ``values``: name -> reason (an arithmetic failure:
+        "its bound cannot be evaluated there")."""
+        out = {}
+        for k, p in self.params.items():
+            if p.derived and p.numeric and values[k] is not None:
+                try:
+                    with np.errstate(all="ignore"):
+                        why = p._outside(float(values[k]), values, False)
+                except (ValueError, ArithmeticError, TypeError):
+                    why = "its bound cannot be evaluated there"
+                if why is not None:
+                    out[k] = why
+        return out
+
     def holds(self, values: dict) -> bool:
         """Whether every derived bound holds at ``values`` (an arithmetic failure: no)."""
-        try:
-            with np.errstate(all="ignore"):
-                return all(p._outside(float(values[k]), values, False) is None
-                           for k, p in self.params.items()
-                           if p.derived and p.numeric and values[k] is not None)
-        except (ValueError, ArithmeticError, TypeError):
-            return False
+        return not self._failing(values)
 
     def valid_range(self, key: str, values: dict):
         """(lo, lo_closed, hi, hi_closed) of ``key`` at the other values: its static range
@@ -416,17 +425,8 @@ class Schema:
 
     def _why_at(self, key, values, x) -> str:
         """The reasons of the derived bounds that fail at ``values`` with ``key`` = x."""
-        trial = {**values, key: x}
-        whys = []
-        for k, p in self.params.items():
-            if p.derived and p.numeric and trial[k] is not None:
-                try:
-                    with np.errstate(all="ignore"):
-                        why = p._outside(float(trial[k]), trial, False)
-                except (ValueError, ArithmeticError, TypeError):
-                    why = "its bound cannot be evaluated there"
-                if why is not None:
-                    whys.append(why if k == key or not why else f"{self.label(k)}: {why}")
+        whys = [why if k == key or not why else f"{self.label(k)}: {why}"
+                for k, why in self._failing({**values, key: x}).items()]
         return "; ".join(dict.fromkeys(w for w in whys if w))
 
     def _explain(self, key, exc, values, given) -> ValueError:

@@ -117,3 +117,21 @@ def test_run_command_turns_an_arithmetic_error_into_one_failure_line(capsys):
     assert run_command("demo", body) == FAILED
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["demo: failed: OverflowError: (34, 'Numerical result out of range')"], err
+
+
+def test_run_command_passes_stdout_unchanged_and_ida_takes_sundials_lines(capsys):
+    """A command's own lines (blank lines and a partial last line too) reach stdout as written;
+    SUNDIALS' error lines printed inside an IDA call are taken by runkit.ida.captured, which
+    every solver call goes through (one mechanism), and carried by the failure's message."""
+    from runkit.command import run as run_command
+    from runkit.ida import captured
+
+    def body():
+        for text in ("shear1d: run ...\n", "\n", "partial", " line\n", "\n", "end"):
+            print(text, end="")
+        with captured() as c:
+            print("\n[IDASolve, Error: -22] At t = 1, mxstep.\n")
+        assert c.text == "[IDASolve, Error: -22] At t = 1, mxstep."
+
+    assert run_command("demo", body) == 0
+    assert capsys.readouterr().out == "shear1d: run ...\n\npartial line\n\nend"

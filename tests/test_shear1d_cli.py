@@ -334,21 +334,6 @@ def test_sundials_error_lines_stay_off_stdout(tmp_path, monkeypatch, capsys):
     assert "[SUNDIALS: IDASolve, Error: -22] At t = " in err[0] and "mxstep" in err[0], err
 
 
-def test_sundials_filter_passes_every_other_line():
-    import io as _io
-
-    from runkit.command import SundialsFilter as _SundialsFilter
-
-    buf = _io.StringIO()
-    f = _SundialsFilter(buf)
-    for text in ("shear1d: run ...\n", "\n", "\n[IDASolve, Error: -22] At t = 1, mxstep.\n", "\n",
-                 "partial", " line\n", "\n", "end"):
-        f.write(text)
-    f.flush()
-    assert buf.getvalue() == "shear1d: run ...\npartial line\n\nend"
-    assert f.caught == ["[IDASolve, Error: -22] At t = 1, mxstep."]
-
-
 @pytest.mark.parametrize("args, words", [
     # the explicit cell-step count cells x t_end / dt: every option that sets it is named
     (["couette", "--speed", "0.01", "--time", "1e5", "--cells", "4", "--method", "explicit",

@@ -83,10 +83,8 @@ def _report(args) -> int:
 def main(argv=None) -> int:
     """Entry point of ``python -m validation`` and ``suspension-report``; returns the status."""
     args = build_parser().parse_args(argv)
-    prog = f"python -m validation {args.cmd}"
-    if args.cmd == "list":
-        return run_command(prog, _list)
-    return run_command(prog, lambda: _report(args))
+    body = _list if args.cmd == "list" else lambda: _report(args)
+    return run_command(f"python -m validation {args.cmd}", body)
 
 
 if __name__ == "__main__":

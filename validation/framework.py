@@ -3,15 +3,10 @@
 A *case* holds one tier against the paper, an analytic solution or the tier below, with a stated
 pass criterion; a *benchmark* measures speed (and accuracy) against a reference method timed in the
 same process. Each lives in a module ``validation/cases_<tier>.py`` or ``validation/bench_<tier>.py``
-(discovered automatically) and registers itself with the decorators below::
-
-    @case("rheology", "fig2_flow_curves", "Fig. 2: steady flow curves of the six experiments")
-    def fig2(out: Path, quick: bool) -> Verdict:
-        ...
-        return Verdict(criterion="...", measured="...", passed=err < 1e-8, figures=[png])
-
-``out`` is the folder for the case's files (figures go there, referenced by path); ``quick`` asks
-for the small sizes used by the test suite.
+(discovered automatically) and registers itself with :func:`case` or :func:`benchmark` (an
+example: the developer guide's "How to add a validation case"). ``out`` is the folder for the
+case's files (figures go there, referenced by path); ``quick`` asks for the small sizes used by
+the test suite.
 
 ``slow=True`` marks a case whose run is long and whose criteria hold at its full size only:
 ``python -m validation report --quick`` (and ``--no-slow``, at full size) skips it (listed as

@@ -19,16 +19,17 @@ import html
 import json
 import os
 import platform
-import signal
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from runkit.command import one_line
 from runkit.io import atomic_write_json, atomic_write_text, check_output_dir
+from runkit.run import Interrupts
 
 from .framework import NOTE, TIERS, Entry, Outcome, fingerprint, load_all, run_entry
-import numpy as np
 
 
 def machine_description() -> str:
@@ -60,7 +61,13 @@ def select(tiers=None, names=None, kinds=("case", "benchmark")):
                          f"name{'s' if len(unknown) > 1 else ''}; valid: {', '.join(sorted(reg))}")
     out = [e for e in reg.values() if e.kind in kinds
            and (not tiers or e.tier in tiers) and (not names or e.name in names)]
-    return sorted(out, key=lambda e: (TIERS.index(e.tier), e.kind != "case", e.name))
+    return sorted(out, key=lambda e: _order(vars(e)))
+
+
+def _order(r: dict):
+    """The report's order of an entry (its fields as a dict): by tier, cases first, by name."""
+    tier = TIERS.index(r["tier"]) if r["tier"] in TIERS else len(TIERS)
+    return tier, r["kind"] != "case", r["name"]
 
 
 #: Why ``--quick`` leaves a slow case out (the console and the report say it).
@@ -172,7 +179,7 @@ def _table(rows: list[dict], notes: dict) -> str:
                       for w, n in foot.items()))
 
 
-def _section(r: dict, root: Path) -> str:
+def _section(r: dict) -> str:
     v = _verdict(r)
     body = [f"<h3 id='{_esc(r['name'])}'>{_esc(r['title'])} <small>({r['tier']} {r['kind']} "
             f"<code>{_esc(r['name'])}</code>, {v}, {r['seconds']:.1f} s"
@@ -201,7 +208,7 @@ def _section(r: dict, root: Path) -> str:
     return "\n".join(body)
 
 
-def _render(doc: dict, root: Path) -> str:
+def _render(doc: dict) -> str:
     """``report.html`` from the ``results.json`` document (so a resumed report renders the entries
     of earlier runs exactly as the new ones)."""
     entries = doc["entries"]
@@ -254,7 +261,7 @@ def _render(doc: dict, root: Path) -> str:
             f"{_esc(doc['machine'])}.</p>"
             f"<table><tr><th>tier</th><th>kind</th><th>name</th><th>criterion / target</th>"
             f"<th>measured</th><th>verdict</th><th>s</th></tr>{''.join(rows)}</table>"
-            + "\n<hr>\n".join(_section(r, root) for r in ran) + "</body></html>")
+            + "\n<hr>\n".join(_section(r) for r in ran) + "</body></html>")
 
 
 @dataclass
@@ -276,21 +283,14 @@ def _record(e: Entry, run: str, quick: bool, fp: str | None, o: Outcome | None =
     """One entry of ``results.json``: a run's outcome, or (``o`` None) a skipped entry."""
     d = o.data if o is not None else {}
     return {"tier": e.tier, "kind": e.kind, "name": e.name, "title": e.title,
-            "passed": None if o is None else o.passed, "skipped": skipped,
-            "reason": None if o is None else o.reason,
-            "seconds": None if o is None else o.seconds,
-            "error": None if o is None else o.error, "problems": [] if o is None else o.problems,
-            **{k: d.get(k) for k in _FIELDS},
+            "passed": getattr(o, "passed", None), "skipped": skipped,
+            **{k: getattr(o, k, None) for k in ("reason", "seconds", "error")},
+            "problems": getattr(o, "problems", []), **{k: d.get(k) for k in _FIELDS},
             "figures": [os.path.relpath(p, root) for p in d.get("figures") or []],
             "quick": quick, "fingerprint": fp, "run": run}
 
 
 _KEYS = tuple(_record(Entry("case", TIERS[0], "", "", print), "", False, None))
-
-
-def _order(r: dict):
-    tier = TIERS.index(r["tier"]) if r["tier"] in TIERS else len(TIERS)
-    return tier, r["kind"] != "case", r["name"]
 
 
 def _reject_constant(name):
@@ -352,8 +352,6 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
         Ctrl-C or SIGTERM: what finished is written first, marked ``"status": "interrupted"``,
         and the message says so.
     """
-    if not str(out).strip():
-        raise ValueError(f"--out = {str(out)!r}: give a folder name")
     todo = plan(tiers, names, quick, benchmarks, slow)
     root = check_output_dir("--out", out)
     for fname in ("report.html", "results.json"):
@@ -389,7 +387,7 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
                "code_changed_since": changed,
                "entries": sorted(records.values(), key=_order)}
         atomic_write_json(json_path, doc)               # strict JSON: no NaN/Infinity tokens
-        atomic_write_text(html_path, _render(doc, root))
+        atomic_write_text(html_path, _render(doc))
         written = sum(r["skipped"] is None for r in doc["entries"])
 
     try:
@@ -423,9 +421,9 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
         if done == len(kept) and not written:         # nothing new to write
             raise KeyboardInterrupt("no entry finished; " + (
                 f"{json_path} is as it was" if resume else "no report written")) from None
-        ignored = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
         try:
-            write("interrupted")
+            with Interrupts(defer=True):             # a second Ctrl-C waits for the write
+                write("interrupted")
             what = (f"{json_path} and {html_path.name} have the {done} of {len(todo.run)} "
                     "selected entries finished, marked incomplete; the same command with "
                     "--resume runs the rest")
@@ -433,9 +431,6 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
             what = (f"could not write the report ({one_line(exc)}); "
                     + (f"{json_path} holds {written} finished entries" if written
                        else "none written"))
-        finally:
-            for s, h in ignored.items():
-                signal.signal(s, h)
         raise KeyboardInterrupt(what) from None
     try:
         write("complete")
