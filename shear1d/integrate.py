@@ -173,9 +173,13 @@ class _Events:
         if u == 0:
             return np.array([-1.0, 1.0])
         st = pb.unpack(y if self.convert is None else self.convert(t, y)[0], t)
-        return np.array([analysis.structure_front(g, st["f"], self.f_ref)
-                         - (g.inner + analysis.WALL_FRACTION * g.gap),
-                         analysis.bulk_speed(g, st["v"], u) - FLOW_STOP_LEVEL])
+        out = np.array([analysis.structure_front(g, st["f"], self.f_ref)
+                        - (g.inner + analysis.WALL_FRACTION * g.gap),
+                        analysis.bulk_speed(g, st["v"], u) - FLOW_STOP_LEVEL])
+        # never exactly 0 (0 counts as crossed): a front slower than one rounding step of its
+        # position over IDA's probe after a root, smallh ~ 100 eps t, is 0 there too, and IDA
+        # stops with status -22 "Root found at and very near t"
+        return np.where(out == 0.0, np.asarray(self.directions) * np.finfo(float).tiny, out)
 
     def ida_events(self, t, y, yp, out) -> None:
         """The root functions as IDA takes them (:class:`runkit.ida.Solver`)."""
