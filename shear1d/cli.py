@@ -58,9 +58,9 @@ def _parser() -> argparse.ArgumentParser:
 
     def numerics(p, cells, outputs, modes):
         p.add_argument("--cells", type=Number("--cells", 4, MAX_CELLS, integer=True),
-                       default=cells, help=f"cells across the gap, 4-{MAX_CELLS} and at most gap/d "
-                       f"(a grain per cell; default {cells}; the memory the run needs is "
-                       "checked first)")
+                       default=cells, help=f"cells across the gap, 4-{MAX_CELLS} and at most "
+                       f"gap/d (a grain per cell; default {cells}; the memory the run needs "
+                       "is checked first)")
         p.add_argument("--mode", default=None, choices=modes,
                        help="locked (phases move together, phi fixed), two-phase (Darcy "
                             "migration)" + (", or both" if "both" in modes else ""))
