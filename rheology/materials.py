@@ -43,7 +43,7 @@ import numpy as np
 from runkit import limits
 from runkit.io import atomic_write_json, check_input_file
 from runkit.limits import Bound
-from runkit.params import Param
+from runkit.params import Param, check_range
 
 #: Units of every numeric field (SI sets; Table 1 sets use eta0 = gdot_0 = 1 instead).
 FIELD_UNITS: dict[str, str] = {
@@ -204,9 +204,11 @@ class Material:
             raise ValueError(f"rules = {self.rules!r} must be one of "
                              f"{', '.join(map(repr, RULES))} ({n})")
         values = vars(self)
-        for k, param in FIELDS.items():
+        for k, param in FIELDS.items():           # as arrays are checked: subnormals pass
             if values[k] is not None or k not in OPTIONAL_FIELDS:     # None: unset, allowed
-                param.check(k, values[k], values)
+                lo, lo_closed, lo_why, hi, hi_closed, hi_why = param.bounds(values)
+                check_range(k, values[k], lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
+                            note=hi_why or lo_why)
         if self.d > 0 and self.rho_s is None:
             raise ValueError(f"rho_s must be set (> 0 kg/m^3) when d = {self.d:g} m > 0 ({n})")
 
