@@ -245,36 +245,25 @@ _RC_HEADS = ("Result:", "Interval data:", "Interval and data points:", "Test:", 
 
 def rheocompass_blocks(text: str) -> list[Block]:
     """The ``Interval data:`` blocks of a RheoCompass export, named ``"<Result> (interval N)"``."""
-    lines = text.splitlines()
-    blocks, result, number, i = [], "", "", 0
-    while i < len(lines):
-        cells = lines[i].split("\t")
-        head = cells[0].strip()
+    rows = [[c.strip() for c in line.split("\t")] for line in text.splitlines()]
+    blocks, result, number = [], "", ""
+    for i, (head, *rest) in enumerate(rows):
         if head == "Result:":
-            result, number = (cells[1].strip() if len(cells) > 1 else ""), ""
+            result, number = (rest[0] if rest else ""), ""
         elif head == "Interval and data points:":
-            number = cells[1].strip() if len(cells) > 1 else ""
+            number = rest[0] if rest else ""
         elif head == "Interval data:":
-            names = [c.strip() for c in cells[1:]]
-            units, rows, j = None, [], i + 1
-            while j < len(lines):
-                c = lines[j].split("\t")
-                if c[0].strip() in _RC_HEADS:
+            units, data = None, []
+            for cells in rows[i + 1:]:            # a units row ([Pa]), then the points
+                body = cells[1:]
+                if cells[0] in _RC_HEADS or (data and not any(cells)):
                     break
-                body = [x.strip() for x in c[1:]]
                 if units is None and any(x.startswith("[") for x in body):
                     units = body
                 elif any(body) and units is not None:
-                    rows.append(body)
-                elif not any(x.strip() for x in c) and rows:
-                    j += 1
-                    break
-                j += 1
+                    data.append(body)
             name = result + (f" (interval {number})" if number else "")
-            blocks.append(Block(name, names, units or [""] * len(names), rows))
-            i = j
-            continue
-        i += 1
+            blocks.append(Block(name, rest, units or [""] * len(rest), data))
     return blocks
 
 

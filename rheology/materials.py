@@ -42,6 +42,7 @@ import numpy as np
 
 from runkit import limits
 from runkit.io import atomic_write_json, check_input_file
+from runkit.limits import Bound
 from runkit.params import Param, check_range
 
 #: Units of every numeric field (SI sets; Table 1 sets use eta0 = gdot_0 = 1 instead).
@@ -82,6 +83,33 @@ KERNEL_FIELDS: tuple[str, ...] = (
     "phi_c", "phi_j", "a0", "a_inf", "mu_c", "mu_2", "b", "tau_star", "eta0", "varphi1", "alpha1",
     "varphi2", "alpha2", "Delta", "xi_eps", "K0", "G", "K", "rho_s", "d", "K3", "rules",
 )
+
+
+def _own(why: str = "", value=None, closed: bool = True) -> Bound:
+    """A bound of a Material's own validation, its reason naming the material (``value``: a
+    field the bound is, else 0)."""
+    at = (lambda p: p[value]) if value else 0.0
+    return Bound(at, closed, lambda p: f"material {p['name']}" + (
+        "; " + why.format(**p) if why else ""))
+
+
+#: The model's range of every numeric field, checked once when a Material is made (a field of
+#: :data:`FIELD_LIMITS` also meets its physical limits where a command line or file sets it).
+FIELDS: dict[str, Param] = {
+    "phi_j": Param(_own(closed=False), Bound(1.0, False, lambda p: f"material {p['name']}")),
+    "phi_c": Param(_own(closed=False), _own("phi_c must be below phi_j = {phi_j}", "phi_j",
+                                            closed=False)),
+    "a0": Param(_own(closed=False)),
+    "a_inf": Param(_own("a_inf >= a0 makes the stress-controlled steady state unique", "a0")),
+    **{k: Param(_own(closed=False))
+       for k in ("mu_c", "tau_star", "eta0", "G", "K", "rho_s", "rho_f", "kappa")},
+    "mu_2": Param(_own("mu_2 >= mu_c", "mu_c")),
+    **{k: Param(_own())
+       for k in ("b", "varphi1", "alpha1", "varphi2", "alpha2", "xi_eps", "d", "K3", "K0")},
+    "Delta": Param(_own(), Bound(1.0, True, lambda p: f"material {p['name']}")),
+    "K4": Param(*[_own("only K4 = 0, the value of every scene of the paper, is implemented")] * 2),
+    "phi0": Param(_own(closed=False), _own("below phi_j = {phi_j}", "phi_j", closed=False)),
+}
 
 
 @dataclass(frozen=True)
@@ -175,28 +203,12 @@ class Material:
         if self.rules not in RULES:
             raise ValueError(f"rules = {self.rules!r} must be one of "
                              f"{', '.join(map(repr, RULES))} ({n})")
-        check_range("phi_j", self.phi_j, 0.0, 1.0, lo_closed=False, hi_closed=False, note=n)
-        check_range("phi_c", self.phi_c, 0.0, self.phi_j, lo_closed=False, hi_closed=False,
-                    note=f"{n}; phi_c must be below phi_j = {self.phi_j}")
-        check_range("a0", self.a0, 0.0, None, lo_closed=False, note=n)
-        check_range("a_inf", self.a_inf, self.a0, None,
-                    note=f"{n}; a_inf >= a0 makes the stress-controlled steady state unique")
-        def from_zero(keys, **kw):     # an unset optional field (None) is not checked
-            for k in keys:
-                if getattr(self, k) is not None or k not in OPTIONAL_FIELDS:
-                    check_range(k, getattr(self, k), 0.0, None, note=n, **kw)
-
-        from_zero(("mu_c", "tau_star", "eta0", "G", "K", "rho_s", "rho_f", "kappa"),
-                      lo_closed=False)
-        if self.mu_2 is not None:
-            check_range("mu_2", self.mu_2, self.mu_c, None, note=f"{n}; mu_2 >= mu_c")
-        from_zero(("b", "varphi1", "alpha1", "varphi2", "alpha2", "xi_eps", "d", "K3", "K0"))
-        check_range("Delta", self.Delta, 0.0, 1.0, note=n)
-        check_range("K4", self.K4, 0.0, 0.0,
-                    note=f"{n}; only K4 = 0, the value of every scene of the paper, is implemented")
-        if self.phi0 is not None:
-            check_range("phi0", self.phi0, 0.0, self.phi_j, lo_closed=False, hi_closed=False,
-                        note=f"{n}; below phi_j = {self.phi_j}")
+        values = vars(self)
+        for k, param in FIELDS.items():           # as arrays are checked: subnormals pass
+            if values[k] is not None or k not in OPTIONAL_FIELDS:     # None: unset, allowed
+                lo, lo_closed, lo_why, hi, hi_closed, hi_why = param.bounds(values)
+                check_range(k, values[k], lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
+                            note=hi_why or lo_why)
         if self.d > 0 and self.rho_s is None:
             raise ValueError(f"rho_s must be set (> 0 kg/m^3) when d = {self.d:g} m > 0 ({n})")
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from runkit.limits import DENSITY_MAX, DENSITY_MIN
-from runkit.params import Number, check_range
+from runkit.params import Number, OutOfRange, check_range
 
 from .materials import Material
 from .steady import phi_from_mass_fraction
@@ -80,10 +80,10 @@ def fractions_from_mass(mass_fractions, m: Material, dens: Densities) -> np.ndar
     phi = np.atleast_1d(volume_fraction(w, dens))
     if np.any(phi >= m.phi_j):
         w_max = float(mass_fraction(min(m.phi_j, 0.999999 * _phi_top(dens)), dens))
-        bad = float(w[np.argmax(phi >= m.phi_j)])
-        raise ValueError(f"--mass-fraction = {bad:g} gives phi = {float(volume_fraction(bad, dens)):.4g}"
-                         f" >= phi_j = {m.phi_j} of {m.name}; valid range (0, {w_max:.4g}) "
-                         f"({dens.describe()})")
+        k = int(np.argmax(phi >= m.phi_j))
+        raise OutOfRange("--mass-fraction", f"{w[k]:g}", f"(0, {w_max:.4g})",
+                         f"it gives phi = {phi[k]:.4g} >= phi_j = {m.phi_j} of {m.name}; "
+                         f"{dens.describe()}")
     return phi
 
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 import numpy as np
+import pandas as pd
 from scipy.optimize import elementwise, minimize_scalar
 
 from . import laws
@@ -134,8 +135,6 @@ class SteadyFlow:
 
     def to_frame(self):
         """A pandas DataFrame with unit-suffixed columns."""
-        import pandas as pd
-
         names = {"phi": "phi", "taubar": "granular_shear_stress_Pa", "shear_stress":
                  "shear_stress_Pa", "shear_rate": "shear_rate_per_s", "f": "f",
                  "pressure": "granular_pressure_Pa", "viscosity": "viscosity_Pa_s",

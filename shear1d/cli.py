@@ -30,7 +30,8 @@ from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit import limits as physical
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
-from runkit.params import Number
+from runkit.limits import gt, le
+from runkit.params import Number, OutOfRange, Param
 
 from .dae import check_material
 from .geometry import CELL_MIN_GRAINS, R_INNER_MIN_GRAINS, min_gap
@@ -57,8 +58,9 @@ def _parser() -> argparse.ArgumentParser:
 
     def numerics(p, cells, outputs, modes):
         p.add_argument("--cells", type=Number("--cells", 4, MAX_CELLS, integer=True),
-                       default=cells, help=f"cells across the gap, 4-{MAX_CELLS} (default "
-                       f"{cells}; the memory the run needs is checked first)")
+                       default=cells, help=f"cells across the gap, 4-{MAX_CELLS} and at most "
+                       f"gap/d (a grain per cell; default {cells}; the memory the run needs "
+                       "is checked first)")
         p.add_argument("--mode", default=None, choices=modes,
                        help="locked (phases move together, phi fixed), two-phase (Darcy "
                             "migration)" + (", or both" if "both" in modes else ""))
@@ -158,8 +160,7 @@ def _sample(args):
         print(f"shear1d: {note}")
         return m, phis[0]
     if args.phi is not None and args.phi >= m.phi_j:
-        raise ValueError(f"--phi = {args.phi:g} is outside the valid range (0, {m.phi_j:g}) "
-                         f"(below phi_j of {m.name})")
+        raise OutOfRange("--phi", f"{args.phi:g}", f"(0, {m.phi_j:g})", f"below phi_j of {m.name}")
     return m, args.phi
 
 
@@ -171,21 +172,17 @@ def _check_drive(option: str, values, material, phi0, *, stress: bool = False) -
         return
     material.require("G", "rho_s", "rho_f")
     top, unit, why = drive_limit(material, phi, stress)
-    check = Number(option, 0.0, top, lo_closed=False, unit=unit)
     for v in values:
-        try:
-            check.check(v)
-        except ValueError as exc:
-            raise ValueError(f"{exc} ({why})") from None
+        Param(gt(0.0), le(top, why), unit=unit).check(option, v, static=True)
 
 
 def _check_annulus(r_inner: float, r_outer: float, default_outer: bool = False) -> None:
     """--r-outer must lie beyond --r-inner (the cup around the bob); ``default_outer``: the
     user did not give --r-outer (the message says it is the default)."""
     if not r_outer > r_inner:
-        given = " (the default)" if default_outer else ""
-        raise ValueError(f"--r-outer = {r_outer:g}{given} is outside the valid range ({r_inner:g}, 2] m "
-                         f"(the cup must lie beyond the bob, --r-inner = {r_inner:g} m)")
+        raise OutOfRange("--r-outer", f"{r_outer:g}" + (" (the default)" if default_outer else ""),
+                         f"({r_inner:g}, 2] m",
+                         f"the cup must lie beyond the bob, --r-inner = {r_inner:g} m")
 
 
 def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
@@ -217,11 +214,11 @@ def _check_ramp(ramp_time: float, rotation: float, r_inner: float, speeds) -> No
     u = max(speeds)
     top = rotation * r_inner / u
     if ramp_time > top:
-        raise ValueError(f"--ramp-time = {ramp_time:g} s is outside the valid range [0, {top:.4g}] "
-                         f"s: at most the rotation time --rotation x --r-inner / --u-inner = "
-                         f"{rotation:g} x {r_inner:g} m / {u:g} m/s at full speed (a longer ramp "
-                         f"leaves the bob below full speed past half of --rotation: a slow "
-                         "start-up, not a shear at --u-inner); lower it, or raise --rotation")
+        raise OutOfRange("--ramp-time", f"{ramp_time:g} s", f"[0, {top:.4g}] s",
+                         f"at most the rotation time --rotation x --r-inner / --u-inner = "
+                         f"{rotation:g} x {r_inner:g} m / {u:g} m/s at full speed: a longer ramp "
+                         "leaves the bob below full speed past half of --rotation, a slow "
+                         "start-up, not a shear at --u-inner; lower it, or raise --rotation")
 
 
 def _check_lengths(material, option: str, value: float, hi: float, cells: int,
@@ -235,17 +232,17 @@ def _check_lengths(material, option: str, value: float, hi: float, cells: int,
         return
     grains = f"d = {d:g} m of {material.name}"
     if r_inner is not None and r_inner < R_INNER_MIN_GRAINS * d:
-        raise ValueError(f"--r-inner = {r_inner:g} m is outside the valid range "
-                         f"[{R_INNER_MIN_GRAINS * d:.4g}, 1] m: the bob must be a continuum wall, "
-                         f"a radius of at least {R_INNER_MIN_GRAINS:g} grain diameters ({grains})")
+        raise OutOfRange("--r-inner", f"{r_inner:g} m", f"[{R_INNER_MIN_GRAINS * d:.4g}, 1] m",
+                         f"the bob must be a continuum wall, a radius of at least "
+                         f"{R_INNER_MIN_GRAINS:g} grain diameters: {grains}")
     gap, lo = value - base, min_gap(cells, d)
     if gap < lo * (1.0 - 1e-12):
         most = int(gap / (CELL_MIN_GRAINS * d))
         at = f" at --r-inner = {base:g} m and" if base else " at"
         alt = f"; or at most {most} --cells at this gap" if most >= 4 else ""
-        raise ValueError(f"{option} = {value:g} m is outside the valid range [{base + lo:.4g}, "
-                         f"{hi:g}] m{at} --cells = {cells}: each cell of the gap must hold at "
-                         f"least {CELL_MIN_GRAINS:g} grain ({grains}), the continuum the model "
+        raise OutOfRange(option, f"{value:g} m", f"[{base + lo:.4g}, {hi:g}] m{at} --cells = "
+                         f"{cells}", f"each cell of the gap must hold at least "
+                         f"{CELL_MIN_GRAINS:g} grain, {grains}, the continuum the model "
                          f"describes{alt}")
 
 

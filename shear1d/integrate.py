@@ -31,7 +31,6 @@ import json
 import math
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -40,9 +39,9 @@ from rheology.elastic import past_elastic_limit
 from rheology.flow_rule import invariants
 from rheology.run_end import EndedEarly, RunEnd
 from runkit.ida import IDAFailed, Solver
-from runkit.io import CorruptCheckpoint, load_checkpoint, save_checkpoint
+from runkit.io import CorruptCheckpoint
 from runkit.params import check_positive, check_range
-from runkit.run import Progress, drive
+from runkit.run import Checkpoint, Progress, drive
 
 from . import analysis, kernels
 from . import dae as dae_mod
@@ -173,9 +172,13 @@ class _Events:
         if u == 0:
             return np.array([-1.0, 1.0])
         st = pb.unpack(y if self.convert is None else self.convert(t, y)[0], t)
-        return np.array([analysis.structure_front(g, st["f"], self.f_ref)
-                         - (g.inner + analysis.WALL_FRACTION * g.gap),
-                         analysis.bulk_speed(g, st["v"], u) - FLOW_STOP_LEVEL])
+        out = np.array([analysis.structure_front(g, st["f"], self.f_ref)
+                        - (g.inner + analysis.WALL_FRACTION * g.gap),
+                        analysis.bulk_speed(g, st["v"], u) - FLOW_STOP_LEVEL])
+        # never exactly 0 (0 counts as crossed): a front slower than one rounding step of its
+        # position over IDA's probe after a root, smallh ~ 100 eps t, is 0 there too, and IDA
+        # stops with status -22 "Root found at and very near t"
+        return np.where(out == 0.0, np.asarray(self.directions) * np.finfo(float).tiny, out)
 
     def ida_events(self, t, y, yp, out) -> None:
         """The root functions as IDA takes them (:class:`runkit.ida.Solver`)."""
@@ -236,19 +239,21 @@ def elastic_strains(problem: Couette, t: float, y: np.ndarray) -> tuple[float, f
 
 # ----------------------------------------------------------------------------- outputs
 #: Arrays every checkpoint holds (a file without one of them is named as corrupt).
-CHECKPOINT_ARRAYS = ("signature", "t_out", "Y", "D", "event_names", "event_times", "counters",
-                     "finished")
+CHECKPOINT_ARRAYS = ("t_out", "Y", "D", "event_names", "event_times", "counters", "finished")
 
 
-def _signature(problem: Couette, method: str, times: np.ndarray, setting: float) -> str:
-    """Text identifying a run: material, grid, drive, mode, method, its step or tolerance and the
-    output times. A checkpoint is resumed only by the run with the same signature."""
+def fingerprint(problem: Couette, method: str, times: np.ndarray, setting: float) -> dict:
+    """What identifies a run (:class:`runkit.run.Checkpoint`): material, grid, drive, mode,
+    method, its step or tolerance and the output times; a checkpoint is resumed only by the run
+    with the same."""
     m, g = problem.material, problem.grid
-    params = ",".join(f"{x:.17g}" for x in m.kernel_array()) + f",{m.rho_f!r}"
-    tsig = f"{times.size}:{times[0]!r}:{times[-1]!r}:{float(np.sum(times))!r}"
-    return (f"{method}|{setting!r}|{m.name}|{params}|{g.kind}|{g.inner!r}|{g.outer!r}|{g.n}|"
-            f"{problem.mode}|{problem.wall_speed!r}|{problem.wall_stress!r}|{problem.ramp_time!r}|"
-            f"{problem.phi0!r}|{problem.contact_pressure!r}|{problem.rate_step!r}|{tsig}")
+    return dict(method=method, setting=setting, material=m.name,
+                parameters=[None if x != x else float(x) for x in m.kernel_array()] + [m.rho_f],
+                grid=[g.kind, g.inner, g.outer, g.n], mode=problem.mode,
+                drive=[problem.wall_speed, problem.wall_stress, problem.ramp_time],
+                phi0=problem.phi0, contact_pressure=problem.contact_pressure,
+                rate_step=problem.rate_step, outputs=[times.size, float(times[0]),
+                                                      float(times[-1]), float(np.sum(times))])
 
 
 class _Outputs:
@@ -260,8 +265,8 @@ class _Outputs:
                  f_tol):
         self.pb, self.method, self.events = problem, method, events
         self.elastic_limit, self.f_tol = bool(elastic_limit), f_tol
-        self.sig = _signature(problem, method, times, setting)
-        self.path = None if checkpoint is None else Path(checkpoint)
+        self.ck = None if checkpoint is None else Checkpoint(
+            checkpoint, fingerprint(problem, method, times, setting))
         self.rows: list[tuple] = []
         self.wall0, self.wall_before = time.perf_counter(), 0.0
         self.stats = dict
@@ -287,7 +292,7 @@ class _Outputs:
         """The checkpoint's arrays; events after the last output are left to the resumed run."""
         T, Y, D = (np.array([r[i] for r in self.rows]) for i in range(3))
         ev = [(k, x) for k, ts in self.events.times.items() for x in ts if x <= T[-1]]
-        return dict(signature=np.array(self.sig), t_out=T, Y=Y, D=D,
+        return dict(t_out=T, Y=Y, D=D,
                     event_names=np.array([k for k, _ in ev], dtype="U32"),
                     event_times=np.array([x for _, x in ev], dtype=float),
                     counters=self.rows[-1][3], finished=np.array(bool(finished)),
@@ -296,18 +301,15 @@ class _Outputs:
                     **(self.rows[-1][4] or {}))
 
     def save(self, state: dict):
-        return save_checkpoint(self.path, **state) if self.path is not None else None
+        return self.ck.save(state) if self.ck is not None else None
 
     def load(self, log=None) -> dict:
         """Read the checkpoint (refused if absent, corrupt without a readable predecessor, or of
         another run) and restore the outputs and events; returns the checkpoint's arrays."""
-        ck = load_checkpoint(self.path, required=CHECKPOINT_ARRAYS, log=log)
-        if str(ck["signature"]) != self.sig:
-            raise ValueError(f"--resume: checkpoint {self.path} belongs to another run (other "
-                             f"parameters, method, step or outputs); delete it or drop --resume")
+        ck = self.ck.load(required=CHECKPOINT_ARRAYS, log=log)
         T, Y, D = ck["t_out"], ck["Y"], ck["D"]
         if T.ndim != 1 or Y.shape[0] != T.size or D.shape[0] != T.size or T.size == 0:
-            raise CorruptCheckpoint(f"checkpoint {self.path} is corrupt (inconsistent output "
+            raise CorruptCheckpoint(f"checkpoint {self.ck.path} is corrupt (inconsistent output "
                                     "arrays)")
         extra = {k: ck[k] for k in ("y", "yp") if k in ck}
         for k in range(T.size):
@@ -492,7 +494,7 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     run = _Run(outs, times, to, stop_hook)
     bar = Progress(run.t, run.t_end, run.steps, label=label or "shear1d") if progress else None
     outs.wall0 = time.perf_counter()     # the integration's wall time, not the set-up's
-    drive(run, checkpoint=outs if outs.path is not None else None, every=checkpoint_every,
+    drive(run, checkpoint=outs.ck, every=checkpoint_every,
           progress=bar)
     outs.save(outs.state(finished=True))
     return outs.result()

@@ -27,6 +27,19 @@ def test_ida_and_explicit_agree_on_the_growing_band():
     assert np.max(np.abs(a - b)) < 0.01 * pb.grid.gap
 
 
+def test_a_front_crossing_the_wall_slower_than_rounding_is_a_root_not_an_ida_failure():
+    """rod_impact at phi 0.5, 5 m/s, 20 cells, two-phase: at the root of front_at_wall the
+    front moves less than one rounding step of its position over IDA's probe after it; the
+    root function was 0 at both and IDA stopped with status -22 (Root found at and very near
+    t). The event is recorded and the run reaches its end."""
+    pb, t_end = annular_shear_jamming(5.0, n_cells=20, mode="two-phase", material="rod_impact",
+                                      phi0=0.5)
+    res = solve(pb, t_end, n_out=310, elastic_limit=True)
+    assert res.end is None and res.t[-1] == pytest.approx(t_end)
+    assert len(res.events["front_at_wall"]) >= 1
+    assert 0.1 < summarize(res)["front_at_wall_rotation_rad"] < 0.2
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["shear1d_fig3_fast_front", "shear1d_fig3_slow_newtonian",
                                   "shear1d_fig3_modes", "shear1d_ida_vs_explicit",

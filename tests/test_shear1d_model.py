@@ -115,11 +115,12 @@ def test_checkpoint_resume_continues_the_run(tmp_path, method):
     scale = np.maximum(np.abs(full.y), 1.0)
     assert np.max(np.abs(resumed.y - full.y) / scale) <= tol
     other, _ = annular_shear_jamming(2 * FAST, n_cells=16, rotation=0.05)
-    with pytest.raises(ValueError, match="another run"):
+    with pytest.raises(ValueError, match=r"--resume: drive = \[0\.168, .* differs from the "
+                                         r"checkpoint's drive = \[0\.084, .*run\.npz"):
         solve(other, t_out=times, method=method, checkpoint=ck, resume=True)
     with pytest.raises(ValueError, match="no checkpoint"):
         solve(pb, t_out=times, method=method, checkpoint=tmp_path / "none.npz", resume=True)
-    assert "signature" in load_checkpoint(ck)
+    assert "run.fingerprint" in load_checkpoint(ck)
 
 
 def test_unphysical_state_is_reported_with_diagnostics():

@@ -267,7 +267,7 @@ def _fig3(u, quick, mode="locked", n_cells=None, rate_step=None):
 def fig3_slow(out: Path, quick: bool) -> Verdict:
     res, s = _fig3(SLOW, quick)
     dev = s["newtonian_deviation_max_over_u"]
-    _fig3_profiles(out / "slow_profiles.png", res)
+    png = plots.velocity_profiles(out / "slow_profiles.png", [SceneRun("slow", res, s)])
     atomic_write_json(out / "summary.json", s, nullable=NULLABLE)
     passed = all(d <= 0.01 for d in dev.values()) and s["f_max"] < 0.05 * s["f_jam"]
     return Verdict(criterion="max |v - v_Newtonian|/u_i <= 0.01 at 0.1, 0.2 and 0.31 rad "
@@ -275,33 +275,16 @@ def fig3_slow(out: Path, quick: bool) -> Verdict:
                    measured=", ".join(f"{k} rad: {v:.2e}" for k, v in dev.items())
                             + f"; f_max/f_jam = {s['f_max'] / s['f_jam']:.2e}; "
                             f"{s['n_cells']} cells, {s['wall_time_s']:.2f} s",
-                   passed=bool(passed), figures=[out / "slow_profiles.png"])
-
-
-def _fig3_profiles(path, res, rotations=(0.0, 0.1, 0.2, 0.31)):
-    g, u = res.problem.grid, res.problem.drive_amplitude
-    rot = rotation_of(res, res.t)
-    v = res.field("v")
-    fig, ax = plt.subplots(figsize=(6, 4.2))
-    for r_ in rotations:
-        k = int(np.argmin(np.abs(rot - r_)))
-        ax.plot(g.faces * 1e3, v[k] / u, label=f"{rot[k]:.2f} rad")
-    ax.plot(g.faces * 1e3, annular_steady(g.faces, g.inner, g.outer, u) / u, "k--",
-            label="Newtonian steady")
-    ax.plot(g.faces * 1e3, g.faces / g.inner, "k:", label="rigid rotation")
-    ax.set(xlabel="r [mm]", ylabel="v/u_i", ylim=(-0.05, 1.6),
-           title=f"u_i = {u * 1e3:g} mm/s, {res.problem.mode}, {g.n} cells")
-    ax.legend(fontsize=8)
-    return save_figure(fig, path.parent, path.name)
+                   passed=bool(passed), figures=[png])
 
 
 @case(TIER, "shear1d_fig3_fast_front",
       "Fig. 3, u_i = 84 mm/s: a nearly rigid jammed band grows at constant speed; flow stops")
 def fig3_fast(out: Path, quick: bool) -> Verdict:
     res, s = _fig3(FAST, quick)
-    _fig3_profiles(out / "fast_profiles.png", res)
     run = SceneRun("fast", res, s)
-    figs = [out / "fast_profiles.png", plots.front_positions(out / "front.png", [run]),
+    figs = [plots.velocity_profiles(out / "fast_profiles.png", [run]),
+            plots.front_positions(out / "front.png", [run]),
             plots.run_fields(out / "fields.png", run)]
     atomic_write_json(out / "summary.json", s, nullable=NULLABLE)
     wall, stop = s["front_at_wall_rotation_rad"], s["flow_stopped_rotation_rad"]
