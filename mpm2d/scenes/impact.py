@@ -94,6 +94,8 @@ SIZES = {
 HEADROOM = 0.02
 #: represented length of the rod [m] (its lowest part; mass of the whole rod)
 ROD_REPRESENTED = 0.015
+#: coarsest grid [cells/mm]: HEADROOM holds the rod's represented part and 2.25 cells above it
+CELLS_PER_MM_MIN = 0.45
 #: the front criterion u_z / v_rod (Han et al. 2016)
 FRONT_FRACTION = 0.5
 #: the front is recorded while |v_rod| > this fraction of v0
@@ -152,7 +154,11 @@ def _geo(key, lo, hi, unit, doc, note="", **kw):
                 "m", "container (mixture) radius", note="at least the rod radius + 4 cells"),
     depth=_geo("depth", lambda p: 8e-3 / resolved(p)["cells_per_mm"], 1.0, "m",
                "mixture depth", note="at least 8 cells"),
-    cells_per_mm=_geo("cells_per_mm", 0.2, 4.0, "1/mm", "1/h in 1/mm (1: the paper's 1 mm)"),
+    cells_per_mm=_geo("cells_per_mm", CELLS_PER_MM_MIN, 4.0, "1/mm",
+                      "1/h in 1/mm (1: the paper's 1 mm)",
+                      lo_why=f"the {HEADROOM * 1e3:g} mm of grid above the bed must hold the "
+                             f"rod's represented {ROD_REPRESENTED * 1e3:g} mm and 2 cells above "
+                             "it, h <= 2.2 mm"),
     t_end=_geo("t_end", 0.0, 1.0, "s", "end time after impact", lo_closed=False),
     material=spec.Param(choices=("auto", "rod_impact", "rod_impact_1cp"),
                         doc="Table 5 set: rod_impact (7 mPa s) or rod_impact_1cp (1 mPa s); "
