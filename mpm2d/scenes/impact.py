@@ -147,7 +147,8 @@ def _geo(key, lo, hi, unit, doc, note="", **kw):
     size=spec.Param(choices=tuple(SIZES), doc="scene: default (Fig. 4 at 2 mm), fig4 (100 x 120 "
                     "at 1 mm, 7 mPa s), fig5 (150 x 225 at 1 mm, 1 mPa s)"),
     v0=_geo("v0", 0.0, 5.0, "m/s", "impact speed (downwards)", lo_closed=False),
-    phi0=spec.phi_below_jamming(fixed="rod_impact", optional=True,
+    phi0=spec.phi_below_jamming(fixed=lambda p: resolved(p)["material"], optional=True,
+                                fill=lambda p: resolved(p)["phi0"],
                                 doc="solid volume fraction of the bed (none: the size's value, "
                                     "0.47; fig5 0.50)"),
     radius=_geo("radius", lambda p: p["rod_radius"] + 4e-3 / resolved(p)["cells_per_mm"], 1.0,
@@ -190,9 +191,6 @@ def setup(size="default", v0=None, phi0=None, radius=None, depth=None, cells_per
     phi0 = q["phi0"]
     h = 1e-3 / q["cells_per_mm"]
     m = get_material(q["material"], rules=rules)
-    if not phi0 < m.phi_j:
-        raise ValueError(f"phi0 = {phi0} is outside the valid range (0, {m.phi_j}) (phi_j of "
-                         f"material {q['material']!r})")
     R, D, v0 = q["radius"], q["depth"], q["v0"]
     nx = int(round(R / h))
     nd = int(round(D / h))

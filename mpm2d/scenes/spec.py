@@ -562,18 +562,19 @@ def materials_where(predicate: Callable, what: str) -> Callable[[], tuple]:
 
 
 def phi_below_jamming(material_key="material", fixed=None, doc="initial solid volume fraction",
-                      optional=False):
+                      optional=False, fill=None):
     """A volume fraction in (0, phi_j) of the scene's material (``params[material_key]``, or the
-    named ``fixed`` material); ``optional``: ``none`` allowed (the scene picks its value)."""
+    ``fixed`` material: a name or a function of the parameters); ``optional``: ``none`` allowed
+    (the scene picks its value, ``fill(params)``, checked the same)."""
 
     def name(p):
-        return fixed if fixed else p[material_key]
+        return fixed(p) if callable(fixed) else fixed if fixed else p[material_key]
 
     def phi_j(p):
         return get_material(name(p)).phi_j
 
     return Param(0.0, phi_j, lo_closed=False, hi_closed=False, doc=doc, optional=optional,
-                 note=lambda p: f"phi_j of material {name(p)!r}", fraction_of=name)
+                 note=lambda p: f"phi_j of material {name(p)!r}", fraction_of=name, fill=fill)
 
 
 def volume_fraction_key(spec) -> str | None:
