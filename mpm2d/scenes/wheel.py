@@ -69,6 +69,7 @@ from runkit.io import atomic_write_csv, atomic_write_json
 
 from .. import plots
 from ..bodies import RigidBody, fill
+from ..fronts import cell_field
 from ..geostatic import geostatic
 from ..grid import Grid
 from ..materials import LinearElastic, Suspension
@@ -348,15 +349,9 @@ def grid_phi(x, svol, h, nx, ny) -> np.ndarray:
 
 
 def cell_average(x, q, w, h, nx, ny) -> np.ndarray:
-    """Weighted cell average of the point values q (weights w), (nx, ny); NaN in empty cells."""
-    i = np.mod(np.floor(x[:, 0] / h).astype(np.int64), nx)
-    j = np.clip(np.floor(x[:, 1] / h).astype(np.int64), 0, ny - 1)
-    W = np.zeros((nx, ny))
-    Q = np.zeros((nx, ny))
-    np.add.at(W, (i, j), w)
-    np.add.at(Q, (i, j), w * q)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(W > 0, Q / W, np.nan)
+    """Weighted cell average of the point values q (weights w), (nx, ny); NaN in empty cells
+    (:func:`mpm2d.fronts.cell_field` on the bed's cells from the origin)."""
+    return cell_field(x, q, w, (0.0, 0.0), h, (nx, ny))
 
 
 def pressure_window(frame, params):
