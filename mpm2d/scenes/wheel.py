@@ -63,6 +63,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.animation import PillowWriter
 
 from rheology import get_material
 from runkit.io import atomic_write_csv, atomic_write_json
@@ -527,8 +528,6 @@ def snapshots_figure(out, params, omega, path, n=4, summary=None):
 def animation(runs, params, path):
     """GIF (matplotlib PillowWriter) of every run's snapshots side by side: runs = [(omega,
     folder)], one colour scale (0 to the largest f of every snapshot, at least f_jam)."""
-    from matplotlib.animation import PillowWriter
-
     plt = plots.plt
     seqs = [(w, load_frames(d)) for w, d in runs]
     n = min(len(s) for _, s in seqs)
