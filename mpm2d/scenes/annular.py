@@ -197,10 +197,7 @@ def setup(material="annular_shear", phi0=0.505, u_inner=0.084, r_inner=R_INNER,
           r_outer=R_OUTER, cells=24, rows=50, ppc=2, rotation=0.31, ramp_time=0.0, p0=1e-3,
           kappa=None, transfer="apic", flip_alpha=0.99, swirl_flip=0.99, rules="table8",
           cfl=0.5):
-    params = dict(material=material, phi0=phi0, u_inner=u_inner, r_inner=r_inner,
-                  r_outer=r_outer, cells=cells, rows=rows, ppc=ppc, rotation=rotation,
-                  ramp_time=ramp_time, p0=p0, kappa=kappa, transfer=transfer, flip_alpha=flip_alpha,
-                  swirl_flip=swirl_flip, rules=rules, cfl=cfl)
+    params = dict(locals())                   # every parameter, as checked
     m = scene_material("annular_shear", material, rules=rules)
     if kappa is not None:
         m = dataclasses.replace(m, kappa=float(kappa))

@@ -182,11 +182,7 @@ def setup(size="default", v0=None, phi0=None, radius=None, depth=None, cells_per
           t_end=None, material="auto", rod_radius=0.0095, rod_length=0.20, rod_density=2700.0,
           rod_contact="noslip", mode="locked mixture", stencil=None, gravity=9.81, rules="table8",
           cfl=0.5):
-    params = dict(size=size, v0=v0, phi0=phi0, radius=radius, depth=depth,
-                  cells_per_mm=cells_per_mm, t_end=t_end, material=material,
-                  rod_radius=rod_radius, rod_length=rod_length, rod_density=rod_density,
-                  rod_contact=rod_contact, mode=mode, stencil=stencil, gravity=gravity, rules=rules,
-                  cfl=cfl)
+    params = dict(locals())                   # every parameter, as checked
     q = resolved(params)
     phi0 = q["phi0"]
     h = 1e-3 / q["cells_per_mm"]

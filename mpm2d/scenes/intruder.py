@@ -171,10 +171,7 @@ def _geo(key, lo, hi, unit, doc, note=""):
 def setup(layout="default", phi0=0.47, v0=0.175, t_end=0.02, radius=None, depth=None,
           cells_per_mm=1.0, rod_radius=None, rod_contact="noslip", contact="auto", mode="auto",
           fit_margin=5e-3, gravity=9.81, rules="table8", cfl=0.5):
-    q = resolved(dict(layout=layout, phi0=phi0, v0=v0, t_end=t_end, radius=radius, depth=depth,
-                      cells_per_mm=cells_per_mm, rod_radius=rod_radius, rod_contact=rod_contact,
-                      contact=contact, mode=mode, fit_margin=fit_margin, gravity=gravity,
-                      rules=rules, cfl=cfl))
+    q = resolved(dict(locals()))              # every parameter, the layout's where none
     h, nx, nz = grid_shape(q)
     m = get_material("intruder", rules=rules)
     depth, mode = q["depth"], q["mode"]

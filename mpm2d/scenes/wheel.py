@@ -192,12 +192,7 @@ def setup(omega=None, radius=0.15, hub_radius=0.05, spoke_width=0.0556, density=
           spokes="rigid", E=1.0e7, nu=0.3, phi0=0.5075, width=2.0, height=1.0, bed_depth=0.5,
           h=2.0 / 150.0, t_end=1.0, start_angle=45.0, mu_w=None, moduli_factor=1.0,
           kappa_factor=1.0, transfer="apic", gravity=9.81, rules="table8", cfl=0.5, frames=8):
-    params = dict(omega=omega, radius=radius, hub_radius=hub_radius, spoke_width=spoke_width,
-                  density=density, spokes=spokes, E=E, nu=nu, phi0=phi0, width=width,
-                  height=height,
-                  bed_depth=bed_depth, h=h, t_end=t_end, start_angle=start_angle, mu_w=mu_w,
-                  moduli_factor=moduli_factor, kappa_factor=kappa_factor, transfer=transfer,
-                  gravity=gravity, rules=rules, cfl=cfl, frames=frames)
+    params = dict(locals())                   # every parameter, as checked
     w = OMEGAS[0] if omega is None else float(omega)
     nx, ny = int(round(width / h)), int(round(height / h))
     grid = Grid(nx, ny, h, boundaries=dict(xmin="periodic", xmax="periodic", ymin="noslip",
