@@ -2,7 +2,8 @@
 
 :func:`run_scene` is what ``mpm2d run SCENE --set key=value --out DIR`` calls. The parameters
 are checked once, by the scene's declaration (:mod:`mpm2d.scenes.spec`: types, ranges with their
-reasons, bounds derived from the other parameters, the memory estimate). The scene's
+reasons, bounds derived from the other parameters, the step count where the parameters bound
+the step, the memory estimate). The scene's
 ``setup(**params)`` returns a :class:`Scene`; :func:`runkit.run.drive` steps it to ``t_end``
 (SIGINT/SIGTERM deferred to the end of the step, then a checkpoint; numpy's warnings held; a
 checkpoint every ``checkpoint_every`` wall seconds), recording a history row every
@@ -10,7 +11,8 @@ checkpoint every ``checkpoint_every`` wall seconds), recording a history row eve
 report (CSV tables and PNG figures).
 
 Refused before anything is written (ValueError, one line): a run needing more than MAX_STEPS
-steps or fewer than the scene's ``min_steps``, or whose analysis divides by a history value that
+steps at its first stable step (a bound the set-up alone tells, such as a small phi0) or fewer
+than the scene's ``min_steps``, or whose analysis divides by a history value that
 is zero at t = 0 (``Scene.divides_by``), said about the parameter the user set with its bound at
 the other values (:func:`blame`); a set-up that breaks down; a resume of another scene, with
 other parameters or output options. ``resume=True`` continues from ``DIR/checkpoint.npz`` (or
