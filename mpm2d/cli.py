@@ -90,8 +90,8 @@ def main(argv=None) -> int:
                      help="override a scene parameter (repeatable; see mpm2d show SCENE)")
     run.add_argument("--out", default=None, help="output folder (default: ./SCENE)")
     run.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.npz")
-    run.add_argument("--frames", type=Number("--frames", ge(1, "at least the final snapshot"), FRAMES_MAX,
-                                             integer=True), default=None,
+    frames = Number("--frames", ge(1, "at least the final snapshot"), FRAMES_MAX, integer=True)
+    run.add_argument("--frames", type=frames, default=None,
                      help="number of snapshots (default: the scene's)")
     vtk = run.add_mutually_exclusive_group()
     vtk.add_argument("--no-vtk", action="store_true", help="skip the VTK snapshots")
@@ -102,8 +102,8 @@ def main(argv=None) -> int:
                           "more): without it such a run is refused with its estimate")
     run.add_argument("--quiet", action="store_true",
                      help="no progress bar and no progress lines (errors still on stderr)")
-    threads = Number("--threads", ge(1, "at least one thread"), le(ncpu, "the cores of this machine"),
-                     integer=True)
+    threads = Number("--threads", ge(1, "at least one thread"),
+                     le(ncpu, "the cores of this machine"), integer=True)
     run.add_argument("--threads", type=threads, default=None,
                      help=f"numba threads (1..{ncpu}; a resume needs the same number)")
     every = Number("--checkpoint-every", INTERVAL_MIN, INTERVAL_MAX, unit="s")

@@ -76,6 +76,7 @@ from ..bodies import RigidBody, fill
 from ..fronts import cell_field, fit_speed, longitudinal_front
 from ..geostatic import geostatic
 from ..grid import Grid
+from ..output import case_summaries
 from . import spec
 from .beds import suspension_bed
 from ..run import Scene
@@ -619,18 +620,14 @@ def sweep_report(table, out) -> list:
     against v0 and whether it grows monotonically)."""
     out = Path(out)
     runs, rods, fronts, rows = [], [], [], []
-    for _, r in table.iterrows():
-        folder = out / str(r["case"])
-        if not (folder / "summary.json").exists():
-            continue
-        s = json.loads((folder / "summary.json").read_text())
+    for case, folder, s in case_summaries(table, out):
         rod = pd.read_csv(folder / "rod.csv")
         raw = pd.read_csv(folder / "rod_raw.csv") if (folder / "rod_raw.csv").exists() else None
         rods.append(rod)
         fronts.append(pd.read_csv(folder / "front.csv"))
         runs.append((s["v0_m_per_s"], rod, raw))
         rows.append({k: (np.nan if s.get(k) is None else s[k]) for k in SPEED_COLUMNS}
-                    | {"case": str(r["case"])})
+                    | {"case": case})
     if not rows:
         return []
     order = np.argsort([r[0] for r in runs])

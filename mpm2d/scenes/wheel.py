@@ -74,7 +74,7 @@ from ..fronts import cell_field
 from ..geostatic import geostatic
 from ..grid import Grid
 from ..materials import LinearElastic, Suspension
-from ..output import bspline_weights, load_frames
+from ..output import bspline_weights, case_summaries, load_frames
 from ..particles import ParticleSet
 from . import spec
 from .. import run as runner
@@ -690,16 +690,12 @@ def sweep_report(table, out) -> list:
     out = Path(out)
     rows = []
     R = None
-    for _, r in table.iterrows():
-        p = out / str(r["case"]) / "summary.json"
-        if not p.exists():
-            continue
-        s = json.loads(p.read_text())
+    for case, _, s in case_summaries(table, out):
         R = s["radius_m"]
         for k, res in s["runs"].items():
             rows.append({"omega_per_s": res["omega_per_s"], "sink_depth_m": res["sink_depth_m"],
                          "max_excursion_over_R": res["max_excursion_over_R"],
-                         "advance_m": res["advance_m"], "case": str(r["case"])})
+                         "advance_m": res["advance_m"], "case": case})
     if not rows:
         return []
     df = pd.DataFrame(rows).sort_values("omega_per_s")
