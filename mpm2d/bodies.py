@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rheology.checks import check_positive, check_range
+from runkit.params import OutOfRange, check_positive, check_range, shown
 
 
 DOFS = ("vx", "vy", "omega")
@@ -42,7 +42,7 @@ def check_mu(name, mu) -> float:
     except (TypeError, ValueError):
         raise ValueError(f"{name} = {mu!r} is not a number") from None
     if not (mu >= 0.0):
-        raise ValueError(f"{name} = {mu} is outside the valid range [0, inf] (inf = no slip)")
+        raise OutOfRange(name, shown(mu), "[0, inf]", "inf = no slip")
     return mu
 
 

@@ -35,12 +35,19 @@ from rheology import get_material
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
+from runkit.limits import ge, gt, le
 from runkit.params import Number
 
 from .run import run_scene
 from .scenes import SCENES, get_setup, get_spec, is_scene_file
 from .scenes.spec import volume_fraction_key
 from .sweep import parse_grid, run_sweep
+
+
+#: the run options' limits, with their reasons
+FRAMES_MAX = le(100000, "a file per snapshot: 1e5 is past any animation or analysis")
+INTERVAL_MIN = gt(0.0, "a checkpoint interval is a positive wall time")
+INTERVAL_MAX = le(1e6, "12 days, longer than the longest run (1e8 steps, about a day on one core)")
 
 
 def _parse_set(items) -> dict:
@@ -83,7 +90,8 @@ def main(argv=None) -> int:
                      help="override a scene parameter (repeatable; see mpm2d show SCENE)")
     run.add_argument("--out", default=None, help="output folder (default: ./SCENE)")
     run.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.npz")
-    run.add_argument("--frames", type=Number("--frames", 1, 100000, integer=True), default=None,
+    frames = Number("--frames", ge(1, "at least the final snapshot"), FRAMES_MAX, integer=True)
+    run.add_argument("--frames", type=frames, default=None,
                      help="number of snapshots (default: the scene's)")
     vtk = run.add_mutually_exclusive_group()
     vtk.add_argument("--no-vtk", action="store_true", help="skip the VTK snapshots")
@@ -94,11 +102,13 @@ def main(argv=None) -> int:
                           "more): without it such a run is refused with its estimate")
     run.add_argument("--quiet", action="store_true",
                      help="no progress bar and no progress lines (errors still on stderr)")
-    run.add_argument("--threads", type=Number("--threads", 1, ncpu, integer=True), default=None,
+    threads = Number("--threads", ge(1, "at least one thread"),
+                     le(ncpu, "the cores of this machine"), integer=True)
+    run.add_argument("--threads", type=threads, default=None,
                      help=f"numba threads (1..{ncpu}; a resume needs the same number)")
-    run.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0, 1e6,
-                                                       lo_closed=False, unit="s"),
-                     default=60.0, help="wall seconds between checkpoints (default 60)")
+    every = Number("--checkpoint-every", INTERVAL_MIN, INTERVAL_MAX, unit="s")
+    run.add_argument("--checkpoint-every", type=every, default=60.0,
+                     help="wall seconds between checkpoints (default 60)")
     add_mass_fraction_options(run, nargs="+")
     for action in run._actions:              # one run, one fraction (a sweep takes several)
         if action.dest == "mass_fraction":
@@ -111,11 +121,11 @@ def main(argv=None) -> int:
                     help="values of a parameter (repeatable): the cases are the product")
     sw.add_argument("--out", default=None, help="sweep folder (default: ./sweep_SCENE)")
     sw.add_argument("--scheduler", default=None, help="address of a Dask scheduler")
-    sw.add_argument("--workers", type=Number("--workers", 1, 4 * ncpu, integer=True),
+    sw.add_argument("--workers", type=Number("--workers", ge(1, "at least one worker"), le(
+        4 * ncpu, "four per core: more only wait for the cores"), integer=True),
                     default=None, help="workers of the local cluster (default: one per core)")
-    sw.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0, 1e6,
-                                                      lo_closed=False, unit="s"),
-                    default=60.0, help="wall seconds between a case's checkpoints")
+    sw.add_argument("--checkpoint-every", type=every, default=60.0,
+                    help="wall seconds between a case's checkpoints")
     sw.add_argument("--vtk", action="store_true", help="write the VTK snapshots of every case")
     sw.add_argument("--yes", action="store_true",
                     help="run cases past 1e10 point-steps (about an hour or more each on two "

@@ -40,6 +40,7 @@ import math
 import numpy as np
 
 from rheology import laws
+from runkit.params import check_range
 
 from .materials import LinearElastic, NewtonianFluid, Suspension
 from .simulation import Simulation
@@ -101,8 +102,9 @@ def geostatic(sim, surface=None, K_lat=None, sets=None, relax=True, v_tol=None,
 
     if surface is None:
         surface = max(float(np.max(s.x[:, 1] + 0.5 * side(s))) for s in bed)
-    if K_lat is not None and not (0.0 <= K_lat <= 2.0):
-        raise ValueError(f"geostatic: K_lat = {K_lat} is outside the valid range [0, 2]")
+    if K_lat is not None:
+        check_range("K_lat", K_lat, 0.0, 2.0, note="a lateral stress from none to twice the "
+                                                    "vertical one")
     fluid_sets = [s for s in bed if isinstance(s.material, NewtonianFluid)]
     summary = {"surface_m": surface, "mode": sim.mode}
     for s in bed:

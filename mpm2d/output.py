@@ -266,6 +266,15 @@ def load_frames(out, tag: str | None = None) -> list[dict]:
     return frames
 
 
+def case_summaries(table, out):
+    """(case, folder, summary dict) of each case of a sweep's ``table`` whose folder in ``out``
+    holds a ``summary.json``, in the table's order (a scene's ``sweep_report`` reads them)."""
+    for case in table["case"].astype(str):
+        path = Path(out) / case / "summary.json"
+        if path.exists():
+            yield case, path.parent, json.loads(path.read_text())
+
+
 def write_pvds(out: Path, frames: list[dict]) -> None:
     """One .pvd time series per set/body from the frames' vtu entries."""
     names = sorted({n for f in frames for n in f.get("vtu", {})})
@@ -281,4 +290,4 @@ def write_manifest(out: Path, manifest: dict) -> Path:
 
 __all__ = ["snapshot_arrays", "write_frame", "write_pvds", "write_manifest", "write_vtu",
            "read_vtu", "write_grid_vtu", "grid_fields", "project_to_nodes", "load_frames",
-           "vtu_name"]
+           "vtu_name", "case_summaries"]

@@ -2,7 +2,8 @@
 
 :func:`run_scene` is what ``mpm2d run SCENE --set key=value --out DIR`` calls. The parameters
 are checked once, by the scene's declaration (:mod:`mpm2d.scenes.spec`: types, ranges with their
-reasons, bounds derived from the other parameters, the memory estimate). The scene's
+reasons, bounds derived from the other parameters, the step count where the parameters bound
+the step, the memory estimate). The scene's
 ``setup(**params)`` returns a :class:`Scene`; :func:`runkit.run.drive` steps it to ``t_end``
 (SIGINT/SIGTERM deferred to the end of the step, then a checkpoint; numpy's warnings held; a
 checkpoint every ``checkpoint_every`` wall seconds), recording a history row every
@@ -10,7 +11,8 @@ checkpoint every ``checkpoint_every`` wall seconds), recording a history row eve
 report (CSV tables and PNG figures).
 
 Refused before anything is written (ValueError, one line): a run needing more than MAX_STEPS
-steps or fewer than the scene's ``min_steps``, or whose analysis divides by a history value that
+steps at its first stable step (a bound the set-up alone tells, such as a small phi0) or fewer
+than the scene's ``min_steps``, or whose analysis divides by a history value that
 is zero at t = 0 (``Scene.divides_by``), said about the parameter the user set with its bound at
 the other values (:func:`blame`); a set-up that breaks down; a resume of another scene, with
 other parameters or output options. ``resume=True`` continues from ``DIR/checkpoint.npz`` (or
@@ -271,50 +273,6 @@ def blame(setup, params: dict, given: dict, name: str, ok: Callable, why: str,
         parts.append(f"{head}; valid: {k} {'>=' if up else '<='} {good:.3g}{unit} at the "
                      "other values")
     return ValueError(f"scene {name}: " + "; ".join(parts))
-
-
-def check_step_bound(spec, params: dict, name: str, given: dict | None = None) -> None:
-    """The step-count refusal of :func:`check_step_count` before the scene's set-up (which takes
-    seconds to minutes: a bed's geostatic relaxation), where the parameters bound the stable step
-    (:meth:`mpm2d.scenes.spec.SceneSpec.step_bound`): a run that needs more than MAX_STEPS
-    steps even at that bound is refused at once, one line naming the parameters among dt, cfl,
-    t_end and the cell size that the user set (``given``), each with its bound at the others'
-    values (the step is proportional to dt, cfl and h, the step count to t_end)."""
-    bound = spec.step_bound(params)
-    if bound is None:
-        return
-    dt, t_end, knobs = bound
-    with np.errstate(all="ignore"):
-        steps = t_end / dt if dt > 0 else math.inf
-    if not steps > MAX_STEPS:
-        return
-    given = given or {}
-    r = steps / MAX_STEPS
-    fixed = isinstance(params.get("dt"), (int, float)) and params["dt"] is not None
-    limits = []
-    with np.errstate(all="ignore"):
-        if fixed and "dt" in given:
-            limits.append(f"dt >= {_round_toward(t_end / MAX_STEPS, True):.3g} s (or dt = none)")
-        if not fixed and "cfl" in given:
-            lim = params["cfl"] * r
-            limits.append(f"cfl >= {_round_toward(lim, True):.3g}" if lim < 1 else
-                          f"cfl = {params['cfl']:g} cannot help (it would need > 1)")
-        if "t_end" in given:
-            limits.append(f"t_end <= {_round_toward(t_end / r, False):.3g} s")
-        if not fixed and "h" in given:
-            limits.append(f"h >= {_round_toward(params['h'] * r, True):.3g} m")
-        if not fixed and "cells_per_mm" in given:
-            limits.append(f"cells_per_mm <= {_round_toward(params['cells_per_mm'] / r, False):.3g}")
-    shown = ", ".join(f"{k} = {shown_value(v)}" for k, v in given.items()) or "the defaults"
-    verb = "makes" if len(given) == 1 else "make"
-    head = f"scene {name}: {shown} {verb} the run too long: {knobs} give a step of at most " \
-           f"{dt:.3g} s, at least {steps:.3g} steps to t_end, more than {MAX_STEPS:.0e}"
-    if limits:
-        raise ValueError(f"{head}; valid (each at the others' values): {', '.join(limits)}")
-    raise ValueError(head + ("; valid: dt >= " f"{_round_toward(t_end / MAX_STEPS, True):.3g} s"
-                             if fixed else "; valid: the values that set the wave speed "
-                             f"back toward their defaults, or cfl >= "
-                             f"{_round_toward(params['cfl'] * r, True):.3g}"))
 
 
 _FRAME = re.compile(r"frame_\d{5}\.npz$")
@@ -740,7 +698,6 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
     if resume:
         saved, used, given = _resumed(out, spec, name, given, options, log)
     params = {**spec.defaults, **given}           # checked once, by coerce
-    check_step_bound(spec, params, name, given)   # before the set-up where the parameters tell
     if saved is None:                             # a long run needs --yes (mpm2d.estimate)
         estimate.check_before_setup(setup, spec, params, name, yes, log)
     # a fresh run removes only what a previous run of ours wrote; a folder of the user's is

@@ -39,7 +39,7 @@ from runkit.command import one_line
 from runkit.io import atomic_write_csv, check_output_dir
 
 from . import estimate
-from .run import check_step_bound, coerce, run_scene, spec_of
+from .run import coerce, run_scene, spec_of
 from .scenes import get_setup
 
 #: parameter-name pattern of a case folder (stable across reruns)
@@ -224,7 +224,6 @@ def run_sweep(scene: str, grid: dict[str, list[str]], out, *, scheduler: str | N
             canonical[k][params[k]] = v
         # the size refusals of ``mpm2d run``, case by case, before the cluster starts
         full = {**spec.defaults, **given}    # spec.validate without checking ``given`` again
-        check_step_bound(spec, full, scene, given)
         estimate.check_before_setup(setup, spec, full, f"{scene} (case {case_name(params)})",
                                     yes, log)
     check_distinct_cases(grid, canonical)

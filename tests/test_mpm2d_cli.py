@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+import re
 import tempfile
 from pathlib import Path
 
@@ -324,13 +325,15 @@ def test_run_quiet_prints_nothing(tmp_path, capsys):
 
 
 def test_step_count_is_refused_before_the_set_up(tmp_path):
-    """intruder --set cfl=1e-300 was refused only after its 12-17 s set-up: the parameters bound
-    the step (cfl h / c, c >= sqrt(G/rho) of its material) and the refusal comes first: the
-    set-up is never called, one line naming cfl, t_end and h, exit 2, nothing written."""
-    from mpm2d.run import run_scene
+    """intruder --set cfl=1e-300 was refused only after its 12-17 s set-up. cfl's range is now
+    the stated limit [0.01, 1] (stability; no accuracy below), and a run needing more than
+    MAX_STEPS steps is refused by the scene's schema before the set-up: the parameters bound
+    the step (cfl h / c, c >= sqrt(G/rho) of its material), the refusal names the given value
+    out of its valid range at the others with the reason, exit 2, nothing written."""
+    from mpm2d.run import MAX_STEPS, run_scene
     from mpm2d.scenes import get_setup
 
-    real = get_setup("intruder")
+    real = get_setup("wheel")
 
     def setup(**params):
         raise AssertionError("the set-up ran")
@@ -338,16 +341,24 @@ def test_step_count_is_refused_before_the_set_up(tmp_path):
     setup.spec = real.spec
     out = tmp_path / "o"
     with pytest.raises(ValueError) as exc:
-        run_scene(setup, out, {"cfl": "1e-300"}, log=lambda m: None, scene_name="intruder")
+        run_scene(setup, out, {"cfl": "1e-300"}, log=lambda m: None, scene_name="wheel")
+    assert str(exc.value).startswith("cfl = 1e-300 is outside the valid range [0.01, 1] (a step "
+                                     "below 1% of the stable one gains no accuracy")
+    with pytest.raises(ValueError) as exc:
+        run_scene(setup, out, {"omega": "1e-4", "t_end": "1e5"}, log=lambda m: None,
+                  scene_name="wheel")
     text = str(exc.value)
-    assert text.startswith("scene intruder: cfl = 1e-300 makes the run too long")
-    assert "t_end = 0.02 s, h = 0.001 m" in text and "more than 1e+08" in text
-    assert "cfl >= 3.07e-05" in text
+    assert text.startswith("t_end = 100000 is outside the valid range (0, ")
+    assert "at the other parameters' values (a run takes at most 1e+08 steps" in text
+    assert "cfl = 0.5, t_end = 100000 s, h = 0.0133333 m" in text
+    dt_max = real.spec.step_bound(real.spec.validate({"omega": 1e-4}))[0]
+    hi = float(re.search(r"valid range \(0, (\S+)[\])] s", text).group(1))
+    assert hi == pytest.approx(MAX_STEPS * dt_max, rel=1e-5)
     assert not out.exists()
     # the CLI: one line, exit 2
     rc, err = _call(["run", "wheel", "--set", "cfl=1e-300", "--out", str(out), "--quiet"])
-    assert rc == 2 and len(err) == 1 and "cfl = 1e-300 makes the run too long" in err[0]
-    assert "cfl >= " in err[0]
+    assert rc == 2 and len(err) == 1 and "cfl = 1e-300 is outside the valid range [0.01, 1] (" \
+        in err[0]
     assert not out.exists()
 
 

@@ -53,12 +53,13 @@ def test_with_yes_it_runs_and_says_its_size(tmp_path, monkeypatch):
 
 def test_the_coarse_probe_times_the_same_scene_at_fewer_points():
     """The probe before the set-up builds the scene itself at a coarser cell size, never finer
-    than the run; a size the scene refuses (0.1 cells per mm: the rod narrower than 2 cells) is
-    moved halfway back, geometrically (0.224 cells per mm: 22 x 22 cells, 1936 points)."""
+    than the run; a size the scene refuses (0.1 cells per mm: below its 0.45, the grid above the
+    bed too coarse for the rod) is moved halfway back, geometrically, until it is valid (0.224,
+    0.334, 0.409, then 0.452 cells per mm: 45 x 45 cells, 8100 points)."""
     setup = get_setup("impact")
     params = setup.spec.validate({"cells_per_mm": 0.5})
     per, what = estimate._coarse_probe(setup, params, 1e5)
-    assert 0 < per < 1e-3 and what.startswith("cells_per_mm = 0.224 (1936 points")
+    assert 0 < per < 1e-3 and what.startswith("cells_per_mm = 0.452 (8100 points")
 
 
 def test_a_sweep_refuses_a_case_past_the_limit_before_any_case_runs(tmp_path, monkeypatch):

@@ -170,6 +170,26 @@ def test_bad_values_are_refused(tmp_path, capsys, item):
     assert not out.exists()
 
 
+def test_a_grid_too_coarse_for_the_rod_is_refused(tmp_path, capsys):
+    """cells_per_mm = 0.25 ran and ended at t = 0 ('the rod bounced out of the grid': the 20 mm
+    above the bed could not hold the represented rod and the cells above it). Refused: one line
+    naming cells_per_mm, its value, the valid range and the reason, exit 2, nothing written; the
+    bound itself sets up a rod inside the grid."""
+    from mpm2d.scenes.impact import CELLS_PER_MM_MIN
+
+    out = tmp_path / "never"
+    assert main(["run", "impact", "--set", "cells_per_mm=0.25", "--out", str(out)]) == 2
+    cap = capsys.readouterr()
+    err = cap.err.strip().splitlines()
+    assert cap.out == "" and len(err) == 1, err
+    assert (f"cells_per_mm = 0.25 is outside the valid range [{CELLS_PER_MM_MIN:g}, 4] 1/mm, or none (the "
+            "20 mm of grid above the bed must hold the rod's represented 15 mm") in err[0]
+    assert not out.exists()
+    scene = get_setup("impact")(**{**TINY, "radius": 0.03, "depth": 0.02,
+                                   "cells_per_mm": CELLS_PER_MM_MIN})
+    scene.before_step(scene.sim)                 # raises when the rod is out of the grid
+
+
 def test_interrupted_run_resumes_to_the_same_files(tmp_path, tiny_run):
     out0, _ = tiny_run
     out = tmp_path / "resumed"

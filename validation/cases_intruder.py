@@ -48,7 +48,7 @@ from mpm2d.scenes.intruder import draw_uz, event_fields, reference_lines, uz_nor
 from mpm2d.sweep import run_sweep
 from runkit.plotting import plt
 
-from .cases_mpm2d import run_quiet
+from .cases_mpm2d import run_summary
 from .framework import Verdict, case, save_figure, table_cases, write_csv
 
 #: the (rules, layout) combinations, in the order they are reported
@@ -247,24 +247,15 @@ def _scatter(df: pd.DataFrame, path: Path) -> Path:
     return save_figure(fig, path.parent, path.name)
 
 
-def _run(out: Path, **params) -> dict:
-    res = run_quiet(get_setup("intruder"), out, **params)
-    summary = json.loads((Path(out) / "summary.json").read_text())
-    summary["steps"] = int(res["scene"].sim.step_count)
-    summary["points"] = int(sum(len(s) for s in res["scene"].sim.sets))
-    return summary
-
-
 def _compare(out: Path, variants: dict, tol: float, title: str, png: str):
     rows = []
     for name, params in variants.items():
-        t0 = time.perf_counter()
-        s = _run(out / name, **params)
+        s = run_summary(get_setup("intruder"), out / name, **params)
         rows.append({"variant": name, "k_l": _num(s["k_l"]), "k_t": _num(s["k_t"]),
                      "k_l_over_k_t": _num(s["k_l_over_k_t"]),
                      "r2_longitudinal": _num(s["r2_longitudinal"]),
                      "r2_transverse": _num(s["r2_transverse"]), "steps": s["steps"],
-                     "points": s["points"], "wall_s": time.perf_counter() - t0})
+                     "points": s["points"], "wall_s": s["wall_s"]})
     df = write_csv(out, "comparison.csv", rows, ("k_l", "k_t", "k_l_over_k_t",
                                                   "r2_longitudinal", "r2_transverse"))
     a, b = df.iloc[0], df.iloc[1]

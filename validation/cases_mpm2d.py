@@ -6,6 +6,8 @@ states a falsifiable criterion and draws its figure.
 
 from __future__ import annotations
 
+import json
+import time
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +32,16 @@ ERRORS = ("frequency_error", "amplitude_error", "max_error")
 def run_quiet(setup, out: Path, **params):
     """One ``mpm2d run`` of the scene ``setup`` in ``out``, without progress, VTK or log."""
     return run_scene(setup, out, params, progress=False, vtk=False, log=lambda m: None)
+
+
+def run_summary(setup, out: Path, **params) -> dict:
+    """:func:`run_quiet`'s ``summary.json`` with the run's ``steps``, ``points`` and
+    ``wall_s``."""
+    t0 = time.perf_counter()
+    sim = run_quiet(setup, out, **params)["scene"].sim
+    summary = json.loads((Path(out) / "summary.json").read_text())
+    return {**summary, "wall_s": time.perf_counter() - t0, "steps": int(sim.step_count),
+            "points": int(sum(len(s) for s in sim.sets))}
 
 
 def _vibration(out: Path, quick: bool, scene, title: str, png: str, criterion: str,

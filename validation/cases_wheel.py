@@ -22,7 +22,7 @@ import pandas as pd
 from mpm2d.scenes import wheel
 from mpm2d.sweep import parse_grid, run_sweep
 
-from .cases_mpm2d import run_quiet
+from .cases_mpm2d import run_summary
 from .framework import Verdict, case, write_csv
 
 #: the tiny (quick) wheel: R = 0.1 m, h = R/4, a 0.8 x 0.1 m bed, 0.03 s
@@ -45,15 +45,7 @@ CONV_TOL_R = 0.25
 
 
 def _run(out: Path, **params):
-    t0 = time.perf_counter()
-    res = run_quiet(wheel.setup, out, **params)
-    wall = time.perf_counter() - t0
-    s = json.loads((Path(out) / "summary.json").read_text())
-    sim = res["scene"].sim
-    s["wall_s"] = wall
-    s["steps"] = int(sim.step_count)
-    s["points"] = int(sum(len(p) for p in sim.sets))
-    return s
+    return run_summary(wheel.setup, out, **params)
 
 
 def _fmt_runs(s) -> str:

@@ -55,8 +55,7 @@ from runkit.io import atomic_write_csv
     size=lambda p: (4 * 2 * p["cells"], 12 * (p["cells"] + 10)))
 def setup(height=1.0, cells=16, E=1.0e6, nu=0.3, rho=1000.0, gravity=9.81, periods=2,
           cfl=0.5):
-    params = dict(height=height, cells=cells, E=E, nu=nu, rho=rho, gravity=gravity,
-                  periods=periods, cfl=cfl)
+    params = dict(locals())                   # every parameter, as checked
     h = height / cells
     grid = Grid(2, cells + 4, h, boundaries=dict(xmin="slip", xmax="slip", ymin="noslip",
                                                  ymax="free"))

@@ -19,6 +19,7 @@ import os
 import sys
 from pathlib import Path
 
+from ..run import spec_of
 from .spec import Param, SceneSpec, parameters_of
 
 #: scene name -> module (imported on demand)
@@ -92,13 +93,8 @@ def get_setup(name: str):
 
 
 def get_spec(name: str) -> SceneSpec:
-    """The declared parameters of scene ``name``."""
-    setup = get_setup(name)
-    spec = getattr(setup, "spec", None)
-    if spec is None:
-        raise TypeError(f"scene {name}: setup has no declared parameters (use "
-                        "mpm2d.scenes.spec.parameters_of)")
-    return spec
+    """The declared parameters of scene ``name`` (:func:`mpm2d.run.spec_of`)."""
+    return spec_of(get_setup(name))
 
 
 def parameters(name: str) -> dict:

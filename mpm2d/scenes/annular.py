@@ -29,22 +29,11 @@ Parameters: material, phi0, u_inner [m/s], r_inner, r_outer [m], cells (across t
 (in z), ppc, rotation [rad], ramp_time [s], p0 [Pa], kappa [Pa] (fluid bulk modulus; default the
 material's), transfer, flip_alpha, swirl_flip, cfl.
 
-Transfer (why ``swirl_flip`` = 0.99): plain APIC replaces each point's l = r v_theta by the grid
-interpolant every step and so damps the shear waves of the jammed band once per step, the more
-the smaller dt at fixed h. That made the front dt-dependent and slow: on 24 cells, front speed
-0.500, 0.472, 0.453 m/s at cfl 0.5, 0.25, 0.125 (0.441, 0.407, 0.357 on 12 cells), against
-shear1d's explicit 0.547 (24 cells, converged in dt to 0.7 %) and 0.588 (200 cells). The same
-drift appears in a plane Couette cell without any swirl code (0.211, 0.203, 0.183 m/s, shear1d
-0.213): it is the transfer, not the swirl equations; PIC forms no band at all. The APIC-FLIP
-blend (mpm2d.transfer.g2p_swirl) keeps 99 % of what a point carries beyond the interpolant:
-0.527, 0.529, 0.540, 0.540 m/s at cfl 0.5, 0.25, 0.125, 0.0625 (24 cells). What remains
-against shear1d at the same cells (-4 %) is the fluid's compressibility: shear1d's locked mode
-holds phi fixed, a locked mixture here has kappa = K (Table 4's set): with kappa = 10 K the
-front is 0.554, 0.562, 0.571 m/s on 24, 48, 96 cells (shear1d 0.547, 0.567, 0.581 on 24, 48,
-100 cells, 0.588 on 200; kappa = 100 K: 0.550 on 24 cells); with kappa = K 0.527, 0.536,
-0.544. Not 1: with alpha = 1 the points next to the bob keep their initial lag for good (a
-deviation from the interpolant the mirrored grid never sees) and the band overshoots the bob's
-speed; 0.9 gives 0.520 and 0.523 m/s at cfl 0.5 and 0.125.
+Transfer (``swirl_flip`` = 0.99): plain APIC replaces each point's l = r v_theta by the grid
+interpolant every step, damping the jammed band's shear waves once per step (a front that slows
+as dt falls); the APIC-FLIP blend (mpm2d.transfer.g2p_swirl) keeps 99 % of what a point carries
+beyond the interpolant (alpha = 1 keeps the points next to the bob at their initial lag). The
+measurements behind the choice are in docs/user/mpm2d.md.
 
 Outputs (report): ``annular_front.csv`` (time, bob rotation, kinematic front position: the
 first radius from the bob where v_theta / (u_i r/R_i) < 1/2, shear1d's definition; f at the bob)
@@ -208,10 +197,7 @@ def setup(material="annular_shear", phi0=0.505, u_inner=0.084, r_inner=R_INNER,
           r_outer=R_OUTER, cells=24, rows=50, ppc=2, rotation=0.31, ramp_time=0.0, p0=1e-3,
           kappa=None, transfer="apic", flip_alpha=0.99, swirl_flip=0.99, rules="table8",
           cfl=0.5):
-    params = dict(material=material, phi0=phi0, u_inner=u_inner, r_inner=r_inner,
-                  r_outer=r_outer, cells=cells, rows=rows, ppc=ppc, rotation=rotation,
-                  ramp_time=ramp_time, p0=p0, kappa=kappa, transfer=transfer, flip_alpha=flip_alpha,
-                  swirl_flip=swirl_flip, rules=rules, cfl=cfl)
+    params = dict(locals())                   # every parameter, as checked
     m = scene_material("annular_shear", material, rules=rules)
     if kappa is not None:
         m = dataclasses.replace(m, kappa=float(kappa))

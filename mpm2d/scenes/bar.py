@@ -60,6 +60,7 @@ MIN_SAMPLES = 3
     size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 8) * 7))
 def setup(length=1.0, cells=32, ppc=2, E=1.0e6, rho=1000.0, v0=1.0e-3, periods=2.0,
           transfer="apic", flip_alpha=0.99, cfl=0.5, dt=None):
+    params = dict(locals())                   # every parameter, as checked
     h = length / cells
     grid = Grid(cells + 3, 2, h, boundaries=dict(xmin="noslip", xmax="free", ymin="periodic",
                                                 ymax="periodic"))
@@ -71,8 +72,6 @@ def setup(length=1.0, cells=32, ppc=2, E=1.0e6, rho=1000.0, v0=1.0e-3, periods=2
                      name="bar")
     c = np.sqrt(E / rho)
     _, omega = analytic.bar_mode1(0.0, v0, length, c)
-    params = dict(length=length, cells=cells, ppc=ppc, E=E, rho=rho, v0=v0, periods=periods,
-                  transfer=transfer, flip_alpha=flip_alpha, cfl=cfl, dt=dt)
 
     def record(sim):
         s = sim.sets[0]

@@ -73,9 +73,7 @@ from ..simulation import Drag, Simulation
                     (p["width_cells"] + 5) * (p["cells"] + 9)))
 def setup(height=0.02, width_cells=4, cells=20, ppc=2, phi0=0.3, material="rod_impact", d=5e-4,
           eta0=1e-3, K=1e5, G=1e5, kappa=1e5, t_end=1.5, gravity=9.81, rules="table8", cfl=0.5):
-    params = dict(height=height, width_cells=width_cells, cells=cells, ppc=ppc, phi0=phi0,
-                  material=material, d=d, eta0=eta0, K=K, G=G, kappa=kappa, t_end=t_end,
-                  gravity=gravity, rules=rules, cfl=cfl)
+    params = dict(locals())                   # every parameter, as checked
     m = get_material(material, d=d, eta0=eta0, K=K, G=G, kappa=kappa, rules=rules)
     m.require("rho_s", "rho_f")
     h = height / cells

@@ -54,8 +54,7 @@ PROFILE_T = (0.02, 0.05, 0.1, 0.2, 0.5)
     size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
 def setup(gap=0.01, cells=16, ppc=2, eta=0.1, rho=1000.0, kappa=1.0e4, U=0.01, t_end_T=0.5,
           transfer="apic", cfl=0.5):
-    params = dict(gap=gap, cells=cells, ppc=ppc, eta=eta, rho=rho, kappa=kappa, U=U,
-                  t_end_T=t_end_T, transfer=transfer, cfl=cfl)
+    params = dict(locals())                   # every parameter, as checked
     h = gap / cells
     grid = Grid(2, cells, h, boundaries=dict(xmin="periodic", xmax="periodic", ymin="noslip",
                                             ymax="noslip"), wall_velocity={"ymax": (U, 0.0)})

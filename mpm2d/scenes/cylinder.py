@@ -49,6 +49,7 @@ from ..simulation import Simulation
     size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
 def setup(radius=1.0, cells=32, ppc=2, E=1.0e6, nu=0.25, rho=1000.0, v0=1.0e-3, periods=2.0,
           transfer="apic", cfl=0.5):
+    params = dict(locals())                   # every parameter, as checked
     h = radius / cells
     grid = Grid(cells, 2, h, axisymmetric=True,
                 boundaries=dict(xmin="axis", xmax="slip", ymin="periodic", ymax="periodic"))
@@ -59,8 +60,6 @@ def setup(radius=1.0, cells=32, ppc=2, E=1.0e6, nu=0.25, rho=1000.0, v0=1.0e-3, 
     v[:, 0] = v0 * analytic.bessel_j1(k * x[:, 0])
     cyl = ParticleSet("cylinder", mat, x, area, v=v, axisymmetric=True)
     sim = Simulation(grid, [cyl], transfer=transfer, cfl=cfl, name="cylinder")
-    params = dict(radius=radius, cells=cells, ppc=ppc, E=E, nu=nu, rho=rho, v0=v0,
-                  periods=periods, transfer=transfer, cfl=cfl)
 
     def record(sim):
         s = sim.sets[0]

@@ -60,9 +60,8 @@ from ..transfer import g2p
                     (p["cells"] + 5) ** 2))
 def setup(cells=32, ppc=2, E=1000.0, nu=0.3, rho=1000.0, radius=0.2, speed=0.1, offset=0.0,
           walls="slip", t_end=3.0, transfer="apic", flip_alpha=0.99, cfl=0.5):
+    params = dict(locals())                   # every parameter, as checked
     h = 1.0 / cells
-    if walls not in ("slip", "free"):
-        raise ValueError(f"walls = {walls!r} must be 'slip' or 'free'")
     grid = Grid(cells, cells, h, boundaries=dict(xmin=walls, xmax=walls, ymin=walls,
                                                 ymax=walls))
     mat = LinearElastic(rho, E=E, nu=nu)
@@ -73,9 +72,6 @@ def setup(cells=32, ppc=2, E=1000.0, nu=0.3, rho=1000.0, radius=0.2, speed=0.1, 
         x, area = disk(c, radius, h / ppc, lower=(0.0, 0.0), upper=(1.0, 1.0))
         sets.append(ParticleSet(name, mat, x, area, v=np.tile(v, (len(x), 1))))
     sim = Simulation(grid, sets, transfer=transfer, flip_alpha=flip_alpha, cfl=cfl, name="disks")
-    params = dict(cells=cells, ppc=ppc, E=E, nu=nu, rho=rho, radius=radius, speed=speed,
-                  offset=offset, walls=walls, t_end=t_end, transfer=transfer,
-                  flip_alpha=flip_alpha, cfl=cfl)
 
     def record(sim):
         return {"angular_momentum_kg_m2_per_s": sim.angular_momentum(),

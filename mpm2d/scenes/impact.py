@@ -76,6 +76,7 @@ from ..bodies import RigidBody, fill
 from ..fronts import cell_field, fit_speed, longitudinal_front
 from ..geostatic import geostatic
 from ..grid import Grid
+from ..output import case_summaries
 from . import spec
 from .beds import suspension_bed
 from ..run import Scene
@@ -94,6 +95,8 @@ SIZES = {
 HEADROOM = 0.02
 #: represented length of the rod [m] (its lowest part; mass of the whole rod)
 ROD_REPRESENTED = 0.015
+#: coarsest grid [cells/mm]: HEADROOM holds the rod's represented part and 2.25 cells above it
+CELLS_PER_MM_MIN = 0.45
 #: the front criterion u_z / v_rod (Han et al. 2016)
 FRONT_FRACTION = 0.5
 #: the front is recorded while |v_rod| > this fraction of v0
@@ -145,14 +148,19 @@ def _geo(key, lo, hi, unit, doc, note="", **kw):
     size=spec.Param(choices=tuple(SIZES), doc="scene: default (Fig. 4 at 2 mm), fig4 (100 x 120 "
                     "at 1 mm, 7 mPa s), fig5 (150 x 225 at 1 mm, 1 mPa s)"),
     v0=_geo("v0", 0.0, 5.0, "m/s", "impact speed (downwards)", lo_closed=False),
-    phi0=spec.phi_below_jamming(fixed="rod_impact", optional=True,
+    phi0=spec.phi_below_jamming(fixed=lambda p: resolved(p)["material"], optional=True,
+                                fill=lambda p: resolved(p)["phi0"],
                                 doc="solid volume fraction of the bed (none: the size's value, "
                                     "0.47; fig5 0.50)"),
     radius=_geo("radius", lambda p: p["rod_radius"] + 4e-3 / resolved(p)["cells_per_mm"], 1.0,
                 "m", "container (mixture) radius", note="at least the rod radius + 4 cells"),
     depth=_geo("depth", lambda p: 8e-3 / resolved(p)["cells_per_mm"], 1.0, "m",
                "mixture depth", note="at least 8 cells"),
-    cells_per_mm=_geo("cells_per_mm", 0.2, 4.0, "1/mm", "1/h in 1/mm (1: the paper's 1 mm)"),
+    cells_per_mm=_geo("cells_per_mm", CELLS_PER_MM_MIN, 4.0, "1/mm",
+                      "1/h in 1/mm (1: the paper's 1 mm)",
+                      lo_why=f"the {HEADROOM * 1e3:g} mm of grid above the bed must hold the "
+                             f"rod's represented {ROD_REPRESENTED * 1e3:g} mm and 2 cells above "
+                             "it, h <= 2.2 mm"),
     t_end=_geo("t_end", 0.0, 1.0, "s", "end time after impact", lo_closed=False),
     material=spec.Param(choices=("auto", "rod_impact", "rod_impact_1cp"),
                         doc="Table 5 set: rod_impact (7 mPa s) or rod_impact_1cp (1 mPa s); "
@@ -175,18 +183,11 @@ def setup(size="default", v0=None, phi0=None, radius=None, depth=None, cells_per
           t_end=None, material="auto", rod_radius=0.0095, rod_length=0.20, rod_density=2700.0,
           rod_contact="noslip", mode="locked mixture", stencil=None, gravity=9.81, rules="table8",
           cfl=0.5):
-    params = dict(size=size, v0=v0, phi0=phi0, radius=radius, depth=depth,
-                  cells_per_mm=cells_per_mm, t_end=t_end, material=material,
-                  rod_radius=rod_radius, rod_length=rod_length, rod_density=rod_density,
-                  rod_contact=rod_contact, mode=mode, stencil=stencil, gravity=gravity, rules=rules,
-                  cfl=cfl)
+    params = dict(locals())                   # every parameter, as checked
     q = resolved(params)
     phi0 = q["phi0"]
     h = 1e-3 / q["cells_per_mm"]
     m = get_material(q["material"], rules=rules)
-    if not phi0 < m.phi_j:
-        raise ValueError(f"phi0 = {phi0} is outside the valid range (0, {m.phi_j}) (phi_j of "
-                         f"material {q['material']!r})")
     R, D, v0 = q["radius"], q["depth"], q["v0"]
     nx = int(round(R / h))
     nd = int(round(D / h))
@@ -619,18 +620,14 @@ def sweep_report(table, out) -> list:
     against v0 and whether it grows monotonically)."""
     out = Path(out)
     runs, rods, fronts, rows = [], [], [], []
-    for _, r in table.iterrows():
-        folder = out / str(r["case"])
-        if not (folder / "summary.json").exists():
-            continue
-        s = json.loads((folder / "summary.json").read_text())
+    for case, folder, s in case_summaries(table, out):
         rod = pd.read_csv(folder / "rod.csv")
         raw = pd.read_csv(folder / "rod_raw.csv") if (folder / "rod_raw.csv").exists() else None
         rods.append(rod)
         fronts.append(pd.read_csv(folder / "front.csv"))
         runs.append((s["v0_m_per_s"], rod, raw))
         rows.append({k: (np.nan if s.get(k) is None else s[k]) for k in SPEED_COLUMNS}
-                    | {"case": str(r["case"])})
+                    | {"case": case})
     if not rows:
         return []
     order = np.argsort([r[0] for r in runs])

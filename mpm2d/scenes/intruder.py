@@ -73,7 +73,7 @@ from ..bodies import RigidBody, fill
 from ..fronts import cell_field, fit_speed, longitudinal_front, transverse_front
 from ..geostatic import geostatic
 from ..grid import Grid
-from ..output import load_frames
+from ..output import case_summaries, load_frames
 from . import spec
 from .beds import suspension_bed
 from ..run import Scene
@@ -171,10 +171,7 @@ def _geo(key, lo, hi, unit, doc, note=""):
 def setup(layout="default", phi0=0.47, v0=0.175, t_end=0.02, radius=None, depth=None,
           cells_per_mm=1.0, rod_radius=None, rod_contact="noslip", contact="auto", mode="auto",
           fit_margin=5e-3, gravity=9.81, rules="table8", cfl=0.5):
-    q = resolved(dict(layout=layout, phi0=phi0, v0=v0, t_end=t_end, radius=radius, depth=depth,
-                      cells_per_mm=cells_per_mm, rod_radius=rod_radius, rod_contact=rod_contact,
-                      contact=contact, mode=mode, fit_margin=fit_margin, gravity=gravity,
-                      rules=rules, cfl=cfl))
+    q = resolved(dict(locals()))              # every parameter, the layout's where none
     h, nx, nz = grid_shape(q)
     m = get_material("intruder", rules=rules)
     depth, mode = q["depth"], q["mode"]
@@ -596,15 +593,9 @@ def sweep_report(table, out) -> list:
     the line k_l = 2 k_t and the single-onset-strain curves (:func:`reference_lines`), Fig. 7;
     a case that never jammed drawn faint), from each case's ``summary.json``."""
     out = Path(out)
-    rows = []
-    for _, r in table.iterrows():
-        p = out / str(r["case"]) / "summary.json"
-        if not p.exists():
-            continue
-        s = json.loads(p.read_text())
-        rows.append({**{k: (np.nan if s.get(k) is None else s[k])
-                        for k in (*SWEEP_COLUMNS, *_JAM_COLUMNS)},
-                     "jammed": bool(s.get("jammed", True)), "case": str(r["case"])})
+    rows = [{**{k: (np.nan if s.get(k) is None else s[k]) for k in (*SWEEP_COLUMNS, *_JAM_COLUMNS)},
+             "jammed": bool(s.get("jammed", True)), "case": case}
+            for case, _, s in case_summaries(table, out)]
     if not rows:
         return []
     df = pd.DataFrame(rows, columns=[*SWEEP_COLUMNS, "jammed", *_JAM_COLUMNS, "case"])

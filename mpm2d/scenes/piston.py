@@ -44,8 +44,7 @@ from ..simulation import Simulation
     cfl=spec.cfl(),
     size=lambda p: (2 * (p["cells"] + 4) * p["ppc"] ** 2, (p["cells"] + 15) * 7))
 def setup(length=1.0, cells=64, ppc=2, E=1.0e6, rho=1000.0, V=0.01, t_end_fraction=0.6, cfl=0.5):
-    params = dict(length=length, cells=cells, ppc=ppc, E=E, rho=rho, V=V,
-                  t_end_fraction=t_end_fraction, cfl=cfl)
+    params = dict(locals())                   # every parameter, as checked
     h = length / cells
     c = np.sqrt(E / rho)
     w = 4 * h

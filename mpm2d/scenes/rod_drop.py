@@ -66,9 +66,7 @@ from ..simulation import Simulation
 def setup(radius=0.03, depth=0.03, cells_per_mm=1.0, rod_radius=0.005, rod_length=0.02,
           rod_density=2700.0, v0=1.0, phi0=0.47, K=8.3e5, G=3.8e5, kappa=8.3e5, t_end=0.02,
           gravity=9.81, rules="table8", cfl=0.5):
-    params = dict(radius=radius, depth=depth, cells_per_mm=cells_per_mm, rod_radius=rod_radius,
-                  rod_length=rod_length, rod_density=rod_density, v0=v0, phi0=phi0, K=K, G=G,
-                  kappa=kappa, t_end=t_end, gravity=gravity, rules=rules, cfl=cfl)
+    params = dict(locals())                   # every parameter, as checked
     h = 1e-3 / cells_per_mm
     m = get_material("rod_impact", K=K, G=G, kappa=kappa, rules=rules)
     nx = int(round(radius / h))

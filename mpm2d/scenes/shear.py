@@ -60,8 +60,7 @@ from ..simulation import Simulation
     size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
 def setup(material="annular_shear", phi=0.40, rate=50.0, p0=1.0, f0=0.0, height=0.004, cells=4,
           ppc=2, t_end=0.5, dt=None, rules="table8", cfl=0.5):
-    params = dict(material=material, phi=phi, rate=rate, p0=p0, f0=f0, height=height,
-                  cells=cells, ppc=ppc, t_end=t_end, dt=dt, rules=rules, cfl=cfl)
+    params = dict(locals())                   # every parameter, as checked
     m = scene_material("annular_shear", material, rules=rules)
     h = height / cells
     U = rate * height

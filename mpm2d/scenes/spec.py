@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from runkit import limits
-from runkit.limits import Bound, check_memory
+from runkit.limits import MAX_STEPS, Bound, check_memory
 from runkit.params import Number, OutOfRange, integer_range, shown
 from runkit.params import Param as SchemaParam
 from rheology import get_material, material_names
@@ -42,6 +42,8 @@ BYTES_PER_POINT = 1200
 BYTES_PER_NODE = 2 * 8 * (9 * 3 + 12)
 #: what any run takes besides its arrays (interpreter, numba and its compiled kernels)
 BASE_BYTES = 2e8
+#: the reason of the step-count limit (runkit.limits.MAX_STEPS)
+STEPS_WHY = "about a day on one core at the smallest scene"
 
 
 @dataclass(frozen=True)
@@ -248,18 +250,52 @@ class SceneSpec:
                 raise self._explain(k, exc, full, out) from None
             if k in out:
                 out[k] = full[k]
+        self._check_steps(full, out)
         self.check_memory(full)
         return out
 
     def _derived_ok(self, full: dict) -> bool:
-        """Whether every derived bound holds at ``full`` (arithmetic failures count as no)."""
+        """Whether every derived bound holds at ``full``, the step count included (arithmetic
+        failures count as no)."""
         try:
             with np.errstate(all="ignore"):
                 for k, p in self.params.items():
                     p.check_derived(k, full[k], full)
         except (ValueError, ArithmeticError, TypeError):
             return False
-        return True
+        return self.steps_fit(full)
+
+    def steps_fit(self, full: dict) -> bool:
+        """Whether the run takes at most MAX_STEPS steps at the largest step its parameters
+        allow (:meth:`step_bound`; True where they give none)."""
+        try:
+            bound = self.step_bound(full)
+        except (ValueError, ArithmeticError, TypeError):
+            return False
+        if bound is None:
+            return True
+        dt, t_end, _ = bound
+        with np.errstate(all="ignore"):
+            return bool(dt > 0 and t_end / dt <= MAX_STEPS)
+
+    def _check_steps(self, full: dict, given: dict) -> None:
+        """Refuse a run needing more than MAX_STEPS steps even at the largest step its
+        parameters allow: said about a given number out of its valid range at the others."""
+        if self.steps_fit(full):
+            return
+        dt, t_end, knobs = self.step_bound(full)
+        why = (f"a run takes at most {MAX_STEPS:.0e} steps, {STEPS_WHY}; {knobs} give a step "
+               f"of at most {dt:.3g} s, at least {t_end / dt:.3g} steps")
+        for g in given:
+            rng = self.valid_range(g, full)
+            if rng is None or full[g] is None or rng.contains(float(full[g])) or _empty(rng):
+                continue
+            raise ValueError(f"{g} = {shown(float(full[g]))} is outside the valid range "
+                             f"{rng.range_text} at the other parameters' values ({why})")
+        what = ", ".join(f"{g} = {v}" for g, v in given.items()) or "the defaults"
+        raise ValueError(f"scene {self.name}: with {what}, {why}; change "
+                         f"{', '.join(given) or 'them'} ('mpm2d show {self.name}' lists the "
+                         "ranges)")
 
     def valid_range(self, key: str, full: dict) -> Number | None:
         """The valid values of the number ``key`` with every other parameter as in ``full``:
@@ -477,8 +513,15 @@ def grain_size(doc="grain diameter (sets the drag)"):
     return physical(limits.GRAIN_MIN, limits.GRAIN_MAX, "m", doc)
 
 
+#: the stable step's safety factor: its physical range and the reasons
+CFL_MIN = limits.ge(0.01, "a step below 1% of the stable one gains no accuracy (the error is "
+                          "the grid's) for 50 times the steps of the default 0.5")
+CFL_MAX = limits.le(1.0, "the Courant-Friedrichs-Lewy limit of the explicit step: a wave "
+                         "crosses at most one cell per step")
+
+
 def cfl(doc="safety factor of the stable step"):
-    return Param(0.0, 1.0, lo_closed=False, doc=doc)
+    return physical(CFL_MIN, CFL_MAX, "", doc)
 
 
 def transfer():
@@ -519,18 +562,19 @@ def materials_where(predicate: Callable, what: str) -> Callable[[], tuple]:
 
 
 def phi_below_jamming(material_key="material", fixed=None, doc="initial solid volume fraction",
-                      optional=False):
+                      optional=False, fill=None):
     """A volume fraction in (0, phi_j) of the scene's material (``params[material_key]``, or the
-    named ``fixed`` material); ``optional``: ``none`` allowed (the scene picks its value)."""
+    ``fixed`` material: a name or a function of the parameters); ``optional``: ``none`` allowed
+    (the scene picks its value, ``fill(params)``, checked the same)."""
 
     def name(p):
-        return fixed if fixed else p[material_key]
+        return fixed(p) if callable(fixed) else fixed if fixed else p[material_key]
 
     def phi_j(p):
         return get_material(name(p)).phi_j
 
     return Param(0.0, phi_j, lo_closed=False, hi_closed=False, doc=doc, optional=optional,
-                 note=lambda p: f"phi_j of material {name(p)!r}", fraction_of=name)
+                 note=lambda p: f"phi_j of material {name(p)!r}", fraction_of=name, fill=fill)
 
 
 def volume_fraction_key(spec) -> str | None:

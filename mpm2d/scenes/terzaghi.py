@@ -86,9 +86,7 @@ def constants(params: dict) -> dict:
 def setup(height=1.0, cells=32, width_cells=2, ppc=2, K=5.0e5, G=3.75e5, rho_s=2650.0,
           rho_f=1000.0, phi=0.5, eta0=1.0e-3, d=3.3e-4, kappa=1.0e6, load=1.0e3, ramp=0.1,
           t_end_T=0.8, cfl=0.5, transfer="apic"):
-    params = dict(height=height, cells=cells, width_cells=width_cells, ppc=ppc, K=K, G=G,
-                  rho_s=rho_s, rho_f=rho_f, phi=phi, eta0=eta0, d=d, kappa=kappa, load=load,
-                  ramp=ramp, t_end_T=t_end_T, cfl=cfl, transfer=transfer)
+    params = dict(locals())                   # every parameter, as checked
     k = constants(params)
     h = height / cells
     grid = Grid(width_cells, cells + 4, h, boundaries=dict(xmin="periodic", xmax="periodic",

@@ -63,16 +63,18 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.animation import PillowWriter
 
 from rheology import get_material
 from runkit.io import atomic_write_csv, atomic_write_json
 
 from .. import plots
 from ..bodies import RigidBody, fill
+from ..fronts import cell_field
 from ..geostatic import geostatic
 from ..grid import Grid
 from ..materials import LinearElastic, Suspension
-from ..output import bspline_weights, load_frames
+from ..output import bspline_weights, case_summaries, load_frames
 from ..particles import ParticleSet
 from . import spec
 from .. import run as runner
@@ -190,12 +192,7 @@ def setup(omega=None, radius=0.15, hub_radius=0.05, spoke_width=0.0556, density=
           spokes="rigid", E=1.0e7, nu=0.3, phi0=0.5075, width=2.0, height=1.0, bed_depth=0.5,
           h=2.0 / 150.0, t_end=1.0, start_angle=45.0, mu_w=None, moduli_factor=1.0,
           kappa_factor=1.0, transfer="apic", gravity=9.81, rules="table8", cfl=0.5, frames=8):
-    params = dict(omega=omega, radius=radius, hub_radius=hub_radius, spoke_width=spoke_width,
-                  density=density, spokes=spokes, E=E, nu=nu, phi0=phi0, width=width,
-                  height=height,
-                  bed_depth=bed_depth, h=h, t_end=t_end, start_angle=start_angle, mu_w=mu_w,
-                  moduli_factor=moduli_factor, kappa_factor=kappa_factor, transfer=transfer,
-                  gravity=gravity, rules=rules, cfl=cfl, frames=frames)
+    params = dict(locals())                   # every parameter, as checked
     w = OMEGAS[0] if omega is None else float(omega)
     nx, ny = int(round(width / h)), int(round(height / h))
     grid = Grid(nx, ny, h, boundaries=dict(xmin="periodic", xmax="periodic", ymin="noslip",
@@ -348,15 +345,9 @@ def grid_phi(x, svol, h, nx, ny) -> np.ndarray:
 
 
 def cell_average(x, q, w, h, nx, ny) -> np.ndarray:
-    """Weighted cell average of the point values q (weights w), (nx, ny); NaN in empty cells."""
-    i = np.mod(np.floor(x[:, 0] / h).astype(np.int64), nx)
-    j = np.clip(np.floor(x[:, 1] / h).astype(np.int64), 0, ny - 1)
-    W = np.zeros((nx, ny))
-    Q = np.zeros((nx, ny))
-    np.add.at(W, (i, j), w)
-    np.add.at(Q, (i, j), w * q)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(W > 0, Q / W, np.nan)
+    """Weighted cell average of the point values q (weights w), (nx, ny); NaN in empty cells
+    (:func:`mpm2d.fronts.cell_field` on the bed's cells from the origin)."""
+    return cell_field(x, q, w, (0.0, 0.0), h, (nx, ny))
 
 
 def pressure_window(frame, params):
@@ -532,8 +523,6 @@ def snapshots_figure(out, params, omega, path, n=4, summary=None):
 def animation(runs, params, path):
     """GIF (matplotlib PillowWriter) of every run's snapshots side by side: runs = [(omega,
     folder)], one colour scale (0 to the largest f of every snapshot, at least f_jam)."""
-    from matplotlib.animation import PillowWriter
-
     plt = plots.plt
     seqs = [(w, load_frames(d)) for w, d in runs]
     n = min(len(s) for _, s in seqs)
@@ -701,16 +690,12 @@ def sweep_report(table, out) -> list:
     out = Path(out)
     rows = []
     R = None
-    for _, r in table.iterrows():
-        p = out / str(r["case"]) / "summary.json"
-        if not p.exists():
-            continue
-        s = json.loads(p.read_text())
+    for case, _, s in case_summaries(table, out):
         R = s["radius_m"]
         for k, res in s["runs"].items():
             rows.append({"omega_per_s": res["omega_per_s"], "sink_depth_m": res["sink_depth_m"],
                          "max_excursion_over_R": res["max_excursion_over_R"],
-                         "advance_m": res["advance_m"], "case": str(r["case"])})
+                         "advance_m": res["advance_m"], "case": case})
     if not rows:
         return []
     df = pd.DataFrame(rows).sort_values("omega_per_s")
