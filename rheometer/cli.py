@@ -39,6 +39,7 @@ from rheology.run_end import EndedEarly, run_record
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
 from runkit.io import atomic_write_csv, atomic_write_json, check_input_file, check_output_path
+from runkit import limits as physical
 from runkit.params import Number
 
 from . import instrument_cli, limits, plots
@@ -284,7 +285,27 @@ def _cmd_flow_curve(args) -> str:
                              f"({min(missing):.4g}-{max(missing):.4g} 1/s; {why}); --control "
                              "stress shows the whole S-shaped curve")
         df.attrs["notes"] = notes
+    df = _below_rate_max(df, n)
     return _write(args, sample, df, lambda: plots.flow_curve_figure(df, m))
+
+
+def _below_rate_max(df: pd.DataFrame, n: int) -> pd.DataFrame:
+    """The steady states within the largest shear rate (runkit.limits.RATE_MAX), those past it
+    counted in a note; ValueError when none is."""
+    fast = df["shear_rate_per_s"].to_numpy() > RATE_MAX
+    if not fast.any():
+        return df
+    why = f"the largest shear rate {RATE_MAX:g} 1/s, {physical.RATE_MAX.why}"
+    if fast.all():
+        phis = ", ".join(f"{p:g}" for p in df["phi"].unique())
+        raise ValueError(f"every steady state of --phi {phis} at these stresses flows faster "
+                         f"than {why}; give a lower --stress-range or a higher --phi")
+    out = df[~fast].reset_index(drop=True)
+    out.attrs.update(df.attrs)
+    out.attrs["notes"] = [*df.attrs.get("notes", []), *(
+        f"phi = {ph:g}: {int(k)} of {n} steady states flow faster than {why}: not written"
+        for ph, k in pd.Series(fast).groupby(df["phi"].to_numpy()).sum().items() if k)]
+    return out
 
 
 def _check_relax_stress(args, m) -> None:

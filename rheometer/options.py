@@ -209,7 +209,6 @@ def material_with(name, overrides: dict, option: str = "--set"):
         <the check it breaks>)``, or the Material's own message when that already names a set
         parameter with a range that holds.
     """
-    limits.check_set(overrides, option)
     try:
         return rheology.get_material(name, **overrides)
     except ValueError as exc:

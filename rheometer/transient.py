@@ -38,12 +38,13 @@ import pandas as pd
 
 import rheology
 from rheology import laws
-from runkit.params import check_nonnegative, check_positive, check_range
 from rheology.elastic import (ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress,
                               past_elastic_limit)
 from rheology.materials import Material
 from rheology.run_end import EndedEarly, RunEnd
 from runkit.ida import IDAFailed, Solver
+from runkit.limits import le
+from runkit.params import Param, check_nonnegative, check_positive, check_range
 
 from . import limits, model
 from .harmonics import harmonics
@@ -127,12 +128,14 @@ class Step:
             raise ValueError("a strain-controlled step is an oscillation (ramp 'sine')")
         elif self.frequency is not None:
             raise ValueError("only an oscillation (ramp 'sine') has a frequency")
-        unit = {"rate": "1/s", "stress": "Pa", "strain": "-"}[self.control]
-        check_nonnegative(f"imposed {self.control} [{unit}]", self.start)
         if self.end is None:
             object.__setattr__(self, "end", self.start)
-        check_nonnegative(f"imposed {self.control} at the end of the ramp [{unit}]", self.end)
+        if not self.oscillation:
+            value = limits.RATE if self.control == "rate" else limits.STRESS
+            value.check(f"imposed {self.control}", self.start)
+            value.check(f"imposed {self.control} at the end of the ramp", self.end)
         if self.ramp == "log" and (self.start <= 0 or self.end <= 0):
+            unit = "1/s" if self.control == "rate" else "Pa"
             raise ValueError(f"a log ramp needs positive values, got {self.start:g} to "
                              f"{self.end:g} {unit} (use a linear ramp to or from 0)")
         if self.ramp != "const" and self.duration is None:
@@ -140,27 +143,25 @@ class Step:
         if self.duration is None and self.strain is None:
             raise ValueError("a step needs a duration ('for T s') or a strain ('until strain X')")
         if self.duration is not None:
-            check_positive("step duration [s]", self.duration)
+            limits.DURATION.check("duration", self.duration)
         if self.strain is not None:
-            check_positive("step strain [-]", self.strain)
-        check_positive("step max_time [s]", self.max_time)
+            limits.STRAIN.check("step strain", self.strain)
+        limits.DURATION.check("max_time", self.max_time)
 
     def _check_oscillation(self) -> None:
         if self.control not in ("strain", "stress"):
             raise ValueError(f"an oscillation imposes a strain or a stress amplitude, not a "
                              f"{self.control}")
-        unit = "[-]" if self.control == "strain" else "[Pa]"
-        check_positive(f"oscillation {self.control} amplitude {unit}", self.start)
+        limits.AMPLITUDE[self.control].check(f"{self.control} amplitude", self.start)
         if self.end is not None and self.end != self.start:
             raise ValueError("an oscillation has one amplitude (end = start)")
         if self.frequency is None:
             raise ValueError("an oscillation needs a frequency [Hz]")
-        check_positive("oscillation frequency [Hz]", self.frequency)
+        limits.FREQUENCY.check("oscillation frequency", self.frequency)
         if self.strain is not None:
             raise ValueError("an oscillation runs for a number of cycles, not until a strain")
         if self.duration is None:
             raise ValueError("an oscillation needs a duration (cycles/frequency)")
-        check_positive("oscillation duration [s]", self.duration)
 
     @property
     def t_max(self) -> float:
@@ -348,6 +349,13 @@ class Rheometer:
         if not steps:
             raise ValueError("a test needs at least one step")
         points = int(check_range("points", points, 3, 10 ** 6))
+        liquid = Param(0.0, le(limits.RATE_MAX * self.eta_fluid, (
+            f"the liquid alone takes an imposed stress at once, at the rate stress/eta_F (eta_F "
+            f"= eta0 (1 + 5/2 phi) = {self.eta_fluid:.4g} Pa s): up to the largest shear rate "
+            f"{limits.RATE_MAX:g} 1/s")), unit="Pa")
+        for step in steps:
+            if step.control == "stress":
+                liquid.check("imposed stress", max(abs(step.start), abs(step.end)))
         self._points = points
         stats = RunStats()
         pieces: list[_Piece] = []
