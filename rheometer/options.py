@@ -132,27 +132,31 @@ class Sample:
     mass_note: str = ""
 
 
+def once(option: str, values, note: str = "give each once") -> None:
+    """Refuse a value given twice to a list option (one line naming the option and value)."""
+    seen = []
+    for v in values or []:
+        if v in seen:
+            raise ValueError(f"{option} {v} is given twice; {note}")
+        seen.append(v)
+
+
 def _fractions(args, m) -> tuple[list, dict | None, str]:
     """(phi, phi -> mass fraction or None, note) of the options. ValueError (one line, exit 2)
     for --phi with --mass-fraction, a fraction given twice, or a fraction >= phi_j: the one
     check of --phi against the material (its static range (0, 1) is the option's type)."""
+    repeat = "its curves would repeat; give distinct "
     if getattr(args, "mass_fraction", None) is not None:
         if args.phi is not None:
             raise ValueError("give --phi or --mass-fraction, not both")
+        once("--mass-fraction", [float(w) for w in args.mass_fraction],
+             repeat + "mass fractions")
         phi, note = mass_fraction_phi(args, m)
-        twice = next((w for i, w in enumerate(args.mass_fraction)
-                      if float(w) in map(float, args.mass_fraction[:i])), None)
-        if twice is not None:
-            raise ValueError(f"--mass-fraction {float(twice):g} is given twice: its curves would "
-                             "repeat; give distinct mass fractions")
         return phi, dict(zip(phi, map(float, args.mass_fraction))), note
     if args.phi is None:
         count = getattr(args, "_phi_count", 1)
         return (geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]), None, ""
-    twice = next((p for i, p in enumerate(args.phi) if p in args.phi[:i]), None)
-    if twice is not None:
-        raise ValueError(f"--phi {twice:g} is given twice: its curves would repeat; give "
-                         "distinct fractions")
+    once("--phi", args.phi, repeat + "fractions")
     bad = [p for p in args.phi if p >= m.phi_j]
     if bad:
         raise ValueError(f"--phi = {bad[0]:g} is outside the valid range (0, {m.phi_j:g}) "
