@@ -28,6 +28,7 @@ from runkit.params import Number, Option, OutOfRange, Param, Schema, valid_inter
 from . import geometry as geo
 from . import limits
 from .limits import K0_MAX
+from .transient import check_phi
 
 DEFAULT_MATERIAL = "hermes2016"
 #: ``--phi``: its static range; the bound phi < phi_j of the material is :class:`Sample`'s
@@ -157,11 +158,7 @@ def _fractions(args, m) -> tuple[list, dict | None, str]:
         count = getattr(args, "_phi_count", 1)
         return (geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]), None, ""
     once("--phi", args.phi, repeat + "fractions")
-    bad = [p for p in args.phi if p >= m.phi_j]
-    if bad:
-        raise ValueError(f"--phi = {bad[0]:g} is outside the valid range (0, {m.phi_j:g}) "
-                         f"of {m.name} (below phi_j)")
-    return list(args.phi), None, ""
+    return [check_phi("--phi", p, m) for p in args.phi], None, ""
 
 
 def material_with(name, overrides: dict, option: str = "--set"):

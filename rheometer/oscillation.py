@@ -74,7 +74,7 @@ from runkit.params import check_positive, check_range
 
 from . import model
 from .harmonics import elastic_viscous, harmonics
-from .transient import skeleton
+from .transient import check_phi, skeleton
 
 
 #: Drive modes.
@@ -139,9 +139,7 @@ class Maxwell:
 
 def _moduli(material, phi, G, K0):
     m = rheology.get_material(material)
-    phi = float(check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
-                            note=f"below phi_j = {m.phi_j} of {m.name}"))
-    return (m, phi, *skeleton(m, G, K0))
+    return (m, check_phi("phi", phi, m), *skeleton(m, G, K0))
 
 
 def maxwell(material, phi: float, G: float | None = None) -> Maxwell:
