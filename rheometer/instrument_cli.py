@@ -19,6 +19,7 @@ import pandas as pd
 
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
+from rheology.materials import RULE, default_fractions, has_dst
 from rheology.run_end import EndedEarly, run_record
 from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_path)
@@ -116,12 +117,12 @@ def extra_outputs(args, sample, df: pd.DataFrame, plot=None) -> str:
 
 def materials_note() -> str:
     """The default-fraction rule and each material's defaults (for ``rheometer materials``)."""
-    lines = [f"Defaults ({geo.DEFAULT_RULE}):"]
+    lines = [f"Defaults ({RULE}):"]
     for name in rheology.materials.material_names():
         m = rheology.get_material(name)
-        phis = geo.default_fractions(m)
+        phis = default_fractions(m)
         lines.append(f"  {name:15s} phi = {' '.join(f'{p:g}' for p in phis)} "
-                     f"({'DST' if geo.has_dst(m) else 'no DST'}; phi_c = {m.phi_c:g}, phi_j = "
+                     f"({'DST' if has_dst(m) else 'no DST'}; phi_c = {m.phi_c:g}, phi_j = "
                      f"{m.phi_j:g}{'; normalised units' if m.units == 'normalised' else ''})")
     return "\n".join(lines)
 

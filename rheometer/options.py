@@ -156,7 +156,7 @@ def _fractions(args, m) -> tuple[list, dict | None, str]:
         return phi, dict(zip(phi, map(float, args.mass_fraction))), note
     if args.phi is None:
         count = getattr(args, "_phi_count", 1)
-        return (geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]), None, ""
+        return (default_fractions(m) if count > 1 else [default_fraction(m)]), None, ""
     once("--phi", args.phi, repeat + "fractions")
     return [check_phi("--phi", p, m) for p in args.phi], None, ""
 
