@@ -40,7 +40,8 @@ from runkit.command import OneLineParser
 from runkit.command import run as run_command
 from runkit.io import atomic_write_csv, atomic_write_json, check_input_file, check_output_path
 from runkit import limits as physical
-from runkit.params import Number
+from runkit.limits import gt, le
+from runkit.params import Number, Param
 
 from . import instrument_cli, limits, plots
 from .checkpoint import ProgramCheckpoint
@@ -314,13 +315,12 @@ def _check_relax_stress(args, m) -> None:
     refused here (exit 2) rather than failed by the solver's check (exit 1)."""
     G, _ = skeleton(m, args.G)
     top = elastic_strain_limit_stress(G)
-    if args.stress > top * (1.0 + 1e-12):
-        src = "--G" if args.G is not None else (f"G of {m.name}" if m.G else "the default G")
-        raise ValueError(f"--stress = {args.stress:g} Pa is outside the valid range (0, {top:g}] "
-                         f"Pa: the steady state before cessation would strain the skeleton by "
-                         f"stress/G = {args.stress / G:.3g}, past the small-elastic-strain limit "
-                         f"{ELASTIC_STRAIN_LIMIT:g} of the hypoelastic law (G = {G:g} Pa, "
-                         f"{src}); lower --stress or raise --G")
+    src = "--G" if args.G is not None else (f"G of {m.name}" if m.G else "the default G")
+    Param(gt(0.0), le(top * (1.0 + 1e-12), (
+        f"the steady state before cessation would strain the skeleton by stress/G = "
+        f"{args.stress / G:.3g}, past the small-elastic-strain limit {ELASTIC_STRAIN_LIMIT:g} of "
+        f"the hypoelastic law (G = {G:g} Pa, {src}); lower --stress or raise --G")),
+        unit="Pa").check("--stress", args.stress)
 
 
 def _transient(args, kind: str) -> str:
@@ -427,10 +427,8 @@ def _check_update_count(rate: float, t_end: float, dt: float) -> None:
     shorter --t-end helps), and the strain per update, set by --rate x --t-end (no --dt helps:
     a lower --rate or a shorter --t-end). ValueError with the valid values of each option."""
     x = STRAIN_PER_SUBSTEP
-    if dt > t_end:
-        raise ValueError(f"--dt = {dt:g} s is outside the valid range [{limits.TIME_MIN:g}, "
-                         f"{t_end:g}] s: the "
-                         f"step must not exceed the run, --t-end = {t_end:g} s")
+    Param(physical.TIME_MIN, le(t_end, f"the step must not exceed the run, --t-end = {t_end:g} "
+                                      "s"), unit="s").check("--dt", dt)
     steps = t_end / dt
     per_step = max(1.0, math.ceil(dt * rate / x)) if rate > 0 else 1.0
     count = per_step * round(steps)

@@ -46,6 +46,9 @@ import rheology
 from rheology.materials import default_fraction
 from rheology.steady import dst_fold
 
+from runkit.limits import ge
+from runkit.params import Param
+
 from . import limits
 from .transient import DEFAULT_MAX_TIME, Step
 
@@ -216,12 +219,11 @@ def parse_program(text: str) -> Program:
                 step = Step("rate" if what == "rate" else "stress", float(a) * scale,
                             float(b) * scale, ramp=ramp, duration=float(T) * _TIME[tu.lower()],
                             label=line)
-            if step.duration is not None and step.duration < limits.clock_floor(t_start):
-                raise ValueError(
-                    f"program line {lineno}: duration = {step.duration:g} s is too short for the "
-                    f"run's clock where the step starts (t >= {t_start:g} s): valid range "
-                    f"[{limits.clock_floor(t_start):g}, {limits.TIME_MAX:g}] s there "
-                    f"({limits.CLOCK_RESOLUTION:g} of the start time; rheometer.limits)")
+            if step.duration is not None:
+                Param(ge(limits.clock_floor(t_start), (
+                    f"too short for the run's clock where the step starts, t >= {t_start:g} s: "
+                    f"{limits.CLOCK_RESOLUTION:g} of the start time")), limits.DURATION.hi,
+                    unit="s").check("duration", step.duration)
             t_start += step.duration if step.strain is None else 0.0
         except ValueError as exc:
             msg = str(exc)
