@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from scipy.integrate import cumulative_simpson
 
 import rheology
 from runkit.params import check_positive, check_range
@@ -209,8 +210,6 @@ def parallel_plate_flow_curve(material, phi: float, geometry: Geometry | None = 
         on the (M, Omega) data), ``torque_N_m``, ``rotation_speed_rad_per_s``,
         ``granular_shear_stress_Pa`` (rim), ``f`` (rim); attrs: fold_reached, geometry.
     """
-    from scipy.integrate import cumulative_simpson
-
     geometry = geometry or Geometry.make("parallel-plate")
     if geometry.kind != "parallel-plate":
         raise ValueError(f"geometry = {geometry.kind!r}: the radial integration is for the "
