@@ -31,6 +31,7 @@ from . import plots
 from .limits import FREQUENCY_MIN, RATE_MAX, STRESS_MAX
 from .options import common_options, plot_path, sample_material, skeleton_options
 
+
 def _phi_column(df: pd.DataFrame) -> str | None:
     return "phi0" if "phi0" in df.columns else ("phi" if "phi" in df.columns else None)
 
@@ -223,20 +224,15 @@ def _cmd_oscillation(args) -> str:
     msg = f"wrote {args.out} ({len(table)} points) and {waves_csv} ({len(wtable)} rows)"
     past = points[points["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT]
     if plot is not None:
-        dst = None
-        if len(sample.phi) == 1:
-            try:
-                dst = osc.dst_onset_stress(m, sample.phi[0])
-            except ValueError:
-                dst = None
+        try:
+            dst = osc.dst_onset_stress(m, sample.phi[0]) if len(sample.phi) == 1 else None
+        except ValueError:                                  # no DST at this phi
+            dst = None
         what = (f"{args.control} control, G = {points.attrs['G_Pa']:g} Pa, K0 = "
                 f"{points.attrs['K0']:g}")
-        for path, maker in ((plot, lambda: plots.oscillation_figure(
-                                points, f"{m.name}: oscillation ({what})", dst)),
-                            (str(liss_png), lambda: plots.lissajous_figure(
-                                waves, f"{m.name}: Lissajous-Bowditch curves ({what})",
-                                points=points, dst_stress=dst))):
-            plots.save(maker(), path)
+        plots.save(plots.oscillation_figure(points, f"{m.name}: oscillation ({what})", dst), plot)
+        plots.save(plots.lissajous_figure(waves, f"{m.name}: Lissajous-Bowditch curves ({what})",
+                                          points=points, dst_stress=dst), liss_png)
         msg += f", {plot} and {liss_png}"
         written += [plot, str(liss_png)]
     atomic_write_json(record, run_record(ends, command="rheometer oscillation",

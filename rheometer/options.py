@@ -77,11 +77,12 @@ def add_instrument_options(p) -> None:
     g.add_argument("--radius", type=Option("--radius", LENGTH), default=None,
                    help=f"cone or plate radius [m] ({_d['cone_radius']:g} cone, "
                         f"{_d['plate_radius']:g} plate)")
-    for key, what in (("gap", "plate gap [m] (parallel-plate"), ("bob_radius", "bob radius [m] "
-                      "(couette"), ("cup_radius", "cup radius [m] (couette"),
-                      ("bob_length", "immersed bob length [m] (couette")):
+    for key, what, kind in (("gap", "plate gap", "parallel-plate"),
+                            ("bob_radius", "bob radius", "couette"),
+                            ("cup_radius", "cup radius", "couette"),
+                            ("bob_length", "immersed bob length", "couette")):
         g.add_argument(_flag(key), type=Option(_flag(key), LENGTH), default=None,
-                       help=f"{what}; {_d[key]:g})")
+                       help=f"{what} [m] ({kind}; {_d[key]:g})")
     add_mass_fraction_options(p)
 
 

@@ -42,14 +42,10 @@ mean stress (strain control) or the strain's drift over a cycle (stress control)
 projection ``change r/(1 - r)`` (``r`` the ratio of the last two changes). The cycles used are
 reported; a point not converged within ``max_cycles`` has ``converged = False``.
 
-Acceleration: where the change per cycle shrinks by less than a factor 2 per cycle, the state
-jumps: by Aitken extrapolation along the slow mode (cycle-start differences parallel, r < 0.99),
-else by one Newton step on the cycle map Phi (state (taubar, gap) at a cycle start -> one period
-later; the periodic state solves Phi(x) = x) with a finite-difference 2 x 2 Jacobian. Cycles then
-resume and the test starts afresh, so the reported state is always an integrated cycle that
-repeats itself to ``tol`` (column ``extrapolations``). A jump moves taubar by at most the last
-cycle's stress range and f by at most 0.2, and is undone when the change two cycles later is ten
-times larger (a jammed sample's cycle map is singular; rules: docs/measurements.md).
+Acceleration: where the change shrinks by less than a factor 2 per cycle, the state jumps (Aitken
+extrapolation along one slow mode, else a damped Newton step on the cycle map x -> Phi(x), the
+state one period later); the test then starts afresh, so the reported cycle is always an
+integrated one repeating itself to ``tol`` (column ``extrapolations``).
 
 Where the paper is silent: G and K0 default to the material's, else G = 1e4 Pa and K0 = 1. Each
 point starts from rest (f = 0) carrying the periodic stress of the linearised model (taubar(0) =
