@@ -20,12 +20,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from rheology.run_end import RunEnd
 from runkit.io import previous_checkpoint
 from runkit.run import Checkpoint, Interrupts
-from rheology.run_end import EndedEarly, RunEnd
 
 from .program import Program
-from .protocols import run_program
+from .protocols import at_phi, combined, run_program
 from .transient import COLUMNS, Progress, State
 
 _REQUIRED = ("done_phi", "done_rows", "done_columns", "t", "y", "step", "state",
@@ -151,13 +151,12 @@ class ProgramCheckpoint:
         with Interrupts(defer=False) as self._signals:
             try:
                 for ph in self.phis[len(self.done):]:
-                    try:
-                        df = run_program(self.material, ph, program, resume=self.progress,
-                                         on_step=self._on_step, **self.options)
-                    except EndedEarly as exc:
-                        self.ends.append(exc.ends[0].replace(run=f"phi = {ph:g}"))
-                        df = (exc.partial if exc.partial is not None
-                              else pd.DataFrame(columns=list(COLUMNS), dtype=float))
+                    df = at_phi(lambda p: run_program(self.material, p, program,
+                                                      resume=self.progress,
+                                                      on_step=self._on_step, **self.options),
+                                ph, self.ends)
+                    if df is None:             # a placeholder: the phi is done (resume)
+                        df = pd.DataFrame(columns=list(COLUMNS), dtype=float)
                     df.insert(0, "phi", ph)
                     self.attrs = dict(df.attrs) or self.attrs
                     self.done.append(df)
@@ -169,10 +168,4 @@ class ProgramCheckpoint:
                 self.save()
                 raise KeyboardInterrupt(f"checkpoint written to {self.path}; rerun the same "
                                         f"command with --resume to continue") from None
-        out = pd.concat([d for d in self.done if len(d)], ignore_index=True) if any(
-            len(d) for d in self.done) else None
-        if out is None:
-            raise RuntimeError(self.ends[0].reason)
-        out.attrs.update(self.attrs or {})
-        out.attrs["ends"] = list(self.ends)
-        return out
+        return combined(self.done, self.ends, self.attrs or {})

@@ -53,7 +53,7 @@ from .options import (common_options, k0, material_with, modulus, plot_path, sam
                       t_end_option, transient_options)
 from .plots import mark_ends, normalise_units
 from .program import hysteresis_program, parse_program
-from .protocols import creep, flow_curve, relax, startup
+from .protocols import at_phi, combined, creep, flow_curve, relax, startup
 from .transient import skeleton
 
 _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
@@ -211,25 +211,15 @@ def _write(args, sample, df: pd.DataFrame, fig_maker, *, record: bool = False, m
 
 
 def _per_phi(sample, run) -> pd.DataFrame:
-    """``run(phi)`` at every --phi, concatenated; a run that ends early keeps its rows up to the
-    end (rheology.run_end), its end in ``attrs["ends"]``; RuntimeError when no run has a row."""
+    """``run(phi)`` at every --phi (column phi, or phi0 where phi evolves), concatenated
+    (:func:`rheometer.protocols.combined`: the ends in ``attrs["ends"]``)."""
     frames, ends = [], []
     for ph in sample.phi:
-        try:
-            df = run(ph)
-        except EndedEarly as exc:
-            ends.append(exc.ends[0].replace(run=f"phi = {ph:g}"))
-            df = exc.partial
-            if df is None:
-                continue
-        df.insert(0, "phi0" if "phi" in df.columns else "phi", ph)
+        df = at_phi(run, ph, ends)
+        if df is not None:
+            df.insert(0, "phi0" if "phi" in df.columns else "phi", ph)
         frames.append(df)
-    if not frames:
-        raise RuntimeError(ends[0].reason)
-    out = pd.concat(frames, ignore_index=True)
-    out.attrs.update(frames[0].attrs)
-    out.attrs["ends"] = ends
-    return out
+    return combined(frames, ends)
 
 
 def _cmd_materials(args) -> str:
