@@ -35,7 +35,6 @@ DEFAULT_MATERIAL = "hermes2016"
 PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
 
 
-
 # ------------------------------------------------------------------ the measuring geometry
 def _flag(key: str) -> str:
     return "--" + key.replace("_", "-")

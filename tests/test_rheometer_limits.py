@@ -57,8 +57,9 @@ def test_program_step_durations_checked_against_the_clock():
     "'tspan' must stictly increase" (an output grid the clock could not resolve)."""
     with pytest.raises(ValueError, match=r"program line 1: duration = 1e-300 .*\[1e-12, 1e\+09\]"):
         parse_program("rest for 1e-300 s")
-    with pytest.raises(ValueError, match=r"program line 2: duration = 1e-06 is outside the valid range "
-                                         r"\[0.001, 1e\+09\] s \(too short for the run's clock"):
+    with pytest.raises(ValueError, match=r"program line 2: duration = 1e-06 is outside the "
+                                         r"valid range \[0.001, 1e\+09\] s \(too short for "
+                                         r"the run's clock"):
         parse_program("shear at 0.01 1/s for 1e6 s\nrest for 1e-6 s")
     prog = parse_program("shear at 0.01 1/s for 1e6 s\nrest for 1e-3 s")
     assert prog.steps[1].duration == pytest.approx(limits.clock_floor(1e6))
