@@ -38,19 +38,19 @@ from rheology.materials import set_argument, set_overrides
 from rheology.run_end import EndedEarly, run_record
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
-from runkit.io import atomic_write_csv, atomic_write_json, check_input_file, check_output_path
 from runkit import limits as physical
+from runkit.io import atomic_write_csv, atomic_write_json, check_input_file, check_output_path
 from runkit.limits import gt, le
-from runkit.params import Number, Param
+from runkit.params import Number, Option, Param
 
 from . import instrument_cli, limits, plots
 from .checkpoint import ProgramCheckpoint
 from .fit_cli import add_subcommands
 from .instrument_cli import extra_outputs, finish_table, materials_note
-from .limits import RATE_MAX, STRESS_MAX, TIME_MAX
+from .limits import RATE_MAX
 from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP, simple_shear_point
-from .options import (common_options, k0, material_with, modulus, plot_path, sample_material,
-                      t_end_option, transient_options)
+from .options import (common_options, material_with, plot_path, sample_material,
+                      transient_options)
 from .plots import mark_ends, normalise_units
 from .program import hysteresis_program, parse_program
 from .protocols import at_phi, combined, creep, flow_curve, relax, startup
@@ -84,12 +84,12 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=_EPILOG)
     common_options(p, 3, "flow_curve")
     p.add_argument("--control", choices=("stress", "mixture-stress", "rate"), default="stress")
-    p.add_argument("--stress-range", type=Number("--stress-range", limits.STRESS_MIN, STRESS_MAX,
-                                                 unit="Pa"),
+    p.add_argument("--stress-range", type=Option("--stress-range", Param(
+                       physical.STRESS_MIN, physical.STRESS_MAX, unit="Pa")),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="stress range [Pa] (granular or mixture per --control; 1e-3 1e4)")
-    p.add_argument("--rate-range", type=Number("--rate-range", limits.RATE_MIN, RATE_MAX,
-                                               unit="1/s"),
+    p.add_argument("--rate-range", type=Option("--rate-range", Param(
+                       physical.RATE_MIN, physical.RATE_MAX, unit="1/s")),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="shear-rate range [1/s] for --control rate (1e-4 1e3)")
     p.add_argument("--points", type=Number("--points", 2, 10 ** 6, integer=True), default=200,
@@ -98,14 +98,14 @@ def build_parser() -> argparse.ArgumentParser:
     transients = (
         ("startup", "start-up of shear at an imposed rate, from rest", 60.0,
          ("--rate", 0.5, "imposed shear rate [1/s] (0.5)",
-          Number("--rate", 0.0, RATE_MAX, unit="1/s"))),
+          Option("--rate", limits.RATE))),
         ("creep", "creep at an imposed mixture shear stress, from rest", 60.0,
          ("--stress", 10.0, "imposed MIXTURE shear stress [Pa], > 0 (10)",
-          Number("--stress", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"))),
+          Option("--stress", limits.POSITIVE_STRESS))),
         ("relax", "stress relaxation after cessation of steady shear (Fig. 15)", 50.0,
          ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
                               "[Pa] (1000)",
-          Number("--stress", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"))))
+          Option("--stress", limits.POSITIVE_STRESS))))
     for name, text, t_end, (flag, value, flag_help, kind) in transients:
         p = sub.add_parser(name, help=text, epilog=_EPILOG)
         common_options(p, 1, name)
@@ -124,7 +124,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", nargs="?", default=None, help="program file ('-' for stdin)")
     common_options(p, 1, "program")
     transient_options(p)
-    p.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0.0, TIME_MAX,
+    p.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0.0, physical.TIME_MAX,
                                                      lo_closed=False, unit="s"),
                    default=60.0, metavar="SECONDS",
                    help="write a checkpoint (the --out name with .checkpoint.npz) every SECONDS "
@@ -138,29 +138,29 @@ def build_parser() -> argparse.ArgumentParser:
                               "pressure and lets phi evolve. Start from the steady state at "
                               "--stress0 or from rest under --pressure0.")
     common_options(p, 1, "material_point")
-    p.add_argument("--rate", type=Number("--rate", 0.0, RATE_MAX, unit="1/s"), default=0.5,
+    p.add_argument("--rate", type=Option("--rate", limits.RATE), default=0.5,
                    help="shear rate [1/s] (0.5)")
-    p.add_argument("--t-end", type=t_end_option(), default=10.0, help="duration [s] (10)")
-    p.add_argument("--dt", type=limits.duration("--dt"),
+    p.add_argument("--t-end", type=Option("--t-end", limits.DURATION), default=10.0,
+                   help="duration [s] (10)")
+    p.add_argument("--dt", type=Option("--dt", limits.DURATION),
                    default=1e-3, help="largest time step [s] (1e-3; sub-stepped where the rate "
                                       "needs it)")
     p.add_argument("--control", choices=("volume", "pressure"), default="volume")
-    p.add_argument("--pressure", type=Number("--pressure", 0.0, STRESS_MAX, lo_closed=False,
-                                             unit="Pa"), default=None,
+    p.add_argument("--pressure", type=Option("--pressure", limits.POSITIVE_STRESS), default=None,
                    help="imposed granular pressure [Pa] (pressure control)")
-    p.add_argument("--stress0", type=Number("--stress0", 0.0, STRESS_MAX, lo_closed=False,
-                                            unit="Pa"), default=None,
+    p.add_argument("--stress0", type=Option("--stress0", limits.POSITIVE_STRESS), default=None,
                    help="start from the steady state at this granular shear stress [Pa]")
-    p.add_argument("--pressure0", type=Number("--pressure0", 0.0, STRESS_MAX, unit="Pa"),
+    p.add_argument("--pressure0", type=Option("--pressure0", limits.STRESS),
                    default=None, help="contact pressure at rest [Pa] (default 1e-3 tau*; 0: "
                                       "stress free)")
     p.add_argument("--f0", type=Number("--f0", 0.0, 1.0), default=None,
                    help="initial structure f")
-    p.add_argument("--G", type=modulus("--G"), default=None,
+    p.add_argument("--G", type=Option("--G", limits.MODULUS), default=None,
                    help="shear modulus [Pa] (default 1e4)")
-    p.add_argument("--K", type=modulus("--K"), default=None,
+    p.add_argument("--K", type=Option("--K", limits.MODULUS), default=None,
                    help="bulk modulus [Pa] (default 2.18 G)")
-    p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale (default 1)")
+    p.add_argument("--K0", type=Option("--K0", limits.K0), default=None,
+                   help="structure-rate scale (default 1)")
     p.add_argument("--points", type=Number("--points", 1, 10 ** 7, integer=True), default=400,
                    help="output rows (400)")
     _COMMANDS.update(add_subcommands(sub))

@@ -52,9 +52,8 @@ from runkit.limits import DENSITY_MAX, DENSITY_MIN, lt
 from runkit.params import Number, Option, Param
 from runkit.run import HeldWarnings
 
-from . import plots
-from .limits import STRESS_MAX
-from .options import PHI, about_set, k0, once as _once
+from . import limits, plots
+from .options import PHI, about_set, once as _once
 from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
 
 DENSITY = Param(DENSITY_MIN, DENSITY_MAX, unit="kg/m^3")
@@ -222,19 +221,19 @@ def add_subcommands(sub) -> dict:
     p.add_argument("--phi", nargs="+", type=PHI, required=True, metavar="PHI",
                    help="volume fraction: one for every curve, or one per curve in order")
     p.add_argument("--stress0", nargs="+", required=True, metavar="TAU0",
-                   type=Number("--stress0", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"),
+                   type=Option("--stress0", limits.POSITIVE_STRESS),
                    help="steady granular shear stress before cessation [Pa] (the measured "
                         "stress less eta0 (1 + 5/2 phi) gdot, negligible when dense): one for "
                         "every curve, or one per curve in order")
-    p.add_argument("--K0", type=k0(), default=None, help="hold K0 at this value (fit G only)")
+    p.add_argument("--K0", type=Option("--K0", limits.K0), default=None,
+                   help="hold K0 at this value (fit G only)")
     p.add_argument("--time-offset", type=Number("--time-offset", -1e9, 1e9, unit="s"),
                    default=None, metavar="SECONDS",
                    help="hold each curve's cessation time at this time on its clock (default: "
                         "fitted per curve)")
-    p.add_argument("--stress-floor", type=Number("--stress-floor", 0.0, STRESS_MAX,
-                                                 lo_closed=False, unit="Pa"), default=None,
-                   metavar="PA", help="drop readings below this stress [Pa] (the instrument's "
-                                      "noise)")
+    p.add_argument("--stress-floor", type=Option("--stress-floor", limits.POSITIVE_STRESS),
+                   default=None, metavar="PA",
+                   help="drop readings below this stress [Pa] (the instrument's noise)")
     return {"read": cmd_read, "fit": cmd_fit, "fit-relaxation": cmd_fit_relaxation}
 
 

@@ -23,12 +23,11 @@ from rheology.materials import RULE, default_fractions, has_dst
 from rheology.run_end import EndedEarly, run_record
 from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_path)
-from runkit.params import Number
+from runkit.params import Number, Option
 
 from . import geometry as geo
+from . import limits, plots
 from . import oscillation as osc
-from . import plots
-from .limits import FREQUENCY_MIN, RATE_MAX, STRESS_MAX
 from .options import common_options, plot_path, sample_material, skeleton_options
 
 
@@ -149,13 +148,11 @@ def add_subcommands(sub) -> dict:
                    nargs="+", default=None, metavar="A",
                    help="strain amplitude(s) [-] (several: an amplitude sweep; default 10 "
                         "values 1e-3..1)")
-    p.add_argument("--stress-amplitude", type=Number("--stress-amplitude", 0.0, STRESS_MAX,
-                                                     lo_closed=False, unit="Pa"),
+    p.add_argument("--stress-amplitude", type=Option("--stress-amplitude", limits.POSITIVE_STRESS),
                    nargs="+", default=None, metavar="S",
                    help="mixture-stress amplitude(s) [Pa] for --control stress (default 10 "
                         "values 0.01..10 tau*)")
-    p.add_argument("--frequency", type=Number("--frequency", FREQUENCY_MIN, RATE_MAX,
-                                              unit="Hz"),
+    p.add_argument("--frequency", type=Option("--frequency", limits.FREQUENCY),
                    nargs="+", default=[1.0], metavar="F",
                    help="frequency(ies) [Hz] (several: a frequency sweep; 1)")
     p.add_argument("--cycles", type=Number("--cycles", 2, 10 ** 5, integer=True),

@@ -27,7 +27,6 @@ from runkit.params import Number, Option, OutOfRange, Param, Schema, valid_inter
 
 from . import geometry as geo
 from . import limits
-from .limits import K0_MAX
 from .transient import check_phi
 
 DEFAULT_MATERIAL = "hermes2016"
@@ -260,28 +259,18 @@ def common_options(p, phi_count, out_default):
     add_instrument_options(p)      # --geometry and dimensions, --mass-fraction
 
 
-def modulus(name):
-    return Number(name, physical.MODULUS_MIN, physical.MODULUS_MAX, unit="Pa")
-
-
-def k0():
-    return Number("--K0", 0.0, K0_MAX)
-
-
-def t_end_option():
-    return limits.duration("--t-end")
-
-
 def skeleton_options(p) -> None:
     """``--G`` and ``--K0`` (default: the material's, else 1e4 Pa and 1)."""
-    p.add_argument("--G", type=modulus("--G"), default=None, help="granular shear modulus [Pa]")
-    p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale K0 [-]")
+    p.add_argument("--G", type=Option("--G", limits.MODULUS), default=None,
+                   help="granular shear modulus [Pa]")
+    p.add_argument("--K0", type=Option("--K0", limits.K0), default=None,
+                   help="structure-rate scale K0 [-]")
 
 
 def transient_options(p, t_end=None):
     skeleton_options(p)
     if t_end is not None:
-        p.add_argument("--t-end", type=t_end_option(), default=t_end,
+        p.add_argument("--t-end", type=Option("--t-end", limits.DURATION), default=t_end,
                        help=f"duration [s] (default {t_end:g})")
     p.add_argument("--rtol", type=Number("--rtol", 1e-13, 1e-2), default=1e-7,
                    help="IDA relative tolerance (1e-7)")
