@@ -25,7 +25,8 @@ RATE = Param(0.0, physical.RATE_MAX, unit="1/s")
 STRESS = Param(0.0, physical.STRESS_MAX, unit="Pa")
 POSITIVE_STRESS = Param(gt(0.0), physical.STRESS_MAX, unit="Pa")
 MODULUS = Param(physical.MODULUS_MIN, physical.MODULUS_MAX, unit="Pa")
-K0 = Param(0.0, K0_MAX)
+K0 = Param(0.0, le(K0_MAX, "six decades above the paper's structure-rate scales, 0.06-1 "
+                         "(Tables 5 and 7)"))
 DURATION = Param(physical.TIME_MIN, physical.TIME_MAX, unit="s")
 STRAIN = Param(gt(0.0), physical.STRAIN_MAX)
 AMPLITUDE = {"strain": STRAIN, "stress": POSITIVE_STRESS}
