@@ -1,19 +1,12 @@
 """Checkpoints of ``rheometer program``: an interrupted program resumes where it stopped.
 
-A program is run phi by phi and step by step (:meth:`rheometer.transient.Rheometer.run`). After
-every completed step, at most every ``every`` seconds of computing, and always on Ctrl-C or
-SIGTERM (:class:`runkit.run.Interrupts`), the checkpoint ``<out>.checkpoint.npz`` is written
-(:class:`runkit.run.Checkpoint`: atomic, the previous one kept): the rows of the finished volume
-fractions and of the completed steps of the current one, the exact state (t, taubar, jamming
-gap, strain) at the end of the last completed step, the events and solver counts, the ends of
-the fractions that ended early (:mod:`rheology.run_end`), and a fingerprint of the material,
-the volume fractions, the program text and the options.
-
-On ``--resume`` the fingerprint must match (else the resume is refused) and the run continues
-with the next step from the stored state. Every IDA solve of a step starts from a consistent
-state built from (taubar, gap, strain) alone, so the remaining steps are computed exactly as in
-the uninterrupted run: the resumed CSV is identical to it, bit for bit. A step interrupted
-half-way is computed again from its start.
+After every completed step, at most every ``every`` seconds of computing, and always on Ctrl-C
+or SIGTERM, ``<out>.checkpoint.npz`` is written (:class:`runkit.run.Checkpoint`): the rows so
+far, the exact state at the end of the last completed step, the events, solver counts and ends,
+and the run's fingerprint (material, volume fractions, program text, options; a resume with
+another is refused, naming the difference). Every step's IDA solve starts from a consistent
+state built from (taubar, gap, strain) alone, so the resumed CSV is the uninterrupted run's,
+bit for bit; a step interrupted half-way is computed again.
 """
 
 from __future__ import annotations
@@ -27,25 +20,27 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from rheology.run_end import RunEnd
 from runkit.io import previous_checkpoint
 from runkit.run import Checkpoint, Interrupts
-from rheology.run_end import EndedEarly, RunEnd
 
 from .program import Program
-from .protocols import run_program
+from .protocols import at_phi, combined, run_program
 from .transient import COLUMNS, Progress, State
 
-_REQUIRED = ("fingerprint", "done_phi", "done_rows", "done_columns", "t", "y", "step", "state",
+_REQUIRED = ("done_phi", "done_rows", "done_columns", "t", "y", "step", "state",
              "next_step", "events", "counts")
 
 
-def fingerprint(material, phis, text: str, options: dict) -> str:
-    """A hash of everything that determines a program's output."""
+def fingerprint(material, phis, text: str, options: dict) -> dict:
+    """Everything that determines a program's output (:class:`runkit.run.Checkpoint` names the
+    first difference at a resume): the material's fields and the program text by their hashes."""
     fields = {f.name: getattr(material, f.name) for f in dataclasses.fields(material)
               if f.name != "notes"}
-    blob = json.dumps([repr(sorted(fields.items())), [float(p) for p in phis], text,
-                       repr(sorted(options.items()))])
-    return hashlib.sha256(blob.encode()).hexdigest()
+    return {"material": hashlib.sha256(repr(sorted(fields.items())).encode()).hexdigest(),
+            "--phi": [float(p) for p in phis],
+            "program": hashlib.sha256(text.encode()).hexdigest(),
+            "options": repr(sorted(options.items()))}
 
 
 class ProgramCheckpoint:
@@ -67,9 +62,8 @@ class ProgramCheckpoint:
 
     def __init__(self, path, material, phis, text: str, options: dict, every: float = 60.0):
         self.path = Path(path)
-        self.store = Checkpoint(self.path, {})       # the fingerprint: ours, compared in load
+        self.store = Checkpoint(self.path, fingerprint(material, phis, text, options))
         self.material, self.phis, self.options = material, list(phis), dict(options)
-        self.key = fingerprint(material, phis, text, options)
         self.every = float(every)
         self.done: list[pd.DataFrame] = []
         self.ends: list[RunEnd] = []        # of the volume fractions that ended early
@@ -94,10 +88,6 @@ class ProgramCheckpoint:
                 log(msg)
 
         data = self.store.load(required=_REQUIRED, log=notice)
-        if str(data["fingerprint"]) != self.key:
-            raise ValueError(f"--resume: the checkpoint {self.path} belongs to a different run "
-                             f"(material, --phi, program file or options differ); rerun with the "
-                             f"same ones, or without --resume to start again")
         columns = [str(c) for c in data["done_columns"]]
         rows = data["done_rows"]
         ndone = int(data["done_phi"])
@@ -126,7 +116,7 @@ class ProgramCheckpoint:
         pr = self.progress
         empty = np.zeros(0)
         self.store.save(dict(
-            fingerprint=np.array(self.key), done_phi=np.array(len(self.done)),
+            done_phi=np.array(len(self.done)),
             done_rows=(done.to_numpy(dtype=float) if done is not None else np.zeros((0, 0))),
             done_columns=np.array(list(done.columns) if done is not None else [], dtype=str),
             t=pr.t if pr else empty, y=pr.y if pr else np.zeros((0, 5)),
@@ -161,13 +151,12 @@ class ProgramCheckpoint:
         with Interrupts(defer=False) as self._signals:
             try:
                 for ph in self.phis[len(self.done):]:
-                    try:
-                        df = run_program(self.material, ph, program, resume=self.progress,
-                                         on_step=self._on_step, **self.options)
-                    except EndedEarly as exc:
-                        self.ends.append(exc.ends[0].replace(run=f"phi = {ph:g}"))
-                        df = (exc.partial if exc.partial is not None
-                              else pd.DataFrame(columns=list(COLUMNS), dtype=float))
+                    df = at_phi(lambda p: run_program(self.material, p, program,
+                                                      resume=self.progress,
+                                                      on_step=self._on_step, **self.options),
+                                ph, self.ends)
+                    if df is None:             # a placeholder: the phi is done (resume)
+                        df = pd.DataFrame(columns=list(COLUMNS), dtype=float)
                     df.insert(0, "phi", ph)
                     self.attrs = dict(df.attrs) or self.attrs
                     self.done.append(df)
@@ -179,10 +168,4 @@ class ProgramCheckpoint:
                 self.save()
                 raise KeyboardInterrupt(f"checkpoint written to {self.path}; rerun the same "
                                         f"command with --resume to continue") from None
-        out = pd.concat([d for d in self.done if len(d)], ignore_index=True) if any(
-            len(d) for d in self.done) else None
-        if out is None:
-            raise RuntimeError(self.ends[0].reason)
-        out.attrs.update(self.attrs or {})
-        out.attrs["ends"] = list(self.ends)
-        return out
+        return combined(self.done, self.ends, self.attrs or {})

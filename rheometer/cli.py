@@ -38,20 +38,22 @@ from rheology.materials import set_argument, set_overrides
 from rheology.run_end import EndedEarly, run_record
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
+from runkit import limits as physical
 from runkit.io import atomic_write_csv, atomic_write_json, check_input_file, check_output_path
-from runkit.params import Number
+from runkit.limits import gt, le
+from runkit.params import Number, Option, Param
 
 from . import instrument_cli, limits, plots
 from .checkpoint import ProgramCheckpoint
 from .fit_cli import add_subcommands
 from .instrument_cli import extra_outputs, finish_table, materials_note
-from .limits import RATE_MAX, STRESS_MAX, TIME_MAX
+from .limits import RATE_MAX
 from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP, simple_shear_point
-from .options import (common_options, k0, material_with, modulus, plot_path, sample_material,
-                      t_end_option, transient_options)
+from .options import (common_options, material_with, plot_path, sample_material,
+                      transient_options)
 from .plots import mark_ends, normalise_units
 from .program import hysteresis_program, parse_program
-from .protocols import creep, flow_curve, relax, startup
+from .protocols import at_phi, combined, creep, flow_curve, relax, startup
 from .transient import skeleton
 
 _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
@@ -82,12 +84,12 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=_EPILOG)
     common_options(p, 3, "flow_curve")
     p.add_argument("--control", choices=("stress", "mixture-stress", "rate"), default="stress")
-    p.add_argument("--stress-range", type=Number("--stress-range", limits.STRESS_MIN, STRESS_MAX,
-                                                 unit="Pa"),
+    p.add_argument("--stress-range", type=Option("--stress-range", Param(
+                       physical.STRESS_MIN, physical.STRESS_MAX, unit="Pa")),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="stress range [Pa] (granular or mixture per --control; 1e-3 1e4)")
-    p.add_argument("--rate-range", type=Number("--rate-range", limits.RATE_MIN, RATE_MAX,
-                                               unit="1/s"),
+    p.add_argument("--rate-range", type=Option("--rate-range", Param(
+                       physical.RATE_MIN, physical.RATE_MAX, unit="1/s")),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="shear-rate range [1/s] for --control rate (1e-4 1e3)")
     p.add_argument("--points", type=Number("--points", 2, 10 ** 6, integer=True), default=200,
@@ -96,14 +98,14 @@ def build_parser() -> argparse.ArgumentParser:
     transients = (
         ("startup", "start-up of shear at an imposed rate, from rest", 60.0,
          ("--rate", 0.5, "imposed shear rate [1/s] (0.5)",
-          Number("--rate", 0.0, RATE_MAX, unit="1/s"))),
+          Option("--rate", limits.RATE))),
         ("creep", "creep at an imposed mixture shear stress, from rest", 60.0,
          ("--stress", 10.0, "imposed MIXTURE shear stress [Pa], > 0 (10)",
-          Number("--stress", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"))),
+          Option("--stress", limits.POSITIVE_STRESS))),
         ("relax", "stress relaxation after cessation of steady shear (Fig. 15)", 50.0,
          ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
                               "[Pa] (1000)",
-          Number("--stress", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"))))
+          Option("--stress", limits.POSITIVE_STRESS))))
     for name, text, t_end, (flag, value, flag_help, kind) in transients:
         p = sub.add_parser(name, help=text, epilog=_EPILOG)
         common_options(p, 1, name)
@@ -122,7 +124,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", nargs="?", default=None, help="program file ('-' for stdin)")
     common_options(p, 1, "program")
     transient_options(p)
-    p.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0.0, TIME_MAX,
+    p.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0.0, physical.TIME_MAX,
                                                      lo_closed=False, unit="s"),
                    default=60.0, metavar="SECONDS",
                    help="write a checkpoint (the --out name with .checkpoint.npz) every SECONDS "
@@ -136,29 +138,29 @@ def build_parser() -> argparse.ArgumentParser:
                               "pressure and lets phi evolve. Start from the steady state at "
                               "--stress0 or from rest under --pressure0.")
     common_options(p, 1, "material_point")
-    p.add_argument("--rate", type=Number("--rate", 0.0, RATE_MAX, unit="1/s"), default=0.5,
+    p.add_argument("--rate", type=Option("--rate", limits.RATE), default=0.5,
                    help="shear rate [1/s] (0.5)")
-    p.add_argument("--t-end", type=t_end_option(), default=10.0, help="duration [s] (10)")
-    p.add_argument("--dt", type=limits.duration("--dt"),
+    p.add_argument("--t-end", type=Option("--t-end", limits.DURATION), default=10.0,
+                   help="duration [s] (10)")
+    p.add_argument("--dt", type=Option("--dt", limits.DURATION),
                    default=1e-3, help="largest time step [s] (1e-3; sub-stepped where the rate "
                                       "needs it)")
     p.add_argument("--control", choices=("volume", "pressure"), default="volume")
-    p.add_argument("--pressure", type=Number("--pressure", 0.0, STRESS_MAX, lo_closed=False,
-                                             unit="Pa"), default=None,
+    p.add_argument("--pressure", type=Option("--pressure", limits.POSITIVE_STRESS), default=None,
                    help="imposed granular pressure [Pa] (pressure control)")
-    p.add_argument("--stress0", type=Number("--stress0", 0.0, STRESS_MAX, lo_closed=False,
-                                            unit="Pa"), default=None,
+    p.add_argument("--stress0", type=Option("--stress0", limits.POSITIVE_STRESS), default=None,
                    help="start from the steady state at this granular shear stress [Pa]")
-    p.add_argument("--pressure0", type=Number("--pressure0", 0.0, STRESS_MAX, unit="Pa"),
+    p.add_argument("--pressure0", type=Option("--pressure0", limits.STRESS),
                    default=None, help="contact pressure at rest [Pa] (default 1e-3 tau*; 0: "
                                       "stress free)")
     p.add_argument("--f0", type=Number("--f0", 0.0, 1.0), default=None,
                    help="initial structure f")
-    p.add_argument("--G", type=modulus("--G"), default=None,
+    p.add_argument("--G", type=Option("--G", limits.MODULUS), default=None,
                    help="shear modulus [Pa] (default 1e4)")
-    p.add_argument("--K", type=modulus("--K"), default=None,
+    p.add_argument("--K", type=Option("--K", limits.MODULUS), default=None,
                    help="bulk modulus [Pa] (default 2.18 G)")
-    p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale (default 1)")
+    p.add_argument("--K0", type=Option("--K0", limits.K0), default=None,
+                   help="structure-rate scale (default 1)")
     p.add_argument("--points", type=Number("--points", 1, 10 ** 7, integer=True), default=400,
                    help="output rows (400)")
     _COMMANDS.update(add_subcommands(sub))
@@ -209,25 +211,15 @@ def _write(args, sample, df: pd.DataFrame, fig_maker, *, record: bool = False, m
 
 
 def _per_phi(sample, run) -> pd.DataFrame:
-    """``run(phi)`` at every --phi, concatenated; a run that ends early keeps its rows up to the
-    end (rheology.run_end), its end in ``attrs["ends"]``; RuntimeError when no run has a row."""
+    """``run(phi)`` at every --phi (column phi, or phi0 where phi evolves), concatenated
+    (:func:`rheometer.protocols.combined`: the ends in ``attrs["ends"]``)."""
     frames, ends = [], []
     for ph in sample.phi:
-        try:
-            df = run(ph)
-        except EndedEarly as exc:
-            ends.append(exc.ends[0].replace(run=f"phi = {ph:g}"))
-            df = exc.partial
-            if df is None:
-                continue
-        df.insert(0, "phi0" if "phi" in df.columns else "phi", ph)
+        df = at_phi(run, ph, ends)
+        if df is not None:
+            df.insert(0, "phi0" if "phi" in df.columns else "phi", ph)
         frames.append(df)
-    if not frames:
-        raise RuntimeError(ends[0].reason)
-    out = pd.concat(frames, ignore_index=True)
-    out.attrs.update(frames[0].attrs)
-    out.attrs["ends"] = ends
-    return out
+    return combined(frames, ends)
 
 
 def _cmd_materials(args) -> str:
@@ -284,7 +276,27 @@ def _cmd_flow_curve(args) -> str:
                              f"({min(missing):.4g}-{max(missing):.4g} 1/s; {why}); --control "
                              "stress shows the whole S-shaped curve")
         df.attrs["notes"] = notes
+    df = _below_rate_max(df, n)
     return _write(args, sample, df, lambda: plots.flow_curve_figure(df, m))
+
+
+def _below_rate_max(df: pd.DataFrame, n: int) -> pd.DataFrame:
+    """The steady states within the largest shear rate (runkit.limits.RATE_MAX), those past it
+    counted in a note; ValueError when none is."""
+    fast = df["shear_rate_per_s"].to_numpy() > RATE_MAX
+    if not fast.any():
+        return df
+    why = f"the largest shear rate {RATE_MAX:g} 1/s, {physical.RATE_MAX.why}"
+    if fast.all():
+        phis = ", ".join(f"{p:g}" for p in df["phi"].unique())
+        raise ValueError(f"every steady state of --phi {phis} at these stresses flows faster "
+                         f"than {why}; give a lower --stress-range or a higher --phi")
+    out = df[~fast].reset_index(drop=True)
+    out.attrs.update(df.attrs)
+    out.attrs["notes"] = [*df.attrs.get("notes", []), *(
+        f"phi = {ph:g}: {int(k)} of {n} steady states flow faster than {why}: not written"
+        for ph, k in pd.Series(fast).groupby(df["phi"].to_numpy()).sum().items() if k)]
+    return out
 
 
 def _check_relax_stress(args, m) -> None:
@@ -293,13 +305,12 @@ def _check_relax_stress(args, m) -> None:
     refused here (exit 2) rather than failed by the solver's check (exit 1)."""
     G, _ = skeleton(m, args.G)
     top = elastic_strain_limit_stress(G)
-    if args.stress > top * (1.0 + 1e-12):
-        src = "--G" if args.G is not None else (f"G of {m.name}" if m.G else "the default G")
-        raise ValueError(f"--stress = {args.stress:g} Pa is outside the valid range (0, {top:g}] "
-                         f"Pa: the steady state before cessation would strain the skeleton by "
-                         f"stress/G = {args.stress / G:.3g}, past the small-elastic-strain limit "
-                         f"{ELASTIC_STRAIN_LIMIT:g} of the hypoelastic law (G = {G:g} Pa, "
-                         f"{src}); lower --stress or raise --G")
+    src = "--G" if args.G is not None else (f"G of {m.name}" if m.G else "the default G")
+    Param(gt(0.0), le(top * (1.0 + 1e-12), (
+        f"the steady state before cessation would strain the skeleton by stress/G = "
+        f"{args.stress / G:.3g}, past the small-elastic-strain limit {ELASTIC_STRAIN_LIMIT:g} of "
+        f"the hypoelastic law (G = {G:g} Pa, {src}); lower --stress or raise --G")),
+        unit="Pa").check("--stress", args.stress)
 
 
 def _transient(args, kind: str) -> str:
@@ -406,10 +417,8 @@ def _check_update_count(rate: float, t_end: float, dt: float) -> None:
     shorter --t-end helps), and the strain per update, set by --rate x --t-end (no --dt helps:
     a lower --rate or a shorter --t-end). ValueError with the valid values of each option."""
     x = STRAIN_PER_SUBSTEP
-    if dt > t_end:
-        raise ValueError(f"--dt = {dt:g} s is outside the valid range [{limits.TIME_MIN:g}, "
-                         f"{t_end:g}] s: the "
-                         f"step must not exceed the run, --t-end = {t_end:g} s")
+    Param(physical.TIME_MIN, le(t_end, f"the step must not exceed the run, --t-end = {t_end:g} "
+                                      "s"), unit="s").check("--dt", dt)
     steps = t_end / dt
     per_step = max(1.0, math.ceil(dt * rate / x)) if rate > 0 else 1.0
     count = per_step * round(steps)

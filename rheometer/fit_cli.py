@@ -45,16 +45,18 @@ from rheology.fit import (PARAMETER_EMPTY_OK, FlowData, fit_flow_curves, mixture
 from rheology.materials import (FIELD_UNITS, MATERIAL_FILE_FORMAT, check_set_override,
                                 material_to_dict, split_set_item)
 from rheology.steady import gdot_dst
+from rheology.sample import BETA, LAMBDA, RHO_WATER
 from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_dir, check_output_path, strict_json)
-from runkit.params import Number
+from runkit.limits import DENSITY_MAX, DENSITY_MIN, lt
+from runkit.params import Number, Option, Param
 from runkit.run import HeldWarnings
 
-from . import plots
-from .limits import STRESS_MAX
-from .options import PHI, about_set, k0
+from . import limits, plots
+from .options import PHI, about_set, once as _once
 from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
 
+DENSITY = Param(DENSITY_MIN, DENSITY_MAX, unit="kg/m^3")
 #: What steady flow curves cannot determine (copied by --transient-from).
 TRANSIENT_FIELDS = ("G", "K", "K0", "rho_s", "rho_f", "d", "K3", "kappa", "phi0")
 
@@ -87,15 +89,6 @@ def _text(option: str):
 
     check.__name__ = "text"
     return check
-
-
-def _once(option: str, values) -> None:
-    """Refuse a value given twice to a list option (one line naming the option and value)."""
-    seen = []
-    for v in values or []:
-        if v in seen:
-            raise ValueError(f"{option} {v} is given twice; give each once")
-        seen.append(v)
 
 
 def _set_value(text: str):
@@ -135,17 +128,16 @@ def _read_options(p):
     p.add_argument("--mass-fraction", action="store_true",
                    help="the phi values are mass fractions: convert with Eq. (20) (needs "
                         "--rho-cs and --rho-l)")
-    for name, text in (("--rho-cs", "grain density [kg/m^3]"),
-                       ("--rho-l", "suspending-liquid density [kg/m^3]")):
-        p.add_argument(name, type=Number(name, 0.0, None, lo_closed=False, unit="kg/m^3"),
-                       default=None, help=text + " (Eq. 20)")
-    p.add_argument("--rho-w", type=Number("--rho-w", 0.0, None, lo_closed=False,
-                                          unit="kg/m^3"), default=1000.0,
-                   help="water density [kg/m^3] (Eq. 20; 1000)")
-    p.add_argument("--swelling", type=Number("--swelling", 0.0, None), default=0.3,
-                   help="lambda of Eq. (20) (0.3)")
-    p.add_argument("--pore", type=Number("--pore", 0.0, 1.0, hi_closed=False), default=0.1,
-                   help="beta of Eq. (20) (0.1)")
+    # Eq. (20)'s inputs with rheology.sample's physical limits and defaults (its --grain-density,
+    # --liquid-density, ... under the names the fit commands have always had)
+    for name, text, default, kind in (
+            ("--rho-cs", "grain density [kg/m^3]", None, DENSITY),
+            ("--rho-l", "suspending-liquid density [kg/m^3]", None, DENSITY),
+            ("--rho-w", f"water density [kg/m^3] ({RHO_WATER:g})", RHO_WATER, DENSITY),
+            ("--swelling", f"lambda ({LAMBDA:g})", LAMBDA, Param(0.0, 10.0)),
+            ("--pore", f"beta ({BETA:g})", BETA, Param(0.0, lt(1.0)))):
+        p.add_argument(name, type=Option(name, kind), default=default,
+                       help=f"{text} of Eq. (20)")
 
 
 def _result_options(p, what: str):
@@ -229,19 +221,19 @@ def add_subcommands(sub) -> dict:
     p.add_argument("--phi", nargs="+", type=PHI, required=True, metavar="PHI",
                    help="volume fraction: one for every curve, or one per curve in order")
     p.add_argument("--stress0", nargs="+", required=True, metavar="TAU0",
-                   type=Number("--stress0", 0.0, STRESS_MAX, lo_closed=False, unit="Pa"),
+                   type=Option("--stress0", limits.POSITIVE_STRESS),
                    help="steady granular shear stress before cessation [Pa] (the measured "
                         "stress less eta0 (1 + 5/2 phi) gdot, negligible when dense): one for "
                         "every curve, or one per curve in order")
-    p.add_argument("--K0", type=k0(), default=None, help="hold K0 at this value (fit G only)")
+    p.add_argument("--K0", type=Option("--K0", limits.K0), default=None,
+                   help="hold K0 at this value (fit G only)")
     p.add_argument("--time-offset", type=Number("--time-offset", -1e9, 1e9, unit="s"),
                    default=None, metavar="SECONDS",
                    help="hold each curve's cessation time at this time on its clock (default: "
                         "fitted per curve)")
-    p.add_argument("--stress-floor", type=Number("--stress-floor", 0.0, STRESS_MAX,
-                                                 lo_closed=False, unit="Pa"), default=None,
-                   metavar="PA", help="drop readings below this stress [Pa] (the instrument's "
-                                      "noise)")
+    p.add_argument("--stress-floor", type=Option("--stress-floor", limits.POSITIVE_STRESS),
+                   default=None, metavar="PA",
+                   help="drop readings below this stress [Pa] (the instrument's noise)")
     return {"read": cmd_read, "fit": cmd_fit, "fit-relaxation": cmd_fit_relaxation}
 
 
@@ -313,7 +305,7 @@ def _read(args):
             raise ValueError("--mass-fraction needs --rho-cs and --rho-l (Eq. 20); the paper "
                              "gives no default densities")
         mass = dict(rho_cs=args.rho_cs, rho_l=args.rho_l, rho_w=args.rho_w, lam=args.swelling,
-                    beta=args.pore)
+                    beta=args.pore)          # rheology.data's keys of Eq. (20)
     cols = dict(args.columns) if args.columns else None
     return read_flow_curves(args.files, fmt=args.format, columns=cols, phi=args.phi,
                             intervals=args.interval, torque_floor=args.torque_floor,

@@ -1,5 +1,6 @@
-"""The instrument around the 0-D sample: measuring geometries, mass fractions, per-material
-defaults and normalised column names.
+"""The instrument around the 0-D sample: measuring geometries and normalised column names (the
+mass fractions of Eq. 20 are :mod:`rheology.sample`'s, the default fractions
+:mod:`rheology.materials`').
 
 Measuring geometries (standard conversions, e.g. Macosko, *Rheology* (1994) ch. 5; ISO 3219):
 
@@ -25,20 +26,6 @@ correction ``sigma_R = sigma_a (3 + d ln M/d ln gdot_R)/4`` recovers it wherever
 one branch of the curve (:func:`weissenberg_rabinowitsch`). For transient and oscillatory tests
 the parallel-plate columns use the homogeneous (rim) conversion and say so.
 
-Mass fractions: Eq. (20) of the paper's Supplement (after Peters et al. 2016),
-``phi = (1 + lambda)(1 - beta)/((1 - beta) + (1 - phi_W)/phi_W rho_cs/rho_l + beta rho_cs/rho_w)``
-with lambda = 0.3 (swelling) and beta = 0.1 (pore space) by default, rho_cs the grain, rho_l the
-liquid and rho_w the water density. Where the material gives none (the steady fits): rho_cs =
-1620 kg/m^3 (the cornstarch grain density of Tables 4-7), rho_l = rho_w = 1000 kg/m^3 (water).
-
-Defaults per material (:func:`default_fractions`, from :mod:`rheology.materials` so that every
-tier uses it), one rule for every command: a set with DST
-(finite eta_B: the Table 2-7 sets and Singh (b)) gets phi = phi_c + s (phi_j - phi_c) with
-s = 0.45, 0.65, 0.85 (all inside the DST window, phi_c <= phi < phi_j), a set without DST (eta_B
-infinite: Singh (a), which shear-jams above phi_c) gets s = -1.5, -0.75, -0.25 (below phi_c,
-where it flows at every stress); each rounded to the nearest 0.005. Commands with one fraction
-take the middle one (Hermes 2016: 0.48, 0.50, 0.52 and 0.50).
-
 Normalised materials (the Singh sets, Table 1: eta0 = gdot_0 = 1) write normalised column names:
 stresses in eta0 gdot_0 (``_Pa`` -> ``_eta0_gdot0``), rates in gdot_0 (``_per_s`` -> ``_gdot0``),
 times in 1/gdot_0 (``time_s`` -> ``time_per_gdot0``), viscosities in eta0 (``_Pa_s`` -> ``_eta0``),
@@ -53,13 +40,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from scipy.integrate import cumulative_simpson
 
 import rheology
-from rheology.materials import (DST_POSITIONS, NO_DST_POSITIONS, default_fraction,  # noqa: F401
-                                default_fractions, has_dst)
-from rheology.materials import RULE as DEFAULT_RULE  # noqa: F401
-from rheology.sample import (BETA, LAMBDA, RHO_GRAIN, RHO_LIQUID, RHO_WATER,  # noqa: F401
-                             Densities, fractions_from_mass, mass_fraction, volume_fraction)
 from runkit.params import check_positive, check_range
 
 GEOMETRIES = ("cone-plate", "parallel-plate", "couette")
@@ -227,8 +210,6 @@ def parallel_plate_flow_curve(material, phi: float, geometry: Geometry | None = 
         on the (M, Omega) data), ``torque_N_m``, ``rotation_speed_rad_per_s``,
         ``granular_shear_stress_Pa`` (rim), ``f`` (rim); attrs: fold_reached, geometry.
     """
-    from scipy.integrate import cumulative_simpson
-
     geometry = geometry or Geometry.make("parallel-plate")
     if geometry.kind != "parallel-plate":
         raise ValueError(f"geometry = {geometry.kind!r}: the radial integration is for the "

@@ -19,16 +19,17 @@ import pandas as pd
 
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
+from rheology.materials import RULE, default_fractions, has_dst
 from rheology.run_end import EndedEarly, run_record
 from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_path)
-from runkit.params import Number
+from runkit.params import Number, Option
 
 from . import geometry as geo
+from . import limits, plots
 from . import oscillation as osc
-from . import plots
-from .limits import FREQUENCY_MIN, RATE_MAX, STRESS_MAX
 from .options import common_options, plot_path, sample_material, skeleton_options
+
 
 def _phi_column(df: pd.DataFrame) -> str | None:
     return "phi0" if "phi0" in df.columns else ("phi" if "phi" in df.columns else None)
@@ -116,12 +117,12 @@ def extra_outputs(args, sample, df: pd.DataFrame, plot=None) -> str:
 
 def materials_note() -> str:
     """The default-fraction rule and each material's defaults (for ``rheometer materials``)."""
-    lines = [f"Defaults ({geo.DEFAULT_RULE}):"]
+    lines = [f"Defaults ({RULE}):"]
     for name in rheology.materials.material_names():
         m = rheology.get_material(name)
-        phis = geo.default_fractions(m)
+        phis = default_fractions(m)
         lines.append(f"  {name:15s} phi = {' '.join(f'{p:g}' for p in phis)} "
-                     f"({'DST' if geo.has_dst(m) else 'no DST'}; phi_c = {m.phi_c:g}, phi_j = "
+                     f"({'DST' if has_dst(m) else 'no DST'}; phi_c = {m.phi_c:g}, phi_j = "
                      f"{m.phi_j:g}{'; normalised units' if m.units == 'normalised' else ''})")
     return "\n".join(lines)
 
@@ -147,13 +148,11 @@ def add_subcommands(sub) -> dict:
                    nargs="+", default=None, metavar="A",
                    help="strain amplitude(s) [-] (several: an amplitude sweep; default 10 "
                         "values 1e-3..1)")
-    p.add_argument("--stress-amplitude", type=Number("--stress-amplitude", 0.0, STRESS_MAX,
-                                                     lo_closed=False, unit="Pa"),
+    p.add_argument("--stress-amplitude", type=Option("--stress-amplitude", limits.POSITIVE_STRESS),
                    nargs="+", default=None, metavar="S",
                    help="mixture-stress amplitude(s) [Pa] for --control stress (default 10 "
                         "values 0.01..10 tau*)")
-    p.add_argument("--frequency", type=Number("--frequency", FREQUENCY_MIN, RATE_MAX,
-                                              unit="Hz"),
+    p.add_argument("--frequency", type=Option("--frequency", limits.FREQUENCY),
                    nargs="+", default=[1.0], metavar="F",
                    help="frequency(ies) [Hz] (several: a frequency sweep; 1)")
     p.add_argument("--cycles", type=Number("--cycles", 2, 10 ** 5, integer=True),
@@ -222,20 +221,15 @@ def _cmd_oscillation(args) -> str:
     msg = f"wrote {args.out} ({len(table)} points) and {waves_csv} ({len(wtable)} rows)"
     past = points[points["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT]
     if plot is not None:
-        dst = None
-        if len(sample.phi) == 1:
-            try:
-                dst = osc.dst_onset_stress(m, sample.phi[0])
-            except ValueError:
-                dst = None
+        try:
+            dst = osc.dst_onset_stress(m, sample.phi[0]) if len(sample.phi) == 1 else None
+        except ValueError:                                  # no DST at this phi
+            dst = None
         what = (f"{args.control} control, G = {points.attrs['G_Pa']:g} Pa, K0 = "
                 f"{points.attrs['K0']:g}")
-        for path, maker in ((plot, lambda: plots.oscillation_figure(
-                                points, f"{m.name}: oscillation ({what})", dst)),
-                            (str(liss_png), lambda: plots.lissajous_figure(
-                                waves, f"{m.name}: Lissajous-Bowditch curves ({what})",
-                                points=points, dst_stress=dst))):
-            plots.save(maker(), path)
+        plots.save(plots.oscillation_figure(points, f"{m.name}: oscillation ({what})", dst), plot)
+        plots.save(plots.lissajous_figure(waves, f"{m.name}: Lissajous-Bowditch curves ({what})",
+                                          points=points, dst_stress=dst), liss_png)
         msg += f", {plot} and {liss_png}"
         written += [plot, str(liss_png)]
     atomic_write_json(record, run_record(ends, command="rheometer oscillation",

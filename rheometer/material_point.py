@@ -26,9 +26,7 @@ Sub-stepping (safe at any rate). Each step dt is split into n equal local update
   sqrt(1 + x^2). A flowing update returns the stress radially to its yield value, so only the
   direction error O(x) remains: x <= 0.01 (:data:`STRAIN_PER_SUBSTEP`). An unyielded (elastic)
   update keeps the spurious growth, exp(gamma x/2) over a strain gamma: a step with an elastic
-  sub-step is redone with x <= 2 SPIN_GROWTH/(gdot t_end) (1% over the whole run). With dt
-  gdot ~ 1 (a rate of 1000 1/s at dt = 1e-3 s) the unsplit update had grown a jammed
-  point's stress to -3400 Pa and, at 1e4 1/s, -2e28 Pa.
+  sub-step is redone with x <= 2 SPIN_GROWTH/(gdot t_end) (1% over the whole run).
 - cancellation: the update forms taubar = tau* - G h gdot_p, which keeps a relative precision of
   eps G h gdot_p/taubar; a step where that ratio exceeds :data:`Q_MAX` = 1e6 (2e-10 relative) is
   redone with proportionally more sub-steps;

@@ -73,6 +73,8 @@ _H = 1e-30          # complex-step size (any tiny value: no cancellation)
 # parameter vector layout (see parameters())
 _PHI, _PHIC, _PHIJ, _A0, _AINF, _MU1, _MU2, _B, _ETA0, _D, _RHOS, _TSTAR, _INVB, _FM, _K0, \
     _XIEPS, _G, _ETAF = range(18)
+#: where :func:`parameters` holds the fluid viscosity eta0 (1 + 5/2 phi) [Pa s]
+ETA_FLUID = _ETAF
 
 
 def parameters(m: Material, phi: float, G: float, K0: float) -> np.ndarray:
@@ -205,7 +207,7 @@ def imposed(t, C):
 
 
 @_jit
-def _shear_rate(t, taubar, P, C):
+def shear_rate(t, taubar, P, C):
     """(gdot, d gdot/d taubar, d gdot/dt at fixed taubar) from the control."""
     v, dv = imposed(t, C)
     if C[0] == RATE:
@@ -217,7 +219,7 @@ def _shear_rate(t, taubar, P, C):
 @_jit
 def consistent_state(t, taubar, gap, strain, P, C, y, yp):
     """Fill (y, yp) consistent with the DAE at time t from (taubar, gap, strain)."""
-    g, gt_, gtime = _shear_rate(t, taubar, P, C)
+    g, gt_, gtime = shear_rate(t, taubar, P, C)
     gp, gpt, gpy = _signed_plastic_rate_d(taubar, gap, P)
     taup = P[_G] * (g - gp)
     yp_gap = signed_gap_rate(gap, taubar, gp, P)
@@ -276,7 +278,7 @@ def events(t, y, ev, P, C):
 @_jit
 def ode_rhs(t, y, out, P, C):
     """Right-hand side of the eliminated form, y = [taubar, gap, strain]."""
-    g, _, _ = _shear_rate(t, y[0], P, C)
+    g, _, _ = shear_rate(t, y[0], P, C)
     gp = signed_plastic_rate(y[0], y[1], P)
     out[0] = P[_G] * (g - gp)
     out[1] = signed_gap_rate(y[1], y[0], gp, P)
@@ -286,7 +288,7 @@ def ode_rhs(t, y, out, P, C):
 @_jit
 def ode_jacobian(t, y, J, P, C):
     """d rhs/d y of :func:`ode_rhs` (exact, by complex step)."""
-    g, gt_, _ = _shear_rate(t, y[0], P, C)
+    g, gt_, _ = shear_rate(t, y[0], P, C)
     gp, gpt, gpy = _signed_plastic_rate_d(y[0], y[1], P)
     _, ry, rt, rg = _signed_gap_rate_d(y[1], y[0], gp, P)
     J[:, :] = 0.0

@@ -10,6 +10,7 @@ resolved, with the valid range at the other values."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,89 +22,88 @@ from rheology.materials import (FIELD_UNITS, Material, default_fraction, default
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit import limits as physical
 from runkit.io import check_output_path
-from runkit.params import Number, OutOfRange, valid_interval
+from runkit.limits import Bound, le
+from runkit.params import Number, Option, OutOfRange, Param, Schema, valid_interval
 
 from . import geometry as geo
 from . import limits
-from .limits import K0_MAX
+from .transient import check_phi
 
 DEFAULT_MATERIAL = "hermes2016"
 #: ``--phi``: its static range; the bound phi < phi_j of the material is :class:`Sample`'s
 PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
 
 
+# ------------------------------------------------------------------ the measuring geometry
+def _flag(key: str) -> str:
+    return "--" + key.replace("_", "-")
 
-# ------------------------------------------------------------------ options
+
+#: a length of the instrument: [1e-6, 10] m (runkit.limits: micro-gap rheometers to a 10 m bed)
+LENGTH = Param(physical.LENGTH_MIN, physical.LENGTH_MAX, unit="m")
+_NARROWEST = physical.LENGTH_MIN.value
+_RIM = (f"the gap at the rim, R tan(angle), at least {_NARROWEST:g} m: "
+        f"{physical.LENGTH_MIN.why}")
+_CUP = (f"the cup radius exceeds the bob radius by a gap of at least {_NARROWEST:g} m: "
+        f"{physical.LENGTH_MIN.why}")
+CONE_ANGLE = Param(Bound(lambda p: math.degrees(math.atan(_NARROWEST / p["radius"])), True,
+                         _RIM), le(10.0, "the small-angle conversions"), unit="deg")
+_d = geo.DEFAULTS
+#: the dimensions of each geometry (defaults :data:`rheometer.geometry.DEFAULTS`), one schema
+#: each: a refusal states a dimension's valid range at the others
+DIMENSIONS = {
+    "cone-plate": Schema({"cone_angle": CONE_ANGLE, "radius": LENGTH},
+                         {"cone_angle": _d["cone_angle_deg"], "radius": _d["cone_radius"]},
+                         label=_flag, where="--geometry cone-plate"),
+    "parallel-plate": Schema({"radius": LENGTH, "gap": LENGTH},
+                             {"radius": _d["plate_radius"], "gap": _d["gap"]},
+                             label=_flag, where="--geometry parallel-plate"),
+    "couette": Schema({"bob_radius": LENGTH, "cup_radius": Param(
+        Bound(lambda p: p["bob_radius"] + _NARROWEST, True, _CUP), physical.LENGTH_MAX, unit="m"),
+        "bob_length": LENGTH}, {k: _d[k] for k in ("bob_radius", "cup_radius", "bob_length")},
+        label=_flag, where="--geometry couette")}
+
+
 def add_instrument_options(p) -> None:
     """Geometry and mass-fraction options of every measuring command."""
     g = p.add_argument_group("measuring geometry (torque, rotation speed, apparent stress and "
                              "rate by the standard conversions)")
     g.add_argument("--geometry", choices=geo.GEOMETRIES, default=None,
                    help="cone-plate | parallel-plate | couette (default: none, sample values only)")
-    def length(name):
-        return Number(name, 0.0, physical.LENGTH_MAX, lo_closed=False, unit="m")
-
-    d = geo.DEFAULTS
-    g.add_argument("--cone-angle", type=Number("--cone-angle", 0.0, 10.0, lo_closed=False,
-                                               unit="deg"), default=None,
-                   help=f"cone angle [deg] (cone-plate; {d['cone_angle_deg']:g})")
-    g.add_argument("--radius", type=length("--radius"), default=None,
-                   help=f"cone or plate radius [m] ({d['cone_radius']:g} cone, "
-                        f"{d['plate_radius']:g} plate)")
-    g.add_argument("--gap", type=length("--gap"), default=None,
-                   help=f"plate gap [m] (parallel-plate; {d['gap']:g})")
-    g.add_argument("--bob-radius", type=length("--bob-radius"), default=None,
-                   help=f"bob radius [m] (couette; {d['bob_radius']:g})")
-    g.add_argument("--cup-radius", type=length("--cup-radius"), default=None,
-                   help=f"cup radius [m] (couette; {d['cup_radius']:g})")
-    g.add_argument("--bob-length", type=length("--bob-length"), default=None,
-                   help=f"immersed bob length [m] (couette; {d['bob_length']:g})")
+    g.add_argument("--cone-angle", type=Option("--cone-angle", CONE_ANGLE), default=None,
+                   help=f"cone angle [deg] (cone-plate; {_d['cone_angle_deg']:g})")
+    g.add_argument("--radius", type=Option("--radius", LENGTH), default=None,
+                   help=f"cone or plate radius [m] ({_d['cone_radius']:g} cone, "
+                        f"{_d['plate_radius']:g} plate)")
+    for key, what, kind in (("gap", "plate gap", "parallel-plate"),
+                            ("bob_radius", "bob radius", "couette"),
+                            ("cup_radius", "cup radius", "couette"),
+                            ("bob_length", "immersed bob length", "couette")):
+        g.add_argument(_flag(key), type=Option(_flag(key), LENGTH), default=None,
+                       help=f"{what} [m] ({kind}; {_d[key]:g})")
     add_mass_fraction_options(p)
 
 
 def geometry_of(args) -> geo.Geometry | None:
-    """The geometry of ``--geometry`` and its dimensions (None without it); ValueError when a
-    dimension of another geometry is given."""
+    """The geometry of ``--geometry`` and its dimensions, checked once (:data:`DIMENSIONS`;
+    None without it); ValueError when a dimension of another geometry is given."""
     kind = getattr(args, "geometry", None)
-    own = {"cone-plate": ("cone_angle", "radius"), "parallel-plate": ("radius", "gap"),
-           "couette": ("bob_radius", "cup_radius", "bob_length")}
-    given = [k for k in ("cone_angle", "radius", "gap", "bob_radius", "cup_radius", "bob_length")
-             if getattr(args, k, None) is not None]
+    given = {k: getattr(args, k) for k in ("cone_angle", "radius", "gap", "bob_radius",
+                                           "cup_radius", "bob_length")
+             if getattr(args, k, None) is not None}
     if kind is None:
         if given:
-            raise ValueError(f"--{given[0].replace('_', '-')} needs --geometry "
+            raise ValueError(f"{_flag(next(iter(given)))} needs --geometry "
                              f"(cone-plate, parallel-plate or couette)")
         return None
-    wrong = [k for k in given if k not in own[kind]]
+    schema = DIMENSIONS[kind]
+    wrong = [k for k in given if k not in schema.params]
     if wrong:
-        raise ValueError(f"--{wrong[0].replace('_', '-')} is not a dimension of --geometry {kind} "
-                         f"(its dimensions: "
-                         f"{', '.join('--' + k.replace('_', '-') for k in own[kind])})")
-    dims = {k: getattr(args, k, None) for k in own[kind]}
-    try:
-        return _geometry(kind, dims)
-    except (ValueError, ArithmeticError) as exc:
-        raise _about_dimension(kind, dims, exc) from None
-
-
-#: the option's default among geometry.DEFAULTS, per geometry
-_DEFAULT_KEY = {("cone-plate", "radius"): "cone_radius", ("parallel-plate", "radius"):
-                "plate_radius", ("cone-plate", "cone_angle"): "cone_angle_deg"}
-
-
-def _geometry(kind: str, dims: dict) -> geo.Geometry:
-    """The geometry with its conversion factors checked: a dimension in its range whose factor
-    is not a finite positive number (a bob radius of 1e-300: 1/(2 pi R^2 L) divided by zero
-    after the run, in the table's instrument columns) is refused here, before the run."""
+        raise ValueError(f"{_flag(wrong[0])} is not a dimension of --geometry {kind} "
+                         f"(its dimensions: {', '.join(map(_flag, schema.params))})")
+    dims = schema.check(given)
     names = {"cone_angle": "cone_angle_deg"}
-    g = geo.Geometry.make(kind, **{names.get(k, k): v for k, v in dims.items()})
-    with np.errstate(all="ignore"):
-        factors = (g.stress_factor(), g.rate_factor())
-    bad = [f for f in factors if not (np.isfinite(f) and f > 0)]
-    if bad:
-        raise ValueError(f"{g.describe()}: its conversion factors (stress, rate) are "
-                         f"{factors[0]:g}, {factors[1]:g}, not finite positive numbers")
-    return g
+    return geo.Geometry.make(kind, **{names.get(k, k): v for k, v in dims.items()})
 
 
 def _range_without(label: str, v: float, x0: float, ok, unit: str = "") -> str | None:
@@ -115,39 +115,6 @@ def _range_without(label: str, v: float, x0: float, ok, unit: str = "") -> str |
     lo, lo_closed, hi, hi_closed = valid_interval(ok, float(x0))
     rng = Number(label, lo, hi, lo_closed=lo_closed, hi_closed=hi_closed, unit=unit)
     return None if rng.contains(float(v)) else rng.range_text
-
-
-def _about_dimension(kind: str, dims: dict, exc: Exception) -> ValueError:
-    """A geometry refusal said about a dimension the user gave, with its valid range at the
-    other dimensions (bisection, :func:`runkit.params.valid_interval`): ``--cup-radius 1e-300``
-    or ``--bob-radius 1e-300`` (whose conversion factor divided by zero)."""
-    limit = {"cone_angle": 10.0}
-    for key, v in dims.items():
-        if v is None:
-            continue
-        x0 = geo.DEFAULTS[_DEFAULT_KEY.get((kind, key), key)]
-        static = Number(f"--{key.replace('_', '-')}", 0.0,
-                        limit.get(key, physical.LENGTH_MAX.value), lo_closed=False,
-                        unit="deg" if key == "cone_angle" else "m")
-
-        def ok(x, key=key, static=static):
-            if not static.contains(x):
-                return False
-            try:
-                _geometry(kind, {**dims, key: x})
-            except (ValueError, ArithmeticError):
-                return False
-            return True
-
-        rng = _range_without(static.name, v, x0, ok, static.unit)
-        if rng is None:
-            continue
-        others = ", ".join(f"--{k.replace('_', '-')} {dims[k] if dims[k] is not None else d:g}"
-                           for k, d in ((k, geo.DEFAULTS[_DEFAULT_KEY.get((kind, k), k)])
-                                        for k in dims) if k != key)
-        return ValueError(f"{static.name} = {v:g} is outside the valid range {rng} "
-                          f"(--geometry {kind} with {others}: {exc})")
-    return exc if isinstance(exc, ValueError) else ValueError(str(exc))
 
 
 # ------------------------------------------------------------------ the sample
@@ -165,32 +132,32 @@ class Sample:
     mass_note: str = ""
 
 
+def once(option: str, values, note: str = "give each once") -> None:
+    """Refuse a value given twice to a list option (one line naming the option and value)."""
+    seen = []
+    for v in values or []:
+        if v in seen:
+            raise ValueError(f"{option} {v} is given twice; {note}")
+        seen.append(v)
+
+
 def _fractions(args, m) -> tuple[list, dict | None, str]:
     """(phi, phi -> mass fraction or None, note) of the options. ValueError (one line, exit 2)
     for --phi with --mass-fraction, a fraction given twice, or a fraction >= phi_j: the one
     check of --phi against the material (its static range (0, 1) is the option's type)."""
+    repeat = "its curves would repeat; give distinct "
     if getattr(args, "mass_fraction", None) is not None:
         if args.phi is not None:
             raise ValueError("give --phi or --mass-fraction, not both")
+        once("--mass-fraction", [float(w) for w in args.mass_fraction],
+             repeat + "mass fractions")
         phi, note = mass_fraction_phi(args, m)
-        twice = next((w for i, w in enumerate(args.mass_fraction)
-                      if float(w) in map(float, args.mass_fraction[:i])), None)
-        if twice is not None:
-            raise ValueError(f"--mass-fraction {float(twice):g} is given twice: its curves would "
-                             "repeat; give distinct mass fractions")
         return phi, dict(zip(phi, map(float, args.mass_fraction))), note
     if args.phi is None:
         count = getattr(args, "_phi_count", 1)
-        return (geo.default_fractions(m) if count > 1 else [geo.default_fraction(m)]), None, ""
-    twice = next((p for i, p in enumerate(args.phi) if p in args.phi[:i]), None)
-    if twice is not None:
-        raise ValueError(f"--phi {twice:g} is given twice: its curves would repeat; give "
-                         "distinct fractions")
-    bad = [p for p in args.phi if p >= m.phi_j]
-    if bad:
-        raise ValueError(f"--phi = {bad[0]:g} is outside the valid range (0, {m.phi_j:g}) "
-                         f"of {m.name} (below phi_j)")
-    return list(args.phi), None, ""
+        return (default_fractions(m) if count > 1 else [default_fraction(m)]), None, ""
+    once("--phi", args.phi, repeat + "fractions")
+    return [check_phi("--phi", p, m) for p in args.phi], None, ""
 
 
 def material_with(name, overrides: dict, option: str = "--set"):
@@ -209,7 +176,6 @@ def material_with(name, overrides: dict, option: str = "--set"):
         <the check it breaks>)``, or the Material's own message when that already names a set
         parameter with a range that holds.
     """
-    limits.check_set(overrides, option)
     try:
         return rheology.get_material(name, **overrides)
     except ValueError as exc:
@@ -293,28 +259,18 @@ def common_options(p, phi_count, out_default):
     add_instrument_options(p)      # --geometry and dimensions, --mass-fraction
 
 
-def modulus(name):
-    return Number(name, physical.MODULUS_MIN, physical.MODULUS_MAX, unit="Pa")
-
-
-def k0():
-    return Number("--K0", 0.0, K0_MAX)
-
-
-def t_end_option():
-    return limits.duration("--t-end")
-
-
 def skeleton_options(p) -> None:
     """``--G`` and ``--K0`` (default: the material's, else 1e4 Pa and 1)."""
-    p.add_argument("--G", type=modulus("--G"), default=None, help="granular shear modulus [Pa]")
-    p.add_argument("--K0", type=k0(), default=None, help="structure-rate scale K0 [-]")
+    p.add_argument("--G", type=Option("--G", limits.MODULUS), default=None,
+                   help="granular shear modulus [Pa]")
+    p.add_argument("--K0", type=Option("--K0", limits.K0), default=None,
+                   help="structure-rate scale K0 [-]")
 
 
 def transient_options(p, t_end=None):
     skeleton_options(p)
     if t_end is not None:
-        p.add_argument("--t-end", type=t_end_option(), default=t_end,
+        p.add_argument("--t-end", type=Option("--t-end", limits.DURATION), default=t_end,
                        help=f"duration [s] (default {t_end:g})")
     p.add_argument("--rtol", type=Number("--rtol", 1e-13, 1e-2), default=1e-7,
                    help="IDA relative tolerance (1e-7)")

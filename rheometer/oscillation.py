@@ -42,14 +42,10 @@ mean stress (strain control) or the strain's drift over a cycle (stress control)
 projection ``change r/(1 - r)`` (``r`` the ratio of the last two changes). The cycles used are
 reported; a point not converged within ``max_cycles`` has ``converged = False``.
 
-Acceleration: where the change per cycle shrinks by less than a factor 2 per cycle, the state
-jumps: by Aitken extrapolation along the slow mode (cycle-start differences parallel, r < 0.99),
-else by one Newton step on the cycle map Phi (state (taubar, gap) at a cycle start -> one period
-later; the periodic state solves Phi(x) = x) with a finite-difference 2 x 2 Jacobian. Cycles then
-resume and the test starts afresh, so the reported state is always an integrated cycle that
-repeats itself to ``tol`` (column ``extrapolations``). A jump moves taubar by at most the last
-cycle's stress range and f by at most 0.2, and is undone when the change two cycles later is ten
-times larger (a jammed sample's cycle map is singular; rules: docs/measurements.md).
+Acceleration: where the change shrinks by less than a factor 2 per cycle, the state jumps (Aitken
+extrapolation along one slow mode, else a damped Newton step on the cycle map x -> Phi(x), the
+state one period later); the test then starts afresh, so the reported cycle is always an
+integrated one repeating itself to ``tol`` (column ``extrapolations``).
 
 Where the paper is silent: G and K0 default to the material's, else G = 1e4 Pa and K0 = 1. Each
 point starts from rest (f = 0) carrying the periodic stress of the linearised model (taubar(0) =
@@ -66,21 +62,22 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from scipy.optimize import minimize_scalar
+
 import rheology
 from rheology import laws
+from rheology.run_end import RunEnd
 from rheology.steady import steady_fold
 from runkit.ida import IDAFailed, Solver, captured
 from runkit.params import check_positive, check_range
 
 from . import model
 from .harmonics import elastic_viscous, harmonics
-from .transient import skeleton
+from .transient import check_phi, skeleton
 
 
 #: Drive modes.
 STRAIN, STRESS = 0, 1
-#: Indices of the parameter vector of :func:`rheometer.model.parameters` used here.
-_ETAF_I = model._ETAF
 #: Defaults.
 DEFAULT_SAMPLES = 128
 DEFAULT_TOL = 1e-5
@@ -139,9 +136,7 @@ class Maxwell:
 
 def _moduli(material, phi, G, K0):
     m = rheology.get_material(material)
-    phi = float(check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
-                            note=f"below phi_j = {m.phi_j} of {m.name}"))
-    return (m, phi, *skeleton(m, G, K0))
+    return (m, check_phi("phi", phi, m), *skeleton(m, G, K0))
 
 
 def maxwell(material, phi: float, G: float | None = None) -> Maxwell:
@@ -165,8 +160,6 @@ def dst_onset_stress(material, phi: float) -> float:
     """Mixture shear stress [Pa] at the onset of DST: the first fold of the steady curve, where
     the shear rate stops increasing with the stress (a maximum of gdot(taubar); Eq. 13 with
     Eq. 1). Raises ValueError if the steady curve of ``phi`` has no fold (no DST)."""
-    from scipy.optimize import minimize_scalar
-
     m = rheology.get_material(material)
     fold = steady_fold(m, phi)
     if fold is None:
@@ -190,7 +183,6 @@ def drive(mode: int, amplitude: float, omega: float, t0: float = 0.0) -> np.ndar
     return model.control(model.STRESS, model.SINE, amplitude, omega, t0, 0.0)
 
 
-# ------------------------------------------------------------------ harmonics
 # ------------------------------------------------------------------ one point
 def _periodic(changes, tol: float) -> bool:
     """Periodic steady state: the last cycle-to-cycle change and its geometric projection
@@ -358,6 +350,14 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
     starts = [y0[:2] / weights]           # scaled cycle-start states since the last jump
     rtol_fd = max(1e-2 * rtol, 1e-12)        # the finite differences need tighter solves
 
+    def restart(y_new):
+        """Continue from ``y_new`` at the cycle's end; the periodicity test starts afresh."""
+        yp_new = np.empty(3)
+        model.ode_rhs(times[-1], y_new, yp_new, P, O)
+        solver.start(times[-1], y_new, yp_new)
+        Y[-1] = y_new
+        return None, [], [y_new[:2] / weights]
+
     def cycle_map(t_start, x):
         """State (taubar, gap) one period after (t_start, x): a separate IDA solve."""
         y = np.array([x[0], x[1], 0.0])
@@ -396,8 +396,9 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
                 f"{amp:g}, cycle {cycle}, t = {times[i]:.6g} s: taubar = {Y[i, 0]:.6g} Pa, "
                 f"f = {f[i]:.6g} (valid [0, {f_hi:.6g}]): tighten rtol (now {rtol:g})")
         taubar = Y[:samples, 0]
-        gdot = np.array([model._shear_rate(t, tb, P, O)[0] for t, tb in zip(times[:samples], taubar)])
-        sigma = taubar + P[_ETAF_I] * gdot
+        gdot = np.array([model.shear_rate(t, tb, P, O)[0]
+                         for t, tb in zip(times[:samples], taubar)])
+        sigma = taubar + P[model.ETA_FLUID] * gdot
         if mode == STRAIN:
             strain = amp * np.sin(phase)
             response = sigma
@@ -421,12 +422,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
             if weak >= 3:                      # three jumps in a row that did not halve it
                 accelerate = False
             if changes[-1] > 10.0 * backup[1]:  # the jump made it much worse: undo it, stop
-                y_old = backup[0]
-                yp_old = np.empty(3)
-                model.ode_rhs(times[-1], y_old, yp_old, P, O)
-                solver.start(times[-1], y_old, yp_old)
-                Y[-1] = y_old
-                prev, changes, starts = None, [], [y_old[:2] / weights]
+                prev, changes, starts = restart(backup[0])
                 accelerate = False
                 reverted += 1
             backup = None
@@ -453,29 +449,16 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
                 over = float(np.max(np.abs(step) / np.maximum(bound, 1e-300)))
                 new = x + step / max(1.0, over)
                 backup = (Y[-1].copy(), changes[-1])
-                y_new = np.array([new[0] * weights[0], new[1] * weights[1], Y[-1, 2]])
-                yp_new = np.empty(3)
-                model.ode_rhs(times[-1], y_new, yp_new, P, O)
-                solver.start(times[-1], y_new, yp_new)
-                Y[-1] = y_new
-                prev, changes, starts = None, [], [y_new[:2] / weights]
+                prev, changes, starts = restart(
+                    np.array([new[0] * weights[0], new[1] * weights[1], Y[-1, 2]]))
                 jumps += 1
-    if mode == STRAIN:
-        c_gamma = -1j * amp
-        c_sigma = c[0]
-        i3 = abs(c[1]) / abs(c[0])
-        sigma_amp = abs(c_sigma)
-        gamma_amp = amp
-    else:
-        c_gamma = c[0]
-        c_sigma = -1j * amp
-        i3 = abs(c[1]) / abs(c[0])
-        sigma_amp = amp
-        gamma_amp = abs(c_gamma)
+    # the drive's harmonic is -i amp (sin = Re[-i e^(i omega t)]), the response's c[0]
+    c_gamma, c_sigma = (-1j * amp, c[0]) if mode == STRAIN else (c[0], -1j * amp)
+    i3 = abs(c[1]) / abs(c[0])
     Gs = c_sigma / c_gamma
     f_cycle = np.clip(f[:samples], 0.0, 1.0)
     point = dict(phi=phi, control=control, frequency_Hz=freq, angular_frequency_rad_per_s=omega,
-                 strain_amplitude=gamma_amp, stress_amplitude_Pa=sigma_amp,
+                 strain_amplitude=abs(c_gamma), stress_amplitude_Pa=abs(c_sigma),
                  peak_stress_Pa=float(np.max(np.abs(sigma))), storage_modulus_Pa=Gs.real,
                  loss_modulus_Pa=Gs.imag, complex_viscosity_Pa_s=abs(Gs) / omega,
                  tan_delta=Gs.imag / Gs.real if Gs.real > 0 else np.nan, I3_over_I1=i3,
@@ -543,8 +526,6 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
             raise ValueError(f"give at least one {name}")
     check_positive("frequency [Hz]", freqs)
     check_positive("amplitude", amps)
-    from rheology.run_end import RunEnd
-
     _moduli(m, phis[0], options.get("G"), options.get("K0"))     # bad input before any point
     rows, waves, ends = [], [], []
     t0 = time.perf_counter()

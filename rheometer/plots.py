@@ -21,6 +21,17 @@ def save(fig, path) -> str:
     return str(path)
 
 
+def _finish(fig, axs, title: str, legend: int | None = 7) -> None:
+    """The common end of a figure: a grid (and a legend of ``legend`` points) on every panel,
+    the title, a tight layout."""
+    for ax in np.atleast_1d(axs).ravel():
+        ax.grid(True, which="both", alpha=0.25)
+        if legend:
+            ax.legend(fontsize=legend)
+    fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+
+
 def _colors(n: int):
     return plt.cm.viridis(np.linspace(0.0, 0.85, max(n, 1)))
 
@@ -85,20 +96,15 @@ def flow_curve_figure(df: pd.DataFrame, material, title: str | None = None):
         if m.phi_c <= ph <= min(m.phi_star, m.phi_j) and m.varphi1 + m.varphi2 > 0:
             g = float(rheology.gdot_dst(ph, m))
             ax1.axvline(g, color=c, ls=":", lw=1)
-    ax1.set_xlabel("shear rate [1/s]")
-    ax1.set_ylabel("mixture shear stress [Pa]")
+    ax1.set(xlabel="shear rate [1/s]", ylabel="mixture shear stress [Pa]")
     ax1.set_title("flow curve (dotted: Eq. 33 DST rate; grey: whole steady curve)"
                   if "stable" in df.columns else "flow curve (dotted: Eq. 33 DST rate)",
                   fontsize=10)
     ax1.legend(fontsize=8)
-    ax2.set_xlabel("mixture shear stress [Pa]")
-    ax2.set_ylabel("viscosity [Pa s]")
+    ax2.set(xlabel="mixture shear stress [Pa]", ylabel="viscosity [Pa s]")
     ax2.set_title("viscosity", fontsize=10)
-    for ax in (ax1, ax2):
-        ax.grid(True, which="both", alpha=0.25)
     ctrl = df.attrs.get("control", "stress")
-    fig.suptitle(title or f"{m.name}: steady flow curves ({ctrl} control)", fontsize=11)
-    fig.tight_layout()
+    _finish(fig, (ax1, ax2), title or f"{m.name}: steady flow curves ({ctrl} control)", None)
     return fig
 
 
@@ -144,10 +150,7 @@ def transient_figure(frames: dict, title: str, log_time: bool = False):
         ax.set_xlabel("time [s]")
         if log_time:
             ax.set_xscale("log")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
-    fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
+    _finish(fig, axs, title)
     return fig
 
 
@@ -185,11 +188,9 @@ def program_figure(df: pd.DataFrame, title: str):
     if oscillating:
         ax.text(0.02, 0.02, f"oscillation step(s) {', '.join(oscillating)}: stress and rate "
                 "change sign, see the time panels", transform=ax.transAxes, fontsize=7)
-    ax.set_xlabel("shear rate [1/s]")
-    ax.set_ylabel("mixture shear stress [Pa]")
+    ax.set(xlabel="shear rate [1/s]", ylabel="mixture shear stress [Pa]")
     ax.set_title("stress vs rate (steps in legend order)", fontsize=9)
     ax.legend(fontsize=6)
-    ax.grid(True, which="both", alpha=0.25)
     t = df["time_s"]
     for ax, col, unit, colour in ((axs[1], "shear_stress_Pa", "mixture shear stress [Pa]", "C0"),
                                   (axs[2], "shear_rate_per_s", "shear rate [1/s]", "C1")):
@@ -208,10 +209,8 @@ def program_figure(df: pd.DataFrame, title: str):
     axs[3].set_ylabel("structure f [-]" + _f_axis(axs[3], df["f"]), fontsize=9)
     for ax in axs[1:]:
         ax.set_xlabel("time [s]")
-        ax.grid(True, alpha=0.3)
         _step_marks(ax, df)
-    fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
+    _finish(fig, axs, title, None)
     return fig
 
 
@@ -241,11 +240,9 @@ def material_point_figure(df: pd.DataFrame, title: str):
     axs[2].legend(h1 + h2, l1 + l2, fontsize=7)
     for ax in axs:
         ax.set_xlabel("time [s]")
-        ax.grid(True, alpha=0.3)
     for ax in axs[:2]:
         ax.legend(fontsize=7)
-    fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
+    _finish(fig, axs, title, None)
     return fig
 
 
@@ -424,9 +421,7 @@ def lissajous_figure(waves: pd.DataFrame, title: str, max_curves: int = 8,
     axs[1].set_xlabel("shear rate / max shear rate [-]")
     axs[1].set_title("viscous projection (dashed: viscous stress sigma'')", fontsize=10)
     for ax in axs:
-        ax.set_ylabel("shear stress / max shear stress [-]")
-        ax.set_xlim(-1.1, 1.1)
-        ax.set_ylim(-1.1, 1.1)
+        ax.set(ylabel="shear stress / max shear stress [-]", xlim=(-1.1, 1.1), ylim=(-1.1, 1.1))
         ax.axhline(0, color="0.7", lw=0.6)
         ax.axvline(0, color="0.7", lw=0.6)
         ax.grid(True, alpha=0.25)
@@ -461,17 +456,11 @@ def parallel_plate_figure(df: pd.DataFrame, true_curve: pd.DataFrame | None, tit
                      lw=1.5, label=f"phi = {ph:g}: apparent/true - 1")
         ax2.semilogx(x, d["corrected_shear_stress_Pa"] / d["shear_stress_Pa"] - 1, "-", color=c,
                      lw=1, label=f"phi = {ph:g}: corrected/true - 1")
-    ax1.set_xlabel("rim shear rate [1/s]")
-    ax1.set_ylabel("shear stress [Pa]")
+    ax1.set(xlabel="rim shear rate [1/s]", ylabel="shear stress [Pa]")
     ax1.set_title("parallel plate: true, apparent, corrected", fontsize=10)
-    ax2.set_xlabel("rim shear rate [1/s]")
-    ax2.set_ylabel("relative difference [-]")
+    ax2.set(xlabel="rim shear rate [1/s]", ylabel="relative difference [-]")
     ax2.set_title("apparent and corrected against true", fontsize=10)
-    for ax in (ax1, ax2):
-        ax.grid(True, which="both", alpha=0.25)
-        ax.legend(fontsize=6)
-    fig.suptitle(title, fontsize=11)
-    fig.tight_layout()
+    _finish(fig, (ax1, ax2), title, 6)
     return fig
 
 

@@ -42,12 +42,15 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+import rheology
+from rheology.materials import default_fraction
 from rheology.steady import dst_fold
+
+from runkit.limits import ge
+from runkit.params import Param
 
 from . import limits
 from .transient import DEFAULT_MAX_TIME, Step
-import rheology
-from rheology.materials import default_fraction
 
 _NUM = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
 _RATE_U = r"(1/s|/s|s\^-1|s-1)"
@@ -91,6 +94,10 @@ class Start:
     kind: str = "rest"
     value: float = 0.0
 
+    def __post_init__(self):
+        if self.kind != "rest":
+            (limits.STRESS if self.kind == "stress" else limits.RATE).check(self.kind, self.value)
+
 
 @dataclass(frozen=True)
 class Program:
@@ -100,31 +107,25 @@ class Program:
     steps: tuple[Step, ...]
 
 
+def _unit(table: dict, unit: str, lineno: int, what: str) -> float:
+    """The factor of ``unit`` in ``table``, exact or in any case where that is unambiguous (mPa
+    and MPa, mHz and MHz are not); ValueError naming the line otherwise."""
+    low = {k.lower(): v for k, v in table.items() if k.lower() not in ("mpa", "mhz")}
+    if unit in table or unit.lower() in low:
+        return table.get(unit, low.get(unit.lower()))
+    *first, last = table
+    raise ValueError(f"program line {lineno}: {what} unit {unit!r} is ambiguous or unknown; "
+                     f"write {', '.join(first)} or {last}")
+
+
 def _stress_unit(unit: str, lineno: int) -> float:
-    if unit in _STRESS:
-        return _STRESS[unit]
-    low = {k.lower(): v for k, v in _STRESS.items() if k.lower() != "mpa"}
-    if unit.lower() in low:
-        return low[unit.lower()]
-    raise ValueError(f"program line {lineno}: stress unit {unit!r} is ambiguous or unknown; "
-                     f"write mPa, Pa, kPa or MPa")
-
-
-def _freq_unit(unit: str, lineno: int) -> float:
-    if unit in _FREQ:
-        return _FREQ[unit]
-    if unit.lower() == "hz":
-        return 1.0
-    if unit.lower() == "khz":
-        return 1e3
-    raise ValueError(f"program line {lineno}: frequency unit {unit!r} is ambiguous or unknown; "
-                     f"write mHz, Hz or kHz")
+    return _unit(_STRESS, unit, lineno, "stress")
 
 
 def _oscillation(g, lineno: int, line: str):
     """Step of an 'oscillate at F Hz with strain|stress X for N cycles|T s' line."""
     f, fu, what, x, xu, n, nu = g
-    freq = float(f) * _freq_unit(fu, lineno)
+    freq = float(f) * _unit(_FREQ, fu, lineno, "frequency")
     what = what.lower()
     if what == "strain":
         if xu not in (None, "%"):
@@ -136,31 +137,12 @@ def _oscillation(g, lineno: int, line: str):
             raise ValueError(f"program line {lineno}: a stress amplitude needs Pa"
                              f"{', got %' if xu else ''}")
         amp = float(x) * _stress_unit(xu, lineno)
-    if freq <= 0:
-        raise ValueError(f"program line {lineno}: oscillation frequency = {freq:g} Hz must be > 0")
-    (limits.PROGRAM_AMPLITUDE_STRAIN if what == "strain" else
-     limits.PROGRAM_AMPLITUDE_STRESS).check(amp)
-    if nu.lower().startswith("cycle"):
-        duration = float(limits.PROGRAM_CYCLES.check(float(n))) / freq
+    if nu.lower().startswith("cycle"):      # the frequency is the Step's to check
+        cycles = float(limits.CYCLES.check("cycles", float(n)))
+        duration = cycles / freq if freq != 0 else float("inf")
     else:
         duration = float(n) * _TIME[nu.lower()]
-    if duration <= 0:
-        raise ValueError(f"program line {lineno}: an oscillation needs a positive number of "
-                         f"cycles or time, got {n} {nu}")
     return Step(what, amp, ramp="sine", frequency=freq, duration=duration, label=line)
-
-
-def _check_step(step: Step) -> None:
-    """The ranges of rheometer.limits for a step's values, duration and strain (ValueError)."""
-    if step.control in ("rate", "stress"):
-        check = limits.PROGRAM_RATE if step.control == "rate" else limits.PROGRAM_STRESS
-        for v in (step.start, step.end):
-            if v is not None:
-                check.check(v)
-    if step.duration is not None:
-        limits.PROGRAM_DURATION.check(step.duration)
-    if step.strain is not None:
-        limits.PROGRAM_STRAIN.check(step.strain)
 
 
 def _is_rate_unit(unit: str) -> bool:
@@ -216,9 +198,6 @@ def parse_program(text: str) -> Program:
                     if not _is_rate_unit(g[2]):
                         raise ValueError(f"program line {lineno}: a rate needs 1/s, got {g[2]}")
                     start = Start("rate", float(g[1]))
-                if start.kind != "rest":
-                    (limits.PROGRAM_STRESS if start.kind == "stress" else
-                     limits.PROGRAM_RATE).check(start.value)
                 continue
             if word == "shear":
                 step = Step("rate", float(g[0]), label=line, **_end(g[2:8], lineno, line))
@@ -240,13 +219,11 @@ def parse_program(text: str) -> Program:
                 step = Step("rate" if what == "rate" else "stress", float(a) * scale,
                             float(b) * scale, ramp=ramp, duration=float(T) * _TIME[tu.lower()],
                             label=line)
-            _check_step(step)
-            if step.duration is not None and step.duration < limits.clock_floor(t_start):
-                raise ValueError(
-                    f"program line {lineno}: duration = {step.duration:g} s is too short for the "
-                    f"run's clock where the step starts (t >= {t_start:g} s): valid range "
-                    f"[{limits.clock_floor(t_start):g}, {limits.TIME_MAX:g}] s there "
-                    f"({limits.CLOCK_RESOLUTION:g} of the start time; rheometer.limits)")
+            if step.duration is not None:
+                Param(ge(limits.clock_floor(t_start), (
+                    f"too short for the run's clock where the step starts, t >= {t_start:g} s: "
+                    f"{limits.CLOCK_RESOLUTION:g} of the start time")), limits.DURATION.hi,
+                    unit="s").check("duration", step.duration)
             t_start += step.duration if step.strain is None else 0.0
         except ValueError as exc:
             msg = str(exc)

@@ -118,6 +118,29 @@ def relax(material, phi: float, stress: float, t_end: float, *, G=None, K0=None,
                  points=points)
 
 
+def at_phi(run, phi: float, ends: list) -> pd.DataFrame | None:
+    """``run(phi)``; of a run that ends early (:mod:`rheology.run_end`) its rows up to the end
+    (None without any), its end appended to ``ends`` named by ``phi``."""
+    try:
+        return run(phi)
+    except EndedEarly as exc:
+        ends.append(exc.ends[0].replace(run=f"phi = {phi:g}"))
+        return exc.partial
+
+
+def combined(frames, ends: list, attrs: dict | None = None) -> pd.DataFrame:
+    """The rows of the runs at several phi together, ``attrs`` (default the first run's) and
+    the ``ends`` in ``attrs["ends"]``; RuntimeError (the first end's reason) when none has a
+    row."""
+    frames = [f for f in frames if f is not None and len(f)]
+    if not frames:
+        raise RuntimeError(ends[0].reason)
+    out = pd.concat(frames, ignore_index=True)
+    out.attrs.update(frames[0].attrs if attrs is None else attrs)
+    out.attrs["ends"] = list(ends)
+    return out
+
+
 def initial_state(r: Rheometer, start: Start) -> State:
     """The state a program starts from (rest, steady at a granular stress, or at a rate)."""
     if start.kind == "rest":

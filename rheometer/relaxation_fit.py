@@ -40,14 +40,15 @@ from scipy.interpolate import CubicHermiteSpline
 from scipy.optimize import least_squares
 
 import rheology
+from rheology.elastic import ELASTIC_STRAIN_LIMIT
 from rheology.fit import CORR_FLAG, ParameterEstimate, jacobian_covariance
 from rheology.materials import Material
+from runkit.params import check_range
 
 from .limits import K0_MAX, STRESS_MAX
-from .protocols import relax
-from rheology.elastic import ELASTIC_STRAIN_LIMIT
-from runkit.params import check_range
 from .material_point import K_OVER_G
+from .protocols import relax
+from .transient import check_phi
 
 #: Search bounds of G [Pa] and K0 [-].
 G_RANGE = (1e-2, STRESS_MAX)
@@ -180,8 +181,7 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
     for c in curves:
         if c.time.size < 3:
             raise ValueError(f"{c.label}: {c.time.size} kept point(s); at least 3 are needed")
-        check_range("phi", c.phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
-                    note=f"{c.label}: below phi_j = {m.phi_j:g} of {m.name}")
+        check_phi("phi", c.phi, m, where=f"{c.label}: ")
         check_range("--stress0", c.stress0, 0.0, STRESS_MAX, lo_closed=False,
                     note=f"{c.label}, Pa")
         st = rheology.steady_state_stress(c.stress0, c.phi, m)

@@ -1,31 +1,21 @@
 """Transient tests of the 0-D model on SUNDIALS IDA: a :class:`Rheometer` runs a list of steps.
 
-Each step imposes a shear rate or a mixture shear stress, constant or ramped (linear or
-logarithmic), for a duration or until a strain is reached; "rest" is a zero rate; or an
-oscillation for a number of cycles: strain ``gamma0 sin(omega (t - t_s))`` (imposed as the rate
-``gamma0 omega cos(omega (t - t_s))``, t_s the step's start, so the strain oscillates about the
-strain reached so far) or mixture stress ``sigma0 sin(omega (t - t_s))`` (about zero), from
-whatever state the previous step left. A step is one IDA solve of the DAE of
-:mod:`rheometer.model` (signed stress: where the stress reverses, the plastic rate reverses with
-it), started from a consistent state (the algebraic unknowns solved, every derivative exact), and
-restarted at each event (jamming/unjamming, which changes the smoothness of the law) so that the
-BDF order is rebuilt from a clean point. After every solve the state is checked (finite,
-``0 <= f <= max(f0, f_m)``, the plastic rate of the stress's sign): a loose tolerance can return
-"success" with a blown-up state. A violation, a failed IDA solve and, with ``elastic_limit=True``
-(every command line run), an elastic strain taubar/G past the small-strain limit of the
-hypoelastic law (:data:`rheology.elastic.ELASTIC_STRAIN_LIMIT`, 10 %; shear1d's bound too) end
-the run there: :class:`rheology.run_end.EndedEarly` (a RuntimeError) with the time, state and IDA
-statistics and the rows before the first bad one (:mod:`rheology.run_end`).
+A :class:`Step` imposes a shear rate or a mixture shear stress, constant or ramped (linear or
+logarithmic), for a duration or until a strain; "rest" is a zero rate; an oscillation imposes
+the strain ``gamma0 sin(omega (t - t_s))`` (as the rate, about the strain reached so far) or the
+mixture stress ``sigma0 sin(omega (t - t_s))`` for a number of cycles. A step is one IDA solve
+of the DAE of :mod:`rheometer.model` (signed stress) from a consistent state, restarted at each
+jamming/unjamming event. After every solve the state is checked (finite, ``0 <= f <= max(f0,
+f_m)``, the plastic rate of the stress's sign); a violation, a failed solve and, with
+``elastic_limit=True`` (every command line run), an elastic strain taubar/G past
+:data:`rheology.elastic.ELASTIC_STRAIN_LIMIT` end the run there
+(:class:`rheology.run_end.EndedEarly`, the rows before it kept).
 
-An oscillation step samples every cycle at the same phases (``max(32, points/cycles)`` per
-cycle, rounded up); the harmonic analysis of its last full cycle (first-harmonic G', G'', the
-third-harmonic ratio I3/I1, the amplitudes; the same definitions as :mod:`rheometer.oscillation`)
-is in ``attrs["oscillations"]``. It does not wait for the periodic steady state (the program runs
-the cycles it is told to); ``cycle_change`` there says how far the last two cycles differ.
+An oscillation step samples every cycle at the same phases; the harmonic analysis of its last
+full cycle (as :mod:`rheometer.oscillation`) is in ``attrs["oscillations"]``.
 
-Defaults where the material has none (the steady fits of the paper): ``G = 1e4 Pa`` (Fig. 15: the
-relaxation times of tens of seconds reported by the experiments the paper cites need G ~ 10 kPa)
-and ``K0 = 1`` (Tables 5 and 7).
+Defaults where the material has none: ``G = 1e4 Pa`` (Fig. 15: relaxation times of tens of
+seconds need G ~ 10 kPa) and ``K0 = 1`` (Tables 5 and 7).
 """
 
 from __future__ import annotations
@@ -38,12 +28,13 @@ import pandas as pd
 
 import rheology
 from rheology import laws
-from runkit.params import check_nonnegative, check_positive, check_range
 from rheology.elastic import (ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress,
                               past_elastic_limit)
 from rheology.materials import Material
 from rheology.run_end import EndedEarly, RunEnd
 from runkit.ida import IDAFailed, Solver
+from runkit.limits import gt, le, lt
+from runkit.params import Param, check_nonnegative, check_positive, check_range
 
 from . import limits, model
 from .harmonics import harmonics
@@ -65,6 +56,13 @@ _ADVICE = ("impose a lower rate or stress or a shorter time (a shear-jammed samp
 COLUMNS = ("time_s", "step", "strain", "shear_rate_per_s", "shear_stress_Pa",
            "granular_shear_stress_Pa", "plastic_shear_rate_per_s", "f", "granular_pressure_Pa",
            "viscosity_Pa_s", "jamming_gap")
+
+
+def check_phi(name: str, phi, m: Material, where: str = "") -> float:
+    """The volume fraction ``phi`` in (0, phi_j) of ``m``: the one check of every entry point
+    (the command line's ``--phi`` too); ValueError naming ``name``."""
+    why = f"{where}below phi_j = {m.phi_j:g} of {m.name}: no steady flow at or above it"
+    return float(Param(gt(0.0), lt(m.phi_j, why)).check(name, phi))
 
 
 def skeleton(m: Material, G=None, K0=None) -> tuple[float, float]:
@@ -127,12 +125,14 @@ class Step:
             raise ValueError("a strain-controlled step is an oscillation (ramp 'sine')")
         elif self.frequency is not None:
             raise ValueError("only an oscillation (ramp 'sine') has a frequency")
-        unit = {"rate": "1/s", "stress": "Pa", "strain": "-"}[self.control]
-        check_nonnegative(f"imposed {self.control} [{unit}]", self.start)
         if self.end is None:
             object.__setattr__(self, "end", self.start)
-        check_nonnegative(f"imposed {self.control} at the end of the ramp [{unit}]", self.end)
+        if not self.oscillation:
+            value = limits.RATE if self.control == "rate" else limits.STRESS
+            value.check(f"imposed {self.control}", self.start)
+            value.check(f"imposed {self.control} at the end of the ramp", self.end)
         if self.ramp == "log" and (self.start <= 0 or self.end <= 0):
+            unit = "1/s" if self.control == "rate" else "Pa"
             raise ValueError(f"a log ramp needs positive values, got {self.start:g} to "
                              f"{self.end:g} {unit} (use a linear ramp to or from 0)")
         if self.ramp != "const" and self.duration is None:
@@ -140,27 +140,25 @@ class Step:
         if self.duration is None and self.strain is None:
             raise ValueError("a step needs a duration ('for T s') or a strain ('until strain X')")
         if self.duration is not None:
-            check_positive("step duration [s]", self.duration)
+            limits.DURATION.check("duration", self.duration)
         if self.strain is not None:
-            check_positive("step strain [-]", self.strain)
-        check_positive("step max_time [s]", self.max_time)
+            limits.STRAIN.check("step strain", self.strain)
+        limits.DURATION.check("max_time", self.max_time)
 
     def _check_oscillation(self) -> None:
         if self.control not in ("strain", "stress"):
             raise ValueError(f"an oscillation imposes a strain or a stress amplitude, not a "
                              f"{self.control}")
-        unit = "[-]" if self.control == "strain" else "[Pa]"
-        check_positive(f"oscillation {self.control} amplitude {unit}", self.start)
+        limits.AMPLITUDE[self.control].check(f"{self.control} amplitude", self.start)
         if self.end is not None and self.end != self.start:
             raise ValueError("an oscillation has one amplitude (end = start)")
         if self.frequency is None:
             raise ValueError("an oscillation needs a frequency [Hz]")
-        check_positive("oscillation frequency [Hz]", self.frequency)
+        limits.FREQUENCY.check("oscillation frequency", self.frequency)
         if self.strain is not None:
             raise ValueError("an oscillation runs for a number of cycles, not until a strain")
         if self.duration is None:
             raise ValueError("an oscillation needs a duration (cycles/frequency)")
-        check_positive("oscillation duration [s]", self.duration)
 
     @property
     def t_max(self) -> float:
@@ -291,8 +289,7 @@ class Rheometer:
                  jacobian: bool = True, max_restarts: int = 50, elastic_limit: bool = False):
         self.material: Material = rheology.get_material(material)
         m = self.material
-        self.phi = float(check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
-                                     note=f"below phi_j = {m.phi_j} of {m.name}"))
+        self.phi = check_phi("phi", phi, m)
         self.G, self.K0 = skeleton(m, G, K0)
         self.rtol = float(check_range("rtol", rtol, 1e-13, 1e-2))
         self.atol = float(check_positive("atol", atol)) if atol is not None else 1e-3 * self.rtol
@@ -348,6 +345,13 @@ class Rheometer:
         if not steps:
             raise ValueError("a test needs at least one step")
         points = int(check_range("points", points, 3, 10 ** 6))
+        liquid = Param(0.0, le(limits.RATE_MAX * self.eta_fluid, (
+            f"the liquid alone takes an imposed stress at once, at the rate stress/eta_F (eta_F "
+            f"= eta0 (1 + 5/2 phi) = {self.eta_fluid:.4g} Pa s): up to the largest shear rate "
+            f"{limits.RATE_MAX:g} 1/s")), unit="Pa")
+        for step in steps:
+            if step.control == "stress":
+                liquid.check("imposed stress", max(abs(step.start), abs(step.end)))
         self._points = points
         stats = RunStats()
         pieces: list[_Piece] = []

@@ -221,14 +221,21 @@ def test_rheometer_options_refused_not_ignored(argv, words, tmp_path, monkeypatc
 
 
 @pytest.mark.parametrize("argv, words", [
-    # the stress factor 1/(2 pi R_i^2 L) divided by zero after the run: exit 1, a traceback word
+    # the stress factor 1/(2 pi R_i^2 L) divided by zero after the run: exit 1, a traceback word;
+    # now every length is held to the physical [1e-6, 10] m with its reason
     (["flow-curve", "--geometry", "couette", "--bob-radius", "1e-300", "--points", "5"],
-     "--bob-radius = 1e-300 is outside the valid range (1.48772e-154, 0.01446) m"),
+     "--bob-radius = 1e-300 is outside the valid range [1e-06, 10] m (the narrowest micro-gap"),
     (["flow-curve", "--geometry", "parallel-plate", "--radius", "1e-300", "--points", "5"],
-     "--radius = 1e-300 is outside the valid range [1.52425e-103, 10] m"),
-    # named as the option, with the range its own check and the bob's leave
+     "--radius = 1e-300 is outside the valid range [1e-06, 10] m (the narrowest micro-gap"),
     (["flow-curve", "--geometry", "couette", "--cup-radius", "1e-300", "--points", "5"],
-     "--cup-radius = 1e-300 is outside the valid range (0.01333, 10] m"),
+     "--cup-radius = 1e-300 is outside the valid range [1e-06, 10] m"),
+    # named as the option, with the range its own check and the bob's leave, and the reason
+    (["flow-curve", "--geometry", "couette", "--cup-radius", "0.005", "--points", "5"],
+     "--cup-radius = 0.005 is outside the valid range [0.013331, 10] m (the cup radius exceeds "
+     "the bob radius by a gap of at least 1e-06 m"),
+    (["flow-curve", "--geometry", "cone-plate", "--cone-angle", "1e-300", "--points", "5"],
+     "--cone-angle = 1e-300 is outside the valid range (0.00229183, 10] deg (the gap at the "
+     "rim, R tan(angle), at least 1e-06 m"),
     (["material-point", "--control", "volume", "--pressure", "2", "--t-end", "0.01"],
      "--pressure is the imposed pressure of --control pressure"),
     (["material-point", "--stress0", "1", "--pressure0", "2", "--t-end", "0.01"],
@@ -241,7 +248,11 @@ def test_rheometer_geometry_and_control_refusals(argv, words, tmp_path, monkeypa
     from rheometer.cli import main
 
     monkeypatch.chdir(tmp_path)
-    assert main(argv) == 2
+    try:                              # argparse's refusal exits, a later one returns the status
+        rc = main(argv)
+    except SystemExit as exc:
+        rc = exc.code
+    assert rc == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and words in err[0], err
     assert not any(tmp_path.iterdir())

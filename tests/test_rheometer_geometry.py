@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 
 import rheology
+from rheology import materials as mat, sample
 from rheometer import geometry as geo
 
 HERMES = rheology.get_material("hermes2016")
@@ -69,27 +70,27 @@ def test_weissenberg_rabinowitsch_recovers_the_true_curve(phi):
 
 
 def test_mass_fraction_eq20():
-    d = geo.Densities()
+    d = sample.Densities()
     w = np.array([0.3, 0.44, 0.55])
-    phi = geo.volume_fraction(w, d)
+    phi = sample.volume_fraction(w, d)
     expect = (1.3 * 0.9) / (0.9 + (1 - w) / w * 1620 / 1000 + 0.1 * 1620 / 1000)   # Eq. (20)
     assert np.allclose(phi, expect, rtol=1e-15)
-    assert np.allclose(geo.mass_fraction(phi, d), w, rtol=1e-13)
-    assert geo.Densities.for_material(rheology.get_material("annular_shear")).liquid == 1620.0
+    assert np.allclose(sample.mass_fraction(phi, d), w, rtol=1e-13)
+    assert sample.Densities.for_material(rheology.get_material("annular_shear")).liquid == 1620.0
     with pytest.raises(ValueError, match="--mass-fraction"):
-        geo.fractions_from_mass([0.7], HERMES, d)          # phi above phi_j
+        sample.fractions_from_mass([0.7], HERMES, d)          # phi above phi_j
     with pytest.raises(ValueError, match="--mass-fraction"):
-        geo.fractions_from_mass([1.5], HERMES, d)
+        sample.fractions_from_mass([1.5], HERMES, d)
 
 
 def test_default_fractions_rule():
-    assert geo.default_fractions("hermes2016") == [0.48, 0.50, 0.52]
-    assert geo.default_fraction("hermes2016") == 0.50
+    assert mat.default_fractions("hermes2016") == [0.48, 0.50, 0.52]
+    assert mat.default_fraction("hermes2016") == 0.50
     for name in rheology.materials.material_names():
         m = rheology.get_material(name)
-        phis = geo.default_fractions(m)
+        phis = mat.default_fractions(m)
         assert phis == sorted(phis) and len(set(phis)) == 3
-        if geo.has_dst(m):
+        if mat.has_dst(m):
             assert all(m.phi_c <= p < m.phi_j for p in phis), name
         else:
             assert all(0 < p < m.phi_c for p in phis), name
@@ -116,7 +117,7 @@ def test_cli_mass_fraction_and_cone_plate(tmp_path, monkeypatch, capsys):
                  "--radius", "0.02", "--cone-angle", "2", "--points", "20", "--plot",
                  "none"]) == 0
     out = capsys.readouterr().out
-    phi = geo.volume_fraction(np.array([0.55, 0.57]), geo.Densities())
+    phi = sample.volume_fraction(np.array([0.55, 0.57]), sample.Densities())
     assert "mass fraction 0.55, 0.57 -> phi = " in out and "cone-plate" in out
     df = pd.read_csv("flow_curve.csv")
     assert np.allclose(sorted(df["phi"].unique()), phi, rtol=1e-12)

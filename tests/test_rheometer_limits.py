@@ -57,7 +57,9 @@ def test_program_step_durations_checked_against_the_clock():
     "'tspan' must stictly increase" (an output grid the clock could not resolve)."""
     with pytest.raises(ValueError, match=r"program line 1: duration = 1e-300 .*\[1e-12, 1e\+09\]"):
         parse_program("rest for 1e-300 s")
-    with pytest.raises(ValueError, match=r"program line 2: duration = 1e-06 s .*\[0.001, 1e\+09\]"):
+    with pytest.raises(ValueError, match=r"program line 2: duration = 1e-06 is outside the "
+                                         r"valid range \[0.001, 1e\+09\] s \(too short for "
+                                         r"the run's clock"):
         parse_program("shear at 0.01 1/s for 1e6 s\nrest for 1e-6 s")
     prog = parse_program("shear at 0.01 1/s for 1e6 s\nrest for 1e-3 s")
     assert prog.steps[1].duration == pytest.approx(limits.clock_floor(1e6))
@@ -155,6 +157,28 @@ def test_oscillation_period_within_the_longest_duration(tmp_path, monkeypatch, c
     monkeypatch.chdir(tmp_path)
     _refused(capsys, ["oscillation", "--frequency", "1e-300"], "--frequency = 1e-300",
              "[1e-09, 1e+09] Hz")
-    with pytest.raises(ValueError, match=r"duration = 1e-299 is outside the valid range \[1e-12"):
+    with pytest.raises(ValueError, match=r"oscillation frequency = 1e\+300 is outside the valid "
+                                         r"range \[1e-09, 1e\+09\] Hz \(the largest shear rate"):
         parse_program("oscillate at 1e300 Hz with strain 0.01 for 10 cycles")
+    assert os.listdir(tmp_path) == []
+
+
+def test_flow_curve_rows_hold_the_rate_limit(tmp_path, monkeypatch, capsys):
+    """Before: --phi 1e-10 wrote 200 rows at rates up to 1e25 1/s (exit 0)."""
+    import pandas as pd
+    monkeypatch.chdir(tmp_path)
+    _refused(capsys, ["flow-curve", "--phi", "1e-10"], "--phi 1e-10",
+             "faster than the largest shear rate 1e+09 1/s")
+    assert os.listdir(tmp_path) == []
+    assert main(["flow-curve", "--phi", "1e-4", "--plot", "none", "--out", "fc.csv"]) == 0
+    assert "steady states flow faster than the largest shear rate" in capsys.readouterr().out
+    assert pd.read_csv("fc.csv")["shear_rate_per_s"].max() <= limits.RATE_MAX
+
+
+def test_creep_stress_the_liquid_would_carry_past_the_rate_limit_is_refused(tmp_path,
+                                                                             monkeypatch, capsys):
+    """Before: creep at 1e12 Pa wrote a row at t = 1.35e-15 s (below 1 ps) and ended early."""
+    monkeypatch.chdir(tmp_path)
+    _refused(capsys, ["creep", "--stress", "1e12"], "imposed stress = 1e+12",
+             "[0, 1.35e+07] Pa", "largest shear rate 1e+09 1/s")
     assert os.listdir(tmp_path) == []

@@ -198,7 +198,8 @@ def test_resume_refuses_another_run(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     capsys.readouterr()
     assert main(["program", "p.txt", "--phi", "0.49", "--plot", "none", "--resume"]) == 2
-    assert "belongs to a different run" in capsys.readouterr().err
+    assert ("--resume: --phi = [0.49] differs from the checkpoint's --phi = [0.48]"
+            in capsys.readouterr().err)
     (tmp_path / "program.checkpoint.npz").write_bytes(b"not a zip")
     assert main(["program", "p.txt", "--phi", "0.48", "--plot", "none", "--resume"]) == 2
     assert "is corrupt" in capsys.readouterr().err

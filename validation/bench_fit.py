@@ -28,25 +28,19 @@ from .framework import BenchResult, benchmark, timed
 from .report import machine_description
 
 
-def _median(fn, repeats):
-    """(median wall time [s], the last result) of ``repeats`` calls."""
-    med, _, out = timed(fn, repeats)
-    return med, out
-
-
 @benchmark("rheology", "bench_fit_speed", "Fit: 5 curves x 30 points, time and model evaluations")
 def fit_speed(out: Path, quick: bool) -> BenchResult:
     m = r.get_material("hermes2016")
     phis = m.phi_c + (m.phi_j - m.phi_c) * np.array([-0.6, -0.25, 0.15, 0.45, 0.75])
     data = FlowData.from_table(synthetic_table(m, phis, points=30, seed=5, artefacts=False))
     start = m.replace(phi_j=0.55, phi_c=0.42, a0=1.0, a_inf=1.1, tau_star=15.0, varphi1=5e3)
-    t_eval, _ = _median(lambda: mixture_steady_state(data.stress, data.phi, m),
+    t_eval, _, _ = timed(lambda: mixture_steady_state(data.stress, data.phi, m),
                         20 if quick else 200)
-    t_ref, _ = _median(lambda: r.steady_states_mixture_stress(data.stress, data.phi, m),
+    t_ref, _, _ = timed(lambda: r.steady_states_mixture_stress(data.stress, data.phi, m),
                        1 if quick else 3)
     rows, targets = [], []
     for profile in (False, True):
-        t, res = _median(lambda: fit_flow_curves(data, start, profile=profile), 1 if quick else 3)
+        t, _, res = timed(lambda: fit_flow_curves(data, start, profile=profile), 1 if quick else 3)
         rows.append({"profile_intervals": profile, "points": int(data.stress.size),
                      "fit_s": t, "model_evaluations": res.n_evaluations,
                      "fit / one evaluation": t / t_eval,
@@ -70,9 +64,9 @@ def fit_relaxation_speed(out: Path, quick: bool) -> BenchResult:
     curves = [synthetic_relaxation(m, 0.52, tau0, G=1e4, K0=1.0, offset=0.002, seed=k)
               for k, tau0 in enumerate((1e3, 300.0))]
     t_end = float(curves[0].time.max())
-    t_run, _ = _median(lambda: relax(m, 0.52, 1e3, t_end, G=1e4, K0=1.0, points=POINTS),
+    t_run, _, _ = timed(lambda: relax(m, 0.52, 1e3, t_end, G=1e4, K0=1.0, points=POINTS),
                        3 if quick else 15)
-    t_fit, res = _median(lambda: fit_relaxation(curves, m), 1 if quick else 3)
+    t_fit, _, res = timed(lambda: fit_relaxation(curves, m), 1 if quick else 3)
     rows = [{"curves": 2, "points": int(sum(c.time.size for c in curves)), "fit_s": t_fit,
              "model_runs": res.n_runs, "one_run_s": t_run, "fit / one run": t_fit / t_run,
              "run-equivalents per run": t_fit / t_run / res.n_runs}]
