@@ -116,7 +116,8 @@ def fit_speed(t, position, t_min: float = -np.inf, t_max: float = np.inf) -> dic
     Returns
     -------
     dict with ``speed`` [m/s] (the slope), ``intercept`` [m], ``r2`` (coefficient of
-    determination) and ``points`` (number used); NaN values where fewer than 3 finite points.
+    determination; NaN for a front that does not move, where it is 0/0) and ``points`` (number
+    used); NaN values where fewer than 3 finite points.
     """
     t, p = np.asarray(t, dtype=float), np.asarray(position, dtype=float)
     sel = np.isfinite(t) & np.isfinite(p) & (t >= t_min) & (t <= t_max)
@@ -126,7 +127,7 @@ def fit_speed(t, position, t_min: float = -np.inf, t_max: float = np.inf) -> dic
     slope, icpt = np.polyfit(t[sel], p[sel], 1)
     res = p[sel] - (slope * t[sel] + icpt)
     tot = p[sel] - p[sel].mean()
-    r2 = 1.0 - float(res @ res) / float(tot @ tot) if float(tot @ tot) > 0 else 1.0
+    r2 = 1.0 - float(res @ res) / float(tot @ tot) if float(tot @ tot) > 0 else float("nan")
     return {"speed": float(slope), "intercept": float(icpt), "r2": r2, "points": int(sel.sum())}
 
 

@@ -130,6 +130,9 @@ def test_peak_scaling_slope():
     assert not peak_scaling(v0, np.array([1.0, 3.0, 2.0]))["monotone"]
     neg = peak_scaling(v0, np.array([200.0, -2.0, 25.0]))   # v0 = 0.5 never decelerates
     assert neg["monotone"] and neg["loglog_slope"] == pytest.approx(math.log(8) / math.log(2))
+    # two decelerating speeds: the line through them, and no R^2 (null with its reason), not 1
+    assert math.isnan(neg["loglog_r2"]) and "at least 3" in neg["loglog_r2_null_reason"]
+    assert "loglog_r2_null_reason" not in res and res["loglog_r2"] == pytest.approx(1.0)
 
 
 def test_sweep_report_gathers_speeds(tmp_path):

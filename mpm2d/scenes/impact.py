@@ -677,9 +677,13 @@ def peak_scaling(v0, peak) -> dict:
     mono = bool(np.isfinite(peak).all() and np.all(np.diff(peak) > 0))
     ok = np.isfinite(peak) & (peak > 0)             # the slope: decelerating runs only
     fit = linear_fit(np.log(v0[ok]), np.log(peak[ok])) if ok.sum() >= 2 else None
-    if fit is not None and ok.sum() == 2:
+    if fit is not None and ok.sum() == 2:        # the line through both: R^2 undefined
         lv, lp = np.log(v0[ok]), np.log(peak[ok])
-        fit = {"slope": float((lp[1] - lp[0]) / (lv[1] - lv[0])), "r2": 1.0}
-    return {"v0_m_per_s": v0.tolist(), "peak_deceleration_m_per_s2": peak.tolist(),
-            "monotone": mono, "loglog_slope": fit["slope"] if fit else float("nan"),
-            "loglog_r2": fit["r2"] if fit else float("nan")}
+        fit = {"slope": float((lp[1] - lp[0]) / (lv[1] - lv[0])), "r2": float("nan")}
+    out = {"v0_m_per_s": v0.tolist(), "peak_deceleration_m_per_s2": peak.tolist(),
+           "monotone": mono, "loglog_slope": fit["slope"] if fit else float("nan"),
+           "loglog_r2": fit["r2"] if fit else float("nan")}
+    if not np.isfinite(out["loglog_r2"]):
+        out["loglog_r2_null_reason"] = (f"{int(ok.sum())} decelerating speed(s): R^2 needs at "
+                                        "least 3 (a line through 2 points fits them exactly)")
+    return out
