@@ -183,8 +183,7 @@ class Simulation:
         self.par = multi and npts >= PARALLEL_MIN_POINTS
         # a two-phase node does several times a single field's work (both phases' velocities,
         # the nodal phi and the implicit Beetstra drag, with its powers): its grid loops pay for
-        # their threads from a quarter of the nodes (measured, 2 threads, 133 x 133 nodes: 1.07 ms
-        # serial, 0.56 ms parallel a step)
+        # their threads from a quarter of the nodes
         nodes = grid.shape[0] * grid.shape[1] * (4 if self.two_phase else 1)
         self.par_grid = multi and nodes >= PARALLEL_MIN_POINTS
         nf = NF_TWO if self.two_phase else NF_ONE
