@@ -36,9 +36,8 @@ class Dual:
         f.__module__ = fn.__module__
         f.__doc__ = fn.__doc__
         # the serial build without numba's reference counting: it would incref and decref the
-        # arrays of every inlined helper once per loop iteration (atomic operations; G2P was
-        # 3x slower serially than the parallel build, whose loop bodies have none). The
-        # kernels allocate nothing (work arrays come from the caller)
+        # arrays of every inlined helper once per loop iteration (atomic operations, which the
+        # parallel build's loop bodies do not have); the kernels allocate nothing
         return nb.njit(cache=True, parallel=parallel, error_model="numpy",
                        **({} if parallel else {"_nrt": False}))(f)
 

@@ -49,7 +49,7 @@ from .materials import Suspension
 from .particles import ParticleSet
 from .bodies import check_mu
 from . import contact as ct
-from .transfer import (boundary_velocities, wall_moments, chunk_bounds, g2p, g2p_swirl,
+from .transfer import (all_rows, boundary_velocities, wall_moments, chunk_bounds, g2p, g2p_swirl,
                        gather_scalar_vector, p2g, p2g_swirl, reduce_private, reduce_velocities,
                        sort_order)
 
@@ -183,8 +183,7 @@ class Simulation:
         self.par = multi and npts >= PARALLEL_MIN_POINTS
         # a two-phase node does several times a single field's work (both phases' velocities,
         # the nodal phi and the implicit Beetstra drag, with its powers): its grid loops pay for
-        # their threads from a quarter of the nodes (measured, 2 threads, 133 x 133 nodes: 1.07 ms
-        # serial, 0.56 ms parallel a step)
+        # their threads from a quarter of the nodes
         nodes = grid.shape[0] * grid.shape[1] * (4 if self.two_phase else 1)
         self.par_grid = multi and nodes >= PARALLEL_MIN_POINTS
         nf = NF_TWO if self.two_phase else NF_ONE
@@ -209,6 +208,8 @@ class Simulation:
         nfs = {f: (nf if f in self.phases else NF_ONE) for f in self.fields}
         self.G = {ph: np.zeros(shape + (nfs[ph],)) for ph in self.fields}
         self.priv = {ph: np.zeros((self.nc,) + shape + (nfs[ph],)) for ph in self.fields}
+        #: per field, per chunk: the node rows its P2G touched (transfer.p2g, reduce_private)
+        self._rows = {ph: np.zeros((self.nc, 2), dtype=np.int64) for ph in self.fields}
         self.vg = {ph: np.zeros(shape + (2,)) for ph in self.fields}
         self.vg_old = {ph: np.zeros(shape + (2,)) for ph in self.fields}
         self._geo_work = np.zeros(shape + (NF_ONE,))
@@ -433,12 +434,15 @@ class Simulation:
     def _scatter(self):
         """Phase 1a: every set's P2G into the private node fields (and its extremes)."""
         axi = self.grid.axisymmetric
+        for rows in self._rows.values():
+            rows[:, 0], rows[:, 1] = self.grid.shape[0], -1              # none touched yet
         for s in self.sets:
             ph = self._field(s)
             svol = s.svol if (self.two_phase and ph in self.phases) else _EMPTY
             pf = s.pf if (self.two_phase and s.phase == "fluid") else _EMPTY
             p2g[self.par](s.x, s.v, s.C, s.m, s.V, s.sp, pf, s.fext, svol, self._geo, axi,
-                self._chunks[s.name], self.priv[ph], self._ext[s.name], self.gravity)
+                          self._chunks[s.name], self.priv[ph], self._ext[s.name], self.gravity,
+                          self._rows[ph])
         if self.swirl:
             for s in self.sets:
                 p2g_swirl[self.par](s.x, s.m, s.V, s.vtheta, s.Cl, s.spw, self._geo,
@@ -451,13 +455,15 @@ class Simulation:
         gx, gy = self.gravity[0], self.gravity[1]
         for ph in self.fields:
             if dt is None:
-                reduce_private[self.par_grid](self.priv[ph], self.G[ph], True, gx, gy)
+                reduce_private[self.par_grid](self.priv[ph], self.G[ph], True, gx, gy,
+                                              self._rows[ph])
             else:
                 reduce_velocities[self.par_grid](self.priv[ph], self.G[ph], gx, gy, dt,
                                                  self.vg[ph], self.vg_old[ph],
-                                                 self.transfer != "apic")
+                                                 self.transfer != "apic", self._rows[ph])
         if self.swirl:
-            reduce_private[self.par_grid](self.privw, self.Gw, False, 0.0, 0.0)
+            reduce_private[self.par_grid](self.privw, self.Gw, False, 0.0, 0.0,
+                                          all_rows(self.nc, self.grid.shape[0]))
             G = self.G["solid"]
             G[:, :, FX] += self.Gw[:, :, 2]
 

@@ -13,16 +13,10 @@ f_n:
 
    - separation (p* + (K/G) tau* K3 phi <= 0): the skeleton is stress free, f_2 = 0
      (xi_1 = -p*/(K dt), beta = 0, gdot_p = tau*/(G dt)). The bound is the largest pressure
-     dilatancy can make, beta -> K3 phi at gdot_p -> tau*/(G dt). Where it is positive, a
-     flowing solution with p > 0 exists for any p* (below): with gdot_p as the variable,
-     beta(gdot_p) is the one root of F(beta) = (rho_s d^2 g^2 + 2 eta0 g)(a x)^2 -
-     (phi_m - x)^2 (p* + K dt beta g), x = phi - beta/K3 (F decreases where p > 0), for
-     g > g_min = max(0, -p*/(K dt K3 phi)); as g -> g_min+, beta -> K3 phi, I_m -> inf,
-     p -> 0+ and (mu_p + beta) p -> 0, so R -> tau* - G dt g_min > 0, while R(tau*/(G dt)) < 0.
-     That solution is the limit p* -> 0+ (a stress-free point that is sheared flows with the
-     critical-state particle pressure it builds by dilatancy, Boyer, Guazzelli & Pouliquen 2011)
-     and tends to the separated one at the bound, so the update is continuous in p* for loose
-     and jammed points alike.
+     dilatancy can make, beta -> K3 phi at gdot_p -> tau*/(G dt); above it a flowing solution
+     with p > 0 exists for any p* (the limit p* -> 0+: a stress-free point that is sheared flows
+     with the critical-state pressure it builds by dilatancy, Boyer, Guazzelli & Pouliquen 2011),
+     and it tends to the separated one at the bound: the update is continuous in p*.
    - shear flow + compaction (phi < phi_m): f_1 = f_3 = 0. With K4 = 0, f_3 = 0 is exactly
      phi = phi_eq (beta = 0) and p = P3(gdot_p), so f_1 = 0 is a quadratic in gdot_p
      (closed form); valid when P3 <= p* (xi_2 <= 0).
@@ -30,50 +24,37 @@ f_n:
      author's code, aaronbaumgarten/mpm_3d ``cornstarch.cpp``) also below jamming:
      p* >= 0 and tau* <= (mu_1 + K3 (phi - phi_m)) p* stays elastic, tried before compaction;
      Table 8's f_3 <= 0 needs gdot_p > 0 at any p > 0 below jamming (``rules = "table8"``, the
-     default). That is the only difference between the two (the author's separation bound is
-     the one above); a flowing point never meets it (mu_p + beta >= mu_1 on the yield surface).
-     The cone is a discontinuity of the mpm_3d update below jamming: across it p jumps from p*
-     (elastic) to the compaction or dilatant pressure of the flowing point, for a loose point
-     at rest far below p* (no rate gives a pressure between them: pressure control cannot hold
-     a loose mpm_3d point on the cone).
+     default). That is the only difference between the two (a flowing point never meets the cone:
+     mu_p + beta >= mu_1 on the yield surface); the cone is a discontinuity of the mpm_3d
+     update below jamming (p jumps from p* to the flowing point's pressure across it).
    - dilatant shear flow (f_1 = 0, xi_2 = 0): for a given beta, I_m follows from
-     phi_eq = phi - beta/K3, then p I_m^2 = rho_s d^2 gdot^2 + 2 eta0 gdot with p = p* + K dt beta gdot
-     is a quadratic with one positive root gdot(beta); the remaining scalar equation
-     R(beta) = tau* - G dt gdot - (mu_p + beta) p = 0 is bracketed on [beta_lo, K3 phi)
-     (R(beta_lo) > 0 whenever this case applies, R -> -inf as I_m -> inf). The solve:
-     (i) a start from Newton on the pair (beta, gdot) of the two smooth equations (f_1 = 0 and the
-     I_m relation, see :func:`_newton_2d`), below jamming from the compaction estimates (the
-     critical-state rate and pressure, corrected to first order in beta), jammed from the previous
-     step's plastic rate when the caller keeps it (warm start) or tau*/(G dt); (ii) a safeguarded Newton on
-     R(beta) that stops on Brent's test (|R| at the roundoff floor or a step below 1e-14 beta) and
-     is accepted by the same convergence check as before; (iii) if a step leaves the bracket or
-     the check fails, the bracket: expansion and Brent's method, which cannot fail to converge
-     near jamming. When the trial pressure is a vanishing part of the final one (dilatancy makes
-     all of it), gdot(beta) is too steep to resolve in double precision; the residual is then
-     checked and, if not converged, the same equations are solved with gdot as the bracketed
-     variable (on [gdot(beta_lo), tau*/(G dt)]) and beta from a monotone polynomial for each gdot.
-     For p* <= 0 gdot(beta) is not single-valued and the solve is :func:`_dilatant_tension`
-     (gdot_p - g_min bracketed, every quantity formed without cancellation, so it is resolved up
-     to the separation bound). A point that still misses the yield surface is FAILED. The
-     tolerance is that of the bracket-only solve (``newton=False``, kept as the reference): the
-     Newton path changes the work (residual evaluations per flowing point: ~1 instead of 5-12 in
-     MPM shear), not the answer beyond the convergence test.
+     phi_eq = phi - beta/K3, then p I_m^2 = rho_s d^2 gdot^2 + 2 eta0 gdot with
+     p = p* + K dt beta gdot is a quadratic with one positive root gdot(beta); the remaining
+     equation R(beta) = tau* - G dt gdot - (mu_p + beta) p = 0 is bracketed on [beta_lo, K3 phi)
+     (R(beta_lo) > 0 whenever this case applies, R -> -inf as I_m -> inf). The solve
+     (:func:`_dilatant_flow`): a start from Newton on the pair (beta, gdot) (:func:`_newton_2d`;
+     below jamming from the compaction estimates, jammed from the previous step's plastic rate
+     when the caller keeps it, a warm start), a safeguarded Newton on R(beta) with Brent's
+     stopping test, else the bracket and Brent's method; where gdot(beta) is too steep to
+     resolve (the trial pressure a vanishing part of the final one) gdot is the bracketed
+     variable, and for p* <= 0 :func:`_dilatant_tension` solves without cancellation up to the
+     separation bound. A point that still misses the yield surface is FAILED. The tolerance is
+     that of the bracket-only solve (``newton=False``, kept as the reference): the Newton path
+     changes the work (residual evaluations per flowing point: ~1 instead of 5-12 in MPM
+     shear), not the answer beyond the convergence test.
 
 3. The structure takes a backward-Euler step with the new (taubar, gdot_p) (staggered, first order):
    f_{n+1} = (f_n + dt K0 H gdot f_m)/(1 + dt K0 (H gdot + gdot + taubar/eta_B + xi_eps)),
    whose fixed point is Eq. (13) exactly. phi_m and a use f_n.
 
-The point kernel :func:`update_point` is numba-compiled and calls the laws of :mod:`rheology.laws`
-(written once): the elastic trial, then :func:`_correct` (step 2 from the trial invariants p*,
-tau*), then step 3. :func:`update_block` runs the same update on a block of points whose trial
-stress the caller gives as a structure-of-arrays (rows xx, yy, zz, xy, xz, yz), in vectorised
-stages (the scalar solve is a chain of dependent divisions; in SIMD lanes a Newton step costs
-~1.3 ns a point): the closed-form cases, three Newton steps on (beta, gdot_p) and update_point's
-convergence test for the dilatant points below jamming, 1/eta_B, the structure step; a point
-they do not finish (jammed and yielding, p* <= 0, a missed test) goes through :func:`_correct`.
-:func:`update_points` is the parallel loop of blocks on (N, 3, 3) arrays (:func:`local_update`,
-the validated numpy front end, calls it); ``mpm2d``'s suspension kernel writes its trial
-stresses into the block and calls update_block; ``shear1d`` and ``rheometer`` call update_point.
+The point kernel :func:`update_point` (numba, the laws of :mod:`rheology.laws` written once):
+the elastic trial, :func:`_correct` (step 2), step 3. :func:`update_block` runs the same update on
+a block of points whose trial stress the caller gives as a structure-of-arrays (rows xx, yy, zz,
+xy, xz, yz), in branch-free SIMD stages (closed-form cases, three Newton steps on (beta, gdot_p)
+with update_point's convergence test, 1/eta_B, the structure step); a point they do not finish
+goes through :func:`_correct`. :func:`update_points` loops blocks over (N, 3, 3) arrays in parallel
+(:func:`local_update`, the validated numpy front end, calls it); ``mpm2d``'s suspension kernel
+calls update_block, ``shear1d`` and ``rheometer`` call update_point.
 """
 
 from __future__ import annotations
@@ -691,10 +672,9 @@ NSTRESS = 6
 _PTR, _TAU, _BETA, _G, _CASE, _GF, _PF, _IM, _INVB, _ITER = range(10)
 NWORK = 10
 #: Newton steps on (beta, gdot_p) that :func:`update_block` takes in step for a whole block,
-#: from _correct's start below jamming: after three, update_point's convergence test passes at
-#: 99-100% of the flowing points of the mpm2d benchmark's shear, transient and steady (after two
-#: at 33-99%; from the previous step's rate and pressure, a warm start, after two at 0-76%:
-#: measured)
+#: from _correct's start below jamming (after three, update_point's convergence test passes at
+#: 84-89% of the flowing points of the mpm2d benchmark's shears, the others going through
+#: _correct; a fourth for all would leave some converged points short of the test)
 _LANE_NEWTON = 3
 #: update_block's case code of a point it hands to :func:`_correct` (with its Newton iterate as
 #: the start of the dilatant solve: _HANDED_START; without: _HANDED)
