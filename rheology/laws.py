@@ -173,10 +173,8 @@ def beetstra_F(phi, Re):
 
 @register_jitable
 def drag_coefficient(phi, Re, eta0, d):
-    """Table 8 Darcy drag coefficient C = 18 phi (1 - phi) eta0 F(phi, Re)/d^2 [Pa s/m^2].
-
-    The inter-phase force per volume is f_d = C (v_s - v_f); Re = rho_f |v_s - v_f| d / eta0.
-    """
+    """Table 8 Darcy drag coefficient C = 18 phi (1 - phi) eta0 F(phi, Re)/d^2 [Pa s/m^2]: the
+    inter-phase force per volume is f_d = C (v_s - v_f); Re = rho_f |v_s - v_f| d / eta0."""
     return 18.0 * phi * (1.0 - phi) * eta0 * beetstra_F(phi, Re) / (d * d)
 
 
