@@ -131,8 +131,9 @@ def mixture_steady_state(tau, phi, m: Material) -> dict[str, np.ndarray]:
 
     The structure f fixes gdot = tau/(eta0 (1 + 5/2 phi + eta_g)) and taubar = eta0 eta_g gdot;
     f solves ``y^2 [f (H + S) - H f_m] = 0`` (y = phi_m(f) - phi), bracketed on
-    [0, min(f_m, f_jam)], by Brent's method per point (numba). Agrees with
-    :func:`rheology.steady.steady_states_mixture_stress` (~1e-14) at a fraction of its cost.
+    [0, min(f_m, f_jam)] (negative at 0), by Brent's method per point (numba). Agrees with
+    :func:`rheology.steady.steady_states_mixture_stress` (~1e-14 where that finds one state) at
+    a fraction of its cost.
 
     Parameters
     ----------
