@@ -38,10 +38,8 @@ def past_elastic_limit(t, stress, modulus: float, *, stress_name: str = "taubar"
 
     Parameters
     ----------
-    t : array_like, shape (n,)
-        Times [s] of the rows.
-    stress : array_like, shape (n,)
-        Granular shear stress taubar or granular pressure p [Pa] at those times.
+    t, stress : array_like, shape (n,)
+        Times [s] of the rows; granular shear stress taubar or pressure p [Pa] at those times.
     modulus : float
         G or K [Pa].
     stress_name, modulus_name : str

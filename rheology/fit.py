@@ -109,8 +109,7 @@ def _structure_residual(u, tau, phi, fm, fhi, yhi, inv, ef, dphi, a0, a_inf, mu_
 @nb.njit(cache=True, error_model="numpy")
 def _solve_structure(tau, phi, fm, fhi, yhi, inv, ef, dphi, a0, a_inf, mu_c, mu2, b, tau_star,
                      eta0, xi):
-    """Brent's method (rheology.roots.brent) on u in [0, 1] for every point; NaN where no sign
-    change."""
+    """u in [0, 1] per point by Brent's method (rheology.roots.brent); NaN where no sign change."""
     out = np.empty(tau.size)
     for i in range(tau.size):
         args = (tau[i], phi[i], fm[i], fhi[i], yhi[i], inv[i], ef[i], dphi, a0, a_inf, mu_c,
@@ -130,12 +129,11 @@ def _solve_structure(tau, phi, fm, fhi, yhi, inv, ef, dphi, a0, a_inf, mu_c, mu2
 def mixture_steady_state(tau, phi, m: Material) -> dict[str, np.ndarray]:
     """Steady simple shear at imposed MIXTURE shear stress, viscous limit (Eqs. 1, 3-9, 13).
 
-    Given tau, the structure f fixes the viscosity, hence gdot = tau/(eta0 (1 + 5/2 phi + eta_g))
-    and taubar = eta0 eta_g gdot; the steady structure solves
-    ``y^2 [f (H + S) - H f_m] = 0`` (y = phi_m(f) - phi), bracketed on f in [0, min(f_m, f_jam)]
-    (negative at 0, non-negative at the top), Brent's method per point in a numba kernel.
-    It agrees with :func:`rheology.steady.steady_states_mixture_stress` (to ~1e-14 where that
-    finds one state) at a fraction of the cost, which the fitter needs.
+    The structure f fixes gdot = tau/(eta0 (1 + 5/2 phi + eta_g)) and taubar = eta0 eta_g gdot;
+    f solves ``y^2 [f (H + S) - H f_m] = 0`` (y = phi_m(f) - phi), bracketed on
+    [0, min(f_m, f_jam)] (negative at 0), by Brent's method per point (numba). Agrees with
+    :func:`rheology.steady.steady_states_mixture_stress` (~1e-14 where that finds one state) at
+    a fraction of its cost.
 
     Parameters
     ----------
@@ -143,7 +141,6 @@ def mixture_steady_state(tau, phi, m: Material) -> dict[str, np.ndarray]:
         Mixture shear stress [Pa], > 0.
     phi : array_like
         Volume fraction, 0 < phi < phi_j (broadcast with tau).
-    m : Material
 
     Returns
     -------
@@ -216,9 +213,7 @@ class FlowData:
     @classmethod
     def from_table(cls, table) -> "FlowData":
         """From the tidy table of :func:`rheology.data.read_flow_curves` (kept rows only).
-
-        Raises ValueError if a kept row has no volume fraction or if no curve has 3 points.
-        """
+        Raises ValueError if a kept row has no volume fraction."""
         t = table[table["kept"]]
         if t["phi"].isna().any():
             bad = t.loc[t["phi"].isna(), "source_file"].iloc[0]
@@ -366,11 +361,9 @@ _BOX = {"tau_star": (np.log(1e-8), np.log(1e9)), "varphi1": (-120.0, 120.0),
 
 
 class _Params:
-    """Maps the free natural parameters to the optimiser's box-bounded coordinates theta.
-
-    phi_j and phi_c: (phi_j, phi_j - phi_c) when both are free, so phi_c < phi_j is a box bound;
-    a0 and a_inf: (ln a0, ln(a_inf/a0) >= 0). Scale parameters in ln, exponents and Delta linear.
-    """
+    """Free parameters <-> the optimiser's box coordinates theta: (phi_j, phi_j - phi_c) and
+    (ln a0, ln(a_inf/a0) >= 0) when both are free (the orderings become box bounds), scale
+    parameters in ln, exponents and Delta linear."""
 
     def __init__(self, base: Material, free: list[str], phi_max: float):
         self.base, self.free, self.phi_max = base, list(free), phi_max

@@ -51,11 +51,10 @@ def f_max(phi, phi_c, phi_j, Delta):
 def inv_eta_B(phi, phi_j, varphi1, alpha1, varphi2, alpha2):
     """Eq. (9): 1/eta_B = sum_i varphi_i (phi_j - phi)^alpha_i [1/(Pa s)]; 0 means eta_B = inf.
 
-    The powers as exp(alpha_i ln x) with one logarithm for both (a third cheaper than two pow
-    calls in the MPM's per-point update; relative difference < 1e-14), exact at x = 0 (phi >=
-    phi_j): 0^alpha = 0 for alpha > 0, 1 for alpha = 0, without a branch (arrays and scalars).
-    Under numba the log and exp are :mod:`rheology.vecmath`'s (<= 1 ulp from libm), so a loop
-    over points that calls this compiles to SIMD.
+    The powers as exp(alpha_i ln x), one logarithm for both (cheaper than two pow calls; < 1e-14
+    relative), exact at x = 0 (phi >= phi_j) without a branch: 0^alpha = 0 for alpha > 0, 1 for
+    alpha = 0. Under numba log and exp are :mod:`rheology.vecmath`'s (<= 1 ulp), so a loop over
+    points that calls this compiles to SIMD.
     """
     x = np.maximum(phi_j - phi, 0.0)
     lx = vecmath.log(np.maximum(x, TINY))
@@ -149,8 +148,7 @@ def critical_shear_rate(taubar, phi, y, a, mu1, mu2, b, eta0, d, rho_s):
 def critical_pressure(gdot_p, phi, y, a, eta0, d, rho_s):
     """Granular pressure at the critical state, f_3 = 0 with K4 = 0 [Pa], for a gap y > 0.
 
-    p = (a phi)^2 (gdot^2 d^2 rho_s + 2 eta0 gdot) / y^2, y = phi_m - phi; Eq. (2) in the viscous
-    limit.
+    p = (a phi)^2 (gdot^2 d^2 rho_s + 2 eta0 gdot) / y^2, y = phi_m - phi (Eq. 2, viscous limit).
     """
     return (a * phi) ** 2 * (gdot_p * gdot_p * d * d * rho_s + 2.0 * eta0 * gdot_p) / np.maximum(
         y * y, TINY)
@@ -175,10 +173,8 @@ def beetstra_F(phi, Re):
 
 @register_jitable
 def drag_coefficient(phi, Re, eta0, d):
-    """Table 8 Darcy drag coefficient C = 18 phi (1 - phi) eta0 F(phi, Re)/d^2 [Pa s/m^2].
-
-    The inter-phase force per volume is f_d = C (v_s - v_f); Re = rho_f |v_s - v_f| d / eta0.
-    """
+    """Table 8 Darcy drag coefficient C = 18 phi (1 - phi) eta0 F(phi, Re)/d^2 [Pa s/m^2]: the
+    inter-phase force per volume is f_d = C (v_s - v_f); Re = rho_f |v_s - v_f| d / eta0."""
     return 18.0 * phi * (1.0 - phi) * eta0 * beetstra_F(phi, Re) / (d * d)
 
 

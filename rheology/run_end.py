@@ -93,11 +93,11 @@ class RunEnd:
 class EndedEarly(RuntimeError):
     """A run ended before its end time (:class:`RunEnd`), its rows up to there kept.
 
-    ``ends`` lists the ends (one per run of a command), ``partial`` holds what the run computed
-    up to there (the tier's result type: a DataFrame, a shear1d Result), ``written`` the files a
-    command wrote from it. :func:`runkit.command.run` prints the ends and returns
-    :data:`ENDED_EARLY` when ``written`` is set; without it the run counts as failed (status 1).
-    A RuntimeError: code that does not look for it sees the failure it always saw.
+    ``ends``: one per run of a command; ``partial``: what the run computed up to there (a
+    DataFrame, a shear1d Result); ``written``: the files a command wrote from it.
+    :func:`runkit.command.run` prints the ends and returns :data:`ENDED_EARLY` when ``written``
+    is set, else the run counts as failed (status 1).
+    A RuntimeError, so code that does not look for it sees the failure it always saw.
     """
 
     def __init__(self, ends, partial=None, written=()):

@@ -93,10 +93,8 @@ def _phi_top(dens: Densities) -> float:
 
 
 def add_mass_fraction_options(p, nargs="+") -> None:
-    """``--mass-fraction`` (instead of a volume fraction) and the Eq. (20) inputs, on parser ``p``.
-
-    ``nargs``: ``"+"`` for commands that take several fractions, ``None`` for one.
-    """
+    """``--mass-fraction`` (instead of a volume fraction) and the Eq. (20) inputs, on parser
+    ``p``; ``nargs``: ``"+"`` for commands that take several fractions, ``None`` for one."""
     s = p.add_argument_group("sample by mass (Eq. 20 of the Supplement)")
     s.add_argument("--mass-fraction", type=Number("--mass-fraction", 0.0, 1.0, lo_closed=False,
                                                   hi_closed=False),

@@ -469,8 +469,8 @@ def phi_from_mass_fraction(phi_w, rho_cs: float, rho_l: float, rho_w: float = 10
 def dst_fold(material, phi: float) -> tuple[float, float] | None:
     """(shear rate [1/s], mixture shear stress [Pa]) of the fold of the steady curve: the largest
     steady shear rate, where DST sets in (above it no steady flow exists under rate control and
-    the sample shear-jams); None if the curve of ``phi`` has no fold (no DST). Eq. (13) with
-    Eq. (1), on 1201 granular stresses over tau* 1e-4 .. 1e8 (0.8% steps)."""
+    the sample shear-jams); None if the curve of ``phi`` has no fold (no DST). Eqs. (13), (1)
+    on the grid of :func:`steady_fold`."""
     fold = steady_fold(material, phi)
     if fold is None:
         return None

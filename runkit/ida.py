@@ -96,8 +96,7 @@ class Solver:
     residual : callable
     rtol, atol : float, float or array
     events : callable(t, y, yp, out), optional
-        The root functions (fills ``out``), one per name of ``names``.
-    names : sequence of str
+        The root functions (fills ``out``), one per name of ``names`` (sequence of str).
     direction : sequence of int
         +1 rising, -1 falling, 0 both (default 0).
     stop : sequence of bool

@@ -86,9 +86,9 @@ def front_fit(t: np.ndarray, front: np.ndarray, grid: Grid, lo: float = 0.1,
     The window runs from the first time the front passes ``lo`` of the gap to the first time it
     passes ``hi`` or reaches its largest position, whichever comes first (a kinematic front stalls
     short of the no-slip outer wall and falls back once the flow stops; NaN positions - no front
-    - end it too). Returns speed [m/s],
-    intercept [m], r2, t_start, t_end [s], the number of points and ``gap_reached``, the largest
-    gap fraction of the fitted stretch (below ``hi``: the speed is over part of the gap).
+    - end it too). Returns speed [m/s], intercept [m], r2, t_start, t_end [s], the number of
+    points and ``gap_reached``, the largest gap fraction of the fitted stretch (below ``hi``: the
+    speed is over part of the gap).
     """
     t, front = np.asarray(t, dtype=float), np.asarray(front, dtype=float)
     x = (front - grid.inner) / grid.gap

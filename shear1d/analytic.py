@@ -37,10 +37,8 @@ def plane_couette_startup(y, t: float, gap: float, speed: float, nu: float) -> n
 
 
 def annular_steady(r, r_inner: float, r_outer: float, speed: float) -> np.ndarray:
-    """Steady Newtonian annular Couette profile v = A r + B/r [m/s].
-
-    The inner cylinder's surface moves at ``speed``, the outer cylinder is at rest:
-    A = -U R_i/(R_o^2 - R_i^2), B = U R_i R_o^2/(R_o^2 - R_i^2). Independent of the viscosity.
+    """Steady Newtonian annular Couette profile v = A r + B/r [m/s], inner surface at ``speed``,
+    outer at rest: A = -U R_i/(R_o^2 - R_i^2), B = U R_i R_o^2/(R_o^2 - R_i^2) (any viscosity).
     """
     check_positive("r_inner", r_inner, note="m")
     check_positive("r_outer - r_inner", r_outer - r_inner, note="m")

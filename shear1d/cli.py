@@ -177,8 +177,7 @@ def _check_drive(option: str, values, material, phi0, *, stress: bool = False) -
 
 
 def _check_annulus(r_inner: float, r_outer: float, default_outer: bool = False) -> None:
-    """--r-outer must lie beyond --r-inner (the cup around the bob); ``default_outer``: the
-    user did not give --r-outer (the message says it is the default)."""
+    """--r-outer beyond --r-inner; ``default_outer``: the message says it is the default."""
     if not r_outer > r_inner:
         raise OutOfRange("--r-outer", f"{r_outer:g}" + (" (the default)" if default_outer else ""),
                          f"({r_inner:g}, 2] m",
@@ -186,8 +185,7 @@ def _check_annulus(r_inner: float, r_outer: float, default_outer: bool = False) 
 
 
 def _check_dae(method: str, modes: tuple[str, ...], material, phi0) -> None:
-    """Refuse --method dae with a two-phase run, or a material and phi outside its smooth form
-    (:func:`shear1d.dae.check_material`)."""
+    """Refuse --method dae for a two-phase run or outside :func:`shear1d.dae.check_material`."""
     if method != "dae":
         return
     if "two-phase" in modes:
@@ -223,10 +221,8 @@ def _check_ramp(ramp_time: float, rotation: float, r_inner: float, speeds) -> No
 
 def _check_lengths(material, option: str, value: float, hi: float, cells: int,
                    base: float = 0.0, r_inner: float | None = None) -> None:
-    """Lengths against the grain size d (:mod:`shear1d.geometry`): the gap ``value - base``
-    (--gap, or --r-outer with ``base`` = --r-inner) holds ``cells`` cells of CELL_MIN_GRAINS
-    grains, the bob ``r_inner`` R_INNER_MIN_GRAINS grains; ValueError naming the option with its
-    range at the other options' values."""
+    """The gap ``value - base`` holds ``cells`` cells of CELL_MIN_GRAINS grains, the bob
+    R_INNER_MIN_GRAINS grains (:mod:`shear1d.geometry`); OutOfRange at the other options."""
     d = getattr(material, "d", None)
     if not d or d <= 0:
         return
@@ -247,8 +243,7 @@ def _check_lengths(material, option: str, value: float, hi: float, cells: int,
 
 
 def _in_out(out: str, run) -> None:
-    """Run ``run()``; if it fails or is refused and leaves the --out folder that it created
-    empty, the folder is removed (a run that wrote nothing leaves nothing)."""
+    """Run ``run()``; a failed run removes the --out folder it created if that is empty."""
     path = Path(out)
     existed = path.exists()
     try:

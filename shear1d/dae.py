@@ -92,11 +92,8 @@ def check_material(m, phi0: float) -> None:
 
 def parameters(problem: Couette, k4: float = K4_REG, width: float = COMPACTION_WIDTH
                ) -> np.ndarray:
-    """Parameter vector of the per-cell law at the problem's (uniform, fixed) phi0.
-
-    Raises ValueError where the smooth form does not apply (:func:`check_material`) or for
-    k4 <= 0, width outside (0, 1].
-    """
+    """Parameter vector of the per-cell law at the problem's (uniform, fixed) phi0; ValueError
+    outside :func:`check_material`, for k4 <= 0 or a width outside (0, 1]."""
     m, phi = problem.material, problem.phi0
     check_material(m, phi)
     mu2 = m.mu2

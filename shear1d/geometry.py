@@ -114,11 +114,9 @@ class Grid:
         return np.ones(self.n), np.diff(pts), 1.0
 
     def flux_metric(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(a, V, hoop_cell, hoop_face) for cross-gap fluxes (two-phase mode).
-
-        a: face areas per unit angle and height (r, or 1) [m or -]; V: cell volumes (r dr, or dy);
-        hoop: 1/r at cells and faces (0 for the plane cell) [1/m].
-        """
+        """(a, V, hoop_cell, hoop_face) for cross-gap fluxes (two-phase mode): face areas per
+        unit angle and height (r, or 1) [m or -], cell volumes (r dr, or dy), 1/r at cells and
+        faces (0 for the plane cell) [1/m]."""
         if self.annular:
             return (self.faces.copy(), self.centres * self.dx, 1.0 / self.centres,
                     1.0 / self.faces)

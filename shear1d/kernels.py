@@ -63,10 +63,8 @@ def phase_coefficients(phi, eta0, d, rho_s, rho_f, two_phase, rho_face, eta_f, m
 
 @_jit
 def face_velocities(y, i_v, u0, v):
-    """Shear velocity on every face: unknowns from ``y`` (i_v >= 0), else the wall values.
-
-    Face 0 is the moving wall (speed u0 when velocity-driven), the last face the fixed wall.
-    """
+    """Shear velocity on every face: unknowns from ``y`` (i_v >= 0), else the wall values (face
+    0 the moving wall, speed u0 when velocity-driven; the last face the fixed wall)."""
     n1 = v.shape[0]
     for k in range(n1):
         if i_v[k] >= 0:

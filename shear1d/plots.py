@@ -131,12 +131,11 @@ COINCIDE = 0.005
 
 
 def front_positions_figure(runs):
-    """Kinematic and structure fronts against bob rotation for the runs that jammed, drawn only
-    where a jammed band exists (:func:`shear1d.scenes.band_present`: the front_m cells of
-    <tag>_front.csv that are not empty), with the linear fit and the events. A run whose fronts
-    coincide with an earlier run's (within :data:`COINCIDE` of the gap) is drawn thin and dashed
-    on top of it and its legend entry says so; the runs without a band are named in the title;
-    the legend is below the axes."""
+    """Kinematic and structure fronts against bob rotation for the runs that jammed, where a
+    jammed band exists (:func:`shear1d.summary.band_present`: the non-empty front_m cells of
+    <tag>_front.csv), with the linear fit and the events. Fronts that coincide with an earlier
+    run's (within :data:`COINCIDE` of the gap) are drawn thin and dashed on top, the legend
+    (below the axes) saying so; the runs without a band are named in the title."""
     fig, ax = plt.subplots(figsize=(8, 6.6))
     none = [_label(r) for r in runs if not jammed(r.summary)]
     runs = [r for r in runs if jammed(r.summary)]
@@ -258,10 +257,8 @@ def run_fields(path, run):
 
 def mode_comparison(path, runs):
     """Locked mixture against two-phase: the fronts (runs with a jammed band) and the volume
-    fraction at the end (two-phase runs; a locked mixture keeps phi = phi0 by construction, one
-    line for all). A two-phase curve that coincides with the locked one (within
-    :data:`COINCIDE`) is drawn thin and dashed on top and its legend entry says so. Legends
-    below the panels."""
+    fraction at the end (two-phase runs; locked keeps phi = phi0, one line for all). Coinciding
+    curves are drawn as in :func:`front_positions_figure`; legends below the panels."""
     fig, axes = plt.subplots(1, 2, figsize=(12, 6.0))
     drawn = []
     no_band = []

@@ -49,11 +49,8 @@ import validation
 
 @dataclass
 class Verdict:
-    """What a case returns: its pass criterion, the measured value(s) and the verdict.
-
-    ``rows`` (optional) is the measured table, one dict per row, and ``notes`` maps a column to
-    why its nulls are undefined, as in :class:`BenchResult`.
-    """
+    """What a case returns: its pass criterion, the measured value(s) and the verdict;
+    ``rows`` and ``notes`` as in :class:`BenchResult`."""
 
     criterion: str
     measured: str
@@ -117,10 +114,8 @@ def _register(kind: str, tier: str, name: str, title: str, slow: bool):
 
 
 def case(tier: str, name: str, title: str, slow: bool = False):
-    """Register a validation case ``func(out: Path, quick: bool) -> Verdict``.
-
-    ``slow``: a long case judged at full size only (``report --quick`` skips it).
-    """
+    """Register a validation case ``func(out: Path, quick: bool) -> Verdict``; ``slow``: judged
+    at full size only (``report --quick`` skips it)."""
     return _register("case", tier, name, title, slow)
 
 
