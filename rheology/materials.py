@@ -43,7 +43,7 @@ import numpy as np
 from runkit import limits
 from runkit.io import atomic_write_json, check_input_file
 from runkit.limits import Bound
-from runkit.params import Param, check_range
+from runkit.params import Param, check_range, shown
 
 #: Units of every numeric field (SI sets; Table 1 sets use eta0 = gdot_0 = 1 instead).
 FIELD_UNITS: dict[str, str] = {
@@ -93,6 +93,23 @@ def _own(why: str = "", value=None, closed: bool = True) -> Bound:
         "; " + why.format(**p) if why else ""))
 
 
+#: The fields at least 0, with the physical reason (Table 8; Eqs. 7, 9).
+_AT_LEAST_ZERO = {
+    "b": "b >= 0: mu_p rises from mu_1 toward mu_2 as I_m grows past b (Table 8)",
+    "varphi1": "varphi_i >= 0: 1/eta_B = sum varphi_i (phi_j - phi)^alpha_i (Eq. 9) is a rate of "
+               "structure breakdown, never a build-up",
+    "alpha1": "alpha_i >= 0: 1/eta_B (Eq. 9) falls, not diverges, as phi approaches phi_j",
+    "varphi2": "varphi_i >= 0: 1/eta_B = sum varphi_i (phi_j - phi)^alpha_i (Eq. 9) is a rate of "
+               "structure breakdown, never a build-up",
+    "alpha2": "alpha_i >= 0: 1/eta_B (Eq. 9) falls, not diverges, as phi approaches phi_j",
+    "xi_eps": "xi_eps >= 0: a rate of structure breakdown by diffusion (Eq. 7)",
+    "d": "d >= 0: a grain size (0: none, the viscous limit without grain inertia)",
+    "K3": "K3 >= 0: the dilation angle beta = K3 (phi - phi_eq) (Table 8) takes phi toward the "
+          "critical state; a negative K3 drives it away",
+    "K0": "K0 >= 0: the structure f relaxes toward its steady value at the rate K0 gdot_p (Table "
+          "8); a negative K0 drives it away",
+}
+
 #: The model's range of every numeric field, checked once when a Material is made (a field of
 #: :data:`FIELD_LIMITS` also meets its physical limits where a command line or file sets it).
 FIELDS: dict[str, Param] = {
@@ -104,8 +121,7 @@ FIELDS: dict[str, Param] = {
     **{k: Param(_own(closed=False))
        for k in ("mu_c", "tau_star", "eta0", "G", "K", "rho_s", "rho_f", "kappa")},
     "mu_2": Param(_own("mu_2 >= mu_c", "mu_c")),
-    **{k: Param(_own())
-       for k in ("b", "varphi1", "alpha1", "varphi2", "alpha2", "xi_eps", "d", "K3", "K0")},
+    **{k: Param(_own(why)) for k, why in _AT_LEAST_ZERO.items()},
     "Delta": Param(_own(), Bound(1.0, True, lambda p: f"material {p['name']}")),
     "K4": Param(*[_own("only K4 = 0, the value of every scene of the paper, is implemented")] * 2),
     "phi0": Param(_own(closed=False), _own("below phi_j = {phi_j}", "phi_j", closed=False)),
@@ -526,6 +542,7 @@ def check_set_override(name: str, value, option: str = "--set"):
             raise ValueError(f"{option} {name} = none: {name} needs a number (only "
                              f"{', '.join(OPTIONAL_FIELDS)} can be unset)")
         return name, None
+    text = value if isinstance(value, str) else shown(value)
     if isinstance(value, str):
         try:
             value = float(value)
@@ -533,7 +550,7 @@ def check_set_override(name: str, value, option: str = "--set"):
             raise ValueError(f"{option} {name} = {value!r} is not a number "
                              f"[{FIELD_UNITS[name]}]") from None
     if isinstance(value, bool) or not np.isfinite(value):
-        raise ValueError(f"{option} {name} = {value}: must be finite")
+        raise ValueError(f"{option} {name} = {text}: must be finite")
     check_field_limit(f"{option} {name}", name, float(value))
     return name, float(value)
 

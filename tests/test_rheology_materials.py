@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import rheology as r
+from rheology.materials import check_set_override, split_set_item
 
 
 def test_every_paper_set_is_listed_with_a_source():
@@ -124,3 +125,19 @@ def test_scene_material_phi0_stays_below_the_users_jamming_fraction():
     loose = r.get_material("hermes2016", phi_c=0.40, phi_j=0.48)
     m = scene_material("annular_shear", loose)            # Table 4's phi0 = 0.505 >= 0.48
     assert m.phi0 == default_fraction(loose) and m.phi_c < m.phi0 < m.phi_j
+
+
+@pytest.mark.parametrize("field", ["b", "varphi1", "alpha1", "varphi2", "alpha2", "xi_eps", "d",
+                                   "K3", "K0"])
+def test_a_negative_field_is_refused_with_its_physical_reason(field):
+    """Each field bounded below by 0 names itself, the range and why (Table 8, Eqs. 7, 9)."""
+    with pytest.raises(ValueError) as exc:
+        r.get_material("hermes2016").replace(**{field: -1.0})
+    msg = str(exc.value)
+    assert f"{field} = -1 is outside the valid range [0, inf)" in msg
+    assert f"{field.rstrip('12')}" in msg.split("(", 1)[1] and ">= 0" in msg
+
+
+def test_a_set_value_beyond_float_is_echoed_as_typed():
+    with pytest.raises(ValueError, match=r"--set eta0 = 1e400: must be finite"):
+        check_set_override(*split_set_item("eta0=1e400"))
