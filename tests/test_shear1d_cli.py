@@ -462,7 +462,8 @@ def test_csv_writes_no_negative_zero(tmp_path):
 
 @pytest.mark.parametrize("item, message", [
     ("rules=mpm3d", "--set rules = 'mpm3d' is not one of table8, mpm_3d"),
-    ("K0=-1", "K0 = -1 is outside the valid range [0, inf) (material annular_shear)"),
+    ("K0=-1", "K0 = -1 is outside the valid range [0, inf) (material annular_shear; K0 >= 0: "
+              "the structure f relaxes toward its steady value"),
     ("name=x", "--set name: name is a text field of the material"),
     ("G=abc", "--set G = 'abc' is not a number"),
 ])
