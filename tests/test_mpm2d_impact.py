@@ -12,11 +12,11 @@ import pandas as pd
 import pytest
 
 from mpm2d.cli import main
-from mpm2d.run import run_scene
+from mpm2d.run import run_scene, spec_of
 from mpm2d.scenes import get_setup
 from mpm2d.scenes.impact import (SPEED_COLUMNS, displacement_profile, finite_difference,
                                  front_fit, peak_scaling, plug_fit, rod_kinematics,
-                                 sweep_report)
+                                 setup, sweep_report)
 
 #: a tiny case: 2 mm cells, a 2 cm x 1.6 cm bed, 1 ms after impact at 1 m/s (~500 steps)
 TINY = dict(radius=0.02, depth=0.016, cells_per_mm=0.5, t_end=0.001, stencil=1e-4)
@@ -258,3 +258,14 @@ def test_figures_cover_their_data_and_say_what_summary_says(tiny_run):
     fig = impact.profile_figure(pd.read_csv(out / "displacement_vs_depth.csv"), s)
     assert_legends_clear_of_data(fig)
     plt.close(fig)
+
+
+def test_a_rod_as_wide_as_the_container_is_refused_at_the_size_default_radius():
+    """rod_radius is bounded by the container radius - 4 cells also when radius is left at its
+    size's value (0.10 m at 2 mm: at most 0.092 m); it was accepted up to 0.1 m."""
+    spec = spec_of(setup)
+    with pytest.raises(ValueError, match=r"rod_radius = 0.1 is outside the valid range "
+                                         r"\[0.004, 0.092\] m \(at least 2 cells, at most the "
+                                         r"container radius - 4 cells\)"):
+        spec.coerce({"rod_radius": 0.1})
+    assert spec.coerce({"rod_radius": 0.09})["rod_radius"] == 0.09

@@ -165,8 +165,11 @@ def _geo(key, lo, hi, unit, doc, note="", **kw):
     material=spec.Param(choices=("auto", "rod_impact", "rod_impact_1cp"),
                         doc="Table 5 set: rod_impact (7 mPa s) or rod_impact_1cp (1 mPa s); "
                             "auto: the size's (fig5: 1 mPa s, else 7 mPa s)"),
-    rod_radius=spec.Param(lambda p: 2e-3 / resolved(p)["cells_per_mm"], 0.1, unit="m",
-                          doc="rod radius", note="at least 2 cells"),
+    rod_radius=spec.Param(lambda p: 2e-3 / resolved(p)["cells_per_mm"],
+                          lambda p: min(0.1, resolved(p)["radius"]
+                                        - 4e-3 / resolved(p)["cells_per_mm"]),
+                          unit="m", doc="rod radius",
+                          note="at least 2 cells, at most the container radius - 4 cells"),
     rod_length=spec.Param(ROD_REPRESENTED, 2.0, unit="m", doc="rod length (sets its mass)",
                           note="at least the represented 15 mm"),
     rod_density=spec.density("rod density (aluminium 2700)"),
