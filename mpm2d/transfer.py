@@ -188,13 +188,11 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, gra
 @nb.njit(cache=True, error_model="numpy", inline="always")
 def sum_chunks(priv, out, I, J, rows):
     """out[I, J, :] = sum over the chunks whose rows (rows[c, 0] to rows[c, 1]) hold I of
-    priv[c, I, J, :] (fixed order; the others are zero there, so one chunk is summed whole),
-    then priv := 0 there."""
-    one = priv.shape[0] == 1
+    priv[c, I, J, :] (fixed order; the others are zero there), then priv := 0 there."""
     for k in range(priv.shape[3]):
         s = 0.0
         for c in range(priv.shape[0]):
-            if one or rows[c, 0] <= I <= rows[c, 1]:
+            if rows[c, 0] <= I <= rows[c, 1]:
                 s += priv[c, I, J, k]
                 priv[c, I, J, k] = 0.0
         out[I, J, k] = s
