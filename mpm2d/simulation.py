@@ -49,7 +49,7 @@ from .materials import Suspension
 from .particles import ParticleSet
 from .bodies import check_mu
 from . import contact as ct
-from .transfer import (all_rows, boundary_velocities, wall_moments, chunk_bounds, g2p, g2p_swirl,
+from .transfer import (boundary_velocities, wall_moments, chunk_bounds, g2p, g2p_swirl,
                        gather_scalar_vector, p2g, p2g_swirl, reduce_private, reduce_velocities,
                        sort_order)
 
@@ -208,8 +208,6 @@ class Simulation:
         nfs = {f: (nf if f in self.phases else NF_ONE) for f in self.fields}
         self.G = {ph: np.zeros(shape + (nfs[ph],)) for ph in self.fields}
         self.priv = {ph: np.zeros((self.nc,) + shape + (nfs[ph],)) for ph in self.fields}
-        #: per field, per chunk: the node rows its P2G touched (transfer.p2g, reduce_private)
-        self._rows = {ph: np.zeros((self.nc, 2), dtype=np.int64) for ph in self.fields}
         self.vg = {ph: np.zeros(shape + (2,)) for ph in self.fields}
         self.vg_old = {ph: np.zeros(shape + (2,)) for ph in self.fields}
         self._geo_work = np.zeros(shape + (NF_ONE,))
@@ -434,15 +432,12 @@ class Simulation:
     def _scatter(self):
         """Phase 1a: every set's P2G into the private node fields (and its extremes)."""
         axi = self.grid.axisymmetric
-        for rows in self._rows.values():
-            rows[:, 0], rows[:, 1] = self.grid.shape[0], -1              # none touched yet
         for s in self.sets:
             ph = self._field(s)
             svol = s.svol if (self.two_phase and ph in self.phases) else _EMPTY
             pf = s.pf if (self.two_phase and s.phase == "fluid") else _EMPTY
             p2g[self.par](s.x, s.v, s.C, s.m, s.V, s.sp, pf, s.fext, svol, self._geo, axi,
-                          self._chunks[s.name], self.priv[ph], self._ext[s.name], self.gravity,
-                          self._rows[ph])
+                self._chunks[s.name], self.priv[ph], self._ext[s.name], self.gravity)
         if self.swirl:
             for s in self.sets:
                 p2g_swirl[self.par](s.x, s.m, s.V, s.vtheta, s.Cl, s.spw, self._geo,
@@ -455,15 +450,13 @@ class Simulation:
         gx, gy = self.gravity[0], self.gravity[1]
         for ph in self.fields:
             if dt is None:
-                reduce_private[self.par_grid](self.priv[ph], self.G[ph], True, gx, gy,
-                                              self._rows[ph])
+                reduce_private[self.par_grid](self.priv[ph], self.G[ph], True, gx, gy)
             else:
                 reduce_velocities[self.par_grid](self.priv[ph], self.G[ph], gx, gy, dt,
                                                  self.vg[ph], self.vg_old[ph],
-                                                 self.transfer != "apic", self._rows[ph])
+                                                 self.transfer != "apic")
         if self.swirl:
-            reduce_private[self.par_grid](self.privw, self.Gw, False, 0.0, 0.0,
-                                          all_rows(self.nc, self.grid.shape[0]))
+            reduce_private[self.par_grid](self.privw, self.Gw, False, 0.0, 0.0)
             G = self.G["solid"]
             G[:, :, FX] += self.Gw[:, :, 2]
 

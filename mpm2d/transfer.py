@@ -79,7 +79,7 @@ def chunk_bounds(n: int, nc: int) -> np.ndarray:
 
 
 @dual
-def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, grav, rows):
+def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, grav):
     """Scatter one particle set into the private node fields ``priv[c]`` of its chunks.
 
     Parameters
@@ -98,9 +98,6 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, gra
         as scattered (the step size's wave and advection limits, taken in the same pass)
     grav : (2,) gravity [m/s^2], for the hydrostatic quadrature term only (the body force
         m_i g itself is added by :func:`reduce_private`); see :func:`hydrostatic_coefficient`
-    rows : (nc, 2) int, widened: per chunk the first and last node row I its points touch (the
-        rows :func:`reduce_private` sums it over; a chunk is a band of rows, the points being
-        sorted by column-major base node)
 
     Each point adds its 3 x 3 stencil straight into its chunk's copy (measured faster than
     summing runs of points with equal base nodes in a local block first). The hoop and
@@ -117,10 +114,8 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, gra
     for c in nb.prange(nc):
         G = priv[c]
         e_vm = e_v2 = 0.0
-        r_lo, r_hi = rows[c, 0], rows[c, 1]
         for p in range(chunks[c], chunks[c + 1]):
             bx, by, fx, fy, wx, wy, dx, dy = stencil(x[p, 0], x[p, 1], x0, y0, inv_h)
-            r_lo, r_hi = min(r_lo, bx + PAD), max(r_hi, bx + PAD + 2)
             mp, Vp = m[p], vol[p]
             e_vm = max(e_vm, Vp / mp)
             e_v2 = max(e_v2, v[p, 0] * v[p, 0] + v[p, 1] * v[p, 1])
@@ -176,44 +171,33 @@ def p2g(x, v, C, m, vol, sp, pf, fext, svol, geo, axisym, chunks, priv, ext, gra
                 ey, _, ey0, ey1, ey2, _, _, _ = weights((x[p, 1] + fext[p, 3] - y0) * inv_h)
                 ew = (ex0, ex1, ex2)
                 eh = (ey0, ey1, ey2)
-                r_lo, r_hi = min(r_lo, ex + PAD), max(r_hi, ex + PAD + 2)
                 for a in range(3):
                     for b in range(3):
                         G[ex + a + PAD, ey + b + PAD, FX] += ew[a] * eh[b] * fext[p, 0]
                         G[ex + a + PAD, ey + b + PAD, FY] += ew[a] * eh[b] * fext[p, 1]
         ext[c, 0], ext[c, 1] = e_vm, e_v2
-        rows[c, 0], rows[c, 1] = r_lo, r_hi
 
 
 @nb.njit(cache=True, error_model="numpy", inline="always")
-def sum_chunks(priv, out, I, J, rows):
-    """out[I, J, :] = sum over the chunks whose rows (rows[c, 0] to rows[c, 1]) hold I of
-    priv[c, I, J, :] (fixed order; the others are zero there), then priv := 0 there."""
+def sum_chunks(priv, out, I, J):
+    """out[I, J, :] = sum over chunks of priv[:, I, J, :] (fixed order), then priv := 0 there."""
     for k in range(priv.shape[3]):
         s = 0.0
         for c in range(priv.shape[0]):
-            if rows[c, 0] <= I <= rows[c, 1]:
-                s += priv[c, I, J, k]
-                priv[c, I, J, k] = 0.0
+            s += priv[c, I, J, k]
+            priv[c, I, J, k] = 0.0
         out[I, J, k] = s
 
 
-def all_rows(nc: int, ni: int) -> np.ndarray:
-    """``rows`` for :func:`reduce_private` of private fields written anywhere: every row."""
-    return np.array([[0, ni - 1]] * nc, dtype=np.int64)
-
-
 @dual
-def reduce_private(priv, out, gravity, gx, gy, rows):
-    """out = sum over chunks of priv (fixed order), then priv := 0, on the rows each chunk
-    touched (``rows``, from :func:`p2g`: the reduction's work is the grid once plus the chunks'
-    overlaps, not the grid once a chunk); with ``gravity`` also the body force f_i += m_i g
-    (out[..., FX/FY] += out[..., M] (gx, gy)), in the same pass (before folding, so that images
-    see mirrored gravity)."""
+def reduce_private(priv, out, gravity, gx, gy):
+    """out = sum over chunks of priv (fixed order), then priv := 0; with ``gravity`` also the
+    body force f_i += m_i g (out[..., FX/FY] += out[..., M] (gx, gy)), in the same pass (before
+    folding, so that images see mirrored gravity)."""
     NI, NJ = priv.shape[1], priv.shape[2]
     for I in nb.prange(NI):
         for J in range(NJ):
-            sum_chunks(priv, out, I, J, rows)
+            sum_chunks(priv, out, I, J)
             if gravity:
                 out[I, J, FX] += out[I, J, M] * gx
                 out[I, J, FY] += out[I, J, M] * gy
@@ -237,7 +221,7 @@ def node_velocity(G, I, J, dt, vg, vg_old, old):
 
 
 @dual
-def reduce_velocities(priv, out, gx, gy, dt, vg, vg_old, old, rows):
+def reduce_velocities(priv, out, gx, gy, dt, vg, vg_old, old):
     """:func:`reduce_private` with the body force, and the nodal velocities
     (:func:`node_velocity`) in the same pass over the grid.
 
@@ -248,7 +232,7 @@ def reduce_velocities(priv, out, gx, gy, dt, vg, vg_old, old, rows):
     NI, NJ = priv.shape[1], priv.shape[2]
     for I in nb.prange(NI):
         for J in range(NJ):
-            sum_chunks(priv, out, I, J, rows)
+            sum_chunks(priv, out, I, J)
             out[I, J, FX] += out[I, J, M] * gx
             out[I, J, FY] += out[I, J, M] * gy
             node_velocity(out, I, J, dt, vg, vg_old, old)
@@ -261,13 +245,9 @@ def boundary_velocities(G, dt, vg, vg_old, old):
     NI, NJ = G.shape[0], G.shape[1]
     band = 2 * PAD + 1
     for I in range(NI):
-        if I < band or I >= NI - band:
-            for J in range(NJ):
-                node_velocity(G, I, J, dt, vg, vg_old, old)
-        else:               # the band's nodes only: this serial loop must not visit the grid
-            for J in range(min(band, NJ)):
-                node_velocity(G, I, J, dt, vg, vg_old, old)
-            for J in range(max(band, NJ - band), NJ):
+        edge_i = I < band or I >= NI - band
+        for J in range(NJ):
+            if edge_i or J < band or J >= NJ - band:
                 node_velocity(G, I, J, dt, vg, vg_old, old)
 
 
