@@ -73,6 +73,7 @@ from runkit.params import check_positive, check_range
 
 from . import model
 from .harmonics import elastic_viscous, harmonics
+from .limits import RATE
 from .transient import check_phi, skeleton
 
 
@@ -173,6 +174,15 @@ def dst_onset_stress(material, phi: float) -> float:
 
 
 # ------------------------------------------------------------------ the drive
+def check_peak_rate(frequency: float, amplitude: float) -> float:
+    """A strain oscillation's peak shear rate 2 pi f gamma0 [1/s], held to the rate limit of
+    every rate the rheometer imposes (:data:`rheometer.limits.RATE`); ValueError naming the
+    frequency and the amplitude."""
+    rate = float(f"{2.0 * np.pi * float(frequency) * float(amplitude):.6g}")   # as shown
+    return float(RATE.check(f"peak shear rate 2 pi f gamma0 at {frequency:g} Hz and strain "
+                            f"amplitude {amplitude:g}", rate))
+
+
 def drive(mode: int, amplitude: float, omega: float, t0: float = 0.0) -> np.ndarray:
     """Control vector (:func:`rheometer.model.control`) of the oscillatory drive from ``t0`` [s]:
     strain ``amplitude sin(omega (t - t0))`` imposed as the rate ``amplitude omega cos(...)``
@@ -292,6 +302,8 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
     freq = float(check_positive("frequency [Hz]", frequency))
     amp = float(check_positive("strain amplitude [-]" if control == "strain"
                                else "stress amplitude [Pa]", amplitude))
+    if control == "strain":
+        check_peak_rate(freq, amp)
     max_cycles = int(check_range("max_cycles", max_cycles, 1, 10 ** 5))
     min_cycles = int(check_range("min_cycles", min_cycles, 1, max_cycles,
                                  note=f"at most max_cycles = {max_cycles}"))
@@ -526,6 +538,8 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
             raise ValueError(f"give at least one {name}")
     check_positive("frequency [Hz]", freqs)
     check_positive("amplitude", amps)
+    if control == "strain":
+        check_peak_rate(freqs.max(), amps.max())
     _moduli(m, phis[0], options.get("G"), options.get("K0"))     # bad input before any point
     rows, waves, ends = [], [], []
     t0 = time.perf_counter()

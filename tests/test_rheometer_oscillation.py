@@ -7,6 +7,8 @@ import pytest
 
 import rheology
 from rheometer import oscillation as osc
+from rheometer.cli import main as cli_main
+from rheometer.oscillation import check_peak_rate, oscillation_sweep
 
 HERMES = rheology.get_material("hermes2016")
 PHI = 0.50
@@ -280,3 +282,17 @@ def test_figures_mark_past_limit_and_failed_points_and_keep_legends_off_data(mon
                                if ln.get_linestyle() in ("-", "-.")]) - 2   # minus the axes
     assert_legends_clear_of_data(fig)
     plt.close(fig)
+
+
+def test_a_strain_oscillation_past_the_rate_limit_is_refused(tmp_path, capsys):
+    """2 pi f gamma0 is a shear rate: held to the 1e9 1/s of every imposed rate (1e9 Hz at
+    gamma0 = 1 is 6.28e9 1/s and ran); one line, exit 2, nothing written."""
+    with pytest.raises(ValueError, match=r"peak shear rate 2 pi f gamma0 at 1e\+09 Hz and strain "
+                                         r"amplitude 1 = 6.28319e\+09 is outside the valid range "
+                                         r"\[0, 1e\+09\] 1/s"):
+        oscillation_sweep("hermes2016", 0.5, frequency=[1.0, 1e9], amplitude=1.0)
+    assert check_peak_rate(1e8, 1.0) == pytest.approx(6.28319e8)
+    out = tmp_path / "osc.csv"
+    assert cli_main(["oscillation", "--frequency", "1e9", "--phi", "0.5", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "peak shear rate" in err[0] and not list(tmp_path.iterdir())
