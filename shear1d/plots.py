@@ -50,8 +50,13 @@ def _what_happened(run) -> str:
             lines.append(f"at {last:g} rad within {100 * dev[last]:.2g}% of u_i of the "
                          "Newtonian profile")
         return "\n".join(lines)
-    lines = ["jammed" + (f": band at the outer wall at {s['front_at_wall_rotation_rad']:.3f} rad"
+    lines = ["jammed" + (f": structure f >= f_jam at the outer wall at "
+                         f"{s['front_at_wall_rotation_rad']:.3f} rad"
                          if s["front_at_wall_rotation_rad"] is not None else "")]
+    if s["front_at_wall_rotation_rad"] is not None and not s["front_crossed_gap"]:
+        reached = (s["max_front_position_m"] - s["r_inner_m"]) / (s["r_outer_m"] - s["r_inner_m"])
+        lines.append(f"the rigid band (velocity front) reached only {100 * reached:.0f}% of the gap"
+                     if reached == reached else "no rigid band (velocity front) formed")
     if s["flow_stopped_rotation_rad"] is not None:
         again = s.get("flow_restarted_rotation_rad")
         lines.append(f"flow stopped at {s['flow_stopped_rotation_rad']:.3f} rad, " +
@@ -166,7 +171,7 @@ def front_positions_figure(runs):
                 x = fit * rr * g.inner / s["u_inner_m_per_s"] + s["front_fit_intercept_m"]
                 ax.plot(rr, (x - g.inner) / g.gap, "-", color="k", lw=0.8,
                         label=f"{_label(run)}: {what}")
-        for key, what in (("front_at_wall_rotation_rad", "band at the outer wall"),
+        for key, what in (("front_at_wall_rotation_rad", "structure at the outer wall"),
                           ("flow_stopped_rotation_rad", "flow stopped")):
             if s[key] is not None:
                 events.setdefault(what, []).append((s[key], run))

@@ -258,7 +258,7 @@ def _report(run: SceneRun, log) -> None:
     if jammed(s) and s["front_speed_m_per_s"] == s["front_speed_m_per_s"]:
         log(f"    {res.wall_time:.2f} s; jammed band: front speed {s['front_speed_m_per_s']:.3g}"
             f" m/s ({s['front_speed_over_u_inner']:.3g} u_i, R^2 {s['front_fit_r2']:.3f}), "
-            f"band v/(omega r) {s['band_rigidity_mean']:.2f}, at the outer wall "
+            f"band v/(omega r) {s['band_rigidity_mean']:.2f}, structure at the outer wall "
             f"{_fmt_rot(s['front_at_wall_rotation_rad'])}, flow stopped "
             f"{_fmt_rot(s['flow_stopped_rotation_rad'])}", flush=True)
     elif jammed(s):
