@@ -51,7 +51,10 @@ from ..simulation import Drag, Simulation
 
 
 @spec.parameters_of(
-    height=spec.positive(10.0, "m", "height of the suspension"),
+    height=spec.Param(lambda p: p["cells"] * p["d"], 10.0, unit="m",
+                      doc="height of the suspension",
+                      note="at least cells x d: a cell of at least one grain diameter, the "
+                           "continuum limit of the model"),
     width_cells=spec.count(2, 1000, "cells across (periodic)"),
     cells=spec.count(2, 100000, "cells over the height"),
     ppc=spec.count(1, 8, "points per cell and direction"),
