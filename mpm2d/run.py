@@ -451,7 +451,9 @@ def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool 
     if quiet:
         log, progress = (lambda msg: None), False
     log = log or (lambda msg: print(msg, flush=True))
-    with _Quiet(quiet):
+    # a signal before the step loop (the set-up, a resume's reading) stops at once, as Ctrl-C
+    # does, also when no command line opened a window (SIGTERM's default would end the process)
+    with _Quiet(quiet), Interrupts(defer=False):
         return _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_every,
                           log, stop_after_steps, scene_name, yes)
 

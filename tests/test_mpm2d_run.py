@@ -622,3 +622,25 @@ def test_column_refuses_values_below_physical_limits_with_the_reason(tmp_path, c
     rc, so, err = _cli(["run", "column", "--set", f"{key}=1e-300", "--out", str(out)], capsys)
     assert rc == 2 and so == [] and len(err) == 1 and words in err[0], err
     assert not out.exists()
+
+
+def test_sigterm_during_the_set_up_of_a_library_run_stops_it_not_the_process(tmp_path,
+                                                                              monkeypatch):
+    """run_scene from Python (no command line's window): a SIGTERM in the set-up raises
+    KeyboardInterrupt, nothing written, as documented; its default action ended the process (a
+    timer's SIGTERM landing in a resume's set-up killed the test run under load)."""
+    import mpm2d.run as runmod
+
+    real = runmod._set_up
+
+    def set_up_then_signal(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(runmod, "_set_up", set_up_then_signal)
+    before = signal.getsignal(signal.SIGTERM)
+    with pytest.raises(KeyboardInterrupt):
+        run_scene(terzaghi.setup, tmp_path / "t", dict(cells=8, t_end_T=0.05), progress=False,
+                  vtk=False, log=lambda msg: None)
+    assert not (tmp_path / "t").exists()
+    assert signal.getsignal(signal.SIGTERM) is before       # the window restored it
