@@ -10,6 +10,8 @@ reason, printed with a refusal) as they apply here, and the rheometer's own coun
   (checked once, by the Step or the :class:`Start`).
 """
 
+import math
+
 from runkit import limits as physical
 from runkit.limits import CLOCK_RESOLUTION, clock_floor, gt, le  # noqa: F401
 from runkit.params import Param
@@ -32,3 +34,11 @@ STRAIN = Param(gt(0.0), physical.STRAIN_MAX)
 AMPLITUDE = {"strain": STRAIN, "stress": POSITIVE_STRESS}
 FREQUENCY = Param(physical.FREQUENCY_MIN, physical.FREQUENCY_MAX, unit="Hz")
 CYCLES = Param(gt(0.0), le(CYCLES_MAX, "each cycle sampled at least 32 times"))
+
+
+def check_peak_rate(frequency: float, amplitude: float) -> float:
+    """A strain oscillation's peak shear rate 2 pi f gamma0 [1/s], held to :data:`RATE` (the rate
+    limit of every rate the rheometer imposes); ValueError naming the frequency and amplitude."""
+    rate = float(f"{2.0 * math.pi * float(frequency) * float(amplitude):.6g}")   # as shown
+    return float(RATE.check(f"peak shear rate 2 pi f gamma0 at {frequency:g} Hz and strain "
+                            f"amplitude {amplitude:g}", rate))

@@ -73,7 +73,7 @@ from runkit.params import check_positive, check_range
 
 from . import model
 from .harmonics import elastic_viscous, harmonics
-from .limits import RATE
+from .limits import check_peak_rate
 from .transient import check_phi, skeleton
 
 
@@ -174,15 +174,6 @@ def dst_onset_stress(material, phi: float) -> float:
 
 
 # ------------------------------------------------------------------ the drive
-def check_peak_rate(frequency: float, amplitude: float) -> float:
-    """A strain oscillation's peak shear rate 2 pi f gamma0 [1/s], held to the rate limit of
-    every rate the rheometer imposes (:data:`rheometer.limits.RATE`); ValueError naming the
-    frequency and the amplitude."""
-    rate = float(f"{2.0 * np.pi * float(frequency) * float(amplitude):.6g}")   # as shown
-    return float(RATE.check(f"peak shear rate 2 pi f gamma0 at {frequency:g} Hz and strain "
-                            f"amplitude {amplitude:g}", rate))
-
-
 def drive(mode: int, amplitude: float, omega: float, t0: float = 0.0) -> np.ndarray:
     """Control vector (:func:`rheometer.model.control`) of the oscillatory drive from ``t0`` [s]:
     strain ``amplitude sin(omega (t - t0))`` imposed as the rate ``amplitude omega cos(...)``

@@ -155,6 +155,8 @@ class Step:
         if self.frequency is None:
             raise ValueError("an oscillation needs a frequency [Hz]")
         limits.FREQUENCY.check("oscillation frequency", self.frequency)
+        if self.control == "strain":
+            limits.check_peak_rate(self.frequency, self.start)
         if self.strain is not None:
             raise ValueError("an oscillation runs for a number of cycles, not until a strain")
         if self.duration is None:

@@ -8,7 +8,8 @@ import pytest
 import rheology
 from rheometer import oscillation as osc
 from rheometer.cli import main as cli_main
-from rheometer.oscillation import check_peak_rate, oscillation_sweep
+from rheometer.limits import check_peak_rate
+from rheometer.oscillation import oscillation_sweep
 
 HERMES = rheology.get_material("hermes2016")
 PHI = 0.50
@@ -296,3 +297,8 @@ def test_a_strain_oscillation_past_the_rate_limit_is_refused(tmp_path, capsys):
     assert cli_main(["oscillation", "--frequency", "1e9", "--phi", "0.5", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "peak shear rate" in err[0] and not list(tmp_path.iterdir())
+    prog = tmp_path / "prog.txt"
+    prog.write_text("shear at 1 1/s for 1 s\noscillate at 1e9 Hz with strain 1 for 2 cycles\n")
+    assert cli_main(["program", str(prog), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "program line 2: peak shear rate" in err[0] and not out.exists()
