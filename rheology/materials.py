@@ -93,15 +93,13 @@ def _own(why: str = "", value=None, closed: bool = True) -> Bound:
         "; " + why.format(**p) if why else ""))
 
 
+_VARPHI_WHY = ("varphi_i >= 0: 1/eta_B = sum varphi_i (phi_j - phi)^alpha_i (Eq. 9) is a rate of "
+               "structure breakdown, never a build-up")
+_ALPHA_WHY = "alpha_i >= 0: 1/eta_B (Eq. 9) falls, not diverges, as phi approaches phi_j"
 #: The fields at least 0, with the physical reason (Table 8; Eqs. 7, 9).
 _AT_LEAST_ZERO = {
     "b": "b >= 0: mu_p rises from mu_1 toward mu_2 as I_m grows past b (Table 8)",
-    "varphi1": "varphi_i >= 0: 1/eta_B = sum varphi_i (phi_j - phi)^alpha_i (Eq. 9) is a rate of "
-               "structure breakdown, never a build-up",
-    "alpha1": "alpha_i >= 0: 1/eta_B (Eq. 9) falls, not diverges, as phi approaches phi_j",
-    "varphi2": "varphi_i >= 0: 1/eta_B = sum varphi_i (phi_j - phi)^alpha_i (Eq. 9) is a rate of "
-               "structure breakdown, never a build-up",
-    "alpha2": "alpha_i >= 0: 1/eta_B (Eq. 9) falls, not diverges, as phi approaches phi_j",
+    "varphi1": _VARPHI_WHY, "alpha1": _ALPHA_WHY, "varphi2": _VARPHI_WHY, "alpha2": _ALPHA_WHY,
     "xi_eps": "xi_eps >= 0: a rate of structure breakdown by diffusion (Eq. 7)",
     "d": "d >= 0: a grain size (0: none, the viscous limit without grain inertia)",
     "K3": "K3 >= 0: the dilation angle beta = K3 (phi - phi_eq) (Table 8) takes phi toward the "

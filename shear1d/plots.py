@@ -56,7 +56,7 @@ def _what_happened(run) -> str:
     if s["front_at_wall_rotation_rad"] is not None and not s["front_crossed_gap"]:
         reached = (s["max_front_position_m"] - s["r_inner_m"]) / (s["r_outer_m"] - s["r_inner_m"])
         lines.append(f"the rigid band (velocity front) reached only {100 * reached:.0f}% of the gap"
-                     if reached == reached else "no rigid band (velocity front) formed")
+                     if np.isfinite(reached) else "no rigid band (velocity front) formed")
     if s["flow_stopped_rotation_rad"] is not None:
         again = s.get("flow_restarted_rotation_rad")
         lines.append(f"flow stopped at {s['flow_stopped_rotation_rad']:.3f} rad, " +
