@@ -9,6 +9,8 @@ status      meaning
 3           ended early: results up to a limit of the model's validity or a solver
             failure written (an exception with ``ends`` and ``written``), one line per end
 130         interrupted (Ctrl-C, or SIGTERM turned into the same ``KeyboardInterrupt``)
+141         stdout closed early (``| head -1``): silent, 128 + SIGPIPE as ``cat`` or ``seq``
+            give, since the body may have stopped before its end (0 would say complete)
 ==========  ===========================================================================
 
 :class:`OneLineParser` makes argparse's own errors one line with status 2 and reads every
@@ -18,13 +20,15 @@ negative number (``--G -1e4``, ``-inf``) as a value, so that the option's check 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import re
 import sys
 from collections.abc import Callable
 
 from .run import Interrupts
 
-COMPLETE, FAILED, USAGE, ENDED_EARLY, INTERRUPTED = 0, 1, 2, 3, 130
+COMPLETE, FAILED, USAGE, ENDED_EARLY, INTERRUPTED, BROKEN_PIPE = 0, 1, 2, 3, 130, 141
 
 #: a negative number as a word of a command line (argparse's own takes only -1 and -.5)
 NEGATIVE_NUMBER = re.compile(r"^-(?:(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|inf|infinity|nan)$",
@@ -59,7 +63,14 @@ def run(prog: str, body: Callable[[], int | None], *, on_interrupt: str = "") ->
     """
     try:
         with Interrupts(defer=False):        # SIGTERM is a KeyboardInterrupt too
-            return int(body() or 0)
+            status = int(body() or 0)
+            sys.stdout.flush()               # a closed pipe shows here, not at the exit
+            return status
+    except BrokenPipeError:
+        # the reader is gone: the interpreter's last flush must not try again
+        with contextlib.suppress(OSError, ValueError):       # a stdout with no file
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return BROKEN_PIPE
     except ValueError as exc:
         print(f"{prog}: error: {one_line(exc)}", file=sys.stderr)
         return USAGE

@@ -135,3 +135,28 @@ def test_run_command_passes_stdout_unchanged_and_ida_takes_sundials_lines(capsys
 
     assert run_command("demo", body) == 0
     assert capsys.readouterr().out == "shear1d: run ...\n\npartial line\n\nend"
+
+
+@pytest.mark.parametrize("argv", [
+    ["-c", "from runkit.command import run\n"
+           "raise SystemExit(run('demo', lambda: print('x' * 100000)))"],
+    ["-c", "from rheometer.cli import main\nraise SystemExit(main(['materials']))"],
+])
+def test_a_closed_stdout_ends_silently_with_the_sigpipe_status(argv):
+    """``rheometer materials | head -1``: the reader gone, the command ends with 141 (128 +
+    SIGPIPE, as cat or seq) and nothing on stderr (it printed 'failed: [Errno 32] Broken pipe',
+    exit 1, and a traceback when the pipe broke at the interpreter's last flush)."""
+    import os
+    import subprocess
+    import sys
+
+    from runkit.command import BROKEN_PIPE
+
+    read, write = os.pipe()
+    os.close(read)                              # the reader is gone before the first line
+    try:
+        done = subprocess.run([sys.executable, *argv], stdout=write, stderr=subprocess.PIPE,
+                              text=True, timeout=120)
+    finally:
+        os.close(write)
+    assert (done.returncode, done.stderr) == (BROKEN_PIPE, ""), done.stderr
