@@ -62,8 +62,19 @@ _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried
            "(Fig. 15: relaxation times of tens of seconds) and K0 = 1 (Tables 5, 7).")
 
 
+class _Parser(OneLineParser):
+    """The top-level parser: a word no option of the command takes is refused by the command's
+    parser (:func:`_refuse_unknown`)."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        parsed, extra = super().parse_known_args(args, namespace)
+        if extra and getattr(parsed, "cmd", None):
+            _refuse_unknown(parsed, extra)
+        return parsed, extra
+
+
 def build_parser() -> argparse.ArgumentParser:
-    ap = OneLineParser(prog="rheometer", description=__doc__.replace("``", "").replace("::", ":"),
+    ap = _Parser(prog="rheometer", description=__doc__.replace("``", "").replace("::", ":"),
                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_EPILOG)
     sub = ap.add_subparsers(dest="cmd", metavar="COMMAND", parser_class=OneLineParser)
     sub.required = True
@@ -471,9 +482,7 @@ _COMMANDS = {"materials": _cmd_materials, "flow-curve": _cmd_flow_curve,
 
 def main(argv=None) -> int:
     """Entry point of the ``rheometer`` console script; returns the exit status."""
-    args, extra = build_parser().parse_known_args(argv)
-    if extra:
-        _refuse_unknown(args, extra)
+    args = build_parser().parse_args(argv)
 
     def body():
         out = _COMMANDS[args.cmd](args)

@@ -73,8 +73,12 @@ STEP_ROWS = rows(3, "a step's start, middle and end")
 
 
 def check_peak_rate(frequency: float, amplitude: float) -> float:
-    """A strain oscillation's peak shear rate 2 pi f gamma0 [1/s], held to :data:`RATE` (the rate
-    limit of every rate the rheometer imposes); ValueError naming the frequency and amplitude."""
+    """A strain oscillation's peak shear rate 2 pi f gamma0 [1/s], held to the rate limit of every
+    rate the rheometer imposes (:data:`PEAK_RATE`); ValueError naming the frequency and amplitude."""
     rate = float(f"{2.0 * math.pi * float(frequency) * float(amplitude):.6g}")   # as shown
-    return float(RATE.check(f"peak shear rate 2 pi f gamma0 at {frequency:g} Hz and strain "
-                            f"amplitude {amplitude:g}", rate))
+    return float(PEAK_RATE.check(f"peak shear rate 2 pi f gamma0 at {frequency:g} Hz and "
+                                 f"strain amplitude {amplitude:g}", rate))
+
+
+#: an oscillation's peak rate: any below the rate limit (a slow one is no steady shear)
+PEAK_RATE = Param(0.0, physical.RATE_MAX, unit="1/s")

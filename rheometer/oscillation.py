@@ -571,7 +571,8 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
         if v.size == 0:
             raise ValueError(f"give at least one {name}")
     # every input checked once, before any point
-    _, _, G, K0, run = _checked(m, phis[0], list(freqs), list(amps), control, label, options)
+    _, _, G, K0, solver = _checked(m, phis[0], list(freqs), list(amps), control, label,
+                                   options)
     for ph in phis[1:]:
         check_phi("phi", ph, m)
     rows, waves, ends = [], [], []
@@ -583,7 +584,7 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
                 try:
                     point, wave, end = _point(m, float(ph), G, K0, float(fr), float(a),
                                               control, state=state, fixed_cycles=False,
-                                              extrapolate=True, **run)
+                                              extrapolate=True, **solver)
                 except RuntimeError as exc:          # this point failed: its own row, no wave
                     what = "strain" if control == "strain" else "stress"
                     run = f"phi = {ph:g}, {fr:g} Hz, {what} amplitude {a:g}"
@@ -609,7 +610,7 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
     waveforms = (pd.concat(waves, ignore_index=True) if waves
                  else pd.DataFrame(columns=WAVE_COLUMNS))[list(WAVE_COLUMNS)]
     points.attrs.update(material=m.name, control=control, G_Pa=G, K0=K0,
-                        tol=run["tol"], seconds=time.perf_counter() - t0,
+                        tol=solver["tol"], seconds=time.perf_counter() - t0,
                         point_seconds=list(seconds), not_converged=int((~points["converged"]).sum()),
                         start=start, ends=ends)
     waveforms.attrs.update(points.attrs)
