@@ -523,6 +523,29 @@ def jacobian_covariance(J: np.ndarray, theta: np.ndarray, lo: np.ndarray, hi: np
     return cov, active, degenerate
 
 
+def interval_statistics(J, theta, lo, hi, s2: float, dof: int, confidence: float, L=None):
+    """The Student-t quantile, standard deviations, correlations, bound and degeneracy flags of
+    estimates ``L theta`` (``L``: the Jacobian of the reported parameters in theta, default
+    the identity) from :func:`jacobian_covariance`: ``(tq, sd, corr, active, degenerate)``,
+    ``corr`` 0 where undefined and 1 on its diagonal."""
+    tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
+    cov, active, degenerate = jacobian_covariance(J, theta, lo, hi, s2)
+    if L is not None:
+        cov = L @ cov @ L.T
+    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd, sd)
+    corr = np.where(np.isfinite(corr), corr, 0.0)
+    np.fill_diagonal(corr, 1.0)
+    return tq, sd, corr, active, degenerate
+
+
+def log_interval(lo: float, hi: float) -> tuple[float, float]:
+    """An interval in ln x as one in x: an end at 0 or inf is unbounded (NaN)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return tuple(float(x) if 0 < x < np.inf else np.nan for x in np.exp([lo, hi]))
+
+
 @dataclass
 class FitResult:
     """What :func:`fit_flow_curves` returns.
@@ -863,15 +886,9 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
         span = P.hi - P.lo
         dof = max(n_in - len(theta), 1)
         s2 = float(np.sum(res.fun ** 2)) / dof
-        tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
-        cov_t, active, degen = jacobian_covariance(J, theta, P.lo, P.hi, s2)
+        tq, sd, corr, active, degen = interval_statistics(J, theta, P.lo, P.hi, s2, dof,
+                                                          confidence, L)
         degenerate = {free_list[k] for k in np.flatnonzero(degen)}
-        cov_p = L @ cov_t @ L.T
-        sd = np.sqrt(np.maximum(np.diag(cov_p), 0.0))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            corr = cov_p / np.outer(sd, sd)
-        corr = np.where(np.isfinite(corr), corr, 0.0)
-        np.fill_diagonal(corr, 1.0)
         names_corr = list(free_list)
         prof = {}
         if profile:
@@ -890,17 +907,15 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
             if p in prof and prof[p] is not None:
                 lo_, hi_ = prof[p]
                 method, flat = "profile", False
-            with np.errstate(over="ignore", invalid="ignore"):
-                if SCALE[p] == "log":    # an end at 0 or inf: unbounded in ln
-                    lo_, hi_ = (float(x) if 0 < x < np.inf else np.nan
-                                for x in np.exp([lo_, hi_]))
-                else:
-                    # a symmetric Jacobian interval may reach past the physical range (phi_c's
-                    # to -0.007 on two fractions): reported within it (0 < phi_c < phi_j < 1,
-                    # 0 <= Delta <= 1, alpha_i >= 0)
-                    top = ((final.phi_j if p == "phi_c" else 1.0)
-                           if p in ("phi_c", "phi_j", "Delta") else np.inf)
-                    lo_, hi_ = float(np.maximum(lo_, 0.0)), float(np.minimum(hi_, top))
+            if SCALE[p] == "log":
+                lo_, hi_ = log_interval(lo_, hi_)
+            else:
+                # a symmetric Jacobian interval may reach past the physical range (phi_c's to
+                # -0.007 on two fractions): reported within it (0 < phi_c < phi_j < 1,
+                # 0 <= Delta <= 1, alpha_i >= 0)
+                top = ((final.phi_j if p == "phi_c" else 1.0)
+                       if p in ("phi_c", "phi_j", "Delta") else np.inf)
+                lo_, hi_ = float(np.maximum(lo_, 0.0)), float(np.minimum(hi_, top))
             why, bound = [], ""
             half = tq * sd[k]
             wide = not flat and ((half > np.log(2.0)) if SCALE[p] == "log" else (

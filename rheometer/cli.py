@@ -62,8 +62,19 @@ _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried
            "(Fig. 15: relaxation times of tens of seconds) and K0 = 1 (Tables 5, 7).")
 
 
+class _Parser(OneLineParser):
+    """The top-level parser: a word no option of the command takes is refused by the command's
+    parser (:func:`_refuse_unknown`)."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        parsed, extra = super().parse_known_args(args, namespace)
+        if extra and getattr(parsed, "cmd", None):
+            _refuse_unknown(parsed, extra)
+        return parsed, extra
+
+
 def build_parser() -> argparse.ArgumentParser:
-    ap = OneLineParser(prog="rheometer", description=__doc__.replace("``", "").replace("::", ":"),
+    ap = _Parser(prog="rheometer", description=__doc__.replace("``", "").replace("::", ":"),
                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=_EPILOG)
     sub = ap.add_subparsers(dest="cmd", metavar="COMMAND", parser_class=OneLineParser)
     sub.required = True
@@ -92,24 +103,24 @@ def build_parser() -> argparse.ArgumentParser:
                        physical.RATE_MIN, physical.RATE_MAX, unit="1/s")),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="shear-rate range [1/s] for --control rate (1e-4 1e3)")
-    p.add_argument("--points", type=Number("--points", 2, 10 ** 6, integer=True), default=200,
+    p.add_argument("--points", type=Option("--points", limits.rows(2, "a curve joins two or "
+                                                                "more values")), default=200,
                    help="values, log-spaced (200)")
 
+    # the imposed value is read here and checked once, by the run's Step (its static range)
+    # and Rheometer.run (the liquid's rate limit), or by _check_relax_stress
     transients = (
         ("startup", "start-up of shear at an imposed rate, from rest", 60.0,
-         ("--rate", 0.5, "imposed shear rate [1/s] (0.5)",
-          Option("--rate", limits.RATE))),
+         ("--rate", 0.5, "imposed shear rate [1/s] (0.5)", "1/s")),
         ("creep", "creep at an imposed mixture shear stress, from rest", 60.0,
-         ("--stress", 10.0, "imposed MIXTURE shear stress [Pa], > 0 (10)",
-          Option("--stress", limits.POSITIVE_STRESS))),
+         ("--stress", 10.0, "imposed MIXTURE shear stress [Pa], > 0 (10)", "Pa")),
         ("relax", "stress relaxation after cessation of steady shear (Fig. 15)", 50.0,
          ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
-                              "[Pa] (1000)",
-          Option("--stress", limits.POSITIVE_STRESS))))
-    for name, text, t_end, (flag, value, flag_help, kind) in transients:
+                              "[Pa] (1000)", "Pa")))
+    for name, text, t_end, (flag, value, flag_help, unit) in transients:
         p = sub.add_parser(name, help=text, epilog=_EPILOG)
         common_options(p, 1, name)
-        p.add_argument(flag, type=kind, default=value, help=flag_help)
+        p.add_argument(flag, type=Option(flag, Param(unit=unit)), default=value, help=flag_help)
         transient_options(p, t_end)
 
     p = sub.add_parser("program", help="a test program from a text file (steps and ramps)",
@@ -124,8 +135,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", nargs="?", default=None, help="program file ('-' for stdin)")
     common_options(p, 1, "program")
     transient_options(p)
-    p.add_argument("--checkpoint-every", type=Number("--checkpoint-every", 0.0, physical.TIME_MAX,
-                                                     lo_closed=False, unit="s"),
+    p.add_argument("--checkpoint-every", type=Option("--checkpoint-every", Param(
+                       gt(0.0, "an interval of computing time"), physical.TIME_MAX, unit="s")),
                    default=60.0, metavar="SECONDS",
                    help="write a checkpoint (the --out name with .checkpoint.npz) every SECONDS "
                         "of computing (60), and always on Ctrl-C / SIGTERM")
@@ -153,7 +164,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--pressure0", type=Option("--pressure0", limits.STRESS),
                    default=None, help="contact pressure at rest [Pa] (default 1e-3 tau*; 0: "
                                       "stress free)")
-    p.add_argument("--f0", type=Number("--f0", 0.0, 1.0), default=None,
+    p.add_argument("--f0", type=Option("--f0", limits.STRUCTURE), default=None,
                    help="initial structure f")
     p.add_argument("--G", type=Option("--G", limits.MODULUS), default=None,
                    help="shear modulus [Pa] (default 1e4)")
@@ -161,11 +172,28 @@ def build_parser() -> argparse.ArgumentParser:
                    help="bulk modulus [Pa] (default 2.18 G)")
     p.add_argument("--K0", type=Option("--K0", limits.K0), default=None,
                    help="structure-rate scale (default 1)")
-    p.add_argument("--points", type=Number("--points", 1, 10 ** 7, integer=True), default=400,
+    p.add_argument("--points", type=Option("--points", limits.rows(1, "the end state", le(
+                       10 ** 7, "1e7 rows make a CSV of about 1 GB"))), default=400,
                    help="output rows (400)")
     _COMMANDS.update(add_subcommands(sub))
     _COMMANDS.update(instrument_cli.add_subcommands(sub))
+    ap.set_defaults(commands=sub.choices)
     return ap
+
+
+def _refuse_unknown(args, extra: list) -> None:
+    """Refuse the words no option of the command takes, by the command's own parser; a word
+    naming a material parameter (``--phi_j=0.3``) is told to use ``--set``."""
+    command = args.commands[args.cmd]
+    fields = {k.lower(): k for k in rheology.materials.FIELD_UNITS}
+    for i, word in enumerate(extra):
+        key, eq, value = word.lstrip("-").partition("=")
+        field = fields.get(key.replace("-", "_").lower())
+        if word.startswith("--") and field is not None and hasattr(args, "set"):
+            value = value if eq else (extra[i + 1] if i + 1 < len(extra) else "VALUE")
+            command.error(f"unrecognized argument {word}: {field} is a parameter of the "
+                          f"material; give --set {field}={value}")
+    command.error(f"unrecognized arguments: {' '.join(extra)}")
 
 
 # ------------------------------------------------------------------ commands
@@ -306,7 +334,7 @@ def _check_relax_stress(args, m) -> None:
     G, _ = skeleton(m, args.G)
     top = elastic_strain_limit_stress(G)
     src = "--G" if args.G is not None else (f"G of {m.name}" if m.G else "the default G")
-    Param(gt(0.0), le(top * (1.0 + 1e-12), (
+    Param(physical.STRESS_MIN, le(top * (1.0 + 1e-12), (
         f"the steady state before cessation would strain the skeleton by stress/G = "
         f"{args.stress / G:.3g}, past the small-elastic-strain limit {ELASTIC_STRAIN_LIMIT:g} of "
         f"the hypoelastic law (G = {G:g} Pa, {src}); lower --stress or raise --G")),
@@ -319,10 +347,12 @@ def _transient(args, kind: str) -> str:
     m = sample.material
     opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True)
     if kind == "startup":
-        df = _per_phi(sample, lambda ph: startup(m, ph, args.rate, args.t_end, **opts))
+        df = _per_phi(sample, lambda ph: startup(m, ph, args.rate, args.t_end, name="--rate",
+                                                 **opts))
         what = f"start-up at {args.rate:g} 1/s"
     elif kind == "creep":
-        df = _per_phi(sample, lambda ph: creep(m, ph, args.stress, args.t_end, **opts))
+        df = _per_phi(sample, lambda ph: creep(m, ph, args.stress, args.t_end, name="--stress",
+                                               **opts))
         what = f"creep at mixture stress {args.stress:g} Pa"
     else:
         _check_relax_stress(args, m)

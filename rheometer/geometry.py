@@ -43,13 +43,44 @@ import pandas as pd
 from scipy.integrate import cumulative_simpson
 
 import rheology
-from runkit.params import check_positive, check_range
+from runkit import limits as physical
+from runkit.limits import Bound, le
+from runkit.params import Param, Schema, check_positive
 
 GEOMETRIES = ("cone-plate", "parallel-plate", "couette")
 #: Default dimensions: a 50 mm 1 degree cone (CP50-1), a 25 mm plate at 1 mm gap (PP25), a
 #: concentric cylinder of 26.66/28.92 mm bob/cup diameter and 40 mm bob length (CC27).
 DEFAULTS = dict(cone_angle_deg=1.0, cone_radius=0.025, plate_radius=0.0125, gap=0.001,
                 bob_radius=0.01333, cup_radius=0.01446, bob_length=0.040)
+#: The cone angle's top and its reason.
+CONE_ANGLE_MAX = 10.0
+CONE_ANGLE_WHY = ("the cone-plate conversions take the angle small (a shear rate Omega/tan(alpha) "
+                  "uniform across the gap); commercial cones are 0.5-4 deg")
+#: a length of the instrument: [1e-6, 10] m (runkit.limits, every tier's lengths)
+LENGTH = Param(physical.LENGTH_MIN, physical.LENGTH_MAX, unit="m")
+_NARROWEST = physical.LENGTH_MIN.value
+_RIM = (f"the gap at the rim, R tan(angle), at least {_NARROWEST:g} m: "
+        f"{physical.LENGTH_MIN.why}")
+_CUP = (f"the cup radius exceeds the bob radius by a gap of at least {_NARROWEST:g} m: "
+        f"{physical.LENGTH_MIN.why}")
+#: a bound derived from another dimension makes its other bound derived too: a refusal states
+#: the whole range at the others (a static top alone would print (-inf, 10])
+CONE_ANGLE = Param(Bound(lambda p: math.degrees(math.atan(_NARROWEST / p["radius"])), True,
+                         _RIM), le(lambda p: CONE_ANGLE_MAX, CONE_ANGLE_WHY), unit="deg")
+#: the dimensions of each geometry as :meth:`Geometry.make` takes them, with their defaults
+DIMENSIONS = {
+    "cone-plate": ({"cone_angle_deg": CONE_ANGLE, "radius": LENGTH},
+                   {"cone_angle_deg": DEFAULTS["cone_angle_deg"],
+                    "radius": DEFAULTS["cone_radius"]}),
+    "parallel-plate": ({"radius": LENGTH, "gap": LENGTH},
+                       {"radius": DEFAULTS["plate_radius"], "gap": DEFAULTS["gap"]}),
+    "couette": ({"bob_radius": LENGTH, "cup_radius": Param(
+        Bound(lambda p: p["bob_radius"] + _NARROWEST, True, _CUP),
+        le(lambda p: physical.LENGTH_MAX.value, physical.LENGTH_MAX.why), unit="m"),
+        "bob_length": LENGTH},
+        {k: DEFAULTS[k] for k in ("bob_radius", "cup_radius", "bob_length")})}
+_WORDS = {"cone_angle_deg": "cone angle", "bob_radius": "bob radius", "cup_radius": "cup radius",
+          "bob_length": "bob length"}
 #: Instrument columns.
 INSTRUMENT_COLUMNS = ("torque_N_m", "rotation_speed_rad_per_s", "apparent_shear_stress_Pa",
                       "apparent_shear_rate_per_s")
@@ -68,6 +99,8 @@ class Geometry:
     gap : plate gap h [m] (parallel-plate)
     cup_radius : cup radius R_o [m] (couette), > R_i
     length : immersed bob length L [m] (couette)
+
+    Made by :meth:`make`, which checks the dimensions.
     """
 
     kind: str
@@ -77,38 +110,23 @@ class Geometry:
     cup_radius: float = 0.0
     length: float = 0.0
 
-    def __post_init__(self):
-        if self.kind not in GEOMETRIES:
-            raise ValueError(f"geometry = {self.kind!r} must be one of {', '.join(GEOMETRIES)}")
-        check_positive("geometry radius [m]", self.radius)
-        if self.kind == "cone-plate":
-            check_range("cone angle [rad]", self.cone_angle, 0.0, math.radians(10.0),
-                        lo_closed=False, note="at most 10 degrees (the small-angle conversions)")
-        elif self.kind == "parallel-plate":
-            check_positive("plate gap [m]", self.gap)
-        else:
-            check_range("cup radius [m]", self.cup_radius, self.radius, None, lo_closed=False,
-                        note=f"larger than the bob radius {self.radius:g} m")
-            check_positive("bob length [m]", self.length)
-
     @classmethod
-    def make(cls, kind: str, *, cone_angle_deg=None, radius=None, gap=None, bob_radius=None,
-             cup_radius=None, bob_length=None) -> "Geometry":
-        """A geometry from the instrument's words (cone angle in degrees), defaults from
-        :data:`DEFAULTS` for what is not given."""
-        d = DEFAULTS
+    def make(cls, kind: str, label=None, **dimensions) -> "Geometry":
+        """A geometry from the instrument's words (``cone_angle_deg``, ``radius``, ``gap``,
+        ``bob_radius``, ``cup_radius``, ``bob_length``; defaults :data:`DEFAULTS`), its
+        dimensions checked once (:data:`DIMENSIONS`: lengths in [1e-6, 10] m, a gap at the rim
+        of at least 1e-6 m, the cone angle at most 10 deg); ValueError with the valid range of
+        a dimension at the others, naming it by ``label(name)`` (default in words)."""
+        if kind not in GEOMETRIES:
+            raise ValueError(f"geometry = {kind!r} must be one of {', '.join(GEOMETRIES)}")
+        params, defaults = DIMENSIONS[kind]
+        d = Schema(params, defaults, label=label or (lambda k: _WORDS.get(k, k)),
+                   where=f"geometry {kind}").check(dimensions)
         if kind == "cone-plate":
-            return cls(kind, radius if radius is not None else d["cone_radius"],
-                       cone_angle=math.radians(cone_angle_deg if cone_angle_deg is not None
-                                               else d["cone_angle_deg"]))
+            return cls(kind, d["radius"], cone_angle=math.radians(d["cone_angle_deg"]))
         if kind == "parallel-plate":
-            return cls(kind, radius if radius is not None else d["plate_radius"],
-                       gap=gap if gap is not None else d["gap"])
-        if kind == "couette":
-            return cls(kind, bob_radius if bob_radius is not None else d["bob_radius"],
-                       cup_radius=cup_radius if cup_radius is not None else d["cup_radius"],
-                       length=bob_length if bob_length is not None else d["bob_length"])
-        raise ValueError(f"geometry = {kind!r} must be one of {', '.join(GEOMETRIES)}")
+            return cls(kind, d["radius"], gap=d["gap"])
+        return cls(kind, d["bob_radius"], cup_radius=d["cup_radius"], length=d["bob_length"])
 
     def describe(self) -> str:
         if self.kind == "cone-plate":

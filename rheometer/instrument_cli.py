@@ -23,10 +23,10 @@ from rheology.materials import RULE, default_fractions, has_dst
 from rheology.run_end import EndedEarly, run_record
 from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_path)
-from runkit.params import Number, Option
+from runkit.params import Option, Param
 
 from . import geometry as geo
-from . import limits, plots
+from . import plots
 from . import oscillation as osc
 from .options import common_options, plot_path, sample_material, skeleton_options
 
@@ -143,34 +143,40 @@ def add_subcommands(sub) -> dict:
     common_options(p, 1, "oscillation")
     p.add_argument("--control", choices=("strain", "stress"), default="strain",
                    help="imposed strain (default) or imposed mixture shear stress")
-    p.add_argument("--strain-amplitude", type=Number("--strain-amplitude", 0.0, 1e3,
-                                                     lo_closed=False),
+    # read here, checked once by rheometer.oscillation (named by their options: _LABELS)
+    p.add_argument("--strain-amplitude", type=Option("--strain-amplitude", Param()),
                    nargs="+", default=None, metavar="A",
                    help="strain amplitude(s) [-] (several: an amplitude sweep; default 10 "
                         "values 1e-3..1)")
-    p.add_argument("--stress-amplitude", type=Option("--stress-amplitude", limits.POSITIVE_STRESS),
+    p.add_argument("--stress-amplitude", type=Option("--stress-amplitude", Param(unit="Pa")),
                    nargs="+", default=None, metavar="S",
                    help="mixture-stress amplitude(s) [Pa] for --control stress (default 10 "
                         "values 0.01..10 tau*)")
-    p.add_argument("--frequency", type=Option("--frequency", limits.FREQUENCY),
+    p.add_argument("--frequency", type=Option("--frequency", Param(unit="Hz")),
                    nargs="+", default=[1.0], metavar="F",
                    help="frequency(ies) [Hz] (several: a frequency sweep; 1)")
-    p.add_argument("--cycles", type=Number("--cycles", 2, 10 ** 5, integer=True),
+    p.add_argument("--cycles", type=Option("--cycles", Param(kind="integer")),
                    default=osc.DEFAULT_MAX_CYCLES,
                    help=f"most cycles per point ({osc.DEFAULT_MAX_CYCLES}); a point not periodic "
                         f"by then is flagged converged = False")
-    p.add_argument("--tol", type=Number("--tol", 1e-12, 0.1), default=osc.DEFAULT_TOL,
+    p.add_argument("--tol", type=Option("--tol", Param()), default=osc.DEFAULT_TOL,
                    help=f"periodic-state tolerance on the cycle-to-cycle change ("
                         f"{osc.DEFAULT_TOL:g})")
-    p.add_argument("--samples", type=Number("--samples", 16, 8192, integer=True),
+    p.add_argument("--samples", type=Option("--samples", Param(kind="integer")),
                    default=osc.DEFAULT_SAMPLES,
                    help=f"samples per cycle ({osc.DEFAULT_SAMPLES})")
     p.add_argument("--start", choices=("rest", "previous"), default="rest",
                    help="each point from rest (default), or from the previous point's state")
     skeleton_options(p)
-    p.add_argument("--rtol", type=Number("--rtol", 1e-12, 1e-3), default=osc.DEFAULT_RTOL,
+    p.add_argument("--rtol", type=Option("--rtol", Param()), default=osc.DEFAULT_RTOL,
                    help=f"IDA relative tolerance ({osc.DEFAULT_RTOL:g})")
     return {"oscillation": _cmd_oscillation}
+
+
+#: the options of rheometer.oscillation's parameters
+_LABELS = {"frequency": "--frequency", "strain amplitude": "--strain-amplitude",
+           "stress amplitude": "--stress-amplitude", "max_cycles": "--cycles", "tol": "--tol",
+           "samples": "--samples", "rtol": "--rtol"}
 
 
 def _cmd_oscillation(args) -> str:
@@ -193,11 +199,12 @@ def _cmd_oscillation(args) -> str:
     points, waves = osc.oscillation_sweep(
         m, sample.phi, frequency=args.frequency, amplitude=amps, control=args.control,
         start=args.start, G=args.G, K0=args.K0, max_cycles=args.cycles, tol=args.tol,
-        samples=args.samples, rtol=args.rtol)
+        samples=args.samples, rtol=args.rtol, label=lambda k: _LABELS.get(k, k))
     ends = points.attrs["ends"]
     failed = points["reason"] != ""
     if not (~failed).any():
-        raise RuntimeError(f"every point failed; the first: {ends[0].line()}")
+        first = ends[0].line() if ends else points["reason"].iloc[0]
+        raise RuntimeError(f"every point failed; the first: {first}")
     g = sample.geometry
     if g is not None:
         points = points.copy()
@@ -210,7 +217,7 @@ def _cmd_oscillation(args) -> str:
     empty = tuple(geo.normalised_name(c) if m.units == "normalised" else c for c in empty)
     # empty where undefined: tan_delta if G' <= 0, cycle_change if fewer than two cycles
     # compared; a failed point's results (its row says why), checked finite in the others
-    ok = ("tan_delta", "cycle_change")
+    ok = ("tan_delta", "cycle_change", "not_periodic_why")
     check_finite(table[~failed.to_numpy()], Path(args.out).name, ok)
     unit = geo.normalised_name if m.units == "normalised" else (lambda c: c)
     empty_failed = tuple(unit(c) for c in osc.FAILED_EMPTY) + (
@@ -247,8 +254,9 @@ def _cmd_oscillation(args) -> str:
     bad = ran[~ran["converged"].astype(bool)]
     if len(bad):
         msg += ("\nWARNING: not periodic within --cycles " f"{args.cycles}: " + ", ".join(
-            f"phi {r.phi:g} {r.frequency_Hz:g} Hz amplitude {r.strain_amplitude:.3g} (change "
-            f"{r.cycle_change:.2g})" for r in bad.itertuples()))
+            f"phi {r.phi:g} {r.frequency_Hz:g} Hz amplitude {r.strain_amplitude:.3g} "
+            f"({r.not_periodic_why})" for r in bad.itertuples())
+                + " (column not_periodic_why)")
     if len(past):
         msg += (f"\nWARNING: {len(past)}/{len(points)} points strain the skeleton elastically "
                 f"past {ELASTIC_STRAIN_LIMIT:g} (taubar/G up to "

@@ -1,10 +1,12 @@
 """The rheometer's input limits: the physical limits of :mod:`runkit.limits` (each with its
-reason, printed with a refusal) as they apply here, and the rheometer's own counts.
+reason, printed with a refusal) as they apply here, the rheometer's own bounds and the numerical
+ones (solver tolerances, output rows), each with the reason for its number.
 
 - A duration (``--t-end``, ``--dt``, a program step) is at least 1 ps, the molecular
   relaxation time of the liquid; a program step must also be resolvable by the run's clock
   where it starts (IDA's t is one double): at least :func:`clock_floor` of its start time.
-- K0 <= 1e6 (the paper's sets use 0.06-1); oscillation cycles <= 1e5 per step.
+- An imposed rate or stress is 0 (rest) or within the physical range; K0 <= 1e6 (the structure
+  changes over a grain displacement of at least a molecular size); oscillation cycles <= 1e5.
 - One :class:`~runkit.params.Param` per quantity: the command line's options (their
   :class:`~runkit.params.Option`), a program line and a :class:`~rheometer.transient.Step`
   (checked once, by the Step or the :class:`Start`).
@@ -13,7 +15,7 @@ reason, printed with a refusal) as they apply here, and the rheometer's own coun
 import math
 
 from runkit import limits as physical
-from runkit.limits import CLOCK_RESOLUTION, clock_floor, gt, le  # noqa: F401
+from runkit.limits import CLOCK_RESOLUTION, CLOCK_WHY, clock_floor, ge, gt, le, lt  # noqa: F401
 from runkit.params import Param
 
 TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
@@ -22,23 +24,61 @@ RATE_MIN, RATE_MAX = physical.RATE_MIN.value, physical.RATE_MAX.value
 K0_MAX, CYCLES_MAX, STRAIN_MAX = 1e6, 1e5, physical.STRAIN_MAX.value
 FREQUENCY_MIN = physical.FREQUENCY_MIN.value
 
-#: the quantities of the options, a program line and a step
-RATE = Param(0.0, physical.RATE_MAX, unit="1/s")
-STRESS = Param(0.0, physical.STRESS_MAX, unit="Pa")
-POSITIVE_STRESS = Param(gt(0.0), physical.STRESS_MAX, unit="Pa")
+#: the quantities of the options, a program line and a step (0: rest, no stress)
+RATE = Param(physical.RATE_MIN, physical.RATE_MAX, unit="1/s", also=(0.0,))
+STRESS = Param(physical.STRESS_MIN, physical.STRESS_MAX, unit="Pa", also=(0.0,))
+POSITIVE_STRESS = Param(physical.STRESS_MIN, physical.STRESS_MAX, unit="Pa")
 MODULUS = Param(physical.MODULUS_MIN, physical.MODULUS_MAX, unit="Pa")
-K0 = Param(0.0, le(K0_MAX, "six decades above the paper's structure-rate scales, 0.06-1 "
-                         "(Tables 5 and 7)"))
+K0 = Param(ge(0.0, "K0 = 0: a structure that does not evolve"), le(K0_MAX, (
+    "f evolves over a plastic strain 1/K0 (Eq. 5); contacts form and break over a grain "
+    "displacement of at least a molecular size (~1 nm), a strain of 1e-6 for 1 mm grains (the "
+    "paper's K0: 0.06-1, Tables 5 and 7)")))
 DURATION = Param(physical.TIME_MIN, physical.TIME_MAX, unit="s")
-STRAIN = Param(gt(0.0), physical.STRAIN_MAX)
+STRAIN = Param(gt(0.0, "a strain step or amplitude moves the sample"), physical.STRAIN_MAX)
 AMPLITUDE = {"strain": STRAIN, "stress": POSITIVE_STRESS}
 FREQUENCY = Param(physical.FREQUENCY_MIN, physical.FREQUENCY_MAX, unit="Hz")
-CYCLES = Param(gt(0.0), le(CYCLES_MAX, "each cycle sampled at least 32 times"))
+CYCLES = Param(gt(0.0, "an oscillation runs for some cycles"), le(CYCLES_MAX, (
+    "more than any oscillatory test (1e5 cycles at 1 Hz take 28 hours, over which a sample "
+    "dries and ages)")))
+#: the structure f: a fraction of the contacts (Eq. 5)
+STRUCTURE = Param(ge(0.0, "f is a fraction"), le(1.0, "f is a fraction"))
+
+#: numerical bounds: IDA's relative tolerance, output rows, an oscillation's sampling
+RTOL = Param(ge(1e-13, "500 times the rounding of a double (2.2e-16): tighter, IDA's error "
+                       "test fails on rounding alone"),
+             le(1e-2, "looser leaves fewer than two correct digits in the results"))
+OSCILLATION_RTOL = Param(ge(1e-12, "the harmonics' cycle-to-cycle changes (--tol >= 1e-12) "
+                                   "must exceed the solver's error"),
+                         le(1e-3, "looser leaves the third harmonic (I3/I1 ~ 1e-3 near the "
+                                  "linear limit) within the solver's error"))
+TOL = Param(ge(1e-12, "the cycle-to-cycle change of a periodic state is at least the solver's "
+                      "error (--rtol >= 1e-12)"),
+            le(0.1, "a change of 10% a cycle is not a periodic state"))
+SAMPLES = Param(ge(16, "16 samples a cycle resolve the third harmonic (I3/I1) several times "
+                       "over its Nyquist limit of 6"),
+                le(8192, "a cycle's rows at 8192 samples: finer adds no digits to the "
+                         "harmonics and fills the waveform table"), kind="integer")
+MAX_CYCLES = Param(ge(2, "a periodic state is two cycles that agree"), CYCLES.hi, kind="integer")
+#: output rows: at least both ends and the middle of a step; at most 1e6 (a CSV of ~100 MB)
+_ROWS_MAX = le(10 ** 6, "1e6 rows make a CSV of about 100 MB, more than a figure or a fit uses")
+
+
+def rows(least: int, why: str, most: physical.Bound = _ROWS_MAX) -> Param:
+    """The output rows of a command: at least ``least`` (``why``), at most ``most``."""
+    return Param(ge(least, why), most, kind="integer")
+
+
+#: the rows of a transient's step
+STEP_ROWS = rows(3, "a step's start, middle and end")
 
 
 def check_peak_rate(frequency: float, amplitude: float) -> float:
-    """A strain oscillation's peak shear rate 2 pi f gamma0 [1/s], held to :data:`RATE` (the rate
-    limit of every rate the rheometer imposes); ValueError naming the frequency and amplitude."""
+    """A strain oscillation's peak shear rate 2 pi f gamma0 [1/s], held to the rate limit of every
+    rate the rheometer imposes (:data:`PEAK_RATE`); ValueError naming the frequency and amplitude."""
     rate = float(f"{2.0 * math.pi * float(frequency) * float(amplitude):.6g}")   # as shown
-    return float(RATE.check(f"peak shear rate 2 pi f gamma0 at {frequency:g} Hz and strain "
-                            f"amplitude {amplitude:g}", rate))
+    return float(PEAK_RATE.check(f"peak shear rate 2 pi f gamma0 at {frequency:g} Hz and "
+                                 f"strain amplitude {amplitude:g}", rate))
+
+
+#: an oscillation's peak rate: any below the rate limit (a slow one is no steady shear)
+PEAK_RATE = Param(0.0, physical.RATE_MAX, unit="1/s")

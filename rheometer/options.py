@@ -3,14 +3,14 @@
 figure path) and the :class:`Sample` they describe, resolved once (:func:`sample_material`) and
 passed to :mod:`rheometer.cli`'s and :mod:`rheometer.instrument_cli`'s commands.
 
-Every option is checked once: its static range by its :class:`runkit.params.Number` while
-parsing, a bound that depends on the material (``--phi`` below phi_j, ``--set`` against the
+Every option is checked once: its static range by its :class:`runkit.params.Option` while
+parsing (or, where a library function checks it, by that function, named as the option), a
+bound that depends on the material (``--phi`` below phi_j, ``--set`` against the
 material's other fields, a geometry's dimensions against each other) when the sample is
 resolved, with the valid range at the other values."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,17 +20,17 @@ import rheology
 from rheology.materials import (FIELD_UNITS, Material, default_fraction, default_fractions,
                                 set_argument, set_overrides)
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
-from runkit import limits as physical
 from runkit.io import check_output_path
-from runkit.limits import Bound, le
-from runkit.params import Number, Option, OutOfRange, Param, Schema, valid_interval
+from runkit.params import Number, Option, OutOfRange, Param, valid_interval
 
 from . import geometry as geo
 from . import limits
 from .transient import check_phi
 
 DEFAULT_MATERIAL = "hermes2016"
-#: ``--phi``: its static range; the bound phi < phi_j of the material is :class:`Sample`'s
+#: ``--phi`` of the fit commands: its static range (a measured fraction, checked by
+#: rheology.data); a measuring command's --phi is read as a number and checked once, in
+#: (0, phi_j) of the material, by :class:`Sample`
 PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
 
 
@@ -39,29 +39,8 @@ def _flag(key: str) -> str:
     return "--" + key.replace("_", "-")
 
 
-#: a length of the instrument: [1e-6, 10] m (runkit.limits: micro-gap rheometers to a 10 m bed)
-LENGTH = Param(physical.LENGTH_MIN, physical.LENGTH_MAX, unit="m")
-_NARROWEST = physical.LENGTH_MIN.value
-_RIM = (f"the gap at the rim, R tan(angle), at least {_NARROWEST:g} m: "
-        f"{physical.LENGTH_MIN.why}")
-_CUP = (f"the cup radius exceeds the bob radius by a gap of at least {_NARROWEST:g} m: "
-        f"{physical.LENGTH_MIN.why}")
-CONE_ANGLE = Param(Bound(lambda p: math.degrees(math.atan(_NARROWEST / p["radius"])), True,
-                         _RIM), le(10.0, "the small-angle conversions"), unit="deg")
 _d = geo.DEFAULTS
-#: the dimensions of each geometry (defaults :data:`rheometer.geometry.DEFAULTS`), one schema
-#: each: a refusal states a dimension's valid range at the others
-DIMENSIONS = {
-    "cone-plate": Schema({"cone_angle": CONE_ANGLE, "radius": LENGTH},
-                         {"cone_angle": _d["cone_angle_deg"], "radius": _d["cone_radius"]},
-                         label=_flag, where="--geometry cone-plate"),
-    "parallel-plate": Schema({"radius": LENGTH, "gap": LENGTH},
-                             {"radius": _d["plate_radius"], "gap": _d["gap"]},
-                             label=_flag, where="--geometry parallel-plate"),
-    "couette": Schema({"bob_radius": LENGTH, "cup_radius": Param(
-        Bound(lambda p: p["bob_radius"] + _NARROWEST, True, _CUP), physical.LENGTH_MAX, unit="m"),
-        "bob_length": LENGTH}, {k: _d[k] for k in ("bob_radius", "cup_radius", "bob_length")},
-        label=_flag, where="--geometry couette")}
+_NAMES = {"cone_angle": "cone_angle_deg"}          # option dest -> Geometry.make's name
 
 
 def add_instrument_options(p) -> None:
@@ -70,23 +49,23 @@ def add_instrument_options(p) -> None:
                              "rate by the standard conversions)")
     g.add_argument("--geometry", choices=geo.GEOMETRIES, default=None,
                    help="cone-plate | parallel-plate | couette (default: none, sample values only)")
-    g.add_argument("--cone-angle", type=Option("--cone-angle", CONE_ANGLE), default=None,
+    g.add_argument("--cone-angle", type=Option("--cone-angle", Param(unit="deg")), default=None,
                    help=f"cone angle [deg] (cone-plate; {_d['cone_angle_deg']:g})")
-    g.add_argument("--radius", type=Option("--radius", LENGTH), default=None,
+    g.add_argument("--radius", type=Option("--radius", Param(unit="m")), default=None,
                    help=f"cone or plate radius [m] ({_d['cone_radius']:g} cone, "
                         f"{_d['plate_radius']:g} plate)")
     for key, what, kind in (("gap", "plate gap", "parallel-plate"),
                             ("bob_radius", "bob radius", "couette"),
                             ("cup_radius", "cup radius", "couette"),
                             ("bob_length", "immersed bob length", "couette")):
-        g.add_argument(_flag(key), type=Option(_flag(key), LENGTH), default=None,
+        g.add_argument(_flag(key), type=Option(_flag(key), Param(unit="m")), default=None,
                        help=f"{what} [m] ({kind}; {_d[key]:g})")
     add_mass_fraction_options(p)
 
 
 def geometry_of(args) -> geo.Geometry | None:
-    """The geometry of ``--geometry`` and its dimensions, checked once (:data:`DIMENSIONS`;
-    None without it); ValueError when a dimension of another geometry is given."""
+    """The geometry of ``--geometry`` and its dimensions, checked once (by
+    :meth:`~rheometer.geometry.Geometry.make`; None without it); ValueError when a dimension of another geometry is given."""
     kind = getattr(args, "geometry", None)
     given = {k: getattr(args, k) for k in ("cone_angle", "radius", "gap", "bob_radius",
                                            "cup_radius", "bob_length")
@@ -96,14 +75,17 @@ def geometry_of(args) -> geo.Geometry | None:
             raise ValueError(f"{_flag(next(iter(given)))} needs --geometry "
                              f"(cone-plate, parallel-plate or couette)")
         return None
-    schema = DIMENSIONS[kind]
-    wrong = [k for k in given if k not in schema.params]
+    params = geo.DIMENSIONS[kind][0]
+    wrong = [k for k in given if _NAMES.get(k, k) not in params]
     if wrong:
         raise ValueError(f"{_flag(wrong[0])} is not a dimension of --geometry {kind} "
-                         f"(its dimensions: {', '.join(map(_flag, schema.params))})")
-    dims = schema.check(given)
-    names = {"cone_angle": "cone_angle_deg"}
-    return geo.Geometry.make(kind, **{names.get(k, k): v for k, v in dims.items()})
+                         f"(its dimensions: {', '.join(map(_option, params))})")
+    return geo.Geometry.make(kind, label=_option, **{_NAMES.get(k, k): v for k, v in given.items()})
+
+
+def _option(name: str) -> str:
+    """The option of a dimension of :meth:`rheometer.geometry.Geometry.make`."""
+    return _flag({v: k for k, v in _NAMES.items()}.get(name, name))
 
 
 def _range_without(label: str, v: float, x0: float, ok, unit: str = "") -> str | None:
@@ -240,7 +222,8 @@ def common_options(p, phi_count, out_default):
     phi_default = default_phis(phi_count)
     p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
                    help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
-    p.add_argument("--phi", type=PHI, nargs="+", default=None, metavar="PHI",
+    p.add_argument("--phi", type=Option("--phi", Param()), nargs="+", default=None,
+                   metavar="PHI",
                    help=("volume fraction(s) (default: "
                          + ("the material's reference fraction" if len(phi_default) == 1 else
                             f"{len(phi_default)} fractions around the material's reference")
@@ -272,9 +255,9 @@ def transient_options(p, t_end=None):
     if t_end is not None:
         p.add_argument("--t-end", type=Option("--t-end", limits.DURATION), default=t_end,
                        help=f"duration [s] (default {t_end:g})")
-    p.add_argument("--rtol", type=Number("--rtol", 1e-13, 1e-2), default=1e-7,
+    p.add_argument("--rtol", type=Option("--rtol", limits.RTOL), default=1e-7,
                    help="IDA relative tolerance (1e-7)")
-    p.add_argument("--points", type=Number("--points", 3, 10 ** 6, integer=True), default=300,
+    p.add_argument("--points", type=Option("--points", limits.STEP_ROWS), default=300,
                    help="output rows per step (300)")
 
 

@@ -69,9 +69,10 @@ from rheology import laws
 from rheology.run_end import RunEnd
 from rheology.steady import steady_fold
 from runkit.ida import IDAFailed, Solver, captured
-from runkit.params import check_positive, check_range
+from runkit.limits import ge, le
+from runkit.params import Param, check_positive
 
-from . import model
+from . import limits, model
 from .harmonics import elastic_viscous, harmonics
 from .limits import check_peak_rate
 from .transient import check_phi, skeleton
@@ -94,9 +95,11 @@ POINT_COLUMNS = ("phi", "control", "frequency_Hz", "angular_frequency_rad_per_s"
                  "storage_modulus_Pa", "loss_modulus_Pa", "complex_viscosity_Pa_s", "tan_delta",
                  "I3_over_I1", "linear_storage_modulus_Pa", "linear_loss_modulus_Pa",
                  "mean_f", "max_f", "max_elastic_strain", "cycles", "extrapolations",
-                 "cycle_change", "converged", "reason")
+                 "cycle_change", "converged", "reason", "not_periodic_why")
 #: Columns of a point that failed (IDA, or an unphysical state) left empty (null) in its row;
-#: ``reason`` holds the solver's diagnostics (empty for the points that ran).
+#: ``reason`` holds the solver's diagnostics (empty for the points that ran);
+#: ``not_periodic_why`` says which test of the periodic state a point that ran failed (empty
+#: when periodic).
 FAILED_EMPTY = ("strain_amplitude", "stress_amplitude_Pa", "peak_stress_Pa",
                 "storage_modulus_Pa", "loss_modulus_Pa", "complex_viscosity_Pa_s", "tan_delta",
                 "I3_over_I1", "mean_f", "max_f", "max_elastic_strain", "cycles",
@@ -188,11 +191,20 @@ def drive(mode: int, amplitude: float, omega: float, t0: float = 0.0) -> np.ndar
 def _periodic(changes, tol: float) -> bool:
     """Periodic steady state: the last cycle-to-cycle change and its geometric projection
     ``d r/(1 - r)`` (r the ratio of the last two changes) are both below ``tol``."""
+    return not _not_periodic_why(changes, tol)
+
+
+def _not_periodic_why(changes, tol: float) -> str:
+    """Which test of :func:`_periodic` fails, with the change d and its projection ("": none)."""
     if len(changes) < 2:
-        return False
+        return f"fewer than two cycle-to-cycle changes ({len(changes)})"
     d, d0 = changes[-1], changes[-2]
     r = d / d0 if d0 > 0 else 0.0
-    return d < tol and (r < 1.0 and d * r / (1.0 - r) < tol)
+    projected = d * r / (1.0 - r) if r < 1.0 else float("inf")
+    if d < tol and projected < tol:
+        return ""
+    return (f"change d = {d:.2g}, projected change d r/(1-r) = {projected:.2g} (r = {r:.2g}); "
+            f"both must be < tol = {tol:g}")
 
 
 def _extrapolate(starts, r_min: float = 0.3, r_max: float = 0.99, cos_min: float = 0.99):
@@ -239,7 +251,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
               control: str = "strain", G: float | None = None, K0: float | None = None,
               max_cycles: int = DEFAULT_MAX_CYCLES, min_cycles: int = 2, tol: float = DEFAULT_TOL,
               samples: int = DEFAULT_SAMPLES, rtol: float = DEFAULT_RTOL, state=None,
-              fixed_cycles: bool = False, extrapolate: bool = True):
+              fixed_cycles: bool = False, extrapolate: bool = True, label=str):
     """One oscillatory test run to the periodic steady state.
 
     Parameters
@@ -273,6 +285,8 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
         Accelerate a slow approach to the periodic state by Newton steps on the cycle map
         (module docstring); the reported cycle is always an integrated one, compared with the
         integrated cycle before it.
+    label : callable
+        What a refusal calls a parameter, ``label(name)`` (the command line: its option).
 
     Returns
     -------
@@ -287,21 +301,48 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
     RuntimeError
         IDA failed or returned an unphysical state (with time, state and solver counters).
     """
-    m, phi, G, K0 = _moduli(material, phi, G, K0)
+    m, phi, G, K0, run = _checked(material, phi, [frequency], [amplitude], control, label,
+                                  dict(G=G, K0=K0, max_cycles=max_cycles, min_cycles=min_cycles,
+                                       tol=tol, samples=samples, rtol=rtol))
+    return _point(m, phi, G, K0, float(frequency), float(amplitude), control, state=state,
+                  fixed_cycles=fixed_cycles, extrapolate=extrapolate, **run)
+
+
+def _checked(material, phi, freqs, amps, control, label, options) -> tuple:
+    """(material, phi, G, K0, the solver's options) with every input checked once: the
+    frequencies and amplitudes (:mod:`rheometer.limits`, the peak rate of the largest), named
+    by ``label(name)``; ValueError."""
+    m, phi, G, K0 = _moduli(material, phi, options.get("G"), options.get("K0"))
     if control not in ("strain", "stress"):
         raise ValueError(f"control = {control!r} must be 'strain' or 'stress'")
-    freq = float(check_positive("frequency [Hz]", frequency))
-    amp = float(check_positive("strain amplitude [-]" if control == "strain"
-                               else "stress amplitude [Pa]", amplitude))
+    for f in freqs:
+        limits.FREQUENCY.check(label("frequency"), f)
+    for a in amps:
+        limits.AMPLITUDE[control].check(label(f"{control} amplitude"), a)
     if control == "strain":
-        check_peak_rate(freq, amp)
-    max_cycles = int(check_range("max_cycles", max_cycles, 1, 10 ** 5))
-    min_cycles = int(check_range("min_cycles", min_cycles, 1, max_cycles,
-                                 note=f"at most max_cycles = {max_cycles}"))
-    tol = float(check_range("tol", tol, 1e-12, 1.0, lo_closed=True))
-    samples = int(check_range("samples", samples, 16, 8192))
-    rtol = float(check_range("rtol", rtol, 1e-12, 1e-3))
+        check_peak_rate(max(freqs), max(amps))
+    run = dict(max_cycles=DEFAULT_MAX_CYCLES, min_cycles=2, tol=DEFAULT_TOL,
+               samples=DEFAULT_SAMPLES, rtol=DEFAULT_RTOL)
+    unknown = set(options) - {"G", "K0", *run}
+    if unknown:
+        raise TypeError(f"unknown options {sorted(unknown)}")
+    run.update({k: v for k, v in options.items() if k in run})
+    for k, p in _RUN.items():
+        run[k] = p.check(label(k), run[k])
+    Param(ge(1, "a periodic state compares cycles"), le(run["max_cycles"], (
+        f"at most max_cycles = {run['max_cycles']}")), kind="integer").check(
+        label("min_cycles"), run["min_cycles"])
+    return m, phi, G, K0, run
 
+
+#: the solver's options of a point and their valid values
+_RUN = {"max_cycles": limits.MAX_CYCLES, "tol": limits.TOL, "samples": limits.SAMPLES,
+        "rtol": limits.OSCILLATION_RTOL}
+
+
+def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, samples, rtol,
+           state, fixed_cycles, extrapolate):
+    """One point of :func:`oscillate`, its inputs checked."""
     P = model.parameters(m, phi, G, K0)
     lin = maxwell(m, phi, G)
     omega = 2.0 * np.pi * freq
@@ -473,6 +514,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
                  max_elastic_strain=float(np.max(np.abs(taubar))) / G, cycles=cycle,
                  cycle_change=changes[-1] if changes else np.nan, converged=converged,
                  extrapolations=jumps, reason="",
+                 not_periodic_why="" if converged else _not_periodic_why(changes, tol),
                  seconds=time.perf_counter() - t0)
     if mode == STRAIN:
         el, vi = elastic_viscous(sigma)
@@ -489,7 +531,7 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
 
 # ------------------------------------------------------------------ sweeps
 def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: str = "strain",
-                      start: str = "rest", **options) -> tuple[pd.DataFrame, pd.DataFrame]:
+                      start: str = "rest", label=str, **options) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Amplitude and/or frequency sweep: every (phi, frequency, amplitude) combination, in the
     order given (phi outermost, then frequency, then amplitude).
 
@@ -505,7 +547,8 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
     start : {"rest", "previous"}
         Each point from rest, or from the final state of the previous point at the same phi.
     **options
-        Passed to :func:`oscillate` (G, K0, max_cycles, min_cycles, tol, samples, rtol).
+        As for :func:`oscillate` (G, K0, max_cycles, min_cycles, tol, samples, rtol; ``label``
+        names them in a refusal).
 
     Returns
     -------
@@ -527,11 +570,11 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
     for name, v in (("phi", phis), ("frequency", freqs), ("amplitude", amps)):
         if v.size == 0:
             raise ValueError(f"give at least one {name}")
-    check_positive("frequency [Hz]", freqs)
-    check_positive("amplitude", amps)
-    if control == "strain":
-        check_peak_rate(freqs.max(), amps.max())
-    _moduli(m, phis[0], options.get("G"), options.get("K0"))     # bad input before any point
+    # every input checked once, before any point
+    _, _, G, K0, solver = _checked(m, phis[0], list(freqs), list(amps), control, label,
+                                   options)
+    for ph in phis[1:]:
+        check_phi("phi", ph, m)
     rows, waves, ends = [], [], []
     t0 = time.perf_counter()
     for ph in phis:
@@ -539,13 +582,14 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
         for fr in freqs:
             for a in amps:
                 try:
-                    point, wave, end = oscillate(m, ph, fr, a, control=control, state=state,
-                                                 **options)
+                    point, wave, end = _point(m, float(ph), G, K0, float(fr), float(a),
+                                              control, state=state, fixed_cycles=False,
+                                              extrapolate=True, **solver)
                 except RuntimeError as exc:          # this point failed: its own row, no wave
                     what = "strain" if control == "strain" else "stress"
                     run = f"phi = {ph:g}, {fr:g} Hz, {what} amplitude {a:g}"
                     ends.append(RunEnd("solver_failure", str(exc), run=run))
-                    lin = complex(linear_modulus(m, ph, fr, options.get("G")))
+                    lin = complex(maxwell(m, ph, G).modulus(2.0 * np.pi * fr))
                     rows.append(_failed_point(ph, control, fr, a, lin, str(exc)))
                     state = None
                     continue
@@ -565,9 +609,8 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
         points[c] = points[c].astype("Int64")
     waveforms = (pd.concat(waves, ignore_index=True) if waves
                  else pd.DataFrame(columns=WAVE_COLUMNS))[list(WAVE_COLUMNS)]
-    _, _, G, K0 = _moduli(m, phis[0], options.get("G"), options.get("K0"))
     points.attrs.update(material=m.name, control=control, G_Pa=G, K0=K0,
-                        tol=options.get("tol", DEFAULT_TOL), seconds=time.perf_counter() - t0,
+                        tol=solver["tol"], seconds=time.perf_counter() - t0,
                         point_seconds=list(seconds), not_converged=int((~points["converged"]).sum()),
                         start=start, ends=ends)
     waveforms.attrs.update(points.attrs)
@@ -582,6 +625,6 @@ def _failed_point(phi, control, frequency, amplitude, linear, reason) -> dict:
     row.update(phi=phi, control=control, frequency_Hz=frequency,
                angular_frequency_rad_per_s=2.0 * np.pi * frequency, converged=False,
                linear_storage_modulus_Pa=linear.real, linear_loss_modulus_Pa=linear.imag,
-               reason=reason, seconds=nan)
+               reason=reason, not_periodic_why="", seconds=nan)
     row["strain_amplitude" if control == "strain" else "stress_amplitude_Pa"] = amplitude
     return row

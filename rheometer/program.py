@@ -142,7 +142,13 @@ def _oscillation(g, lineno: int, line: str):
         duration = cycles / freq if freq != 0 else float("inf")
     else:
         duration = float(n) * _TIME[nu.lower()]
-    return Step(what, amp, ramp="sine", frequency=freq, duration=duration, label=line)
+    return Step(what, amp, ramp="sine", frequency=freq, duration=duration, label=line,
+                name=_name(lineno, line, what))
+
+
+def _name(lineno: int, line: str, control: str) -> str:
+    """What a refusal calls the imposed value of a program line (at parsing or at the run)."""
+    return f"program line {lineno}: imposed {control} of {line!r}"
 
 
 def _is_rate_unit(unit: str) -> bool:
@@ -200,10 +206,12 @@ def parse_program(text: str) -> Program:
                     start = Start("rate", float(g[1]))
                 continue
             if word == "shear":
-                step = Step("rate", float(g[0]), label=line, **_end(g[2:8], lineno, line))
+                step = Step("rate", float(g[0]), label=line, name=_name(lineno, line, "rate"),
+                            **_end(g[2:8], lineno, line))
             elif word == "stress":
                 scale = _stress_unit(g[1], lineno)
-                step = Step("stress", float(g[0]) * scale, label=line, **_end(g[2:8], lineno, line))
+                step = Step("stress", float(g[0]) * scale, label=line,
+                            name=_name(lineno, line, "stress"), **_end(g[2:8], lineno, line))
             elif word == "oscillate":
                 step = _oscillation(g, lineno, line)
             elif word == "rest":
@@ -216,13 +224,13 @@ def parse_program(text: str) -> Program:
                                      f"{'1/s' if what == 'rate' else 'Pa'}, got {unit}")
                 scale = 1.0 if what == "rate" else _stress_unit(unit, lineno)
                 ramp = "linear" if (kind or "log").lower() in ("linear", "lin") else "log"
-                step = Step("rate" if what == "rate" else "stress", float(a) * scale,
-                            float(b) * scale, ramp=ramp, duration=float(T) * _TIME[tu.lower()],
-                            label=line)
+                step = Step(what, float(a) * scale, float(b) * scale, ramp=ramp,
+                            duration=float(T) * _TIME[tu.lower()], label=line,
+                            name=_name(lineno, line, what))
             if step.duration is not None:
                 Param(ge(limits.clock_floor(t_start), (
                     f"too short for the run's clock where the step starts, t >= {t_start:g} s: "
-                    f"{limits.CLOCK_RESOLUTION:g} of the start time")), limits.DURATION.hi,
+                    f"{limits.CLOCK_WHY}")), limits.DURATION.hi,
                     unit="s").check("duration", step.duration)
             t_start += step.duration if step.strain is None else 0.0
         except ValueError as exc:

@@ -19,6 +19,7 @@ import pandas as pd
 import rheology
 from rheology.run_end import EndedEarly
 
+from .limits import POSITIVE_STRESS
 from .program import Program, Start, parse_program
 from .transient import Rheometer, State, Step
 
@@ -87,22 +88,25 @@ def flow_curve(material, phi, *, stress=None, rate=None, control: str = "stress"
 
 # ------------------------------------------------------------------ transients
 def startup(material, phi: float, rate: float, t_end: float, *, G=None, K0=None, f0: float = 0.0,
-            points: int = 300, **options) -> pd.DataFrame:
+            points: int = 300, name: str = "", **options) -> pd.DataFrame:
     """Start-up of steady shear: rate ``rate`` [1/s] imposed from rest (structure ``f0``) for
     ``t_end`` [s]. ``options`` go to :class:`Rheometer` (rtol, atol, form, jacobian). Every
-    transient's inputs are checked once, by :class:`Rheometer` and :class:`Step`."""
+    transient's inputs are checked once, by :class:`Rheometer` and :class:`Step` (``name``: what
+    a refusal calls the rate, e.g. the command line's option)."""
     r = Rheometer(material, phi, G=G, K0=K0, **options)
-    return r.run([Step("rate", float(rate), duration=float(t_end), label=f"shear at {rate:g} 1/s")],
-                 r.rest(f0), points=points)
+    return r.run([Step("rate", float(rate), duration=float(t_end),
+                       label=f"shear at {rate:g} 1/s", name=name)], r.rest(f0), points=points)
 
 
 def creep(material, phi: float, stress: float, t_end: float, *, G=None, K0=None, f0: float = 0.0,
-          points: int = 300, **options) -> pd.DataFrame:
+          points: int = 300, name: str = "", **options) -> pd.DataFrame:
     """Creep: mixture shear stress ``stress`` [Pa] imposed from rest for ``t_end`` [s]; the
-    fluid carries it at once (gdot(0) = stress/(eta0 (1 + 5/2 phi))), the skeleton loads up."""
+    fluid carries it at once (gdot(0) = stress/(eta0 (1 + 5/2 phi))), the skeleton loads up.
+    ``stress`` > 0 (at zero the sample never leaves rest); ``name`` as for :func:`startup`."""
     r = Rheometer(material, phi, G=G, K0=K0, **options)
     return r.run([Step("stress", float(stress), duration=float(t_end),
-                       label=f"stress {stress:g} Pa")], r.rest(f0), points=points)
+                       label=f"stress {stress:g} Pa", name=name, quantity=POSITIVE_STRESS)],
+                 r.rest(f0), points=points)
 
 
 def relax(material, phi: float, stress: float, t_end: float, *, G=None, K0=None,

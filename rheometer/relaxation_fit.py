@@ -18,7 +18,7 @@ model's slope). Start: G from the record's decay time (the frozen-structure time
 eta_g = taubar0/gdot0 of the steady state), the best of K0 in 0.01..100 and G in 0.3..3 times that,
 t0 where that start's model passes the first reading.
 
-Intervals and flags as :mod:`rheology.fit` (:func:`rheology.fit.jacobian_covariance`,
+Intervals and flags as :mod:`rheology.fit` (:func:`rheology.fit.interval_statistics`,
 Student-t; ln G and ln K0 the reporting coordinates): ``at_bound`` (K0 at its floor is the law's
 limit K0 = 0, a frozen structure; any other bound is a problem), ``unidentifiable`` (interval
 wider than a factor 2 for G and K0, unbounded or undefined (null), |r| > 0.99 between G and
@@ -35,13 +35,12 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 from scipy.interpolate import CubicHermiteSpline
 from scipy.optimize import least_squares
 
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
-from rheology.fit import CORR_FLAG, ParameterEstimate, jacobian_covariance
+from rheology.fit import CORR_FLAG, ParameterEstimate, interval_statistics, log_interval
 from rheology.materials import Material
 from runkit.params import check_range
 
@@ -294,13 +293,7 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
     r = np.concatenate([e[0] for e in ev])
     dof = max(r.size - th.size, 1)
     s2 = float(np.sum(r ** 2)) / dof
-    tq = float(stats.t.ppf(0.5 + confidence / 2, dof))
-    J = jac(th)
-    cov, active, degen = jacobian_covariance(J, th, lo, hi, s2)
-    sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = np.where(np.isfinite(cov / np.outer(sd, sd)), cov / np.outer(sd, sd), 0.0)
-    np.fill_diagonal(corr, 1.0)
+    tq, sd, corr, active, degen = interval_statistics(jac(th), th, lo, hi, s2, dof, confidence)
     converged = bool(res.status > 0)
     delta_f = np.array([e[2] for e in ev])
     last = np.array([c.stress.min() / c.stress0 for c in curves])
@@ -319,9 +312,8 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
                        if bound == "law" else
                        f"at the fitter's {'lower' if at_low else 'upper'} search bound")
             lo_, hi_ = (th[k], hi_) if at_low else (lo_, th[k])
-        with np.errstate(over="ignore", invalid="ignore"):
-            if is_scale:                 # an end at 0 or inf: unbounded in ln
-                lo_, hi_ = (float(x) if 0 < x < np.inf else np.nan for x in np.exp([lo_, hi_]))
+        if is_scale:
+            lo_, hi_ = log_interval(lo_, hi_)
         wide = is_scale and not flat and tq * sd[k] > np.log(2.0)
         # the offsets t0 trade with G by the model's form (a later cessation looks like a faster
         # decay when the record starts late): their marginal intervals carry it

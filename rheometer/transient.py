@@ -62,7 +62,7 @@ def check_phi(name: str, phi, m: Material, where: str = "") -> float:
     """The volume fraction ``phi`` in (0, phi_j) of ``m``: the one check of every entry point
     (the command line's ``--phi`` too); ValueError naming ``name``."""
     why = f"{where}below phi_j = {m.phi_j:g} of {m.name}: no steady flow at or above it"
-    return float(Param(gt(0.0), lt(m.phi_j, why)).check(name, phi))
+    return float(Param(gt(0.0, "a suspension holds grains"), lt(m.phi_j, why)).check(name, phi))
 
 
 def skeleton(m: Material, G=None, K0=None) -> tuple[float, float]:
@@ -100,6 +100,12 @@ class Step:
         Text shown in plots and tables (e.g. the program line).
     frequency : float or None
         Frequency of an oscillation [Hz] (only with ``ramp="sine"``).
+    name : str
+        What a refusal calls the imposed value: the option or program line it came from
+        (default ``"imposed <control>"``).
+    quantity : runkit.params.Param or None
+        Its valid values (default :data:`rheometer.limits.RATE` or ``STRESS``); the one static
+        check, the liquid's rate limit is :meth:`Rheometer.run`'s (it needs eta_F).
     """
 
     control: str
@@ -111,6 +117,8 @@ class Step:
     max_time: float = DEFAULT_MAX_TIME
     label: str = ""
     frequency: float | None = None
+    name: str = ""
+    quantity: Param | None = None
 
     def __post_init__(self) -> None:
         if self.control not in ("rate", "stress", "strain"):
@@ -128,9 +136,10 @@ class Step:
         if self.end is None:
             object.__setattr__(self, "end", self.start)
         if not self.oscillation:
-            value = limits.RATE if self.control == "rate" else limits.STRESS
-            value.check(f"imposed {self.control}", self.start)
-            value.check(f"imposed {self.control} at the end of the ramp", self.end)
+            value = self.quantity or (limits.RATE if self.control == "rate" else limits.STRESS)
+            value.check(self.value_name, self.start)
+            if self.end != self.start:
+                value.check(f"{self.value_name} at the end of the ramp", self.end)
         if self.ramp == "log" and (self.start <= 0 or self.end <= 0):
             unit = "1/s" if self.control == "rate" else "Pa"
             raise ValueError(f"a log ramp needs positive values, got {self.start:g} to "
@@ -161,6 +170,11 @@ class Step:
             raise ValueError("an oscillation runs for a number of cycles, not until a strain")
         if self.duration is None:
             raise ValueError("an oscillation needs a duration (cycles/frequency)")
+
+    @property
+    def value_name(self) -> str:
+        """What a refusal calls the imposed value."""
+        return self.name or f"imposed {self.control}"
 
     @property
     def t_max(self) -> float:
@@ -293,7 +307,7 @@ class Rheometer:
         m = self.material
         self.phi = check_phi("phi", phi, m)
         self.G, self.K0 = skeleton(m, G, K0)
-        self.rtol = float(check_range("rtol", rtol, 1e-13, 1e-2))
+        self.rtol = float(limits.RTOL.check("rtol", rtol))
         self.atol = float(check_positive("atol", atol)) if atol is not None else 1e-3 * self.rtol
         if form not in ("dae", "ode"):
             raise ValueError(f"form = {form!r} must be 'dae' or 'ode'")
@@ -346,14 +360,16 @@ class Rheometer:
         steps = list(steps)
         if not steps:
             raise ValueError("a test needs at least one step")
-        points = int(check_range("points", points, 3, 10 ** 6))
-        liquid = Param(0.0, le(limits.RATE_MAX * self.eta_fluid, (
+        points = int(limits.STEP_ROWS.check("points", points))
+        liquid = le(limits.RATE_MAX * self.eta_fluid, (
             f"the liquid alone takes an imposed stress at once, at the rate stress/eta_F (eta_F "
             f"= eta0 (1 + 5/2 phi) = {self.eta_fluid:.4g} Pa s): up to the largest shear rate "
-            f"{limits.RATE_MAX:g} 1/s")), unit="Pa")
-        for step in steps:
+            f"{limits.RATE_MAX:g} 1/s"))
+        for step in steps:             # the step's own range, its top lowered to the liquid's
             if step.control == "stress":
-                liquid.check("imposed stress", max(abs(step.start), abs(step.end)))
+                own = step.quantity or limits.STRESS
+                Param(own.lo, liquid, unit="Pa", also=own.also).check(
+                    step.value_name, max(abs(step.start), abs(step.end)))
         self._points = points
         stats = RunStats()
         pieces: list[_Piece] = []

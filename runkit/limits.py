@@ -26,15 +26,17 @@ speed         [1e-18, 1e4] m/s        a molecular size (1 nm) in 30 years; faste
 gravity       [1e-3, 1e3] m/s^2       below the surface gravity of the smallest bodies with a
                                       grain bed (Phobos 5.7e-3); 100 g, a geotechnical
                                       centrifuge
-frequency     [1e-9, 1e9] Hz          a period within the longest duration; the rate bound
+frequency     [1e-9, 1e9] Hz          a period within the longest duration; a period of 1000
+                                      molecular relaxation times (the liquid stays Newtonian)
 strain        (0, 1e6]                about 1e4 turns of a cone-plate or narrow-gap Couette
-                                      (a strain of ~60-80 per turn), past any test
+                                      (~60-80 per turn): longer, the sample changes (drying,
+                                      migration, attrition)
 memory        <= 1/2 of what is free  the rest of the machine keeps working
 ============  ======================  =====================================================
 
 Numerical and resource limits (not physics; stated with their reason): a step of a run starting
 at t lasts at least :data:`CLOCK_RESOLUTION` t (:func:`clock_floor`: the run's clock is one
-double), :data:`MAX_STEPS` explicit steps of a run (a day on one core at the smallest scene),
+double, and a step's up to 1e6 output rows need distinct times), :data:`MAX_STEPS` explicit steps of a run (a day on one core at the smallest scene),
 :data:`MAX_CELL_STEPS` cell-steps of an explicit 1-D run (hours). Sources: the structural
 (hydrogen-bond) relaxation time of water, ~1 ps; moduli and densities from standard tables
 (diamond G = 478 GPa, osmium 22,590 kg/m^3).
@@ -84,9 +86,11 @@ le, lt = ge, gt
 TIME_MIN = ge(1e-12, "1 ps, the molecular relaxation time of the liquid: below it the "
                      "Newtonian liquid, and the continuum suspension, has no meaning")
 TIME_MAX = le(1e9, "30 years, past any experiment")
-#: a duration starting at t must be at least CLOCK_RESOLUTION t (room for its output rows and
-#: the solver's steps on a clock that is one double)
+#: a duration starting at t must be at least CLOCK_RESOLUTION t: the clock is one double (t
+#: to 2.2e-16 t), and a step writes up to 1e6 rows, 1e-15 t apart at this length: ~5 doubles
 CLOCK_RESOLUTION = 1e-9
+CLOCK_WHY = (f"{CLOCK_RESOLUTION:g} of the start time: the run's clock is one double (t to "
+             "2.2e-16 t) and a step's up to 1e6 output rows must fall on distinct times")
 RATE_MIN = ge(1e-9, "1/(30 years): slower shear reaches no steady state within the longest "
                     "duration (a strain of order one)")
 RATE_MAX = le(1e9, "past impact and ultrasonic rheometry")
@@ -114,9 +118,13 @@ GRAVITY_MIN = ge(1e-3, "below the surface gravity of the smallest bodies with a 
                        "(Phobos 5.7e-3 m/s^2)")
 GRAVITY_MAX = le(1e3, "100 g, a geotechnical centrifuge")
 FREQUENCY_MIN = ge(1.0 / TIME_MAX.value, "a period within the longest duration, 30 years")
-FREQUENCY_MAX = le(RATE_MAX.value, "the largest shear rate")
+FREQUENCY_MAX = le(1e9, "a period of 1 ns, a thousand molecular relaxation times of the "
+                        "liquid (~1 ps): above it the liquid is no longer Newtonian (omega "
+                        "tau_liquid > 0.01); ultrasonic shear rheometry reaches ~1e8 Hz")
 STRAIN_MAX = le(1e6, "about 1e4 turns of a cone-plate or narrow-gap Couette (a strain of ~60-80 "
-                     "per turn), past any test")
+                     "per turn): sheared longer, the sample itself changes (evaporation at the "
+                     "rim, migration out of the gap, grain attrition), which the model leaves "
+                     "out")
 #: share of the free memory one run may take
 MEMORY_FRACTION = 0.5
 #: explicit steps of a run (1e8 steps of the smallest mpm2d scene take about a day on one core)

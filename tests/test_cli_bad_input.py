@@ -228,7 +228,8 @@ def test_rheometer_options_refused_not_ignored(argv, words, tmp_path, monkeypatc
     (["flow-curve", "--geometry", "parallel-plate", "--radius", "1e-300", "--points", "5"],
      "--radius = 1e-300 is outside the valid range [1e-06, 10] m (the narrowest micro-gap"),
     (["flow-curve", "--geometry", "couette", "--cup-radius", "1e-300", "--points", "5"],
-     "--cup-radius = 1e-300 is outside the valid range [1e-06, 10] m"),
+     "--cup-radius = 1e-300 is outside the valid range [0.013331, 10] m (the cup radius exceeds "
+     "the bob radius by a gap of at least 1e-06 m"),
     # named as the option, with the range its own check and the bob's leave, and the reason
     (["flow-curve", "--geometry", "couette", "--cup-radius", "0.005", "--points", "5"],
      "--cup-radius = 0.005 is outside the valid range [0.013331, 10] m (the cup radius exceeds "

@@ -51,8 +51,10 @@ def _run(argv, tmp_path, monkeypatch, capsys):
 @pytest.mark.parametrize("argv, match", [
     (["rheometer", "relax", "--G", "-1e4"], "--G = -1e4 is outside the valid range [1, 1e+12] Pa"),
     (["rheometer", "relax", "--G", "-inf"], "--G = -inf: must be finite; valid range [1, 1e+12]"),
-    (["rheometer", "startup", "--rate", "-1e-3"], "--rate = -1e-3 is outside the valid range"),
-    (["rheometer", "flow-curve", "--phi", "0.5", "-1e-2"], "--phi = -1e-2 is outside"),
+    (["rheometer", "startup", "--rate", "-1e-3"],
+     "--rate = -0.001 is outside the valid range [1e-09, 1e+09] 1/s, or 0"),
+    (["rheometer", "flow-curve", "--phi", "0.5", "-1e-2"],
+     "--phi = -0.01 is outside the valid range (0, 0.535) (a suspension holds grains)"),
     (["rheometer", "relax", "--phi", "-nan"], "--phi = -nan: must be finite"),
     (["shear1d", "couette", "--speed", "-1e-2"],
      "--speed = -0.01 is outside the valid range (0, 1.53156] m/s"),

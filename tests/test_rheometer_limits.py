@@ -158,7 +158,7 @@ def test_oscillation_period_within_the_longest_duration(tmp_path, monkeypatch, c
     _refused(capsys, ["oscillation", "--frequency", "1e-300"], "--frequency = 1e-300",
              "[1e-09, 1e+09] Hz")
     with pytest.raises(ValueError, match=r"oscillation frequency = 1e\+300 is outside the valid "
-                                         r"range \[1e-09, 1e\+09\] Hz \(the largest shear rate"):
+                                         r"range \[1e-09, 1e\+09\] Hz \(a period of 1 ns"):
         parse_program("oscillate at 1e300 Hz with strain 0.01 for 10 cycles")
     assert os.listdir(tmp_path) == []
 
@@ -179,6 +179,101 @@ def test_creep_stress_the_liquid_would_carry_past_the_rate_limit_is_refused(tmp_
                                                                              monkeypatch, capsys):
     """Before: creep at 1e12 Pa wrote a row at t = 1.35e-15 s (below 1 ps) and ended early."""
     monkeypatch.chdir(tmp_path)
-    _refused(capsys, ["creep", "--stress", "1e12"], "imposed stress = 1e+12",
-             "[0, 1.35e+07] Pa", "largest shear rate 1e+09 1/s")
+    _refused(capsys, ["creep", "--stress", "1e12"], "--stress = 1e+12",
+             "[1e-12, 1.35e+07] Pa", "largest shear rate 1e+09 1/s")
     assert os.listdir(tmp_path) == []
+
+
+# ---------------------------------------------------------------- a fresh user's findings (2)
+def test_creep_stress_past_the_liquid_limit_names_the_option_as_typed(tmp_path, monkeypatch,
+                                                                      capsys):
+    """Before: 'imposed stress = 1e+08 ...' (the Step's name, not the option)."""
+    monkeypatch.chdir(tmp_path)
+    err = _refused(capsys, ["creep", "--stress", "1e8"], "--stress = 1e+08 is outside the valid "
+                   "range [1e-12, 1.35e+07] Pa (the liquid alone takes an imposed stress at once")
+    assert "imposed stress =" not in err
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("value", ["1e-300", "1e-13"])
+def test_creep_stress_below_the_physical_stress_is_refused(value, tmp_path, monkeypatch, capsys):
+    """Before: --stress 1e-300 ran (exit 0); STRESS_MIN is 1e-12 Pa."""
+    monkeypatch.chdir(tmp_path)
+    _refused(capsys, ["creep", "--stress", value], f"--stress = {value}",
+             "[1e-12, 1e+12] Pa", "the stress water carries at the slowest rate")
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_program_stress_past_the_liquid_limit_names_its_line_and_text(tmp_path, monkeypatch,
+                                                                        capsys):
+    """Before: 'imposed stress = 1e+08 ...' without the program line."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "p.txt").write_text("rest for 1 s\nstress 1e8 Pa for 1 s\n")
+    _refused(capsys, ["program", "p.txt"], "program line 2: imposed stress of 'stress 1e8 Pa "
+             "for 1 s' = 1e+08 is outside the valid range [1e-12, 1.35e+07] Pa, or 0",
+             "the liquid alone takes an imposed stress at once")
+    assert sorted(os.listdir(tmp_path)) == ["p.txt"]
+    with pytest.raises(ValueError, match=r"program line 1: imposed stress of 'stress 1e-300 Pa "
+                                         r"for 1 s' = 1e-300 is outside the valid range "
+                                         r"\[1e-12, 1e\+12\] Pa, or 0"):
+        parse_program("stress 1e-300 Pa for 1 s")
+
+
+@pytest.mark.parametrize("angle, why", [("89", "the cone-plate conversions take the angle small"),
+                                        ("-1", "the gap at the rim")])
+def test_cone_angle_refusal_shows_its_real_range_and_reason(angle, why, tmp_path, monkeypatch,
+                                                            capsys):
+    """Before: --cone-angle 89 showed the range (-inf, 10] deg."""
+    monkeypatch.chdir(tmp_path)
+    err = _refused(capsys, ["flow-curve", "--geometry", "cone-plate", "--cone-angle", angle],
+                   f"--cone-angle = {angle} is outside the valid range (0.00229183, 10] deg", why)
+    assert "-inf" not in err
+
+
+@pytest.mark.parametrize("argv, line", [
+    (["flow-curve", "--phi_j=0.3"], "--phi_j=0.3: phi_j is a parameter of the material; give "
+                                    "--set phi_j=0.3"),
+    (["creep", "--phi-j", "0.3"], "--phi-j: phi_j is a parameter of the material; give --set "
+                                  "phi_j=0.3"),
+    (["flow-curve", "--bogus", "1"], "rheometer flow-curve: error: unrecognized arguments: "
+                                     "--bogus 1")])
+def test_a_material_parameter_given_as_an_option_is_pointed_to_set(argv, line, tmp_path,
+                                                                   monkeypatch, capsys):
+    """Before: 'rheometer: error: unrecognized arguments: --phi_j=0.3 (see rheometer --help)'."""
+    monkeypatch.chdir(tmp_path)
+    err = _refused(capsys, argv, line, f"(see rheometer {argv[0]} --help)")
+    assert os.listdir(tmp_path) == []
+    assert err.startswith(f"rheometer {argv[0]}: error:")
+
+
+@pytest.mark.parametrize("kind, dims, words", [
+    ("couette", dict(cup_radius=20.0), "cup radius = 20 is outside the valid range [0.013331, 10] m"),
+    ("parallel-plate", dict(radius=1e-7), "radius = 1e-07 is outside the valid range [1e-06, 10] m"),
+    ("parallel-plate", dict(gap=11.0), "gap = 11 is outside the valid range [1e-06, 10] m"),
+    ("couette", dict(bob_length=1e-300), "bob length = 1e-300 is outside the valid range "
+                                         "[1e-06, 10] m (the narrowest micro-gap rheometers)")])
+def test_geometry_lengths_are_every_tiers_lengths(kind, dims, words):
+    """Before: Geometry took any positive length (a 20 m cup from Python); now runkit.limits'
+    LENGTH_MIN..LENGTH_MAX, the lengths of every tier, checked once by Geometry.make."""
+    from rheometer.geometry import Geometry
+    with pytest.raises(ValueError) as exc:
+        Geometry.make(kind, **dims)
+    assert words in str(exc.value)
+
+
+def test_not_periodic_points_say_why_in_their_own_column(tmp_path, monkeypatch, capsys):
+    """Before: the warning printed only the change d (the test also needs d r/(1-r) < tol); a
+    note in ``reason`` would count the point failed. Now both in column not_periodic_why, and
+    ``reason`` stays empty for every point that ran."""
+    import pandas as pd
+    monkeypatch.chdir(tmp_path)
+    assert main(["oscillation", "--strain-amplitude", "0.01", "--cycles", "3", "--tol", "1e-10",
+                 "--plot", "none"]) == 0
+    out = capsys.readouterr().out
+    assert "WARNING: not periodic within --cycles 3" in out
+    assert "change d = " in out and "projected change d r/(1-r) = " in out
+    pts = pd.read_csv("oscillation.csv", keep_default_na=False)
+    assert {"reason", "not_periodic_why", "cycle_change", "converged"} <= set(pts.columns)
+    assert (pts["reason"] == "").all()
+    assert pts["not_periodic_why"].iloc[0].startswith("change d = ")
+    assert "both must be < tol = 1e-10" in pts["not_periodic_why"].iloc[0]

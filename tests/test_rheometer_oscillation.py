@@ -182,17 +182,18 @@ def test_points_past_the_small_strain_limit_are_flagged(tmp_path, monkeypatch, c
 
 # ------------------------------------------------------------------ a point that fails
 def _failing_at(monkeypatch, bad_amplitude):
-    """oscillate as it is, except that the point at ``bad_amplitude`` fails as IDA does."""
-    real = osc.oscillate
+    """A sweep's point (its inputs checked) as it is, except that the point at
+    ``bad_amplitude`` fails as IDA does."""
+    real = osc._point
 
-    def oscillate(material, phi, frequency, amplitude, **kw):
+    def point(m, phi, G, K0, frequency, amplitude, control, **kw):
         if amplitude == bad_amplitude:
             raise RuntimeError(f"IDA failed in oscillation at phi = {phi:g}, {frequency:g} Hz, "
                                f"strain amplitude {amplitude:g}, cycle 3, t = 2.5 s: "
                                "the corrector convergence failed repeatedly")
-        return real(material, phi, frequency, amplitude, **kw)
+        return real(m, phi, G, K0, frequency, amplitude, control, **kw)
 
-    monkeypatch.setattr(osc, "oscillate", oscillate)
+    monkeypatch.setattr(osc, "_point", point)
 
 
 def test_a_failed_point_keeps_its_row_and_the_other_points(monkeypatch):

@@ -139,7 +139,8 @@ def test_oscillation_lines_parse():
      r"line 1: cycles = 0 is outside the valid range \(0, 100000\]"),
     ("oscillate at 1 Hz with strain 0.01 for 1e9 cycles", r"line 1: cycles = 1e\+09 is outside"),
     ("shear at 1e20 1/s for 1 s",
-     r"line 1: imposed rate = 1e\+20 is outside the valid range \[0, 1e\+09\] 1/s \(past"),
+     r"line 1: imposed rate of 'shear at 1e20 1/s for 1 s' = 1e\+20 is outside the valid range "
+     r"\[1e-09, 1e\+09\] 1/s, or 0 \(past"),
     ("oscillate at 1e400 Hz with strain 0.01 for 10 cycles",
      r"line 1: oscillation frequency = inf: must be finite; valid range \[1e-09, 1e\+09\] Hz"),
     ("shear at 1 1/s for 1e20 s", r"line 1: duration = 1e\+20 is outside"),
