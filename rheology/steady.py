@@ -32,8 +32,10 @@ TAUBAR_MAX_FACTOR = 1e100
 RATE_MIN = 1e-300
 
 
-def _phi_below_jamming(phi, m: Material) -> np.ndarray:
-    return check_range("phi", phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
+def below_jamming(phi, m: Material, name: str = "phi") -> np.ndarray:
+    """``phi`` as a float array in (0, phi_j) of ``m``: the one check of a volume fraction that
+    flows; :class:`runkit.params.OutOfRange` naming ``name`` else."""
+    return check_range(name, phi, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
                        note=f"steady flow needs phi below phi_j = {m.phi_j} of {m.name}")
 
 
@@ -45,7 +47,7 @@ def granular_viscosity(phi, f, m: Material | str) -> np.ndarray:
     (mu_c unless mu_2 != mu_c).
     """
     m = get_material(m)
-    phi = _phi_below_jamming(phi, m)
+    phi = below_jamming(phi, m)
     f = check_range("f", f, 0.0, 1.0)
     phim = laws.phi_m(f, m.phi_c, m.phi_j)
     a = laws.dilatancy_a(f, m.a0, m.a_inf)
@@ -66,7 +68,7 @@ def relative_viscosity(phi, f, m: Material | str) -> np.ndarray:
 def normal_viscosity(phi, f, m: Material | str) -> np.ndarray:
     """Eq. (2): eta_n = p/(eta0 gdot) = 2 (a phi/(phi_m - phi))^2 [-]; ``inf`` when jammed."""
     m = get_material(m)
-    phi = _phi_below_jamming(phi, m)
+    phi = below_jamming(phi, m)
     f = check_range("f", f, 0.0, 1.0)
     y = laws.phi_m(f, m.phi_c, m.phi_j) - phi
     a = laws.dilatancy_a(f, m.a0, m.a_inf)
@@ -209,16 +211,16 @@ def steady_state_stress(taubar, phi, m: Material | str) -> SteadyFlow:
         is not representable in double precision (a shear rate below 1e-300 1/s or overflowing,
         e.g. eta0 = 1e300 Pa s), naming taubar, phi and eta0.
     """
-    with np.errstate(all="ignore"):          # every result is checked: _check_representable
-        return _steady_state_stress(taubar, phi, m)
-
-
-def _steady_state_stress(taubar, phi, m) -> SteadyFlow:
     m = get_material(m)
     taubar = check_range("taubar", taubar, 0.0, TAUBAR_MAX_FACTOR * m.tau_star,
                          note=f"{TAUBAR_MAX_FACTOR:.0e} tau* of {m.name}: beyond, the hardening "
                               f"H = (taubar/tau*)^(3/2) leaves double precision")
-    phi = _phi_below_jamming(phi, m)
+    return _steady(taubar, below_jamming(phi, m), m)
+
+
+@np.errstate(all="ignore")                   # every result is checked: _check_representable
+def _steady(taubar, phi, m: Material) -> SteadyFlow:
+    """:func:`steady_state_stress` at checked arrays taubar and phi."""
     taubar, phi = (x.astype(float).copy() for x in np.broadcast_arrays(taubar, phi))
     dphi = m.phi_j - m.phi_c
     fm = laws.f_max(phi, m.phi_c, m.phi_j, m.Delta)
@@ -298,7 +300,7 @@ def _trace(phi, lo, hi, n, m: Material):
     """The stress-parametrised steady curve on a log grid of taubar between lo and hi (per phi)."""
     s = np.linspace(0.0, 1.0, n)
     taus = np.exp(np.log(lo)[:, None] + (np.log(hi) - np.log(lo))[:, None] * s[None, :])
-    return taus, steady_state_stress(taus, np.broadcast_to(phi[:, None], taus.shape), m)
+    return taus, _steady(taus, np.broadcast_to(phi[:, None], taus.shape), m)
 
 
 def _empty() -> SteadyFlow:
@@ -309,7 +311,7 @@ def _empty() -> SteadyFlow:
 
 def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi_factor: float):
     target = check_positive(control, target)
-    phi = _phi_below_jamming(phi, m)
+    phi = below_jamming(phi, m)
     points_per_decade = int(check_range("points_per_decade", points_per_decade, 4, 1e5))
     target, phi = (np.ravel(x).astype(float) for x in np.broadcast_arrays(target, phi))
     if target.size == 0:
@@ -339,7 +341,7 @@ def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi
     up = r > 0
 
     def resid(logt, tg, ph):
-        return value(steady_state_stress(np.exp(logt), ph, m)) - tg
+        return value(_steady(np.exp(logt), ph, m)) - tg
 
     # brackets (row, log taubar lo, hi, stable): the sign changes on the grid, plus pairs of
     # states at a fold that falls between grid points (the target within a grid step of an
@@ -380,7 +382,7 @@ def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi
         res = elementwise.find_root(resid, (a[open_], b[open_]), args=(tg[open_], ph[open_]),
                                     tolerances=dict(xatol=1e-13, xrtol=4e-16))
         x[open_] = res.x
-    st_root = steady_state_stress(np.exp(x), ph, m)
+    st_root = _steady(np.exp(x), ph, m)
     branch = np.zeros(i.size, dtype=int)
     for q in range(1, i.size):
         branch[q] = branch[q - 1] + 1 if i[q] == i[q - 1] else 0

@@ -24,7 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from runkit.params import check_range
+from runkit.limits import LENGTH_MAX, LENGTH_MIN, Bound, ge, le
+from runkit.params import Param
 
 KINDS = ("plane", "annular")
 
@@ -35,6 +36,18 @@ CELL_MIN_GRAINS = 1.0
 #: Smallest bob radius, in grain diameters: the bob is a continuum wall only if its curvature
 #: radius is many grains.
 R_INNER_MIN_GRAINS = 10.0
+
+#: Cells across the gap: at least 4 (a shear profile and a front need cells inside the gap
+#: besides the two at the walls), at most 20000 (the explicit method's cost grows as cells^2).
+CELLS = Param(ge(4, "fewer cells resolve no shear profile across the gap (a front needs cells "
+                    "inside it besides the two at the walls)"),
+              le(20000, "the explicit method's cost grows as cells^2: hours at 20000"),
+              kind="integer")
+#: The bob radius (annular) or the gap (plane) [m]: the physical lengths (runkit.limits).
+LENGTH = Param(LENGTH_MIN, LENGTH_MAX, unit="m")
+#: The cup radius [m]: beyond the bob, at most the largest length.
+R_OUTER = Param(Bound(lambda p: p["inner"], False, lambda p: f"the cup must lie beyond the bob, "
+                      f"a radius of {p['inner']:g} m"), LENGTH_MAX, unit="m")
 
 
 def min_gap(n_cells: int, d: float) -> float:
@@ -55,7 +68,10 @@ class Grid:
         Positions of the moving and the fixed wall [m]: the bob radius R_i and the cup radius R_o
         (annular, 0 < R_i < R_o), or 0 and the gap H (plane).
     n : int
-        Number of cells, >= 4.
+        Number of cells, :data:`CELLS`.
+
+    Raises ValueError (:class:`runkit.params.OutOfRange` naming ``n_cells``, ``r_inner``,
+    ``r_outer`` or ``gap``) outside :data:`CELLS`, :data:`LENGTH`, :data:`R_OUTER`.
     """
 
     kind: str
@@ -66,14 +82,13 @@ class Grid:
     centres: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        if self.kind not in KINDS:
-            raise ValueError(f"geometry kind = {self.kind!r} must be one of {KINDS}")
-        if isinstance(self.n, bool) or not isinstance(self.n, (int, np.integer)) or self.n < 4:
-            raise ValueError(f"n_cells = {self.n!r} must be an integer >= 4")
-        lo = 0.0 if self.kind == "annular" else None
-        check_range("inner wall position", self.inner, lo, None, lo_closed=self.kind != "annular")
-        check_range("outer wall position", self.outer, self.inner, None, lo_closed=False,
-                    note="the fixed wall must lie beyond the moving wall")
+        Param(kind="choice", choices=KINDS).check("geometry kind", self.kind)
+        object.__setattr__(self, "n", CELLS.check("n_cells", self.n))
+        if self.annular:
+            LENGTH.check("r_inner", self.inner)
+            R_OUTER.check("r_outer", self.outer, dict(inner=self.inner))
+        else:
+            LENGTH.check("gap", self.outer - self.inner)
         faces = np.linspace(self.inner, self.outer, self.n + 1)
         object.__setattr__(self, "faces", faces)
         object.__setattr__(self, "centres", 0.5 * (faces[1:] + faces[:-1]))

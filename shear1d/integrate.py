@@ -40,7 +40,8 @@ from rheology.flow_rule import invariants
 from rheology.run_end import EndedEarly, RunEnd
 from runkit.ida import IDAFailed, Solver
 from runkit.io import CorruptCheckpoint
-from runkit.params import check_positive, check_range
+from runkit.limits import TIME_MAX, TIME_MIN, ge, gt, le
+from runkit.params import Param, check_range
 from runkit.run import Checkpoint, Progress, drive
 
 from . import analysis, kernels
@@ -54,6 +55,23 @@ FLOW_STOP_LEVEL = 0.1
 #: Largest BDF order of IDA: BDF1-2 are A-stable (BDF3-5 are not near the imaginary axis), and
 #: the jammed band is an elastic solid whose grid-scale shear waves only the fluid viscosity damps.
 MAX_ORDER = 2
+
+#: IDA's relative tolerance (and the rate form's step, delta = rtol x the flow time).
+RTOL = Param(ge(1e-12, "IDA reaches no tighter tolerance: each step's error is then the "
+                       "rounding of its doubles (~1e-16) summed over 1e4-1e6 steps"),
+             le(1e-2, "a looser tolerance leaves fewer than two meaningful digits, and its "
+                      "delta = rtol x the flow time smears the start-up"))
+#: The explicit step [s] (at most the stability limit: :func:`check_time_step`).
+DT = Param(gt(0.0, "a time step advances the clock"), unit="s")
+#: The duration of a run [s] (runkit.limits).
+DURATION = Param(TIME_MIN, TIME_MAX, unit="s")
+#: Output intervals of a run.
+OUTPUTS = Param(ge(1, "the end of the run is its one output"),
+                le(100000, "more profiles than any figure or file resolves (1e5 rows per cell)"),
+                kind="integer")
+#: Wall-time seconds between checkpoints.
+CHECKPOINT_EVERY = Param(gt(0.0, "a checkpoint takes time to write: an interval of 0 would "
+                                 "write one at every output"), unit="s")
 
 
 @dataclass
@@ -139,7 +157,7 @@ def check_time_step(problem: Couette, dt: float, name: str = "dt",
                     instead: str = "method='ida'") -> float:
     """Return dt if the explicit scheme is stable with it, else ValueError naming ``name``, the
     limit and its parts, and ``instead``."""
-    check_positive(name, dt, note="s")
+    DT.check(name, dt)
     lim = stable_time_step(problem)
     if dt > lim["dt"]:
         parts = (f"elastic shear waves ~dx/c: {lim['dt_wave']:.3g} s, fluid viscosity "
@@ -399,16 +417,14 @@ class _Run:
 
 # ----------------------------------------------------------------------------- driver
 def output_times(t_end: float, n_out: int = 200, t_out=None) -> np.ndarray:
-    """Output times from 0: ``t_out`` if given (increasing, starting at 0), else n_out intervals."""
+    """Output times from 0: ``t_out`` if given (increasing, starting at 0), else n_out intervals
+    to t_end (:data:`DURATION`, :data:`OUTPUTS`)."""
     if t_out is not None:
         t_out = check_range("t_out", np.asarray(t_out, dtype=float), 0.0, None)
         if t_out.ndim != 1 or t_out.size < 2 or np.any(np.diff(t_out) <= 0) or t_out[0] != 0:
             raise ValueError("t_out must be an increasing 1-D array starting at 0 s")
         return t_out
-    check_positive("t_end", t_end, note="s")
-    if isinstance(n_out, bool) or int(n_out) != n_out or n_out < 1:
-        raise ValueError(f"n_out = {n_out!r} must be a positive integer")
-    return np.linspace(0.0, float(t_end), int(n_out) + 1)
+    return np.linspace(0.0, DURATION.check("t_end", t_end), OUTPUTS.check("n_out", n_out) + 1)
 
 
 #: Floats held per cell and output by a run and its post-processing (states, diagnostics, the
@@ -424,25 +440,76 @@ def memory_estimate(n_cells: int, n_out: int, runs: int = 1) -> float:
     return float(runs) * FLOATS_PER_CELL_OUTPUT * 8.0 * n_cells * (n_out + 1) + 50e6
 
 
+@dataclass(frozen=True)
+class Plan:
+    """A run's settings, checked once by :func:`prepare` and integrated by :func:`integrate`:
+    output ``times``, ``dt`` and the stability limits ``lim`` (explicit), the
+    :class:`shear1d.dae.FullLawDAE` (method ``"dae"``)."""
+
+    problem: Couette
+    method: str
+    times: np.ndarray
+    rtol: float
+    dt: float | None = None
+    lim: dict | None = None
+    dae: dae_mod.FullLawDAE | None = None
+    checkpoint: object = None
+    checkpoint_every: float = 60.0
+    resume: bool = False
+
+    @property
+    def setting(self) -> float:
+        """The step (explicit) or the tolerance that identifies the run's checkpoint."""
+        return float(self.dt if self.method == "explicit" else self.rtol)
+
+
+def prepare(problem: Couette, t_end: float | None = None, *, method: str = "ida",
+            n_out: int = 200, t_out=None, rtol: float = 1e-4, dt: float | None = None,
+            check_stability: bool = True, checkpoint=None, checkpoint_every: float = 60.0,
+            resume: bool = False) -> Plan:
+    """The settings of :func:`solve` checked once (ValueError naming the parameter, its range
+    and reason: :data:`METHODS`, :data:`RTOL`, :data:`DT` within the stability limit unless
+    ``check_stability=False``, :func:`output_times`, :data:`CHECKPOINT_EVERY`; method ``"dae"``
+    for the problems of :class:`shear1d.dae.FullLawDAE`)."""
+    method = Param(kind="choice", choices=METHODS).check("method", method)
+    if not isinstance(problem, Couette):
+        raise ValueError("problem must be a shear1d Couette")
+    times = output_times(t_end, n_out, t_out)
+    CHECKPOINT_EVERY.check("checkpoint_every", checkpoint_every)
+    if resume and checkpoint is None:
+        raise ValueError("resume=True needs a checkpoint path")
+    rtol, lim, dae = RTOL.check("rtol", rtol), None, None
+    if method == "explicit":
+        lim = stable_time_step(problem)
+        if dt is None:
+            dt = 0.5 * lim["dt"]
+        elif check_stability:
+            check_time_step(problem, dt)
+        else:
+            DT.check("dt", dt)
+    if method == "dae":                  # K4_REG, COMPACTION_WIDTH read at call time
+        dae = dae_mod.FullLawDAE(problem, dae_mod.K4_REG, dae_mod.COMPACTION_WIDTH)
+    return Plan(problem, method, times, rtol, dt, lim, dae, checkpoint, checkpoint_every,
+                bool(resume))
+
+
 def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", n_out: int = 200,
           t_out=None, rtol: float = 1e-4, dt: float | None = None, check_stability: bool = True,
           checkpoint=None, checkpoint_every: float = 60.0, resume: bool = False,
           progress: bool = False, label: str = "", stop_hook=None, log=None,
           elastic_limit: bool = False) -> Result:
-    """Integrate a Couette problem from rest (see the module docstring).
+    """Integrate a Couette problem from rest (see the module docstring): :func:`prepare` then
+    :func:`integrate`.
 
     ``t_end`` [s] with ``n_out`` output intervals, or ``t_out`` (output times [s] increasing
-    from 0). ``rtol`` in [1e-12, 1e-2]: IDA's relative tolerance (absolute: rtol times the
+    from 0). ``rtol`` (:data:`RTOL`): IDA's relative tolerance (absolute: rtol times the
     velocity scale for v, tau* for stresses, 1 for f, 1e-2 for phi) and the rate-form step
     (:meth:`Couette.rate_step_at`). ``dt`` [s]: the explicit step (default half the stability
     limit; beyond it ValueError unless ``check_stability=False``, which charts where the scheme
     fails). ``checkpoint``: an ``.npz`` path written at most every ``checkpoint_every`` wall
     seconds, at the end and on an interrupt; ``resume`` continues from its last output (explicit:
-    bit for bit; IDA restarts its BDF history there and agrees to its tolerance). ``progress``:
-    a :class:`runkit.run.Progress` labelled ``label``; ``stop_hook(t)`` after every output but
-    the last (tests interrupt runs with it); ``log`` is told when a corrupt checkpoint is
-    replaced by its predecessor; ``elastic_limit`` ends the run where a cell's elastic strain
-    passes :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT`.
+    bit for bit; IDA restarts its BDF history there and agrees to its tolerance). For
+    ``progress``, ``label``, ``stop_hook``, ``log`` and ``elastic_limit`` see :func:`integrate`.
 
     Returns the :class:`Result` (``stats`` and ``wall_time`` count resumed parts too).
 
@@ -458,44 +525,35 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     KeyboardInterrupt
         Interrupted; the message says where the checkpoint is (or that nothing was saved).
     """
-    if method not in METHODS:
-        raise ValueError(f"method = {method!r} must be one of {METHODS}")
-    if not isinstance(problem, Couette):
-        raise ValueError("problem must be a shear1d Couette")
-    times = output_times(t_end, n_out, t_out)
-    check_positive("checkpoint_every", checkpoint_every, note="s of wall time")
-    if resume and checkpoint is None:
-        raise ValueError("resume=True needs a checkpoint path")
-    if method == "explicit":
-        lim = stable_time_step(problem)
-        if dt is None:
-            dt = 0.5 * lim["dt"]
-        elif check_stability:
-            check_time_step(problem, dt)
-        else:
-            check_positive("dt", dt, note="s")
-        setting = float(dt)
-    else:
-        check_range("rtol", rtol, 1e-12, 1e-2)
-        setting = float(rtol)
-    dae = None
-    if method == "dae":                  # K4_REG, COMPACTION_WIDTH read at call time
-        dae = dae_mod.FullLawDAE(problem, dae_mod.K4_REG, dae_mod.COMPACTION_WIDTH)
+    plan = prepare(problem, t_end, method=method, n_out=n_out, t_out=t_out, rtol=rtol, dt=dt,
+                   check_stability=check_stability, checkpoint=checkpoint,
+                   checkpoint_every=checkpoint_every, resume=resume)
+    return integrate(plan, progress=progress, label=label, stop_hook=stop_hook, log=log,
+                     elastic_limit=elastic_limit)
+
+
+def integrate(plan: Plan, *, progress: bool = False, label: str = "", stop_hook=None, log=None,
+              elastic_limit: bool = False) -> Result:
+    """Integrate the checked ``plan`` (:func:`prepare`; errors as :func:`solve`). ``progress``:
+    a :class:`runkit.run.Progress` labelled ``label``; ``stop_hook(t)`` after every output but
+    the last (tests interrupt runs with it); ``log`` is told when a corrupt checkpoint is
+    replaced by its predecessor; ``elastic_limit`` ends the run where a cell's elastic strain
+    passes :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT`."""
+    problem, method, times, dae = plan.problem, plan.method, plan.times, plan.dae
     events = _Events(problem, None if dae is None else dae.convert)
-    outs = _Outputs(problem, method, times, setting, checkpoint, events, elastic_limit,
-                    1e-6 if method == "explicit" else 100 * rtol)
-    ck = outs.load(log) if resume else None
+    outs = _Outputs(problem, method, times, plan.setting, plan.checkpoint, events, elastic_limit,
+                    1e-6 if method == "explicit" else 100 * plan.rtol)
+    ck = outs.load(log) if plan.resume else None
     if method == "explicit":
-        to = _explicit(problem, outs, ck, setting, lim)
+        to = _explicit(problem, outs, ck, plan.dt, plan.lim)
     else:
-        to = _ida(problem, outs, ck, rtol, dae)
+        to = _ida(problem, outs, ck, plan.rtol, dae)
     if ck is not None and bool(ck["finished"]):
         return outs.read_back(ck)
     run = _Run(outs, times, to, stop_hook)
     bar = Progress(run.t, run.t_end, run.steps, label=label or "shear1d") if progress else None
     outs.wall0 = time.perf_counter()     # the integration's wall time, not the set-up's
-    drive(run, checkpoint=outs.ck, every=checkpoint_every,
-          progress=bar)
+    drive(run, checkpoint=outs.ck, every=plan.checkpoint_every, progress=bar)
     outs.save(outs.state(finished=True))
     return outs.result()
 

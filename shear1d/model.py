@@ -30,17 +30,18 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rheology import granular_viscosity, kernel_parameters
-from runkit.limits import GRAIN_MAX, GRAIN_MIN
-from runkit.params import (OutOfRange, check_nonnegative, check_positive, check_range,
-                           interval_text, shown)
-from rheology.materials import Material
-
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
+from rheology.materials import Material
+from rheology.steady import below_jamming
+from runkit.limits import GRAIN_MAX, GRAIN_MIN, LENGTH_MAX, TIME_MAX, ge, gt, le
+from runkit.params import OutOfRange, Param, check_positive, interval_text, shown
 
 from . import kernels
-from .geometry import Grid
+from .geometry import CELL_MIN_GRAINS, R_INNER_MIN_GRAINS, Grid, min_gap
 
 MODES = ("locked", "two-phase")
+#: The start-up ramp of the drive [s].
+RAMP_TIME = Param(ge(0.0, "0 is an impulsive start"), TIME_MAX, unit="s")
 
 
 def max_wall_speed(material, phi0: float) -> float:
@@ -100,9 +101,11 @@ class Couette:
         Speed of the moving wall [m/s] (bob surface speed u_i). Exactly one of wall_speed and
         wall_stress is given.
     wall_stress : float, optional
-        Mixture shear stress applied by the moving wall [Pa], >= 0 (stress-controlled run).
+        Mixture shear stress applied by the moving wall [Pa] (stress-controlled run). The
+        drive is in (0, :func:`drive_limit`].
     ramp_time : float
-        The drive rises linearly from 0 over this time [s]; 0 = impulsive start.
+        The drive rises linearly from 0 over this time [s]; 0 = impulsive start
+        (:data:`RAMP_TIME`).
     phi0 : float, optional
         Uniform initial volume fraction, 0 < phi0 < phi_j; default ``material.phi0``.
     contact_pressure : float
@@ -112,6 +115,9 @@ class Couette:
     rate_step : float, optional
         delta [s] of the rate form used by the implicit (IDA) integration (see
         :func:`shear1d.kernels.ode_rhs`); default: chosen by :meth:`rate_step_at`.
+
+    Every parameter is checked here, once (ValueError; :class:`runkit.params.OutOfRange`
+    naming it, with its range and reason), the gap and bob radius against the grain size too.
     """
 
     material: Material
@@ -131,8 +137,8 @@ class Couette:
             raise ValueError(f"material must be a rheology Material, got {type(m).__name__}")
         if not isinstance(self.grid, Grid):
             raise ValueError(f"grid must be a shear1d Grid, got {type(self.grid).__name__}")
-        if self.mode not in MODES:
-            raise ValueError(f"mode = {self.mode!r} must be one of {MODES}")
+        object.__setattr__(self, "mode", Param(kind="choice", choices=MODES).check("mode",
+                                                                                  self.mode))
         m.require("G", "K", "K0", "rho_s", "rho_f")
         if self.mode == "two-phase" and not m.d > 0:     # a Material's d: 0 (unset) or physical
             raise OutOfRange("d", shown(m.d), interval_text(GRAIN_MIN.value, True, GRAIN_MAX.value,
@@ -141,21 +147,41 @@ class Couette:
                              "for Darcy drag; set it, e.g. --set d=1e-5")
         if (self.wall_speed is None) == (self.wall_stress is None):
             raise ValueError("give exactly one of wall_speed [m/s] and wall_stress [Pa]")
-        check_nonnegative("ramp_time", self.ramp_time, note="s")
         phi0 = m.phi0 if self.phi0 is None else self.phi0
         if phi0 is None:
             raise ValueError(f"phi0 is not set for material {m.name}: pass phi0=...")
-        check_range("phi0", phi0, 0.0, m.phi_j, lo_closed=False, hi_closed=False,
-                    note=f"below phi_j = {m.phi_j} of {m.name}")
-        object.__setattr__(self, "phi0", float(phi0))
+        object.__setattr__(self, "phi0", float(below_jamming(phi0, m, "phi0")))
         top, unit, why = drive_limit(m, self.phi0, stress=self.wall_speed is None)
-        if self.wall_speed is not None:
-            check_range("wall_speed", self.wall_speed, -top, top, note=f"{unit}, |u| <= {why}")
-        else:
-            check_range("wall_stress", self.wall_stress, 0.0, top, note=f"{unit}, <= {why}")
+        name = "wall_stress" if self.wall_speed is None else "wall_speed"
+        Param(gt(0.0, "a drive of 0 shears nothing"), le(top, why), unit=unit).check(
+            name, self.drive_amplitude)
+        RAMP_TIME.check("ramp_time", self.ramp_time)
         check_positive("contact_pressure", self.contact_pressure, note="Pa")
         if self.rate_step is not None:
             check_positive("rate_step", self.rate_step, note="s")
+        self._check_grains()
+
+    def _check_grains(self) -> None:
+        """The gap holds cells of CELL_MIN_GRAINS grains, the bob R_INNER_MIN_GRAINS grains
+        (:mod:`shear1d.geometry`); OutOfRange naming r_inner, r_outer or gap."""
+        d, g = self.material.d, self.grid
+        if not d > 0:
+            return
+        grains = f"d = {d:g} m of {self.material.name}"
+        if g.annular and g.inner < R_INNER_MIN_GRAINS * d:
+            raise OutOfRange("r_inner", f"{g.inner:g} m", f"[{R_INNER_MIN_GRAINS * d:.4g}, "
+                             f"{LENGTH_MAX.value:g}] m", f"the bob must be a continuum wall, a "
+                             f"radius of at least {R_INNER_MIN_GRAINS:g} grain diameters: {grains}")
+        lo = min_gap(g.n, d)
+        if g.gap < lo * (1.0 - 1e-12):
+            most = int(g.gap / (CELL_MIN_GRAINS * d))
+            at = f"a bob radius of {g.inner:g} m and " if g.annular else ""
+            raise OutOfRange("r_outer" if g.annular else "gap", f"{g.outer:g} m",
+                             f"[{g.inner + lo:.4g}, {LENGTH_MAX.value:g}] m",
+                             f"at {at}{g.n} cells each cell of the gap must hold at least "
+                             f"{CELL_MIN_GRAINS:g} grain, {grains}, the continuum the model "
+                             f"describes" + (f"; or at most {most} cells at this gap"
+                                             if most >= 4 else ""))
 
     # ------------------------------------------------------------------ layout of the unknowns
     @property

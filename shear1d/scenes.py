@@ -29,11 +29,12 @@ from rheology.run_end import EndedEarly, run_record
 from runkit import limits as physical
 from runkit.io import (atomic_write_csv, atomic_write_json, check_output_dir, load_checkpoint,
                        previous_checkpoint)
+from runkit.limits import gt, le
+from runkit.params import OutOfRange, Param
 
 from . import plots
 from .geometry import Grid
-from .integrate import Result, check_time_step, memory_estimate, output_times, solve
-from .integrate import stable_time_step
+from .integrate import Plan, Result, integrate, memory_estimate, prepare
 from .model import Couette
 from .summary import (FRONT_EMPTY_OK, NULLABLE, SceneRun, couette_frames, couette_profile_outputs,
                       fields_frame, front_frame, jammed, profile_frames, run_tag, summarize)
@@ -45,6 +46,10 @@ R_INNER = 12.5e-3
 R_OUTER = 36e-3
 SPEEDS = (0.84e-3, 84e-3)
 ROTATION_END = 0.31
+#: The bob's rotation [rad].
+ROTATION = Param(gt(0.0, "the bob must turn"),
+                 le(100.0, "16 turns, far past the 0.31 rad in which the Fig. 3 front crosses "
+                           "the gap (the run's strain and cost grow with it)"), unit="rad")
 
 
 def annular_shear_jamming(u_inner: float = 0.084, *, n_cells: int = 200, mode: str = "locked",
@@ -66,17 +71,17 @@ def annular_shear_jamming(u_inner: float = 0.084, *, n_cells: int = 200, mode: s
     """
     m = rheology.get_material(material, **overrides)
     grid = Grid("annular", float(r_inner), float(r_outer), n_cells)
-    t_end = float(rotation) * grid.inner / float(u_inner) + 0.5 * float(ramp_time)
-    if not TIME_MIN <= t_end <= TIME_MAX:        # u_inner or rotation <= 0 or NaN among them
-        arc = grid.inner / float(u_inner)           # s per rad of rotation
+    ROTATION.check("rotation", rotation)
+    problem = Couette(m, grid, mode=mode, wall_speed=u_inner, ramp_time=ramp_time, phi0=phi0)
+    arc = grid.inner / float(u_inner)           # s per rad of rotation
+    t_end = float(rotation) * arc + 0.5 * float(ramp_time)
+    if not TIME_MIN <= t_end <= TIME_MAX:
         raise ValueError(
             f"u_inner = {u_inner:g} m/s and rotation = {rotation:g} rad make a run of "
             f"{t_end:.4g} s, outside the valid durations [{TIME_MIN:g}, {TIME_MAX:g}] s: at "
             f"rotation = {rotation:g} rad, u_inner in [{rotation * grid.inner / TIME_MAX:.6g}, "
             f"{rotation * grid.inner / TIME_MIN:.6g}] m/s; at u_inner = {u_inner:g} m/s, rotation "
             f"in [{TIME_MIN / arc:.6g}, {TIME_MAX / arc:.6g}] rad")
-    problem = Couette(m, grid, mode=mode, wall_speed=float(u_inner), ramp_time=ramp_time,
-                      phi0=phi0)
     return problem, t_end
 
 
@@ -104,25 +109,17 @@ def write_run(out: Path, run: SceneRun) -> list[Path]:
             atomic_write_json(out / f"{tag}_summary.json", run.summary, nullable=NULLABLE)]
 
 
-def precheck(problem: Couette, method: str, dt: float | None, t_end: float | None = None,
-             duration: str = "--time") -> None:
-    """Refuse an unstable explicit step (named --dt) or an explicit run longer than
-    MAX_CELL_STEPS before anything is written; the run then solves unchecked for stability
-    (method and rtol: checked by :func:`shear1d.integrate.solve`). The cell-step refusal names
+def check_cell_steps(plan: Plan, t_end: float, duration: str = "--time") -> None:
+    """Refuse an explicit run longer than MAX_CELL_STEPS before anything is written, naming
     every option that sets the count, cells x t_end / dt: --cells, ``duration`` (the option(s)
     that set t_end), --dt (or its default, half the stability limit), with the smallest --dt
     that fits when one within the stability limit does."""
-    if method != "explicit":
+    if plan.method != "explicit":
         return
-    if dt is not None:
-        check_time_step(problem, dt, "--dt", "--method ida")
-    if t_end is None:
-        return
-    limit = stable_time_step(problem)["dt"]
-    step, n = dt if dt is not None else 0.5 * limit, problem.grid.n
+    limit, step, n = plan.lim["dt"], plan.dt, plan.problem.grid.n
     work = n * t_end / step
     if work > MAX_CELL_STEPS:
-        given = "" if dt is not None else " (the default, half the stability limit)"
+        given = " (the default, half the stability limit)" if step == 0.5 * limit else ""
         need = n * t_end / MAX_CELL_STEPS
         larger = f"--dt >= {need:.3g} s (stability limit {limit:.3g} s), " if need <= limit else ""
         raise ValueError(f"--method explicit: --cells {n} over t_end = {t_end:.4g} s "
@@ -131,6 +128,19 @@ def precheck(problem: Couette, method: str, dt: float | None, t_end: float | Non
                          f"valid: {larger}{'fewer --cells, ' if n > 4 else ''}t_end <= "
                          f"{MAX_CELL_STEPS * step / n:.3g} s at these --cells and --dt "
                          f"(a smaller {duration}), or --method ida")
+
+
+def check_ramp(ramp_time: float, rotation: float, r_inner: float, speeds) -> None:
+    """The ramp at most the rotation time at full speed, rotation r_inner / u, of the fastest
+    speed: a longer ramp leaves the bob below full speed past half the rotation."""
+    u = max(speeds)
+    top = rotation * r_inner / u
+    if ramp_time > top:
+        raise OutOfRange("ramp_time", f"{ramp_time:g} s", f"[0, {top:.4g}] s",
+                         f"at most the rotation time --rotation x --r-inner / --u-inner = "
+                         f"{rotation:g} x {r_inner:g} m / {u:g} m/s at full speed: a longer ramp "
+                         "leaves the bob below full speed past half of --rotation, a slow "
+                         "start-up, not a shear at --u-inner; lower it, or raise --rotation")
 
 
 def _files(ck: Path) -> list[Path]:
@@ -153,12 +163,12 @@ def _checkpoints(out: Path, cks, resume: bool, missing: str) -> None:
         p.unlink()
 
 
-def _solve_to_end(problem, t_end, ends: list, tag: str, **options) -> Result:
-    """:func:`shear1d.integrate.solve` with the elastic-strain limit on; a run that ends early
-    (rheology.run_end) is returned with its outputs so far, its end added to ``ends`` as
+def _solve_to_end(plan: Plan, ends: list, tag: str, **options) -> Result:
+    """:func:`shear1d.integrate.integrate` with the elastic-strain limit on; a run that ends
+    early (rheology.run_end) is returned with its outputs so far, its end added to ``ends`` as
     ``tag``'s; one that ended before its second output fails (RuntimeError)."""
-    try:                                  # dt: checked by precheck
-        return solve(problem, t_end, elastic_limit=True, check_stability=False, **options)
+    try:
+        return integrate(plan, elastic_limit=True, **options)
     except EndedEarly as exc:
         res = exc.partial
         if res is None or len(res.t) < 2:
@@ -212,13 +222,18 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
     if len(set(speeds)) != len(tuple(speeds)) or len(set(modes)) != len(tuple(modes)):
         raise ValueError(f"--u-inner {' '.join(f'{u:g}' for u in speeds)}: each speed (and "
                          "mode) once")
-    for *_, problem, t_end in problems:
-        precheck(problem, method, dt, t_end,
-                 duration="--rotation x --r-inner / --u-inner" + (" + --ramp-time/2"
-                                                                  if ramp_time else ""))
+    check_ramp(ramp_time, rotation, r_inner, speeds)
+    cks = {run_tag(u, mode): out / f"{run_tag(u, mode)}.checkpoint.npz" for u, mode, *_ in problems}
+    plans = {}
+    for u, mode, problem, t_end in problems:
+        ck = cks[run_tag(u, mode)]
+        plans[ck] = prepare(problem, t_end, method=method, n_out=n_out, rtol=rtol, dt=dt,
+                            checkpoint=ck, checkpoint_every=checkpoint_every,
+                            resume=resume and bool(_files(ck)))
+        check_cell_steps(plans[ck], t_end, "--rotation x --r-inner / --u-inner"
+                         + (" + --ramp-time/2" if ramp_time else ""))
     physical.check_memory("--cells x --outputs", f"{n_cells} x {n_out}",
                           memory_estimate(n_cells, n_out, runs=len(problems)))
-    cks = {run_tag(u, mode): out / f"{run_tag(u, mode)}.checkpoint.npz" for u, mode, *_ in problems}
     _checkpoints(out, cks.values(), resume,
                  f"--resume: no checkpoint of these runs in {out}/ (looked for "
                  f"{', '.join(p.name for p in cks.values())}); run without --resume to start")
@@ -226,14 +241,12 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
     try:
         for u, mode, problem, t_end in problems:
             tag = run_tag(u, mode)
-            ck = cks[tag]
-            again = resume and bool(_files(ck))
+            plan = plans[cks[tag]]
             log(f"shear1d: {tag}: {n_cells} cells, {method}, to {rotation:g} rad (t_end = "
-                f"{t_end:.4g} s){' resuming from ' + str(ck) if again else ''} ...", flush=True)
-            res = _solve_to_end(problem, t_end, ends, tag, method=method, n_out=n_out,
-                                rtol=rtol, dt=dt, checkpoint=ck,
-                                checkpoint_every=checkpoint_every, resume=again,
-                                progress=progress, label=tag, stop_hook=stop_hook, log=log)
+                f"{t_end:.4g} s){' resuming from ' + str(cks[tag]) if plan.resume else ''} ...",
+                flush=True)
+            res = _solve_to_end(plan, ends, tag, progress=progress, label=tag,
+                                stop_hook=stop_hook, log=log)
             run = SceneRun(tag, res, summarize(res))
             write_run(out, run)
             plots.run_fields(out / f"{tag}_fields.png", run)
@@ -281,18 +294,17 @@ def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_o
     as :func:`run_annular`). A run that ends early writes them from its outputs so far and then
     raises :class:`rheology.run_end.EndedEarly` (``partial``: the Result)."""
     out = check_output_dir("--out", out)
-    output_times(t_end, n_out)
-    precheck(problem, method, dt, t_end)
+    ck = out / "couette.checkpoint.npz"
+    plan = prepare(problem, t_end, method=method, n_out=n_out, rtol=rtol, dt=dt, checkpoint=ck,
+                   checkpoint_every=checkpoint_every, resume=resume)
+    check_cell_steps(plan, t_end)
     physical.check_memory("--cells x --outputs", f"{problem.grid.n} x {n_out}",
                           memory_estimate(problem.grid.n, n_out))
-    ck = out / "couette.checkpoint.npz"
     _checkpoints(out, [ck], resume,
                  f"--resume: no checkpoint at {ck}; run without --resume to start")
     ends = []
     try:
-        res = _solve_to_end(problem, t_end, ends, "couette", method=method, n_out=n_out,
-                            rtol=rtol, dt=dt, checkpoint=ck, checkpoint_every=checkpoint_every,
-                            resume=resume, progress=progress, label="couette",
+        res = _solve_to_end(plan, ends, "couette", progress=progress, label="couette",
                             stop_hook=stop_hook, log=log)
         prof, wall = couette_frames(res)
         atomic_write_csv(out / "couette_profiles.csv", prof)

@@ -108,12 +108,22 @@ def test_every_numeric_option_refuses_bad_values_with_one_line(tmp_path, capsys,
 
 
 def test_the_options_have_physical_ranges():
+    """The parser reads the numbers and states the range the library checks (shear1d.geometry,
+    .model, .integrate, .scenes), each bound with its reason."""
+    from shear1d.geometry import CELLS, LENGTH
+    from shear1d.integrate import CHECKPOINT_EVERY, OUTPUTS, RTOL
+    from shear1d.scenes import ROTATION
+
     ranges = {(c, o): n for c, o, n in OPTIONS}
     u = ranges[("annular", "--u-inner")]      # 0.1 sqrt(G/rho) of the run's material: later
     assert u.hi is None and "0.1 sqrt(G/rho)" in u.shown_range
-    assert ranges[("annular", "--cells")].hi == 20000
+    assert CELLS.hi.value == 20000 and ranges[("annular", "--cells")].range_text == "[4, 20000]"
     assert ranges[("annular", "--outputs")].integer and ranges[("couette", "--cells")].integer
-    assert not ranges[("annular", "--checkpoint-every")].contains(0.0)
+    assert OUTPUTS.kind == "integer" and not CHECKPOINT_EVERY.lo.closed
+    assert ranges[("annular", "--r-inner")].range_text == "[1e-06, 10] m"
+    assert ranges[("couette", "--gap")].range_text == "[1e-06, 10] m"
+    for p in (CELLS, LENGTH, OUTPUTS, CHECKPOINT_EVERY, RTOL, ROTATION):
+        assert all(b is None or b.why for b in (p.lo, p.hi)), p
 
 
 @pytest.mark.parametrize("args, word", [
@@ -123,7 +133,19 @@ def test_the_options_have_physical_ranges():
     (["annular", "--cells", "2"], "--cells"),
     (["annular", "--cells", "100000000"], "--cells"),
     (["annular", "--r-inner", "0.04", "--r-outer", "0.03"],
-     "--r-outer = 0.03 is outside the valid range (0.04, 2] m"),
+     "--r-outer = 0.03 is outside the valid range (0.04, 10] m (the cup must lie beyond"),
+    (["annular", "--r-outer", "20"], "--r-outer = 20 is outside the valid range (0.0125, 10] m "
+                                     "(a 10 m bed"),
+    (["annular", "--rtol", "1"], "--rtol = 1 is outside the valid range [1e-12, 0.01] (a looser"),
+    (["annular", "--rotation", "1e9"], "--rotation = 1e+09 is outside the valid range (0, 100] "
+                                       "rad (16 turns"),
+    (["couette", "--speed", "0.01", "--gap", "1e-9"],
+     "--gap = 1e-09 is outside the valid range [1e-06, 10] m (the narrowest micro-gap"),
+    (["annular", "--cells", "3"], "--cells = 3 is outside the valid range [4, 20000] (fewer"),
+    (["annular", "--phi", "0.7"], "--phi = 0.7 is outside the valid range (0, 0.535) (steady"),
+    (["annular", "--outputs", "0"], "--outputs = 0 is outside the valid range [1, 100000] ("),
+    (["annular", "--checkpoint-every", "0"], "--checkpoint-every = 0 is outside the valid range "
+                                             "(0, inf) s (a checkpoint"),
     (["annular", "--u-inner", "0.084", "--method", "explicit", "--dt", "1"],
      "--dt = 1 s is outside the explicit stability range"),
     (["couette", "--speed", "0.01", "--stress", "2"], "not allowed"),
@@ -210,25 +232,26 @@ def test_drive_range_follows_the_material_and_names_the_option():
     """--speed / --u-inner up to 0.1 c_s and --stress up to 0.1 G of the run's material and
     phi, refused by the option's name in its units (a stiffer skeleton allows faster walls)."""
     import rheology
-    from shear1d.cli import _check_drive
     from shear1d.model import max_wall_speed
+    from shear1d.scenes import plane_couette
 
     stiff = rheology.get_material("rod_impact")               # G = 3.8e7 Pa: 100 x annular
     top = max_wall_speed(stiff, 0.5)
     assert 15 < top < 18                                      # 0.1 sqrt(G/rho)
-    _check_drive("--speed", [5.0], stiff, 0.5)                # above annular's 1.53 m/s: fine
-    with pytest.raises(ValueError, match=rf"--u-inner = 20 is outside the valid range "
-                                         rf"\(0, {top:g}\] m/s"):
-        _check_drive("--u-inner", [0.1, 20.0], stiff, 0.5)
-    with pytest.raises(ValueError, match=r"--stress = 4e\+06 is outside the valid range "
-                                         r"\(0, 3\.8e\+06\] Pa"):
-        _check_drive("--stress", [4e6], stiff, 0.5, stress=True)
+    plane_couette(5.0, material=stiff, phi0=0.5, n_cells=8)   # above annular's 1.53 m/s: fine
+    with pytest.raises(ValueError, match=rf"wall_speed = 20 is outside the valid range "
+                                         rf"\(0, {top:g}\] m/s \(0.1 c_s"):
+        plane_couette(20.0, material=stiff, phi0=0.5, n_cells=8)
+    with pytest.raises(ValueError, match=r"wall_stress = 4e\+06 is outside the valid range "
+                                         r"\(0, 3\.8e\+06\] Pa \(0.1 G"):
+        plane_couette(stress=4e6, material=stiff, phi0=0.5, n_cells=8)
+    assert main(["couette", "--speed", "20", "--material", "rod_impact", "--phi", "0.5"]) == 2
 
 
 def test_a_stiffer_material_allows_a_faster_bob(tmp_path, capsys):
     """--u-inner is bounded by the run's material, not annular_shear's: 5 m/s is refused for
     annular_shear (0.1 c_s = 1.53 m/s) and passes the checks for rod_impact (16 m/s); the
-    refusal is the one line of _check_drive."""
+    refusal is the one line of the Couette problem's check."""
     from shear1d.cli import main
 
     args = ["annular", "--u-inner", "5", "--cells", "8", "--out", str(tmp_path / "a")]
@@ -238,8 +261,8 @@ def test_a_stiffer_material_allows_a_faster_bob(tmp_path, capsys):
     assert not (tmp_path / "a").exists()
     stiff = ["--material", "rod_impact", "--phi", "0.5", "--r-outer", "0.0401", "--rotation",
              "0.1"]
-    with pytest.raises(SystemExit):      # refused at --cells 0, parsed after --u-inner 5
-        main(args + stiff + ["--cells", "0"])
+    # refused at --cells 0 (the grid is checked first), not at --u-inner 5
+    assert main(args + stiff + ["--cells", "0"]) == 2
     err = capsys.readouterr().err
     assert "--u-inner" not in err and "--cells" in err, err
 
@@ -278,7 +301,7 @@ def test_default_cup_radius_is_named_as_the_default(tmp_path, capsys):
      "is empty: give the output folder's name"),
     # fault 10: --time had no upper bound (1e300 ran minutes, then IDA failed)
     (["couette", "--speed", "0.01", "--time", "1e300", "--quiet", "--cells", "4"],
-     "--time = 1e300 is outside the valid range [1e-12, 1e+09] s"),
+     "--time = 1e+300 is outside the valid range [1e-12, 1e+09] s (30 years"),
     # --time had no lower bound (1e-300 ran and wrote its files): the shared durations
     (["couette", "--speed", "0.01", "--time", "1e-300", "--quiet", "--cells", "4"],
      "--time = 1e-300 is outside the valid range [1e-12, 1e+09] s"),
@@ -288,7 +311,7 @@ def test_default_cup_radius_is_named_as_the_default(tmp_path, capsys):
     (["annular", "--u-inner", "0.00084", "0.084", "--cells", "20", "--ramp-time", "0.05"],
      "--ramp-time = 0.05 s is outside the valid range [0, 0.04613] s"),
     (["annular", "--u-inner", "0.084", "--cells", "20", "--ramp-time", "1e10"],
-     "--ramp-time = 1e10 is outside the valid range [0, 1e+09] s"),
+     "--ramp-time = 1e+10 is outside the valid range [0, 1e+09] s (30 years"),
 ])
 def test_fresh_user_refusals_exit_2_one_line_nothing_written(args, word, tmp_path, monkeypatch,
                                                               capsys):
@@ -304,12 +327,12 @@ def test_fresh_user_refusals_exit_2_one_line_nothing_written(args, word, tmp_pat
 
 
 def test_ramp_time_bound_is_the_rotation_time_of_the_fastest_speed():
-    from shear1d.cli import _check_ramp
+    from shear1d.scenes import check_ramp as _check_ramp
 
     top = 0.31 * 0.0125 / 0.084
     _check_ramp(top, 0.31, 0.0125, [0.00084, 0.084])        # at the bound: accepted
     _check_ramp(0.0, 0.31, 0.0125, [0.084])
-    with pytest.raises(ValueError, match=r"--ramp-time = 0\.0462 s .*\[0, 0\.04613\] s"):
+    with pytest.raises(ValueError, match=r"ramp_time = 0\.0462 s .*\[0, 0\.04613\] s"):
         _check_ramp(0.0462, 0.31, 0.0125, [0.00084, 0.084])
 
 
@@ -360,17 +383,20 @@ def test_explicit_cell_step_limit_names_every_option_that_sets_it(args, words, t
 # ---------------------------------------------------------------- lengths against the grain size
 @pytest.mark.parametrize("args, words", [
     # before: f = nan in the first Table 8 update, exit 1, an empty folder left
-    (["couette", "--speed", "0.01", "--gap", "1e-300"],
-     ["--gap = 1e-300 m is outside the valid range [0.000585, 1] m at --cells = 100",
+    (["couette", "--speed", "0.01", "--gap", "1e-5"],
+     ["--gap = 1e-05 m is outside the valid range [0.000585, 10] m (at 100 cells each cell",
       "d = 5.85e-06 m"]),
     (["couette", "--speed", "0.01", "--gap", "1e-4"],
-     ["--gap = 0.0001 m", "at most 17 --cells at this gap"]),
+     ["--gap = 0.0001 m", "at most 17 cells at this gap"]),
     # before: t_end = 4e-298 s and a failed first update
     (["annular", "--r-inner", "1e-300", "--r-outer", "0.01"],
-     ["--r-inner = 1e-300 m is outside the valid range [5.85e-05, 1] m"]),
+     ["--r-inner = 1e-300 is outside the valid range [1e-06, 10] m (the narrowest"]),
+    (["annular", "--r-inner", "2e-5", "--r-outer", "0.01"],
+     ["--r-inner = 2e-05 m is outside the valid range [5.85e-05, 10] m (the bob must be a "
+      "continuum wall"]),
     (["annular", "--cells", "8000"],
-     ["--r-outer (the default) = 0.036 m is outside the valid range [0.0593, 2] m at --r-inner "
-      "= 0.0125 m and --cells = 8000", "at most 4017 --cells"]),
+     ["--r-outer = 0.036 m (the default) is outside the valid range [0.0593, 10] m (at a bob "
+      "radius of 0.0125 m and 8000 cells", "at most 4017 cells"]),
 ])
 def test_lengths_below_the_grain_size_are_refused_up_front(args, words, tmp_path, capsys):
     out = tmp_path / "o"
@@ -408,7 +434,7 @@ def test_a_run_failing_at_start_leaves_no_folder(tmp_path, monkeypatch, capsys):
 
     def fail(*a, **k):
         raise RuntimeError("solver failed at t = 0")
-    monkeypatch.setattr(scenes, "solve", fail)
+    monkeypatch.setattr(scenes, "integrate", fail)
     for args in (["couette", "--speed", "0.01", "--cells", "8"],
                  ["annular", "--u-inner", "0.084", "--mode", "locked", "--cells", "8"]):
         out = tmp_path / args[0]
