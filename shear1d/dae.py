@@ -273,9 +273,9 @@ class FullLawDAE:
 
     def __init__(self, problem: Couette, k4: float = K4_REG, width: float = COMPACTION_WIDTH):
         if problem.two_phase:
-            raise ValueError("method 'dae' is for mode 'locked' only: two-phase migration needs "
-                             "the Darcy flux of the two-phase kernels; use method 'ida' or "
-                             "'explicit'")
+            raise ValueError("method 'dae' (--method dae) is for mode 'locked' (--mode locked) "
+                             "only: two-phase migration needs the Darcy flux of the two-phase "
+                             "kernels; use method 'ida' or 'explicit'")
         self.pb = problem
         self.P = parameters(problem, k4, width)
         self.k4, self.width = float(self.P[_K4]), float(self.P[_WIDTH])

@@ -150,7 +150,7 @@ def test_interrupt_says_resume_only_when_a_checkpoint_exists(tmp_path, capsys, m
 
     def no_run(*a, **k):
         raise KeyboardInterrupt
-    monkeypatch.setattr(scenes, "solve", no_run)
+    monkeypatch.setattr(scenes, "integrate", no_run)
     assert main(["annular", "--u-inner", "0.084", "--cells", "16", "--quiet",
                  "--out", str(tmp_path / "a")]) == 130
     err = capsys.readouterr().err.strip()
