@@ -38,13 +38,14 @@ file; mass fractions are converted with Eq. (20) of the Supplement
 """
 
 from __future__ import annotations
+from __future__ import annotations
 
 import bisect
 import csv
 import io
 import re
 from collections import Counter
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from itertools import groupby
 from pathlib import Path
@@ -66,6 +67,11 @@ COLUMNS: tuple[str, ...] = ("source_file", "interval", "phi", "point", "time_s",
 #: order of reading; ``time_s``: the block's own clock).
 RELAXATION_COLUMNS: tuple[str, ...] = ("source_file", "interval", "curve", "point", "time_s",
                                        "shear_stress_Pa", "kept", "dropped_reason")
+
+#: Columns of the tidy tables that may be empty (unknown phi or time, a blank cell of a dropped
+#: point).
+EMPTY_OK: tuple[str, ...] = ("phi", "point", "time_s", "shear_rate_per_s", "shear_stress_Pa",
+                             "viscosity_Pa_s")
 
 #: Why a point is dropped (checked in this order; the first that applies is recorded).
 DROP_REASONS: dict[str, str] = {
@@ -110,6 +116,7 @@ ALIASES: dict[str, tuple[str, ...]] = {
 }
 _KIND = {"stress": "stress", "rate": "rate", "viscosity": "viscosity", "time": "time",
          "torque": "torque", "phi": "fraction"}
+_KNOWN = {a for q in ("stress", "rate", "viscosity", "time", "torque") for a in ALIASES[q]}
 
 #: How a block's name decides what it is: (kind, words, reason); the first match decides.
 _STEP_KINDS = (
@@ -131,11 +138,9 @@ def step_kind(name: str) -> tuple[str, str]:
     """``(kind, reason)`` of a block from its name: kind ``"flow"`` (flow sweep or ramp, viscosity
     curve, shear rate/stress ramp or table), ``"relaxation"`` or ``"skip"`` with the reason."""
     low = name.lower()
-    for kind, words, reason in _STEP_KINDS:
-        if any(w in low for w in words):
-            return kind, reason
-    return "skip", ("not recognised as a flow curve (flow sweep or ramp, viscosity curve, shear "
-                    "rate or stress ramp); --interval NAME reads it as one")
+    return next(((k, why) for k, words, why in _STEP_KINDS if any(w in low for w in words)),
+                ("skip", "not recognised as a flow curve (flow sweep or ramp, viscosity curve, "
+                         "shear rate or stress ramp); --interval NAME reads it as one"))
 
 
 @dataclass
@@ -184,10 +189,9 @@ def read_text(path) -> str:
         raise ValueError(f"data file {str(path)!r} is empty")
     if raw[:2] in (b"\xff\xfe", b"\xfe\xff"):
         return raw.decode("utf-16")
-    if len(raw) > 3 and raw[1:2] == b"\x00" and raw[3:4] == b"\x00":
-        return raw.decode("utf-16-le")
-    if len(raw) > 3 and raw[0:1] == b"\x00" and raw[2:3] == b"\x00":
-        return raw.decode("utf-16-be")
+    for nul, enc in ((1, "utf-16-le"), (0, "utf-16-be")):
+        if len(raw) > 3 and raw[nul:nul + 1] == raw[nul + 2:nul + 3] == b"\x00":
+            return raw.decode(enc)
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError:
@@ -200,28 +204,20 @@ _NUM = re.compile(r"^[+-]?(\d+([.,]\d*)?|[.,]\d+)([eE][+-]?\d+)?$")
 def to_number(cell) -> float:
     """A cell as float: exponent notation and a decimal comma accepted; blank or text -> NaN."""
     s = str(cell).strip().replace("\u2212", "-")
-    if not s or not _NUM.match(s):
-        return float("nan")
-    return float(s.replace(",", "."))
-
-
-def _unit_key(text: str) -> str:
-    s = text.strip()
-    s = s[1:-1] if re.match(r"^(\[.*\]|\(.*\))$", s) else s
-    s = s.replace("μ", "µ").replace("⁻", "-").replace("¹", "1")
-    s = s.replace("³", "3").replace("^", "")
-    return re.sub(r"[\s·*.\u00b7]", "", s)
+    return float(s.replace(",", ".")) if _NUM.match(s) else float("nan")
 
 
 def unit_factor(kind: str, unit: str, where: str) -> float:
     """Factor from ``unit`` to SI for a quantity kind of ``_UNITS`` (torque: to mN m; a stress
     constant: to Pa/(N m)). Raises ValueError naming ``where`` and the known units."""
-    key, table = _unit_key(unit), _UNITS[kind]
-    if key in table:
-        return table[key]
+    key = unit.strip()
+    key = key[1:-1] if re.match(r"^(\[.*\]|\(.*\))$", key) else key
+    for a, b in (("μ", "µ"), ("⁻", "-"), ("¹", "1"), ("³", "3"), ("^", "")):
+        key = key.replace(a, b)
+    key, table = re.sub(r"[\s·*.\u00b7]", "", key), _UNITS[kind]
     low = {k.lower(): v for k, v in reversed(list(table.items()))}   # 'mpa' -> milli
-    if key.lower() in low:
-        return low[key.lower()]
+    if key in table or key.lower() in low:
+        return table.get(key, low.get(key.lower()))
     raise ValueError(f"{where}: unit [{unit.strip('[]()')}] of the {kind.replace('_', ' ')} "
                      f"column is not understood; known: {', '.join(k for k in table if k)}")
 
@@ -235,15 +231,10 @@ def _numeric(row) -> bool:
 
 
 # ------------------------------------------------------------------ RheoCompass
-def is_rheocompass(text: str) -> bool:
-    """Whether decoded text looks like a RheoCompass export (``Interval data:`` headers)."""
-    return "Interval data:" in text
-
-
 _RC_HEADS = ("Result:", "Interval data:", "Interval and data points:", "Test:", "Project:")
 
 
-def rheocompass_blocks(text: str) -> list[Block]:
+def rheocompass_blocks(text: str, columns=None) -> list[Block]:
     """The ``Interval data:`` blocks of a RheoCompass export, named ``"<Result> (interval N)"``."""
     rows = [[c.strip() for c in line.split("\t")] for line in text.splitlines()]
     blocks, result, number = [], "", ""
@@ -268,30 +259,12 @@ def rheocompass_blocks(text: str) -> list[Block]:
 
 
 # ------------------------------------------------------------------ TRIOS (text and CSV)
-_TRIOS_KEYS = ("filename", "instrument serial number", "instrument name", "instrument type",
-               "geometry name", "stress constant", "proceduresegments")
-
-
-def is_trios(text: str) -> bool:
-    """A TRIOS "Export to LIMS" text file: a ``[step]`` line, tab separated."""
-    return re.search(r"^\s*\[step\]\s*$", text, re.I | re.M) is not None and "\t" in text
-
-
-def is_trios_csv(text: str) -> bool:
-    """A TRIOS CSV export: a TRIOS header key (``Filename``, ``Geometry name``, ``Stress
-    constant``, ...) as a ``key,value`` row and a row of TRIOS column names."""
-    head = re.search(r"^\ufeff?\"?(" + "|".join(_TRIOS_KEYS) + r")\"?\s*,", text, re.I | re.M)
-    return head is not None and re.search(r"(^|,)\"?(shear rate|step time)\"?(,|$)", text,
-                                          re.I | re.M) is not None
-
-
 def _is_header(row) -> bool:
     """A row of column names: no number, and three names or more, or two of which one is a
     known quantity (a ``key,value`` header row has two cells)."""
     names = [c.lower() for c in row if c]
-    known = {a for q in ("stress", "rate", "viscosity", "time", "torque") for a in ALIASES[q]}
     return (not _numeric(row) and len(names) >= 2
-            and (len(names) >= 3 or any(n in known for n in names)))
+            and (len(names) >= 3 or any(n in _KNOWN for n in names)))
 
 
 def trios_blocks(text: str, delim: str = "\t") -> list[Block]:
@@ -303,29 +276,24 @@ def trios_blocks(text: str, delim: str = "\t") -> list[Block]:
     blocks: list[Block] = []
     i, n = 0, len(rows)
 
-    def next_row(k):
+    def skip(k):                  # the next row that is not blank
         while k < n and not any(rows[k]):
             k += 1
         return k
 
     def body(k):                  # the step's column names, past an optional point count
-        k = next_row(k)
-        return next_row(k + 1) if k < n and rows[k][:1] == ["Number of points"] else k
+        k = skip(k)
+        return skip(k + 1) if k < n and rows[k][:1] == ["Number of points"] else k
 
     while i < n:
         full = [c for c in rows[i] if c]
-        if not full:
-            i += 1
-            continue
-        name = None
+        one = len(full) == 1 and not full[0].startswith("[")
         if len(full) == 1 and full[0].lower() == "[step]":
-            k = next_row(i + 1)
+            k = skip(i + 1)
             name, i = (rows[k][0] if k < n else ""), k + 1
-        elif len(full) == 1 and not full[0].startswith("["):
-            k = body(i + 1)
-            if k < n and _is_header(rows[k]):
-                name, i = full[0], i + 1
-        if name is None:
+        elif one and body(i + 1) < n and _is_header(rows[body(i + 1)]):
+            name, i = full[0], i + 1
+        else:
             if len(full) >= 2 and not full[0].startswith("["):
                 meta[full[0].lower()] = " ".join(full[1:])
             i += 1
@@ -336,11 +304,10 @@ def trios_blocks(text: str, delim: str = "\t") -> list[Block]:
         units = [""] * len(header)
         if i < n and any(rows[i]) and not _numeric(rows[i]):
             units, i = rows[i], i + 1
-        data = []                 # up to a blank, bracketed or text row (a CSV's next step)
+        start = i                 # the points: up to a blank, bracketed or text row
         while i < n and any(rows[i]) and not rows[i][0].startswith("[") and _numeric(rows[i]):
-            data.append(rows[i])
             i += 1
-        blocks.append(Block(name, header, units, data, meta))
+        blocks.append(Block(name, header, units, rows[start:i], meta))
     return blocks
 
 
@@ -360,7 +327,7 @@ def stress_constant(meta: dict, where: str) -> float:
     return value * unit_factor("stress_constant", m.group(2) or "Pa/N.m", where)
 
 
-# ------------------------------------------------------------------ rSpace
+# ------------------------------------------------------------------ rSpace and plain tables
 _UNIT_IN_NAME = re.compile(r"^(.*?)\s*[\[(]([^\])]*)[\])]\s*$")
 
 
@@ -371,30 +338,19 @@ def _split_units(row: list[str]) -> tuple[list[str], list[str]]:
             [m.group(2).strip() if m else "" for m in split])
 
 
-def is_rspace(text: str) -> bool:
-    """A Malvern rSpace CSV export: a header row of names with units in parentheses that has an
-    ``Action Name`` column, a ``Shear viscosity`` column or an ``s-¹`` unit (or rSpace/Kinexus in
-    its preamble)."""
-    top = text[:20000]
-    if not re.search(r"shear (stress|rate|viscosity)\s*\(", top, re.I):
-        return False
-    return bool(re.search(r"action name|shear viscosity|s-¹|s⁻¹|rspace|kinexus", top, re.I))
-
-
-def rspace_blocks(text: str) -> list[Block]:
+def rspace_blocks(text: str, columns=None) -> list[Block]:
     """The actions of an rSpace table (consecutive rows of one ``Action Name``; the whole table
     when it has no such column), the preamble's ``key,value`` rows as ``meta``."""
-    text = text.replace("\ufeff", "")
-    best = (0, None, None)
+    best = None                   # (rows, index of the header): the widest of , and ;
     for delim in (",", ";"):
-        rows = _cells(text, delim)
+        rows = _cells(text.replace("\ufeff", ""), delim)
         k = next((i for i, r in enumerate(rows)
                   if sum(bool(_UNIT_IN_NAME.match(c)) for c in r) >= 2), None)
-        if k is not None and len(rows[k]) > best[0]:
-            best = (len(rows[k]), rows, k)
-    _, rows, k = best
-    if rows is None:
+        if k is not None and (best is None or len(rows[k]) > len(best[0][best[1]])):
+            best = (rows, k)
+    if best is None:
         return []
+    rows, k = best
     meta = {r[0].lower(): " ".join(c for c in r[1:] if c) for r in rows[:k] if len(r) >= 2 and r[0]}
     header, units = _split_units(rows[k])
     low = [h.lower() for h in header]
@@ -411,7 +367,6 @@ def rspace_blocks(text: str) -> list[Block]:
     return blocks
 
 
-# ------------------------------------------------------------------ plain tables
 def _table_lines(text: str) -> tuple[list[str], str]:
     """The lines that are neither blank nor ``#`` comments, and the delimiter of the first (the
     most frequent of tab, semicolon and comma)."""
@@ -419,9 +374,7 @@ def _table_lines(text: str) -> tuple[list[str], str]:
     return lines, (max(("\t", ";", ","), key=lines[0].count) if lines else ",")
 
 
-def is_table(text: str) -> bool:
-    """A delimited table: a header row with a comma, semicolon or tab, then a row holding a
-    number."""
+def _is_table(text: str) -> bool:
     lines, delim = _table_lines(text)
     return (len(lines) >= 2 and lines[0].count(delim) > 0
             and any(_numeric(ln.split(delim)) for ln in lines[1:6]))
@@ -434,111 +387,54 @@ def table_blocks(text: str, columns: dict[str, str] | None = None) -> list[Block
     rows = _cells("\n".join(lines), delim)
     header, units = _split_units(rows[0])
     probe = Block("table", header, units, rows[1:], {"_full": rows[0]})
-    k_int = column_index(probe, "interval", columns)
-    k_phi = column_index(probe, "phi", columns)
+    keys = [column_index(probe, q, columns) for q in ("interval", "phi")]
     groups: dict[tuple, list] = {}
     for r in rows[1:]:
-        key = tuple(r[k] if k is not None and k < len(r) else "" for k in (k_int, k_phi))
-        groups.setdefault(key, []).append(r)
+        groups.setdefault(tuple(r[k] if k is not None and k < len(r) else "" for k in keys),
+                          []).append(r)
     return [Block(key[0] or "table", header, units, g, {"_full": rows[0]})
             for key, g in groups.items()]
 
 
-# ------------------------------------------------------------------ columns of a block
-def column_index(block: Block, quantity: str, columns: dict[str, str] | None = None,
-                 where: str = "") -> int | None:
-    """Index of a quantity's column: the mapped name (``columns``, matched with or without its
-    unit) or the first of :data:`ALIASES` present; None if absent. A mapped name that is not a
-    column raises ValueError listing the columns."""
-    bare = [h.strip().lower() for h in block.header]
-    full = [h.strip().lower() for h in block.meta.get("_full", block.header)]
-    if columns and quantity in columns:
-        name = columns[quantity].strip().lower()
-        for cand in (full, bare):
-            if name in cand:
-                return cand.index(name)
-        raise ValueError(f"{where or 'data file'}: --columns {quantity}={columns[quantity]!r} is "
-                         f"not a column; columns: {', '.join(block.meta.get('_full', block.header))}")
-    for alias in ALIASES[quantity]:
-        for cand in (full, bare):
-            if alias in cand:
-                return cand.index(alias)
-    return None
-
-
-def block_values(block: Block, quantity: str, where: str,
-                 columns: dict[str, str] | None = None) -> np.ndarray | None:
-    """A quantity's column in SI (torque in mN m; a fraction as a fraction), NaN for blank or
-    text cells; None if the block has no such column."""
-    k = column_index(block, quantity, columns, where)
-    if k is None:
-        return None
-    v = np.array([to_number(r[k]) if k < len(r) else np.nan for r in block.rows], dtype=float)
-    kind = _KIND.get(quantity)
-    if kind is not None:
-        v = v * unit_factor(kind, block.units[k] if k < len(block.units) else "", where)
-    return v
-
-
-def _complete(stress, rate, visc, where):
-    """Fill the third of (stress, rate, viscosity) from the other two; require two."""
-    if sum(x is not None for x in (stress, rate, visc)) < 2:
-        raise ValueError(f"{where}: needs two of shear stress, shear rate and viscosity "
-                         "(map them with --columns stress=NAME rate=NAME viscosity=NAME)")
-    with np.errstate(divide="ignore", invalid="ignore"):
-        if stress is None:
-            stress = visc * rate
-        elif rate is None:
-            rate = np.where(visc != 0, stress / np.where(visc != 0, visc, 1.0), np.nan)
-        elif visc is None:
-            visc = np.where(rate != 0, stress / np.where(rate != 0, rate, 1.0), np.nan)
-    return stress, rate, visc
-
-
-def block_curve(block: Block, source: str, columns: dict[str, str] | None = None) -> Curve:
-    """A block as a flow curve (SI); ValueError naming the file and block when it lacks two of
-    stress, rate and viscosity or has a unit not understood."""
-    where = f"data file {Path(source).name!r}, {block.name}"
-    n = len(block.rows)
-
-    def get(q):
-        return block_values(block, q, where, columns)
-
-    stress, rate, visc = _complete(get("stress"), get("rate"), get("viscosity"), where)
-    point, time = get("point"), get("time")
-    return Curve(source, block.name, point if point is not None else np.arange(1.0, n + 1),
-                 time if time is not None else np.full(n, np.nan), rate, stress, visc,
-                 get("torque"), _status_me(block), get("phi"))
-
-
-def _status_me(block: Block) -> np.ndarray:
-    """Rows whose status holds an ``ME`` flag (RheoCompass ``ME-``: below the torque range)."""
-    k = column_index(block, "status")
-    return np.array([k is not None and k < len(r) and any(
-        s.strip().upper().startswith("ME") for s in r[k].split(",")) for r in block.rows], bool)
-
-
-# ------------------------------------------------------------------ registry
-#: format name -> (detector on decoded text, block parser(text, columns)), tried in order.
-READERS: dict[str, tuple[Callable[[str], bool], Callable[..., list[Block]]]] = {
-    "rheocompass": (is_rheocompass, lambda text, columns=None: rheocompass_blocks(text)),
-    "trios": (is_trios, lambda text, columns=None: trios_blocks(text)),
-    "trios-csv": (is_trios_csv, lambda text, columns=None: trios_blocks(text, ",")),
-    "rspace": (is_rspace, lambda text, columns=None: rspace_blocks(text)),
-    "csv": (is_table, table_blocks),
+# ------------------------------------------------------------------ the formats
+_TRIOS_KEYS = ("filename", "instrument serial number", "instrument name", "instrument type",
+               "geometry name", "stress constant", "proceduresegments")
+_DETECT = {                       # format -> patterns that must all match the decoded text
+    "trios": (r"(?im)^\s*\[step\]\s*$", "\t"),
+    "trios-csv": (r"(?im)^\ufeff?\"?(" + "|".join(_TRIOS_KEYS) + r")\"?\s*,",
+                  r"(?im)(^|,)\"?(shear rate|step time)\"?(,|$)"),
+    "rspace": (r"(?i)shear (stress|rate|viscosity)\s*\(",
+               r"(?i)action name|shear viscosity|s-¹|s⁻¹|rspace|kinexus"),
 }
-_LAYOUTS = ("RheoCompass text export", "TRIOS 'Export to LIMS' text", "TRIOS CSV export",
-            "rSpace CSV export", "plain table (a header row, then rows of numbers)")
+
+#: format -> (detector on the decoded text, block parser(text, columns), the layout as named in
+#: a refusal), tried in order: RheoCompass (``Interval data:`` headers); TRIOS "Export to LIMS"
+#: text (a ``[step]`` line, tab separated); TRIOS CSV (a TRIOS header key such as ``Filename``,
+#: ``Geometry name`` or ``Stress constant`` as a ``key,value`` row and a row of TRIOS column
+#: names); rSpace CSV (a header row of names with units in parentheses with an ``Action Name``
+#: or ``Shear viscosity`` column or an ``s-¹`` unit, or rSpace/Kinexus in its preamble); a
+#: plain table (a header row with a comma, semicolon or tab, then a row holding a number).
+READERS: dict[str, tuple] = {
+    "rheocompass": (lambda text: "Interval data:" in text, rheocompass_blocks,
+                    "RheoCompass text export"),
+    "trios": (lambda text: all(re.search(p, text) for p in _DETECT["trios"]),
+              lambda text, columns=None: trios_blocks(text), "TRIOS 'Export to LIMS' text"),
+    "trios-csv": (lambda text: all(re.search(p, text) for p in _DETECT["trios-csv"]),
+                  lambda text, columns=None: trios_blocks(text, ","), "TRIOS CSV export"),
+    "rspace": (lambda text: all(re.search(p, text[:20000]) for p in _DETECT["rspace"]),
+               rspace_blocks, "rSpace CSV export"),
+    "csv": (_is_table, table_blocks, "plain table (a header row, then rows of numbers)"),
+}
 
 
 def detect_format(text: str, name: str = "") -> str:
     """The first format of :data:`READERS` whose detector accepts the decoded text; ValueError
     (one line naming the layouts tried) when none does."""
-    for fmt, (detect, _) in READERS.items():
-        if detect(text):
-            return fmt
-    raise ValueError(f"data file {name!r} is in none of the known layouts (tried: "
-                     f"{'; '.join(_LAYOUTS)})")
+    fmt = next((f for f, (detect, *_) in READERS.items() if detect(text)), None)
+    if fmt is None:
+        raise ValueError(f"data file {name!r} is in none of the known layouts (tried: "
+                         f"{'; '.join(r[2] for r in READERS.values())})")
+    return fmt
 
 
 def read_blocks(path, *, fmt: str = "auto", columns: dict[str, str] | None = None,
@@ -582,6 +478,73 @@ def select_blocks(blocks: list[Block], kind: str, intervals: Sequence[str] | Non
         raise ValueError(f"data file {name!r} has no {what} block; found {found} (choose with "
                          "--interval NAME)")
     return chosen, skipped
+
+
+# ------------------------------------------------------------------ columns of a block
+def column_index(block: Block, quantity: str, columns: dict[str, str] | None = None,
+                 where: str = "") -> int | None:
+    """Index of a quantity's column: the mapped name (``columns``, matched with or without its
+    unit) or the first of :data:`ALIASES` present; None if absent. A mapped name that is not a
+    column raises ValueError listing the columns."""
+    shown = block.meta.get("_full", block.header)
+    cands = [[h.strip().lower() for h in hs] for hs in (shown, block.header)]
+    mapped = bool(columns) and quantity in columns
+    for name in ([columns[quantity].strip().lower()] if mapped else ALIASES[quantity]):
+        for cand in cands:
+            if name in cand:
+                return cand.index(name)
+    if mapped:
+        raise ValueError(f"{where or 'data file'}: --columns {quantity}={columns[quantity]!r} is "
+                         f"not a column; columns: {', '.join(shown)}")
+    return None
+
+
+def block_values(block: Block, quantity: str, where: str,
+                 columns: dict[str, str] | None = None) -> np.ndarray | None:
+    """A quantity's column in SI (torque in mN m; a fraction as a fraction), NaN for blank or
+    text cells; None if the block has no such column."""
+    k = column_index(block, quantity, columns, where)
+    if k is None:
+        return None
+    v = np.array([to_number(r[k]) if k < len(r) else np.nan for r in block.rows], dtype=float)
+    if quantity in _KIND:
+        v = v * unit_factor(_KIND[quantity], block.units[k] if k < len(block.units) else "", where)
+    return v
+
+
+def _ratio(a, b):
+    """a / b, NaN where b is 0."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(b != 0, a / np.where(b != 0, b, 1.0), np.nan)
+
+
+def block_curve(block: Block, source: str, columns: dict[str, str] | None = None) -> Curve:
+    """A block as a flow curve (SI; the third of stress, rate and viscosity from the other two);
+    ValueError naming the file and block when it lacks two of them or has a unit not
+    understood."""
+    where = f"data file {Path(source).name!r}, {block.name}"
+    n = len(block.rows)
+
+    def get(q):
+        return block_values(block, q, where, columns)
+
+    s, r, v = get("stress"), get("rate"), get("viscosity")
+    if sum(x is not None for x in (s, r, v)) < 2:
+        raise ValueError(f"{where}: needs two of shear stress, shear rate and viscosity "
+                         "(map them with --columns stress=NAME rate=NAME viscosity=NAME)")
+    s = v * r if s is None else s
+    r, v = (_ratio(s, v) if r is None else r), (_ratio(s, r) if v is None else v)
+    point, time = get("point"), get("time")
+    return Curve(source, block.name, point if point is not None else np.arange(1.0, n + 1),
+                 time if time is not None else np.full(n, np.nan), r, s, v,
+                 get("torque"), _status_me(block), get("phi"))
+
+
+def _status_me(block: Block) -> np.ndarray:
+    """Rows whose status holds an ``ME`` flag (RheoCompass ``ME-``: below the torque range)."""
+    k = column_index(block, "status")
+    return np.array([k is not None and k < len(r) and any(
+        s.strip().upper().startswith("ME") for s in r[k].split(",")) for r in block.rows], bool)
 
 
 # ------------------------------------------------------------------ cleaning
@@ -645,7 +608,9 @@ def _monotone(x: np.ndarray, reason: np.ndarray, direction: float | None = None)
 
 
 # ------------------------------------------------------------------ entry points
-def _check_paths(paths, fmt, per_file, label):
+def _read(paths, fmt, columns, kind, intervals, per_file, label, frames_of, out_columns):
+    """The tidy table of the files' blocks chosen as ``kind``: ``frames_of(index, path, blocks,
+    frames so far)`` gives each file's frames; ``attrs`` record the formats and blocks skipped."""
     paths = [Path(p) for p in paths]
     if not paths:
         raise ValueError("no data files given")
@@ -656,7 +621,15 @@ def _check_paths(paths, fmt, per_file, label):
                          "one per file, in order")
     for p in paths:
         check_input_file("data file", p)
-    return paths
+    frames, formats, skipped = [], {}, []
+    for i, p in enumerate(paths):
+        formats[str(p)], blocks = read_blocks(p, fmt=fmt, columns=columns)
+        chosen, skip = select_blocks(blocks, kind, intervals, formats[str(p)], p.name)
+        skipped += [(p.name, n, why) for n, why in skip]
+        frames += frames_of(i, p, chosen, len(frames))
+    out = pd.concat(frames, ignore_index=True)[list(out_columns)]
+    out.attrs.update(formats=formats, skipped=skipped)
+    return out
 
 
 def read_flow_curves(paths: Sequence, *, fmt: str = "auto", columns: dict[str, str] | None = None,
@@ -701,37 +674,34 @@ def read_flow_curves(paths: Sequence, *, fmt: str = "auto", columns: dict[str, s
         A file missing, unreadable, in no known layout or with no usable curve (named), a --phi
         count that does not match the files, a phi outside (0, 1).
     """
-    paths = _check_paths(paths, fmt, phi, "--phi")
-    frames, formats, skipped = [], {}, []
-    for i, p, chosen in _chosen_blocks(paths, fmt, columns, "flow", intervals, formats, skipped):
-        usable = 0
+    def frames_of(i, p, chosen, _):
+        frames = []
         for b in chosen:
             c = block_curve(b, str(p), columns)
-            if c.phi is not None:
-                if phi is not None:
-                    raise ValueError(f"data file {p.name!r} has a phi column and --phi was given "
-                                     "too: use one")
-                if np.isnan(c.phi).any():
-                    raise ValueError(f"data file {p.name!r}: the phi column has "
-                                     f"{int(np.isnan(c.phi).sum())} blank or non-numeric cell(s)")
-                ph = c.phi
-            elif phi is None and require_phi:
+            if c.phi is not None and phi is not None:
+                raise ValueError(f"data file {p.name!r} has a phi column and --phi was given "
+                                 "too: use one")
+            if c.phi is not None and np.isnan(c.phi).any():
+                raise ValueError(f"data file {p.name!r}: the phi column has "
+                                 f"{int(np.isnan(c.phi).sum())} blank or non-numeric cell(s)")
+            if c.phi is None and phi is None and require_phi:
                 raise ValueError(f"data file {p.name!r} carries no volume fraction: give --phi, "
                                  "one per file in order (or map a phi column with --columns "
                                  "phi=NAME)")
-            else:
-                ph = np.full(c.shear_stress.size, np.nan if phi is None else float(phi[i]))
+            ph = c.phi if c.phi is not None else np.full(
+                c.shear_stress.size, np.nan if phi is None else float(phi[i]))
             if mass_fraction is not None and np.isfinite(ph).all():
                 ph = phi_from_mass_fraction(ph, **mass_fraction) * np.ones_like(ph)
             if np.isfinite(ph).all():
                 check_range("phi", ph, 0.0, 1.0, lo_closed=False, hi_closed=False,
                             note=f"data file {p.name}")
             frames.append(curve_table(c, ph, torque_floor, p.name))
-            usable += int(frames[-1]["kept"].sum() >= 3)
-        if usable == 0:
+        if not any(f["kept"].sum() >= 3 for f in frames):
             raise ValueError(f"data file {p.name!r} has no usable flow curve (fewer than 3 good "
                              "points in every block read)")
-    return _tidy(frames, COLUMNS, formats, skipped)
+        return frames
+
+    return _read(paths, fmt, columns, "flow", intervals, phi, "--phi", frames_of, COLUMNS)
 
 
 def curve_table(c: Curve, phi, torque_floor: float | None = None,
@@ -744,23 +714,6 @@ def curve_table(c: Curve, phi, torque_floor: float | None = None,
         "phi": np.asarray(phi, float), "point": c.point, "time_s": c.time_s,
         "shear_rate_per_s": c.shear_rate, "shear_stress_Pa": c.shear_stress,
         "viscosity_Pa_s": c.viscosity, "kept": kept, "dropped_reason": why})[list(COLUMNS)]
-
-
-def _chosen_blocks(paths, fmt, columns, kind, intervals, formats, skipped):
-    """``(index, path, blocks chosen as kind)`` per file, recording the formats and the blocks
-    skipped."""
-    for i, p in enumerate(paths):
-        fmt_p, blocks = read_blocks(p, fmt=fmt, columns=columns)
-        formats[str(p)] = fmt_p
-        chosen, skip = select_blocks(blocks, kind, intervals, fmt_p, p.name)
-        skipped += [(p.name, n, why) for n, why in skip]
-        yield i, p, chosen
-
-
-def _tidy(frames, columns, formats, skipped) -> pd.DataFrame:
-    out = pd.concat(frames, ignore_index=True)[list(columns)]
-    out.attrs.update(formats=formats, skipped=skipped)
-    return out
 
 
 def read_relaxation_curves(paths: Sequence, *, fmt: str = "auto",
@@ -788,20 +741,14 @@ def read_relaxation_curves(paths: Sequence, *, fmt: str = "auto",
         A file missing or in no known layout, a block without time, or with torque and no stress
         constant, fewer than 3 good points in a curve (each named).
     """
-    paths = _check_paths(paths, fmt, None, "")
-    frames, formats, skipped = [], {}, []
-    for _, p, chosen in _chosen_blocks(paths, fmt, columns, "relaxation", intervals, formats,
-                                       skipped):
+    def frames_of(_, p, chosen, start):
+        frames = []
         for b in chosen:
             where = f"data file {p.name!r}, {b.name}"
-            t = block_values(b, "time", where, columns)
-            s = block_values(b, "stress", where, columns)
-            torque = block_values(b, "torque", where, columns)
-            if t is None:
-                raise ValueError(f"{where}: no time column (columns: {', '.join(b.header)})")
-            if s is None and torque is None:
-                raise ValueError(f"{where}: no stress or torque column (columns: "
-                                 f"{', '.join(b.header)})")
+            t, s, torque = (block_values(b, q, where, columns) for q in ("time", "stress", "torque"))
+            if t is None or (s is None and torque is None):
+                raise ValueError(f"{where}: no {'time' if t is None else 'stress or torque'} "
+                                 f"column (columns: {', '.join(b.header)})")
             if s is None:
                 s = torque * 1e-3 * stress_constant(b.meta, where)
             reason = _reasons(t.size, [
@@ -816,11 +763,14 @@ def read_relaxation_curves(paths: Sequence, *, fmt: str = "auto",
                 raise ValueError(f"{where}: fewer than 3 good points ({why or 'no rows'})")
             point = block_values(b, "point", where, columns)
             frames.append(pd.DataFrame({
-                "source_file": p.name, "interval": b.name, "curve": len(frames),
+                "source_file": p.name, "interval": b.name, "curve": start + len(frames),
                 "point": point if point is not None else np.arange(1.0, t.size + 1),
                 "time_s": t, "shear_stress_Pa": s, "kept": reason == "",
                 "dropped_reason": reason}))
-    return _tidy(frames, RELAXATION_COLUMNS, formats, skipped)
+        return frames
+
+    return _read(paths, fmt, columns, "relaxation", intervals, None, "", frames_of,
+                 RELAXATION_COLUMNS)
 
 
 def drop_counts(table: pd.DataFrame) -> dict[str, int]:
@@ -834,33 +784,24 @@ def describe(table: pd.DataFrame) -> str:
     """A short text: curves read, points kept, dropped per reason; then one line per block
     skipped, with the reason."""
     keys = ["source_file", "interval"] + (["phi"] if "phi" in table else [])
-    groups = table.groupby(keys, sort=False, dropna=False)
-    kept = int(table["kept"].sum())
-    counts = drop_counts(table)
-    text = (f"read {groups.ngroups} curve(s) from {table['source_file'].nunique()} file(s): "
-            f"{kept} point(s) kept, {len(table) - kept} dropped")
+    kept, counts = int(table["kept"].sum()), drop_counts(table)
+    text = (f"read {table.groupby(keys, sort=False, dropna=False).ngroups} curve(s) from "
+            f"{table['source_file'].nunique()} file(s): {kept} point(s) kept, "
+            f"{len(table) - kept} dropped")
     if counts:
         text += " (" + ", ".join(f"{k}: {v}" for k, v in counts.items()) + ")"
-    for f, name, why in table.attrs.get("skipped", []):
-        text += f"\n  skipped {f} {name!r}: {why}"
-    return text
+    return text + "".join(f"\n  skipped {f} {name!r}: {why}"
+                          for f, name, why in table.attrs.get("skipped", []))
 
 
 def table_to_csv_frame(table: pd.DataFrame) -> pd.DataFrame:
     """The tidy table ready for :func:`runkit.io.atomic_write_csv` (non-finite numbers of
     dropped points blanked; empty-ok columns listed in :data:`EMPTY_OK`)."""
     out = table.copy()
-    for c in EMPTY_OK:
-        if c in out:
-            v = out[c].to_numpy(dtype=float)
-            out[c] = np.where(np.isfinite(v), v, np.nan)
+    for c in (c for c in EMPTY_OK if c in out):
+        v = out[c].to_numpy(dtype=float)
+        out[c] = np.where(np.isfinite(v), v, np.nan)
     return out
-
-
-#: Columns of the tidy tables that may be empty (unknown phi or time, a blank cell of a dropped
-#: point).
-EMPTY_OK: tuple[str, ...] = ("phi", "point", "time_s", "shear_rate_per_s", "shear_stress_Pa",
-                             "viscosity_Pa_s")
 
 
 # ------------------------------------------------------------------ writing (examples, tests)
@@ -882,14 +823,11 @@ def write_rheocompass(path, curves: Iterable[dict], *, project: str = "synthetic
     for k, c in enumerate(curves, start=1):
         s, r = np.asarray(c["stress"], float), np.asarray(c["rate"], float)
         status = c.get("status") or ["Dy_auto"] * s.size
-        t = c.get("time")
-        t = np.arange(1, s.size + 1) * 6.0 if t is None else np.asarray(t, float)
+        t = np.arange(1, s.size + 1) * 6.0 if c.get("time") is None else np.asarray(c["time"], float)
         lines += [f"Result:\t{c['name']}", "", f"Interval and data points:\t{k}\t{s.size}", head,
                   "\t" * 10, "\t\t[s]\t[1/s]\t[Pa]\t[Pa·s]\t[mN·m]\t[N]\t[mm]\t[°C]\t"]
-        v = _complete(s, r, None, "")[2]             # stress/rate, NaN at rate 0
-        for i in range(s.size):
-            lines.append(f"\t{i + 1}\t{_g(t[i])}\t{_g(r[i])}\t{_g(s[i])}\t{_g(v[i])}\t"
-                         f"{_g(s[i] * 0.0368)}\t-0.03\t1.000\t20\t{status[i]}")
+        lines += [f"\t{i + 1}\t{_g(t[i])}\t{_g(r[i])}\t{_g(s[i])}\t{_g(v)}\t{_g(s[i] * 0.0368)}"
+                  f"\t-0.03\t1.000\t20\t{status[i]}" for i, v in enumerate(_ratio(s, r))]
         lines.append("")
     text = "\r\n".join(lines) + "\r\n"
     return atomic_write_bytes(path, b"\xff\xfe" + text.encode("utf-16-le"))
@@ -909,39 +847,30 @@ def write_export(path, layout: str, steps: Iterable[dict], header: dict) -> Path
 
     The TRIOS text is Latin-1 with CRLF line ends, the CSVs UTF-8 with a BOM.
     """
-    steps = list(steps)
-    if layout in ("trios", "trios-csv"):
-        d = "\t" if layout == "trios" else ","
-        lines = []
-        for section, items in header.items():
-            if section and layout == "trios":
-                lines.append(f"[{section}]")
-            lines += [f"{k}{d}{v}" for k, v in items.items()]
-        for st in steps:
-            cols = st["columns"]
-            n = len(cols[0][2])
-            lines += (["[step]"] if layout == "trios" else [""]) + [st["name"],
-                                                                      f"Number of points{d}{n}"]
-            lines += [d.join(c[0] for c in cols), d.join(c[1] for c in cols)]
-            lines += [d.join(_g(c[2][i]) for c in cols) for i in range(n)]
-        text = "\r\n".join(lines) + "\r\n"
-        data = text.encode("latin-1") if layout == "trios" else b"\xef\xbb\xbf" + text.encode()
-        return atomic_write_bytes(path, data)
-    if layout != "rspace":
+    if layout not in ("trios", "trios-csv", "rspace"):
         raise ValueError(f"layout = {layout!r} must be trios, trios-csv or rspace")
-    names: list[str] = []
+    steps, bom = list(steps), b"\xef\xbb\xbf"
+    if layout == "rspace":
+        names = list(dict.fromkeys(f"{c[0]}({c[1]})" for st in steps for c in st["columns"]))
+        out = io.StringIO()
+        w = csv.writer(out, lineterminator="\r\n")
+        w.writerows([[k, v] for items in header.values() for k, v in items.items()] + [[]])
+        w.writerow(["Action Name", *names])
+        for st in steps:
+            cols = {f"{c[0]}({c[1]})": c[2] for c in st["columns"]}
+            w.writerows([st["name"], *(_g(cols[k][i]) if k in cols else "" for k in names)]
+                        for i in range(len(next(iter(cols.values())))))
+        return atomic_write_bytes(path, bom + out.getvalue().encode())
+    d = "\t" if layout == "trios" else ","
+    lines = []
+    for section, items in header.items():
+        lines += ([f"[{section}]"] if section and layout == "trios" else [])
+        lines += [f"{k}{d}{v}" for k, v in items.items()]
     for st in steps:
-        names += [f"{c[0]}({c[1]})" for c in st["columns"] if f"{c[0]}({c[1]})" not in names]
-    out = io.StringIO()
-    w = csv.writer(out, lineterminator="\r\n")
-    for items in header.values():
-        for k, v in items.items():
-            w.writerow([k, v])
-    w.writerow([])
-    w.writerow(["Action Name", *names])
-    for st in steps:
-        cols = {f"{c[0]}({c[1]})": c[2] for c in st["columns"]}
-        n = len(next(iter(cols.values())))
-        for i in range(n):
-            w.writerow([st["name"], *(_g(cols[k][i]) if k in cols else "" for k in names)])
-    return atomic_write_bytes(path, b"\xef\xbb\xbf" + out.getvalue().encode())
+        cols, n = st["columns"], len(st["columns"][0][2])
+        lines += ["[step]" if layout == "trios" else "", st["name"], f"Number of points{d}{n}",
+                  d.join(c[0] for c in cols), d.join(c[1] for c in cols)]
+        lines += [d.join(_g(c[2][i]) for c in cols) for i in range(n)]
+    text = "\r\n".join(lines) + "\r\n"
+    return atomic_write_bytes(path, text.encode("latin-1") if layout == "trios"
+                              else bom + text.encode())
