@@ -21,19 +21,27 @@ def save(fig, path) -> str:
     return str(path)
 
 
-def _finish(fig, axs, title: str, legend: int | None = 7) -> None:
-    """The common end of a figure: a grid (and a legend of ``legend`` points) on every panel,
-    the title, a tight layout."""
+def _finish(fig, axs, title: str, legend: int | None = 7, xlabel: str | None = None) -> None:
+    """The common end of a figure: a grid (a legend of ``legend`` points, the x label) on every
+    panel, the title, a tight layout."""
     for ax in np.atleast_1d(axs).ravel():
         ax.grid(True, which="both", alpha=0.25)
         if legend:
             ax.legend(fontsize=legend)
+        if xlabel:
+            ax.set_xlabel(xlabel)
     fig.suptitle(title, fontsize=11)
     fig.tight_layout()
 
 
 def _colors(n: int):
     return plt.cm.viridis(np.linspace(0.0, 0.85, max(n, 1)))
+
+
+def _each(df: pd.DataFrame, col: str = "phi"):
+    """``(colour, value, rows)`` per distinct value of ``col``, in increasing order."""
+    values = np.unique(df[col])
+    return [(c, v, df[df[col] == v]) for c, v in zip(_colors(len(values)), values)]
 
 
 def _positive(x):
@@ -82,9 +90,7 @@ def flow_curve_figure(df: pd.DataFrame, material, title: str | None = None):
     stress-parametrised steady curve (thin grey); gdot_DST of Eq. (33) dotted where DST exists."""
     m = rheology.get_material(material)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.4))
-    phis = np.unique(df["phi"])
-    for c, ph in zip(_colors(len(phis)), phis):
-        d = df[df["phi"] == ph]
+    for c, ph, d in _each(df):
         label = f"phi = {ph:g}"
         if "stable" in d.columns:
             _branch_lines(ax1, ax2, d, m, ph, c, label)
@@ -108,16 +114,15 @@ def flow_curve_figure(df: pd.DataFrame, material, title: str | None = None):
     return fig
 
 
-def _f_axis(ax, values):
+def _f_axis(ax, values) -> None:
     """A structure axis that cannot make a tiny change look like a collapse: from 0 to at least
     1.15 max f (f is a fraction in [0, 1]); the relative change is given in the label."""
     v = np.asarray(values, dtype=float)
     v = v[np.isfinite(v)]
     top = float(v.max()) if v.size else 1.0
     ax.set_ylim(0.0, max(1.15 * top, 0.05))
-    if v.size and top > 0:
-        return f" (changes by {100 * (top - float(v.min())) / top:.3g}%)"
-    return ""
+    note = f" (changes by {100 * (top - float(v.min())) / top:.3g}%)" if v.size and top > 0 else ""
+    ax.set_ylabel("structure f [-]" + note, fontsize=9)
 
 
 def transient_figure(frames: dict, title: str, log_time: bool = False):
@@ -144,13 +149,10 @@ def transient_figure(frames: dict, title: str, log_time: bool = False):
             ax.set_yscale("log")
     axs[0].set_ylabel("shear stress [Pa]")
     axs[1].set_ylabel("shear rate [1/s]")
-    note = _f_axis(axs[2], np.concatenate(f_all) if f_all else [])
-    axs[2].set_ylabel("structure f [-]" + note, fontsize=9)
-    for ax in axs:
-        ax.set_xlabel("time [s]")
-        if log_time:
-            ax.set_xscale("log")
-    _finish(fig, axs, title)
+    _f_axis(axs[2], np.concatenate(f_all) if f_all else [])
+    for ax in axs if log_time else ():
+        ax.set_xscale("log")
+    _finish(fig, axs, title, xlabel="time [s]")
     return fig
 
 
@@ -172,12 +174,10 @@ def program_figure(df: pd.DataFrame, title: str):
     rate and relaxed stress stay visible) and the structure f; step boundaries dotted and
     numbered."""
     fig, axs = plt.subplots(1, 4, figsize=(17, 4.2))
-    steps = np.unique(df["step"])
     labels = df.attrs.get("steps", [])
     ax = axs[0]
     oscillating = []
-    for c, k in zip(_colors(len(steps)), steps):
-        d = df[df["step"] == k]
+    for c, k, d in _each(df, "step"):
         lab = f"{k}: " + (labels[k - 1] if k - 1 < len(labels) else f"step {k}")
         if lab.split(": ", 1)[-1].startswith("oscillate"):
             oscillating.append(str(k))           # a loop through zero: the time panels show it
@@ -206,7 +206,7 @@ def program_figure(df: pd.DataFrame, title: str):
                 ax.set_yscale("log")
         ax.set_ylabel(unit)
     axs[3].plot(t, df["f"], "-", lw=2, color="C2")
-    axs[3].set_ylabel("structure f [-]" + _f_axis(axs[3], df["f"]), fontsize=9)
+    _f_axis(axs[3], df["f"])
     for ax in axs[1:]:
         ax.set_xlabel("time [s]")
         _step_marks(ax, df)
@@ -233,16 +233,14 @@ def material_point_figure(df: pd.DataFrame, title: str):
         ax_phi.plot(t, d["phi"], ":", lw=1.5, color=c, label=pre + "phi (right axis)")
     axs[0].set_ylabel("granular stress [Pa]")
     axs[1].set_ylabel("normal-stress differences [Pa]")
-    axs[2].set_ylabel("structure f [-]" + _f_axis(axs[2], df["f"]), fontsize=9)
+    _f_axis(axs[2], df["f"])
     ax_phi.set_ylabel("volume fraction phi [-] (dotted)")
     h1, l1 = axs[2].get_legend_handles_labels()
     h2, l2 = ax_phi.get_legend_handles_labels()
     axs[2].legend(h1 + h2, l1 + l2, fontsize=7)
-    for ax in axs:
-        ax.set_xlabel("time [s]")
     for ax in axs[:2]:
         ax.legend(fontsize=7)
-    _finish(fig, axs, title, None)
+    _finish(fig, axs, title, None, "time [s]")
     return fig
 
 
@@ -261,6 +259,12 @@ def _below_legend(fig, axs, ncol: int = 3):
         fig.legend(handles, labels, loc="lower center", ncol=ncol, fontsize=7, frameon=False)
 
 
+#: a sweep's variable: (axis label, legend entry of one value)
+_SWEEP = {"strain_amplitude": ("strain amplitude gamma0 [-]", "gamma0 = {:g}"),
+          "stress_amplitude_Pa": ("stress amplitude sigma0 [Pa]", "sigma0 = {:g} Pa"),
+          "frequency_Hz": ("frequency [Hz]", "{:g} Hz")}
+
+
 def oscillation_figure(points: pd.DataFrame, title: str, dst_stress: float | None = None):
     """Sweep results: G' and G'' (symbols) with the linearised model's (lines), |eta*|, and the
     third-harmonic ratio I3/I1, against the strain amplitude (amplitude sweep) or the frequency
@@ -271,26 +275,17 @@ def oscillation_figure(points: pd.DataFrame, title: str, dst_stress: float | Non
     the amplitude where the peak stress first exceeds it is marked. One legend, below."""
     fig, axs = plt.subplots(1, 3, figsize=(15, 4.8))
     amp_sweep = points.groupby(["phi", "frequency_Hz"]).size().max() > 1
-    keys = ["phi", "frequency_Hz"] if amp_sweep else ["phi", "strain_amplitude"]
-    if not amp_sweep and points["control"].iloc[0] == "stress":
-        keys = ["phi", "stress_amplitude_Pa"]
+    amp = "stress_amplitude_Pa" if points["control"].iloc[0] == "stress" else "strain_amplitude"
+    keys, xcol = (["phi", "frequency_Hz"], amp) if amp_sweep else (["phi", amp], "frequency_Hz")
     if "reason" not in points:
         points = points.assign(reason="")
     failed_all = points["reason"].fillna("") != ""
     # a failed point has no measured strain (stress control) or stress: group it by its drive
     groups = list(points.groupby(keys, sort=False, dropna=False))
-    xcol = "strain_amplitude" if amp_sweep else "frequency_Hz"
-    if amp_sweep and points["control"].iloc[0] == "stress":
-        xcol = "stress_amplitude_Pa"
-    xlabel = {"strain_amplitude": "strain amplitude gamma0 [-]",
-              "stress_amplitude_Pa": "stress amplitude sigma0 [Pa]",
-              "frequency_Hz": "frequency [Hz]"}[xcol]
     n_past = int((points["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT).sum())
     for c, (key, d) in zip(_colors(len(groups)), groups):
         d = d.sort_values(xcol)
-        lab = f"phi = {key[0]:g}, " + (f"{key[1]:g} Hz" if amp_sweep else
-                                       (f"gamma0 = {key[1]:g}" if keys[1] == "strain_amplitude"
-                                        else f"sigma0 = {key[1]:g} Pa"))
+        lab = f"phi = {key[0]:g}, " + _SWEEP[keys[1]][1].format(key[1])
         fail = (d["reason"].fillna("") != "").to_numpy()
         ran = d[~fail]
         past = (ran["max_elastic_strain"] > ELASTIC_STRAIN_LIMIT).to_numpy()
@@ -336,7 +331,7 @@ def oscillation_figure(points: pd.DataFrame, title: str, dst_stress: float | Non
     axs[1].set_ylabel("|eta*| = |G*|/omega [Pa s]")
     axs[2].set_ylabel("I3/I1 [-]")
     for ax in axs:
-        ax.set_xlabel(xlabel)
+        ax.set_xlabel(_SWEEP[xcol][0])
         ax.grid(True, which="both", alpha=0.25)
     notes = []
     if n_past:
@@ -436,13 +431,11 @@ def parallel_plate_figure(df: pd.DataFrame, true_curve: pd.DataFrame | None, tit
     R^3) against the rim rate) and the Weissenberg-Rabinowitsch-corrected points; right panel:
     the relative difference apparent/true - 1 and corrected/true - 1."""
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
-    phis = np.unique(df["phi"])
-    for c, ph in zip(_colors(len(phis)), phis):
-        d = df[df["phi"] == ph]
+    for c, ph, d in _each(df):
         if true_curve is not None:
             t = true_curve[true_curve["phi"] == ph].sort_values("granular_shear_stress_Pa")
             ax1.loglog(_positive(t["shear_rate_per_s"]), t["shear_stress_Pa"], "-", color="0.6",
-                       lw=1, label=f"phi = {ph:g}: whole steady curve" if c is not None else None)
+                       lw=1, label=f"phi = {ph:g}: whole steady curve")
         ax1.loglog(d["rim_shear_rate_per_s"], d["shear_stress_Pa"], "-", color=c, lw=2.5,
                    label=f"phi = {ph:g}: true (rim)")
         ax1.loglog(d["rim_shear_rate_per_s"], d["apparent_shear_stress_Pa"], "--", color=c, lw=1.5,
