@@ -22,11 +22,14 @@ columns and missing units tolerated):
   3``), optionally ``Number of points<TAB>N``, column names, units (``Pa``, ``1/s``, ``Pa.s``,
   ``s``, ``µN.m``) and the points, up to a blank or bracketed line.
 - ``trios-csv``: the same comma separated, each step introduced by a row holding only its name
-  (or a ``[step]`` row, then its name).
+  (or a ``[step]`` row, then its name); known by a TRIOS header key (``Filename``, ``Geometry
+  name``, ``Stress constant``, ...) as a ``key,value`` row and a ``Shear rate`` or ``Step time``
+  column.
 - ``rspace``: Malvern rSpace (Kinexus) CSV: ``key,value`` preamble rows, then one table whose
   column names carry units in parentheses (``Shear stress(Pa)``, ``Shear rate(s-¹)``) and whose
   ``Action Name`` column names each row's action (consecutive rows of one action are a block);
-  comma or semicolon separated.
+  comma or semicolon separated; known by such a name with an ``Action Name`` or ``Shear
+  viscosity`` column or an ``s-¹`` unit (or rSpace/Kinexus in the preamble).
 - ``csv``: a plain delimited table (comma, semicolon or tab) with a header row, mapped with
   ``columns={"stress": NAME, ...}`` (keys of :data:`ALIASES`) or by common names; an
   ``interval`` or ``phi`` column splits it into curves. Tried last; a file in none of these
@@ -37,7 +40,6 @@ file; mass fractions are converted with Eq. (20) of the Supplement
 (:func:`rheology.steady.phi_from_mass_fraction`).
 """
 
-from __future__ import annotations
 from __future__ import annotations
 
 import bisect
@@ -408,12 +410,7 @@ _DETECT = {                       # format -> patterns that must all match the d
 }
 
 #: format -> (detector on the decoded text, block parser(text, columns), the layout as named in
-#: a refusal), tried in order: RheoCompass (``Interval data:`` headers); TRIOS "Export to LIMS"
-#: text (a ``[step]`` line, tab separated); TRIOS CSV (a TRIOS header key such as ``Filename``,
-#: ``Geometry name`` or ``Stress constant`` as a ``key,value`` row and a row of TRIOS column
-#: names); rSpace CSV (a header row of names with units in parentheses with an ``Action Name``
-#: or ``Shear viscosity`` column or an ``s-¹`` unit, or rSpace/Kinexus in its preamble); a
-#: plain table (a header row with a comma, semicolon or tab, then a row holding a number).
+#: a refusal), tried in order (the layouts: the module's docstring).
 READERS: dict[str, tuple] = {
     "rheocompass": (lambda text: "Interval data:" in text, rheocompass_blocks,
                     "RheoCompass text export"),
