@@ -742,7 +742,8 @@ def read_relaxation_curves(paths: Sequence, *, fmt: str = "auto",
         frames = []
         for b in chosen:
             where = f"data file {p.name!r}, {b.name}"
-            t, s, torque = (block_values(b, q, where, columns) for q in ("time", "stress", "torque"))
+            t, s, torque = (block_values(b, q, where, columns) for q in ("time", "stress",
+                                                                          "torque"))
             if t is None or (s is None and torque is None):
                 raise ValueError(f"{where}: no {'time' if t is None else 'stress or torque'} "
                                  f"column (columns: {', '.join(b.header)})")
@@ -820,7 +821,8 @@ def write_rheocompass(path, curves: Iterable[dict], *, project: str = "synthetic
     for k, c in enumerate(curves, start=1):
         s, r = np.asarray(c["stress"], float), np.asarray(c["rate"], float)
         status = c.get("status") or ["Dy_auto"] * s.size
-        t = np.arange(1, s.size + 1) * 6.0 if c.get("time") is None else np.asarray(c["time"], float)
+        t = np.asarray(c["time"] if c.get("time") is not None else np.arange(1, s.size + 1) * 6.0,
+                       float)
         lines += [f"Result:\t{c['name']}", "", f"Interval and data points:\t{k}\t{s.size}", head,
                   "\t" * 10, "\t\t[s]\t[1/s]\t[Pa]\t[Pa·s]\t[mN·m]\t[N]\t[mm]\t[°C]\t"]
         lines += [f"\t{i + 1}\t{_g(t[i])}\t{_g(r[i])}\t{_g(s[i])}\t{_g(v)}\t{_g(s[i] * 0.0368)}"

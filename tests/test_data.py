@@ -7,9 +7,11 @@ import pandas as pd
 import pytest
 
 import rheology as r
-from rheology.data import (COLUMNS, DROP_REASONS, Curve, clean, drop_counts, read_flow_curves,
-                           block_curve, read_blocks, select_blocks, to_number,
+from rheology.data import (COLUMNS, DROP_REASONS, Curve, block_curve, clean, drop_counts,
+                           read_blocks, read_flow_curves, read_relaxation_curves, select_blocks,
+                           stress_constant, to_number, unit_factor, write_export,
                            write_rheocompass)
+from rheometer.cli import main
 
 FIX = Path("/work/shared/fixtures/rheocompass")
 FILES = sorted(FIX.glob("synthetic_phi_*.csv")) if FIX.is_dir() else []
@@ -125,8 +127,6 @@ def test_down_ramp_is_monotone_too():
 
 @needs_fixtures
 def test_cli_read_writes_tidy_csv_and_refuses_bad_phi(tmp_path, capsys):
-    from rheometer.cli import main
-
     out = tmp_path / "curves.csv"
     assert main(["read", *map(str, FILES), "--phi", *map(str, PHIS), "--out", str(out)]) == 0
     df = pd.read_csv(out)
@@ -185,14 +185,10 @@ def test_trios_units_by_hand():
 @pytest.mark.parametrize("unit, factor", [("[MPa]", 1e6), ("[mPa]", 1e-3), ("(kPa)", 1e3),
                                           ("[Pa]", 1.0), ("mpa", 1e-3)])
 def test_stress_units_mega_is_not_milli(unit, factor):
-    from rheology.data import unit_factor
-
     assert unit_factor("stress", unit, "x") == factor
 
 
 def test_units_of_viscosity_torque_fraction_and_stress_constant():
-    from rheology.data import stress_constant, unit_factor
-
     assert unit_factor("viscosity", "Pa·s", "x") == 1.0 and unit_factor("viscosity", "mPa s",
                                                                         "x") == 1e-3
     assert unit_factor("rate", "s-¹", "x") == 1.0 and unit_factor("rate", "s⁻¹", "x") == 1.0
@@ -225,8 +221,6 @@ def test_a_file_in_no_known_layout_names_the_layouts_tried(tmp_path):
 
 
 def test_cli_read_takes_the_three_layouts(tmp_path, capsys):
-    from rheometer.cli import main
-
     out = tmp_path / "c.csv"
     files = [str(EX / n) for n in HAND]
     assert main(["read", *files, "--phi", "0.42", "0.45", "0.48", "--out", str(out)]) == 0
@@ -242,8 +236,6 @@ def test_cli_read_takes_the_three_layouts(tmp_path, capsys):
 
 
 def test_cli_fit_takes_the_three_layouts_with_the_hand_counted_points(tmp_path):
-    from rheometer.cli import main
-
     out = tmp_path / "fit"
     files = [str(EX / n) for n in HAND]
     assert main(["fit", *files, "--phi", "0.42", "0.45", "0.48", "--set", "eta0=0.006",
@@ -260,8 +252,6 @@ def test_cli_fit_takes_the_three_layouts_with_the_hand_counted_points(tmp_path):
 
 # ---------------------------------------------------------------- relaxation curves
 def test_trios_relaxation_steps_are_torque_converted_with_the_stress_constant():
-    from rheology.data import read_relaxation_curves
-
     t = read_relaxation_curves([EX / "trios_relaxation_phi_0.52.txt"])
     assert list(t.groupby("curve")["interval"].first()) == ["Stress relaxation - 2",
                                                              "Stress relaxation - 4"]
@@ -276,8 +266,6 @@ def test_trios_relaxation_steps_are_torque_converted_with_the_stress_constant():
 
 
 def test_relaxation_without_stress_constant_says_why(tmp_path):
-    from rheology.data import read_relaxation_curves, write_export
-
     p = tmp_path / "r.txt"
     write_export(p, "trios", [{"name": "Stress relaxation - 1", "columns": [
         ("Step time", "s", np.array([0.1, 0.2, 0.4])), ("Torque", "µN.m", np.array([9., 5, 2]))]}],
@@ -287,8 +275,6 @@ def test_relaxation_without_stress_constant_says_why(tmp_path):
 
 
 def test_relaxation_from_rheocompass_interval_and_plain_table(tmp_path):
-    from rheology.data import read_relaxation_curves
-
     t = np.array([0.1, 0.2, 0.2, 0.4, 0.8, 1.6])
     s = np.array([90.0, 70.0, 70.0, 40.0, 0.0, 5.0])
     p = tmp_path / "rc.csv"

@@ -3,19 +3,16 @@ covering what the CSV holds (issue 15: an empty material-point figure under pres
 relaxation f axis that magnified 0.1%, a program's stress and rate on one axis down to 1e-12,
 isolated unlabelled states of the rate-controlled flow curve)."""
 
-import matplotlib
+import numpy as np
+import pytest
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-import pytest  # noqa: E402
-
-import rheology  # noqa: E402
-from rheometer import (HYSTERESIS_PROGRAM, flow_curve, plots, relax, run_program,  # noqa: E402
+import rheology
+from rheometer import (HYSTERESIS_PROGRAM, flow_curve, plots, relax, run_program,
                        simple_shear_point)
-from rheometer import geometry as geo  # noqa: E402
-from rheometer import oscillation as osc  # noqa: E402
+from rheometer import geometry as geo
+from rheometer import oscillation as osc
+from rheometer.plots import normalise_units
+from runkit.plotting import plt
 
 HERMES = rheology.get_material("hermes2016")
 
@@ -142,10 +139,6 @@ def test_parallel_plate_figure_has_true_apparent_and_corrected():
 
 def test_normalised_material_figures_carry_normalised_units():
     """A Table 1 (normalised) set's figure labels say eta0 gdot0 and gdot0, not Pa and 1/s."""
-    import matplotlib.pyplot as plt
-
-    from rheometer.plots import normalise_units
-
     fig, ax = plt.subplots()
     ax.set_xlabel("shear rate [1/s]")
     ax.set_ylabel("viscosity [Pa s]")
