@@ -213,14 +213,14 @@ def _cmd_oscillation(args) -> str:
         waves = geo.instrument_columns(waves, g)
     table, _ = finish_table(sample, points, cmd=args.cmd)
     wtable, _ = finish_table(sample, waves, cmd=args.cmd)
-    empty = ("elastic_stress_Pa", "viscous_stress_Pa") if args.control == "stress" else ()
-    empty = tuple(geo.normalised_name(c) if m.units == "normalised" else c for c in empty)
+    unit = geo.normalised_name if m.units == "normalised" else (lambda c: c)
+    empty = tuple(map(unit, ("elastic_stress_Pa", "viscous_stress_Pa") if args.control == "stress"
+                      else ()))
     # empty where undefined: tan_delta if G' <= 0, cycle_change if fewer than two cycles
     # compared; a failed point's results (its row says why), checked finite in the others
     ok = ("tan_delta", "cycle_change", "not_periodic_why")
     check_finite(table[~failed.to_numpy()], Path(args.out).name, ok)
-    unit = geo.normalised_name if m.units == "normalised" else (lambda c: c)
-    empty_failed = tuple(unit(c) for c in osc.FAILED_EMPTY) + (
+    empty_failed = tuple(map(unit, osc.FAILED_EMPTY)) + (
         ("torque_amplitude_N_m", "angle_amplitude_rad") if g is not None else ())
     atomic_write_csv(args.out, table, empty_ok=ok + (empty_failed if failed.any() else ()))
     atomic_write_csv(waves_csv, wtable, empty_ok=empty)
