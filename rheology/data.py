@@ -529,7 +529,8 @@ def block_curve(block: Block, source: str, columns: dict[str, str] | None = None
     if sum(x is not None for x in (s, r, v)) < 2:
         raise ValueError(f"{where}: needs two of shear stress, shear rate and viscosity "
                          "(map them with --columns stress=NAME rate=NAME viscosity=NAME)")
-    s = v * r if s is None else s
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = v * r if s is None else s
     r, v = (_ratio(s, v) if r is None else r), (_ratio(s, r) if v is None else v)
     point, time = get("point"), get("time")
     return Curve(source, block.name, point if point is not None else np.arange(1.0, n + 1),
