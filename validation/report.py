@@ -349,9 +349,17 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
     RuntimeError
         The report could not be written at the end (the message says what the folder holds).
     KeyboardInterrupt
-        Ctrl-C or SIGTERM: what finished is written first, marked ``"status": "interrupted"``,
-        and the message says so.
+        Ctrl-C or SIGTERM at any moment once the selection is checked (SIGTERM is a
+        ``KeyboardInterrupt`` here, called from the library too; a signal an entry's own window
+        recorded and let its run finish stops the report after that entry): what finished is
+        written first, marked ``"status": "interrupted"`` with every unfinished entry in
+        ``pending``, and the message says so.
     """
+    with Interrupts(defer=False) as stop:
+        return _write_report(stop, out, tiers, names, quick, benchmarks, slow, resume, log)
+
+
+def _write_report(stop, out, tiers, names, quick, benchmarks, slow, resume, log) -> Report:
     todo = plan(tiers, names, quick, benchmarks, slow)
     root = check_output_dir("--out", out)
     for fname in ("report.html", "results.json"):
@@ -363,7 +371,6 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
             raise ValueError(f"--out = {str(out)!r}: {root / e.name} is a file; case "
                              f"{e.name} writes its figures in a folder there")
     records = _earlier(root, out, quick) if resume else {}
-    root.mkdir(parents=True, exist_ok=True)
     run, t0 = time.strftime("%Y-%m-%d %H:%M:%S"), time.perf_counter()
     html_path, json_path = root / "report.html", root / "results.json"
     reg = load_all()
@@ -390,7 +397,8 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
         atomic_write_text(html_path, _render(doc))
         written = sum(r["skipped"] is None for r in doc["entries"])
 
-    try:
+    root.mkdir(parents=True, exist_ok=True)     # the first thing written: from here a signal
+    try:                                        # leaves a results.json naming what is pending
         for e in todo.run:
             fp = fingerprint(e, quick)
             old = records.get(e.name)
@@ -416,11 +424,10 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
                        "entries)" if written else "nothing written yet")
                     + "; trying again after the next entry",
                     flush=True)
+            if pending:               # a signal the entry's run recorded and finished after
+                stop.check()
     except KeyboardInterrupt:
         done = len(todo.run) - len(pending)
-        if done == len(kept) and not written:         # nothing new to write
-            raise KeyboardInterrupt("no entry finished; " + (
-                f"{json_path} is as it was" if resume else "no report written")) from None
         try:
             with Interrupts(defer=True):             # a second Ctrl-C waits for the write
                 write("interrupted")
