@@ -220,6 +220,18 @@ def test_real_case_writes_what_it_claims(in_tmp, capsys):
     assert "fig10_steady_structure" in (in_tmp / "rep" / "report.html").read_text()
 
 
+def test_real_mpm2d_case_leaves_no_checkpoint_of_its_completed_runs(in_tmp, capsys):
+    """mpm2d_piston's runs complete: their folders keep no checkpoint (they used to keep
+    checkpoint.npz); every one of them says complete."""
+    code, out, err = _run(["report", "--only", "mpm2d_piston", "--quick", "--out", "rep"],
+                          capsys)
+    assert code == 0, (out, err)
+    manifests = list((in_tmp / "rep").rglob("manifest.json"))
+    assert manifests and all(json.loads(m.read_text())["status"] == "complete"
+                             for m in manifests)
+    assert not list((in_tmp / "rep").rglob("checkpoint*.npz"))
+
+
 def test_list_marks_slow_cases(capsys):
     assert main(["list"]) == 0
     lines = {ln.split()[2]: ln for ln in capsys.readouterr().out.splitlines()}

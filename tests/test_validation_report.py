@@ -234,6 +234,35 @@ def test_sigterm_writes_what_finished_and_resume_finishes_it(registry, capsys, t
     assert [r["name"] for r in doc["entries"]] == ["clean_case", "planted_case", "planted_bench"]
 
 
+def _runs(out, statuses):
+    """Run folders ``out/<status>`` with a manifest of that status and a checkpoint."""
+    for status in statuses:
+        (out / status).mkdir(parents=True)
+        (out / status / "manifest.json").write_text(json.dumps({"status": status}))
+        (out / status / "checkpoint.npz").write_bytes(b"npz")
+
+
+def test_completed_runs_lose_their_checkpoints_interrupted_ones_keep_them(registry, capsys,
+                                                                         tmp_path):
+    reg, _ = registry
+
+    def case(out, quick):
+        _runs(out, ("complete", "stopped", "running"))
+        return Verdict("c", "m", True)
+
+    def interrupted(out, quick):
+        _runs(out, ("complete",))
+        raise KeyboardInterrupt
+
+    reg["clean_case"].func, reg["planted_case"].func = case, interrupted
+    code, _, _ = _report(capsys, "--tier", "rheology", "--no-bench")
+    assert code == 130
+    rep = tmp_path / "rep"
+    assert sorted(str(p.relative_to(rep)) for p in rep.rglob("checkpoint.npz")) == [
+        "clean_case/running/checkpoint.npz", "clean_case/stopped/checkpoint.npz",
+        "planted_case/complete/checkpoint.npz"]        # an interrupted entry's runs keep theirs
+
+
 #: a report of three stand-in entries, run in a subprocess: python work (a), a run whose own
 #: window records a signal and finishes (b), and a run that sleeps before its drive window and
 #: then steps with a checkpoint (c); argv: the folder and the route (cli or library)

@@ -44,6 +44,7 @@ import pandas as pd
 
 from runkit.io import atomic_savefig, atomic_write_csv, strict_json
 from runkit.plotting import plt
+from runkit.run import retire_checkpoints
 import validation
 
 
@@ -277,7 +278,9 @@ class Outcome:
 
 def run_entry(entry: Entry, out: Path, quick: bool = False) -> Outcome:
     """Run one case or benchmark in its own folder ``out/<name>``; an exception it raises (other
-    than ``KeyboardInterrupt``) is its outcome's ``error``, never fatal to the report."""
+    than ``KeyboardInterrupt``) is its outcome's ``error``, never fatal to the report. When it
+    ends (not interrupted), the runs that completed under ``out`` lose their checkpoints
+    (:func:`runkit.run.retire_checkpoints`: the mpm2d runner keeps a completed run's)."""
     folder = Path(out) / entry.name
     folder.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -287,10 +290,11 @@ def run_entry(entry: Entry, out: Path, quick: bool = False) -> Outcome:
         if not isinstance(result, want):
             raise TypeError(f"{entry.kind} {entry.name} returned a {type(result).__name__}, "
                             f"not a {want.__name__}")
-        data, problems = clean(result)
-        return Outcome(entry, time.perf_counter() - t0, data, problems)
+        outcome = Outcome(entry, time.perf_counter() - t0, *clean(result))
     except Exception:  # a failing case is reported, not fatal to the report
-        return Outcome(entry, time.perf_counter() - t0, error=traceback.format_exc())
+        outcome = Outcome(entry, time.perf_counter() - t0, error=traceback.format_exc())
+    retire_checkpoints(out)
+    return outcome
 
 
 # ------------------------------------------------------------------ fingerprint (--resume)
