@@ -237,3 +237,30 @@ def test_list_marks_slow_cases(capsys):
     lines = {ln.split()[2]: ln for ln in capsys.readouterr().out.splitlines()}
     assert lines["impact_fig4_paper"].split()[3] == "slow"
     assert lines["fig10_steady_structure"].split()[3] != "slow"
+
+
+def test_list_out_writes_the_list_atomically_in_each_format(in_tmp, capsys):
+    assert main(["list"]) == 0
+    printed = capsys.readouterr().out
+    for fmt in ("txt", "csv", "json"):
+        code, out, err = _run(["list", "--out", f"sub/cases.{fmt}"], capsys)
+        assert code == 0 and err == [] and out.startswith(f"wrote {Path('sub') / f'cases.{fmt}'}")
+    assert (in_tmp / "sub" / "cases.txt").read_text() == printed
+    rows = json.loads((in_tmp / "sub" / "cases.json").read_text())
+    assert [r["name"] for r in rows] == [ln.split()[2] for ln in printed.splitlines()]
+    assert {r["name"]: r["slow"] for r in rows}["impact_fig4_paper"] is True
+    csv = (in_tmp / "sub" / "cases.csv").read_text().splitlines()
+    assert csv[0] == "tier,kind,name,slow,title" and len(csv) == len(rows) + 1
+    assert sorted(p.name for p in (in_tmp / "sub").iterdir()) == [
+        "cases.csv", "cases.json", "cases.txt"]                  # no temporary left
+
+
+@pytest.mark.parametrize("path, words", [
+    ("cases.xyz", ("--out = 'cases.xyz'", "format 'xyz' is not one of txt, csv, json")),
+    ("", ("--out = ''", "not one of txt, csv, json")),
+    ("folder/", ("--out = 'folder/'", "names a folder")),
+    ("afile/cases.txt", ("--out = 'afile/cases.txt'", "is a file, not a folder"))])
+def test_list_out_bad_paths_refused_before_anything_is_written(in_tmp, capsys, path, words):
+    (in_tmp / "afile").write_text("x")
+    _refused(["list", "--out", path], capsys, *words)
+    _nothing_written(in_tmp, "afile")
