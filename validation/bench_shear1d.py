@@ -130,8 +130,7 @@ def cost_vs_cells(out: Path, quick: bool) -> BenchResult:
     for a in ax:
         a.legend(fontsize=8)
         a.grid(alpha=0.3)
-    fig.tight_layout()
-    png = save_figure(fig, out, "cost_vs_cells.png")
+    png = save_figure(fig, out, "cost_vs_cells.png", tight=True)
     ratios = ", ".join(f"{n}: {data['dae'][n] / data['explicit'][n]:.3f}" for n in cells)
     front = {n: speed["dae"][n] / speed["explicit"][n] for n in cells}
     n_big = cells[-1]
@@ -241,8 +240,7 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
     ax[1].axvline(lim["dt"], color="C2", lw=1.5, label=f"stability limit {lim['dt']:.2e} s")
     ax[1].set(xlabel="dt [s]", ylabel="max |v - v_ref| / u_i", title="explicit step size")
     ax[1].legend(fontsize=8)
-    fig.tight_layout()
-    png = save_figure(fig, out, "work_precision.png")
+    png = save_figure(fig, out, "work_precision.png", tight=True)
     best_exp = min((r for r in exp), key=lambda r: r["seconds"])
     return BenchResult(
         summary=f"{machine_description()}. Fast Fig. 3 case, {n} cells, 0-0.15 rad; reference: "

@@ -118,8 +118,7 @@ def fig2(out: Path, quick: bool) -> Verdict:
                ylabel=r"viscosity $\tau/\dot\gamma$ [Pa s]")
         ax.set_ylim(top=min(ax.get_ylim()[1], 1e6))
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    png = save_figure(fig, out, "fig2.png")
+    png = save_figure(fig, out, "fig2.png", tight=True)
     return Verdict(
         criterion="Eq. 13 residual <= 1e-10; low-stress plateau = Eq. 24 to 1e-6; for phi < phi_c "
                   "the high-stress plateau = Eq. 25 to 1e-3; for phi_c <= phi < phi_j the rate at "

@@ -102,8 +102,7 @@ def fig15_relaxation(out: Path, quick: bool) -> Verdict:
         ax.legend(fontsize=8)
     fig.suptitle(f"Relaxation from the steady state at {tau0:g} Pa, phi = {phi}, {HERMES} "
                  f"(f0 = {f0:.4f}, gdot0 = {gdot0:.4f} 1/s)", fontsize=11)
-    fig.tight_layout()
-    png = save_figure(fig, out, "fig15_relaxation.png")
+    png = save_figure(fig, out, "fig15_relaxation.png", tight=True)
 
     passed = (slope_err < 1e-4 and exp_err < 1e-7 and scaling_spread < 0.10 and k0_monotone
               and worst_rise <= 1e-9 and worst_end < 1e-3 and f_ok)
@@ -175,8 +174,7 @@ def transient_long_time_limits(out: Path, quick: bool) -> Verdict:
     ax.legend(fontsize=7)
     ax.set_title(f"{HERMES}: transients (IDA, 60 structure times) end on the steady curves",
                  fontsize=10)
-    fig.tight_layout()
-    png = save_figure(fig, out, "long_time_limits.png")
+    png = save_figure(fig, out, "long_time_limits.png", tight=True)
     table = "\n".join(f"{k:8s} phi={ph:<5g} rate={g:<9.4g} tau={tau:<9.4g} rel.err(rate/stress)="
                       f"{er:.1e} rel.err(f)={ef:.1e} stable={s}" for k, ph, g, tau, er, ef, s
                       in rows)
@@ -243,8 +241,7 @@ def material_point_steady_state(out: Path, quick: bool) -> Verdict:
     ax.set_title("circles: volume control; squares: pressure control (G = 1e6 Pa)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    png = save_figure(fig, out, "material_point_steady.png")
+    png = save_figure(fig, out, "material_point_steady.png", tight=True)
     details = "\n".join(f"{c:8s} phi0={p0:<6g} phi_end={ph:.6f} gdot={g:<5g} eta_s={es:.8g} "
                         f"(Eq.1 {e1:.8g}) eta_n={en:.8g} (Eq.2 {e2:.8g}) errors {a:.1e} {b:.1e} "
                         f"{c2:.1e}" for c, p0, ph, g, es, e1, en, e2, a, b, c2 in rows)
@@ -324,8 +321,7 @@ def material_point_convergence(out: Path, quick: bool) -> Verdict:
     ax2.set_title("pressure control, rate halved: compaction, then dilatant flow", fontsize=9)
     ax2.grid(True, alpha=0.3)
     ax2.legend(fontsize=8)
-    fig.tight_layout()
-    png = save_figure(fig, out, "material_point_convergence.png")
+    png = save_figure(fig, out, "material_point_convergence.png", tight=True)
     return Verdict(
         criterion="observed order log2(e(dt)/e(dt/2)) between 0.9 and 1.3 over the 4 finest "
                   "halvings, in all four scenarios (volume/pressure control, rate up/down, "
@@ -400,8 +396,7 @@ def material_point_stability(out: Path, quick: bool) -> Verdict:
     ax.grid(True, axis="x", alpha=0.3)
     ax.set_title("material-point step-size map (each dt split into sub-steps within the spin "
                  "and cancellation bounds)", fontsize=9)
-    fig.tight_layout()
-    png = save_figure(fig, out, "material_point_stability.png")
+    png = save_figure(fig, out, "material_point_stability.png", tight=True)
     details = "\n".join(f"{lab}: " + " ".join(f"{d:g}:{c}" for d, c in zip(dts, row))
                         for lab, row in zip(labels, grid))
     return Verdict(

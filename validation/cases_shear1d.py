@@ -65,8 +65,7 @@ def couette_startup_order(out: Path, quick: bool) -> Verdict:
     ax[0].set(xlabel="y [mm]", ylabel="v/U", title="t = 0.05 H^2/nu")
     ax[0].legend()
     slope_plot(ax[1], cells, {"RMS error / U": (errors, "o-")}, -2, "cells", "error")
-    fig.tight_layout()
-    png = save_figure(fig, out, "couette_startup.png")
+    png = save_figure(fig, out, "couette_startup.png", tight=True)
     return Verdict(criterion="observed order log2(e_h/e_h/2) > 1.9 for every refinement "
                              "(IDA rtol 1e-9, phi = 1e-6)",
                    measured=text, passed=bool(np.all(orders > 1.9)), figures=[png])
@@ -240,8 +239,7 @@ def reduced_vs_full_law(out: Path, quick: bool) -> Verdict:
             ok &= agree < 0.02 and F[-1] > 0.99 * fjam and ratio > 10
         else:
             ok &= agree < 1e-4
-    fig.tight_layout()
-    png = save_figure(fig, out, "reduced_vs_full.png")
+    png = save_figure(fig, out, "reduced_vs_full.png", tight=True)
     return Verdict(criterion="homogeneous isochoric shear from rest, strain >= 0.1: the reduced law "
                              "is the K -> inf limit of the full law, so they agree (within 1e-4 "
                              "at the slow rate; within 2 % at the fast rate while f <= f_jam/2); "

@@ -135,8 +135,11 @@ def table_cases(tier: str, func: Callable, table: dict, slow: bool = False) -> N
         case(tier, name, title, slow)(run)
 
 
-def save_figure(fig, out, name: str) -> Path:
-    """Save a case's figure atomically as ``out/name`` and close it; returns the path."""
+def save_figure(fig, out, name: str, tight: bool = False) -> Path:
+    """Save a case's figure atomically as ``out/name`` (``tight``: after ``fig.tight_layout()``)
+    and close it; returns the path."""
+    if tight:
+        fig.tight_layout()
     path = atomic_savefig(fig, Path(out) / name)
     plt.close(fig)
     return path
@@ -173,6 +176,16 @@ def timed(fn, repeats: int, clock=time.perf_counter):
         result = fn()
         times.append(clock() - t0)
     return float(np.median(times)), times, result
+
+
+def interleaved(jobs: dict, repeats: int, clock=time.perf_counter) -> dict[str, list[float]]:
+    """Each ``name: fn`` of ``jobs`` called once per repeat, the jobs interleaved so that machine
+    load hits all alike: name -> every time [s]."""
+    times = {k: [] for k in jobs}
+    for _ in range(repeats):
+        for k, fn in jobs.items():
+            times[k] += timed(fn, 1, clock)[1]
+    return times
 
 
 def load_all() -> dict[str, Entry]:
