@@ -130,7 +130,6 @@ def cost_vs_cells(out: Path, quick: bool) -> BenchResult:
     for a in ax:
         a.legend(fontsize=8)
         a.grid(alpha=0.3)
-    png = save_figure(fig, out, "cost_vs_cells.png", tight=True)
     ratios = ", ".join(f"{n}: {data['dae'][n] / data['explicit'][n]:.3f}" for n in cells)
     front = {n: speed["dae"][n] / speed["explicit"][n] for n in cells}
     n_big = cells[-1]
@@ -165,7 +164,7 @@ def cost_vs_cells(out: Path, quick: bool) -> BenchResult:
                  ("dae front speed the explicit full law's within 2 % at every cell count",
                   ", ".join(f"{n}: {x:.4f}" for n, x in front.items()),
                   all(abs(x - 1) <= 0.02 for x in front.values()))],
-        figures=[png],
+        figures=[save_figure(fig, out, "cost_vs_cells.png", tight=True)],
         notes={"njev": "the explicit scheme forms no Jacobian"})
 
 
@@ -240,7 +239,6 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
     ax[1].axvline(lim["dt"], color="C2", lw=1.5, label=f"stability limit {lim['dt']:.2e} s")
     ax[1].set(xlabel="dt [s]", ylabel="max |v - v_ref| / u_i", title="explicit step size")
     ax[1].legend(fontsize=8)
-    png = save_figure(fig, out, "work_precision.png", tight=True)
     best_exp = min((r for r in exp), key=lambda r: r["seconds"])
     return BenchResult(
         summary=f"{machine_description()}. Fast Fig. 3 case, {n} cells, 0-0.15 rad; reference: "
@@ -261,7 +259,7 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
                   f"{min(r['error'] for r in exp):.2e} (fastest explicit {best_exp['seconds']:.2f}"
                   f" s)", min(r['error'] for r in ida) < 0.01 and min(r['error'] for r in exp)
                   < 0.01)],
-        figures=[png],
+        figures=[save_figure(fig, out, "work_precision.png", tight=True)],
         notes={"dt_over_limit": "IDA chooses its own (adaptive) steps: no fixed dt"})
 
 

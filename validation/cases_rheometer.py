@@ -102,7 +102,6 @@ def fig15_relaxation(out: Path, quick: bool) -> Verdict:
         ax.legend(fontsize=8)
     fig.suptitle(f"Relaxation from the steady state at {tau0:g} Pa, phi = {phi}, {HERMES} "
                  f"(f0 = {f0:.4f}, gdot0 = {gdot0:.4f} 1/s)", fontsize=11)
-    png = save_figure(fig, out, "fig15_relaxation.png", tight=True)
 
     passed = (slope_err < 1e-4 and exp_err < 1e-7 and scaling_spread < 0.10 and k0_monotone
               and worst_rise <= 1e-9 and worst_end < 1e-3 and f_ok)
@@ -115,7 +114,7 @@ def fig15_relaxation(out: Path, quick: bool) -> Verdict:
                  f"spread {100 * scaling_spread:.1f}% ({', '.join(f'{x:.3g}' for x in tG)} Pa s); "
                  f"t(1/e) vs K0 {', '.join(f'{x:.3g} s' for x in tK)}; max rise "
                  f"{worst_rise:.1e}; end {worst_end:.1e}; f in bounds {f_ok}",
-        passed=bool(passed), figures=[png],
+        passed=bool(passed), figures=[save_figure(fig, out, "fig15_relaxation.png", tight=True)],
         details=f"eta/G at K0 = 0, G = 1e4 Pa: {eta / 1e4:.4g} s. From the example "
                 f"(taubar0 = 10 Pa) the relaxation time is eta/G = {eta10 / 1e4 * 1e3:.3g} ms: "
                 f"tens of seconds need stresses near the DST limit.")
@@ -321,14 +320,13 @@ def material_point_convergence(out: Path, quick: bool) -> Verdict:
     ax2.set_title("pressure control, rate halved: compaction, then dilatant flow", fontsize=9)
     ax2.grid(True, alpha=0.3)
     ax2.legend(fontsize=8)
-    png = save_figure(fig, out, "material_point_convergence.png", tight=True)
     return Verdict(
         criterion="observed order log2(e(dt)/e(dt/2)) between 0.9 and 1.3 over the 4 finest "
                   "halvings, in all four scenarios (volume/pressure control, rate up/down, "
                   "including a compaction -> dilatant regime switch)",
         measured="; ".join(f"{c} x{f:g}: {', '.join(f'{x:.3f}' for x in o)}"
                            for (c, f), o in orders.items()),
-        passed=ok, figures=[png],
+        passed=ok, figures=[save_figure(fig, out, "material_point_convergence.png", tight=True)],
         details="\n".join(f"{c} x{f:g}: dt {', '.join(f'{d:.2e}' for d in v[0])}\n    errors "
                           f"{', '.join(f'{e:.2e}' for e in v[1])}"
                           for (c, f), v in res.items()))

@@ -91,11 +91,10 @@ def annular_newtonian_steady(out: Path, quick: bool) -> Verdict:
     ax.plot(g.faces * 1e3, v / speed, "o", ms=3, label=f"shear1d, {cells[-1]} cells, t = 3 gap^2/nu")
     ax.set(xlabel="r [mm]", ylabel="v/u_i")
     ax.legend()
-    png = save_figure(fig, out, "annular_steady.png")
     return Verdict(criterion="max |v - (A r + B/r)|/u_i < 1e-3 on the finest grid and observed "
                              "order > 1.9 (t = 3 gap^2/nu, phi = 1e-6)",
                    measured=text, passed=bool(errors[-1] < 1e-3 and np.all(orders > 1.9)),
-                   figures=[png])
+                   figures=[save_figure(fig, out, "annular_steady.png")])
 
 
 # ----------------------------------------------------------------------------- narrow gap vs 0-D
@@ -159,12 +158,11 @@ def narrow_gap_creep(out: Path, quick: bool) -> Verdict:
     ax.semilogx(res.t[1:], rate[1:], "o", ms=3, label="shear1d, 1 mm gap, full law")
     ax.set(xlabel="t [s]", ylabel="shear rate [1/s]", title=f"creep at {tau:g} Pa, phi = 0.505")
     ax.legend()
-    png = save_figure(fig, out, "narrow_gap_creep.png")
     return Verdict(criterion="max relative difference of the shear rate from rheometer.creep "
                              "< 1 % for t >= 1 s (after the elastic/inertial start)",
                    measured=f"max deviation {dev:.2e} over {sel.sum()} outputs to {t_end:g} s; "
                             f"final rate {rate[-1]:.5g} vs {r_ref[-1]:.5g} 1/s",
-                   passed=bool(dev < 1e-2), figures=[png])
+                   passed=bool(dev < 1e-2), figures=[save_figure(fig, out, "narrow_gap_creep.png")])
 
 
 # ----------------------------------------------------------------------------- law choice (0-D)
@@ -370,7 +368,6 @@ def ida_vs_explicit(out: Path, quick: bool) -> Verdict:
     ax.plot(rot, (res.front() - pb.grid.inner) * 1e3, "C1--", label="IDA rtol 3e-5")
     ax.set(xlabel="bob rotation [rad]", ylabel="front - R_i [mm]")
     ax.legend()
-    png = save_figure(fig, out, "ida_vs_explicit.png")
     errs = [r[1] for r in rows]
     passed = errs[-1] < 0.01 and errs[-1] <= errs[0]
     return Verdict(criterion="front positions of IDA within 1 % of the gap of the explicit scheme "
@@ -379,4 +376,4 @@ def ida_vs_explicit(out: Path, quick: bool) -> Verdict:
                    measured="; ".join(f"rtol {r:g}: front {e:.2%} of gap, max |dv|/u_i {ve:.3f}, "
                                       f"{w:.2f} s" for r, e, ve, w in rows)
                             + f"; explicit {ref.wall_time:.2f} s, {ref.stats['steps']} steps",
-                   passed=bool(passed), figures=[png])
+                   passed=bool(passed), figures=[save_figure(fig, out, "ida_vs_explicit.png")])
