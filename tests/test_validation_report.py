@@ -275,7 +275,7 @@ _SIGNALLED = textwrap.dedent("""
     from validation.framework import Entry, Verdict
 
     class Clock:
-        t, t_end, steps = 0.0, 0.6, 0
+        t, t_end, steps = 0.0, 1.2, 0
         def advance(self):
             time.sleep(0.01)
             self.t, self.steps = self.t + 0.01, self.steps + 1
@@ -320,7 +320,7 @@ def test_sigterm_at_any_moment_leaves_a_strict_incomplete_report(tmp_path):
     script.write_text(_SIGNALLED)
     names = ["a_python", "b_window", "c_drive"]
     seen = []
-    for i, delay in enumerate((0.0, 0.45, 0.85, 1.25)):
+    for i, delay in enumerate((0.0, 0.45, 0.85, 1.5)):
         out = tmp_path / f"rep{i}"
         proc = subprocess.Popen([sys.executable, str(script), str(out),
                                  ("cli", "library")[i % 2]], stdout=subprocess.PIPE,
