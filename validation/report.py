@@ -180,32 +180,27 @@ def _table(rows: list[dict], notes: dict) -> str:
 
 
 def _section(r: dict) -> str:
-    v = _verdict(r)
-    body = [f"<h3 id='{_esc(r['name'])}'>{_esc(r['title'])} <small>({r['tier']} {r['kind']} "
-            f"<code>{_esc(r['name'])}</code>, {v}, {r['seconds']:.1f} s"
-            + (f"; {'small sizes' if r['quick'] else 'full size'}, run {r['run']}" if r.get("run")
-               else "") + ")</small></h3>"]
-    if r["error"]:
-        body.append(f"<pre>{_esc(r['error'])}</pre>")
-    if r["problems"]:
-        body.append("<p><b>Values that are not results (the entry fails):</b></p><ul>"
-                    + "".join(f"<li>{_esc(p)}</li>" for p in r["problems"]) + "</ul>")
-    if r["kind"] == "case" and not r["error"]:
-        body.append(f"<p><b>Criterion:</b> {_esc(r['criterion'])}<br>"
-                    f"<b>Measured:</b> {_esc(r['measured'])}</p>")
-    if r.get("summary"):
-        body.append(f"<p>{_esc(r['summary'])}</p>")
-    if r.get("targets"):
-        body.append("<table><tr><th>target</th><th>measured</th><th>met</th></tr>" + "".join(
-            f"<tr><td>{_esc(t)}</td><td>{_esc(m)}</td><td>{'yes' if ok is True else 'NO'}</td>"
-            "</tr>" for t, m, ok in r["targets"]) + "</table>")
-    if r.get("details"):
-        body.append(f"<pre>{_esc(r['details'])}</pre>")
-    if r.get("rows"):
-        body.append(_table(r["rows"], r.get("notes") or {}))
-    body += [f"<img src='{_esc(p)}' style='max-width:48%;margin:4px'>"
-             for p in r.get("figures") or []]
-    return "\n".join(body)
+    run = (f"; {'small sizes' if r['quick'] else 'full size'}, run {r['run']}" if r.get("run")
+           else "")
+    parts = [
+        f"<h3 id='{_esc(r['name'])}'>{_esc(r['title'])} <small>({r['tier']} {r['kind']} "
+        f"<code>{_esc(r['name'])}</code>, {_verdict(r)}, {r['seconds']:.1f} s{run})</small></h3>",
+        r["error"] and f"<pre>{_esc(r['error'])}</pre>",
+        r["problems"] and ("<p><b>Values that are not results (the entry fails):</b></p><ul>"
+                           + "".join(f"<li>{_esc(p)}</li>" for p in r["problems"]) + "</ul>"),
+        r["kind"] == "case" and not r["error"] and (
+            f"<p><b>Criterion:</b> {_esc(r['criterion'])}<br>"
+            f"<b>Measured:</b> {_esc(r['measured'])}</p>"),
+        r.get("summary") and f"<p>{_esc(r['summary'])}</p>",
+        r.get("targets") and (
+            "<table><tr><th>target</th><th>measured</th><th>met</th></tr>" + "".join(
+                f"<tr><td>{_esc(t)}</td><td>{_esc(m)}</td><td>{'yes' if ok is True else 'NO'}"
+                "</td></tr>" for t, m, ok in r["targets"]) + "</table>"),
+        r.get("details") and f"<pre>{_esc(r['details'])}</pre>",
+        r.get("rows") and _table(r["rows"], r.get("notes") or {}),
+        *(f"<img src='{_esc(p)}' style='max-width:48%;margin:4px'>"
+          for p in r.get("figures") or [])]
+    return "\n".join(p for p in parts if p)
 
 
 def _render(doc: dict) -> str:
