@@ -256,6 +256,3 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
                   < 0.01)],
         figures=[save_figure(fig, out, "work_precision.png", tight=True)],
         notes={"dt_over_limit": "IDA chooses its own (adaptive) steps: no fixed dt"})
-
-
-__all__ = ["fig3_speed", "cost_vs_cells", "work_precision"]
