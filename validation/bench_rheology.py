@@ -92,7 +92,7 @@ def _flowing_states(m, n, rng):
     return sig, L, phi, st.f
 
 
-def _sheared_sequence(m, n, steps, dt_strain, rng, mode):
+def _sheared_sequence(m, n, steps, dt_strain, mode):
     """``steps`` steps of sheared material points (steady flowing states sheared 2% faster, a
     little volume change): returns (time per step [s], residual evaluations per flowing point).
     mode: "bracket" (bracket-only reference), "cold" (Newton), "warm" (Newton from the previous
@@ -157,7 +157,7 @@ def local_update_throughput(out: Path, quick: bool) -> BenchResult:
                      "evaluations per flowing point (Newton)": res["newton"][1],
                      "elastic/separated/shear/compaction": "/".join(f"{cases[c]:.2f}" for c in cases)})
     ns, steps = (5000, 5) if quick else (100000, 20)
-    seq = {mode: _sheared_sequence(m, ns, steps, 2e-3, rng, mode) for mode in ("bracket", "cold", "warm")}
+    seq = {mode: _sheared_sequence(m, ns, steps, 2e-3, mode) for mode in ("bracket", "cold", "warm")}
     for mode in ("cold", "warm"):
         rows.append({"states": f"sheared material points, {steps} steps ({mode} start)", "points": ns,
                      "median_s": seq[mode][0], "points_per_s": ns / seq[mode][0],
