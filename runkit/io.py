@@ -294,6 +294,15 @@ def save_checkpoint(path, **arrays) -> Path:
     return _atomic(path, write, ".npz")
 
 
+def remove_checkpoint(path) -> list[Path]:
+    """Remove the checkpoint ``path`` and its predecessor (a completed run keeps neither);
+    returns the files removed."""
+    gone = [p for p in (Path(path), previous_checkpoint(path)) if p.is_file()]
+    for p in gone:
+        p.unlink()
+    return gone
+
+
 class CorruptCheckpoint(ValueError):
     """A checkpoint that cannot be read (truncated, not an npz, missing arrays)."""
 

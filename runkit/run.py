@@ -20,7 +20,9 @@ a terminal and a plain line every ``every`` seconds otherwise (a log file).
 of ours listed in its ``manifest.json`` (and the temporaries of an interrupted atomic write); a
 non-empty folder without our manifest is refused before anything is written. The manifest's
 ``status`` is ``running``, ``complete``, ``stopped``, ``ended_early`` or ``failed`` (with the
-message).
+message). A completed run keeps no checkpoint (:meth:`Folder.write_manifest` with ``complete``,
+:func:`retire_checkpoints` for the runs under a folder); an interrupted, stopped or failed one
+keeps its own for ``--resume``.
 """
 
 from __future__ import annotations
@@ -40,8 +42,10 @@ import numpy as np
 from tqdm import tqdm
 
 from .io import (atomic_write_json, check_output_dir, load_checkpoint, previous_checkpoint,
-                 save_checkpoint)
+                 remove_checkpoint, save_checkpoint)
 
+#: the checkpoint of a run in its output folder
+CHECKPOINT = "checkpoint.npz"
 #: a temporary file of an atomic write (``.NAME.XXXXXXXX.suffix``) left by a killed run
 TEMPORARY = re.compile(r"^\..+\.[a-z0-9_]{8}\.(npz|tmp|vtu|pvd|png|csv|json)$")
 
@@ -211,8 +215,7 @@ class Checkpoint:
         return data
 
     def remove(self) -> None:
-        for p in (self.path, previous_checkpoint(self.path)):
-            p.unlink(missing_ok=True)
+        remove_checkpoint(self.path)
 
 
 class Stepper(Protocol):
@@ -333,6 +336,25 @@ class Folder:
         return Path(path)
 
     def write_manifest(self, status: str | None = None, **fields) -> Path:
-        """``manifest.json`` (strict JSON) with ``status`` and ``fields``."""
+        """``manifest.json`` (strict JSON) with ``status`` and ``fields``; at ``complete``, the
+        folder's :data:`CHECKPOINT` is removed (after the manifest)."""
         self.manifest.update(fields, **({"status": status} if status else {}))
-        return atomic_write_json(self.path / "manifest.json", self.manifest)
+        path = atomic_write_json(self.path / "manifest.json", self.manifest)
+        if self.manifest["status"] == "complete":
+            remove_checkpoint(self.path / CHECKPOINT)
+        return path
+
+
+def retire_checkpoints(folder) -> list[Path]:
+    """Remove the checkpoints of the completed runs under ``folder`` (each :data:`CHECKPOINT`
+    and its predecessor beside a ``manifest.json`` whose ``status`` is ``complete``); an
+    interrupted, stopped or failed run keeps its own. Returns the files removed."""
+    gone = []
+    for man in sorted(Path(folder).rglob("manifest.json")):
+        try:
+            status = json.loads(man.read_text()).get("status")
+        except (OSError, ValueError, UnicodeDecodeError, AttributeError):
+            continue
+        if status == "complete":
+            gone += remove_checkpoint(man.parent / CHECKPOINT)
+    return gone

@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from runkit.command import ENDED_EARLY, FAILED, INTERRUPTED, USAGE, OneLineParser, run
-from runkit.run import Checkpoint, Folder, HeldWarnings, Progress, drive
+from runkit.run import (CHECKPOINT, Checkpoint, Folder, HeldWarnings, Progress, drive,
+                         retire_checkpoints)
 
 OMEGA = 2.0 * np.pi                       # [rad/s]
 
@@ -159,6 +160,39 @@ def test_the_folder_policy(tmp_path):
     resumed = Folder(out, "mpm2d")
     resumed.prepare(resume=True)
     assert resumed.manifest["status"] == "running" and resumed.manifest["error"] == "diverged"
+
+
+def test_a_completed_run_keeps_no_checkpoint_an_interrupted_one_does(tmp_path):
+    """Folder.write_manifest('complete') removes the folder's checkpoint and its predecessor;
+    retire_checkpoints removes those of the completed runs under a folder (the validation
+    report's run folders, the mpm2d runner keeping a completed run's) and keeps the others."""
+    runs = {}
+    for name, status in (("done", "complete"), ("stopped", "stopped"), ("killed", "running"),
+                         ("failed", "failed"), ("nested/done", "complete")):
+        out = runs[name] = tmp_path / name
+        f = Folder(out, "mpm2d")
+        f.prepare()
+        ck = Checkpoint(out / CHECKPOINT, FP)
+        o = Oscillator(t_end=0.01)
+        drive(o, checkpoint=ck, every=0.0)             # a checkpoint and its predecessor
+        assert (out / CHECKPOINT).is_file() and (out / "checkpoint.prev.npz").is_file()
+        atomic = out / "manifest.json"
+        atomic.write_text(json.dumps({**f.manifest, "status": status}))
+    gone = retire_checkpoints(tmp_path)
+    assert sorted(str(p.relative_to(tmp_path)) for p in gone) == [
+        "done/checkpoint.npz", "done/checkpoint.prev.npz", "nested/done/checkpoint.npz",
+        "nested/done/checkpoint.prev.npz"]
+    for name in ("stopped", "killed", "failed"):
+        assert (runs[name] / CHECKPOINT).is_file(), name
+    (tmp_path / "broken").mkdir()
+    (tmp_path / "broken" / "manifest.json").write_text("[not json")
+    assert retire_checkpoints(tmp_path) == []
+    f = Folder(runs["stopped"], "mpm2d")
+    f.prepare(resume=True)
+    f.write_manifest("stopped")
+    assert (runs["stopped"] / CHECKPOINT).is_file()
+    f.write_manifest("complete")
+    assert not list(runs["stopped"].glob("checkpoint*"))
 
 
 class _Ended(RuntimeError):

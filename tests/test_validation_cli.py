@@ -220,8 +220,47 @@ def test_real_case_writes_what_it_claims(in_tmp, capsys):
     assert "fig10_steady_structure" in (in_tmp / "rep" / "report.html").read_text()
 
 
+def test_real_mpm2d_case_leaves_no_checkpoint_of_its_completed_runs(in_tmp, capsys):
+    """mpm2d_piston's runs complete: their folders keep no checkpoint (they used to keep
+    checkpoint.npz); every one of them says complete."""
+    code, out, err = _run(["report", "--only", "mpm2d_piston", "--quick", "--out", "rep"],
+                          capsys)
+    assert code == 0, (out, err)
+    manifests = list((in_tmp / "rep").rglob("manifest.json"))
+    assert manifests and all(json.loads(m.read_text())["status"] == "complete"
+                             for m in manifests)
+    assert not list((in_tmp / "rep").rglob("checkpoint*.npz"))
+
+
 def test_list_marks_slow_cases(capsys):
     assert main(["list"]) == 0
     lines = {ln.split()[2]: ln for ln in capsys.readouterr().out.splitlines()}
     assert lines["impact_fig4_paper"].split()[3] == "slow"
     assert lines["fig10_steady_structure"].split()[3] != "slow"
+
+
+def test_list_out_writes_the_list_atomically_in_each_format(in_tmp, capsys):
+    assert main(["list"]) == 0
+    printed = capsys.readouterr().out
+    for fmt in ("txt", "csv", "json"):
+        code, out, err = _run(["list", "--out", f"sub/cases.{fmt}"], capsys)
+        assert code == 0 and err == [] and out.startswith(f"wrote {Path('sub') / f'cases.{fmt}'}")
+    assert (in_tmp / "sub" / "cases.txt").read_text() == printed
+    rows = json.loads((in_tmp / "sub" / "cases.json").read_text())
+    assert [r["name"] for r in rows] == [ln.split()[2] for ln in printed.splitlines()]
+    assert {r["name"]: r["slow"] for r in rows}["impact_fig4_paper"] is True
+    csv = (in_tmp / "sub" / "cases.csv").read_text().splitlines()
+    assert csv[0] == "tier,kind,name,slow,title" and len(csv) == len(rows) + 1
+    assert sorted(p.name for p in (in_tmp / "sub").iterdir()) == [
+        "cases.csv", "cases.json", "cases.txt"]                  # no temporary left
+
+
+@pytest.mark.parametrize("path, words", [
+    ("cases.xyz", ("--out = 'cases.xyz'", "format 'xyz' is not one of txt, csv, json")),
+    ("", ("--out = ''", "not one of txt, csv, json")),
+    ("folder/", ("--out = 'folder/'", "names a folder")),
+    ("afile/cases.txt", ("--out = 'afile/cases.txt'", "is a file, not a folder"))])
+def test_list_out_bad_paths_refused_before_anything_is_written(in_tmp, capsys, path, words):
+    (in_tmp / "afile").write_text("x")
+    _refused(["list", "--out", path], capsys, *words)
+    _nothing_written(in_tmp, "afile")

@@ -13,6 +13,10 @@ import json
 import math
 import os
 import signal
+import subprocess
+import sys
+import textwrap
+import time
 
 import pytest
 
@@ -228,6 +232,114 @@ def test_sigterm_writes_what_finished_and_resume_finishes_it(registry, capsys, t
     doc = _strict(tmp_path / "rep" / "results.json")
     assert doc["complete"] is True and doc["pending"] == []
     assert [r["name"] for r in doc["entries"]] == ["clean_case", "planted_case", "planted_bench"]
+
+
+def _runs(out, statuses):
+    """Run folders ``out/<status>`` with a manifest of that status and a checkpoint."""
+    for status in statuses:
+        (out / status).mkdir(parents=True)
+        (out / status / "manifest.json").write_text(json.dumps({"status": status}))
+        (out / status / "checkpoint.npz").write_bytes(b"npz")
+
+
+def test_completed_runs_lose_their_checkpoints_interrupted_ones_keep_them(registry, capsys,
+                                                                         tmp_path):
+    reg, _ = registry
+
+    def case(out, quick):
+        _runs(out, ("complete", "stopped", "running"))
+        return Verdict("c", "m", True)
+
+    def interrupted(out, quick):
+        _runs(out, ("complete",))
+        raise KeyboardInterrupt
+
+    reg["clean_case"].func, reg["planted_case"].func = case, interrupted
+    code, _, _ = _report(capsys, "--tier", "rheology", "--no-bench")
+    assert code == 130
+    rep = tmp_path / "rep"
+    assert sorted(str(p.relative_to(rep)) for p in rep.rglob("checkpoint.npz")) == [
+        "clean_case/running/checkpoint.npz", "clean_case/stopped/checkpoint.npz",
+        "planted_case/complete/checkpoint.npz"]        # an interrupted entry's runs keep theirs
+
+
+#: a report of three stand-in entries, run in a subprocess: python work (a), a run whose own
+#: window records a signal and finishes (b), and a run that sleeps before its drive window and
+#: then steps with a checkpoint (c); argv: the folder and the route (cli or library)
+_SIGNALLED = textwrap.dedent("""
+    import sys, time
+    from pathlib import Path
+    from runkit.run import Checkpoint, Interrupts, drive
+    from validation import report
+    from validation.__main__ import main
+    from validation.framework import Entry, Verdict
+
+    class Clock:
+        t, t_end, steps = 0.0, 1.2, 0
+        def advance(self):
+            time.sleep(0.01)
+            self.t, self.steps = self.t + 0.01, self.steps + 1
+        def state(self):
+            return {"t": self.t}
+
+    def python_work(out, quick):
+        time.sleep(0.3)
+        return Verdict("c", "m", True)
+
+    def finishes_after_a_signal(out, quick):
+        with Interrupts(defer=True):
+            time.sleep(0.4)
+        return Verdict("c", "m", True)
+
+    def driven(out, quick):
+        time.sleep(0.3)                       # before the run's drive window
+        drive(Clock(), checkpoint=Checkpoint(Path(out) / "checkpoint.npz", {}), every=1e9)
+        return Verdict("c", "m", True)
+
+    reg = {n: Entry("case", "rheology", n, n, f) for n, f in (
+        ("a_python", python_work), ("b_window", finishes_after_a_signal), ("c_drive", driven))}
+    report.load_all = lambda: reg
+    if sys.argv[2] == "cli":
+        sys.exit(main(["report", "--out", sys.argv[1]]))
+    try:
+        report.write_report(sys.argv[1])
+    except KeyboardInterrupt as exc:
+        print(exc, file=sys.stderr)
+        sys.exit(130)
+""")
+
+
+def test_sigterm_at_any_moment_leaves_a_strict_incomplete_report(tmp_path):
+    """SIGTERM at several moments (in python work, in an entry's own window that lets its run
+    finish, before and inside a run's drive window), through the CLI and the library: the
+    report stops with status 130 and results.json is strict JSON naming every unfinished entry
+    in ``pending``; a run stopped in its drive window keeps its checkpoint (a report killed
+    before the first entry finished wrote nothing, and one called from the library died at
+    a signal outside a drive window)."""
+    script = tmp_path / "signalled.py"
+    script.write_text(_SIGNALLED)
+    names = ["a_python", "b_window", "c_drive"]
+    seen = []
+    for i, delay in enumerate((0.0, 0.45, 0.85, 1.5)):
+        out = tmp_path / f"rep{i}"
+        proc = subprocess.Popen([sys.executable, str(script), str(out),
+                                 ("cli", "library")[i % 2]], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True,
+                                cwd=os.path.dirname(os.path.dirname(__file__)))
+        assert "a_python" in proc.stdout.readline()          # the first entry started
+        time.sleep(delay)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+        assert proc.returncode == 130, (delay, proc.returncode, err)
+        assert "marked incomplete" in err and "Traceback" not in err, err
+        doc = _strict(out / "results.json")
+        done = [r["name"] for r in doc["entries"]]
+        assert (doc["complete"], doc["status"]) == (False, "interrupted")
+        assert doc["pending"] == [n for n in names if n not in done] != []
+        if "c_drive" in doc["pending"] and (out / "c_drive" / "checkpoint.npz").exists():
+            seen.append("in the drive window")
+        seen.append(len(done))
+    assert 0 in seen and "in the drive window" in seen, seen
 
 
 def test_resume_reruns_changed_code_and_raised_entries_and_merges(registry, capsys, tmp_path,

@@ -2,7 +2,9 @@
 
 Subcommands:
   report   run cases and benchmarks, write DIR/report.html and DIR/results.json
-  list     list every case and benchmark with its tier (slow cases marked)
+  list     list every case and benchmark with its tier (slow cases marked); --out FILE
+           writes the list to FILE (.txt as printed, .csv or .json: tier, kind, name, slow,
+           title) atomically instead
 
 DIR/results.json and DIR/report.html are rewritten after every entry, marked incomplete until
 the run ends; an entry that raises, or reports a value that is not a result (NaN, inf, a null
@@ -10,7 +12,8 @@ without its reason), fails alone and the report goes on. Ctrl-C or SIGTERM write
 (marked incomplete); --resume then runs only what is missing or whose code changed.
 
 Bad input (an unknown tier or name, --only or --tier with nothing after it, a selection with
-nothing to run, an --out that is a file or cannot be written, --resume without a report there)
+nothing to run, an --out that is a file or cannot be written (for list: a folder, another
+format, a folder that cannot be written), --resume without a report there)
 is refused with one line and status 2 before anything is written. Status 1: a case or
 benchmark failed (each is named with its criterion and measured value), or the report could not
 be written; 130: interrupted (Ctrl-C or SIGTERM).
@@ -21,9 +24,14 @@ from __future__ import annotations
 import argparse
 import sys
 
+import pandas as pd
+
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
+from runkit.io import atomic_write_csv, atomic_write_json, atomic_write_text, check_output_path
 from .report import select, write_report
+
+LIST_FORMATS = ("txt", "csv", "json")
 
 _QUICK_HELP = ("small sizes (as in the test suite). Cases marked slow (their criteria hold at "
                "full size only; 'list' marks them) are skipped and listed as skipped in the "
@@ -53,14 +61,30 @@ def build_parser() -> OneLineParser:
                           "sizes and the same source code (a hash of rheology, the entry's tier "
                           "package and its validation module) that did not raise; run the rest "
                           "of the selection and merge (entries outside it are kept)")
-    sub.add_parser("list", help="list the cases and benchmarks")
+    lst = sub.add_parser("list", help="list the cases and benchmarks")
+    lst.add_argument("--out", metavar="FILE",
+                     help=f"write the list to FILE ({', '.join(LIST_FORMATS)}) instead of "
+                          "printing it")
     return ap
 
 
-def _list() -> int:
-    for e in select():
-        slow = "slow" if e.slow and e.kind == "case" else ""
-        print(f"{e.tier:10s} {e.kind:9s} {e.name:40s} {slow:4s} {e.title}")
+def _list(out=None) -> int:
+    path = None if out is None else check_output_path("--out", out, LIST_FORMATS)
+    rows = [{"tier": e.tier, "kind": e.kind, "name": e.name,
+             "slow": bool(e.slow and e.kind == "case"), "title": e.title} for e in select()]
+    lines = "".join(f"{r['tier']:10s} {r['kind']:9s} {r['name']:40s} "
+                    f"{'slow' if r['slow'] else '':4s} {r['title']}\n" for r in rows)
+    if path is None:
+        print(lines, end="")
+        return 0
+    kind = path.suffix.lower().lstrip(".")
+    if kind == "json":
+        atomic_write_json(path, rows)
+    elif kind == "csv":
+        atomic_write_csv(path, pd.DataFrame(rows))
+    else:
+        atomic_write_text(path, lines)
+    print(f"wrote {path}: {len(rows)} cases and benchmarks")
     return 0
 
 
@@ -83,7 +107,7 @@ def _report(args) -> int:
 def main(argv=None) -> int:
     """Entry point of ``python -m validation`` and ``suspension-report``; returns the status."""
     args = build_parser().parse_args(argv)
-    body = _list if args.cmd == "list" else lambda: _report(args)
+    body = (lambda: _list(args.out)) if args.cmd == "list" else lambda: _report(args)
     return run_command(f"python -m validation {args.cmd}", body)
 
 

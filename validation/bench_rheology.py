@@ -26,10 +26,6 @@ from .framework import BenchResult, benchmark, save_figure, timed
 from .report import machine_description
 
 
-def _median_time(fn, repeats: int, clock=time.perf_counter) -> float:
-    return timed(fn, repeats, clock)[0]
-
-
 def scalar_flow_curve(taus, phis, m):
     """Reference: one brentq per point on the same residual (in f), then the steady state."""
     dphi = m.phi_j - m.phi_c
@@ -54,14 +50,14 @@ def flow_curve_throughput(out: Path, quick: bool) -> BenchResult:
     phis = np.linspace(0.44, 0.53, 10)
     rows, sizes = [], ([200] if quick else [20, 200, 2000, 20000])
     taus_ref = np.logspace(-3, 4, 50 if quick else 200)
-    t_ref = _median_time(lambda: scalar_flow_curve(taus_ref, phis, m), 1 if quick else 3)
+    t_ref = timed(lambda: scalar_flow_curve(taus_ref, phis, m), 1 if quick else 3)[0]
     ref_rate = taus_ref.size * phis.size / t_ref
     vec = r.steady_state_stress(taus_ref[None, :], phis[:, None], m).shear_rate
     agree = float(np.max(np.abs(vec / scalar_flow_curve(taus_ref, phis, m) - 1)))
     for n in sizes:
         taus = np.logspace(-3, 4, n)
-        t = _median_time(lambda: r.steady_state_stress(taus[None, :], phis[:, None], m),
-                         3 if quick else 7)
+        t = timed(lambda: r.steady_state_stress(taus[None, :], phis[:, None], m),
+                  3 if quick else 7)[0]
         rows.append({"points": n * phis.size, "vectorised_s": t,
                      "points_per_s": n * phis.size / t, "speed-up vs loop": n * phis.size / t / ref_rate})
     best = rows[-1]
@@ -96,7 +92,7 @@ def _flowing_states(m, n, rng):
     return sig, L, phi, st.f
 
 
-def _sheared_sequence(m, n, steps, dt_strain, rng, mode):
+def _sheared_sequence(m, n, steps, dt_strain, mode):
     """``steps`` steps of sheared material points (steady flowing states sheared 2% faster, a
     little volume change): returns (time per step [s], residual evaluations per flowing point).
     mode: "bracket" (bracket-only reference), "cold" (Newton), "warm" (Newton from the previous
@@ -144,13 +140,13 @@ def local_update_throughput(out: Path, quick: bool) -> BenchResult:
         res = {}
         so, o = np.empty_like(sig), np.empty((n, NOUT))
         update_points(sig, L, phi, f, 1e-5, P, so, o)                          # compile / warm up
-        t_par = _median_time(lambda: update_points(sig, L, phi, f, 1e-5, P, so, o), 5)
+        t_par = timed(lambda: update_points(sig, L, phi, f, 1e-5, P, so, o), 5)[0]
         for mode, kw in (("bracket", dict(newton=False)), ("newton", {})):
             # the algorithms compared serially in process CPU time (robust to other jobs)
             so, o = np.empty_like(sig), np.empty((n, NOUT))
             update_points_serial(sig, L, phi, f, 1e-5, P, so, o, **kw)
-            t = _median_time(lambda: update_points_serial(sig, L, phi, f, 1e-5, P, so, o, **kw),
-                             5, clock=time.process_time)
+            t = timed(lambda: update_points_serial(sig, L, phi, f, 1e-5, P, so, o, **kw), 5,
+                      time.process_time)[0]
             res[mode] = (t, float(o[o[:, 12] == 2, 13].mean()) if np.any(o[:, 12] == 2) else 0.0, o)
         o = res["newton"][2]
         cases = {c: float(np.mean(o[:, 12] == c)) for c in (0, 1, 2, 3)}
@@ -161,7 +157,7 @@ def local_update_throughput(out: Path, quick: bool) -> BenchResult:
                      "evaluations per flowing point (Newton)": res["newton"][1],
                      "elastic/separated/shear/compaction": "/".join(f"{cases[c]:.2f}" for c in cases)})
     ns, steps = (5000, 5) if quick else (100000, 20)
-    seq = {mode: _sheared_sequence(m, ns, steps, 2e-3, rng, mode) for mode in ("bracket", "cold", "warm")}
+    seq = {mode: _sheared_sequence(m, ns, steps, 2e-3, mode) for mode in ("bracket", "cold", "warm")}
     for mode in ("cold", "warm"):
         rows.append({"states": f"sheared material points, {steps} steps ({mode} start)", "points": ns,
                      "median_s": seq[mode][0], "points_per_s": ns / seq[mode][0],

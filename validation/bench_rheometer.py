@@ -28,7 +28,7 @@ from rheometer.protocols import flow_curve, initial_state, relax, startup
 from rheometer.transient import Rheometer, Step
 from runkit.plotting import plt
 
-from .framework import BenchResult, benchmark, save_figure, write_csv
+from .framework import BenchResult, benchmark, interleaved, save_figure, write_csv
 from .report import machine_description
 
 TARGET_ERR = 1e-6
@@ -177,8 +177,7 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
                 line.append(f"{other}/best-IDA {t_o / best:.2f}")
         summaries.append("; ".join(line))
     fig.suptitle("Work-precision of the 0-D model (Hermes 2016, G = 1e4 Pa, K0 = 1)", fontsize=11)
-    fig.tight_layout()
-    figures.append(save_figure(fig, out, "work_precision.png"))
+    figures.append(save_figure(fig, out, "work_precision.png", tight=True))
     summary = (f"{machine_description()}. Same process, methods interleaved, medians of {repeats}. "
                + " | ".join(summaries))
     return BenchResult(summary=summary, rows=rows, targets=targets, figures=figures)
@@ -202,14 +201,8 @@ def speed(out: Path, quick: bool) -> BenchResult:
         "relax phi 0.52 from 10 Pa, 50 s (the rheometer guide's example)":
             lambda: relax(m, 0.52, 10.0, 50.0, G=1e4, K0=1.0),
     }
-    for job in jobs.values():                                 # warm up (numba cache, imports)
-        job()
-    samples = {k: [] for k in jobs}
-    for _ in range(repeats):
-        for k, job in jobs.items():
-            t0 = time.perf_counter()
-            job()
-            samples[k].append(time.perf_counter() - t0)
+    interleaved(jobs, 1)                                      # warm up (numba cache, imports)
+    samples = interleaved(jobs, repeats)
     rows = [dict(job=k, median_s=float(np.median(v)), min_s=float(np.min(v)),
                  max_s=float(np.max(v))) for k, v in samples.items()]
     med = {r["job"]: r["median_s"] for r in rows}
@@ -227,8 +220,7 @@ def speed(out: Path, quick: bool) -> BenchResult:
     ax.axvline(200, color="C1", ls=":", label="200 ms (flow-curve target)")
     ax.legend(fontsize=7)
     ax.grid(True, axis="x", alpha=0.3)
-    fig.tight_layout()
-    png = save_figure(fig, out, "speed.png")
+    png = save_figure(fig, out, "speed.png", tight=True)
     summary = (f"{machine_description()}. Medians of {repeats} interleaved repeats after a "
                f"warm-up (numba compile excluded); every call includes input checks and the "
                f"DataFrame.")
@@ -349,8 +341,7 @@ def random_programs(out: Path, quick: bool) -> BenchResult:
     ax2.set_yticks(range(len(by_kind)), by_kind["kind"], fontsize=7)
     ax2.set_xlabel("wall time per step [ms]")
     ax2.legend(fontsize=7)
-    fig.tight_layout()
-    png = save_figure(fig, out, "random_programs.png")
+    png = save_figure(fig, out, "random_programs.png", tight=True)
     targets = [
         ("max time per step < 50 ms", f"{1e3 * mx:.1f} ms ({mx / t_ref:.1f} x the reference step)",
          mx < 0.05),

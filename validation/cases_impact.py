@@ -101,6 +101,11 @@ def _base(quick: bool, **extra) -> dict:
     return {**(QUICK if quick else {}), **extra}
 
 
+def _window(quick: bool, t_end: float) -> tuple[float, dict]:
+    """(the run's end time [s], its parameters): ``t_end``, or the quick run's."""
+    return (QUICK["t_end"], dict(QUICK)) if quick else (t_end, dict(t_end=t_end))
+
+
 def _nan(x):
     return np.nan if x is None else x
 
@@ -211,8 +216,7 @@ table_cases("mpm2d", _speeds_case, {
 @case("mpm2d", "impact_grid_convergence", "mpm2d impact: Fig. 4 scene at 2 mm and 1 mm cells "
       f"(to {T_GRID * 1e3:.0f} ms): |dz| profile and peak deceleration", slow=True)
 def grid_convergence(out: Path, quick: bool) -> Verdict:
-    t_end = QUICK["t_end"] if quick else T_GRID
-    base = dict(QUICK, t_end=t_end) if quick else dict(t_end=t_end)
+    t_end, base = _window(quick, T_GRID)
     c, f = (run_cached(out, dict(base, cells_per_mm=cpm)) for cpm in (0.5, 1.0))
     pc, pf = c["profile"], f["profile"]
     dmax = min(pc["depth_m"].max(), pf["depth_m"].max())
@@ -256,10 +260,10 @@ def grid_convergence(out: Path, quick: bool) -> Verdict:
 def compare_runs(ref: dict, other: dict, labels, path: Path) -> dict:
     """Rod motion, plug and front of two runs (:func:`run_cached` results), ``ref`` the reference.
 
-    Returns rod_z (max |z_other - z_ref| over time, over ref's final depth), profile (max |dz|
-    profile difference over ref's final depth), peak ([ref, other] peak decelerations [m/s^2]),
-    peak_diff (relative to ref's), ref_m (ref's final depth [m]) and figure (rod z, |dz| profile
-    and front depth of both, saved at ``path``)."""
+    Returns, in this order, rod_z (max |z_other - z_ref| over time, over ref's final depth),
+    profile (max |dz| profile difference over ref's final depth), peak ([ref, other] peak
+    decelerations [m/s^2]), peak_diff (relative to ref's), ref_m (ref's final depth [m]) and
+    figure (rod z, |dz| profile and front depth of both, saved at ``path``)."""
     depth = float(ref["summary"]["final_rod_depth_m"])
     t = ref["rod"]["time_s"].to_numpy()
     z_o = np.interp(t, other["rod"]["time_s"], other["rod"]["z_m"])
@@ -289,12 +293,10 @@ def compare_runs(ref: dict, other: dict, labels, path: Path) -> dict:
 def step_convergence(out: Path, quick: bool) -> Verdict:
     """APIC's transfer dissipation is per step, so a result can drift with dt (a plane Couette
     front moved 13% between cfl 0.5 and 0.125): the rod, the plug and the front at two steps."""
-    t_end = QUICK["t_end"] if quick else T_COMPARE
-    base = dict(QUICK, t_end=t_end) if quick else dict(t_end=t_end)
+    t_end, base = _window(quick, T_COMPARE)
     c, f = (run_cached(out, dict(base, cfl=cfl)) for cfl in (0.5, 0.25))
     d = compare_runs(f, c, ("cfl 0.25", "cfl 0.5"), out / "step_convergence.png")
-    dz_rod, prof_diff, pk, pk_diff, ref, png = (d[k] for k in ("rod_z", "profile", "peak",
-                                                                "peak_diff", "ref_m", "figure"))
+    dz_rod, prof_diff, pk, pk_diff, ref, png = d.values()
     pk = pk[::-1]
     ks = [r["summary"]["k"] for r in (c, f)]
     ok = dz_rod <= 0.02 and prof_diff <= 0.10 and pk_diff <= 0.10
@@ -330,14 +332,12 @@ def drainage_numbers(material: str = "rod_impact", phi: float = 0.47,
 @case("mpm2d", "impact_locked_vs_two_phase", "mpm2d impact: locked mixture against two-phase on "
       f"the Fig. 4 scene at 2 mm (to {T_COMPARE * 1e3:.0f} ms): rod motion and plug", slow=True)
 def locked_vs_two_phase(out: Path, quick: bool) -> Verdict:
-    t_end = QUICK["t_end"] if quick else T_COMPARE
-    base = dict(QUICK, t_end=t_end) if quick else dict(t_end=t_end)
+    t_end, base = _window(quick, T_COMPARE)
     runs = {mode: run_cached(out, dict(base, mode=mode))
             for mode in ("locked mixture", "two-phase")}
     lk, tp = runs["locked mixture"], runs["two-phase"]
     d = compare_runs(lk, tp, ("locked mixture", "two-phase"), out / "modes.png")
-    dz_rod, prof_diff, pk, pk_diff, ref, png = (d[k] for k in ("rod_z", "profile", "peak",
-                                                                "peak_diff", "ref_m", "figure"))
+    dz_rod, prof_diff, pk, pk_diff, ref, png = d.values()
     cost = tp["point_steps"] / lk["point_steps"] if lk["point_steps"] else float("nan")
     wall_ratio = tp["wall_s"] / lk["wall_s"] if lk["wall_s"] and tp["wall_s"] else float("nan")
     dn = drainage_numbers(lk["summary"]["material"], lk["summary"]["phi0"])

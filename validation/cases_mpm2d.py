@@ -44,6 +44,16 @@ def run_summary(setup, out: Path, **params) -> dict:
             "points": int(sum(len(s) for s in sim.sets))}
 
 
+def by_cells(setup, out: Path, cells, result: str, **params) -> pd.DataFrame:
+    """One :func:`run_quiet` per cell count ``n`` in ``out/cells_<n>``: their ``result`` tables
+    stacked, with a ``cells`` column."""
+    tables = []
+    for n in cells:
+        run_quiet(setup, out / f"cells_{n}", cells=n, **params)
+        tables.append(pd.read_csv(out / f"cells_{n}" / result).assign(cells=n))
+    return pd.concat(tables, ignore_index=True)
+
+
 def _vibration(out: Path, quick: bool, scene, title: str, png: str, criterion: str,
                finest: bool = False) -> Verdict:
     """A vibration mode's errors against h (``scene.analyse`` of each run, 2 periods), their
@@ -142,12 +152,9 @@ def disks_energy(out: Path, quick: bool) -> Verdict:
 @case("mpm2d", "mpm2d_terzaghi", "mpm2d: Terzaghi consolidation, two-phase formulation")
 def terzaghi_case(out: Path, quick: bool) -> Verdict:
     cells = (16,) if quick else (32, 64)
-    rows = []
-    for n in cells:
-        run_quiet(terzaghi.setup, out / f"cells_{n}", cells=n, ramp=0.1 if quick else 0.2,
-                  t_end_T=0.4 if quick else 0.8)
-        rows.append(pd.read_csv(out / f"cells_{n}" / "terzaghi_result.csv").assign(cells=n))
-    table = write_csv(out, "terzaghi_errors.csv", pd.concat(rows, ignore_index=True))
+    table = write_csv(out, "terzaghi_errors.csv", by_cells(
+        terzaghi.setup, out, cells, "terzaghi_result.csv", ramp=0.1 if quick else 0.2,
+        t_end_T=0.4 if quick else 0.8))
     worst_p = table.groupby("cells")["max_error"].max()
     sett = table.groupby("cells")["settlement_error"].first()
     tol_s = 0.04 if quick else 0.02
@@ -257,13 +264,8 @@ def homogeneous_shear(out: Path, quick: bool) -> Verdict:
 @case("mpm2d", "mpm2d_piston", "mpm2d: rigid piston at prescribed velocity, impact stress rho c V")
 def piston_case(out: Path, quick: bool) -> Verdict:
     cells = (32,) if quick else (64, 128)
-    rows = []
-    for n in cells:
-        run_quiet(piston.setup, out / f"cells_{n}", cells=n)
-        r = pd.read_csv(out / f"cells_{n}" / "piston_result.csv").iloc[0].to_dict()
-        r["cells"] = n
-        rows.append(r)
-    df = write_csv(out, "piston_errors.csv", rows)
+    df = write_csv(out, "piston_errors.csv", by_cells(piston.setup, out, cells,
+                                                      "piston_result.csv"))
     ok = bool((df["force_error"] < 0.01).all() and (df["stress_error"] < 0.03).all())
     return Verdict(
         criterion="force on the prescribed-velocity body within 1% of rho c V A and the mean "

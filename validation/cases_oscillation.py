@@ -62,11 +62,10 @@ def linear_limit(out: Path, quick: bool) -> Verdict:
     ax.set_title("Hermes 2016, G = 1e4 Pa, gamma0 = 1e-7: time domain vs linear G*", fontsize=9)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=6)
-    png = save_figure(fig, out, "linear_limit.png")
     return Verdict(criterion="max |G*_sim - G*_lin|/|G*_lin| < 1e-4 over 0.1 Hz..1 MHz, phi = "
                              "0.48, 0.50, strain and stress control",
                    measured=f"max relative difference {worst:.2e}", passed=worst < 1e-4,
-                   figures=[png], details="\n".join(rows))
+                   figures=[save_figure(fig, out, "linear_limit.png")], details="\n".join(rows))
 
 
 @case("rheometer", "oscillation_high_frequency_loss",
@@ -93,13 +92,12 @@ def high_frequency(out: Path, quick: bool) -> Verdict:
     ax.set(xlabel="frequency [Hz]", ylabel="relative excess of G'' over the fluid's")
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8)
-    png = save_figure(fig, out, "high_frequency.png")
     last = ratios[-1] - 1
     return Verdict(criterion="G''/(omega eta0 (1 + 5/2 phi)) - 1 < 1e-5 at 10 MHz and decreasing "
                              "as omega^-2 (phi = 0.50, G = 1e4 Pa)",
                    measured=f"{last:.2e} at {freqs[-1]:.3g} Hz",
                    passed=bool(0 <= last < 1e-5 and np.all(np.diff(ratios) < 0)),
-                   figures=[png], details="\n".join(rows))
+                   figures=[save_figure(fig, out, "high_frequency.png")], details="\n".join(rows))
 
 
 @case("rheometer", "oscillation_strain_stiffening",
@@ -201,7 +199,6 @@ def sweep_benchmark(out: Path, quick: bool) -> BenchResult:
     ax.semilogx(amps, results.attrs["point_seconds"], "o-")
     ax.set(xlabel="strain amplitude [-]", ylabel="seconds per point")
     ax.grid(True, which="both", alpha=0.25)
-    png = save_figure(fig, out, "sweep_time.png")
     summary = (f"{machine_description()}. One amplitude sweep (Hermes 2016, phi = 0.50, 1 Hz, 20 "
                f"amplitudes 1e-3..10, default rtol {osc.DEFAULT_RTOL:g}, tol {osc.DEFAULT_TOL:g}, "
                f"{osc.DEFAULT_SAMPLES} samples per cycle): median wall time {ts:.3g} s, CPU "
@@ -216,4 +213,4 @@ def sweep_benchmark(out: Path, quick: bool) -> BenchResult:
                                  f"start-up reference {ts / tr:.3g})", cs < 2.0),
                                 ("every point periodic to tol", f"{int(results['converged'].sum())}"
                                  f"/20", bool(results["converged"].all()))],
-                       figures=[png])
+                       figures=[save_figure(fig, out, "sweep_time.png")])

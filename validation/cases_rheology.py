@@ -69,7 +69,6 @@ def fig1(out: Path, quick: bool) -> Verdict:
                         f"max gdot/gdot0 = {flow.shear_rate.max():.3g}")
     ax.set(xlabel=r"$\tau/(\eta_0\dot\gamma_0)$", ylabel=r"$\dot\gamma/\dot\gamma_0$",
            title="Table 1 fits: (a) red dashed, (b) blue solid", ylim=(1e-6, 1e4))
-    png = save_figure(fig, out, "fig1.png")
     phi_c = r.get_material("singh2018_a").phi_c
     jam_ok = (all(jams["a", p] == (p > phi_c) for p in FIG1_PHI)
               and not any(jams["b", p] for p in FIG1_PHI))
@@ -82,7 +81,7 @@ def fig1(out: Path, quick: bool) -> Verdict:
         measured=f"Eq. 13 {res:.1e}; Eq. 24 {lo_err:.1e}; Eq. 25 {hi_err:.1e}; jamming pattern "
                  f"{'as stated' if jam_ok else 'DIFFERENT'}; S-shape pattern "
                  f"{'as stated' if s_ok else 'DIFFERENT'}",
-        passed=passed, figures=[png], details="\n".join(rows))
+        passed=passed, figures=[save_figure(fig, out, "fig1.png")], details="\n".join(rows))
 
 
 def fig2_phis(m) -> np.ndarray:
@@ -118,15 +117,13 @@ def fig2(out: Path, quick: bool) -> Verdict:
                ylabel=r"viscosity $\tau/\dot\gamma$ [Pa s]")
         ax.set_ylim(top=min(ax.get_ylim()[1], 1e6))
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    png = save_figure(fig, out, "fig2.png")
     return Verdict(
         criterion="Eq. 13 residual <= 1e-10; low-stress plateau = Eq. 24 to 1e-6; for phi < phi_c "
                   "the high-stress plateau = Eq. 25 to 1e-3; for phi_c <= phi < phi_j the rate at "
                   "1e12 tau* is within 1e-3 of gdot_DST (Eq. 33)",
         measured=f"Eq. 13 {res:.1e}; Eq. 24 {lo_err:.1e}; Eq. 25 {hi_err:.1e}; DST limit {dst_err:.1e}",
         passed=res <= 1e-10 and lo_err <= 1e-6 and hi_err <= 1e-3 and dst_err <= 1e-3,
-        figures=[png], details="\n".join(rows))
+        figures=[save_figure(fig, out, "fig2.png", tight=True)], details="\n".join(rows))
 
 
 @case("rheology", "fig10_steady_structure",
@@ -142,13 +139,12 @@ def fig10(out: Path, quick: bool) -> Verdict:
     ax.semilogx(x, singh, "-.", label=r"Singh et al.: $e^{-\tau^*/\tau}$")
     ax.set(xlabel=r"$\tau/\tau^*$", ylabel="f")
     ax.legend(fontsize=8)
-    png = save_figure(fig, out, "fig10.png")
     return Verdict(
         criterion="Eq. 16 lies between the Singh (below) and Wyart-Cates (above) forms for all "
                   "tau/tau* in [1e-3, 1e3]",
         measured=f"between everywhere: {between}; max |ours - WC| = {d_wc:.3f}, "
                  f"max |ours - Singh| = {d_singh:.3f}",
-        passed=between, figures=[png])
+        passed=between, figures=[save_figure(fig, out, "fig10.png")])
 
 
 @case("rheology", "gdot_dst_vs_eq33",
@@ -171,11 +167,10 @@ def gdot_dst_case(out: Path, quick: bool) -> Verdict:
     ax.set(xlabel=r"$\phi_j - \phi$", ylabel=r"$\dot\gamma_{DST}$ [1/s]",
            title="lines: Eq. (33); circles: steady solver at high stress")
     ax.legend(fontsize=7)
-    png = save_figure(fig, out, "gdot_dst.png")
     return Verdict(criterion="extrapolated high-stress rate equals Eq. 33 to 1e-6 relative for "
                              "phi_c <= phi < phi_j, six materials",
                    measured=f"max relative difference {worst:.1e}", passed=worst <= 1e-6,
-                   figures=[png], details="\n".join(rows))
+                   figures=[save_figure(fig, out, "gdot_dst.png")], details="\n".join(rows))
 
 
 @case("rheology", "local_update_steady_shear",

@@ -65,8 +65,7 @@ def couette_startup_order(out: Path, quick: bool) -> Verdict:
     ax[0].set(xlabel="y [mm]", ylabel="v/U", title="t = 0.05 H^2/nu")
     ax[0].legend()
     slope_plot(ax[1], cells, {"RMS error / U": (errors, "o-")}, -2, "cells", "error")
-    fig.tight_layout()
-    png = save_figure(fig, out, "couette_startup.png")
+    png = save_figure(fig, out, "couette_startup.png", tight=True)
     return Verdict(criterion="observed order log2(e_h/e_h/2) > 1.9 for every refinement "
                              "(IDA rtol 1e-9, phi = 1e-6)",
                    measured=text, passed=bool(np.all(orders > 1.9)), figures=[png])
@@ -92,11 +91,10 @@ def annular_newtonian_steady(out: Path, quick: bool) -> Verdict:
     ax.plot(g.faces * 1e3, v / speed, "o", ms=3, label=f"shear1d, {cells[-1]} cells, t = 3 gap^2/nu")
     ax.set(xlabel="r [mm]", ylabel="v/u_i")
     ax.legend()
-    png = save_figure(fig, out, "annular_steady.png")
     return Verdict(criterion="max |v - (A r + B/r)|/u_i < 1e-3 on the finest grid and observed "
                              "order > 1.9 (t = 3 gap^2/nu, phi = 1e-6)",
                    measured=text, passed=bool(errors[-1] < 1e-3 and np.all(orders > 1.9)),
-                   figures=[png])
+                   figures=[save_figure(fig, out, "annular_steady.png")])
 
 
 # ----------------------------------------------------------------------------- narrow gap vs 0-D
@@ -160,12 +158,11 @@ def narrow_gap_creep(out: Path, quick: bool) -> Verdict:
     ax.semilogx(res.t[1:], rate[1:], "o", ms=3, label="shear1d, 1 mm gap, full law")
     ax.set(xlabel="t [s]", ylabel="shear rate [1/s]", title=f"creep at {tau:g} Pa, phi = 0.505")
     ax.legend()
-    png = save_figure(fig, out, "narrow_gap_creep.png")
     return Verdict(criterion="max relative difference of the shear rate from rheometer.creep "
                              "< 1 % for t >= 1 s (after the elastic/inertial start)",
                    measured=f"max deviation {dev:.2e} over {sel.sum()} outputs to {t_end:g} s; "
                             f"final rate {rate[-1]:.5g} vs {r_ref[-1]:.5g} 1/s",
-                   passed=bool(dev < 1e-2), figures=[png])
+                   passed=bool(dev < 1e-2), figures=[save_figure(fig, out, "narrow_gap_creep.png")])
 
 
 # ----------------------------------------------------------------------------- law choice (0-D)
@@ -240,8 +237,7 @@ def reduced_vs_full_law(out: Path, quick: bool) -> Verdict:
             ok &= agree < 0.02 and F[-1] > 0.99 * fjam and ratio > 10
         else:
             ok &= agree < 1e-4
-    fig.tight_layout()
-    png = save_figure(fig, out, "reduced_vs_full.png")
+    png = save_figure(fig, out, "reduced_vs_full.png", tight=True)
     return Verdict(criterion="homogeneous isochoric shear from rest, strain >= 0.1: the reduced law "
                              "is the K -> inf limit of the full law, so they agree (within 1e-4 "
                              "at the slow rate; within 2 % at the fast rate while f <= f_jam/2); "
@@ -372,7 +368,6 @@ def ida_vs_explicit(out: Path, quick: bool) -> Verdict:
     ax.plot(rot, (res.front() - pb.grid.inner) * 1e3, "C1--", label="IDA rtol 3e-5")
     ax.set(xlabel="bob rotation [rad]", ylabel="front - R_i [mm]")
     ax.legend()
-    png = save_figure(fig, out, "ida_vs_explicit.png")
     errs = [r[1] for r in rows]
     passed = errs[-1] < 0.01 and errs[-1] <= errs[0]
     return Verdict(criterion="front positions of IDA within 1 % of the gap of the explicit scheme "
@@ -381,4 +376,4 @@ def ida_vs_explicit(out: Path, quick: bool) -> Verdict:
                    measured="; ".join(f"rtol {r:g}: front {e:.2%} of gap, max |dv|/u_i {ve:.3f}, "
                                       f"{w:.2f} s" for r, e, ve, w in rows)
                             + f"; explicit {ref.wall_time:.2f} s, {ref.stats['steps']} steps",
-                   passed=bool(passed), figures=[png])
+                   passed=bool(passed), figures=[save_figure(fig, out, "ida_vs_explicit.png")])

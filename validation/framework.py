@@ -44,6 +44,7 @@ import pandas as pd
 
 from runkit.io import atomic_savefig, atomic_write_csv, strict_json
 from runkit.plotting import plt
+from runkit.run import retire_checkpoints
 import validation
 
 
@@ -134,8 +135,11 @@ def table_cases(tier: str, func: Callable, table: dict, slow: bool = False) -> N
         case(tier, name, title, slow)(run)
 
 
-def save_figure(fig, out, name: str) -> Path:
-    """Save a case's figure atomically as ``out/name`` and close it; returns the path."""
+def save_figure(fig, out, name: str, tight: bool = False) -> Path:
+    """Save a case's figure atomically as ``out/name`` (``tight``: after ``fig.tight_layout()``)
+    and close it; returns the path."""
+    if tight:
+        fig.tight_layout()
     path = atomic_savefig(fig, Path(out) / name)
     plt.close(fig)
     return path
@@ -172,6 +176,16 @@ def timed(fn, repeats: int, clock=time.perf_counter):
         result = fn()
         times.append(clock() - t0)
     return float(np.median(times)), times, result
+
+
+def interleaved(jobs: dict, repeats: int, clock=time.perf_counter) -> dict[str, list[float]]:
+    """Each ``name: fn`` of ``jobs`` called once per repeat, the jobs interleaved so that machine
+    load hits all alike: name -> every time [s]."""
+    times = {k: [] for k in jobs}
+    for _ in range(repeats):
+        for k, fn in jobs.items():
+            times[k] += timed(fn, 1, clock)[1]
+    return times
 
 
 def load_all() -> dict[str, Entry]:
@@ -277,7 +291,9 @@ class Outcome:
 
 def run_entry(entry: Entry, out: Path, quick: bool = False) -> Outcome:
     """Run one case or benchmark in its own folder ``out/<name>``; an exception it raises (other
-    than ``KeyboardInterrupt``) is its outcome's ``error``, never fatal to the report."""
+    than ``KeyboardInterrupt``) is its outcome's ``error``, never fatal to the report. When it
+    ends (not interrupted), the runs that completed under ``out`` lose their checkpoints
+    (:func:`runkit.run.retire_checkpoints`: the mpm2d runner keeps a completed run's)."""
     folder = Path(out) / entry.name
     folder.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -287,10 +303,11 @@ def run_entry(entry: Entry, out: Path, quick: bool = False) -> Outcome:
         if not isinstance(result, want):
             raise TypeError(f"{entry.kind} {entry.name} returned a {type(result).__name__}, "
                             f"not a {want.__name__}")
-        data, problems = clean(result)
-        return Outcome(entry, time.perf_counter() - t0, data, problems)
+        outcome = Outcome(entry, time.perf_counter() - t0, *clean(result))
     except Exception:  # a failing case is reported, not fatal to the report
-        return Outcome(entry, time.perf_counter() - t0, error=traceback.format_exc())
+        outcome = Outcome(entry, time.perf_counter() - t0, error=traceback.format_exc())
+    retire_checkpoints(out)
+    return outcome
 
 
 # ------------------------------------------------------------------ fingerprint (--resume)

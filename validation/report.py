@@ -180,32 +180,27 @@ def _table(rows: list[dict], notes: dict) -> str:
 
 
 def _section(r: dict) -> str:
-    v = _verdict(r)
-    body = [f"<h3 id='{_esc(r['name'])}'>{_esc(r['title'])} <small>({r['tier']} {r['kind']} "
-            f"<code>{_esc(r['name'])}</code>, {v}, {r['seconds']:.1f} s"
-            + (f"; {'small sizes' if r['quick'] else 'full size'}, run {r['run']}" if r.get("run")
-               else "") + ")</small></h3>"]
-    if r["error"]:
-        body.append(f"<pre>{_esc(r['error'])}</pre>")
-    if r["problems"]:
-        body.append("<p><b>Values that are not results (the entry fails):</b></p><ul>"
-                    + "".join(f"<li>{_esc(p)}</li>" for p in r["problems"]) + "</ul>")
-    if r["kind"] == "case" and not r["error"]:
-        body.append(f"<p><b>Criterion:</b> {_esc(r['criterion'])}<br>"
-                    f"<b>Measured:</b> {_esc(r['measured'])}</p>")
-    if r.get("summary"):
-        body.append(f"<p>{_esc(r['summary'])}</p>")
-    if r.get("targets"):
-        body.append("<table><tr><th>target</th><th>measured</th><th>met</th></tr>" + "".join(
-            f"<tr><td>{_esc(t)}</td><td>{_esc(m)}</td><td>{'yes' if ok is True else 'NO'}</td>"
-            "</tr>" for t, m, ok in r["targets"]) + "</table>")
-    if r.get("details"):
-        body.append(f"<pre>{_esc(r['details'])}</pre>")
-    if r.get("rows"):
-        body.append(_table(r["rows"], r.get("notes") or {}))
-    body += [f"<img src='{_esc(p)}' style='max-width:48%;margin:4px'>"
-             for p in r.get("figures") or []]
-    return "\n".join(body)
+    run = (f"; {'small sizes' if r['quick'] else 'full size'}, run {r['run']}" if r.get("run")
+           else "")
+    parts = [
+        f"<h3 id='{_esc(r['name'])}'>{_esc(r['title'])} <small>({r['tier']} {r['kind']} "
+        f"<code>{_esc(r['name'])}</code>, {_verdict(r)}, {r['seconds']:.1f} s{run})</small></h3>",
+        r["error"] and f"<pre>{_esc(r['error'])}</pre>",
+        r["problems"] and ("<p><b>Values that are not results (the entry fails):</b></p><ul>"
+                           + "".join(f"<li>{_esc(p)}</li>" for p in r["problems"]) + "</ul>"),
+        r["kind"] == "case" and not r["error"] and (
+            f"<p><b>Criterion:</b> {_esc(r['criterion'])}<br>"
+            f"<b>Measured:</b> {_esc(r['measured'])}</p>"),
+        r.get("summary") and f"<p>{_esc(r['summary'])}</p>",
+        r.get("targets") and (
+            "<table><tr><th>target</th><th>measured</th><th>met</th></tr>" + "".join(
+                f"<tr><td>{_esc(t)}</td><td>{_esc(m)}</td><td>{'yes' if ok is True else 'NO'}"
+                "</td></tr>" for t, m, ok in r["targets"]) + "</table>"),
+        r.get("details") and f"<pre>{_esc(r['details'])}</pre>",
+        r.get("rows") and _table(r["rows"], r.get("notes") or {}),
+        *(f"<img src='{_esc(p)}' style='max-width:48%;margin:4px'>"
+          for p in r.get("figures") or [])]
+    return "\n".join(p for p in parts if p)
 
 
 def _render(doc: dict) -> str:
@@ -349,9 +344,17 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
     RuntimeError
         The report could not be written at the end (the message says what the folder holds).
     KeyboardInterrupt
-        Ctrl-C or SIGTERM: what finished is written first, marked ``"status": "interrupted"``,
-        and the message says so.
+        Ctrl-C or SIGTERM at any moment once the selection is checked (SIGTERM is a
+        ``KeyboardInterrupt`` here, called from the library too; a signal an entry's own window
+        recorded and let its run finish stops the report after that entry): what finished is
+        written first, marked ``"status": "interrupted"`` with every unfinished entry in
+        ``pending``, and the message says so.
     """
+    with Interrupts(defer=False) as stop:
+        return _write_report(stop, out, tiers, names, quick, benchmarks, slow, resume, log)
+
+
+def _write_report(stop, out, tiers, names, quick, benchmarks, slow, resume, log) -> Report:
     todo = plan(tiers, names, quick, benchmarks, slow)
     root = check_output_dir("--out", out)
     for fname in ("report.html", "results.json"):
@@ -363,7 +366,6 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
             raise ValueError(f"--out = {str(out)!r}: {root / e.name} is a file; case "
                              f"{e.name} writes its figures in a folder there")
     records = _earlier(root, out, quick) if resume else {}
-    root.mkdir(parents=True, exist_ok=True)
     run, t0 = time.strftime("%Y-%m-%d %H:%M:%S"), time.perf_counter()
     html_path, json_path = root / "report.html", root / "results.json"
     reg = load_all()
@@ -390,7 +392,8 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
         atomic_write_text(html_path, _render(doc))
         written = sum(r["skipped"] is None for r in doc["entries"])
 
-    try:
+    root.mkdir(parents=True, exist_ok=True)     # the first thing written: from here a signal
+    try:                                        # leaves a results.json naming what is pending
         for e in todo.run:
             fp = fingerprint(e, quick)
             old = records.get(e.name)
@@ -416,11 +419,10 @@ def write_report(out, tiers=None, names=None, quick: bool = False, benchmarks: b
                        "entries)" if written else "nothing written yet")
                     + "; trying again after the next entry",
                     flush=True)
+            if pending:               # a signal the entry's run recorded and finished after
+                stop.check()
     except KeyboardInterrupt:
         done = len(todo.run) - len(pending)
-        if done == len(kept) and not written:         # nothing new to write
-            raise KeyboardInterrupt("no entry finished; " + (
-                f"{json_path} is as it was" if resume else "no report written")) from None
         try:
             with Interrupts(defer=True):             # a second Ctrl-C waits for the write
                 write("interrupted")
