@@ -367,49 +367,39 @@ class _Params:
 
     def __init__(self, base: Material, free: list[str], phi_max: float):
         self.base, self.free, self.phi_max = base, list(free), phi_max
-        boxes, phys = [], []     # phys: (low, high) bound is a limit of the law, not the search's
-        for p in self.free:
-            phys.append((p in ("a_inf", "alpha1", "alpha2", "Delta") and
-                         (p != "a_inf" or "a0" in self.free), p == "Delta"))
-            if p == "phi_j":
-                boxes.append(("phi_j", max(phi_max, 0.0 if "phi_c" in self.free else base.phi_c)
-                              + 1e-5, 0.9999))
-            elif p == "phi_c":        # phi_c = phi_j - dphi > phi_j - phi_max > 0
-                boxes.append(("dphi", 1e-4, phi_max) if "phi_j" in self.free
-                             else ("phi_c", 1e-4, base.phi_j - 1e-4))
-            elif p == "a_inf" and "a0" in self.free:
-                boxes.append(("ln_ainf_over_a0", 0.0, np.log(100.0)))
-            elif p == "a0" and "a_inf" not in self.free:
-                boxes.append(("ln_a0", np.log(1e-3), np.log(base.a_inf)))
-            elif p == "a_inf":
-                boxes.append(("ln_a_inf", np.log(base.a0), np.log(1e3)))
-            else:
-                boxes.append((("ln_" if SCALE[p] == "log" else "") + p, *_BOX[p]))
-        names, lo, hi = zip(*boxes) if boxes else ((), (), ())
-        self.names, self.lo, self.hi = list(names), np.array(lo, float), np.array(hi, float)
-        self.physical_lo = np.array([a for a, _ in phys], bool)
-        self.physical_hi = np.array([b for _, b in phys], bool)
+        free = self.free
+        self.pair = {"phi_c": "phi_j" in free and "phi_c" in free,
+                     "a_inf": "a0" in free and "a_inf" in free}
+        box = {"phi_j": ("phi_j", max(phi_max, 0.0 if "phi_c" in free else base.phi_c) + 1e-5,
+                         0.9999),
+               "phi_c": ("dphi", 1e-4, phi_max) if "phi_j" in free     # phi_c > phi_j - phi_max
+               else ("phi_c", 1e-4, base.phi_j - 1e-4),
+               "a_inf": ("ln_ainf_over_a0", 0.0, np.log(100.0)) if "a0" in free
+               else ("ln_a_inf", np.log(base.a0), np.log(1e3)),
+               "a0": ("ln_a0", *_BOX["a0"]) if "a_inf" in free
+               else ("ln_a0", np.log(1e-3), np.log(base.a_inf))}
+        rows = [box.get(p) or (("ln_" if SCALE[p] == "log" else "") + p, *_BOX[p]) for p in free]
+        self.names = [r[0] for r in rows]
+        self.lo, self.hi = (np.array([r[i] for r in rows], float) for i in (1, 2))
+        # which bound is a limit of the law, not the search's
+        self.physical_lo = np.array([p in ("alpha1", "alpha2", "Delta") or self.pair["a_inf"]
+                                     and p == "a_inf" for p in free], bool)
+        self.physical_hi = np.array([p == "Delta" for p in free], bool)
 
     def values(self, theta) -> dict[str, float]:
         v = {p: float(np.exp(x)) if SCALE[p] == "log" else float(x)
              for p, x in zip(self.free, theta)}
-        if "phi_c" in v and "phi_j" in v:           # theta holds phi_j - phi_c, ln(a_inf/a0)
+        if self.pair["phi_c"]:                      # theta holds phi_j - phi_c, ln(a_inf/a0)
             v["phi_c"] = v["phi_j"] - float(theta[self.free.index("phi_c")])
-        if "a_inf" in v and "a0" in v:
+        if self.pair["a_inf"]:
             v["a_inf"] = v["a0"] * float(np.exp(theta[self.free.index("a_inf")]))
         return v
 
     def theta(self, m: Material) -> np.ndarray:
-        out = []
-        for p in self.free:
-            if p == "phi_c" and "phi_j" in self.free:
-                out.append(m.phi_j - m.phi_c)
-            elif p == "a_inf" and "a0" in self.free:
-                out.append(np.log(m.a_inf / m.a0))
-            else:
-                x = getattr(m, p)
-                out.append(np.log(x) if SCALE[p] == "log" else x)
-        th = np.array(out, float)
+        th = np.array([m.phi_j - m.phi_c if p == "phi_c" and self.pair["phi_c"] else
+                       np.log(m.a_inf / m.a0) if p == "a_inf" and self.pair["a_inf"] else
+                       np.log(getattr(m, p)) if SCALE[p] == "log" else getattr(m, p)
+                       for p in self.free], float)
         span = self.hi - self.lo
         return np.clip(th, self.lo + 1e-9 * span, self.hi - 1e-9 * span)
 
