@@ -864,85 +864,46 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
     st = model(final)
     r_all = np.log10(data.viscosity) - st["log10_viscosity"]
     inl = ~outlier
-    n_in = int(inl.sum())
+    sigma = float(np.sqrt(np.sum(r_all[inl] ** 2) / max(int(inl.sum()) - len(free_list), 1)))
     params: list[ParameterEstimate] = []
-    names_corr, corr = [], np.zeros((0, 0))
-    sigma = float(np.sqrt(np.sum(r_all[inl] ** 2) / max(n_in - len(free_list), 1)))
+    names_corr, corr, converged = [], np.zeros((0, 0)), True
     if P:
         theta = res.x
         J = _central_jacobian(lambda th: resid(th, inl), theta, P.lo, P.hi)
         L = _central_jacobian(P.psi, theta, P.lo - 1, P.hi + 1, h=1e-7)
-        psi = P.psi(theta)
-        span = P.hi - P.lo
-        dof = max(n_in - len(theta), 1)
-        s2 = float(np.sum(res.fun ** 2)) / dof
-        tq, sd, corr, active, degen = interval_statistics(J, theta, P.lo, P.hi, s2, dof,
+        psi, span = P.psi(theta), P.hi - P.lo
+        dof = max(int(inl.sum()) - len(theta), 1)
+        ssq = float(np.sum(res.fun ** 2))
+        tq, sd, corr, active, degen = interval_statistics(J, theta, P.lo, P.hi, ssq / dof, dof,
                                                           confidence, L)
-        degenerate = {free_list[k] for k in np.flatnonzero(degen)}
-        names_corr = list(free_list)
-        prof = {}
-        if profile:
-            for p in ("phi_j", "phi_c"):
-                if p in free_list:
-                    k = free_list.index(p)
-                    prof[p] = _profile(data, final, free_list, p, psi[k], sd[k], tq, s2,
-                                       float(np.sum(res.fun ** 2)), inl, P.phi_max, model)
-        converged = res.status > 0
+        names_corr, converged = list(free_list), res.status > 0
+        prof = {p: _profile(data, final, free_list, p, psi[k], sd[k], tq, ssq / dof, ssq, inl,
+                            P.phi_max, model)
+                for k, p in enumerate(free_list) if profile and p in ("phi_j", "phi_c")}
         for k, p in enumerate(free_list):
-            val = getattr(final, p)
-            flat = p in degenerate or not np.isfinite(sd[k]) or sd[k] <= 1e-12 * max(
-                1.0, abs(psi[k]))
-            lo_, hi_ = (np.nan, np.nan) if flat else (psi[k] - tq * sd[k], psi[k] + tq * sd[k])
-            method = "jacobian"
-            if p in prof and prof[p] is not None:
-                lo_, hi_ = prof[p]
-                method, flat = "profile", False
-            if SCALE[p] == "log":
-                lo_, hi_ = log_interval(lo_, hi_)
-            else:
-                # a symmetric Jacobian interval may reach past the physical range (phi_c's to
-                # -0.007 on two fractions): reported within it (0 < phi_c < phi_j < 1,
-                # 0 <= Delta <= 1, alpha_i >= 0)
-                top = ((final.phi_j if p == "phi_c" else 1.0)
-                       if p in ("phi_c", "phi_j", "Delta") else np.inf)
-                lo_, hi_ = float(np.maximum(lo_, 0.0)), float(np.minimum(hi_, top))
-            why, bound = [], ""
-            half = tq * sd[k]
-            wide = not flat and ((half > np.log(2.0)) if SCALE[p] == "log" else (
-                half > (0.02 if p.startswith("phi") else 1.0 if p.startswith("alpha") else 0.2)))
-            partners = [free_list[j] for j in range(len(free_list))
-                        if j != k and abs(corr[k, j]) > CORR_FLAG and not active[j]
-                        and {p, free_list[j]} not in _PIVOT_PAIRS and not active[k]]
+            val, at, bound = float(getattr(final, p)), None, ""
             if active[k]:
                 at_low = theta[k] - P.lo[k] < 1e-7 * span[k]
                 physical = P.physical_lo[k] if at_low else P.physical_hi[k]
-                why.append(("at a limit of the law (" + {"a_inf": "a_inf = a0", "Delta": "Delta "
-                            "at 0 or 1"}.get(p, f"{p} = 0") + ")" if physical else
-                            f"at the fitter's {'lower' if at_low else 'upper'} search bound "
-                            f"{val:.4g}, not a physical limit") + ": one-sided interval")
-                lo_, hi_ = (float(val), hi_) if at_low else (lo_, float(val))
+                at = (at_low, ("at a limit of the law (" + {
+                    "a_inf": "a_inf = a0", "Delta": "Delta at 0 or 1"}.get(p, f"{p} = 0") + ")"
+                    if physical else f"at the fitter's {'lower' if at_low else 'upper'} search "
+                    f"bound {val:.4g}, not a physical limit") + ": one-sided interval")
                 bound = "law" if physical else "search"
-            unbounded = not flat and not (np.isfinite(lo_) and np.isfinite(hi_))
-            why += [w for w, on in (
-                ("no curvature of the misfit along it", p in degenerate),
-                ("interval wider than " + ("a factor 2" if SCALE[p] == "log" else
-                                           "the identifiability width"), wide),
-                (f"correlation > {CORR_FLAG} with " + ", ".join(partners), partners),
-                ("interval " + ("undefined" if flat else "unbounded") + " (null)",
-                 flat or unbounded),
-                ("the optimiser stopped at its evaluation limit", not converged)) if on]
-            unident = bool(p in degenerate or wide or partners or flat or unbounded)
-            lo_, hi_ = (x if np.isfinite(x) else np.nan for x in (lo_, hi_))
-            note = "; ".join(why)
-            if unident:
-                messages.append(f"{p} is not identified by these data ({note})")
-            params.append(ParameterEstimate(
-                p, float(val), float(lo_), float(hi_), float(sd[k]) if np.isfinite(sd[k])
-                else float("nan"), method, STAGE_OF[p], note=note, at_bound=bool(active[k]),
-                unidentifiable=unident, converged=bool(converged), bound=bound))
+            partners = [q for j, q in enumerate(free_list)
+                        if j != k and abs(corr[k, j]) > CORR_FLAG and not active[j]
+                        and {p, q} not in _PIVOT_PAIRS and not active[k]]
+            # a symmetric Jacobian interval may reach past the physical range (phi_c's to -0.007
+            # on two fractions): reported within 0 < phi_c < phi_j < 1, 0 <= Delta <= 1, alpha >= 0
+            top = final.phi_j if p == "phi_c" else 1.0 if p in ("phi_j", "Delta") else np.inf
+            params.append(judged_estimate(
+                p, val, psi[k], sd[k], tq, STAGE_OF[p], log=SCALE[p] == "log",
+                degenerate=bool(degen[k]), partners=partners, at=at, bound=bound,
+                width=(np.log(2.0) if SCALE[p] == "log" else 0.02 if p.startswith("phi") else
+                       1.0 if p.startswith("alpha") else 0.2), clip=(0.0, top),
+                converged=bool(converged), interval=prof.get(p), messages=messages))
         stages.setdefault("4", {})["sigma_log10"] = sigma
     else:
-        converged = True
         params += [ParameterEstimate(p, float(getattr(final, p)), float("nan"), float("nan"),
                                      float("nan"), "none", STAGE_OF[p], "stages 1-3")
                    for p in free_list]
@@ -960,6 +921,50 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
     if P:
         out.problems = assess(out, eta0_estimated=stages["1"].get("eta0_estimated", False))
     return out
+
+
+def judged_estimate(name: str, value: float, centre: float, sd: float, tq: float, stage: str, *,
+                    log: bool, degenerate: bool, partners, width: float = np.inf,
+                    clip=(-np.inf, np.inf), at=None, bound: str = "", converged: bool = True,
+                    interval=None, extra=(), messages=None) -> ParameterEstimate:
+    """One fitted parameter's interval and flags (module docstring), shared by the steady and the
+    relaxation fits.
+
+    ``centre``, ``sd``: estimate and standard deviation in the reporting coordinate (ln x if
+    ``log``), ``tq`` the Student-t quantile; ``interval``: (lower, upper) in that coordinate from
+    elsewhere (profile likelihood) in place of centre +- tq sd; ``width``: the widest
+    identifiable half-width tq sd; ``clip``: the physical range of a linear coordinate; ``at``:
+    (at the lower bound, reason) when on a bound (``bound``: "law" or "search"), the interval
+    then one-sided; ``partners``: the parameters correlated beyond :data:`CORR_FLAG`; ``extra``:
+    the causes named when it is unidentifiable. ``messages`` gets the sentence of an
+    unidentifiable parameter.
+    """
+    flat = interval is None and (degenerate or not np.isfinite(sd)
+                                 or sd <= 1e-12 * max(1.0, abs(centre)))
+    lo, hi = interval or ((np.nan, np.nan) if flat else (centre - tq * sd, centre + tq * sd))
+    lo, hi = log_interval(lo, hi) if log else (float(np.maximum(lo, clip[0])),
+                                               float(np.minimum(hi, clip[1])))
+    why = []
+    if at is not None:
+        why.append(at[1])
+        lo, hi = (value, hi) if at[0] else (lo, value)
+    wide = not flat and tq * sd > width
+    unbounded = not flat and not (np.isfinite(lo) and np.isfinite(hi))
+    unident = bool(degenerate or wide or partners or flat or unbounded)
+    why += [w for w, on in (
+        ("no curvature of the misfit along it", degenerate),
+        ("interval wider than " + ("a factor 2" if log else "the identifiability width"), wide),
+        (f"correlation > {CORR_FLAG} with " + ", ".join(partners), partners),
+        ("interval " + ("undefined" if flat else "unbounded") + " (null)", flat or unbounded),
+        *((w, unident) for w in extra),
+        ("the optimiser stopped at its evaluation limit", not converged)) if on]
+    note = "; ".join(why)
+    if unident and messages is not None:
+        messages.append(f"{name} is not identified by these data ({note})")
+    return ParameterEstimate(
+        name, value, *(float(x) if np.isfinite(x) else np.nan for x in (lo, hi, sd)),
+        "jacobian" if interval is None else "profile", stage, note=note, at_bound=at is not None,
+        unidentifiable=unident, converged=converged, bound=bound)
 
 
 def paper_span() -> dict[str, tuple[float, float]]:
