@@ -40,7 +40,7 @@ from scipy.optimize import least_squares
 
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
-from rheology.fit import CORR_FLAG, ParameterEstimate, interval_statistics, log_interval
+from rheology.fit import CORR_FLAG, ParameterEstimate, interval_statistics, judged_estimate
 from rheology.materials import Material
 from runkit.params import check_range
 
@@ -299,57 +299,36 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
     last = np.array([c.stress.min() / c.stress0 for c in curves])
     undecayed = [c.label for c, x in zip(curves, last) if x > np.exp(-1.0)]
     params, messages, problems = [], [], []
+    slow_f = delta_f.max() < 0.05 * max(f0_of(m, c) for c in curves)
     for k, p in enumerate(names):
         is_scale = p in SCALE
         value = float(np.exp(th[k])) if is_scale else float(th[k])
-        flat = bool(degen[k]) or not np.isfinite(sd[k]) or sd[k] <= 1e-12 * max(1.0, abs(th[k]))
-        lo_, hi_ = (np.nan, np.nan) if flat else (th[k] - tq * sd[k], th[k] + tq * sd[k])
-        why, bound = [], ""
+        at, bound = None, ""
         if active[k]:
             at_low = th[k] - lo[k] < 1e-7 * (hi[k] - lo[k])
             bound = "law" if (p == "K0" and at_low) else "search"
-            why.append("at K0's floor: K0 = 0 within resolution, a frozen structure"
-                       if bound == "law" else
-                       f"at the fitter's {'lower' if at_low else 'upper'} search bound")
-            lo_, hi_ = (th[k], hi_) if at_low else (lo_, th[k])
-        if is_scale:
-            lo_, hi_ = log_interval(lo_, hi_)
-        wide = is_scale and not flat and tq * sd[k] > np.log(2.0)
+            at = (at_low, "at K0's floor: K0 = 0 within resolution, a frozen structure"
+                  if bound == "law" else
+                  f"at the fitter's {'lower' if at_low else 'upper'} search bound")
         # the offsets t0 trade with G by the model's form (a later cessation looks like a faster
         # decay when the record starts late): their marginal intervals carry it
-        partners = [names[j] for j in range(len(names)) if j != k and abs(corr[k, j]) > CORR_FLAG
-                    and not active[j] and not active[k] and not names[j].startswith("t0")
+        partners = [q for j, q in enumerate(names) if j != k and abs(corr[k, j]) > CORR_FLAG
+                    and not active[j] and not active[k] and not q.startswith("t0")
                     and not p.startswith("t0")]
-        unbounded = not flat and not (np.isfinite(lo_) and np.isfinite(hi_))
-        if degen[k]:
-            why.append("no curvature of the misfit along it")
-        if wide:
-            why.append("interval wider than a factor 2")
-        if partners:
-            why.append(f"correlation > {CORR_FLAG} with {', '.join(partners)}")
-        if flat or unbounded:
-            why.append(f"interval {'undefined' if flat else 'unbounded'} (null)")
-        unident = bool(degen[k] or wide or partners or flat or unbounded)
-        if unident and is_scale and undecayed:
-            why.append(f"{', '.join(undecayed)} end(s) before decaying below taubar0/e")
-        if unident and p == "K0" and delta_f.max() < 0.05 * max(f0_of(m, c) for c in curves):
-            why.append(f"the structure f changes by at most {delta_f.max():.2g} over the records "
-                       "(K0 acts only through it: larger taubar0/G, i.e. a softer sample or a "
-                       "higher stress, shows it)")
-        if not converged:
-            why.append("the optimiser stopped at its evaluation limit")
-        note = "; ".join(why)
-        if unident:
-            messages.append(f"{p} is not identified by these data ({note})")
-        if active[k] and bound == "search":
+        extra = [f"{', '.join(undecayed)} end(s) before decaying below taubar0/e"] * bool(
+            is_scale and undecayed)
+        if p == "K0" and slow_f:
+            extra.append(f"the structure f changes by at most {delta_f.max():.2g} over the "
+                         "records (K0 acts only through it: larger taubar0/G, i.e. a softer "
+                         "sample or a higher stress, shows it)")
+        params.append(judged_estimate(
+            p, value, th[k], sd[k], tq, "relaxation", log=is_scale, degenerate=bool(degen[k]),
+            partners=partners, width=np.log(2.0) if is_scale else np.inf, at=at, bound=bound,
+            converged=converged, extra=extra, messages=messages))
+        if bound == "search":
             problems.append(f"{p} = {value:.4g} ended on the fitter's search bound, so the bound "
                             "and not the data sets it (check --material, --phi and --stress0 "
                             "of each curve, or hold it)")
-        params.append(ParameterEstimate(
-            p, value, float(lo_) if np.isfinite(lo_) else np.nan,
-            float(hi_) if np.isfinite(hi_) else np.nan, float(sd[k]) if np.isfinite(sd[k])
-            else np.nan, "jacobian", "relaxation", note=note, at_bound=bool(active[k]),
-            unidentifiable=unident, converged=converged, bound=bound))
     if not fit_k0:
         params.insert(1, ParameterEstimate("K0", float(K0), float(K0), float(K0), 0.0, "fixed",
                                            "fixed", "fixed", "held (--K0)"))
