@@ -1023,24 +1023,21 @@ def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max
     """Profile-likelihood interval of phi_j or phi_c: refit the others at fixed values and find
     where the inlier sum of squares reaches ssq_best + s2 tq^2 (secant on its square root)."""
     others = [q for q in free_list if q != p]
-    logeta = np.log10(data.viscosity)
-    target = tq
+    logeta = np.log10(data.viscosity)[inl]
 
-    def excess(v):
-        if p == "phi_j" and (v <= phi_max + 1e-6 or v <= (best.phi_c if "phi_c" not in
-                                                           free_list else 0)):
-            return np.inf
-        if p == "phi_c" and not (0 < v < best.phi_j - 1e-5):
+    def excess(v):                                 # sqrt of the sum of squares' rise / s2
+        if p == "phi_j" and (v <= phi_max + 1e-6 or v <= (
+                best.phi_c if "phi_c" not in free_list else 0)) or p == "phi_c" and not (
+                0 < v < best.phi_j - 1e-5):
             return np.inf
         try:
             start = dataclasses.replace(best, **{p: v})
             if p == "phi_j" and start.phi_c >= v:
                 start = dataclasses.replace(start, phi_c=v - (best.phi_j - best.phi_c))
             Q = _Params(start, others, phi_max)
-            th = Q.theta(start)
-            r = least_squares(lambda t: logeta[inl] - model(Q.material(t), inl)["log10_viscosity"],
-                              th, bounds=(Q.lo, Q.hi), method="trf", xtol=1e-8, ftol=1e-9,
-                              max_nfev=40)
+            r = least_squares(lambda t: logeta - model(Q.material(t), inl)["log10_viscosity"],
+                              Q.theta(start), bounds=(Q.lo, Q.hi), method="trf", xtol=1e-8,
+                              ftol=1e-9, max_nfev=40)
         except (ValueError, RuntimeError):
             return np.inf
         return float(np.sqrt(max(np.sum(r.fun ** 2) - ssq_best, 0.0) / s2))
@@ -1049,29 +1046,26 @@ def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max
     for side in (-1.0, 1.0):
         h = max(tq * sd, 1e-5)
         e = excess(value + side * h)
-        k = 0
-        while np.isfinite(e) and e < target and k < 3:
+        for _ in range(3):
+            if not (np.isfinite(e) and e < tq):
+                break
             h *= 2.0
             e = excess(value + side * h)
-            k += 1
-        if not np.isfinite(e) or e < target:
-            if not np.isfinite(e):        # a bound: bisect towards it
-                lo_h, hi_h = 0.0, h
-                for _ in range(6):
-                    mid = 0.5 * (lo_h + hi_h)
-                    em = excess(value + side * mid)
-                    if np.isfinite(em) and em < target:
-                        lo_h = mid
-                    else:
-                        hi_h = mid
-                ends.append(value + side * hi_h)
-                continue
+        if not np.isfinite(e):                     # a bound: bisect towards it
+            lo_h, hi_h = 0.0, h
+            for _ in range(6):
+                mid = 0.5 * (lo_h + hi_h)
+                em = excess(value + side * mid)
+                lo_h, hi_h = (mid, hi_h) if np.isfinite(em) and em < tq else (lo_h, mid)
+            ends.append(value + side * hi_h)
+            continue
+        if e < tq:
             return None
-        h1 = h * target / max(e, 1e-12)            # sqrt(excess) ~ linear in the offset
-        if abs(e / target - 1) > 0.15:             # far from the target: one secant step
+        h1 = h * tq / max(e, 1e-12)                # sqrt(excess) ~ linear in the offset
+        if abs(e / tq - 1) > 0.15:                 # far from the target: one secant step
             e1 = excess(value + side * h1)
             if np.isfinite(e1) and abs(e1 - e) > 1e-12:
-                h1 = h1 + (target - e1) * (h - h1) / (e - e1)
+                h1 = h1 + (tq - e1) * (h - h1) / (e - e1)
         ends.append(value + side * h1)
     return (min(ends), max(ends))
 
