@@ -677,7 +677,6 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         base.a0, (phi_max + 1e-5, 0.9999), (1e-3, 100.0), fit_pm="phi_j" not in fixed,
         fit_a="a0" not in fixed, eta0=None if estimate_eta0 else base.eta0)
     base = base.replace(eta0=eta0)
-    eta_r_min = eta_min / eta0
     stage1 = {"phi": phis, "eta_min": eta_min, "stress_min": [f.stress_min for f in feats],
               "phi_j": phi_j, "a0": a0, "mu_c": mu_c, "eta0": eta0,
               "eta0_estimated": estimate_eta0}
@@ -685,27 +684,27 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     # ---------------------------------------------------------------- stage 2 (Eq. 25)
     plat = [i for i, f in enumerate(feats) if f.kind == "plateau"]
     dst = [i for i, f in enumerate(feats) if f.kind == "dst"]
-    ratio0 = base.a_inf / base.a0
     phi_c_hi = min([phis[i] for i in dst] + [phi_j - 1e-4])
-    phi_c, a_inf = base.phi_c - base.phi_j + phi_j, max(a0, a0 * ratio0)
+    phi_c, a_inf = base.phi_c - base.phi_j + phi_j, max(a0, a0 * (base.a_inf / base.a0))
     eta_r_max = np.array([feats[i].eta_max for i in plat]) / eta0
     lo = float(phis[plat].max()) + 1e-5 if plat else 0.0       # phi_c above every plateau's phi
-    hi = max(phi_c_hi, lo + 2e-5)
+    box = (lo, max(phi_c_hi, lo + 2e-5))
+
+    def plateau(pm, a, pm_range=box, a_range=(a0, 100.0), **kw):
+        return _plateau_fit(phis[plat], eta_r_max, mu_c, pm, a, pm_range, a_range, **kw)
+
     if "phi_c" in fixed:
         phi_c = base.phi_c
-        if len(plat) >= 1 and "a_inf" not in fixed:
-            a_inf = max(a0, _plateau_fit(phis[plat], eta_r_max, mu_c, phi_c, a_inf, (0, 1),
-                                         (1e-3, 1e3), fit_pm=False)[1])
+        if plat and "a_inf" not in fixed:
+            a_inf = max(a0, plateau(phi_c, a_inf, (0, 1), (1e-3, 1e3), fit_pm=False)[1])
         if not plat:
             messages.append("stage 2: phi_c fixed, no high-stress plateau to fit a_inf")
     elif len(plat) >= 2 and "a_inf" not in fixed:
-        phi_c, a_inf, _ = _plateau_fit(phis[plat], eta_r_max, mu_c, _clip_inside(phi_c, lo, hi),
-                                       max(a_inf, a0 * 1.0001), (lo, hi), (a0, 100.0))
-    elif len(plat) >= 1:
+        phi_c, a_inf, _ = plateau(_clip_inside(phi_c, *box), max(a_inf, a0 * 1.0001))
+    elif plat:
         if "a_inf" in fixed:
             a_inf = base.a_inf
-        phi_c = _plateau_fit(phis[plat], eta_r_max, mu_c, _clip_inside(phi_c, lo, hi), a_inf,
-                             (lo, hi), (a0, 100.0), fit_a=False)[0]
+        phi_c = plateau(_clip_inside(phi_c, *box), a_inf, fit_a=False)[0]
         messages.append(f"stage 2: one high-stress plateau only: a_inf starts at {a_inf:.4g} "
                         "(the start's a_inf/a0) and only phi_c is fitted here"
                         + ("; a_inf stays fixed" if "a_inf" in fixed else
@@ -715,16 +714,14 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         messages.append("stage 2: no curve with a high-stress plateau: phi_c and a_inf start "
                         "from the start material's (phi_j - phi_c, a_inf/a0) and are left to "
                         "stage 4")
-    phi_c = min(phi_c, phi_j - 1e-4)
-    a_inf = max(a_inf, a0)
+    phi_c, a_inf = min(phi_c, phi_j - 1e-4), max(a_inf, a0)
     stage2 = {"phi": phis[plat] if plat else np.zeros(0), "eta_max": eta_r_max * eta0,
               "stress_max": [feats[i].stress_max for i in plat], "phi_c": phi_c, "a_inf": a_inf,
               "curves": plat}
     m = dataclasses.replace(base, phi_j=phi_j, phi_c=phi_c, a0=a0, a_inf=a_inf)
 
     # ---------------------------------------------------------------- stage 3 (Eqs. 33-34)
-    tau_star = m.tau_star
-    if "tau_star" not in fixed:
+    if "tau_star" not in fixed:             # tau* first, on the curves without DST
         sel = np.isin(data.curve, [i for i, f in enumerate(feats) if f.kind != "dst"])
         if sel.sum() < 3:
             sel = np.ones_like(data.curve, dtype=bool)
@@ -733,65 +730,54 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
             dataclasses.replace(m, tau_star=float(np.exp(x[0]))), sel)["log10_viscosity"],
             [np.log(m.tau_star)], bounds=([np.log(1e-8)], [np.log(1e9)]), loss="soft_l1",
             f_scale=0.05)
-        tau_star = float(np.exp(lt.x[0]))
-        m = dataclasses.replace(m, tau_star=tau_star)
+        m = dataclasses.replace(m, tau_star=float(np.exp(lt.x[0])))
     dst_ok = [i for i in dst if m.phi_c <= phis[i] < m.phi_j]
     if len(dst_ok) < len(dst):
         messages.append(f"stage 3: {len(dst) - len(dst_ok)} DST curve(s) below the stage-2 "
                         "phi_c left out of Eq. (33)")
     g = np.array([feats[i].gdot_dst for i in dst_ok])
     phd = phis[dst_ok] if dst_ok else np.zeros(0)
-    v1, al1, v2, al2 = m.varphi1, m.alpha1, m.varphi2, m.alpha2
-    if etaB_terms == 1:
-        v2 = 0.0
+    v1, al1, v2, al2 = m.varphi1, m.alpha1, m.varphi2 * (etaB_terms == 2), m.alpha2
     if dst_ok and not {"varphi1", "alpha1"} <= set(fixed):
         x = m.phi_j - phd
-        fm = laws.f_max(phd, m.phi_c, m.phi_j, m.Delta)
-        a = laws.dilatancy_a(fm, m.a0, m.a_inf)
+        a = laws.dilatancy_a(laws.f_max(phd, m.phi_c, m.phi_j, m.Delta), m.a0, m.a_inf)
         # Eq. (33) solved for 1/eta_B at each DST rate
         inv_target = (2 * m.mu_c) ** 0.5 * (a * phd / x) / m.eta0 * (
             m.tau_star / (m.eta0 * g)) ** -1.5
         if etaB_terms == 2 and (len(dst_ok) >= 3 or len(dst_ok) == 2 and np.ptp(np.log(x)) > 0):
             three = len(dst_ok) >= 3          # alpha1 fitted too; two curves: both alphas held
-
-            def r3(q):
-                return np.log(np.exp(q[0]) * x ** (q[1] if three else al1)
-                              + np.exp(q[-1]) * x ** al2) - np.log(inv_target)
-            q = least_squares(r3, [np.log(max(v1, 1e-30)), *[al1] * three,
-                                   np.log(max(v2, 1e-30) if v2 > 0 else 1e-3)],
+            q = least_squares(lambda q: np.log(np.exp(q[0]) * x ** (q[1] if three else al1)
+                                               + np.exp(q[-1]) * x ** al2) - np.log(inv_target),
+                              [np.log(max(v1, 1e-30)), *[al1] * three,
+                               np.log(max(v2, 1e-30) if v2 > 0 else 1e-3)],
                               bounds=([-120, *[0] * three, -120], [120, *[30] * three, 120])).x
-            v1, v2 = float(np.exp(q[0])), float(np.exp(q[-1]))
-            if three:
-                al1 = float(q[1])
-            else:
+            v1, v2, al1 = float(np.exp(q[0])), float(np.exp(q[-1])), float(q[1]) if three else al1
+            if not three:
                 messages.append("stage 3: two DST curves for two eta_B terms: alpha1, alpha2 held "
                                 f"at {al1:.4g}, {al2:.4g}")
         elif len(dst_ok) >= 2 and "alpha1" not in fixed and np.ptp(np.log(x)) > 0:
-            A = np.column_stack([np.ones_like(x), np.log(x)])
-            coef = np.linalg.lstsq(A, np.log(inv_target), rcond=None)[0]
+            coef = np.linalg.lstsq(np.column_stack([np.ones_like(x), np.log(x)]),
+                                   np.log(inv_target), rcond=None)[0]
             v1, al1 = float(np.exp(coef[0])), float(np.clip(coef[1], 0.0, 30.0))
         else:
             v1 = float(np.exp(np.mean(np.log(inv_target) - al1 * np.log(x))))
-            messages.append("stage 3: one DST curve: alpha1 held at "
-                            f"{al1:.4g}, varphi1 fitted")
+            messages.append(f"stage 3: one DST curve: alpha1 held at {al1:.4g}, varphi1 fitted")
     elif not dst_ok:
         messages.append("stage 3: no DST curve (rate saturating at high stress): eta_B kept from "
                         "the start material and held in stage 4")
     m = dataclasses.replace(m, varphi1=v1, alpha1=al1, varphi2=v2,
                             alpha2=al2 if v2 > 0 else m.alpha2)
-    stage3 = {"phi": phd, "gdot_dst": g, "stress_range": [feats[i].dst_stress for i in dst_ok],
-              "varphi1": v1, "alpha1": al1, "varphi2": v2, "alpha2": m.alpha2,
-              "tau_star_first": tau_star, "curves": dst_ok,
-              "kinds": [f.kind for f in feats], "top_slopes": [f.top_slope for f in feats]}
-    stage3["material"] = m               # the set after stages 1-3 (the stage plots' values)
-    stages = {"1": stage1, "2": stage2, "3": stage3}
+    stages = {"1": stage1, "2": stage2, "3": {
+        "phi": phd, "gdot_dst": g, "stress_range": [feats[i].dst_stress for i in dst_ok],
+        "varphi1": v1, "alpha1": al1, "varphi2": v2, "alpha2": m.alpha2,
+        "tau_star_first": m.tau_star, "curves": dst_ok, "kinds": [f.kind for f in feats],
+        "top_slopes": [f.top_slope for f in feats],
+        "material": m}}                     # the set after stages 1-3 (the stage plots' values)
 
     # ---------------------------------------------------------------- stage 4
-    free_list = [p for p in DEFAULT_FREE if p not in fixed]
-    if not dst_ok:
-        free_list = [p for p in free_list if p not in ("varphi1", "alpha1")]
-    elif len(dst_ok) < 2 or (etaB_terms == 2 and len(dst_ok) < 3):
-        free_list = [p for p in free_list if p != "alpha1"]
+    free_list = [p for p in DEFAULT_FREE if p not in fixed and not (
+        p in ("varphi1", "alpha1") and not dst_ok or p == "alpha1" and (
+            len(dst_ok) < 2 or etaB_terms == 2 and len(dst_ok) < 3))]
     if etaB_terms == 2 and m.varphi2 > 0 and "varphi2" not in fixed and len(dst_ok) >= 2:
         free_list.append("varphi2")
     for p in free_extra + (["eta0"] if estimate_eta0 else []):
@@ -804,7 +790,6 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
                        messages, n_eval, t0, confidence, None, None, name, citation, model,
                        fixed=fixed)
     P = _Params(m, free_list, phi_max)
-    th0 = P.theta(m)
 
     def resid(theta, sel=slice(None)):
         return logeta[sel] - model(P.material(theta), sel)["log10_viscosity"]
@@ -817,12 +802,12 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         return 1.4826 * float(np.median(np.abs(r - np.median(r))))
 
     try:
-        r1 = least_squares(resid, th0, loss="soft_l1", f_scale=0.1, xtol=1e-8, ftol=1e-9, **box)
+        r1 = least_squares(resid, P.theta(m), loss="soft_l1", f_scale=0.1, xtol=1e-8, ftol=1e-9,
+                           **box)
         fs = f_scale if f_scale is not None else max(3 * mad(r1.fun), 1e-3)
         r2 = least_squares(resid, r1.x, loss="soft_l1", f_scale=fs, xtol=1e-10, ftol=1e-11, **box)
         outlier = np.abs(r2.fun - np.median(r2.fun)) > 4 * max(mad(r2.fun), 1e-12)
-        inl = ~outlier
-        r3 = least_squares(lambda th: resid(th, inl), r2.x, xtol=1e-10, ftol=1e-11, **box)
+        r3 = least_squares(lambda th: resid(th, ~outlier), r2.x, xtol=1e-10, ftol=1e-11, **box)
     except (ValueError, FloatingPointError) as exc:
         raise RuntimeError(f"stage 4 failed: {exc}") from None
     if r3.status < 0:
