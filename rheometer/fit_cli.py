@@ -78,8 +78,7 @@ def _columns(text: str):
 
 
 def _text(option: str):
-    """argparse ``type`` of a text option: refuses an empty or blank value (``--interval ''``
-    matched every RheoCompass result, ``--transient-from ''`` was ignored)."""
+    """argparse ``type`` of a text option: refuses an empty or blank value."""
 
     def check(text: str) -> str:
         if not text.strip():
@@ -92,8 +91,7 @@ def _text(option: str):
 
 
 def _set_value(text: str):
-    """``NAME=VALUE`` of ``fit --set`` (checked in cmd_fit by rheology.materials.
-    check_set_override: a numeric parameter, not a text field, held at a finite number)."""
+    """``NAME=VALUE`` of ``fit --set`` (the value checked in cmd_fit)."""
     try:
         return split_set_item(text)
     except ValueError as exc:
@@ -320,10 +318,6 @@ def cmd_read(args) -> str:
     return f"{describe(table)}\nwrote {args.out} ({len(table)} rows)"
 
 
-def _sha256(path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 def _out_and_name(args) -> tuple[Path, str]:
     """The --out folder (:func:`prepare_out`) and the fitted material's name (--name, else the
     folder's name); ValueError for an empty --name."""
@@ -341,7 +335,7 @@ def _provenance(command: str, args, table, donor, **fields) -> dict:
     created = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
     return {"created": created, "command": command,
             "transient_from": donor.name if donor else None,
-            "files": [{"file": str(f), "sha256": _sha256(f),
+            "files": [{"file": str(f), "sha256": hashlib.sha256(Path(f).read_bytes()).hexdigest(),
                        "format": formats.get(str(Path(f)), "?")} for f in args.files],
             "skipped_blocks": [list(x) for x in table.attrs.get("skipped", [])], **fields}
 
@@ -357,11 +351,9 @@ def _fit_doc(provenance: dict, res, accept: bool) -> dict:
 
 
 def _params_json(params) -> dict:
-    return {p.name: {"value": p.value, "lower": p.lower, "upper": p.upper,
-                     "std_error": p.std_error, "interval": p.method, "stage": p.stage,
-                     "status": p.status, "at_bound": p.at_bound,
-                     "unidentifiable": p.unidentifiable, "converged": p.converged,
-                     "note": p.note} for p in params}
+    return {p.name: {("interval" if k == "method" else k): getattr(p, k) for k in (
+        "value", "lower", "upper", "std_error", "method", "stage", "status", "at_bound",
+        "unidentifiable", "converged", "note")} for p in params}
 
 
 def _summary(params, skip_fixed=True) -> list[str]:
@@ -456,12 +448,10 @@ def cmd_fit(args) -> str:
     if args.transient_from:
         m = m.replace(**{k: getattr(donor, k) for k in TRANSIENT_FIELDS})
     kept = table[table["kept"]].reset_index(drop=True)
-    fit_df = pd.DataFrame({
-        "source_file": kept["source_file"], "interval": kept["interval"], "phi": kept["phi"],
-        "point": kept["point"], "shear_stress_Pa": kept["shear_stress_Pa"],
-        "shear_rate_per_s": kept["shear_rate_per_s"], "viscosity_Pa_s": kept["viscosity_Pa_s"],
-        "model_shear_rate_per_s": res.model_rate, "model_viscosity_Pa_s": res.model_viscosity,
-        "residual_log10": res.residual_log10, "outlier": res.outlier})
+    fit_df = kept[["source_file", "interval", "phi", "point", "shear_stress_Pa",
+                   "shear_rate_per_s", "viscosity_Pa_s"]].assign(
+        model_shear_rate_per_s=res.model_rate, model_viscosity_Pa_s=res.model_viscosity,
+        residual_log10=res.residual_log10, outlier=res.outlier)
     names, corr = res.correlation
     corr_df = pd.DataFrame(corr, columns=names)
     corr_df.insert(0, "parameter", names)
