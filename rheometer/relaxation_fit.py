@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline
+from scipy.linalg import block_diag
 from scipy.optimize import least_squares
 
 import rheology
@@ -233,13 +234,7 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
             a[k], b[k] = max(th[k] - h, lo[k]), min(th[k] + h, hi[k])
             cols.append((fun(b) - fun(a)) / (b[k] - a[k]))
         if fit_t0:                                   # t0: d(ln data - ln model)/dt0 = slope
-            ev = evaluate(th)
-            sizes = [c.time.size for c in curves]
-            for i in range(n_c):
-                col = np.zeros(sum(sizes))
-                j = sum(sizes[:i])
-                col[j:j + sizes[i]] = ev[i][1]
-                cols.append(col)
+            cols += list(block_diag(*(e[1][:, None] for e in evaluate(th))).T)
         return np.column_stack(cols)
 
     # ------------------------------------------------------------ start
