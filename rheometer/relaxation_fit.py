@@ -272,10 +272,8 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
 
     for k0 in ((0.01, 0.1, 1.0, 10.0, 100.0) if fit_k0 else (K0,)):   # K0 at G0, then G
         try_start(G0, k0)
-    if best is not None:
-        k_best = best[3]
-        for g in (0.3 * G0, 3.0 * G0):
-            try_start(g, k_best)
+    for g in (0.3 * G0, 3.0 * G0) if best is not None else ():
+        try_start(g, best[3])
     if best is None:
         raise RuntimeError(f"the relaxation model fails at every start (G near {G0:.3g} Pa)")
     x_scale = np.array([1.0] * (1 + fit_k0) + list(0.1 * span) * fit_t0)
@@ -291,8 +289,7 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
     tq, sd, corr, active, degen = interval_statistics(jac(th), th, lo, hi, s2, dof, confidence)
     converged = bool(res.status > 0)
     delta_f = np.array([e[2] for e in ev])
-    last = np.array([c.stress.min() / c.stress0 for c in curves])
-    undecayed = [c.label for c, x in zip(curves, last) if x > np.exp(-1.0)]
+    undecayed = [c.label for c in curves if c.stress.min() / c.stress0 > np.exp(-1.0)]
     params, messages, problems = [], [], []
     slow_f = delta_f.max() < 0.05 * max(f0_of(m, c) for c in curves)
     for k, p in enumerate(names):
