@@ -317,6 +317,13 @@ def curve_features(data: FlowData, *, plateau_slope: float = 0.3, dst_slope: flo
     return out
 
 
+def plateau_viscosity(phi, pm, a, mu_c):
+    """Relative viscosity of a plateau, Eqs. (24)-(25): 1 + 5/2 phi pm/(pm - phi) + 2 mu_c
+    (a phi/(pm - phi))^2; pm = phi_j, a = a0 at low stress, pm = phi_c, a = a_inf at high stress
+    (0 < phi < pm)."""
+    return 1 + 2.5 * phi * pm / (pm - phi) + 2 * mu_c * (a * phi / (pm - phi)) ** 2
+
+
 def _plateau_fit(phi, eta, mu_c, pm, a, pm_range, a_range, *, fit_pm=True, fit_a=True,
                  eta0=1.0):
     """Least squares in log viscosity of eta = eta0 [1 + 5/2 phi pm/(pm - phi) + 2 mu_c (a phi /
@@ -329,9 +336,7 @@ def _plateau_fit(phi, eta, mu_c, pm, a, pm_range, a_range, *, fit_pm=True, fit_a
         return (x[0] if fit_pm else pm), (np.exp(x[-1]) if fit_a else a)
 
     def log_ratio(x):                     # ln(eta_r of the model / eta measured)
-        p, q = unpack(x)
-        y = p - phi
-        return np.log(1 + 2.5 * phi * p / y + 2 * mu_c * (q * phi / y) ** 2) - np.log(eta)
+        return np.log(plateau_viscosity(phi, *unpack(x), mu_c)) - np.log(eta)
 
     def misfit(x):
         r = log_ratio(x)

@@ -41,7 +41,7 @@ from rheology.data import (EMPTY_OK, READERS, describe, detect_format, drop_coun
                            read_flow_curves, read_relaxation_curves, read_text,
                            table_to_csv_frame)
 from rheology.fit import (PARAMETER_EMPTY_OK, FlowData, fit_flow_curves, mixture_steady_state,
-                          parameter_table)
+                          parameter_table, plateau_viscosity)
 from rheology.materials import (FIELD_UNITS, MATERIAL_FILE_FORMAT, check_set_override,
                                 material_to_dict, split_set_item)
 from rheology.steady import gdot_dst
@@ -550,9 +550,6 @@ def write_figures(out: Path, data, res) -> list[str]:
     st1, st2, st3 = res.stages["1"], res.stages["2"], res.stages["3"]
     eta0 = st1["eta0"]
 
-    def eq(phi, pm, a):                        # Eqs. (24)-(25)
-        return 1 + 2.5 * phi * pm / (pm - phi) + 2 * m.mu_c * (a * phi / (pm - phi)) ** 2
-
     for stage, st, key, where, sym, fin, title in (
             ("1", st1, "eta_min", "minimum", ("phi_j", "a0", "24"), (m.phi_j, m.a0),
              "Stage 1 (Fig. 11, Eq. 24): low-stress plateau -> a0, phi_j"),
@@ -571,11 +568,12 @@ def write_figures(out: Path, data, res) -> list[str]:
             ax[1].semilogy(ph, ys, "o", color="C0", label="plateaus")
             grid = np.linspace(min(ph.min(), 0.9 * pm) * 0.98, pm - 1e-3 * pm, 200)
             grid = grid[grid > 0]
-            ax[1].semilogy(grid, eq(grid, pm, a), "r-", label=f"Eq. ({sym[2]}), stage {stage}: "
-                           f"{sym[0]} = {pm:.4g}, {sym[1]} = {a:.4g}")
+            ax[1].semilogy(grid, plateau_viscosity(grid, pm, a, m.mu_c), "r-",
+                           label=f"Eq. ({sym[2]}), stage {stage}: {sym[0]} = {pm:.4g}, "
+                                 f"{sym[1]} = {a:.4g}")
             ax[1].axvline(pm, color="r", ls="--", lw=0.8)
             g2 = grid[grid < fin[0] * (1 - 1e-3)]
-            ax[1].semilogy(g2, eq(g2, *fin) * m.eta0 / eta0, "k--",
+            ax[1].semilogy(g2, plateau_viscosity(g2, *fin, m.mu_c) * m.eta0 / eta0, "k--",
                            label=f"final (stage 4): {sym[0]} = {fin[0]:.4g}, {sym[1]} = "
                                  f"{fin[1]:.4g}" + (f", eta0 = {m.eta0:.4g}" if stage == "1"
                                                     else ""))
