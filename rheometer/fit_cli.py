@@ -413,9 +413,8 @@ def cmd_fit(args) -> str:
         name, x = check_set_override(k, v)
         if name in fixed:
             raise ValueError(f"--set {name} given twice; give each parameter once")
-        fixed[name] = x     # check_set_override: its physical limits (FIELD_LIMITS) included
+        fixed[name] = x
     if fixed:                                # refused as the parameter set, with its range
-
         try:
             start.replace(**fixed)
         except ValueError as exc:
@@ -658,9 +657,8 @@ def cmd_fit_relaxation(args) -> str:
         rows = fit_df.index[(fit_df["curve"] == i) & fit_df["kept"]]
         fit_df.loc[rows, list(extra)] = np.column_stack(
             [c.time - res.t0[i], res.model_stress[i], res.residual_log10[i]])
-    for col in ("point", "time_s", "shear_stress_Pa"):
-        v = fit_df[col].to_numpy(float)
-        fit_df[col] = np.where(np.isfinite(v), v, np.nan)
+    cols = ["point", "time_s", "shear_stress_Pa"]
+    fit_df[cols] = fit_df[cols].astype(float).replace([np.inf, -np.inf], np.nan)
     provenance = _provenance(
         "rheometer fit-relaxation", args, table, donor, steady_material=m.name,
         curves=[{"label": c.label, "phi": c.phi, "stress0_Pa": c.stress0,
