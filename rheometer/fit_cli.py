@@ -410,10 +410,10 @@ def cmd_fit(args) -> str:
     for k, v in args.set or []:
         if v is None:
             raise ValueError(f"--set {k} = none: fit --set holds a parameter at a number")
-        name, x = check_set_override(k, v)
-        if name in fixed:
-            raise ValueError(f"--set {name} given twice; give each parameter once")
-        fixed[name] = x
+        key, x = check_set_override(k, v)         # not ``name``: the fitted material's
+        if key in fixed:
+            raise ValueError(f"--set {key} given twice; give each parameter once")
+        fixed[key] = x
     if fixed:                                # refused as the parameter set, with its range
         try:
             start.replace(**fixed)

@@ -496,3 +496,15 @@ def test_rerun_into_a_used_folder_holds_only_this_runs_files(tmp_path, capsys):
     assert main(argv) == 2
     assert "holds files no fit writes (my_notes.txt)" in capsys.readouterr().err
     assert not (out / "fit_curves.png").exists()
+
+
+def test_set_does_not_rename_the_fitted_material(tmp_path, capsys):
+    """``--set eta0=...`` named the fitted material "eta0" (the loop reused ``name``); it is the
+    --out folder's name."""
+    from rheometer.cli import main
+
+    out = tmp_path / "myfit"
+    assert main(["fit", *RC, "--phi", "0.40", "0.42", "--set", "eta0=0.006", "--no-profile",
+                 "--no-plots", "--out", str(out)]) == 0
+    assert r.get_material(str(out / "material.json")).name == "myfit"
+    assert "fitted myfit in" in capsys.readouterr().out
