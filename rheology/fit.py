@@ -248,12 +248,6 @@ class FlowData:
 
 
 # ============================================================================ stages 1-3
-def _running_mean(x: np.ndarray, w: int = 3) -> np.ndarray:
-    if x.size < w:
-        return x.copy()
-    return np.convolve(x, np.ones(w) / w, mode="valid")
-
-
 @dataclass
 class CurveFeatures:
     """What stages 1-3 read from one curve.
@@ -288,12 +282,14 @@ def curve_features(data: FlowData, *, plateau_slope: float = 0.3, dst_slope: flo
     maximum is ``thickening`` times its minimum; it is a DST curve when that slope exceeds
     ``dst_slope`` (the shear rate saturates).
     """
+    def running_mean(x):                            # of 3 points
+        return x.copy() if x.size < 3 else np.convolve(x, np.ones(3) / 3, mode="valid")
+
     out = []
     for c in range(data.n_curves):
         s, v, r = data.sorted_curve(c)
         ls, lv = np.log(s), np.log(v)
-        sm = _running_mean(lv)
-        ss = _running_mean(ls)
+        sm, ss = running_mean(lv), running_mean(ls)
         kmin, kmax = int(np.argmin(sm)), int(np.argmax(sm))
         top = ls >= ls[-1] - 0.25 * (ls[-1] - ls[0])
         if top.sum() < 4:
@@ -301,14 +297,9 @@ def curve_features(data: FlowData, *, plateau_slope: float = 0.3, dst_slope: flo
             top[-min(4, top.size):] = True
         slope = float(np.polyfit(ls[top], lv[top], 1)[0]) if top.sum() >= 2 else 0.0
         thick = np.exp(sm[kmax] - sm[kmin]) >= thickening
-        if slope < plateau_slope and thick and kmax > kmin:
-            kind = "plateau"
-        elif dst_slope < slope < 2.0 - dst_slope:
-            kind = "dst"                  # the rate saturates (slope 1), not falls (jamming)
-        elif slope >= 2.0 - dst_slope:
-            kind = "jamming"
-        else:
-            kind = "neither"
+        kind = ("plateau" if slope < plateau_slope and thick and kmax > kmin else
+                "dst" if dst_slope < slope < 2.0 - dst_slope else   # the rate saturates (slope 1)
+                "jamming" if slope >= 2.0 - dst_slope else "neither")   # ... or falls
         g = float(np.exp(np.median(np.log(r[top])))) if kind == "dst" else float("nan")
         out.append(CurveFeatures(float(data.phi[data.curve == c][0]), float(np.exp(sm[kmin])),
                                  float(np.exp(sm[kmax])), slope, kind, g, float(np.exp(ss[kmin])),

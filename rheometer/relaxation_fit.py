@@ -258,24 +258,20 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
                 th.append(c.time[0] - float(probe["time_s"].iloc[k]))
         return np.clip(np.array(th, float), lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo))
 
-    best = None
-
-    def try_start(g, k0):
-        nonlocal best
+    def start(g, k0):                   # (cost, theta, G, K0), None where the model fails
         th = start_theta(min(max(g, G_RANGE[0]), G_RANGE[1]), k0)
         try:
-            cost = float(np.sum(fun(th) ** 2))
+            return float(np.sum(fun(th) ** 2)), th, g, k0
         except RuntimeError:
-            return
-        if best is None or cost < best[0]:
-            best = (cost, th, g, k0)
+            return None
 
-    for k0 in ((0.01, 0.1, 1.0, 10.0, 100.0) if fit_k0 else (K0,)):   # K0 at G0, then G
-        try_start(G0, k0)
-    for g in (0.3 * G0, 3.0 * G0) if best is not None else ():
-        try_start(g, best[3])
-    if best is None:
+    tries = [start(G0, k0) for k0 in ((0.01, 0.1, 1.0, 10.0, 100.0) if fit_k0 else (K0,))]
+    tries = [t for t in tries if t is not None]            # K0 at G0, then G at the best K0
+    if not tries:
         raise RuntimeError(f"the relaxation model fails at every start (G near {G0:.3g} Pa)")
+    k_best = min(tries, key=lambda t: t[0])[3]
+    tries += [t for t in (start(g, k_best) for g in (0.3 * G0, 3.0 * G0)) if t is not None]
+    best = min(tries, key=lambda t: t[0])
     x_scale = np.array([1.0] * (1 + fit_k0) + list(0.1 * span) * fit_t0)
     res = least_squares(fun, best[1], jac=jac, bounds=(lo, hi), method="trf", x_scale=x_scale,
                         xtol=1e-10, ftol=1e-12, gtol=1e-10, max_nfev=200)
