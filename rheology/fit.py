@@ -681,7 +681,8 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     plat = [i for i, f in enumerate(feats) if f.kind == "plateau"]
     dst = [i for i, f in enumerate(feats) if f.kind == "dst"]
     phi_c_hi = min([phis[i] for i in dst] + [phi_j - 1e-4])
-    phi_c, a_inf = base.phi_c - base.phi_j + phi_j, max(a0, a0 * (base.a_inf / base.a0))
+    phi_c = base.phi_c - base.phi_j + phi_j
+    a_inf = base.a_inf if "a_inf" in fixed else max(a0, a0 * (base.a_inf / base.a0))
     eta_r_max = np.array([feats[i].eta_max for i in plat]) / eta0
     lo = float(phis[plat].max()) + 1e-5 if plat else 0.0       # phi_c above every plateau's phi
     box = (lo, max(phi_c_hi, lo + 2e-5))
@@ -698,8 +699,6 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     elif len(plat) >= 2 and "a_inf" not in fixed:
         phi_c, a_inf, _ = plateau(_clip_inside(phi_c, *box), max(a_inf, a0 * 1.0001))
     elif plat:
-        if "a_inf" in fixed:
-            a_inf = base.a_inf
         phi_c = plateau(_clip_inside(phi_c, *box), a_inf, fit_a=False)[0]
         messages.append(f"stage 2: one high-stress plateau only: a_inf starts at {a_inf:.4g} "
                         "(the start's a_inf/a0) and only phi_c is fitted here"
