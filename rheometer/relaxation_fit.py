@@ -177,7 +177,7 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
         raise ValueError("no relaxation curve to fit")
     if K0 is not None:
         check_range("K0", K0, 0.0, K0_MAX)
-    eta_g = []
+    eta_g, f0 = [], []
     for c in curves:
         if c.time.size < 3:
             raise ValueError(f"{c.label}: {c.time.size} kept point(s); at least 3 are needed")
@@ -190,6 +190,7 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
             raise ValueError(f"{c.label}: no flowing steady state at taubar0 = {c.stress0:g} Pa, "
                              f"phi = {c.phi:g} ({m.name} jams there): nothing relaxes from it")
         eta_g.append(c.stress0 / rate)
+        f0.append(float(st.f))                       # the steady structure (Eq. 13)
     n_c = len(curves)
     fit_k0, fit_t0 = K0 is None, t0 is None
     names = ["G"] + ["K0"] * fit_k0 + [f"t0_{i + 1}" for i in range(n_c)] * fit_t0
@@ -287,7 +288,7 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
     delta_f = np.array([e[2] for e in ev])
     undecayed = [c.label for c in curves if c.stress.min() / c.stress0 > np.exp(-1.0)]
     params, messages, problems = [], [], []
-    slow_f = delta_f.max() < 0.05 * max(f0_of(m, c) for c in curves)
+    slow_f = delta_f.max() < 0.05 * max(f0)           # K0 acts through f only
     for k, p in enumerate(names):
         is_scale = p in SCALE
         value = float(np.exp(th[k])) if is_scale else float(th[k])
@@ -344,11 +345,6 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
                          [e[0] / np.log(10.0) for e in ev], np.asarray(t0s, float), delta_f,
                          sigma, converged, confidence, (names, corr), problems, messages,
                          runs[0], time.perf_counter() - t_start)
-
-
-def f0_of(m: Material, c: RelaxationCurve) -> float:
-    """The steady structure f0 at the curve's taubar0 (Eq. 13)."""
-    return float(rheology.steady_state_stress(c.stress0, c.phi, m).f)
 
 
 def synthetic_relaxation(m, phi: float, stress0: float, *, G: float, K0: float,
