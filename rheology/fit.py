@@ -248,12 +248,6 @@ class FlowData:
 
 
 # ============================================================================ stages 1-3
-def _running_mean(x: np.ndarray, w: int = 3) -> np.ndarray:
-    if x.size < w:
-        return x.copy()
-    return np.convolve(x, np.ones(w) / w, mode="valid")
-
-
 @dataclass
 class CurveFeatures:
     """What stages 1-3 read from one curve.
@@ -288,12 +282,14 @@ def curve_features(data: FlowData, *, plateau_slope: float = 0.3, dst_slope: flo
     maximum is ``thickening`` times its minimum; it is a DST curve when that slope exceeds
     ``dst_slope`` (the shear rate saturates).
     """
+    def running_mean(x):                            # of 3 points
+        return x.copy() if x.size < 3 else np.convolve(x, np.ones(3) / 3, mode="valid")
+
     out = []
     for c in range(data.n_curves):
         s, v, r = data.sorted_curve(c)
         ls, lv = np.log(s), np.log(v)
-        sm = _running_mean(lv)
-        ss = _running_mean(ls)
+        sm, ss = running_mean(lv), running_mean(ls)
         kmin, kmax = int(np.argmin(sm)), int(np.argmax(sm))
         top = ls >= ls[-1] - 0.25 * (ls[-1] - ls[0])
         if top.sum() < 4:
@@ -301,20 +297,22 @@ def curve_features(data: FlowData, *, plateau_slope: float = 0.3, dst_slope: flo
             top[-min(4, top.size):] = True
         slope = float(np.polyfit(ls[top], lv[top], 1)[0]) if top.sum() >= 2 else 0.0
         thick = np.exp(sm[kmax] - sm[kmin]) >= thickening
-        if slope < plateau_slope and thick and kmax > kmin:
-            kind = "plateau"
-        elif dst_slope < slope < 2.0 - dst_slope:
-            kind = "dst"                  # the rate saturates (slope 1), not falls (jamming)
-        elif slope >= 2.0 - dst_slope:
-            kind = "jamming"
-        else:
-            kind = "neither"
+        kind = ("plateau" if slope < plateau_slope and thick and kmax > kmin else
+                "dst" if dst_slope < slope < 2.0 - dst_slope else   # the rate saturates (slope 1)
+                "jamming" if slope >= 2.0 - dst_slope else "neither")   # ... or falls
         g = float(np.exp(np.median(np.log(r[top])))) if kind == "dst" else float("nan")
         out.append(CurveFeatures(float(data.phi[data.curve == c][0]), float(np.exp(sm[kmin])),
                                  float(np.exp(sm[kmax])), slope, kind, g, float(np.exp(ss[kmin])),
                                  float(np.exp(ss[kmax])),
                                  (float(s[top].min()), float(s[top].max()))))
     return out
+
+
+def plateau_viscosity(phi, pm, a, mu_c):
+    """Relative viscosity of a plateau, Eqs. (24)-(25): 1 + 5/2 phi pm/(pm - phi) + 2 mu_c
+    (a phi/(pm - phi))^2; pm = phi_j, a = a0 at low stress, pm = phi_c, a = a_inf at high stress
+    (0 < phi < pm)."""
+    return 1 + 2.5 * phi * pm / (pm - phi) + 2 * mu_c * (a * phi / (pm - phi)) ** 2
 
 
 def _plateau_fit(phi, eta, mu_c, pm, a, pm_range, a_range, *, fit_pm=True, fit_a=True,
@@ -329,9 +327,7 @@ def _plateau_fit(phi, eta, mu_c, pm, a, pm_range, a_range, *, fit_pm=True, fit_a
         return (x[0] if fit_pm else pm), (np.exp(x[-1]) if fit_a else a)
 
     def log_ratio(x):                     # ln(eta_r of the model / eta measured)
-        p, q = unpack(x)
-        y = p - phi
-        return np.log(1 + 2.5 * phi * p / y + 2 * mu_c * (q * phi / y) ** 2) - np.log(eta)
+        return np.log(plateau_viscosity(phi, *unpack(x), mu_c)) - np.log(eta)
 
     def misfit(x):
         r = log_ratio(x)
@@ -367,49 +363,39 @@ class _Params:
 
     def __init__(self, base: Material, free: list[str], phi_max: float):
         self.base, self.free, self.phi_max = base, list(free), phi_max
-        boxes, phys = [], []     # phys: (low, high) bound is a limit of the law, not the search's
-        for p in self.free:
-            phys.append((p in ("a_inf", "alpha1", "alpha2", "Delta") and
-                         (p != "a_inf" or "a0" in self.free), p == "Delta"))
-            if p == "phi_j":
-                boxes.append(("phi_j", max(phi_max, 0.0 if "phi_c" in self.free else base.phi_c)
-                              + 1e-5, 0.9999))
-            elif p == "phi_c":        # phi_c = phi_j - dphi > phi_j - phi_max > 0
-                boxes.append(("dphi", 1e-4, phi_max) if "phi_j" in self.free
-                             else ("phi_c", 1e-4, base.phi_j - 1e-4))
-            elif p == "a_inf" and "a0" in self.free:
-                boxes.append(("ln_ainf_over_a0", 0.0, np.log(100.0)))
-            elif p == "a0" and "a_inf" not in self.free:
-                boxes.append(("ln_a0", np.log(1e-3), np.log(base.a_inf)))
-            elif p == "a_inf":
-                boxes.append(("ln_a_inf", np.log(base.a0), np.log(1e3)))
-            else:
-                boxes.append((("ln_" if SCALE[p] == "log" else "") + p, *_BOX[p]))
-        names, lo, hi = zip(*boxes) if boxes else ((), (), ())
-        self.names, self.lo, self.hi = list(names), np.array(lo, float), np.array(hi, float)
-        self.physical_lo = np.array([a for a, _ in phys], bool)
-        self.physical_hi = np.array([b for _, b in phys], bool)
+        free = self.free
+        self.pair = {"phi_c": "phi_j" in free and "phi_c" in free,
+                     "a_inf": "a0" in free and "a_inf" in free}
+        box = {"phi_j": ("phi_j", max(phi_max, 0.0 if "phi_c" in free else base.phi_c) + 1e-5,
+                         0.9999),
+               "phi_c": ("dphi", 1e-4, phi_max) if "phi_j" in free     # phi_c > phi_j - phi_max
+               else ("phi_c", 1e-4, base.phi_j - 1e-4),
+               "a_inf": ("ln_ainf_over_a0", 0.0, np.log(100.0)) if "a0" in free
+               else ("ln_a_inf", np.log(base.a0), np.log(1e3)),
+               "a0": ("ln_a0", *_BOX["a0"]) if "a_inf" in free
+               else ("ln_a0", np.log(1e-3), np.log(base.a_inf))}
+        rows = [box.get(p) or (("ln_" if SCALE[p] == "log" else "") + p, *_BOX[p]) for p in free]
+        self.names = [r[0] for r in rows]
+        self.lo, self.hi = (np.array([r[i] for r in rows], float) for i in (1, 2))
+        # which bound is a limit of the law, not the search's
+        self.physical_lo = np.array([p in ("alpha1", "alpha2", "Delta") or self.pair["a_inf"]
+                                     and p == "a_inf" for p in free], bool)
+        self.physical_hi = np.array([p == "Delta" for p in free], bool)
 
     def values(self, theta) -> dict[str, float]:
         v = {p: float(np.exp(x)) if SCALE[p] == "log" else float(x)
              for p, x in zip(self.free, theta)}
-        if "phi_c" in v and "phi_j" in v:           # theta holds phi_j - phi_c, ln(a_inf/a0)
+        if self.pair["phi_c"]:                      # theta holds phi_j - phi_c, ln(a_inf/a0)
             v["phi_c"] = v["phi_j"] - float(theta[self.free.index("phi_c")])
-        if "a_inf" in v and "a0" in v:
+        if self.pair["a_inf"]:
             v["a_inf"] = v["a0"] * float(np.exp(theta[self.free.index("a_inf")]))
         return v
 
     def theta(self, m: Material) -> np.ndarray:
-        out = []
-        for p in self.free:
-            if p == "phi_c" and "phi_j" in self.free:
-                out.append(m.phi_j - m.phi_c)
-            elif p == "a_inf" and "a0" in self.free:
-                out.append(np.log(m.a_inf / m.a0))
-            else:
-                x = getattr(m, p)
-                out.append(np.log(x) if SCALE[p] == "log" else x)
-        th = np.array(out, float)
+        th = np.array([m.phi_j - m.phi_c if p == "phi_c" and self.pair["phi_c"] else
+                       np.log(m.a_inf / m.a0) if p == "a_inf" and self.pair["a_inf"] else
+                       np.log(getattr(m, p)) if SCALE[p] == "log" else getattr(m, p)
+                       for p in self.free], float)
         span = self.hi - self.lo
         return np.clip(th, self.lo + 1e-9 * span, self.hi - 1e-9 * span)
 
@@ -687,7 +673,6 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         base.a0, (phi_max + 1e-5, 0.9999), (1e-3, 100.0), fit_pm="phi_j" not in fixed,
         fit_a="a0" not in fixed, eta0=None if estimate_eta0 else base.eta0)
     base = base.replace(eta0=eta0)
-    eta_r_min = eta_min / eta0
     stage1 = {"phi": phis, "eta_min": eta_min, "stress_min": [f.stress_min for f in feats],
               "phi_j": phi_j, "a0": a0, "mu_c": mu_c, "eta0": eta0,
               "eta0_estimated": estimate_eta0}
@@ -695,27 +680,26 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
     # ---------------------------------------------------------------- stage 2 (Eq. 25)
     plat = [i for i, f in enumerate(feats) if f.kind == "plateau"]
     dst = [i for i, f in enumerate(feats) if f.kind == "dst"]
-    ratio0 = base.a_inf / base.a0
     phi_c_hi = min([phis[i] for i in dst] + [phi_j - 1e-4])
-    phi_c, a_inf = base.phi_c - base.phi_j + phi_j, max(a0, a0 * ratio0)
+    phi_c = base.phi_c - base.phi_j + phi_j
+    a_inf = base.a_inf if "a_inf" in fixed else max(a0, a0 * (base.a_inf / base.a0))
     eta_r_max = np.array([feats[i].eta_max for i in plat]) / eta0
     lo = float(phis[plat].max()) + 1e-5 if plat else 0.0       # phi_c above every plateau's phi
-    hi = max(phi_c_hi, lo + 2e-5)
+    box = (lo, max(phi_c_hi, lo + 2e-5))
+
+    def plateau(pm, a, pm_range=box, a_range=(a0, 100.0), **kw):
+        return _plateau_fit(phis[plat], eta_r_max, mu_c, pm, a, pm_range, a_range, **kw)
+
     if "phi_c" in fixed:
         phi_c = base.phi_c
-        if len(plat) >= 1 and "a_inf" not in fixed:
-            a_inf = max(a0, _plateau_fit(phis[plat], eta_r_max, mu_c, phi_c, a_inf, (0, 1),
-                                         (1e-3, 1e3), fit_pm=False)[1])
+        if plat and "a_inf" not in fixed:
+            a_inf = max(a0, plateau(phi_c, a_inf, (0, 1), (1e-3, 1e3), fit_pm=False)[1])
         if not plat:
             messages.append("stage 2: phi_c fixed, no high-stress plateau to fit a_inf")
     elif len(plat) >= 2 and "a_inf" not in fixed:
-        phi_c, a_inf, _ = _plateau_fit(phis[plat], eta_r_max, mu_c, _clip_inside(phi_c, lo, hi),
-                                       max(a_inf, a0 * 1.0001), (lo, hi), (a0, 100.0))
-    elif len(plat) >= 1:
-        if "a_inf" in fixed:
-            a_inf = base.a_inf
-        phi_c = _plateau_fit(phis[plat], eta_r_max, mu_c, _clip_inside(phi_c, lo, hi), a_inf,
-                             (lo, hi), (a0, 100.0), fit_a=False)[0]
+        phi_c, a_inf, _ = plateau(_clip_inside(phi_c, *box), max(a_inf, a0 * 1.0001))
+    elif plat:
+        phi_c = plateau(_clip_inside(phi_c, *box), a_inf, fit_a=False)[0]
         messages.append(f"stage 2: one high-stress plateau only: a_inf starts at {a_inf:.4g} "
                         "(the start's a_inf/a0) and only phi_c is fitted here"
                         + ("; a_inf stays fixed" if "a_inf" in fixed else
@@ -725,16 +709,14 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         messages.append("stage 2: no curve with a high-stress plateau: phi_c and a_inf start "
                         "from the start material's (phi_j - phi_c, a_inf/a0) and are left to "
                         "stage 4")
-    phi_c = min(phi_c, phi_j - 1e-4)
-    a_inf = max(a_inf, a0)
+    phi_c, a_inf = min(phi_c, phi_j - 1e-4), max(a_inf, a0)
     stage2 = {"phi": phis[plat] if plat else np.zeros(0), "eta_max": eta_r_max * eta0,
               "stress_max": [feats[i].stress_max for i in plat], "phi_c": phi_c, "a_inf": a_inf,
               "curves": plat}
     m = dataclasses.replace(base, phi_j=phi_j, phi_c=phi_c, a0=a0, a_inf=a_inf)
 
     # ---------------------------------------------------------------- stage 3 (Eqs. 33-34)
-    tau_star = m.tau_star
-    if "tau_star" not in fixed:
+    if "tau_star" not in fixed:             # tau* first, on the curves without DST
         sel = np.isin(data.curve, [i for i, f in enumerate(feats) if f.kind != "dst"])
         if sel.sum() < 3:
             sel = np.ones_like(data.curve, dtype=bool)
@@ -743,65 +725,54 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
             dataclasses.replace(m, tau_star=float(np.exp(x[0]))), sel)["log10_viscosity"],
             [np.log(m.tau_star)], bounds=([np.log(1e-8)], [np.log(1e9)]), loss="soft_l1",
             f_scale=0.05)
-        tau_star = float(np.exp(lt.x[0]))
-        m = dataclasses.replace(m, tau_star=tau_star)
+        m = dataclasses.replace(m, tau_star=float(np.exp(lt.x[0])))
     dst_ok = [i for i in dst if m.phi_c <= phis[i] < m.phi_j]
     if len(dst_ok) < len(dst):
         messages.append(f"stage 3: {len(dst) - len(dst_ok)} DST curve(s) below the stage-2 "
                         "phi_c left out of Eq. (33)")
     g = np.array([feats[i].gdot_dst for i in dst_ok])
     phd = phis[dst_ok] if dst_ok else np.zeros(0)
-    v1, al1, v2, al2 = m.varphi1, m.alpha1, m.varphi2, m.alpha2
-    if etaB_terms == 1:
-        v2 = 0.0
+    v1, al1, v2, al2 = m.varphi1, m.alpha1, m.varphi2 * (etaB_terms == 2), m.alpha2
     if dst_ok and not {"varphi1", "alpha1"} <= set(fixed):
         x = m.phi_j - phd
-        fm = laws.f_max(phd, m.phi_c, m.phi_j, m.Delta)
-        a = laws.dilatancy_a(fm, m.a0, m.a_inf)
+        a = laws.dilatancy_a(laws.f_max(phd, m.phi_c, m.phi_j, m.Delta), m.a0, m.a_inf)
         # Eq. (33) solved for 1/eta_B at each DST rate
         inv_target = (2 * m.mu_c) ** 0.5 * (a * phd / x) / m.eta0 * (
             m.tau_star / (m.eta0 * g)) ** -1.5
         if etaB_terms == 2 and (len(dst_ok) >= 3 or len(dst_ok) == 2 and np.ptp(np.log(x)) > 0):
             three = len(dst_ok) >= 3          # alpha1 fitted too; two curves: both alphas held
-
-            def r3(q):
-                return np.log(np.exp(q[0]) * x ** (q[1] if three else al1)
-                              + np.exp(q[-1]) * x ** al2) - np.log(inv_target)
-            q = least_squares(r3, [np.log(max(v1, 1e-30)), *[al1] * three,
-                                   np.log(max(v2, 1e-30) if v2 > 0 else 1e-3)],
+            q = least_squares(lambda q: np.log(np.exp(q[0]) * x ** (q[1] if three else al1)
+                                               + np.exp(q[-1]) * x ** al2) - np.log(inv_target),
+                              [np.log(max(v1, 1e-30)), *[al1] * three,
+                               np.log(max(v2, 1e-30) if v2 > 0 else 1e-3)],
                               bounds=([-120, *[0] * three, -120], [120, *[30] * three, 120])).x
-            v1, v2 = float(np.exp(q[0])), float(np.exp(q[-1]))
-            if three:
-                al1 = float(q[1])
-            else:
+            v1, v2, al1 = float(np.exp(q[0])), float(np.exp(q[-1])), float(q[1]) if three else al1
+            if not three:
                 messages.append("stage 3: two DST curves for two eta_B terms: alpha1, alpha2 held "
                                 f"at {al1:.4g}, {al2:.4g}")
         elif len(dst_ok) >= 2 and "alpha1" not in fixed and np.ptp(np.log(x)) > 0:
-            A = np.column_stack([np.ones_like(x), np.log(x)])
-            coef = np.linalg.lstsq(A, np.log(inv_target), rcond=None)[0]
+            coef = np.linalg.lstsq(np.column_stack([np.ones_like(x), np.log(x)]),
+                                   np.log(inv_target), rcond=None)[0]
             v1, al1 = float(np.exp(coef[0])), float(np.clip(coef[1], 0.0, 30.0))
         else:
             v1 = float(np.exp(np.mean(np.log(inv_target) - al1 * np.log(x))))
-            messages.append("stage 3: one DST curve: alpha1 held at "
-                            f"{al1:.4g}, varphi1 fitted")
+            messages.append(f"stage 3: one DST curve: alpha1 held at {al1:.4g}, varphi1 fitted")
     elif not dst_ok:
         messages.append("stage 3: no DST curve (rate saturating at high stress): eta_B kept from "
                         "the start material and held in stage 4")
     m = dataclasses.replace(m, varphi1=v1, alpha1=al1, varphi2=v2,
                             alpha2=al2 if v2 > 0 else m.alpha2)
-    stage3 = {"phi": phd, "gdot_dst": g, "stress_range": [feats[i].dst_stress for i in dst_ok],
-              "varphi1": v1, "alpha1": al1, "varphi2": v2, "alpha2": m.alpha2,
-              "tau_star_first": tau_star, "curves": dst_ok,
-              "kinds": [f.kind for f in feats], "top_slopes": [f.top_slope for f in feats]}
-    stage3["material"] = m               # the set after stages 1-3 (the stage plots' values)
-    stages = {"1": stage1, "2": stage2, "3": stage3}
+    stages = {"1": stage1, "2": stage2, "3": {
+        "phi": phd, "gdot_dst": g, "stress_range": [feats[i].dst_stress for i in dst_ok],
+        "varphi1": v1, "alpha1": al1, "varphi2": v2, "alpha2": m.alpha2,
+        "tau_star_first": m.tau_star, "curves": dst_ok, "kinds": [f.kind for f in feats],
+        "top_slopes": [f.top_slope for f in feats],
+        "material": m}}                     # the set after stages 1-3 (the stage plots' values)
 
     # ---------------------------------------------------------------- stage 4
-    free_list = [p for p in DEFAULT_FREE if p not in fixed]
-    if not dst_ok:
-        free_list = [p for p in free_list if p not in ("varphi1", "alpha1")]
-    elif len(dst_ok) < 2 or (etaB_terms == 2 and len(dst_ok) < 3):
-        free_list = [p for p in free_list if p != "alpha1"]
+    free_list = [p for p in DEFAULT_FREE if p not in fixed and not (
+        p in ("varphi1", "alpha1") and not dst_ok or p == "alpha1" and (
+            len(dst_ok) < 2 or etaB_terms == 2 and len(dst_ok) < 3))]
     if etaB_terms == 2 and m.varphi2 > 0 and "varphi2" not in fixed and len(dst_ok) >= 2:
         free_list.append("varphi2")
     for p in free_extra + (["eta0"] if estimate_eta0 else []):
@@ -814,7 +785,6 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
                        messages, n_eval, t0, confidence, None, None, name, citation, model,
                        fixed=fixed)
     P = _Params(m, free_list, phi_max)
-    th0 = P.theta(m)
 
     def resid(theta, sel=slice(None)):
         return logeta[sel] - model(P.material(theta), sel)["log10_viscosity"]
@@ -827,12 +797,12 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
         return 1.4826 * float(np.median(np.abs(r - np.median(r))))
 
     try:
-        r1 = least_squares(resid, th0, loss="soft_l1", f_scale=0.1, xtol=1e-8, ftol=1e-9, **box)
+        r1 = least_squares(resid, P.theta(m), loss="soft_l1", f_scale=0.1, xtol=1e-8, ftol=1e-9,
+                           **box)
         fs = f_scale if f_scale is not None else max(3 * mad(r1.fun), 1e-3)
         r2 = least_squares(resid, r1.x, loss="soft_l1", f_scale=fs, xtol=1e-10, ftol=1e-11, **box)
         outlier = np.abs(r2.fun - np.median(r2.fun)) > 4 * max(mad(r2.fun), 1e-12)
-        inl = ~outlier
-        r3 = least_squares(lambda th: resid(th, inl), r2.x, xtol=1e-10, ftol=1e-11, **box)
+        r3 = least_squares(lambda th: resid(th, ~outlier), r2.x, xtol=1e-10, ftol=1e-11, **box)
     except (ValueError, FloatingPointError) as exc:
         raise RuntimeError(f"stage 4 failed: {exc}") from None
     if r3.status < 0:
@@ -874,85 +844,46 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
     st = model(final)
     r_all = np.log10(data.viscosity) - st["log10_viscosity"]
     inl = ~outlier
-    n_in = int(inl.sum())
+    sigma = float(np.sqrt(np.sum(r_all[inl] ** 2) / max(int(inl.sum()) - len(free_list), 1)))
     params: list[ParameterEstimate] = []
-    names_corr, corr = [], np.zeros((0, 0))
-    sigma = float(np.sqrt(np.sum(r_all[inl] ** 2) / max(n_in - len(free_list), 1)))
+    names_corr, corr, converged = [], np.zeros((0, 0)), True
     if P:
         theta = res.x
         J = _central_jacobian(lambda th: resid(th, inl), theta, P.lo, P.hi)
         L = _central_jacobian(P.psi, theta, P.lo - 1, P.hi + 1, h=1e-7)
-        psi = P.psi(theta)
-        span = P.hi - P.lo
-        dof = max(n_in - len(theta), 1)
-        s2 = float(np.sum(res.fun ** 2)) / dof
-        tq, sd, corr, active, degen = interval_statistics(J, theta, P.lo, P.hi, s2, dof,
+        psi, span = P.psi(theta), P.hi - P.lo
+        dof = max(int(inl.sum()) - len(theta), 1)
+        ssq = float(np.sum(res.fun ** 2))
+        tq, sd, corr, active, degen = interval_statistics(J, theta, P.lo, P.hi, ssq / dof, dof,
                                                           confidence, L)
-        degenerate = {free_list[k] for k in np.flatnonzero(degen)}
-        names_corr = list(free_list)
-        prof = {}
-        if profile:
-            for p in ("phi_j", "phi_c"):
-                if p in free_list:
-                    k = free_list.index(p)
-                    prof[p] = _profile(data, final, free_list, p, psi[k], sd[k], tq, s2,
-                                       float(np.sum(res.fun ** 2)), inl, P.phi_max, model)
-        converged = res.status > 0
+        names_corr, converged = list(free_list), res.status > 0
+        prof = {p: _profile(data, final, free_list, p, psi[k], sd[k], tq, ssq / dof, ssq, inl,
+                            P.phi_max, model)
+                for k, p in enumerate(free_list) if profile and p in ("phi_j", "phi_c")}
         for k, p in enumerate(free_list):
-            val = getattr(final, p)
-            flat = p in degenerate or not np.isfinite(sd[k]) or sd[k] <= 1e-12 * max(
-                1.0, abs(psi[k]))
-            lo_, hi_ = (np.nan, np.nan) if flat else (psi[k] - tq * sd[k], psi[k] + tq * sd[k])
-            method = "jacobian"
-            if p in prof and prof[p] is not None:
-                lo_, hi_ = prof[p]
-                method, flat = "profile", False
-            if SCALE[p] == "log":
-                lo_, hi_ = log_interval(lo_, hi_)
-            else:
-                # a symmetric Jacobian interval may reach past the physical range (phi_c's to
-                # -0.007 on two fractions): reported within it (0 < phi_c < phi_j < 1,
-                # 0 <= Delta <= 1, alpha_i >= 0)
-                top = ((final.phi_j if p == "phi_c" else 1.0)
-                       if p in ("phi_c", "phi_j", "Delta") else np.inf)
-                lo_, hi_ = float(np.maximum(lo_, 0.0)), float(np.minimum(hi_, top))
-            why, bound = [], ""
-            half = tq * sd[k]
-            wide = not flat and ((half > np.log(2.0)) if SCALE[p] == "log" else (
-                half > (0.02 if p.startswith("phi") else 1.0 if p.startswith("alpha") else 0.2)))
-            partners = [free_list[j] for j in range(len(free_list))
-                        if j != k and abs(corr[k, j]) > CORR_FLAG and not active[j]
-                        and {p, free_list[j]} not in _PIVOT_PAIRS and not active[k]]
+            val, at, bound = float(getattr(final, p)), None, ""
             if active[k]:
                 at_low = theta[k] - P.lo[k] < 1e-7 * span[k]
                 physical = P.physical_lo[k] if at_low else P.physical_hi[k]
-                why.append(("at a limit of the law (" + {"a_inf": "a_inf = a0", "Delta": "Delta "
-                            "at 0 or 1"}.get(p, f"{p} = 0") + ")" if physical else
-                            f"at the fitter's {'lower' if at_low else 'upper'} search bound "
-                            f"{val:.4g}, not a physical limit") + ": one-sided interval")
-                lo_, hi_ = (float(val), hi_) if at_low else (lo_, float(val))
+                at = (at_low, ("at a limit of the law (" + {
+                    "a_inf": "a_inf = a0", "Delta": "Delta at 0 or 1"}.get(p, f"{p} = 0") + ")"
+                    if physical else f"at the fitter's {'lower' if at_low else 'upper'} search "
+                    f"bound {val:.4g}, not a physical limit") + ": one-sided interval")
                 bound = "law" if physical else "search"
-            unbounded = not flat and not (np.isfinite(lo_) and np.isfinite(hi_))
-            why += [w for w, on in (
-                ("no curvature of the misfit along it", p in degenerate),
-                ("interval wider than " + ("a factor 2" if SCALE[p] == "log" else
-                                           "the identifiability width"), wide),
-                (f"correlation > {CORR_FLAG} with " + ", ".join(partners), partners),
-                ("interval " + ("undefined" if flat else "unbounded") + " (null)",
-                 flat or unbounded),
-                ("the optimiser stopped at its evaluation limit", not converged)) if on]
-            unident = bool(p in degenerate or wide or partners or flat or unbounded)
-            lo_, hi_ = (x if np.isfinite(x) else np.nan for x in (lo_, hi_))
-            note = "; ".join(why)
-            if unident:
-                messages.append(f"{p} is not identified by these data ({note})")
-            params.append(ParameterEstimate(
-                p, float(val), float(lo_), float(hi_), float(sd[k]) if np.isfinite(sd[k])
-                else float("nan"), method, STAGE_OF[p], note=note, at_bound=bool(active[k]),
-                unidentifiable=unident, converged=bool(converged), bound=bound))
+            partners = [q for j, q in enumerate(free_list)
+                        if j != k and abs(corr[k, j]) > CORR_FLAG and not active[j]
+                        and {p, q} not in _PIVOT_PAIRS and not active[k]]
+            # a symmetric Jacobian interval may reach past the physical range (phi_c's to -0.007
+            # on two fractions): reported within 0 < phi_c < phi_j < 1, 0 <= Delta <= 1, alpha >= 0
+            top = final.phi_j if p == "phi_c" else 1.0 if p in ("phi_j", "Delta") else np.inf
+            params.append(judged_estimate(
+                p, val, psi[k], sd[k], tq, STAGE_OF[p], log=SCALE[p] == "log",
+                degenerate=bool(degen[k]), partners=partners, at=at, bound=bound,
+                width=(np.log(2.0) if SCALE[p] == "log" else 0.02 if p.startswith("phi") else
+                       1.0 if p.startswith("alpha") else 0.2), clip=(0.0, top),
+                converged=bool(converged), interval=prof.get(p), messages=messages))
         stages.setdefault("4", {})["sigma_log10"] = sigma
     else:
-        converged = True
         params += [ParameterEstimate(p, float(getattr(final, p)), float("nan"), float("nan"),
                                      float("nan"), "none", STAGE_OF[p], "stages 1-3")
                    for p in free_list]
@@ -970,6 +901,50 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
     if P:
         out.problems = assess(out, eta0_estimated=stages["1"].get("eta0_estimated", False))
     return out
+
+
+def judged_estimate(name: str, value: float, centre: float, sd: float, tq: float, stage: str, *,
+                    log: bool, degenerate: bool, partners, width: float = np.inf,
+                    clip=(-np.inf, np.inf), at=None, bound: str = "", converged: bool = True,
+                    interval=None, extra=(), messages=None) -> ParameterEstimate:
+    """One fitted parameter's interval and flags (module docstring), shared by the steady and the
+    relaxation fits.
+
+    ``centre``, ``sd``: estimate and standard deviation in the reporting coordinate (ln x if
+    ``log``), ``tq`` the Student-t quantile; ``interval``: (lower, upper) in that coordinate from
+    elsewhere (profile likelihood) in place of centre +- tq sd; ``width``: the widest
+    identifiable half-width tq sd; ``clip``: the physical range of a linear coordinate; ``at``:
+    (at the lower bound, reason) when on a bound (``bound``: "law" or "search"), the interval
+    then one-sided; ``partners``: the parameters correlated beyond :data:`CORR_FLAG`; ``extra``:
+    the causes named when it is unidentifiable. ``messages`` gets the sentence of an
+    unidentifiable parameter.
+    """
+    flat = interval is None and (degenerate or not np.isfinite(sd)
+                                 or sd <= 1e-12 * max(1.0, abs(centre)))
+    lo, hi = interval or ((np.nan, np.nan) if flat else (centre - tq * sd, centre + tq * sd))
+    lo, hi = log_interval(lo, hi) if log else (float(np.maximum(lo, clip[0])),
+                                               float(np.minimum(hi, clip[1])))
+    why = []
+    if at is not None:
+        why.append(at[1])
+        lo, hi = (value, hi) if at[0] else (lo, value)
+    wide = not flat and tq * sd > width
+    unbounded = not flat and not (np.isfinite(lo) and np.isfinite(hi))
+    unident = bool(degenerate or wide or partners or flat or unbounded)
+    why += [w for w, on in (
+        ("no curvature of the misfit along it", degenerate),
+        ("interval wider than " + ("a factor 2" if log else "the identifiability width"), wide),
+        (f"correlation > {CORR_FLAG} with " + ", ".join(partners), partners),
+        ("interval " + ("undefined" if flat else "unbounded") + " (null)", flat or unbounded),
+        *((w, unident) for w in extra),
+        ("the optimiser stopped at its evaluation limit", not converged)) if on]
+    note = "; ".join(why)
+    if unident and messages is not None:
+        messages.append(f"{name} is not identified by these data ({note})")
+    return ParameterEstimate(
+        name, value, *(float(x) if np.isfinite(x) else np.nan for x in (lo, hi, sd)),
+        "jacobian" if interval is None else "profile", stage, note=note, at_bound=at is not None,
+        unidentifiable=unident, converged=converged, bound=bound)
 
 
 def paper_span() -> dict[str, tuple[float, float]]:
@@ -1028,24 +1003,21 @@ def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max
     """Profile-likelihood interval of phi_j or phi_c: refit the others at fixed values and find
     where the inlier sum of squares reaches ssq_best + s2 tq^2 (secant on its square root)."""
     others = [q for q in free_list if q != p]
-    logeta = np.log10(data.viscosity)
-    target = tq
+    logeta = np.log10(data.viscosity)[inl]
 
-    def excess(v):
-        if p == "phi_j" and (v <= phi_max + 1e-6 or v <= (best.phi_c if "phi_c" not in
-                                                           free_list else 0)):
-            return np.inf
-        if p == "phi_c" and not (0 < v < best.phi_j - 1e-5):
+    def excess(v):                                 # sqrt of the sum of squares' rise / s2
+        if p == "phi_j" and (v <= phi_max + 1e-6 or v <= (
+                best.phi_c if "phi_c" not in free_list else 0)) or p == "phi_c" and not (
+                0 < v < best.phi_j - 1e-5):
             return np.inf
         try:
             start = dataclasses.replace(best, **{p: v})
             if p == "phi_j" and start.phi_c >= v:
                 start = dataclasses.replace(start, phi_c=v - (best.phi_j - best.phi_c))
             Q = _Params(start, others, phi_max)
-            th = Q.theta(start)
-            r = least_squares(lambda t: logeta[inl] - model(Q.material(t), inl)["log10_viscosity"],
-                              th, bounds=(Q.lo, Q.hi), method="trf", xtol=1e-8, ftol=1e-9,
-                              max_nfev=40)
+            r = least_squares(lambda t: logeta - model(Q.material(t), inl)["log10_viscosity"],
+                              Q.theta(start), bounds=(Q.lo, Q.hi), method="trf", xtol=1e-8,
+                              ftol=1e-9, max_nfev=40)
         except (ValueError, RuntimeError):
             return np.inf
         return float(np.sqrt(max(np.sum(r.fun ** 2) - ssq_best, 0.0) / s2))
@@ -1054,29 +1026,26 @@ def _profile(data, best, free_list, p, value, sd, tq, s2, ssq_best, inl, phi_max
     for side in (-1.0, 1.0):
         h = max(tq * sd, 1e-5)
         e = excess(value + side * h)
-        k = 0
-        while np.isfinite(e) and e < target and k < 3:
+        for _ in range(3):
+            if not (np.isfinite(e) and e < tq):
+                break
             h *= 2.0
             e = excess(value + side * h)
-            k += 1
-        if not np.isfinite(e) or e < target:
-            if not np.isfinite(e):        # a bound: bisect towards it
-                lo_h, hi_h = 0.0, h
-                for _ in range(6):
-                    mid = 0.5 * (lo_h + hi_h)
-                    em = excess(value + side * mid)
-                    if np.isfinite(em) and em < target:
-                        lo_h = mid
-                    else:
-                        hi_h = mid
-                ends.append(value + side * hi_h)
-                continue
+        if not np.isfinite(e):                     # a bound: bisect towards it
+            lo_h, hi_h = 0.0, h
+            for _ in range(6):
+                mid = 0.5 * (lo_h + hi_h)
+                em = excess(value + side * mid)
+                lo_h, hi_h = (mid, hi_h) if np.isfinite(em) and em < tq else (lo_h, mid)
+            ends.append(value + side * hi_h)
+            continue
+        if e < tq:
             return None
-        h1 = h * target / max(e, 1e-12)            # sqrt(excess) ~ linear in the offset
-        if abs(e / target - 1) > 0.15:             # far from the target: one secant step
+        h1 = h * tq / max(e, 1e-12)                # sqrt(excess) ~ linear in the offset
+        if abs(e / tq - 1) > 0.15:                 # far from the target: one secant step
             e1 = excess(value + side * h1)
             if np.isfinite(e1) and abs(e1 - e) > 1e-12:
-                h1 = h1 + (target - e1) * (h - h1) / (e - e1)
+                h1 = h1 + (tq - e1) * (h - h1) / (e - e1)
         ends.append(value + side * h1)
     return (min(ends), max(ends))
 

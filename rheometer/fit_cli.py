@@ -41,7 +41,7 @@ from rheology.data import (EMPTY_OK, READERS, describe, detect_format, drop_coun
                            read_flow_curves, read_relaxation_curves, read_text,
                            table_to_csv_frame)
 from rheology.fit import (PARAMETER_EMPTY_OK, FlowData, fit_flow_curves, mixture_steady_state,
-                          parameter_table)
+                          parameter_table, plateau_viscosity)
 from rheology.materials import (FIELD_UNITS, MATERIAL_FILE_FORMAT, check_set_override,
                                 material_to_dict, split_set_item)
 from rheology.steady import gdot_dst
@@ -78,8 +78,7 @@ def _columns(text: str):
 
 
 def _text(option: str):
-    """argparse ``type`` of a text option: refuses an empty or blank value (``--interval ''``
-    matched every RheoCompass result, ``--transient-from ''`` was ignored)."""
+    """argparse ``type`` of a text option: refuses an empty or blank value."""
 
     def check(text: str) -> str:
         if not text.strip():
@@ -92,8 +91,7 @@ def _text(option: str):
 
 
 def _set_value(text: str):
-    """``NAME=VALUE`` of ``fit --set`` (checked in cmd_fit by rheology.materials.
-    check_set_override: a numeric parameter, not a text field, held at a finite number)."""
+    """``NAME=VALUE`` of ``fit --set`` (the value checked in cmd_fit)."""
     try:
         return split_set_item(text)
     except ValueError as exc:
@@ -320,10 +318,6 @@ def cmd_read(args) -> str:
     return f"{describe(table)}\nwrote {args.out} ({len(table)} rows)"
 
 
-def _sha256(path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 def _out_and_name(args) -> tuple[Path, str]:
     """The --out folder (:func:`prepare_out`) and the fitted material's name (--name, else the
     folder's name); ValueError for an empty --name."""
@@ -341,7 +335,7 @@ def _provenance(command: str, args, table, donor, **fields) -> dict:
     created = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
     return {"created": created, "command": command,
             "transient_from": donor.name if donor else None,
-            "files": [{"file": str(f), "sha256": _sha256(f),
+            "files": [{"file": str(f), "sha256": hashlib.sha256(Path(f).read_bytes()).hexdigest(),
                        "format": formats.get(str(Path(f)), "?")} for f in args.files],
             "skipped_blocks": [list(x) for x in table.attrs.get("skipped", [])], **fields}
 
@@ -357,11 +351,9 @@ def _fit_doc(provenance: dict, res, accept: bool) -> dict:
 
 
 def _params_json(params) -> dict:
-    return {p.name: {"value": p.value, "lower": p.lower, "upper": p.upper,
-                     "std_error": p.std_error, "interval": p.method, "stage": p.stage,
-                     "status": p.status, "at_bound": p.at_bound,
-                     "unidentifiable": p.unidentifiable, "converged": p.converged,
-                     "note": p.note} for p in params}
+    return {p.name: {("interval" if k == "method" else k): getattr(p, k) for k in (
+        "value", "lower", "upper", "std_error", "method", "stage", "status", "at_bound",
+        "unidentifiable", "converged", "note")} for p in params}
 
 
 def _summary(params, skip_fixed=True) -> list[str]:
@@ -418,12 +410,11 @@ def cmd_fit(args) -> str:
     for k, v in args.set or []:
         if v is None:
             raise ValueError(f"--set {k} = none: fit --set holds a parameter at a number")
-        name, x = check_set_override(k, v)
-        if name in fixed:
-            raise ValueError(f"--set {name} given twice; give each parameter once")
-        fixed[name] = x     # check_set_override: its physical limits (FIELD_LIMITS) included
+        key, x = check_set_override(k, v)         # not ``name``: the fitted material's
+        if key in fixed:
+            raise ValueError(f"--set {key} given twice; give each parameter once")
+        fixed[key] = x
     if fixed:                                # refused as the parameter set, with its range
-
         try:
             start.replace(**fixed)
         except ValueError as exc:
@@ -456,12 +447,10 @@ def cmd_fit(args) -> str:
     if args.transient_from:
         m = m.replace(**{k: getattr(donor, k) for k in TRANSIENT_FIELDS})
     kept = table[table["kept"]].reset_index(drop=True)
-    fit_df = pd.DataFrame({
-        "source_file": kept["source_file"], "interval": kept["interval"], "phi": kept["phi"],
-        "point": kept["point"], "shear_stress_Pa": kept["shear_stress_Pa"],
-        "shear_rate_per_s": kept["shear_rate_per_s"], "viscosity_Pa_s": kept["viscosity_Pa_s"],
-        "model_shear_rate_per_s": res.model_rate, "model_viscosity_Pa_s": res.model_viscosity,
-        "residual_log10": res.residual_log10, "outlier": res.outlier})
+    fit_df = kept[["source_file", "interval", "phi", "point", "shear_stress_Pa",
+                   "shear_rate_per_s", "viscosity_Pa_s"]].assign(
+        model_shear_rate_per_s=res.model_rate, model_viscosity_Pa_s=res.model_viscosity,
+        residual_log10=res.residual_log10, outlier=res.outlier)
     names, corr = res.correlation
     corr_df = pd.DataFrame(corr, columns=names)
     corr_df.insert(0, "parameter", names)
@@ -512,105 +501,97 @@ def _legend(ax, **kw):
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, **kw)
 
 
+def _figure(*shape, figsize=(12, 4.2), **kw):
+    return plt.subplots(*shape, figsize=figsize, constrained_layout=True, **kw)
+
+
 def write_figures(out: Path, data, res) -> list[str]:
     """The fit's figures (data vs model per phi, residuals, stages 1-3 as Figs. 11-13). The
     stage figures show each stage's own values and, dashed, the final (stage 4) ones."""
-    m = res.material
-    phis = data.curve_phi()
+    m, phis = res.material, data.curve_phi()
     colours = plt.cm.viridis(np.linspace(0, 0.9, data.n_curves))
+    curves = [(c, *data.sorted_curve(c), colours[c], f"phi = {phis[c]:.4g}")
+              for c in range(data.n_curves)]
     names = []
 
     def save(fig, name):
         names.append(Path(plots.save(fig, out / name)).name)
 
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
-    for c in range(data.n_curves):
-        s, v, r = data.sorted_curve(c)
-        sel = data.curve == c
-        ax[0].loglog(s, v, "o", ms=3.5, color=colours[c], label=f"phi = {phis[c]:.4g}")
-        ax[0].loglog(data.stress[sel & res.outlier], data.viscosity[sel & res.outlier], "x",
-                     color="r", ms=7)
-        ax[1].loglog(r, s, "o", ms=3.5, color=colours[c], label=f"phi = {phis[c]:.4g}")
-        grid = np.logspace(np.log10(s.min()), np.log10(s.max()), 200)
+    fig, ax = _figure(1, 2)
+    for c, s, v, r, col, lab in curves:
+        sel = (data.curve == c) & res.outlier
+        ax[0].loglog(s, v, "o", ms=3.5, color=col, label=lab)
+        ax[0].loglog(data.stress[sel], data.viscosity[sel], "x", color="r", ms=7)
+        ax[1].loglog(r, s, "o", ms=3.5, color=col, label=lab)
         if phis[c] < m.phi_j:
+            grid = np.logspace(np.log10(s.min()), np.log10(s.max()), 200)
             st = mixture_steady_state(grid, phis[c], m)
             near = st["viscosity"] < 1e3 * v.max()      # not the ~1e300 of a jammed state
-            ax[0].loglog(grid[near], st["viscosity"][near], "-", color=colours[c])
-            ax[1].loglog(st["shear_rate"][near], grid[near], "-", color=colours[c])
+            ax[0].loglog(grid[near], st["viscosity"][near], "-", color=col)
+            ax[1].loglog(st["shear_rate"][near], grid[near], "-", color=col)
     ax[0].set(xlabel="shear stress [Pa]", ylabel="viscosity [Pa s]",
               title="data (markers) and fitted model (lines); x: outliers")
     ax[1].set(xlabel="shear rate [1/s]", ylabel="shear stress [Pa]", title=m.name)
     _legend(ax[1])
     save(fig, "fit_curves.png")
 
-    fig, ax = plt.subplots(figsize=(7, 3.8), constrained_layout=True)
-    for c in range(data.n_curves):
+    fig, ax = _figure(figsize=(7, 3.8))
+    for c, *_, col, lab in curves:
         sel = data.curve == c
-        ax.semilogx(data.stress[sel], res.residual_log10[sel], "o-", ms=3, color=colours[c],
-                    label=f"phi = {phis[c]:.4g}")
-    ax.axhline(0, color="k", lw=0.8)
-    for k in (-2, 2):
-        ax.axhline(k * res.sigma_log10, color="k", ls=":", lw=0.8)
+        ax.semilogx(data.stress[sel], res.residual_log10[sel], "o-", ms=3, color=col, label=lab)
+    for k, style in ((0, dict(lw=0.8)), (-2, dict(ls=":", lw=0.8)), (2, dict(ls=":", lw=0.8))):
+        ax.axhline(k * res.sigma_log10, color="k", **style)
     ax.set(xlabel="shear stress [Pa]", ylabel="log10(measured / model viscosity)",
            title=f"residuals (sd {res.sigma_log10:.3g}; dotted: +-2 sd)")
     _legend(ax)
     save(fig, "residuals.png")
 
     st1, st2, st3 = res.stages["1"], res.stages["2"], res.stages["3"]
-    mu_c = m.mu_c
+    eta0 = st1["eta0"]
 
-    def eq(phi, pm, a):
-        return 1 + 2.5 * phi * pm / (pm - phi) + 2 * mu_c * (a * phi / (pm - phi)) ** 2
-
-    for stage, key, pm, a, fin_pm, fin_a, sym, title, fname in (
-            ("1", "eta_min", st1["phi_j"], st1["a0"], m.phi_j, m.a0, ("phi_j", "a0", "24"),
-             "Stage 1 (Fig. 11, Eq. 24): low-stress plateau -> a0, phi_j", "stage1_low_plateau.png"),
-            ("2", "eta_max", st2["phi_c"], st2["a_inf"], m.phi_c, m.a_inf, ("phi_c", "a_inf", "25"),
-             "Stage 2 (Fig. 12, Eq. 25): high-stress plateau -> a_inf, phi_c",
-             "stage2_high_plateau.png")):
-        fig, ax = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
-        eta0 = st1["eta0"]
-        for c in range(data.n_curves):
-            s, v, _ = data.sorted_curve(c)
-            ax[0].loglog(s, v / eta0, "-", color=colours[c], lw=1, label=f"phi = {phis[c]:.4g}")
-        xs = st1["stress_min"] if stage == "1" else st2["stress_max"]
-        ys = np.asarray(res.stages[stage][key]) / eta0
-        ax[0].loglog(xs, ys, "ko", ms=6)
+    for stage, st, key, where, sym, fin, title in (
+            ("1", st1, "eta_min", "minimum", ("phi_j", "a0", "24"), (m.phi_j, m.a0),
+             "Stage 1 (Fig. 11, Eq. 24): low-stress plateau -> a0, phi_j"),
+            ("2", st2, "eta_max", "maximum", ("phi_c", "a_inf", "25"), (m.phi_c, m.a_inf),
+             "Stage 2 (Fig. 12, Eq. 25): high-stress plateau -> a_inf, phi_c")):
+        fig, ax = _figure(1, 2)
+        for c, s, v, r, col, lab in curves:
+            ax[0].loglog(s, v / eta0, "-", color=col, lw=1, label=lab)
+        ys = np.asarray(st[key]) / eta0
+        ax[0].loglog(st["stress_" + key[4:]], ys, "ko", ms=6)
         ax[0].set(xlabel="shear stress [Pa]", ylabel=f"eta / eta0 (eta0 = {eta0:.4g} Pa s, "
-                  "stage 1)", title="curves; black: " + ("minimum" if stage == "1" else
-                                                          "maximum") + " viscosity")
+                  "stage 1)", title=f"curves; black: {where} viscosity")
         _legend(ax[0])
-        ph = np.asarray(st1["phi"] if stage == "1" else st2["phi"])
+        ph, pm, a = np.asarray(st["phi"]), st[sym[0]], st[sym[1]]
         if ph.size:
             ax[1].semilogy(ph, ys, "o", color="C0", label="plateaus")
             grid = np.linspace(min(ph.min(), 0.9 * pm) * 0.98, pm - 1e-3 * pm, 200)
             grid = grid[grid > 0]
-            ax[1].semilogy(grid, eq(grid, pm, a), "r-", label=f"Eq. ({sym[2]}), stage {stage}: "
-                           f"{sym[0]} = {pm:.4g}, {sym[1]} = {a:.4g}")
+            ax[1].semilogy(grid, plateau_viscosity(grid, pm, a, m.mu_c), "r-",
+                           label=f"Eq. ({sym[2]}), stage {stage}: {sym[0]} = {pm:.4g}, "
+                                 f"{sym[1]} = {a:.4g}")
             ax[1].axvline(pm, color="r", ls="--", lw=0.8)
-            g2 = grid[grid < fin_pm * (1 - 1e-3)]
-            ax[1].semilogy(g2, eq(g2, fin_pm, fin_a) * m.eta0 / eta0, "k--",
-                           label=f"final (stage 4): {sym[0]} = {fin_pm:.4g}, {sym[1]} = "
-                                 f"{fin_a:.4g}" + (f", eta0 = {m.eta0:.4g}" if stage == "1"
-                                                   else ""))
+            g2 = grid[grid < fin[0] * (1 - 1e-3)]
+            ax[1].semilogy(g2, plateau_viscosity(g2, *fin, m.mu_c) * m.eta0 / eta0, "k--",
+                           label=f"final (stage 4): {sym[0]} = {fin[0]:.4g}, {sym[1]} = "
+                                 f"{fin[1]:.4g}" + (f", eta0 = {m.eta0:.4g}" if stage == "1"
+                                                    else ""))
             _legend(ax[1])
         else:
             ax[1].text(0.5, 0.5, "no curve with a high-stress plateau", ha="center",
                        transform=ax[1].transAxes)
         ax[1].set(xlabel="phi", ylabel="eta_r", title=title)
-        save(fig, fname)
+        save(fig, f"stage{stage}_{'low' if stage == '1' else 'high'}_plateau.png")
 
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
-    for c in range(data.n_curves):
-        s, v, r = data.sorted_curve(c)
-        ax[0].loglog(r, s, "-", color=colours[c], lw=1, label=f"phi = {phis[c]:.4g}")
-    for c, g, (lo, hi) in zip(st3["curves"], st3["gdot_dst"], st3["stress_range"]):
+    fig, ax = _figure(1, 2)
+    for c, s, v, r, col, lab in curves:
+        ax[0].loglog(r, s, "-", color=col, lw=1, label=lab)
+    for g, (lo, hi) in zip(st3["gdot_dst"], st3["stress_range"]):
         ax[0].loglog([g, g], [lo, hi], "ko-", ms=5)
     ax[0].set(xlabel="shear rate [1/s]", ylabel="shear stress [Pa]",
               title="curves; black: DST region and rate")
     _legend(ax[0])
-    top = min(m.phi_star, m.phi_j) - 1e-4 * m.phi_j
-    if len(st3["phi"]) and top > m.phi_c:
+    if len(st3["phi"]) and min(m.phi_star, m.phi_j) - 1e-4 * m.phi_j > m.phi_c:
         ax[1].semilogy(st3["phi"], st3["gdot_dst"], "o", label="DST rates (stage 3)")
         for mm, style, what in ((st3["material"], "r-", "stage 3"), (m, "k--", "final")):
             hi = min(mm.phi_star, mm.phi_j) - 1e-4 * mm.phi_j
@@ -676,9 +657,8 @@ def cmd_fit_relaxation(args) -> str:
         rows = fit_df.index[(fit_df["curve"] == i) & fit_df["kept"]]
         fit_df.loc[rows, list(extra)] = np.column_stack(
             [c.time - res.t0[i], res.model_stress[i], res.residual_log10[i]])
-    for col in ("point", "time_s", "shear_stress_Pa"):
-        v = fit_df[col].to_numpy(float)
-        fit_df[col] = np.where(np.isfinite(v), v, np.nan)
+    cols = ["point", "time_s", "shear_stress_Pa"]
+    fit_df[cols] = fit_df[cols].astype(float).replace([np.inf, -np.inf], np.nan)
     provenance = _provenance(
         "rheometer fit-relaxation", args, table, donor, steady_material=m.name,
         curves=[{"label": c.label, "phi": c.phi, "stress0_Pa": c.stress0,
@@ -703,8 +683,7 @@ def cmd_fit_relaxation(args) -> str:
 
 def relaxation_figure(out: Path, res) -> str:
     """relaxation.png: data and model against the time after cessation (log-log), residuals."""
-    fig, ax = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True, constrained_layout=True,
-                           gridspec_kw={"height_ratios": [3, 1]})
+    fig, ax = _figure(2, 1, figsize=(10, 6.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     colours = plt.cm.viridis(np.linspace(0, 0.85, len(res.curves)))
     for i, (c, col) in enumerate(zip(res.curves, colours)):
         t = c.time - res.t0[i]

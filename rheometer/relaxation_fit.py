@@ -36,11 +36,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline
+from scipy.linalg import block_diag
 from scipy.optimize import least_squares
 
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
-from rheology.fit import CORR_FLAG, ParameterEstimate, interval_statistics, log_interval
+from rheology.fit import CORR_FLAG, ParameterEstimate, interval_statistics, judged_estimate
 from rheology.materials import Material
 from runkit.params import check_range
 
@@ -176,7 +177,7 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
         raise ValueError("no relaxation curve to fit")
     if K0 is not None:
         check_range("K0", K0, 0.0, K0_MAX)
-    eta_g = []
+    eta_g, f0 = [], []
     for c in curves:
         if c.time.size < 3:
             raise ValueError(f"{c.label}: {c.time.size} kept point(s); at least 3 are needed")
@@ -189,6 +190,7 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
             raise ValueError(f"{c.label}: no flowing steady state at taubar0 = {c.stress0:g} Pa, "
                              f"phi = {c.phi:g} ({m.name} jams there): nothing relaxes from it")
         eta_g.append(c.stress0 / rate)
+        f0.append(float(st.f))                       # the steady structure (Eq. 13)
     n_c = len(curves)
     fit_k0, fit_t0 = K0 is None, t0 is None
     names = ["G"] + ["K0"] * fit_k0 + [f"t0_{i + 1}" for i in range(n_c)] * fit_t0
@@ -233,13 +235,7 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
             a[k], b[k] = max(th[k] - h, lo[k]), min(th[k] + h, hi[k])
             cols.append((fun(b) - fun(a)) / (b[k] - a[k]))
         if fit_t0:                                   # t0: d(ln data - ln model)/dt0 = slope
-            ev = evaluate(th)
-            sizes = [c.time.size for c in curves]
-            for i in range(n_c):
-                col = np.zeros(sum(sizes))
-                j = sum(sizes[:i])
-                col[j:j + sizes[i]] = ev[i][1]
-                cols.append(col)
+            cols += list(block_diag(*(e[1][:, None] for e in evaluate(th))).T)
         return np.column_stack(cols)
 
     # ------------------------------------------------------------ start
@@ -263,26 +259,20 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
                 th.append(c.time[0] - float(probe["time_s"].iloc[k]))
         return np.clip(np.array(th, float), lo + 1e-6 * (hi - lo), hi - 1e-6 * (hi - lo))
 
-    best = None
-
-    def try_start(g, k0):
-        nonlocal best
+    def start(g, k0):                   # (cost, theta, G, K0), None where the model fails
         th = start_theta(min(max(g, G_RANGE[0]), G_RANGE[1]), k0)
         try:
-            cost = float(np.sum(fun(th) ** 2))
+            return float(np.sum(fun(th) ** 2)), th, g, k0
         except RuntimeError:
-            return
-        if best is None or cost < best[0]:
-            best = (cost, th, g, k0)
+            return None
 
-    for k0 in ((0.01, 0.1, 1.0, 10.0, 100.0) if fit_k0 else (K0,)):   # K0 at G0, then G
-        try_start(G0, k0)
-    if best is not None:
-        k_best = best[3]
-        for g in (0.3 * G0, 3.0 * G0):
-            try_start(g, k_best)
-    if best is None:
+    tries = [start(G0, k0) for k0 in ((0.01, 0.1, 1.0, 10.0, 100.0) if fit_k0 else (K0,))]
+    tries = [t for t in tries if t is not None]            # K0 at G0, then G at the best K0
+    if not tries:
         raise RuntimeError(f"the relaxation model fails at every start (G near {G0:.3g} Pa)")
+    k_best = min(tries, key=lambda t: t[0])[3]
+    tries += [t for t in (start(g, k_best) for g in (0.3 * G0, 3.0 * G0)) if t is not None]
+    best = min(tries, key=lambda t: t[0])
     x_scale = np.array([1.0] * (1 + fit_k0) + list(0.1 * span) * fit_t0)
     res = least_squares(fun, best[1], jac=jac, bounds=(lo, hi), method="trf", x_scale=x_scale,
                         xtol=1e-10, ftol=1e-12, gtol=1e-10, max_nfev=200)
@@ -296,60 +286,38 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
     tq, sd, corr, active, degen = interval_statistics(jac(th), th, lo, hi, s2, dof, confidence)
     converged = bool(res.status > 0)
     delta_f = np.array([e[2] for e in ev])
-    last = np.array([c.stress.min() / c.stress0 for c in curves])
-    undecayed = [c.label for c, x in zip(curves, last) if x > np.exp(-1.0)]
+    undecayed = [c.label for c in curves if c.stress.min() / c.stress0 > np.exp(-1.0)]
     params, messages, problems = [], [], []
+    slow_f = delta_f.max() < 0.05 * max(f0)           # K0 acts through f only
     for k, p in enumerate(names):
         is_scale = p in SCALE
         value = float(np.exp(th[k])) if is_scale else float(th[k])
-        flat = bool(degen[k]) or not np.isfinite(sd[k]) or sd[k] <= 1e-12 * max(1.0, abs(th[k]))
-        lo_, hi_ = (np.nan, np.nan) if flat else (th[k] - tq * sd[k], th[k] + tq * sd[k])
-        why, bound = [], ""
+        at, bound = None, ""
         if active[k]:
             at_low = th[k] - lo[k] < 1e-7 * (hi[k] - lo[k])
             bound = "law" if (p == "K0" and at_low) else "search"
-            why.append("at K0's floor: K0 = 0 within resolution, a frozen structure"
-                       if bound == "law" else
-                       f"at the fitter's {'lower' if at_low else 'upper'} search bound")
-            lo_, hi_ = (th[k], hi_) if at_low else (lo_, th[k])
-        if is_scale:
-            lo_, hi_ = log_interval(lo_, hi_)
-        wide = is_scale and not flat and tq * sd[k] > np.log(2.0)
+            at = (at_low, "at K0's floor: K0 = 0 within resolution, a frozen structure"
+                  if bound == "law" else
+                  f"at the fitter's {'lower' if at_low else 'upper'} search bound")
         # the offsets t0 trade with G by the model's form (a later cessation looks like a faster
         # decay when the record starts late): their marginal intervals carry it
-        partners = [names[j] for j in range(len(names)) if j != k and abs(corr[k, j]) > CORR_FLAG
-                    and not active[j] and not active[k] and not names[j].startswith("t0")
+        partners = [q for j, q in enumerate(names) if j != k and abs(corr[k, j]) > CORR_FLAG
+                    and not active[j] and not active[k] and not q.startswith("t0")
                     and not p.startswith("t0")]
-        unbounded = not flat and not (np.isfinite(lo_) and np.isfinite(hi_))
-        if degen[k]:
-            why.append("no curvature of the misfit along it")
-        if wide:
-            why.append("interval wider than a factor 2")
-        if partners:
-            why.append(f"correlation > {CORR_FLAG} with {', '.join(partners)}")
-        if flat or unbounded:
-            why.append(f"interval {'undefined' if flat else 'unbounded'} (null)")
-        unident = bool(degen[k] or wide or partners or flat or unbounded)
-        if unident and is_scale and undecayed:
-            why.append(f"{', '.join(undecayed)} end(s) before decaying below taubar0/e")
-        if unident and p == "K0" and delta_f.max() < 0.05 * max(f0_of(m, c) for c in curves):
-            why.append(f"the structure f changes by at most {delta_f.max():.2g} over the records "
-                       "(K0 acts only through it: larger taubar0/G, i.e. a softer sample or a "
-                       "higher stress, shows it)")
-        if not converged:
-            why.append("the optimiser stopped at its evaluation limit")
-        note = "; ".join(why)
-        if unident:
-            messages.append(f"{p} is not identified by these data ({note})")
-        if active[k] and bound == "search":
+        extra = [f"{', '.join(undecayed)} end(s) before decaying below taubar0/e"] * bool(
+            is_scale and undecayed)
+        if p == "K0" and slow_f:
+            extra.append(f"the structure f changes by at most {delta_f.max():.2g} over the "
+                         "records (K0 acts only through it: larger taubar0/G, i.e. a softer "
+                         "sample or a higher stress, shows it)")
+        params.append(judged_estimate(
+            p, value, th[k], sd[k], tq, "relaxation", log=is_scale, degenerate=bool(degen[k]),
+            partners=partners, width=np.log(2.0) if is_scale else np.inf, at=at, bound=bound,
+            converged=converged, extra=extra, messages=messages))
+        if bound == "search":
             problems.append(f"{p} = {value:.4g} ended on the fitter's search bound, so the bound "
                             "and not the data sets it (check --material, --phi and --stress0 "
                             "of each curve, or hold it)")
-        params.append(ParameterEstimate(
-            p, value, float(lo_) if np.isfinite(lo_) else np.nan,
-            float(hi_) if np.isfinite(hi_) else np.nan, float(sd[k]) if np.isfinite(sd[k])
-            else np.nan, "jacobian", "relaxation", note=note, at_bound=bool(active[k]),
-            unidentifiable=unident, converged=converged, bound=bound))
     if not fit_k0:
         params.insert(1, ParameterEstimate("K0", float(K0), float(K0), float(K0), 0.0, "fixed",
                                            "fixed", "fixed", "held (--K0)"))
@@ -377,11 +345,6 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
                          [e[0] / np.log(10.0) for e in ev], np.asarray(t0s, float), delta_f,
                          sigma, converged, confidence, (names, corr), problems, messages,
                          runs[0], time.perf_counter() - t_start)
-
-
-def f0_of(m: Material, c: RelaxationCurve) -> float:
-    """The steady structure f0 at the curve's taubar0 (Eq. 13)."""
-    return float(rheology.steady_state_stress(c.stress0, c.phi, m).f)
 
 
 def synthetic_relaxation(m, phi: float, stress0: float, *, G: float, K0: float,

@@ -496,3 +496,26 @@ def test_rerun_into_a_used_folder_holds_only_this_runs_files(tmp_path, capsys):
     assert main(argv) == 2
     assert "holds files no fit writes (my_notes.txt)" in capsys.readouterr().err
     assert not (out / "fit_curves.png").exists()
+
+
+def test_set_does_not_rename_the_fitted_material(tmp_path, capsys):
+    """``--set eta0=...`` named the fitted material "eta0" (the loop reused ``name``); it is the
+    --out folder's name."""
+    from rheometer.cli import main
+
+    out = tmp_path / "myfit"
+    assert main(["fit", *RC, "--phi", "0.40", "0.42", "--set", "eta0=0.006", "--no-profile",
+                 "--no-plots", "--out", str(out)]) == 0
+    assert r.get_material(str(out / "material.json")).name == "myfit"
+    assert "fitted myfit in" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("extra", [{}, {"phi_c": 0.436}])
+def test_a_held_a_inf_keeps_its_value(extra):
+    """--set a_inf=VALUE with phi_c held too (or no high-stress plateau) gave a0 x the start's
+    a_inf/a0 (1.018 for 1.0), still reported 'held at the given value'."""
+    m = r.get_material("hermes2016")
+    phis = m.phi_c + (m.phi_j - m.phi_c) * np.array([-0.6, -0.25, 0.15, 0.45, 0.75])
+    d = FlowData.from_table(synthetic_table(m, phis, points=15, seed=3))
+    res = fit_flow_curves(d, m, fixed={"a_inf": 1.0, "eta0": m.eta0, **extra}, stages_only=True)
+    assert res.parameter("a_inf").value == 1.0 and res.material.a_inf == 1.0

@@ -56,16 +56,6 @@ def perturbed_start(m):
                      varphi1=m.varphi1 * 0.3 if m.varphi1 > 0 else m.varphi1)
 
 
-def recover(name: str, points: int = 30, seed: int = 1, profile: bool = True):
-    """Fit the synthetic curves of set ``name`` from :func:`perturbed_start`: (material, its
-    volume fractions, the data, the fit, the recovery errors)."""
-    m = r.get_material(name)
-    phis = recovery_phis(m)
-    data = FlowData.from_table(synthetic_table(m, phis, points=points, seed=seed))
-    res = fit_flow_curves(data, perturbed_start(m), profile=profile)
-    return m, phis, data, res, recovery_errors(res, m, phis)
-
-
 @case("rheology", "fit_recovery_six_sets",
       "Fit: recovery of the six experimental sets (Tables 2-3) from noisy synthetic curves",
       slow=True)
@@ -74,13 +64,15 @@ def fit_recovery(out: Path, quick: bool) -> Verdict:
     rows, lines, ok_all = [], [], True
     fig, axes = plt.subplots(2, 3, figsize=(13, 7.5))
     for ax, name in zip(axes.flat, names):
-        m, phis, d, res, e = recover(name, points=20 if quick else 30)
+        m = r.get_material(name)
+        phis = recovery_phis(m)
+        d = FlowData.from_table(synthetic_table(m, phis, points=20 if quick else 30, seed=1))
+        res = fit_flow_curves(d, perturbed_start(m))
+        e = recovery_errors(res, m, phis)
         flagged = {p.name for p in res.parameters if p.unidentifiable}
-        verdicts = {}
-        for k, tol in TOL.items():
-            within = bool(np.isfinite(e[k]) and e[k] <= tol)
-            verdicts[k] = "ok" if within else ("flagged" if k in flagged else "FAIL")
-        ok = all(v != "FAIL" for v in verdicts.values())
+        verdicts = {k: "ok" if np.isfinite(e[k]) and e[k] <= tol else
+                    "flagged" if k in flagged else "FAIL" for k, tol in TOL.items()}
+        ok = "FAIL" not in verdicts.values()
         ok_all &= ok
         rows.append({"material": name, **{f"err_{k}": e[k] for k in TOL},
                      "unidentifiable": " ".join(sorted(flagged)), "seconds": res.seconds,
@@ -120,9 +112,7 @@ def fit_calibration(out: Path, quick: bool) -> Verdict:
         data = FlowData.from_table(synthetic_table(m, phis, points=30, seed=1000 + seed))
         res = fit_flow_curves(data, m, profile=True)
         times.append(res.seconds)
-        for p in res.parameters:
-            if p.status == "fixed":
-                continue
+        for p in (p for p in res.parameters if p.status != "fixed"):
             hits.setdefault(p.name, []).append(p.lower <= getattr(m, p.name) <= p.upper)
             flags[p.name] = flags.get(p.name, 0) + p.unidentifiable
     cover = {k: float(np.mean(v)) for k, v in hits.items()}
@@ -257,16 +247,13 @@ def fit_relaxation_recovery(out: Path, quick: bool) -> Verdict:
                "last_stress_over_taubar0": float(curves[0].stress[-1] / curves[0].stress0),
                "runs": res.n_runs,
                "seconds": res.seconds}
-        verdicts = []
         for p, truth in (("G", G), ("K0", K0)):
             q = res.parameter(p)
             err = q.value / truth - 1
-            within = abs(err) <= 0.05
-            v = "ok" if within else ("flagged" if q.unidentifiable and q.note else "FAIL")
-            verdicts.append(v)
+            v = "ok" if abs(err) <= 0.05 else "flagged" if q.unidentifiable and q.note else "FAIL"
             row.update({f"{p}_fit": q.value, f"{p}_error": err, f"{p}_verdict": v,
                         f"{p}_note": q.note})
-        ok_all &= "FAIL" not in verdicts
+            ok_all &= v != "FAIL"
         rows.append(row)
         c = res.curves[0]
         ax.loglog(c.time - res.t0[0], c.stress / c.stress0, ".", ms=2)
@@ -301,8 +288,7 @@ def fit_relaxation_calibration(out: Path, quick: bool) -> Verdict:
     for seed in range(n):
         res = fit_relaxation(_relaxation_curves(G, K0, seed=1000 + seed), m)
         for p, truth in (("G", G), ("K0", K0)):
-            q = res.parameter(p)
-            hits[p].append(bool(q.lower <= truth <= q.upper))
+            hits[p].append(bool(res.parameter(p).lower <= truth <= res.parameter(p).upper))
     cover = {k: float(np.mean(v)) for k, v in hits.items()}
     need = 0.6 if quick else 0.85
     return Verdict(
