@@ -199,7 +199,7 @@ def _mass_fraction(args, spec, params: dict) -> None:
     if key in params:
         raise ValueError(f"give --set {key}=... or --mass-fraction, not both")
     full = {**spec.defaults, **spec.coerce(params)}
-    m = get_material(spec.params[key].fraction_of(full))
+    m = get_material(spec.params[key].of(full))
     (phi,), note = mass_fraction_phi(args, m)
     params[key] = phi
     print(f"mpm2d run: {note}: {key} = {phi:.6g}")      # what ran: kept under --quiet too

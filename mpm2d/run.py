@@ -48,6 +48,7 @@ from rheology.run_end import EndedEarly, RunEnd, run_record
 
 from . import estimate, plots
 from .output import write_frame, write_manifest, write_pvds
+from .scenes.spec import spec_of
 from .simulation import Simulation
 
 
@@ -117,18 +118,9 @@ def history_row(sim: Simulation, scene: Scene) -> dict:
     return row
 
 
-def spec_of(setup: Callable):
-    """The declared parameters (:class:`mpm2d.scenes.spec.SceneSpec`) of a scene's ``setup``."""
-    spec = getattr(setup, "spec", None)
-    if spec is None:
-        raise TypeError(f"{getattr(setup, '__module__', setup)}.setup declares no parameters "
-                        "(decorate it with mpm2d.scenes.spec.parameters_of)")
-    return spec
-
-
 def coerce(params: dict, setup: Callable) -> dict:
     """The ``--set`` overrides (strings or Python values) checked by the scene's declaration
-    (:meth:`~mpm2d.scenes.spec.SceneSpec.coerce`), with their canonical types; ValueError."""
+    (:meth:`runkit.params.Schema.coerce`), with their canonical types; ValueError."""
     return spec_of(setup).coerce(dict(params))
 
 
