@@ -11,11 +11,11 @@ checkpoint every ``checkpoint_every`` wall seconds), recording a history row eve
 report (CSV tables and PNG figures).
 
 Refused before anything is written (ValueError, one line): a run needing more than MAX_STEPS
-steps at its first stable step (a bound the set-up alone tells, such as a small phi0) or fewer
-than the scene's ``min_steps``, or whose analysis divides by a history value that
-is zero at t = 0 (``Scene.divides_by``), said about the parameter the user set with its bound at
-the other values (:func:`blame`); a set-up that breaks down; a resume of another scene, with
-other parameters or output options. ``resume=True`` continues from ``DIR/checkpoint.npz`` (or
+steps or fewer than the scene's fewest, or whose analysis divides by a history value that is
+zero at t = 0, said before the set-up about the parameter the user set with its bound at the
+other values where the scene states its run from its parameters
+(:func:`mpm2d.scenes.spec.run_refusal`), else after it at its first stable step; a set-up that
+breaks down; a resume of another scene, with other parameters or output options. ``resume=True`` continues from ``DIR/checkpoint.npz`` (or
 its kept predecessor) bit-for-bit: every file equals an uninterrupted run's. A fresh run removes
 only the files a previous run of ours wrote (:func:`previous_run_files`). A run whose step fails
 ends there (:mod:`rheology.run_end`): history up to the last row, ``history.png``, manifest
@@ -29,7 +29,6 @@ import json
 import math
 import re
 import threading
-import time
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,13 +41,12 @@ import pandas as pd
 from runkit.io import (atomic_write_csv, check_output_dir, load_checkpoint, previous_checkpoint,
                        save_checkpoint)
 from runkit.limits import MAX_STEPS
-from runkit.params import shown as shown_value
 from runkit.run import TEMPORARY, HeldWarnings, Interrupts, Progress, drive
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
 from . import estimate, plots
 from .output import write_frame, write_manifest, write_pvds
-from .scenes.spec import spec_of
+from .scenes.spec import run_refusal, spec_of
 from .simulation import Simulation
 
 
@@ -146,125 +144,23 @@ def check_step_count(scene, name: str) -> None:
 #: a set-up taking longer than this [wall s] is announced ('setting up scene X...'); a fast one
 #: is not, so that a refusal after it is the only output
 SETUP_NOTICE_S = 2.0
-#: wall seconds the search for the parameter to blame may take (set-ups of bed scenes take
-#: seconds each: the bound found so far is reported, a conservative one)
-BLAME_BUDGET_S = 20.0
 
 
-def _round_toward(x: float, good_side_up: bool) -> float:
-    """``x`` to 3 significant digits, rounded away from the invalid side."""
-    if x == 0 or not math.isfinite(x):
-        return x
-    e = math.floor(math.log10(abs(x))) - 2
-    m = x / 10.0 ** e
-    return float(f"{(math.ceil(m) if good_side_up else math.floor(m)) * 10.0 ** e:.3g}")
-
-
-def _bisect(ok, bad: float, good: float, deadline: float) -> float:
-    """The valid end of [bad, good] nearest the transition (log-spaced when both are > 0)."""
-    log = bad > 0 and good > 0
-    for _ in range(60):
-        if time.perf_counter() > deadline:
-            break
-        mid = math.exp(0.5 * (math.log(bad) + math.log(good))) if log else 0.5 * (bad + good)
-        if mid in (bad, good) or (log and abs(math.log(good / bad)) < 0.02) or \
-                (not log and abs(good - bad) <= 1e-3 * max(abs(good), abs(bad))):
-            break
-        good, bad = (mid, bad) if ok(mid) else (good, mid)
-    return good
-
-
-def initial_values_ok(scene) -> tuple[bool, str]:
-    """Whether the history columns the scene's analysis divides by (``Scene.divides_by``) are
-    finite and non-zero at the start (record is called on the fresh scene's state)."""
+def check_initial_values(scene, name: str) -> None:
+    """Refuse (ValueError, one line) a fresh scene whose history columns its analysis divides
+    by (``Scene.divides_by``) are zero or not finite at the start (the scene's own bound,
+    :func:`mpm2d.scenes.spec.run_refusal`, says it before the set-up where it can)."""
     if not scene.divides_by:
-        return True, ""
+        return
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
         row = history_row(scene.sim, scene)
     bad = [k for k in scene.divides_by if not (np.isfinite(row[k]) and row[k] != 0)]
-    return not bad, ", ".join(f"{k} = {row[k]:g} at t = 0" for k in bad)
-
-
-def acceptable(scene) -> bool:
-    """The checks of a fresh scene before its run: the step count and the initial values its
-    analysis divides by (the bounds a refusal states are the bounds of this)."""
-    _, steps, need = _first_step(scene)
-    return bool(need <= steps <= MAX_STEPS) and initial_values_ok(scene)[0]
-
-
-def refuse_unacceptable(setup, scene, params: dict, given: dict, name: str) -> None:
-    """Raise the one-line ValueError of a fresh scene that fails :func:`acceptable`, said about
-    the parameter the user set (:func:`blame`; a fixed ``dt``: its bound exactly, the step is
-    dt)."""
-    dt, steps, need = _first_step(scene)
-    deadline = time.perf_counter() + BLAME_BUDGET_S
-    if not need <= steps <= MAX_STEPS:
-        long = not steps < need
-        what = (f"a step of {dt:.3g} s to t_end = {scene.t_end:.3g} s is {steps:.3g} steps, "
-                f"more than {MAX_STEPS:.0e}" if long else
-                f"t_end = {scene.t_end:.3g} s is {steps:.3g} of its first stable steps "
-                f"({dt:.3g} s); the run needs at least {need}")
-        defaults = spec_of(setup).defaults
-        changed = [k for k, v in given.items() if v != defaults.get(k)]
-        if not changed:
-            raise ValueError(f"scene {name}: {what} with its defaults")
-        special = {}
-        if "dt" in changed and scene.sim.user_dt is not None:
-            bound = (scene.t_end - scene.sim.t) / (MAX_STEPS if long else need)
-            special["dt"] = (f"dt {'>=' if long else '<='} {_round_toward(bound, long):.3g} s at "
-                             "the other values, or dt = none (the stable step)")
-        raise blame(setup, params, given, name, acceptable,
-                    f"makes the run too {'long' if long else 'short'} ({what})", deadline, special)
-    fine, reason = initial_values_ok(scene)
-    if not fine:
-        raise blame(setup, params, given, name, acceptable, "leaves the scene's analysis "
-                    f"undefined ({reason}; it divides by it)", deadline)
-
-
-def blame(setup, params: dict, given: dict, name: str, ok: Callable, why: str,
-          deadline: float, special: dict | None = None) -> ValueError:
-    """The one-line ValueError for parameters whose scene fails ``ok(scene)``, said about the
-    given parameter(s) responsible: each changed one is put back to its default in turn (a new
-    set-up); those whose default passes are named with their valid bound at the others' values,
-    found by bisection between the value and the default (``special``: a ready bound text per
-    key); when no single one is responsible, all are named."""
-    spec = spec_of(setup)
-    special = special or {}
-    changed = [k for k, v in given.items() if v != spec.defaults.get(k)]
-
-    def ok_at(k, x):
-        probe = estimate.build_quietly(setup, {**params, k: x})
-        return probe is not None and ok(probe)
-
-    culprits = [k for k in changed if time.perf_counter() < deadline
-                and ok_at(k, spec.defaults[k])]
-    if not culprits:
-        shown = ", ".join(f"{k} = {shown_value(params[k])}" for k in changed) or "the defaults"
-        return ValueError(f"scene {name}: {shown} {why}; valid: move them toward their "
-                          f"defaults ('mpm2d show {name}' lists the ranges)")
-    parts = []
-    for k in culprits:
-        v, d, p = params[k], spec.defaults[k], spec.params[k]
-        head = f"{k} = {shown_value(v)} {why}"
-        if k in special:
-            parts.append(f"{head}; valid: {special[k]}")
-            continue
-        if not (p.kind == "number" and isinstance(v, (int, float)) and
-                isinstance(d, (int, float)) and not isinstance(d, bool)):
-            parts.append(f"{head}; valid: e.g. the default {k} = {d}")
-            continue
-        good = _bisect(lambda x: ok_at(k, x), float(v), float(d), deadline)
-        up = good > v
-        good = _round_toward(good, up)
-        if p.integer:
-            good = float(math.ceil(good) if up else math.floor(good))
-        if not ok_at(k, good):              # rounding crossed the transition
-            good = float(d)
-        unit = f" {p.unit}" if p.unit else ""
-        parts.append(f"{head}; valid: {k} {'>=' if up else '<='} {good:.3g}{unit} at the "
-                     "other values")
-    return ValueError(f"scene {name}: " + "; ".join(parts))
+    if bad:
+        raise ValueError(f"scene {name}: the parameters leave the scene's analysis undefined ("
+                         + ", ".join(f"{k} = {row[k]:g} at t = 0" for k in bad)
+                         + f"; it divides by it); valid: move them toward their defaults "
+                           f"('mpm2d show {name}' lists the ranges)")
 
 
 _FRAME = re.compile(r"frame_\d{5}\.npz$")
@@ -693,16 +589,19 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         saved, used, given = _resumed(out, spec, name, given, options, log)
     params = {**spec.defaults, **given}           # checked once, by coerce
     if saved is None:                             # a long run needs --yes (mpm2d.estimate)
+        refusal = run_refusal(spec, params, given)
+        if refusal is not None:
+            raise refusal
         estimate.check_before_setup(setup, spec, params, name, yes, log)
     # a fresh run removes only what a previous run of ours wrote; a folder of the user's is
     # refused here, before the set-up and before anything is written
     previous = previous_run_files(out) if saved is None else []
     scene, held = _set_up(setup, params, given, name, str(ckpt_path) if saved else "", log)
     options["vtk"] = vtk = scene.vtk if options["vtk"] is None else bool(options["vtk"])
-    if saved is None:
-        refuse_unacceptable(setup, scene, params, given, name)
-        estimate.report_after_setup(scene, spec, params, name, yes, log)
     check_step_count(scene, name)
+    if saved is None:
+        check_initial_values(scene, name)
+        estimate.report_after_setup(scene, spec, params, name, yes, log)
     held.replay()                            # a set-up that succeeded: its warnings as they were
     if saved is None and (ckpt_path.exists() or previous_checkpoint(ckpt_path).exists()):
         log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "

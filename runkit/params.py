@@ -490,18 +490,21 @@ class Schema:
         """Whether every derived bound holds at ``values`` (an arithmetic failure: no)."""
         return not self._failing(values)
 
-    def valid_range(self, key: str, values: dict):
+    def valid_range(self, key: str, values: dict, also: Callable | None = None, starts=()):
         """(lo, lo_closed, hi, hi_closed) of ``key`` at the other values: its static range
-        intersected with every derived bound (its own and the others') and constraint, around
-        the default (or the given value's nearest static bound), or None when no valid start is
+        intersected with every derived bound (its own and the others'), constraint and
+        ``also(values)`` (a further condition of the caller's), around the default (or
+        ``starts``, or the given value's nearest static bound), or None when no valid start is
         found."""
         p = self.params[key]
         lo, _, _, hi, _, _ = p.bounds(static=True)
 
         def ok(x):                       # the bounds only: an integer's are found on the floats
-            return p._outside(x, None, True) is None and self.holds({**values, key: x})
+            at = {**values, key: x}
+            return (p._outside(x, None, True) is None and self.holds(at)
+                    and (also is None or also(at)))
 
-        return integer_range(ok, [self.defaults.get(key), values[key], lo, hi], lo, hi,
+        return integer_range(ok, [self.defaults.get(key), *starts, values[key], lo, hi], lo, hi,
                              p.kind == "integer")
 
     def _why_at(self, key, values, x) -> tuple[str, bool]:

@@ -572,7 +572,7 @@ def test_bar_at_its_smallest_amplitude_is_as_accurate_as_the_default(tmp_path):
     amplitude errors are those of the default amplitude (linear elasticity: the errors do not
     depend on v0 while the motion is resolved)."""
     spec = bar.setup.spec
-    lo = spec.params["v0"].number("v0", spec.defaults).lo
+    lo = spec.params["v0"].bounds(spec.defaults)[0]
     small = bar.analyse(_run(bar.setup, tmp_path / "s", params=dict(v0=lo, cells=16),
                              vtk=False)["history"], {**spec.defaults, "v0": lo, "cells": 16})
     ref = bar.analyse(_run(bar.setup, tmp_path / "r", params=dict(cells=16), vtk=False)["history"],

@@ -35,7 +35,7 @@ import numpy as np
 from runkit import limits
 from runkit.limits import MAX_STEPS, Bound
 from runkit.params import Param as SchemaParam
-from runkit.params import Schema
+from runkit.params import Schema, shown
 from rheology import get_material, material_names
 from rheology.materials import RULES, scene_material
 
@@ -69,6 +69,12 @@ def Param(lo=None, hi=None, *, integer=False, lo_closed=True, hi_closed=True, un
     return SchemaParam(bound(lo, lo_closed, lo_why), bound(hi, hi_closed, hi_why), unit=unit,
                        kind=kind, doc=doc, choices=choices or (), optional=optional,
                        fill=fill, role=role, of=of)
+
+
+def wave_step(cfl: float, h: float, modulus: float, density: float) -> float:
+    """The elastic wave limit of the explicit step, ``cfl h / sqrt(S V/m)`` [s]
+    (:meth:`mpm2d.simulation.Simulation.stable_dt`; V/m = 1/density of the points)."""
+    return cfl * h / math.sqrt(modulus / density)
 
 
 def _is_real(value) -> bool:
@@ -151,7 +157,82 @@ def estimate_bytes(schema, params: dict) -> float:
     return nbytes if math.isfinite(nbytes) else math.inf
 
 
-def parameters_of(size: Callable | None = None, /, **params: SchemaParam):
+def _round_toward(x: float, up: bool) -> float:
+    """``x`` to 3 significant digits, rounded toward ``up`` (away from the invalid side)."""
+    if x == 0 or not math.isfinite(x):
+        return x
+    e = math.floor(math.log10(abs(x))) - 2
+    m = x / 10.0 ** e
+    return float(f"{(math.ceil(m) if up else math.floor(m)) * 10.0 ** e:.3g}")
+
+
+def _run_why(schema, params: dict) -> str | None:
+    """Why the run the parameters give cannot be analysed (None: it can): its step count from
+    the scene's ``steps`` (first step, end time, fewest steps) outside [fewest, MAX_STEPS], or
+    a history value its analysis divides by (``initial``) zero or not finite at t = 0."""
+    try:
+        with np.errstate(all="ignore"):
+            if schema.steps is not None:
+                dt, t_end, need = schema.steps(params)
+                n = t_end / dt if dt > 0 else math.inf
+                if n > MAX_STEPS:
+                    return (f"makes the run too long (a step of {dt:.3g} s to t_end = "
+                            f"{t_end:.3g} s is {n:.3g} steps, more than {MAX_STEPS:.0e})")
+                if not n >= need:
+                    return (f"makes the run too short (t_end = {t_end:.3g} s is {n:.3g} of its "
+                            f"first stable steps ({dt:.3g} s); the run needs at least {need})")
+            bad = {k: v for k, v in (schema.initial(params) if schema.initial else {}).items()
+                   if not (np.isfinite(v) and v != 0)}
+    except (ValueError, ArithmeticError, TypeError):
+        return "makes the run undefined (its step cannot be evaluated)"
+    if bad:
+        return ("leaves the scene's analysis undefined (" + ", ".join(
+            f"{k} = {v:g} at t = 0" for k, v in bad.items()) + "; it divides by it)")
+    return None
+
+
+def run_refusal(schema, params: dict, given: dict) -> ValueError | None:
+    """The refusal of a run whose step count or analysed initial values (:func:`_run_why`) its
+    parameters put out of range, before the set-up, said about each given parameter out of its
+    valid range at the other values (:meth:`runkit.params.Schema.valid_range` with the run's
+    condition: the bound the scene's formulas give, rounded toward the valid side); None when
+    the run can be analysed."""
+    why = _run_why(schema, params)
+    if why is None:
+        return None
+    changed = [k for k, v in given.items() if v != schema.defaults.get(k)]
+    if not changed:
+        return ValueError(f"scene {schema.name}: its defaults {why}")
+    parts = []
+    for k in changed:
+        p, v = schema.params[k], params[k]
+        if not p.numeric or v is None:
+            continue
+        stable = []                          # a fixed step: start at the stable one
+        if k == "dt" and schema.steps is not None:
+            stable = [schema.steps({**params, k: None})[0]]
+        rng = schema.valid_range(k, params, lambda at: _run_why(schema, at) is None, stable)
+        if rng is None:
+            continue
+        lo, lc, hi, hc = rng
+        up = lo is not None and (v < lo or (v == lo and not lc))
+        if not up and not (hi is not None and (v > hi or (v == hi and not hc))):
+            continue
+        edge = _round_toward(lo if up else hi, up)
+        if _run_why(schema, {**params, k: edge}) is not None:
+            edge = lo if up else hi
+        unit = f" {p.unit}" if p.unit else ""
+        parts.append(f"{k} = {shown(v)} {why}; valid: {k} {'>=' if up else '<='} {edge:.6g}"
+                     f"{unit} at the other values" + (f", or {k} = none" if p.optional else ""))
+    if parts:
+        return ValueError(f"scene {schema.name}: " + "; ".join(parts))
+    what = ", ".join(f"{k} = {shown(params[k])}" for k in changed)
+    return ValueError(f"scene {schema.name}: {what} {why}; valid: move them toward their "
+                      f"defaults ('mpm2d show {schema.name}' lists the ranges)")
+
+
+def parameters_of(size: Callable | None = None, /, *, steps: Callable | None = None,
+                  initial: Callable | None = None, **params: SchemaParam):
     """Decorator declaring the valid range of every parameter of a scene's ``setup``.
 
     ``size(params) -> (points, grid nodes)`` estimates the run's size for the memory check
@@ -160,6 +241,11 @@ def parameters_of(size: Callable | None = None, /, **params: SchemaParam):
     by ``setup.spec``, the scene's :class:`runkit.params.Schema` (with ``name`` and
     ``extent``, the size function); ``setup.raw`` is the function itself, for a caller whose
     values are checked already (``mpm2d run``).
+
+    ``steps(params) -> (first stable step [s], end time [s], fewest steps)`` and
+    ``initial(params) -> {history column: value at t = 0}`` (the columns the scene's analysis
+    divides by) state, where the scene can, its run from its parameters alone: a run outside
+    them is refused before the set-up (:func:`run_refusal`).
 
     Raises
     ------
@@ -187,7 +273,7 @@ def parameters_of(size: Callable | None = None, /, **params: SchemaParam):
                         where=f"scene {name}", at_others=True,
                         hint=f" ('mpm2d show {name}' lists the ranges)",
                         constraints=[lambda p: steps_unmet(schema, p)])
-        schema.name, schema.extent = name, size
+        schema.name, schema.extent, schema.steps, schema.initial = name, size, steps, initial
 
         @functools.wraps(setup)
         def checked(**kwargs):
