@@ -41,11 +41,12 @@ import pandas as pd
 from runkit.io import (atomic_write_csv, check_output_dir, load_checkpoint, previous_checkpoint,
                        save_checkpoint)
 from runkit.limits import MAX_STEPS
-from runkit.run import TEMPORARY, HeldWarnings, Interrupts, Progress, drive
+from runkit.run import HeldWarnings, Interrupts, Progress, drive
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
 from . import estimate, plots
-from .output import write_frame, write_manifest, write_pvds
+from .output import (command_line, previous_run_files, remove, temporaries, write_frame,
+                     write_manifest, write_pvds)
 from .scenes.spec import run_refusal, spec_of
 from .simulation import Simulation
 
@@ -163,107 +164,6 @@ def check_initial_values(scene, name: str) -> None:
                            f"('mpm2d show {name}' lists the ranges)")
 
 
-_FRAME = re.compile(r"frame_\d{5}\.npz$")
-_VTU = re.compile(r"(.+)_\d{5}\.vtu")
-
-
-def _our_manifest(out: Path) -> dict | None:
-    """The manifest of a previous run of ours in ``out`` (scene, params, frames), else None."""
-    man = out / "manifest.json"
-    if not man.is_file():
-        return None
-    try:
-        m = json.loads(man.read_text())
-    except (ValueError, OSError, UnicodeDecodeError):
-        return None
-    if not (isinstance(m, dict) and isinstance(m.get("scene"), str)
-            and isinstance(m.get("params"), dict) and isinstance(m.get("frames"), list)):
-        return None
-    return m
-
-
-def _inside(out: Path, rel) -> Path | None:
-    """``out/rel`` when ``rel`` is a plain relative path inside ``out`` (top level, frames/ or
-    vtk/), else None (a manifest is never trusted to name a file elsewhere)."""
-    if not isinstance(rel, str) or not rel or "\\" in rel:
-        return None
-    parts = Path(rel).parts
-    if Path(rel).is_absolute() or ".." in parts or len(parts) > 2 or \
-            (len(parts) == 2 and parts[0] not in ("frames", "vtk")):
-        return None
-    return out / rel
-
-
-def _is_empty(out: Path) -> bool:
-    """No entry besides empty frames/ and vtk/ folders and temporaries of our atomic writes."""
-    for f in out.iterdir():
-        if f.is_dir() and f.name in ("frames", "vtk") and not any(f.iterdir()):
-            continue
-        if f.is_file() and TEMPORARY.match(f.name):
-            continue
-        return False
-    return True
-
-
-def previous_run_files(out: Path) -> list[Path]:
-    """The files a previous run of ours wrote into ``out``, which a fresh run removes: those its
-    manifest lists (snapshots, their VTK files and .pvd series, figures and result tables), its
-    checkpoints, history and manifest, and the snapshots written after its last manifest
-    (``frames/frame_NNNNN.npz``, ``vtk/SET_NNNNN.vtu`` of its sets). Nothing else is touched.
-
-    Raises
-    ------
-    ValueError
-        ``out`` is a non-empty folder without the manifest of a run of ours (a folder of the
-        user's: nothing in it is removed or overwritten), before anything is written.
-    """
-    if not out.is_dir() or _is_empty(out):
-        return []
-    m = _our_manifest(out)
-    if m is None:
-        raise ValueError(f"--out = {str(out)!r} is a non-empty folder that holds no mpm2d run "
-                         "(no manifest.json of ours): give a new or empty folder, nothing of "
-                         "yours is overwritten")
-    files, names = [], set()
-    for f in m["frames"]:
-        if not isinstance(f, dict):
-            continue
-        files.append(_inside(out, f.get("npz")))
-        for n, v in (f.get("vtu") or {}).items():
-            files.append(_inside(out, v))
-            names.add(str(n))
-    if (out / "frames").is_dir():
-        files += [f for f in (out / "frames").iterdir() if _FRAME.match(f.name)]
-    if (out / "vtk").is_dir():
-        files += [f for f in (out / "vtk").iterdir()
-                  if (v := _VTU.fullmatch(f.name)) is not None and v.group(1) in names]
-        files += [out / "vtk" / f"{n}.pvd" for n in names if "/" not in n]
-    files += [out / n for n in ("checkpoint.npz", "checkpoint.prev.npz", "history.csv",
-                                "manifest.json")]
-    files += [_inside(out, f) for f in m.get("figures", []) or []]
-    files += [_inside(out, f) for f in m.get("results", []) or []]
-    seen, keep = set(), []
-    for f in files:
-        if f is not None and f not in seen and f.is_file():
-            seen.add(f)
-            keep.append(f)
-    return keep
-
-
-def _temporaries(out: Path) -> list[Path]:
-    """The temporary files of atomic writes a killed run (SIGKILL, power loss) left."""
-    return [f for d in (out, out / "frames", out / "vtk") if d.is_dir() for f in d.iterdir()
-            if f.is_file() and TEMPORARY.match(f.name)]
-
-
-def _remove(out: Path, files: list[Path]) -> list[str]:
-    """Delete ``files`` and return their names relative to ``out``."""
-    gone = [f for f in files if f.is_file()]
-    for f in gone:
-        f.unlink()
-    return [str(f.relative_to(out)) for f in gone]
-
-
 def _history_arrays(rows: list[dict]) -> dict[str, np.ndarray]:
     """The history as one typed array per column (integer columns stay integer)."""
     hist = pd.DataFrame(rows)
@@ -279,17 +179,6 @@ def _history_rows(saved: dict) -> list[dict]:
         return [dict(zip(cols, r)) for r in saved["run.history"]]
     arrays = [saved[f"run.history.{i}"] for i in range(len(cols))]
     return [{c: a[k].item() for c, a in zip(cols, arrays)} for k in range(len(arrays[0]))]
-
-
-def command_line(name: str, params: dict, defaults: dict, frames, vtk: bool,
-                 vtk_default: bool = True) -> str:
-    """The canonical command of a run (deterministic: no output folder, no --resume)."""
-    sets = " ".join(f"--set {k}={v}" for k, v in params.items()
-                    if k in defaults and v != defaults[k])
-    return " ".join(filter(None, [f"mpm2d run {name}", sets,
-                                  f"--frames {frames}" if frames is not None else "",
-                                  "" if vtk == vtk_default else
-                                  ("--vtk" if vtk else "--no-vtk")]))
 
 
 def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool = False,
@@ -608,9 +497,9 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
             "replaces it (--resume continues it instead)")
     with Interrupts() as stop:         # from here on, a signal stops between steps
         out.mkdir(parents=True, exist_ok=True)
-        for f in _remove(out, _temporaries(out)):
+        for f in remove(out, temporaries(out)):
             log(f"removed {f}, a temporary file of an interrupted write")
-        if saved is None and _remove(out, previous):
+        if saved is None and remove(out, previous):
             log(f"removed the earlier run's {len(previous)} files in {out} (snapshots, VTK, "
                 "checkpoints, history, manifest, figures); its result tables are replaced "
                 "when this run ends")
