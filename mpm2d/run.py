@@ -347,9 +347,20 @@ class _Run:
     advances, and the checkpoint it saves): history rows, snapshots, the checkpoint with the
     history and the manifest."""
 
-    def __init__(self, out, scene, name, params, options, manifest, saved):
-        self.out, self.scene, self.sim, self.name = out, scene, scene.sim, name
-        self.params, self.options, self.manifest = params, options, manifest
+    def __init__(self, out, scene, name, params, defaults, options, saved):
+        sim = scene.sim
+        self.out, self.scene, self.sim, self.name = out, scene, sim, name
+        self.params, self.options = params, options
+        self.manifest = manifest = {
+            "scene": name, "command": command_line(name, params, defaults, options["frames"],
+                                                   options["vtk"], scene.vtk),
+            "params": params, "mode": sim.mode, "transfer": sim.transfer,
+            "description": sim.describe(),
+            "grid": {"nx": sim.grid.nx, "ny": sim.grid.ny, "h_m": sim.grid.h,
+                     "origin_m": list(sim.grid.origin), "axisymmetric": sim.grid.axisymmetric,
+                     "boundaries": sim.grid.boundaries},
+            "t_end_s": scene.t_end, "notes": scene.notes, "frames": [], "status": "running",
+            "ends": []}
         self.path = out / "checkpoint.npz"
         self.t_end, self.rows = scene.t_end, []
         nframes = scene.frames if options["frames"] is None else int(options["frames"])
@@ -503,19 +514,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
             log(f"removed the earlier run's {len(previous)} files in {out} (snapshots, VTK, "
                 "checkpoints, history, manifest, figures); its result tables are replaced "
                 "when this run ends")
-        sim = scene.sim
-        manifest = {"scene": name,
-                    "command": command_line(name, params, spec.defaults, options["frames"], vtk,
-                                            scene.vtk),
-                    "params": params, "mode": sim.mode, "transfer": sim.transfer,
-                    "description": sim.describe(),
-                    "grid": {"nx": sim.grid.nx, "ny": sim.grid.ny, "h_m": sim.grid.h,
-                             "origin_m": list(sim.grid.origin),
-                             "axisymmetric": sim.grid.axisymmetric,
-                             "boundaries": sim.grid.boundaries},
-                    "t_end_s": scene.t_end, "notes": scene.notes, "frames": [],
-                    "status": "running", "ends": []}
-        run = _Run(out, scene, name, params, options, manifest, saved)
+        run = _Run(out, scene, name, params, spec.defaults, options, saved)
+        sim, manifest = scene.sim, run.manifest
         if saved is not None:
             log(f"resumed from {used} at t = {sim.t:.6g} s, step {sim.step_count}")
         log(sim.describe())
@@ -534,12 +534,11 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                 try:
                     complete = drive(run, checkpoint=run, every=checkpoint_every, progress=bar,
                                      stop_after=stop_after_steps)
-                except KeyboardInterrupt:
+                except KeyboardInterrupt:        # drive saved the checkpoint and says so
                     log(f"interrupted ({stop.pending or 'KeyboardInterrupt'}) at t = "
                         f"{sim.t:.6g} s (step {sim.step_count}); checkpoint written to "
                         f"{ckpt_path}: continue with --resume")
-                    raise KeyboardInterrupt(f"checkpoint written to {ckpt_path}: rerun with "
-                                            "--resume to continue") from None
+                    raise
                 stepping = False
                 if complete:
                     figures = run.finish()
