@@ -14,10 +14,11 @@ Refused before anything is written (ValueError, one line): a run needing more th
 steps or fewer than the scene's fewest, or whose analysis divides by a history value that is
 zero at t = 0, said before the set-up about the parameter the user set with its bound at the
 other values where the scene states its run from its parameters
-(:func:`mpm2d.scenes.spec.run_refusal`), else after it at its first stable step; a set-up that
-breaks down; a resume of another scene, with other parameters or output options. ``resume=True`` continues from ``DIR/checkpoint.npz`` (or
-its kept predecessor) bit-for-bit: every file equals an uninterrupted run's. A fresh run removes
-only the files a previous run of ours wrote (:func:`previous_run_files`). A run whose step fails
+(:func:`mpm2d.scenes.spec.run_refusal`; the step count also after it, at its first stable
+step); a set-up that breaks down; a resume of another scene, with other parameters or output
+options. ``resume=True`` continues from ``DIR/checkpoint.npz`` (or its kept predecessor)
+bit-for-bit: every file equals an uninterrupted run's. A fresh run removes only the files a
+previous run of ours wrote (:func:`mpm2d.output.previous_run_files`). A run whose step fails
 ends there (:mod:`rheology.run_end`): history up to the last row, ``history.png``, manifest
 ``status: ended_early`` with ``ends``, :class:`~rheology.run_end.EndedEarly` (exit status 3); a
 report that fails marks it ``failed`` and raises RuntimeError.
@@ -29,7 +30,6 @@ import json
 import math
 import re
 import threading
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -84,9 +84,6 @@ class Scene:
         stress behind a front not yet formed; every other value must be finite.
     min_steps : int
         The fewest first stable steps the run (and its analysis) needs, at least one.
-    divides_by : tuple of str
-        History columns whose initial value the analysis divides by (the disks' energy loss):
-        zero or non-finite at t = 0 (speed = 1e-300), the run is refused.
     """
 
     sim: Simulation
@@ -103,7 +100,6 @@ class Scene:
     notes: str = ""
     undefined: tuple = ()
     min_steps: int = 1
-    divides_by: tuple = ()
 
 
 def history_row(sim: Simulation, scene: Scene) -> dict:
@@ -145,23 +141,6 @@ def check_step_count(scene, name: str) -> None:
 #: a set-up taking longer than this [wall s] is announced ('setting up scene X...'); a fast one
 #: is not, so that a refusal after it is the only output
 SETUP_NOTICE_S = 2.0
-
-
-def check_initial_values(scene, name: str) -> None:
-    """Refuse (ValueError, one line) a fresh scene whose history columns its analysis divides
-    by (``Scene.divides_by``) are zero or not finite at the start (the scene's own bound,
-    :func:`mpm2d.scenes.spec.run_refusal`, says it before the set-up where it can)."""
-    if not scene.divides_by:
-        return
-    with warnings.catch_warnings(), np.errstate(all="ignore"):
-        warnings.simplefilter("ignore")
-        row = history_row(scene.sim, scene)
-    bad = [k for k in scene.divides_by if not (np.isfinite(row[k]) and row[k] != 0)]
-    if bad:
-        raise ValueError(f"scene {name}: the parameters leave the scene's analysis undefined ("
-                         + ", ".join(f"{k} = {row[k]:g} at t = 0" for k in bad)
-                         + f"; it divides by it); valid: move them toward their defaults "
-                           f"('mpm2d show {name}' lists the ranges)")
 
 
 def _history_arrays(rows: list[dict]) -> dict[str, np.ndarray]:
@@ -500,7 +479,6 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
     options["vtk"] = vtk = scene.vtk if options["vtk"] is None else bool(options["vtk"])
     check_step_count(scene, name)
     if saved is None:
-        check_initial_values(scene, name)
         estimate.report_after_setup(scene, spec, params, name, yes, log)
     held.replay()                            # a set-up that succeeded: its warnings as they were
     if saved is None and (ckpt_path.exists() or previous_checkpoint(ckpt_path).exists()):

@@ -470,7 +470,7 @@ def test_the_rod_figure_of_a_run_too_short_for_a_late_speed(tmp_path):
 
 def test_values_leaving_the_analysis_undefined_are_refused_up_front(tmp_path, capsys):
     """disks speed=1e-300: the initial energy underflows to 0 and the energy loss (relative to
-    it) was NaN after the whole run. Refused before anything is written (Scene.divides_by),
+    it) was NaN after the whole run. Refused before anything is written (the initial energy its declaration states),
     naming speed with its bound; at the bound the initial energy is positive."""
     from mpm2d.scenes import disks
 
