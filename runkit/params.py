@@ -14,7 +14,14 @@ defaults and validates a set of values once:
    over the ordered floats (64 checks per side at most) and stated with the reason of the bound
    that closes it; when no single given value can be moved into range, the refusal names them
    all;
-3. the memory the run needs (``size``), against what the machine has (:mod:`runkit.limits`).
+3. the ``constraints`` between parameters that are no one parameter's bound (a run's step
+   count), explained the same way;
+4. the memory the run needs (``size``), against what the machine has (:mod:`runkit.limits`).
+
+A parameter may be ``optional`` with a ``fill`` (the value None stands for, from the others:
+its derived bounds are checked on it) and carry a ``role`` for its tier (a volume fraction
+``of`` a material). :meth:`Schema.valid_range` is the range of one parameter at the others'
+values, also under a further condition of the caller's.
 
 Every refusal is one ``ValueError`` line. :meth:`Schema.add_options` builds the ``argparse``
 options (``type=`` an :class:`Option`, which does step 1 while parsing); :func:`check_range` is
