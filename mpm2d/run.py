@@ -40,7 +40,8 @@ import pandas as pd
 
 from runkit.io import (atomic_write_csv, check_output_dir, load_checkpoint, previous_checkpoint,
                        save_checkpoint)
-from runkit.limits import MAX_STEPS
+from runkit.limits import MAX_STEPS, ge, gt, le
+from runkit.params import Number
 from runkit.run import HeldWarnings, Interrupts, Progress, drive
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
@@ -137,6 +138,16 @@ def check_step_count(scene, name: str) -> None:
         raise ValueError(f"scene {name}: a step of {dt:.3g} s to t_end = {scene.t_end:.3g} s is "
                          f"{steps:.3g} steps; valid: {need} to {MAX_STEPS:.0e} steps")
 
+
+#: the run options, with the reasons of their limits (``mpm2d run --frames``,
+#: ``--checkpoint-every``: the same check from the command line and from Python)
+FRAMES = Number("--frames", ge(1, "at least the final snapshot"),
+                le(100000, "a file per snapshot: 1e5 is past any animation or analysis"),
+                integer=True)
+CHECKPOINT_EVERY = Number("--checkpoint-every", gt(0.0, "a checkpoint interval is a positive "
+                                                        "wall time"),
+                          le(1e6, "12 days, longer than the longest run (1e8 steps, about a day "
+                                  "on one core)"), unit="s")
 
 #: a set-up taking longer than this [wall s] is announced ('setting up scene X...'); a fast one
 #: is not, so that a refusal after it is the only output
@@ -459,10 +470,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
     spec = spec_of(setup)
     name = scene_name or spec.name
     given = coerce(dict(params or {}), setup)
-    if not (isinstance(checkpoint_every, (int, float)) and checkpoint_every > 0):
-        raise ValueError(f"checkpoint_every = {checkpoint_every} must be > 0 s")
-    if frames is not None and (int(frames) != frames or frames < 1):
-        raise ValueError(f"frames = {frames} must be an integer >= 1")
+    checkpoint_every = CHECKPOINT_EVERY.check(checkpoint_every)
+    frames = None if frames is None else FRAMES.check(frames)
     saved, options = None, {"frames": frames, "vtk": vtk}
     if resume:
         saved, used, given = _resumed(out, spec, name, given, options, log)
