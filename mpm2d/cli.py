@@ -35,19 +35,13 @@ from rheology import get_material
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
-from runkit.limits import ge, gt, le
+from runkit.limits import ge, le
 from runkit.params import Number
 
-from .run import run_scene
+from .run import CHECKPOINT_EVERY, FRAMES, run_scene
 from .scenes import SCENES, get_setup, get_spec, is_scene_file
 from .scenes.spec import volume_fraction_key
 from .sweep import parse_grid, run_sweep
-
-
-#: the run options' limits, with their reasons
-FRAMES_MAX = le(100000, "a file per snapshot: 1e5 is past any animation or analysis")
-INTERVAL_MIN = gt(0.0, "a checkpoint interval is a positive wall time")
-INTERVAL_MAX = le(1e6, "12 days, longer than the longest run (1e8 steps, about a day on one core)")
 
 
 def _parse_set(items) -> dict:
@@ -90,8 +84,7 @@ def main(argv=None) -> int:
                      help="override a scene parameter (repeatable; see mpm2d show SCENE)")
     run.add_argument("--out", default=None, help="output folder (default: ./SCENE)")
     run.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.npz")
-    frames = Number("--frames", ge(1, "at least the final snapshot"), FRAMES_MAX, integer=True)
-    run.add_argument("--frames", type=frames, default=None,
+    run.add_argument("--frames", type=FRAMES, default=None,
                      help="number of snapshots (default: the scene's)")
     vtk = run.add_mutually_exclusive_group()
     vtk.add_argument("--no-vtk", action="store_true", help="skip the VTK snapshots")
@@ -106,7 +99,7 @@ def main(argv=None) -> int:
                      le(ncpu, "the cores of this machine"), integer=True)
     run.add_argument("--threads", type=threads, default=None,
                      help=f"numba threads (1..{ncpu}; a resume needs the same number)")
-    every = Number("--checkpoint-every", INTERVAL_MIN, INTERVAL_MAX, unit="s")
+    every = CHECKPOINT_EVERY
     run.add_argument("--checkpoint-every", type=every, default=60.0,
                      help="wall seconds between checkpoints (default 60)")
     add_mass_fraction_options(run, nargs="+")
@@ -199,7 +192,7 @@ def _mass_fraction(args, spec, params: dict) -> None:
     if key in params:
         raise ValueError(f"give --set {key}=... or --mass-fraction, not both")
     full = {**spec.defaults, **spec.coerce(params)}
-    m = get_material(spec.params[key].fraction_of(full))
+    m = get_material(spec.params[key].of(full))
     (phi,), note = mass_fraction_phi(args, m)
     params[key] = phi
     print(f"mpm2d run: {note}: {key} = {phi:.6g}")      # what ran: kept under --quiet too

@@ -4,7 +4,7 @@ Point-steps are the number of material points times the number of steps, the mea
 work (each step visits every point a fixed number of times). Before a scene's set-up (which can
 take minutes at a fine resolution: a bed's geostatic relaxation), the parameters bound them from
 below: the points of the scene's declared size and at least ``t_end / dt_max`` steps, with dt_max
-the largest stable step the parameters allow (:meth:`mpm2d.scenes.spec.SceneSpec.step_bound`).
+the largest stable step the parameters allow (:func:`mpm2d.scenes.spec.step_bound`).
 A run of more than :data:`CONFIRM_POINT_STEPS` point-steps is refused unless confirmed (``mpm2d
 run ... --yes``), with its estimate: the wall time then comes from a short timed probe of the
 same scene at a coarse resolution (a few steps, seconds per point-step), since the scene
@@ -23,6 +23,8 @@ import time
 import warnings
 
 import numpy as np
+
+from .scenes.spec import estimate_bytes, step_bound
 
 #: runs of more point-steps need confirmation (``--yes``): about an hour or more of two cores
 #: at the ~3e6 point-steps per second of the suspension scenes
@@ -113,10 +115,10 @@ def check_before_setup(setup, spec, params: dict, name: str, yes: bool, log) -> 
     """Refuse (ValueError, one line, exit 2) a run of more than :data:`CONFIRM_POINT_STEPS`
     point-steps at the lower bound the parameters give, unless ``yes``; with ``yes`` log the
     estimate. Scenes without a declared size or step bound are not checked here."""
-    bound = spec.step_bound(params)
-    if bound is None or spec.size is None:
+    bound = step_bound(spec, params)
+    if bound is None or spec.extent is None:
         return
-    points = float(spec.size(params)[0])
+    points = float(spec.extent(params)[0])
     dt, t_end, _ = bound
     steps = t_end / dt if dt > 0 else math.inf
     work = points * steps
@@ -126,7 +128,7 @@ def check_before_setup(setup, spec, params: dict, name: str, yes: bool, log) -> 
     wall = (f"at least {_clock(work * per)} ({per:.3g} s per point-step from a timed probe at "
             f"{probed}, {_load()})" if math.isfinite(per) else "not estimated")
     text = (f"{points:.3g} points x at least {steps:.3g} steps = at least {work:.3g} "
-            f"point-steps; memory ~{spec.estimate_bytes(params) / 1e9:.3g} GB (estimate); wall "
+            f"point-steps; memory ~{estimate_bytes(spec, params) / 1e9:.3g} GB (estimate); wall "
             f"time {wall}")
     if not yes:
         raise ValueError(f"scene {name}: a run of {text}: runs past {CONFIRM_POINT_STEPS:.0e} "
@@ -150,7 +152,7 @@ def report_after_setup(scene, spec, params: dict, name: str, yes: bool, log) -> 
     per, probed = timed_steps(probe)
     del probe
     text = (f"{points} points x ~{steps:.3g} steps (at the first stable step, {dt:.3g} s) = "
-            f"{work:.3g} point-steps; memory ~{spec.estimate_bytes(params) / 1e9:.3g} GB "
+            f"{work:.3g} point-steps; memory ~{estimate_bytes(spec, params) / 1e9:.3g} GB "
             f"(estimate); wall time {_about(per * steps)} ({per * 1e3:.3g} ms a step, the "
             f"median of a timed probe of {probed} steps, {_load()})")
     if work > CONFIRM_POINT_STEPS and not yes:

@@ -11,13 +11,14 @@ checkpoint every ``checkpoint_every`` wall seconds), recording a history row eve
 report (CSV tables and PNG figures).
 
 Refused before anything is written (ValueError, one line): a run needing more than MAX_STEPS
-steps at its first stable step (a bound the set-up alone tells, such as a small phi0) or fewer
-than the scene's ``min_steps``, or whose analysis divides by a history value that
-is zero at t = 0 (``Scene.divides_by``), said about the parameter the user set with its bound at
-the other values (:func:`blame`); a set-up that breaks down; a resume of another scene, with
-other parameters or output options. ``resume=True`` continues from ``DIR/checkpoint.npz`` (or
-its kept predecessor) bit-for-bit: every file equals an uninterrupted run's. A fresh run removes
-only the files a previous run of ours wrote (:func:`previous_run_files`). A run whose step fails
+steps or fewer than the scene's fewest, or whose analysis divides by a history value that is
+zero at t = 0, said before the set-up about the parameter the user set with its bound at the
+other values where the scene states its run from its parameters
+(:func:`mpm2d.scenes.spec.run_refusal`; the step count also after it, at its first stable
+step); a set-up that breaks down; a resume of another scene, with other parameters or output
+options. ``resume=True`` continues from ``DIR/checkpoint.npz`` (or its kept predecessor)
+bit-for-bit: every file equals an uninterrupted run's. A fresh run removes only the files a
+previous run of ours wrote (:func:`mpm2d.output.previous_run_files`). A run whose step fails
 ends there (:mod:`rheology.run_end`): history up to the last row, ``history.png``, manifest
 ``status: ended_early`` with ``ends``, :class:`~rheology.run_end.EndedEarly` (exit status 3); a
 report that fails marks it ``failed`` and raises RuntimeError.
@@ -29,8 +30,6 @@ import json
 import math
 import re
 import threading
-import time
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -41,13 +40,15 @@ import pandas as pd
 
 from runkit.io import (atomic_write_csv, check_output_dir, load_checkpoint, previous_checkpoint,
                        save_checkpoint)
-from runkit.limits import MAX_STEPS
-from runkit.params import shown as shown_value
-from runkit.run import TEMPORARY, HeldWarnings, Interrupts, Progress, drive
+from runkit.limits import MAX_STEPS, ge, gt, le
+from runkit.params import Number
+from runkit.run import HeldWarnings, Interrupts, Progress, drive
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
 from . import estimate, plots
-from .output import write_frame, write_manifest, write_pvds
+from .output import (command_line, previous_run_files, remove, temporaries, write_frame,
+                     write_manifest, write_pvds)
+from .scenes.spec import run_refusal, spec_of
 from .simulation import Simulation
 
 
@@ -84,9 +85,6 @@ class Scene:
         stress behind a front not yet formed; every other value must be finite.
     min_steps : int
         The fewest first stable steps the run (and its analysis) needs, at least one.
-    divides_by : tuple of str
-        History columns whose initial value the analysis divides by (the disks' energy loss):
-        zero or non-finite at t = 0 (speed = 1e-300), the run is refused.
     """
 
     sim: Simulation
@@ -103,7 +101,6 @@ class Scene:
     notes: str = ""
     undefined: tuple = ()
     min_steps: int = 1
-    divides_by: tuple = ()
 
 
 def history_row(sim: Simulation, scene: Scene) -> dict:
@@ -117,18 +114,9 @@ def history_row(sim: Simulation, scene: Scene) -> dict:
     return row
 
 
-def spec_of(setup: Callable):
-    """The declared parameters (:class:`mpm2d.scenes.spec.SceneSpec`) of a scene's ``setup``."""
-    spec = getattr(setup, "spec", None)
-    if spec is None:
-        raise TypeError(f"{getattr(setup, '__module__', setup)}.setup declares no parameters "
-                        "(decorate it with mpm2d.scenes.spec.parameters_of)")
-    return spec
-
-
 def coerce(params: dict, setup: Callable) -> dict:
     """The ``--set`` overrides (strings or Python values) checked by the scene's declaration
-    (:meth:`~mpm2d.scenes.spec.SceneSpec.coerce`), with their canonical types; ValueError."""
+    (:meth:`runkit.params.Schema.coerce`), with their canonical types; ValueError."""
     return spec_of(setup).coerce(dict(params))
 
 
@@ -151,229 +139,19 @@ def check_step_count(scene, name: str) -> None:
                          f"{steps:.3g} steps; valid: {need} to {MAX_STEPS:.0e} steps")
 
 
+#: the run options, with the reasons of their limits (``mpm2d run --frames``,
+#: ``--checkpoint-every``: the same check from the command line and from Python)
+FRAMES = Number("--frames", ge(1, "at least the final snapshot"),
+                le(100000, "a file per snapshot: 1e5 is past any animation or analysis"),
+                integer=True)
+CHECKPOINT_EVERY = Number("--checkpoint-every", gt(0.0, "a checkpoint interval is a positive "
+                                                        "wall time"),
+                          le(1e6, "12 days, longer than the longest run (1e8 steps, about a day "
+                                  "on one core)"), unit="s")
+
 #: a set-up taking longer than this [wall s] is announced ('setting up scene X...'); a fast one
 #: is not, so that a refusal after it is the only output
 SETUP_NOTICE_S = 2.0
-#: wall seconds the search for the parameter to blame may take (set-ups of bed scenes take
-#: seconds each: the bound found so far is reported, a conservative one)
-BLAME_BUDGET_S = 20.0
-
-
-def _round_toward(x: float, good_side_up: bool) -> float:
-    """``x`` to 3 significant digits, rounded away from the invalid side."""
-    if x == 0 or not math.isfinite(x):
-        return x
-    e = math.floor(math.log10(abs(x))) - 2
-    m = x / 10.0 ** e
-    return float(f"{(math.ceil(m) if good_side_up else math.floor(m)) * 10.0 ** e:.3g}")
-
-
-def _bisect(ok, bad: float, good: float, deadline: float) -> float:
-    """The valid end of [bad, good] nearest the transition (log-spaced when both are > 0)."""
-    log = bad > 0 and good > 0
-    for _ in range(60):
-        if time.perf_counter() > deadline:
-            break
-        mid = math.exp(0.5 * (math.log(bad) + math.log(good))) if log else 0.5 * (bad + good)
-        if mid in (bad, good) or (log and abs(math.log(good / bad)) < 0.02) or \
-                (not log and abs(good - bad) <= 1e-3 * max(abs(good), abs(bad))):
-            break
-        good, bad = (mid, bad) if ok(mid) else (good, mid)
-    return good
-
-
-def initial_values_ok(scene) -> tuple[bool, str]:
-    """Whether the history columns the scene's analysis divides by (``Scene.divides_by``) are
-    finite and non-zero at the start (record is called on the fresh scene's state)."""
-    if not scene.divides_by:
-        return True, ""
-    with warnings.catch_warnings(), np.errstate(all="ignore"):
-        warnings.simplefilter("ignore")
-        row = history_row(scene.sim, scene)
-    bad = [k for k in scene.divides_by if not (np.isfinite(row[k]) and row[k] != 0)]
-    return not bad, ", ".join(f"{k} = {row[k]:g} at t = 0" for k in bad)
-
-
-def acceptable(scene) -> bool:
-    """The checks of a fresh scene before its run: the step count and the initial values its
-    analysis divides by (the bounds a refusal states are the bounds of this)."""
-    _, steps, need = _first_step(scene)
-    return bool(need <= steps <= MAX_STEPS) and initial_values_ok(scene)[0]
-
-
-def refuse_unacceptable(setup, scene, params: dict, given: dict, name: str) -> None:
-    """Raise the one-line ValueError of a fresh scene that fails :func:`acceptable`, said about
-    the parameter the user set (:func:`blame`; a fixed ``dt``: its bound exactly, the step is
-    dt)."""
-    dt, steps, need = _first_step(scene)
-    deadline = time.perf_counter() + BLAME_BUDGET_S
-    if not need <= steps <= MAX_STEPS:
-        long = not steps < need
-        what = (f"a step of {dt:.3g} s to t_end = {scene.t_end:.3g} s is {steps:.3g} steps, "
-                f"more than {MAX_STEPS:.0e}" if long else
-                f"t_end = {scene.t_end:.3g} s is {steps:.3g} of its first stable steps "
-                f"({dt:.3g} s); the run needs at least {need}")
-        defaults = spec_of(setup).defaults
-        changed = [k for k, v in given.items() if v != defaults.get(k)]
-        if not changed:
-            raise ValueError(f"scene {name}: {what} with its defaults")
-        special = {}
-        if "dt" in changed and scene.sim.user_dt is not None:
-            bound = (scene.t_end - scene.sim.t) / (MAX_STEPS if long else need)
-            special["dt"] = (f"dt {'>=' if long else '<='} {_round_toward(bound, long):.3g} s at "
-                             "the other values, or dt = none (the stable step)")
-        raise blame(setup, params, given, name, acceptable,
-                    f"makes the run too {'long' if long else 'short'} ({what})", deadline, special)
-    fine, reason = initial_values_ok(scene)
-    if not fine:
-        raise blame(setup, params, given, name, acceptable, "leaves the scene's analysis "
-                    f"undefined ({reason}; it divides by it)", deadline)
-
-
-def blame(setup, params: dict, given: dict, name: str, ok: Callable, why: str,
-          deadline: float, special: dict | None = None) -> ValueError:
-    """The one-line ValueError for parameters whose scene fails ``ok(scene)``, said about the
-    given parameter(s) responsible: each changed one is put back to its default in turn (a new
-    set-up); those whose default passes are named with their valid bound at the others' values,
-    found by bisection between the value and the default (``special``: a ready bound text per
-    key); when no single one is responsible, all are named."""
-    spec = spec_of(setup)
-    special = special or {}
-    changed = [k for k, v in given.items() if v != spec.defaults.get(k)]
-
-    def ok_at(k, x):
-        probe = estimate.build_quietly(setup, {**params, k: x})
-        return probe is not None and ok(probe)
-
-    culprits = [k for k in changed if time.perf_counter() < deadline
-                and ok_at(k, spec.defaults[k])]
-    if not culprits:
-        shown = ", ".join(f"{k} = {shown_value(params[k])}" for k in changed) or "the defaults"
-        return ValueError(f"scene {name}: {shown} {why}; valid: move them toward their "
-                          f"defaults ('mpm2d show {name}' lists the ranges)")
-    parts = []
-    for k in culprits:
-        v, d, p = params[k], spec.defaults[k], spec.params[k]
-        head = f"{k} = {shown_value(v)} {why}"
-        if k in special:
-            parts.append(f"{head}; valid: {special[k]}")
-            continue
-        if not (p.kind == "number" and isinstance(v, (int, float)) and
-                isinstance(d, (int, float)) and not isinstance(d, bool)):
-            parts.append(f"{head}; valid: e.g. the default {k} = {d}")
-            continue
-        good = _bisect(lambda x: ok_at(k, x), float(v), float(d), deadline)
-        up = good > v
-        good = _round_toward(good, up)
-        if p.integer:
-            good = float(math.ceil(good) if up else math.floor(good))
-        if not ok_at(k, good):              # rounding crossed the transition
-            good = float(d)
-        unit = f" {p.unit}" if p.unit else ""
-        parts.append(f"{head}; valid: {k} {'>=' if up else '<='} {good:.3g}{unit} at the "
-                     "other values")
-    return ValueError(f"scene {name}: " + "; ".join(parts))
-
-
-_FRAME = re.compile(r"frame_\d{5}\.npz$")
-_VTU = re.compile(r"(.+)_\d{5}\.vtu")
-
-
-def _our_manifest(out: Path) -> dict | None:
-    """The manifest of a previous run of ours in ``out`` (scene, params, frames), else None."""
-    man = out / "manifest.json"
-    if not man.is_file():
-        return None
-    try:
-        m = json.loads(man.read_text())
-    except (ValueError, OSError, UnicodeDecodeError):
-        return None
-    if not (isinstance(m, dict) and isinstance(m.get("scene"), str)
-            and isinstance(m.get("params"), dict) and isinstance(m.get("frames"), list)):
-        return None
-    return m
-
-
-def _inside(out: Path, rel) -> Path | None:
-    """``out/rel`` when ``rel`` is a plain relative path inside ``out`` (top level, frames/ or
-    vtk/), else None (a manifest is never trusted to name a file elsewhere)."""
-    if not isinstance(rel, str) or not rel or "\\" in rel:
-        return None
-    parts = Path(rel).parts
-    if Path(rel).is_absolute() or ".." in parts or len(parts) > 2 or \
-            (len(parts) == 2 and parts[0] not in ("frames", "vtk")):
-        return None
-    return out / rel
-
-
-def _is_empty(out: Path) -> bool:
-    """No entry besides empty frames/ and vtk/ folders and temporaries of our atomic writes."""
-    for f in out.iterdir():
-        if f.is_dir() and f.name in ("frames", "vtk") and not any(f.iterdir()):
-            continue
-        if f.is_file() and TEMPORARY.match(f.name):
-            continue
-        return False
-    return True
-
-
-def previous_run_files(out: Path) -> list[Path]:
-    """The files a previous run of ours wrote into ``out``, which a fresh run removes: those its
-    manifest lists (snapshots, their VTK files and .pvd series, figures and result tables), its
-    checkpoints, history and manifest, and the snapshots written after its last manifest
-    (``frames/frame_NNNNN.npz``, ``vtk/SET_NNNNN.vtu`` of its sets). Nothing else is touched.
-
-    Raises
-    ------
-    ValueError
-        ``out`` is a non-empty folder without the manifest of a run of ours (a folder of the
-        user's: nothing in it is removed or overwritten), before anything is written.
-    """
-    if not out.is_dir() or _is_empty(out):
-        return []
-    m = _our_manifest(out)
-    if m is None:
-        raise ValueError(f"--out = {str(out)!r} is a non-empty folder that holds no mpm2d run "
-                         "(no manifest.json of ours): give a new or empty folder, nothing of "
-                         "yours is overwritten")
-    files, names = [], set()
-    for f in m["frames"]:
-        if not isinstance(f, dict):
-            continue
-        files.append(_inside(out, f.get("npz")))
-        for n, v in (f.get("vtu") or {}).items():
-            files.append(_inside(out, v))
-            names.add(str(n))
-    if (out / "frames").is_dir():
-        files += [f for f in (out / "frames").iterdir() if _FRAME.match(f.name)]
-    if (out / "vtk").is_dir():
-        files += [f for f in (out / "vtk").iterdir()
-                  if (v := _VTU.fullmatch(f.name)) is not None and v.group(1) in names]
-        files += [out / "vtk" / f"{n}.pvd" for n in names if "/" not in n]
-    files += [out / n for n in ("checkpoint.npz", "checkpoint.prev.npz", "history.csv",
-                                "manifest.json")]
-    files += [_inside(out, f) for f in m.get("figures", []) or []]
-    files += [_inside(out, f) for f in m.get("results", []) or []]
-    seen, keep = set(), []
-    for f in files:
-        if f is not None and f not in seen and f.is_file():
-            seen.add(f)
-            keep.append(f)
-    return keep
-
-
-def _temporaries(out: Path) -> list[Path]:
-    """The temporary files of atomic writes a killed run (SIGKILL, power loss) left."""
-    return [f for d in (out, out / "frames", out / "vtk") if d.is_dir() for f in d.iterdir()
-            if f.is_file() and TEMPORARY.match(f.name)]
-
-
-def _remove(out: Path, files: list[Path]) -> list[str]:
-    """Delete ``files`` and return their names relative to ``out``."""
-    gone = [f for f in files if f.is_file()]
-    for f in gone:
-        f.unlink()
-    return [str(f.relative_to(out)) for f in gone]
 
 
 def _history_arrays(rows: list[dict]) -> dict[str, np.ndarray]:
@@ -391,17 +169,6 @@ def _history_rows(saved: dict) -> list[dict]:
         return [dict(zip(cols, r)) for r in saved["run.history"]]
     arrays = [saved[f"run.history.{i}"] for i in range(len(cols))]
     return [{c: a[k].item() for c, a in zip(cols, arrays)} for k in range(len(arrays[0]))]
-
-
-def command_line(name: str, params: dict, defaults: dict, frames, vtk: bool,
-                 vtk_default: bool = True) -> str:
-    """The canonical command of a run (deterministic: no output folder, no --resume)."""
-    sets = " ".join(f"--set {k}={v}" for k, v in params.items()
-                    if k in defaults and v != defaults[k])
-    return " ".join(filter(None, [f"mpm2d run {name}", sets,
-                                  f"--frames {frames}" if frames is not None else "",
-                                  "" if vtk == vtk_default else
-                                  ("--vtk" if vtk else "--no-vtk")]))
 
 
 def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool = False,
@@ -570,9 +337,20 @@ class _Run:
     advances, and the checkpoint it saves): history rows, snapshots, the checkpoint with the
     history and the manifest."""
 
-    def __init__(self, out, scene, name, params, options, manifest, saved):
-        self.out, self.scene, self.sim, self.name = out, scene, scene.sim, name
-        self.params, self.options, self.manifest = params, options, manifest
+    def __init__(self, out, scene, name, params, defaults, options, saved):
+        sim = scene.sim
+        self.out, self.scene, self.sim, self.name = out, scene, sim, name
+        self.params, self.options = params, options
+        self.manifest = manifest = {
+            "scene": name, "command": command_line(name, params, defaults, options["frames"],
+                                                   options["vtk"], scene.vtk),
+            "params": params, "mode": sim.mode, "transfer": sim.transfer,
+            "description": sim.describe(),
+            "grid": {"nx": sim.grid.nx, "ny": sim.grid.ny, "h_m": sim.grid.h,
+                     "origin_m": list(sim.grid.origin), "axisymmetric": sim.grid.axisymmetric,
+                     "boundaries": sim.grid.boundaries},
+            "t_end_s": scene.t_end, "notes": scene.notes, "frames": [], "status": "running",
+            "ends": []}
         self.path = out / "checkpoint.npz"
         self.t_end, self.rows = scene.t_end, []
         nframes = scene.frames if options["frames"] is None else int(options["frames"])
@@ -692,50 +470,39 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
     spec = spec_of(setup)
     name = scene_name or spec.name
     given = coerce(dict(params or {}), setup)
-    if not (isinstance(checkpoint_every, (int, float)) and checkpoint_every > 0):
-        raise ValueError(f"checkpoint_every = {checkpoint_every} must be > 0 s")
-    if frames is not None and (int(frames) != frames or frames < 1):
-        raise ValueError(f"frames = {frames} must be an integer >= 1")
+    checkpoint_every = CHECKPOINT_EVERY.check(checkpoint_every)
+    frames = None if frames is None else FRAMES.check(frames)
     saved, options = None, {"frames": frames, "vtk": vtk}
     if resume:
         saved, used, given = _resumed(out, spec, name, given, options, log)
     params = {**spec.defaults, **given}           # checked once, by coerce
     if saved is None:                             # a long run needs --yes (mpm2d.estimate)
+        refusal = run_refusal(spec, params, given)
+        if refusal is not None:
+            raise refusal
         estimate.check_before_setup(setup, spec, params, name, yes, log)
     # a fresh run removes only what a previous run of ours wrote; a folder of the user's is
     # refused here, before the set-up and before anything is written
     previous = previous_run_files(out) if saved is None else []
     scene, held = _set_up(setup, params, given, name, str(ckpt_path) if saved else "", log)
     options["vtk"] = vtk = scene.vtk if options["vtk"] is None else bool(options["vtk"])
-    if saved is None:
-        refuse_unacceptable(setup, scene, params, given, name)
-        estimate.report_after_setup(scene, spec, params, name, yes, log)
     check_step_count(scene, name)
+    if saved is None:
+        estimate.report_after_setup(scene, spec, params, name, yes, log)
     held.replay()                            # a set-up that succeeded: its warnings as they were
     if saved is None and (ckpt_path.exists() or previous_checkpoint(ckpt_path).exists()):
         log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "
             "replaces it (--resume continues it instead)")
     with Interrupts() as stop:         # from here on, a signal stops between steps
         out.mkdir(parents=True, exist_ok=True)
-        for f in _remove(out, _temporaries(out)):
+        for f in remove(out, temporaries(out)):
             log(f"removed {f}, a temporary file of an interrupted write")
-        if saved is None and _remove(out, previous):
+        if saved is None and remove(out, previous):
             log(f"removed the earlier run's {len(previous)} files in {out} (snapshots, VTK, "
                 "checkpoints, history, manifest, figures); its result tables are replaced "
                 "when this run ends")
-        sim = scene.sim
-        manifest = {"scene": name,
-                    "command": command_line(name, params, spec.defaults, options["frames"], vtk,
-                                            scene.vtk),
-                    "params": params, "mode": sim.mode, "transfer": sim.transfer,
-                    "description": sim.describe(),
-                    "grid": {"nx": sim.grid.nx, "ny": sim.grid.ny, "h_m": sim.grid.h,
-                             "origin_m": list(sim.grid.origin),
-                             "axisymmetric": sim.grid.axisymmetric,
-                             "boundaries": sim.grid.boundaries},
-                    "t_end_s": scene.t_end, "notes": scene.notes, "frames": [],
-                    "status": "running", "ends": []}
-        run = _Run(out, scene, name, params, options, manifest, saved)
+        run = _Run(out, scene, name, params, spec.defaults, options, saved)
+        sim, manifest = scene.sim, run.manifest
         if saved is not None:
             log(f"resumed from {used} at t = {sim.t:.6g} s, step {sim.step_count}")
         log(sim.describe())
@@ -754,12 +521,11 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
                 try:
                     complete = drive(run, checkpoint=run, every=checkpoint_every, progress=bar,
                                      stop_after=stop_after_steps)
-                except KeyboardInterrupt:
+                except KeyboardInterrupt:        # drive saved the checkpoint and says so
                     log(f"interrupted ({stop.pending or 'KeyboardInterrupt'}) at t = "
                         f"{sim.t:.6g} s (step {sim.step_count}); checkpoint written to "
                         f"{ckpt_path}: continue with --resume")
-                    raise KeyboardInterrupt(f"checkpoint written to {ckpt_path}: rerun with "
-                                            "--resume to continue") from None
+                    raise
                 stepping = False
                 if complete:
                     figures = run.finish()

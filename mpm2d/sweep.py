@@ -39,7 +39,8 @@ from runkit.command import one_line
 from runkit.io import atomic_write_csv, check_output_dir
 
 from . import estimate
-from .run import coerce, run_scene, spec_of
+from .run import coerce, run_scene
+from .scenes.spec import spec_of
 from .scenes import get_setup
 
 #: parameter-name pattern of a case folder (stable across reruns)

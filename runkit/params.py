@@ -14,7 +14,14 @@ defaults and validates a set of values once:
    over the ordered floats (64 checks per side at most) and stated with the reason of the bound
    that closes it; when no single given value can be moved into range, the refusal names them
    all;
-3. the memory the run needs (``size``), against what the machine has (:mod:`runkit.limits`).
+3. the ``constraints`` between parameters that are no one parameter's bound (a run's step
+   count), explained the same way;
+4. the memory the run needs (``size``), against what the machine has (:mod:`runkit.limits`).
+
+A parameter may be ``optional`` with a ``fill`` (the value None stands for, from the others:
+its derived bounds are checked on it) and carry a ``role`` for its tier (a volume fraction
+``of`` a material). :meth:`Schema.valid_range` is the range of one parameter at the others'
+values, also under a further condition of the caller's.
 
 Every refusal is one ``ValueError`` line. :meth:`Schema.add_options` builds the ``argparse``
 options (``type=`` an :class:`Option`, which does step 1 while parsing); :func:`check_range` is
@@ -90,7 +97,10 @@ class Param:
     ``kind``: ``"number"``, ``"integer"``, ``"bool"``, ``"choice"`` (``choices``, a tuple or a
     function returning one; case-insensitive) or ``"text"`` (``convert(text)`` returns the
     value or raises ValueError); ``optional``: None (``none``) is valid too; ``also``: values
-    valid besides the range (a grain size 0: the viscous limit).
+    valid besides the range (a grain size 0: the viscous limit); ``fill(values)``: the value an
+    optional parameter left at None takes (its derived bounds are checked on it); ``role``,
+    ``of``: what the parameter is to its tier (``"volume_fraction"`` of the material named by
+    ``of(values)``).
     """
 
     lo: Bound | float | None = None
@@ -102,6 +112,9 @@ class Param:
     convert: Callable | None = None
     optional: bool = False
     also: tuple = ()
+    fill: Callable | None = None
+    role: str = ""
+    of: Callable | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "lo", _as_bound(self.lo))
@@ -114,6 +127,15 @@ class Param:
     @property
     def derived(self) -> bool:
         return any(b is not None and b.derived for b in (self.lo, self.hi))
+
+    def reasons(self, params) -> str:
+        """The reasons of the derived bounds at ``params`` ("" without, or where they cannot be
+        evaluated)."""
+        try:
+            whys = [b.at(params)[2] for b in (self.lo, self.hi) if b is not None and b.derived]
+        except (ValueError, ArithmeticError, TypeError, KeyError):
+            return ""
+        return "; ".join(dict.fromkeys(w for w in whys if w))
 
     def bounds(self, params=None, static=False):
         """(lo, lo_closed, lo_why, hi, hi_closed, hi_why); a derived bound is None when
@@ -132,7 +154,7 @@ class Param:
         elif self.kind == "choice":
             text = "one of " + ", ".join(map(str, self.options()))
         elif self.kind == "text":
-            text = self.doc or "text"
+            text = getattr(self.convert, "what", "") or self.doc or "text"
         else:
             lo, lc, _, hi, hc, _ = self.bounds(params, static)
             text = ("integer in " if typed and self.kind == "integer" else "") + interval_text(
@@ -357,12 +379,24 @@ class Schema:
         How a refusal names a parameter (``"--t-end"``, ``"--set eta0"``); default the name.
     where : str
         Said in a refusal that names several parameters (``"scene column"``).
+    constraints : sequence of callable(values) -> str or None
+        Conditions between parameters that are no one parameter's bound (a run's step count):
+        None where they hold, else the reason; checked after the bounds, and part of every valid
+        range (:meth:`valid_range`).
+    at_others : bool
+        A refusal by another's bound says ``at the other parameters' values (k = v must be
+        within WHY)`` (the scenes' wording) rather than ``(k: WHY)``.
+    hint : str
+        Appended to a refusal that names several parameters (``" ('mpm2d show column' lists
+        the ranges)"``).
     """
 
     def __init__(self, params: dict[str, Param], defaults: dict | None = None, *, size=None,
-                 label: Callable[[str], str] = str, where: str = ""):
+                 label: Callable[[str], str] = str, where: str = "", constraints=(),
+                 at_others: bool = False, hint: str = ""):
         self.params, self.defaults = dict(params), dict(defaults or {})
         self.size, self.label, self.where = size, label, where
+        self.constraints, self.at_others, self.hint = tuple(constraints), at_others, hint
 
     def check(self, given: dict) -> dict:
         """Every parameter (defaults completed by ``given``), each checked once; ValueError."""
@@ -375,63 +409,131 @@ class Schema:
         if missing:
             raise ValueError(f"{self.label(missing[0])} is required")
         full = {**self.defaults, **given}
-        for k, p in self.params.items():
-            full[k] = p.check(self.label(k), full[k], static=True)
         order = [*given, *(k for k in self.params if k not in given)]
         for k in order:
-            if self.params[k].derived and full[k] is not None:
+            try:
+                full[k] = self.params[k].check(self.label(k), full[k], static=True)
+            except ValueError as exc:
+                raise self._derived_range(k, exc, full) from None
+        for k in order:
+            if self.params[k].derived and self._value(k, full) is not None:
                 try:
                     with np.errstate(all="ignore"):
-                        self.params[k].check(self.label(k), full[k], full)
+                        self.params[k].check(self.label(k), self._value(k, full), full)
                 except (ValueError, ArithmeticError) as exc:
                     raise self._explain(k, exc, full, given) from None
+        for c in self.constraints:
+            why = self._unmet(c, full)
+            if why is not None:
+                raise self._explain(None, ValueError(why), full, given) from None
         if self.size is not None:
             keys = [k for k, p in self.params.items() if p.kind == "integer"] or order[:1]
             check_memory(", ".join(map(self.label, keys)),
                          ", ".join(str(full[k]) for k in keys), float(self.size(full)))
         return full
 
-    def _failing(self, values: dict) -> dict[str, str]:
-        """The derived bounds that fail at ``values``: name -> reason (an arithmetic failure:
-        "its bound cannot be evaluated there")."""
+    validate = check
+
+    def coerce(self, given: dict) -> dict:
+        """The ``given`` values checked (:meth:`check`, with the defaults of the others), with
+        their canonical types."""
+        full = self.check(given)
+        return {k: full[k] for k in given}
+
+    def _value(self, key, values):
+        """The value of ``key``; an optional one left at None: its ``fill``."""
+        v, p = values[key], self.params[key]
+        return p.fill(values) if v is None and p.fill is not None else v
+
+    @staticmethod
+    def _unmet(constraint, values) -> str | None:
+        try:
+            with np.errstate(all="ignore"):
+                return constraint(values)
+        except (ValueError, ArithmeticError, TypeError):
+            return "its bound cannot be evaluated there"
+
+    def _derived_range(self, key, exc, values) -> ValueError:
+        """A value refused alone (NaN, text, ...) whose bounds are derived: its valid range as
+        the other values make it (phi_j of the material), not the static (0, inf)."""
+        p = self.params[key]
+        if not p.derived:
+            return exc
+        try:
+            others = {k: v if k == key else self.params[k].check(k, v, static=True)
+                      for k, v in values.items()}
+            lo, lc, _, hi, hc, _ = p.bounds(others)
+            if lo is not None and hi is not None and (lo > hi or (lo == hi and not lc & hc)):
+                return exc
+            text = p.range_text(others)
+        except Exception:                    # a bound that cannot be evaluated: the first
+            return exc
+        why = p.reasons(others)
+        first = (f"{exc.name} = {exc.value_text}" if isinstance(exc, OutOfRange)
+                 else str(exc).split("; valid range")[0])
+        return ValueError(f"{first}; valid range {text}" + (f" ({why})" if why else ""))
+
+    def _failing(self, values: dict) -> dict:
+        """The derived bounds and constraints that fail at ``values``: name (a constraint:
+        itself) -> reason (an arithmetic failure: "its bound cannot be evaluated there")."""
         out = {}
         for k, p in self.params.items():
-            if p.derived and p.numeric and values[k] is not None:
+            if p.derived and p.numeric:
                 try:
+                    x = self._value(k, values)
                     with np.errstate(all="ignore"):
-                        why = p._outside(float(values[k]), values, False)
+                        why = None if x is None else p._outside(float(x), values, False)
                 except (ValueError, ArithmeticError, TypeError):
                     why = "its bound cannot be evaluated there"
                 if why is not None:
                     out[k] = why
+        for c in self.constraints:
+            why = self._unmet(c, values)
+            if why is not None:
+                out[c] = why
         return out
 
     def holds(self, values: dict) -> bool:
         """Whether every derived bound holds at ``values`` (an arithmetic failure: no)."""
         return not self._failing(values)
 
-    def valid_range(self, key: str, values: dict):
+    def valid_range(self, key: str, values: dict, also: Callable | None = None, starts=()):
         """(lo, lo_closed, hi, hi_closed) of ``key`` at the other values: its static range
-        intersected with every derived bound (its own and the others'), around the default (or
-        the given value's nearest static bound), or None when no valid start is found."""
+        intersected with every derived bound (its own and the others'), constraint and
+        ``also(values)`` (a further condition of the caller's), around the default (or
+        ``starts``, or the given value's nearest static bound), or None when no valid start is
+        found."""
         p = self.params[key]
         lo, _, _, hi, _, _ = p.bounds(static=True)
 
         def ok(x):                       # the bounds only: an integer's are found on the floats
-            return p._outside(x, None, True) is None and self.holds({**values, key: x})
+            at = {**values, key: x}
+            return (p._outside(x, None, True) is None and self.holds(at)
+                    and (also is None or also(at)))
 
-        return integer_range(ok, [self.defaults.get(key), values[key], lo, hi], lo, hi,
+        return integer_range(ok, [self.defaults.get(key), *starts, values[key], lo, hi], lo, hi,
                              p.kind == "integer")
 
-    def _why_at(self, key, values, x) -> str:
-        """The reasons of the derived bounds that fail at ``values`` with ``key`` = x."""
-        whys = [why if k == key or not why else f"{self.label(k)}: {why}"
-                for k, why in self._failing({**values, key: x}).items()]
-        return "; ".join(dict.fromkeys(w for w in whys if w))
+    def _why_at(self, key, values, x) -> tuple[str, bool]:
+        """The reasons of the derived bounds and constraints that fail at ``values`` with
+        ``key`` = x, and whether any is not ``key``'s own (``at_others``: the first, own first).
+        """
+        at = {**values, key: x}
+        own, other = [], []
+        for k, why in self._failing(at).items():
+            if k == key or not why or not isinstance(k, str):
+                (own if k == key else other).append(why)
+            elif self.at_others:
+                other.append(f"{self.label(k)} = {shown(self._value(k, at))} must be within {why}")
+            else:
+                other.append(f"{self.label(k)}: {why}")
+        whys = [w for w in dict.fromkeys(own + other) if w]
+        return "; ".join(whys[:1] if self.at_others else whys), bool(other)
 
     def _explain(self, key, exc, values, given) -> ValueError:
-        """A derived bound of ``key`` fails: said about a given parameter out of its valid range
-        at the other values (with the reason of the bound it passes), else about them all."""
+        """A derived bound of ``key`` (None: a constraint) fails: said about a given parameter
+        out of its valid range at the other values (with the reasons of the bounds it passes),
+        else about them all."""
         for g in given:
             p = self.params[g]
             if not p.numeric or values[g] is None:
@@ -445,11 +547,16 @@ class Schema:
                       and (hi is None or v < hi or (v == hi and hc)))
             if inside or (lo is not None and hi is not None and lo > hi):
                 continue
-            why = self._why_at(g, values, v)
-            return ValueError(f"{self.label(g)} = {shown(given[g])} is outside the valid range "
-                              f"{interval_text(lo, lc, hi, hc, p.unit)}"
-                              + (f" ({why})" if why else ""))
+            why, others = self._why_at(g, values, v)
+            at = " at the other parameters' values" if self.at_others and others else ""
+            return ValueError(f"{self.label(g)} = {shown(values[g] if self.at_others else given[g])}"
+                              f" is outside the valid range {interval_text(lo, lc, hi, hc, p.unit)}"
+                              + at + (f" ({why})" if why else ""))
         what = ", ".join(f"{self.label(g)} = {shown(v)}" for g, v in given.items())
+        change = ", ".join(map(self.label, given)) or "them"
+        if key is None:
+            return ValueError(f"{self.where}: with {what or 'the defaults'}, {exc}; change "
+                              f"{change}{self.hint}")
         try:
             lo, lc, why, hi, hc, _ = self.params[key].bounds(values)
             empty = lo is not None and hi is not None and (lo > hi or (lo == hi and not lc & hc))
@@ -458,7 +565,7 @@ class Schema:
         if empty:                            # never print an empty or inverted range
             return ValueError(f"with {what or 'the defaults'}, no value of {self.label(key)} "
                               f"is valid" + (f" ({why})" if why else "")
-                              + f"; change {', '.join(map(self.label, given)) or 'them'}")
+                              + f"; change {change}{self.hint}")
         if not given or key in given:
             return exc if isinstance(exc, ValueError) else ValueError(str(exc))
         return ValueError(f"{exc}; with {what}: change {', '.join(map(self.label, given))}")
@@ -485,8 +592,13 @@ class Schema:
 
     def describe(self) -> list[str]:
         """One line per parameter: ``name = default  (doc; valid: range)``."""
+        def why(p):
+            w = p.reasons(self.defaults)
+            return f" ({w})" if w else ""
+
         return [f"  {k} = {self.defaults.get(k)!r}  ({p.doc + '; ' if p.doc else ''}valid: "
-                f"{p.range_text(self.defaults, typed=True)})" for k, p in self.params.items()]
+                f"{p.range_text(self.defaults, typed=True)}{why(p)})"
+                for k, p in self.params.items()]
 
 
 def checked(size=None, label: Callable[[str], str] = str, **params: Param):

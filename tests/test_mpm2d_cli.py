@@ -32,12 +32,22 @@ def _call(argv):
     return rc, err.getvalue().strip().splitlines()
 
 
+class _P:
+    """A scene parameter as these tests read it: kind number (integer or not), material
+    (text), choice or bool; its bounds' closedness at the defaults."""
+
+    def __init__(self, p, defaults):
+        self.param, self.optional, self.options = p, p.optional, p.options
+        self.kind = {"integer": "number", "text": "material"}.get(p.kind, p.kind)
+        self.integer = p.kind == "integer"
+        b = p.bounds(defaults) if p.numeric else (None, True, "", None, True, "")
+        self.lo, self.lo_closed, _, self.hi, self.hi_closed, _ = b
+
+
 def _bounds(scene, key):
     spec = get_spec(scene)
-    p = spec.params[key]
-    lo = p.lo(spec.defaults) if callable(p.lo) else p.lo
-    hi = p.hi(spec.defaults) if callable(p.hi) else p.hi
-    return p, lo, hi
+    p = _P(spec.params[key], spec.defaults)
+    return p, p.lo, p.hi
 
 
 def _fmt(x) -> str:
@@ -272,22 +282,23 @@ def test_cross_parameter_refusal_names_the_parameter_set(argv, words, tmp_path):
 
 
 def test_valid_range_is_the_interval_of_the_checks():
-    """SceneSpec.valid_range: the bisection finds the bounds of a synthetic declaration exactly
-    (to the 6 digits printed), open or closed as declared; an empty derived range is never
-    printed and the message says which given parameter to change."""
-    from mpm2d.scenes.spec import Param, SceneSpec
+    """Schema.valid_range of a scene declaration: the bisection finds the bounds of a synthetic
+    declaration exactly (to the 6 digits printed), open or closed as declared; an empty derived
+    range is never printed and the message says which given parameter to change."""
+    from mpm2d.scenes.spec import Param, parameters_of
 
-    spec = SceneSpec("toy", {"x": Param(0.0, 1.0, lo_closed=False),
-                             "y": Param(lambda p: p["x"], lambda p: p["z"] - p["x"],
-                                        note="x to z - x"),
-                             "z": Param(0.0, 2.0),
-                             "mode": Param(choices=("a", "b")),
-                             "w": Param(lambda p: 0.0 if p["mode"] == "a" else 1.0,
-                                        lambda p: 1.0 if p["mode"] == "a" else 0.0)},
-                     {"x": 0.1, "y": 0.3, "z": 2.0, "mode": "a", "w": 0.5}, None)
+    @parameters_of(x=Param(0.0, 1.0, lo_closed=False),
+                   y=Param(lambda p: p["x"], lambda p: p["z"] - p["x"], note="x to z - x"),
+                   z=Param(0.0, 2.0), mode=Param(choices=("a", "b")),
+                   w=Param(lambda p: 0.0 if p["mode"] == "a" else 1.0,
+                           lambda p: 1.0 if p["mode"] == "a" else 0.0))
+    def toy(x=0.1, y=0.3, z=2.0, mode="a", w=0.5):
+        return None
+
+    spec = toy.spec
     full = {"x": 0.8, "y": 0.3, "z": 2.0, "mode": "a", "w": 0.5}
     rng = spec.valid_range("x", full)          # y >= x -> x <= 0.3; y <= z - x -> x <= 1.7
-    assert (rng.lo, rng.lo_closed, rng.hi, rng.hi_closed) == (0.0, False, 0.3, True)
+    assert rng == (0.0, False, 0.3, True)
     with pytest.raises(ValueError) as exc:
         spec.coerce({"x": 0.8})
     assert str(exc.value).startswith("x = 0.8 is outside the valid range (0, 0.3] at the other "
@@ -332,6 +343,7 @@ def test_step_count_is_refused_before_the_set_up(tmp_path):
     out of its valid range at the others with the reason, exit 2, nothing written."""
     from mpm2d.run import MAX_STEPS, run_scene
     from mpm2d.scenes import get_setup
+    from mpm2d.scenes.spec import step_bound
 
     real = get_setup("wheel")
 
@@ -351,7 +363,7 @@ def test_step_count_is_refused_before_the_set_up(tmp_path):
     assert text.startswith("t_end = 100000 is outside the valid range (0, ")
     assert "at the other parameters' values (a run takes at most 1e+08 steps" in text
     assert "cfl = 0.5, t_end = 100000 s, h = 0.0133333 m" in text
-    dt_max = real.spec.step_bound(real.spec.validate({"omega": 1e-4}))[0]
+    dt_max = step_bound(real.spec, real.spec.validate({"omega": 1e-4}))[0]
     hi = float(re.search(r"valid range \(0, (\S+)[\])] s", text).group(1))
     assert hi == pytest.approx(MAX_STEPS * dt_max, rel=1e-5)
     assert not out.exists()
@@ -367,10 +379,11 @@ def test_step_bound_is_above_the_stable_step():
     """The pre-set-up bound is an upper bound of the set-up's first stable step (so the early
     refusal never refuses a run the later check would accept): intruder at its defaults."""
     from mpm2d.scenes import get_setup, get_spec
+    from mpm2d.scenes.spec import step_bound
 
     spec = get_spec("intruder")
     params = spec.validate({})
-    dt_max, t_end, _ = spec.step_bound(params)
+    dt_max, t_end, _ = step_bound(spec, params)
     sim = get_setup("intruder")(**params).sim
     assert sim.stable_dt() <= dt_max and t_end == params["t_end"]
 

@@ -470,7 +470,7 @@ def test_the_rod_figure_of_a_run_too_short_for_a_late_speed(tmp_path):
 
 def test_values_leaving_the_analysis_undefined_are_refused_up_front(tmp_path, capsys):
     """disks speed=1e-300: the initial energy underflows to 0 and the energy loss (relative to
-    it) was NaN after the whole run. Refused before anything is written (Scene.divides_by),
+    it) was NaN after the whole run. Refused before anything is written (the initial energy its declaration states),
     naming speed with its bound; at the bound the initial energy is positive."""
     from mpm2d.scenes import disks
 
@@ -572,7 +572,7 @@ def test_bar_at_its_smallest_amplitude_is_as_accurate_as_the_default(tmp_path):
     amplitude errors are those of the default amplitude (linear elasticity: the errors do not
     depend on v0 while the motion is resolved)."""
     spec = bar.setup.spec
-    lo = spec.params["v0"].number("v0", spec.defaults).lo
+    lo = spec.params["v0"].bounds(spec.defaults)[0]
     small = bar.analyse(_run(bar.setup, tmp_path / "s", params=dict(v0=lo, cells=16),
                              vtk=False)["history"], {**spec.defaults, "v0": lo, "cells": 16})
     ref = bar.analyse(_run(bar.setup, tmp_path / "r", params=dict(cells=16), vtk=False)["history"],

@@ -19,8 +19,9 @@ import os
 import sys
 from pathlib import Path
 
-from ..run import spec_of
-from .spec import Param, SceneSpec, parameters_of
+from runkit.params import Schema
+
+from .spec import Param, parameters_of, spec_of
 
 #: scene name -> module (imported on demand)
 SCENES = {
@@ -92,8 +93,8 @@ def get_setup(name: str):
     return importlib.import_module(f"mpm2d.scenes.{key}").setup
 
 
-def get_spec(name: str) -> SceneSpec:
-    """The declared parameters of scene ``name`` (:func:`mpm2d.run.spec_of`)."""
+def get_spec(name: str) -> Schema:
+    """The declared parameters of scene ``name`` (:func:`mpm2d.scenes.spec.spec_of`)."""
     return spec_of(get_setup(name))
 
 
@@ -102,5 +103,5 @@ def parameters(name: str) -> dict:
     return dict(get_spec(name).defaults)
 
 
-__all__ = ["SCENES", "Param", "SceneSpec", "parameters_of", "get_setup", "get_spec",
+__all__ = ["SCENES", "Param", "parameters_of", "get_setup", "get_spec",
            "parameters", "is_scene_file"]

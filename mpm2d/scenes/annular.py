@@ -167,6 +167,21 @@ def _u_inner_max(p) -> float:
     return ELASTIC_STRAIN_LIMIT * float(np.sqrt(m.G / rho))
 
 
+def _t_end(p) -> float:
+    """The end time [s]: the bob's rotation at u_i after the ramp's half."""
+    return p["rotation"] * p["r_inner"] / p["u_inner"] + 0.5 * p["ramp_time"]
+
+
+def _first_step(p) -> float:
+    """The first step [s]: the wave limit of the locked mixture, K + 4G/3 + kappa/(1 - phi_j)
+    on the mixture's density."""
+    m = scene_material("annular_shear", p["material"])
+    kappa = m.kappa if p["kappa"] is None else p["kappa"]
+    rho = p["phi0"] * m.rho_s + (1.0 - p["phi0"]) * m.rho_f
+    return spec.wave_step(p["cfl"], (p["r_outer"] - p["r_inner"]) / p["cells"],
+                          m.K + 4.0 * m.G / 3.0 + kappa / (1.0 - m.phi_j), rho)
+
+
 @spec.parameters_of(
     material=spec.scene_material_param("annular_shear"),
     phi0=spec.phi_below_jamming(doc="initial solid volume fraction"),
@@ -192,7 +207,8 @@ def _u_inner_max(p) -> float:
                           doc="FLIP fraction of the APIC swirl transfer (APIC-FLIP blend)"),
     rules=spec.rules(),
     cfl=spec.cfl(),
-    size=lambda p: (p["cells"] * p["rows"] * p["ppc"] ** 2, (p["cells"] + 5) * (p["rows"] + 5)))
+    size=lambda p: (p["cells"] * p["rows"] * p["ppc"] ** 2, (p["cells"] + 5) * (p["rows"] + 5)),
+    steps=lambda p: (_first_step(p), _t_end(p), 1))
 def setup(material="annular_shear", phi0=0.505, u_inner=0.084, r_inner=R_INNER,
           r_outer=R_OUTER, cells=24, rows=50, ppc=2, rotation=0.31, ramp_time=0.0, p0=1e-3,
           kappa=None, transfer="apic", flip_alpha=0.99, swirl_flip=0.99, rules="table8",
@@ -210,7 +226,7 @@ def setup(material="annular_shear", phi0=0.505, u_inner=0.084, r_inner=R_INNER,
                       stress=-p0 * np.eye(3), f=0.0, axisymmetric=True)
     sim = Simulation(grid, [pts], transfer=transfer, flip_alpha=flip_alpha, cfl=cfl, swirl=True,
                      swirl_flip=swirl_flip, swirl_ramp=ramp_time, name="annular")
-    t_end = rotation * r_inner / u_inner + 0.5 * ramp_time
+    t_end = _t_end(params)
     fjam = float(f_jam(phi0, m))
 
     def bob_speed(t):

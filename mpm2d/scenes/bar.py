@@ -21,6 +21,8 @@ Run: ``mpm2d run bar --set cells=64 --out bar``
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pandas as pd
 
@@ -41,6 +43,17 @@ from ..simulation import Simulation
 MIN_SAMPLES = 3
 
 
+def _steps(p) -> tuple:
+    """(first step [s], end time [s], fewest steps) from the parameters: the wave limit with
+    c = sqrt(E/rho) (nu = 0), or the fixed dt below it (one above it is the set-up's refusal,
+    the stability limit); ``periods`` periods 2 pi/omega of mode 1."""
+    c = math.sqrt(p["E"] / p["rho"])
+    dt = spec.wave_step(p["cfl"], p["length"] / p["cells"], p["E"], p["rho"])
+    dt = dt if p["dt"] is None else min(dt, p["dt"])
+    return dt, p["periods"] * 2 * np.pi / analytic.bar_mode1(0.0, p["v0"], p["length"], c)[1], \
+        MIN_SAMPLES
+
+
 @spec.parameters_of(
     length=spec.positive(1e3, "m", "bar length L"),
     cells=spec.count(2, 100000, "cells along L"),
@@ -57,7 +70,8 @@ MIN_SAMPLES = 3
     transfer=spec.transfer(), flip_alpha=spec.flip_alpha(), cfl=spec.cfl(),
     dt=spec.Param(0.0, 1.0, lo_closed=False, optional=True, unit="s",
                   doc="fixed step (none: adaptive)"),
-    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 8) * 7))
+    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 8) * 7),
+    steps=lambda p: _steps(p))
 def setup(length=1.0, cells=32, ppc=2, E=1.0e6, rho=1000.0, v0=1.0e-3, periods=2.0,
           transfer="apic", flip_alpha=0.99, cfl=0.5, dt=None):
     params = dict(locals())                   # every parameter, as checked

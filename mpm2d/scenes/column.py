@@ -50,6 +50,14 @@ from ..run import Scene
 from ..simulation import Drag, Simulation
 
 
+def _first_step(p) -> float:
+    """The first step [s]: the wave limit of the grains (K + 4G/3 on phi0 rho_s) or the pore
+    fluid (kappa on (1 - phi0) rho_f), whichever is smaller."""
+    m, h, phi = get_material(p["material"]), p["height"] / p["cells"], p["phi0"]
+    return min(spec.wave_step(p["cfl"], h, p["K"] + 4.0 * p["G"] / 3.0, phi * m.rho_s),
+               spec.wave_step(p["cfl"], h, p["kappa"], (1.0 - phi) * m.rho_f))
+
+
 @spec.parameters_of(
     height=spec.Param(lambda p: p["cells"] * p["d"], 10.0, unit="m",
                       doc="height of the suspension",
@@ -73,7 +81,8 @@ from ..simulation import Drag, Simulation
     rules=spec.rules(),
     cfl=spec.cfl(),
     size=lambda p: (2 * p["width_cells"] * p["cells"] * p["ppc"] ** 2,
-                    (p["width_cells"] + 5) * (p["cells"] + 9)))
+                    (p["width_cells"] + 5) * (p["cells"] + 9)),
+    steps=lambda p: (_first_step(p), p["t_end"], 1))
 def setup(height=0.02, width_cells=4, cells=20, ppc=2, phi0=0.3, material="rod_impact", d=5e-4,
           eta0=1e-3, K=1e5, G=1e5, kappa=1e5, t_end=1.5, gravity=9.81, rules="table8", cfl=0.5):
     params = dict(locals())                   # every parameter, as checked
