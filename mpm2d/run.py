@@ -11,8 +11,7 @@ checkpoint every ``checkpoint_every`` wall seconds), recording a history row eve
 report (CSV tables and PNG figures).
 
 Refused before anything is written (ValueError, one line): a run needing more than MAX_STEPS
-steps or fewer than the scene's fewest, or whose analysis divides by a history value that is
-zero at t = 0, said before the set-up about the parameter the user set with its bound at the
+steps or fewer than the scene's fewest, said before the set-up about the parameter the user set with its bound at the
 other values where the scene states its run from its parameters
 (:func:`mpm2d.scenes.spec.run_refusal`; the step count also after it, at its first stable
 step); a set-up that breaks down; a resume of another scene, with other parameters or output

@@ -468,10 +468,11 @@ class Schema:
             text = p.range_text(others)
         except Exception:                    # a bound that cannot be evaluated: the first
             return exc
+        if isinstance(exc, OutOfRange):      # a static bound failed: its reason, the range
+            return OutOfRange(exc.name, exc.value_text, text, exc.why or p.reasons(others))
         why = p.reasons(others)
-        first = (f"{exc.name} = {exc.value_text}" if isinstance(exc, OutOfRange)
-                 else str(exc).split("; valid range")[0])
-        return ValueError(f"{first}; valid range {text}" + (f" ({why})" if why else ""))
+        return ValueError(f"{str(exc).split('; valid range')[0]}; valid range {text}"
+                          + (f" ({why})" if why else ""))
 
     def _failing(self, values: dict) -> dict:
         """The derived bounds and constraints that fail at ``values``: name (a constraint:

@@ -469,19 +469,21 @@ def test_the_rod_figure_of_a_run_too_short_for_a_late_speed(tmp_path):
 
 
 def test_values_leaving_the_analysis_undefined_are_refused_up_front(tmp_path, capsys):
-    """disks speed=1e-300: the initial energy underflows to 0 and the energy loss (relative to
-    it) was NaN after the whole run. Refused before anything is written (the initial energy its declaration states),
-    naming speed with its bound; at the bound the initial energy is positive."""
+    """disks speed=1e-300: the initial energy underflowed to 0 and the energy loss (relative to
+    it) was NaN after the whole run. Refused before anything is written by the speed's physical
+    range (runkit.limits.SPEED_MIN, with its reason); at that bound the initial energy is
+    positive at the scene's finest resolution and lightest density."""
     from mpm2d.scenes import disks
+    from runkit.limits import SPEED_MIN, DENSITY_MIN
 
     out = tmp_path / "d"
     rc, so, err = _cli(["run", "disks", "--set", "speed=1e-300", "--out", str(out)], capsys)
     assert rc == 2 and so == [] and len(err) == 1, err
-    assert "speed = 1e-300 leaves the scene's analysis undefined (total_J = 0" in err[0]
-    lo = float(re.search(r"valid: speed >= (\S+) m/s", err[0]).group(1))
-    sc = disks.setup(speed=lo)
+    assert "speed = 1e-300" in err[0] and SPEED_MIN.why in err[0]
+    lo = float(re.search(r"valid range \[(\S+), ", err[0]).group(1))
+    assert lo == SPEED_MIN.value
+    sc = disks.setup.raw(speed=lo, cells=8, rho=DENSITY_MIN.value, E=DENSITY_MIN.value)
     assert sc.sim.energies()["total_J"] > 0
-    assert disks.setup(speed=lo / 1.2).sim.energies()["total_J"] == 0
     assert not out.exists()
 
 

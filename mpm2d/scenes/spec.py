@@ -168,8 +168,7 @@ def _round_toward(x: float, up: bool) -> float:
 
 def _run_why(schema, params: dict) -> str | None:
     """Why the run the parameters give cannot be analysed (None: it can): its step count from
-    the scene's ``steps`` (first step, end time, fewest steps) outside [fewest, MAX_STEPS], or
-    a history value its analysis divides by (``initial``) zero or not finite at t = 0."""
+    the scene's ``steps`` (first step, end time, fewest steps) outside [fewest, MAX_STEPS]."""
     try:
         with np.errstate(all="ignore"):
             if schema.steps is not None:
@@ -181,18 +180,13 @@ def _run_why(schema, params: dict) -> str | None:
                 if not n >= need:
                     return (f"makes the run too short (t_end = {t_end:.3g} s is {n:.3g} of its "
                             f"first stable steps ({dt:.3g} s); the run needs at least {need})")
-            bad = {k: v for k, v in (schema.initial(params) if schema.initial else {}).items()
-                   if not (np.isfinite(v) and v != 0)}
     except (ValueError, ArithmeticError, TypeError):
         return "makes the run undefined (its step cannot be evaluated)"
-    if bad:
-        return ("leaves the scene's analysis undefined (" + ", ".join(
-            f"{k} = {v:g} at t = 0" for k, v in bad.items()) + "; it divides by it)")
     return None
 
 
 def run_refusal(schema, params: dict, given: dict) -> ValueError | None:
-    """The refusal of a run whose step count or analysed initial values (:func:`_run_why`) its
+    """The refusal of a run whose step count (:func:`_run_why`) its
     parameters put out of range, before the set-up, said about each given parameter out of its
     valid range at the other values (:meth:`runkit.params.Schema.valid_range` with the run's
     condition: the bound the scene's formulas give, rounded toward the valid side); None when
@@ -232,7 +226,7 @@ def run_refusal(schema, params: dict, given: dict) -> ValueError | None:
 
 
 def parameters_of(size: Callable | None = None, /, *, steps: Callable | None = None,
-                  initial: Callable | None = None, **params: SchemaParam):
+                  **params: SchemaParam):
     """Decorator declaring the valid range of every parameter of a scene's ``setup``.
 
     ``size(params) -> (points, grid nodes)`` estimates the run's size for the memory check
@@ -242,10 +236,9 @@ def parameters_of(size: Callable | None = None, /, *, steps: Callable | None = N
     ``extent``, the size function); ``setup.raw`` is the function itself, for a caller whose
     values are checked already (``mpm2d run``).
 
-    ``steps(params) -> (first stable step [s], end time [s], fewest steps)`` and
-    ``initial(params) -> {history column: value at t = 0}`` (the columns the scene's analysis
-    divides by) state, where the scene can, its run from its parameters alone: a run outside
-    them is refused before the set-up (:func:`run_refusal`).
+    ``steps(params) -> (first stable step [s], end time [s], fewest steps)`` states, where the
+    scene can, its run from its parameters alone: a run outside it is refused before the set-up
+    (:func:`run_refusal`).
 
     Raises
     ------
@@ -273,7 +266,7 @@ def parameters_of(size: Callable | None = None, /, *, steps: Callable | None = N
                         where=f"scene {name}", at_others=True,
                         hint=f" ('mpm2d show {name}' lists the ranges)",
                         constraints=[lambda p: steps_unmet(schema, p)])
-        schema.name, schema.extent, schema.steps, schema.initial = name, size, steps, initial
+        schema.name, schema.extent, schema.steps = name, size, steps
 
         @functools.wraps(setup)
         def checked(**kwargs):
