@@ -188,14 +188,9 @@ def drive(mode: int, amplitude: float, omega: float, t0: float = 0.0) -> np.ndar
 
 
 # ------------------------------------------------------------------ one point
-def _periodic(changes, tol: float) -> bool:
-    """Periodic steady state: the last cycle-to-cycle change and its geometric projection
-    ``d r/(1 - r)`` (r the ratio of the last two changes) are both below ``tol``."""
-    return not _not_periodic_why(changes, tol)
-
-
 def _not_periodic_why(changes, tol: float) -> str:
-    """Which test of :func:`_periodic` fails, with the change d and its projection ("": none)."""
+    """Which test of the periodic steady state fails ("": none): the last cycle-to-cycle change
+    d and its geometric projection ``d r/(1 - r)`` (r the ratio of the last two) below ``tol``."""
     if len(changes) < 2:
         return f"fewer than two cycle-to-cycle changes ({len(changes)})"
     d, d0 = changes[-1], changes[-2]
@@ -225,13 +220,6 @@ def _extrapolate(starts, r_min: float = 0.3, r_max: float = 0.99, cos_min: float
     if cos < cos_min or not (r_min < r < r_max):
         return None
     return x[2] + d1 * (r / (1.0 - r))
-
-
-@dataclass
-class _Start:
-    taubar: float
-    gap: float
-    strain: float
 
 
 def _newton_step(x, fx, jac_cols, lo, hi):
@@ -357,28 +345,26 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
     if state is None:      # rest (f = 0) carrying the linear periodic stress (no Maxwell transient)
         GM = Glin - 1j * omega * lin.eta_F
         c_drive = -1j * amp                          # sin(omega t) = Re[-i e^(i omega t)]
-        if mode == STRAIN:
-            st = _Start(float((GM * c_drive).real), float(m.phi_j - phi), 0.0)
-        else:
-            st = _Start(float((GM / Glin * c_drive).real), float(m.phi_j - phi),
-                        float((c_drive / Glin).real))
+        y0 = np.array([(GM * c_drive).real, m.phi_j - phi, 0.0] if mode == STRAIN else
+                      [(GM / Glin * c_drive).real, m.phi_j - phi, (c_drive / Glin).real])
     else:
-        st = _Start(*map(float, state))
-    y0 = np.array([st.taubar, st.gap, st.strain])
-    yp0 = np.empty(3)
-    model.ode_rhs(0.0, y0, yp0, P, O)
+        y0 = np.array(state, dtype=float)
 
-    def resfn(t, y, yp, res):
-        model.ode_residual(t, y, yp, res, P, O)
+    def rates(t, y):
+        yp = np.empty(3)
+        model.ode_rhs(t, y, yp, P, O)
+        return yp
 
-    def jacfn(t, y, yp, res, cj, JJ):
-        model.ode_residual_jacobian(t, y, yp, cj, JJ, P, O)
+    def ida(tol):                        # the ODE on IDA at relative tolerance tol
+        return Solver(lambda t, y, yp, res: model.ode_residual(t, y, yp, res, P, O), rtol=tol,
+                      atol=atol * (tol / rtol), max_step=period / 16, max_num_steps=100_000,
+                      jacfn=lambda t, y, yp, res, cj, JJ: model.ode_residual_jacobian(
+                          t, y, yp, cj, JJ, P, O))
 
-    solver = Solver(resfn, rtol=rtol, atol=atol, jacfn=jacfn, max_step=period / 16,
-                    max_num_steps=100_000)
-    solver.start(0.0, y0, yp0)
+    solver = ida(rtol)
+    solver.start(0.0, y0, rates(0.0, y0))
     f_m = float(laws.f_max(phi, m.phi_c, m.phi_j, m.Delta))
-    f_hi = max(f_m, float(model.structure_of_gap(st.gap, P)))
+    f_hi = max(f_m, float(model.structure_of_gap(y0[1], P)))
     phase = 2.0 * np.pi * np.arange(samples) / samples
     prev = None
     changes: list[float] = []
@@ -396,21 +382,16 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
 
     def restart(y_new):
         """Continue from ``y_new`` at the cycle's end; the periodicity test starts afresh."""
-        yp_new = np.empty(3)
-        model.ode_rhs(times[-1], y_new, yp_new, P, O)
-        solver.start(times[-1], y_new, yp_new)
+        solver.start(times[-1], y_new, rates(times[-1], y_new))
         Y[-1] = y_new
         return None, [], [y_new[:2] / weights]
 
     def cycle_map(t_start, x):
         """State (taubar, gap) one period after (t_start, x): a separate IDA solve."""
         y = np.array([x[0], x[1], 0.0])
-        yp = np.empty(3)
-        model.ode_rhs(t_start, y, yp, P, O)
-        s2 = Solver(resfn, rtol=rtol_fd, atol=atol * (rtol_fd / rtol), jacfn=jacfn,
-                    max_step=period / 16, max_num_steps=100_000)
         try:
-            sol, _ = s2.solve(np.array([t_start, t_start + period]), y, yp)
+            sol, _ = ida(rtol_fd).solve(np.array([t_start, t_start + period]), y,
+                                        rates(t_start, y))
         except IDAFailed:
             return np.full(2, np.nan)
         return np.asarray(sol.y)[-1, :2]
@@ -458,7 +439,7 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
         if prev is not None and scale > 0:
             changes.append(max(float(np.max(np.abs(c - prev[0]))) / scale, abs(f_mean - prev[1])))
         prev = (c, f_mean)
-        converged = _periodic(changes, tol)
+        converged = not _not_periodic_why(changes, tol)
         if converged and not fixed_cycles and cycle >= min_cycles:
             break
         if backup is not None and len(changes) >= 2 and cycle < max_cycles - 2:
