@@ -493,13 +493,12 @@ def prepare(problem: Couette, t_end: float | None = None, *, method: str = "ida"
                 bool(resume))
 
 
-def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", n_out: int = 200,
-          t_out=None, rtol: float = 1e-4, dt: float | None = None, check_stability: bool = True,
-          checkpoint=None, checkpoint_every: float = 60.0, resume: bool = False,
-          progress: bool = False, label: str = "", stop_hook=None, log=None,
-          elastic_limit: bool = False) -> Result:
-    """Integrate a Couette problem from rest (see the module docstring): :func:`prepare` then
-    :func:`integrate`.
+def solve(problem: Couette, t_end: float | None = None, *, progress: bool = False,
+          label: str = "", stop_hook=None, log=None, elastic_limit: bool = False,
+          **settings) -> Result:
+    """Integrate a Couette problem from rest (see the module docstring): :func:`prepare` (the
+    ``settings``: method, n_out, t_out, rtol, dt, check_stability, checkpoint,
+    checkpoint_every, resume) then :func:`integrate`.
 
     ``t_end`` [s] with ``n_out`` output intervals, or ``t_out`` (output times [s] increasing
     from 0). ``rtol`` (:data:`RTOL`): IDA's relative tolerance (absolute: rtol times the
@@ -525,11 +524,8 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     KeyboardInterrupt
         Interrupted; the message says where the checkpoint is (or that nothing was saved).
     """
-    plan = prepare(problem, t_end, method=method, n_out=n_out, t_out=t_out, rtol=rtol, dt=dt,
-                   check_stability=check_stability, checkpoint=checkpoint,
-                   checkpoint_every=checkpoint_every, resume=resume)
-    return integrate(plan, progress=progress, label=label, stop_hook=stop_hook, log=log,
-                     elastic_limit=elastic_limit)
+    return integrate(prepare(problem, t_end, **settings), progress=progress, label=label,
+                     stop_hook=stop_hook, log=log, elastic_limit=elastic_limit)
 
 
 def integrate(plan: Plan, *, progress: bool = False, label: str = "", stop_hook=None, log=None,
