@@ -73,7 +73,7 @@ from runkit.limits import ge, le
 from runkit.params import Param, check_positive
 
 from . import limits, model
-from .harmonics import elastic_viscous, harmonics
+from .harmonics import cycle_harmonics, elastic_viscous, harmonics  # noqa: F401
 from .limits import check_peak_rate
 from .transient import check_phi, skeleton
 
@@ -424,14 +424,7 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
         gdot = np.array([model.shear_rate(t, tb, P, O)[0]
                          for t, tb in zip(times[:samples], taubar)])
         sigma = taubar + P[model.ETA_FLUID] * gdot
-        if mode == STRAIN:
-            strain = amp * np.sin(phase)
-            response = sigma
-        else:
-            drift = Y[samples, 2] - Y[0, 2]
-            strain = Y[:samples, 2]
-            response = strain - drift * np.arange(samples) / samples
-        c = harmonics(response)
+        c_sigma, c_gamma, c = cycle_harmonics(control, amp, sigma, Y[:, 2])
         mean = np.mean(sigma) if mode == STRAIN else Y[samples, 2] - Y[0, 2]
         scale = abs(c[0])
         c = np.concatenate([c, [mean]])
@@ -477,8 +470,6 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
                 prev, changes, starts = restart(
                     np.array([new[0] * weights[0], new[1] * weights[1], Y[-1, 2]]))
                 jumps += 1
-    # the drive's harmonic is -i amp (sin = Re[-i e^(i omega t)]), the response's c[0]
-    c_gamma, c_sigma = (-1j * amp, c[0]) if mode == STRAIN else (c[0], -1j * amp)
     i3 = abs(c[1]) / abs(c[0])
     Gs = c_sigma / c_gamma
     f_cycle = np.clip(f[:samples], 0.0, 1.0)
@@ -502,8 +493,9 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
     else:
         el = vi = np.full(samples, np.nan)
     wave = pd.DataFrame({
-        "phase_rad": phase, "time_s": times[:samples], "strain": strain if mode == STRAIN else
-        Y[:samples, 2], "shear_rate_per_s": gdot, "shear_stress_Pa": sigma,
+        "phase_rad": phase, "time_s": times[:samples],
+        "strain": amp * np.sin(phase) if mode == STRAIN else Y[:samples, 2],
+        "shear_rate_per_s": gdot, "shear_stress_Pa": sigma,
         "granular_shear_stress_Pa": taubar, "f": f_cycle, "elastic_stress_Pa": el,
         "viscous_stress_Pa": vi})
     end = (float(Y[-1, 0]), float(Y[-1, 1]), float(Y[-1, 2]))

@@ -37,7 +37,7 @@ from runkit.limits import gt, le, lt
 from runkit.params import Param, check_nonnegative, check_positive, check_range
 
 from . import limits, model
-from .harmonics import harmonics
+from .harmonics import cycle_harmonics
 from .model import GAP, GD, GP, NEVENTS, NVAR, STRAIN, TAU
 
 #: Defaults for materials without G or K0 (see module docstring).
@@ -606,12 +606,6 @@ class Rheometer:
             res_k, jac_k, ev_k = model.residual, model.jacobian, model.events
             atol = scale
 
-        def resfn(t, yy, yyp, res):
-            res_k(t, yy, yyp, res, P, C)
-
-        def jacfn(t, yy, yyp, res, cj, JJ):
-            jac_k(t, yy, yyp, cj, JJ, P, C)
-
         # with elastic_limit a third root, |taubar| - 0.1 G: the run ends on the limit itself
         limit = elastic_strain_limit_stress(self.G) if self.elastic_limit else None
 
@@ -630,9 +624,10 @@ class Rheometer:
                           + [1] * (n - 1))
         if max_step is not None:
             events["max_step"] = float(max_step)
-        solver = Solver(resfn, rtol=self.rtol, atol=self.atol * atol,
-                        algebraic_idx=None if ode else [GP, GD],
-                        jacfn=jacfn if self.jacobian else None, max_num_steps=200_000, **events)
+        solver = Solver(lambda t, yy, yyp, res: res_k(t, yy, yyp, res, P, C), rtol=self.rtol,
+                        atol=self.atol * atol, algebraic_idx=None if ode else [GP, GD],
+                        jacfn=(lambda t, yy, yyp, res, cj, JJ: jac_k(t, yy, yyp, cj, JJ, P, C))
+                        if self.jacobian else None, max_num_steps=200_000, **events)
         try:
             sol, _ = solver.solve(grid, y, yp)
         except IDAFailed as exc:         # the rows up to the failure are kept (_check_solution)
@@ -766,23 +761,14 @@ class Rheometer:
             if idx is None:
                 return None
             stress = d["shear_stress_Pa"].to_numpy()[idx]
-            strain = d["strain"].to_numpy()[idx]
-            if step.control == "strain":
-                cs = harmonics(stress[:n])
-                cg = np.array([-1j * step.start, 0.0])
-                resp = cs
-            else:
-                drift = strain[n] - strain[0]
-                cg = harmonics(strain[:n] - drift * np.arange(n) / n)
-                cs = np.array([-1j * step.start, 0.0])
-                resp = cg
-            return cs, cg, resp, float(np.mean(stress[:n]))
+            return (*cycle_harmonics(step.control, step.start, stress[:n],
+                                     d["strain"].to_numpy()[idx]), float(np.mean(stress[:n])))
 
         last = c1(full)
         if last is None:
             return out
         cs, cg, resp, mean = last
-        Gs = complex(cs[0] / cg[0])
+        Gs = complex(cs / cg)
         change = np.nan
         if full >= 2:
             prev = c1(full - 1)
@@ -791,7 +777,7 @@ class Rheometer:
         out.update(storage_modulus_Pa=Gs.real, loss_modulus_Pa=Gs.imag,
                    complex_viscosity_Pa_s=abs(Gs) / step.omega,
                    I3_over_I1=float(abs(resp[1]) / abs(resp[0])),
-                   strain_amplitude=float(abs(cg[0])), stress_amplitude_Pa=float(abs(cs[0])),
+                   strain_amplitude=float(abs(cg)), stress_amplitude_Pa=float(abs(cs)),
                    mean_stress_Pa=mean, cycle_change=change)
         return out
 
