@@ -245,11 +245,10 @@ def check_state(problem: Couette, t: float, y: np.ndarray, diag: np.ndarray,
 def elastic_strains(problem: Couette, t: float, y: np.ndarray) -> tuple[float, float]:
     """The largest elastic strains (taubar/G, p/K) over the cells of a state (Eq. 11 invariants
     of the cell stresses; p/K of a compression, 0 in tension)."""
-    sig = problem.unpack(y, t)["sigma"]
-    rr, thth, zz, rth = (sig[:, STRESS_COMPONENTS.index(c)] for c in STRESS_COMPONENTS)
+    sig = problem.unpack(y, t)["sigma"]            # (n, 4): rr, thth, zz, rth
     full = np.zeros((sig.shape[0], 3, 3))
-    full[:, 0, 0], full[:, 1, 1], full[:, 2, 2] = rr, thth, zz
-    full[:, 0, 1] = full[:, 1, 0] = rth
+    full[:, [0, 1, 2], [0, 1, 2]] = sig[:, :3]
+    full[:, 0, 1] = full[:, 1, 0] = sig[:, 3]
     taubar, p = invariants(full)
     m = problem.material
     return float(np.max(taubar)) / m.G, max(float(np.max(p)), 0.0) / m.K
@@ -577,8 +576,7 @@ def _ida(problem: Couette, outs: _Outputs, ck, rtol: float, dae=None):
             return y0, yp0
 
         atol, opts, name = _tolerances(problem, rtol), {}, "IDA"
-        outs.stats = lambda c: dict(nfev=int(c[0]), njev=int(c[1]), rtol=rtol, bandwidth=bw,
-                                    rate_step_end=problem.rate_step_at(rtol, outs.t_last))
+        more = lambda: dict(rate_step_end=problem.rate_step_at(rtol, outs.t_last))
     else:
         if ck is not None and ck["y"].shape != (dae.size,):
             raise ValueError("--resume: the checkpoint's DAE state does not match this grid")
@@ -586,8 +584,8 @@ def _ida(problem: Couette, outs: _Outputs, ck, rtol: float, dae=None):
             dae_mod.BANDWIDTH
         atol, opts, name = dae.tolerances(rtol), dict(algebraic_idx=dae.algebraic()), \
             "IDA (method dae)"
-        outs.stats = lambda c: dict(nfev=int(c[0]), njev=int(c[1]), rtol=rtol, bandwidth=bw,
-                                    k4=dae.k4, width=dae.width)
+        more = lambda: dict(k4=dae.k4, width=dae.width)
+    outs.stats = lambda c: dict(nfev=int(c[0]), njev=int(c[1]), rtol=rtol, bandwidth=bw, **more())
 
     def describe(t, y):
         st = problem.unpack(y if dae is None else dae.convert(t, y)[0], t)
