@@ -749,16 +749,10 @@ class Rheometer:
         j = np.rint(u)
         on = np.abs(u - j) < 1e-6
 
-        def cycle(c):
-            sel = on & (j >= (c - 1) * n) & (j <= c * n)
-            idx = np.flatnonzero(sel)
-            _, first = np.unique(j[idx], return_index=True)
-            idx = idx[first]
-            return idx if idx.size == n + 1 else None
-
-        def c1(c):
-            idx = cycle(c)
-            if idx is None:
+        def c1(c):                       # the harmonics of cycle c's n + 1 samples, or None
+            idx = np.flatnonzero(on & (j >= (c - 1) * n) & (j <= c * n))
+            idx = idx[np.unique(j[idx], return_index=True)[1]]
+            if idx.size != n + 1:
                 return None
             stress = d["shear_stress_Pa"].to_numpy()[idx]
             return (*cycle_harmonics(step.control, step.start, stress[:n],
