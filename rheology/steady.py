@@ -47,11 +47,7 @@ def granular_viscosity(phi, f, m: Material | str) -> np.ndarray:
     (mu_c unless mu_2 != mu_c).
     """
     m = get_material(m)
-    phi = below_jamming(phi, m)
-    f = check_range("f", f, 0.0, 1.0)
-    phim = laws.phi_m(f, m.phi_c, m.phi_j)
-    a = laws.dilatancy_a(f, m.a0, m.a_inf)
-    y = phim - phi
+    phi, y, a = _gap(phi, f, m)
     mu = laws.critical_friction(phi, np.maximum(y, 0.0), a, m.mu_c, m.mu2, m.b)
     with np.errstate(divide="ignore"):
         ys = np.where(y > 0, y, 1.0)
@@ -60,31 +56,31 @@ def granular_viscosity(phi, f, m: Material | str) -> np.ndarray:
 
 def relative_viscosity(phi, f, m: Material | str) -> np.ndarray:
     """Eq. (1): eta_r = tau/(eta0 gdot) = 1 + 5/2 phi phi_m/(phi_m - phi) + 2 mu_c (a phi/(phi_m - phi))^2."""
-    m = get_material(m)
     eta_g = granular_viscosity(phi, f, m)                 # validates phi and f
     return 1.0 + 2.5 * np.asarray(phi, dtype=float) + eta_g
 
 
 def normal_viscosity(phi, f, m: Material | str) -> np.ndarray:
     """Eq. (2): eta_n = p/(eta0 gdot) = 2 (a phi/(phi_m - phi))^2 [-]; ``inf`` when jammed."""
-    m = get_material(m)
-    phi = below_jamming(phi, m)
-    f = check_range("f", f, 0.0, 1.0)
-    y = laws.phi_m(f, m.phi_c, m.phi_j) - phi
-    a = laws.dilatancy_a(f, m.a0, m.a_inf)
+    phi, y, a = _gap(phi, f, get_material(m))
     with np.errstate(divide="ignore"):
         return np.where(y > 0, 2 * (a * phi / np.where(y > 0, y, 1.0)) ** 2, np.inf)
 
 
+def _gap(phi, f, m: Material) -> tuple:
+    """(phi, y = phi_m(f) - phi, a(f)) with phi in (0, phi_j) and f in [0, 1] checked."""
+    phi = below_jamming(phi, m)
+    f = check_range("f", f, 0.0, 1.0)
+    return phi, laws.phi_m(f, m.phi_c, m.phi_j) - phi, laws.dilatancy_a(f, m.a0, m.a_inf)
+
+
 def viscosity_low_limit(phi, m: Material | str) -> np.ndarray:
     """Eq. (24): eta_r as f -> 0 (phi_m = phi_j, a = a0), the low-stress Newtonian plateau [-]."""
-    m = get_material(m)
     return relative_viscosity(phi, 0.0, m)
 
 
 def viscosity_high_limit(phi, m: Material | str) -> np.ndarray:
     """Eq. (25): eta_r as f -> 1 (phi_m = phi_c, a = a_inf) [-]; ``inf`` for phi >= phi_c."""
-    m = get_material(m)
     return relative_viscosity(phi, 1.0, m)
 
 

@@ -100,13 +100,10 @@ class ProgramCheckpoint:
             self.ends = [RunEnd(**e) for e in json.loads(str(data["ends"]))]
         nxt = int(data["next_step"])
         if nxt > 0:
-            s = data["state"]
-            counts = data["counts"]
             self.progress = Progress(data["t"], data["y"], data["step"].astype(int),
-                                     State(float(s[0]), float(s[1]), float(s[2]), float(s[3]),
-                                           float(s[4])), nxt,
+                                     State(*map(float, data["state"])), nxt,
                                      [tuple(e) for e in json.loads(str(data["events"]))],
-                                     int(counts[0]), int(counts[1]), int(counts[2]))
+                                     *map(int, data["counts"]))
         return used[0]
 
     # ------------------------------------------------------------------ writing
@@ -121,8 +118,7 @@ class ProgramCheckpoint:
             done_columns=np.array(list(done.columns) if done is not None else [], dtype=str),
             t=pr.t if pr else empty, y=pr.y if pr else np.zeros((0, 5)),
             step=pr.step if pr else np.zeros(0, int),
-            state=(np.array([pr.state.t, pr.state.taubar, pr.state.gap, pr.state.strain,
-                             pr.state.f]) if pr else empty),
+            state=np.array(dataclasses.astuple(pr.state)) if pr else empty,
             next_step=np.array(pr.next_step if pr else 0),
             events=np.array(json.dumps([list(e) for e in pr.events] if pr else [])),
             counts=np.array([pr.solves, pr.nfev, pr.njev] if pr else [0, 0, 0]),

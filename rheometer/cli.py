@@ -346,18 +346,16 @@ def _transient(args, kind: str) -> str:
     sample = sample_material(args)
     m = sample.material
     opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True)
-    if kind == "startup":
-        df = _per_phi(sample, lambda ph: startup(m, ph, args.rate, args.t_end, name="--rate",
-                                                 **opts))
-        what = f"start-up at {args.rate:g} 1/s"
-    elif kind == "creep":
-        df = _per_phi(sample, lambda ph: creep(m, ph, args.stress, args.t_end, name="--stress",
-                                               **opts))
-        what = f"creep at mixture stress {args.stress:g} Pa"
-    else:
+    flag = "--rate" if kind == "startup" else "--stress"
+    value = getattr(args, flag[2:])
+    if kind == "relax":
         _check_relax_stress(args, m)
-        df = _per_phi(sample, lambda ph: relax(m, ph, args.stress, args.t_end, **opts))
-        what = f"relaxation from steady granular stress {args.stress:g} Pa"
+    else:
+        opts["name"] = flag
+    run = {"startup": startup, "creep": creep, "relax": relax}[kind]
+    df = _per_phi(sample, lambda ph: run(m, ph, value, args.t_end, **opts))
+    what = {"startup": f"start-up at {value:g} 1/s", "creep": f"creep at mixture stress "
+            f"{value:g} Pa", "relax": f"relaxation from steady granular stress {value:g} Pa"}[kind]
     title = f"{m.name}: {what} (G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})"
     frames = {f"phi = {ph:g}": d for ph, d in df.groupby("phi", sort=False)}
     return _write(args, sample, df, lambda: plots.transient_figure(frames, title, log_time=True),

@@ -23,3 +23,17 @@ def elastic_viscous(stress) -> tuple[np.ndarray, np.ndarray]:
     s = np.asarray(stress, dtype=float)
     mirror = s[(-np.arange(s.size)) % s.size]
     return 0.5 * (s - mirror), 0.5 * (s + mirror)
+
+
+def cycle_harmonics(control: str, amplitude: float, stress, strain) -> tuple:
+    """(c_sigma,1, c_gamma,1, (c_1, c_3) of the response) of one cycle of an oscillation of
+    ``amplitude`` (strain gamma0 [-] or mixture stress sigma0 [Pa] as ``amplitude sin``, harmonic
+    ``-i amplitude``), ``stress`` [Pa] its N samples at uniform phase from 0 and ``strain`` its
+    N + 1 (the cycle's end too). The response is the stress under strain control, else the
+    strain with its linear drift over the cycle removed; ``G* = c_sigma,1/c_gamma,1``."""
+    if control == "strain":
+        c = harmonics(stress)
+        return c[0], -1j * amplitude, c
+    n = len(stress)
+    c = harmonics(np.asarray(strain[:n]) - (strain[n] - strain[0]) * np.arange(n) / n)
+    return -1j * amplitude, c[0], c

@@ -375,11 +375,13 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     nsteps = int(round(t_end / dt))
     every = max(1, nsteps // int(check_range("points", points, 1, 10 ** 7)))
     n_min, x_max, x_el = substeps(rate, t_end, dt, control, phi)
+    def march(sig, phi, f, steps, every, rec, stats):
+        return _run(sig, phi, f, rate, dt, steps, every, 0 if volume else 1, pressure or 0.0,
+                    m.K, m.G, P, rec, n_min, x_el, MAX_SUBSTEPS, stats)
+
     rec = np.empty((nsteps // every + 2, _REC + NOUT))
     stats = np.zeros(3, dtype=np.int64)
-    code, n, rows = _run(sig0, phi, f_init, rate, dt, nsteps, every,
-                         0 if control == "volume" else 1, pressure or 0.0, m.K, m.G, P, rec,
-                         n_min, x_el, MAX_SUBSTEPS, stats)
+    code, n, rows = march(sig0, phi, f_init, nsteps, every, rec, stats)
     end = None
     if code != OK:
         what = {UPDATE_FAILED: "the local update's bracketed solve failed",
@@ -434,9 +436,7 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
             sig[0, 1] = sig[1, 0] = r["shear_stress_Pa"]
             n_fine = int(round((df["time_s"].iloc[keep] - r["time_s"]) / dt))
             rec = np.empty((n_fine + 2, _REC + NOUT))
-            _, _, rows = _run(sig, r["phi"], r["f"], rate, dt, n_fine, 1,
-                              0 if control == "volume" else 1, pressure or 0.0, m.K, m.G, P,
-                              rec, n_min, x_el, MAX_SUBSTEPS, np.zeros(3, dtype=np.int64))
+            _, _, rows = march(sig, r["phi"], r["f"], n_fine, 1, rec, np.zeros(3, dtype=np.int64))
             rec[:rows, 0] += r["time_s"]
             fine = pd.concat([df.iloc[:keep], _frame(rec[:rows], rate)], ignore_index=True)
             cut = first_past(fine)

@@ -249,22 +249,13 @@ def jacobian(t, y, yp, cj, JJ, P, C):
     _, gt, gy = _signed_plastic_rate_d(y[TAU], y[GAP], P)
     _, ry, rt, rg = _signed_gap_rate_d(y[GAP], y[TAU], y[GP], P)
     JJ[:, :] = 0.0
-    JJ[TAU, TAU] = cj
-    JJ[TAU, GP] = P[_G]
-    JJ[TAU, GD] = -P[_G]
-    JJ[GAP, TAU] = -rt
-    JJ[GAP, GAP] = cj - ry
-    JJ[GAP, GP] = -rg
-    JJ[GP, TAU] = -gt
-    JJ[GP, GAP] = -gy
-    JJ[GP, GP] = 1.0
-    if C[0] == RATE:
-        JJ[GD, GD] = 1.0
-    else:
+    JJ[TAU, TAU], JJ[TAU, GP], JJ[TAU, GD] = cj, P[_G], -P[_G]
+    JJ[GAP, TAU], JJ[GAP, GAP], JJ[GAP, GP] = -rt, cj - ry, -rg
+    JJ[GP, TAU], JJ[GP, GAP], JJ[GP, GP] = -gt, -gy, 1.0
+    JJ[GD, GD] = 1.0
+    if C[0] != RATE:                     # mixture-stress control: gdot follows taubar
         JJ[GD, TAU] = 1.0 / P[_ETAF]
-        JJ[GD, GD] = 1.0
-    JJ[STRAIN, GD] = -1.0
-    JJ[STRAIN, STRAIN] = cj
+    JJ[STRAIN, GD], JJ[STRAIN, STRAIN] = -1.0, cj
 
 
 @_jit
@@ -292,10 +283,8 @@ def ode_jacobian(t, y, J, P, C):
     gp, gpt, gpy = _signed_plastic_rate_d(y[0], y[1], P)
     _, ry, rt, rg = _signed_gap_rate_d(y[1], y[0], gp, P)
     J[:, :] = 0.0
-    J[0, 0] = P[_G] * (gt_ - gpt)
-    J[0, 1] = -P[_G] * gpy
-    J[1, 0] = rt + rg * gpt
-    J[1, 1] = ry + rg * gpy
+    J[0, 0], J[0, 1] = P[_G] * (gt_ - gpt), -P[_G] * gpy
+    J[1, 0], J[1, 1] = rt + rg * gpt, ry + rg * gpy
     J[2, 0] = gt_
 
 

@@ -73,7 +73,7 @@ from runkit.limits import ge, le
 from runkit.params import Param, check_positive
 
 from . import limits, model
-from .harmonics import elastic_viscous, harmonics
+from .harmonics import cycle_harmonics, elastic_viscous, harmonics  # noqa: F401
 from .limits import check_peak_rate
 from .transient import check_phi, skeleton
 
@@ -188,14 +188,9 @@ def drive(mode: int, amplitude: float, omega: float, t0: float = 0.0) -> np.ndar
 
 
 # ------------------------------------------------------------------ one point
-def _periodic(changes, tol: float) -> bool:
-    """Periodic steady state: the last cycle-to-cycle change and its geometric projection
-    ``d r/(1 - r)`` (r the ratio of the last two changes) are both below ``tol``."""
-    return not _not_periodic_why(changes, tol)
-
-
 def _not_periodic_why(changes, tol: float) -> str:
-    """Which test of :func:`_periodic` fails, with the change d and its projection ("": none)."""
+    """Which test of the periodic steady state fails ("": none): the last cycle-to-cycle change
+    d and its geometric projection ``d r/(1 - r)`` (r the ratio of the last two) below ``tol``."""
     if len(changes) < 2:
         return f"fewer than two cycle-to-cycle changes ({len(changes)})"
     d, d0 = changes[-1], changes[-2]
@@ -227,13 +222,6 @@ def _extrapolate(starts, r_min: float = 0.3, r_max: float = 0.99, cos_min: float
     return x[2] + d1 * (r / (1.0 - r))
 
 
-@dataclass
-class _Start:
-    taubar: float
-    gap: float
-    strain: float
-
-
 def _newton_step(x, fx, jac_cols, lo, hi):
     """One Newton step on the cycle map x -> Phi(x) (periodic state: Phi(x) = x).
 
@@ -259,47 +247,31 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
     material : str or Material
     phi : float
         Volume fraction, 0 < phi < phi_j.
-    frequency : float
-        Frequency [Hz] (omega = 2 pi frequency).
-    amplitude : float
-        Strain amplitude gamma0 [-] (``control="strain"``) or mixture-stress amplitude sigma0 [Pa]
-        (``control="stress"``), > 0.
+    frequency, amplitude : float
+        Frequency [Hz] (omega = 2 pi frequency); strain amplitude gamma0 [-] (``control=
+        "strain"``) or mixture-stress amplitude sigma0 [Pa] (``control="stress"``), > 0.
     control : {"strain", "stress"}
     G, K0 : float, optional
         Granular shear modulus [Pa] and structure-rate scale [-] (material's, else 1e4 Pa, 1).
-    max_cycles, min_cycles : int
-        Cycle limits (1 <= min_cycles <= max_cycles <= 10^5).
-    tol : float
-        Periodic-steady-state tolerance on the cycle-to-cycle change (module docstring).
-    samples : int
-        Samples per cycle (16 .. 8192; the harmonics are exact for signals band-limited below
-        samples/2).
-    rtol : float
-        IDA relative tolerance (1e-12 .. 1e-3).
+    max_cycles, min_cycles, tol : int, int, float
+        Cycle limits (1 <= min_cycles <= max_cycles <= 10^5) and the tolerance on the
+        cycle-to-cycle change (module docstring).
+    samples, rtol : int, float
+        Samples per cycle (16 .. 8192; the harmonics are exact below samples/2) and IDA's
+        relative tolerance (1e-12 .. 1e-3).
     state : (taubar [Pa], gap [-], strain [-]) or None
         Initial state (default: rest, f = 0).
-    fixed_cycles : bool
-        Run exactly ``max_cycles`` cycles (a program step "for N cycles"); still reports the
-        last change.
-    extrapolate : bool
-        Accelerate a slow approach to the periodic state by Newton steps on the cycle map
-        (module docstring); the reported cycle is always an integrated one, compared with the
-        integrated cycle before it.
+    fixed_cycles, extrapolate : bool
+        Run exactly ``max_cycles`` cycles (a program step "for N cycles"; still reports the
+        last change); accelerate a slow approach by Newton steps on the cycle map (module
+        docstring: the reported cycle is always an integrated one).
     label : callable
         What a refusal calls a parameter, ``label(name)`` (the command line: its option).
 
-    Returns
-    -------
-    (dict, DataFrame, tuple)
-        The point (keys of :data:`POINT_COLUMNS`), the last cycle's waveform (N rows) and the
-        final state (taubar, gap, strain) for a continuing sweep.
-
-    Raises
-    ------
-    ValueError
-        Bad input (naming the parameter and its range).
-    RuntimeError
-        IDA failed or returned an unphysical state (with time, state and solver counters).
+    Returns (point: dict of :data:`POINT_COLUMNS`, the last cycle's waveform: DataFrame of N
+    rows, the final state (taubar, gap, strain) for a continuing sweep). Raises ValueError for
+    bad input (naming the parameter and its range), RuntimeError where IDA failed or returned an
+    unphysical state (with time, state and solver counters).
     """
     m, phi, G, K0, run = _checked(material, phi, [frequency], [amplitude], control, label,
                                   dict(G=G, K0=K0, max_cycles=max_cycles, min_cycles=min_cycles,
@@ -357,28 +329,26 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
     if state is None:      # rest (f = 0) carrying the linear periodic stress (no Maxwell transient)
         GM = Glin - 1j * omega * lin.eta_F
         c_drive = -1j * amp                          # sin(omega t) = Re[-i e^(i omega t)]
-        if mode == STRAIN:
-            st = _Start(float((GM * c_drive).real), float(m.phi_j - phi), 0.0)
-        else:
-            st = _Start(float((GM / Glin * c_drive).real), float(m.phi_j - phi),
-                        float((c_drive / Glin).real))
+        y0 = np.array([(GM * c_drive).real, m.phi_j - phi, 0.0] if mode == STRAIN else
+                      [(GM / Glin * c_drive).real, m.phi_j - phi, (c_drive / Glin).real])
     else:
-        st = _Start(*map(float, state))
-    y0 = np.array([st.taubar, st.gap, st.strain])
-    yp0 = np.empty(3)
-    model.ode_rhs(0.0, y0, yp0, P, O)
+        y0 = np.array(state, dtype=float)
 
-    def resfn(t, y, yp, res):
-        model.ode_residual(t, y, yp, res, P, O)
+    def rates(t, y):
+        yp = np.empty(3)
+        model.ode_rhs(t, y, yp, P, O)
+        return yp
 
-    def jacfn(t, y, yp, res, cj, JJ):
-        model.ode_residual_jacobian(t, y, yp, cj, JJ, P, O)
+    def ida(tol):                        # the ODE on IDA at relative tolerance tol
+        return Solver(lambda t, y, yp, res: model.ode_residual(t, y, yp, res, P, O), rtol=tol,
+                      atol=atol * (tol / rtol), max_step=period / 16, max_num_steps=100_000,
+                      jacfn=lambda t, y, yp, res, cj, JJ: model.ode_residual_jacobian(
+                          t, y, yp, cj, JJ, P, O))
 
-    solver = Solver(resfn, rtol=rtol, atol=atol, jacfn=jacfn, max_step=period / 16,
-                    max_num_steps=100_000)
-    solver.start(0.0, y0, yp0)
+    solver = ida(rtol)
+    solver.start(0.0, y0, rates(0.0, y0))
     f_m = float(laws.f_max(phi, m.phi_c, m.phi_j, m.Delta))
-    f_hi = max(f_m, float(model.structure_of_gap(st.gap, P)))
+    f_hi = max(f_m, float(model.structure_of_gap(y0[1], P)))
     phase = 2.0 * np.pi * np.arange(samples) / samples
     prev = None
     changes: list[float] = []
@@ -396,21 +366,16 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
 
     def restart(y_new):
         """Continue from ``y_new`` at the cycle's end; the periodicity test starts afresh."""
-        yp_new = np.empty(3)
-        model.ode_rhs(times[-1], y_new, yp_new, P, O)
-        solver.start(times[-1], y_new, yp_new)
+        solver.start(times[-1], y_new, rates(times[-1], y_new))
         Y[-1] = y_new
         return None, [], [y_new[:2] / weights]
 
     def cycle_map(t_start, x):
         """State (taubar, gap) one period after (t_start, x): a separate IDA solve."""
         y = np.array([x[0], x[1], 0.0])
-        yp = np.empty(3)
-        model.ode_rhs(t_start, y, yp, P, O)
-        s2 = Solver(resfn, rtol=rtol_fd, atol=atol * (rtol_fd / rtol), jacfn=jacfn,
-                    max_step=period / 16, max_num_steps=100_000)
         try:
-            sol, _ = s2.solve(np.array([t_start, t_start + period]), y, yp)
+            sol, _ = ida(rtol_fd).solve(np.array([t_start, t_start + period]), y,
+                                        rates(t_start, y))
         except IDAFailed:
             return np.full(2, np.nan)
         return np.asarray(sol.y)[-1, :2]
@@ -443,14 +408,7 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
         gdot = np.array([model.shear_rate(t, tb, P, O)[0]
                          for t, tb in zip(times[:samples], taubar)])
         sigma = taubar + P[model.ETA_FLUID] * gdot
-        if mode == STRAIN:
-            strain = amp * np.sin(phase)
-            response = sigma
-        else:
-            drift = Y[samples, 2] - Y[0, 2]
-            strain = Y[:samples, 2]
-            response = strain - drift * np.arange(samples) / samples
-        c = harmonics(response)
+        c_sigma, c_gamma, c = cycle_harmonics(control, amp, sigma, Y[:, 2])
         mean = np.mean(sigma) if mode == STRAIN else Y[samples, 2] - Y[0, 2]
         scale = abs(c[0])
         c = np.concatenate([c, [mean]])
@@ -458,7 +416,7 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
         if prev is not None and scale > 0:
             changes.append(max(float(np.max(np.abs(c - prev[0]))) / scale, abs(f_mean - prev[1])))
         prev = (c, f_mean)
-        converged = _periodic(changes, tol)
+        converged = not _not_periodic_why(changes, tol)
         if converged and not fixed_cycles and cycle >= min_cycles:
             break
         if backup is not None and len(changes) >= 2 and cycle < max_cycles - 2:
@@ -496,8 +454,6 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
                 prev, changes, starts = restart(
                     np.array([new[0] * weights[0], new[1] * weights[1], Y[-1, 2]]))
                 jumps += 1
-    # the drive's harmonic is -i amp (sin = Re[-i e^(i omega t)]), the response's c[0]
-    c_gamma, c_sigma = (-1j * amp, c[0]) if mode == STRAIN else (c[0], -1j * amp)
     i3 = abs(c[1]) / abs(c[0])
     Gs = c_sigma / c_gamma
     f_cycle = np.clip(f[:samples], 0.0, 1.0)
@@ -521,8 +477,9 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
     else:
         el = vi = np.full(samples, np.nan)
     wave = pd.DataFrame({
-        "phase_rad": phase, "time_s": times[:samples], "strain": strain if mode == STRAIN else
-        Y[:samples, 2], "shear_rate_per_s": gdot, "shear_stress_Pa": sigma,
+        "phase_rad": phase, "time_s": times[:samples],
+        "strain": amp * np.sin(phase) if mode == STRAIN else Y[:samples, 2],
+        "shear_rate_per_s": gdot, "shear_stress_Pa": sigma,
         "granular_shear_stress_Pa": taubar, "f": f_cycle, "elastic_stress_Pa": el,
         "viscous_stress_Pa": vi})
     end = (float(Y[-1, 0]), float(Y[-1, 1]), float(Y[-1, 2]))
@@ -594,14 +551,9 @@ def oscillation_sweep(material, phi, *, frequency=1.0, amplitude=0.01, control: 
                     state = None
                     continue
                 state = end if start == "previous" else None
-                n = len(rows)
+                waves.append(wave.assign(point=len(rows), phi=ph, frequency_Hz=fr, **{
+                    k: point[k] for k in ("strain_amplitude", "stress_amplitude_Pa")}))
                 rows.append(point)
-                wave.insert(0, "point", n)
-                wave.insert(1, "phi", ph)
-                wave.insert(2, "frequency_Hz", fr)
-                wave.insert(3, "strain_amplitude", point["strain_amplitude"])
-                wave.insert(4, "stress_amplitude_Pa", point["stress_amplitude_Pa"])
-                waves.append(wave)
     points = pd.DataFrame(rows)
     seconds = points.pop("seconds")
     points = points[list(POINT_COLUMNS)]

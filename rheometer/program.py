@@ -118,10 +118,6 @@ def _unit(table: dict, unit: str, lineno: int, what: str) -> float:
                      f"write {', '.join(first)} or {last}")
 
 
-def _stress_unit(unit: str, lineno: int) -> float:
-    return _unit(_STRESS, unit, lineno, "stress")
-
-
 def _oscillation(g, lineno: int, line: str):
     """Step of an 'oscillate at F Hz with strain|stress X for N cycles|T s' line."""
     f, fu, what, x, xu, n, nu = g
@@ -136,7 +132,7 @@ def _oscillation(g, lineno: int, line: str):
         if xu in (None, "%"):
             raise ValueError(f"program line {lineno}: a stress amplitude needs Pa"
                              f"{', got %' if xu else ''}")
-        amp = float(x) * _stress_unit(xu, lineno)
+        amp = float(x) * _unit(_STRESS, xu, lineno, "stress")
     if nu.lower().startswith("cycle"):      # the frequency is the Step's to check
         cycles = float(limits.CYCLES.check("cycles", float(n)))
         duration = cycles / freq if freq != 0 else float("inf")
@@ -199,7 +195,7 @@ def parse_program(text: str) -> Program:
                 elif g[0].lower() == "stress":
                     if _is_rate_unit(g[2]):
                         raise ValueError(f"program line {lineno}: a stress needs Pa, got {g[2]}")
-                    start = Start("stress", float(g[1]) * _stress_unit(g[2], lineno))
+                    start = Start("stress", float(g[1]) * _unit(_STRESS, g[2], lineno, "stress"))
                 else:
                     if not _is_rate_unit(g[2]):
                         raise ValueError(f"program line {lineno}: a rate needs 1/s, got {g[2]}")
@@ -209,7 +205,7 @@ def parse_program(text: str) -> Program:
                 step = Step("rate", float(g[0]), label=line, name=_name(lineno, line, "rate"),
                             **_end(g[2:8], lineno, line))
             elif word == "stress":
-                scale = _stress_unit(g[1], lineno)
+                scale = _unit(_STRESS, g[1], lineno, "stress")
                 step = Step("stress", float(g[0]) * scale, label=line,
                             name=_name(lineno, line, "stress"), **_end(g[2:8], lineno, line))
             elif word == "oscillate":
@@ -222,7 +218,7 @@ def parse_program(text: str) -> Program:
                 if (what == "rate") != _is_rate_unit(unit):
                     raise ValueError(f"program line {lineno}: a {what} ramp needs "
                                      f"{'1/s' if what == 'rate' else 'Pa'}, got {unit}")
-                scale = 1.0 if what == "rate" else _stress_unit(unit, lineno)
+                scale = 1.0 if what == "rate" else _unit(_STRESS, unit, lineno, "stress")
                 ramp = "linear" if (kind or "log").lower() in ("linear", "lin") else "log"
                 step = Step(what, float(a) * scale, float(b) * scale, ramp=ramp,
                             duration=float(T) * _TIME[tu.lower()], label=line,
@@ -295,8 +291,4 @@ def hysteresis_program(material, phi: float) -> str:
 
 #: The built-in program of ``rheometer program`` (no file): :func:`hysteresis_program` of the
 #: default material (hermes2016) at its default volume fraction (0.50, rheology.materials).
-def _default_program() -> str:
-    return hysteresis_program("hermes2016", default_fraction("hermes2016"))
-
-
-HYSTERESIS_PROGRAM = _default_program()
+HYSTERESIS_PROGRAM = hysteresis_program("hermes2016", default_fraction("hermes2016"))

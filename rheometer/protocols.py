@@ -151,8 +151,7 @@ def initial_state(r: Rheometer, start: Start) -> State:
         return r.rest()
     if start.kind == "stress":
         return r.steady(start.value)
-    branches = rheology.steady_states_rate(start.value,
-                                           r.phi, r.material)
+    branches = rheology.steady_states_rate(start.value, r.phi, r.material)
     stable = np.flatnonzero(branches.stable)
     if stable.size == 0:
         raise ValueError(f"no stable steady state at shear rate {start.value:g} 1/s and phi = "

@@ -199,18 +199,12 @@ def tensor_reference(material, phi: float, rate: float, t_end: float, *, control
         Q = np.array([rate, ctrl, regime, p_target])
         alg = [GP, EE] + ([PP] if (regime == COMPACTING or ctrl) else [])
 
-        def resfn(t, yy, yyp, res):
-            _residual(t, yy, yyp, res, P, Q)
-
-        def eventsfn(t, yy, yyp, ev):
-            _events(t, yy, yyp, ev, P, Q)
-
-        eventsfn.terminal = [True, True, True]
-        eventsfn.direction = [-1, -1, -1]
         grid = np.concatenate([[t0], times[times > t0 * (1 + 1e-14) + 1e-300]])
-        solver = Solver(resfn, rtol=rtol, atol=1e-3 * rtol * _scales(y), algebraic_idx=alg,
-                        calc_initcond="yp0", calc_init_dt=1e-6 * t_end, eventsfn=eventsfn,
-                        num_events=3, max_num_steps=500_000)
+        solver = Solver(lambda t, yy, yyp, res: _residual(t, yy, yyp, res, P, Q), rtol=rtol,
+                        atol=1e-3 * rtol * _scales(y), algebraic_idx=alg, calc_initcond="yp0",
+                        calc_init_dt=1e-6 * t_end, max_num_steps=500_000,
+                        events=lambda t, yy, yyp, ev: _events(t, yy, yyp, ev, P, Q),
+                        names=("switch", "jam", "separation"), direction=[-1] * 3, stop=[True] * 3)
         try:
             sol, _ = solver.solve(grid, y, np.zeros(NV))
         except IDAFailed as exc:
@@ -232,17 +226,16 @@ def tensor_reference(material, phi: float, rate: float, t_end: float, *, control
         ended = regime
     arr = np.array(rows)
     s = arr[:, 1:5]
-    taubar = np.sqrt(0.5 * (s[:, 0] ** 2 + s[:, 1] ** 2 + s[:, 2] ** 2 + 2 * s[:, 3] ** 2))
     p = arr[:, 1 + PP]
     df = pd.DataFrame({
-        "time_s": arr[:, 0], "shear_stress_Pa": s[:, 3], "granular_shear_stress_Pa": taubar,
+        "time_s": arr[:, 0], "shear_stress_Pa": s[:, 3],
+        "granular_shear_stress_Pa": _taubar.py_func(arr[:, 1:].T),
         "granular_pressure_Pa": p, "N1_Pa": s[:, 0] - s[:, 1], "N2_Pa": s[:, 1] - s[:, 2],
         "f": arr[:, 1 + FF], "phi": arr[:, 1 + PHI], "plastic_shear_rate_per_s": arr[:, 1 + GP],
         "dilation_rate_per_s": arr[:, 1 + EE],
         "regime": np.where(arr[:, -1] == DILATANT, "shear flow", "shear flow + compaction")})
     if ctrl:
-        drift = float(np.max(np.abs(p - p_target)) / p_target)
-        df.attrs["pressure_drift"] = drift
+        df.attrs["pressure_drift"] = float(np.max(np.abs(p - p_target)) / p_target)
     df.attrs["switches"] = switches
     return df
 

@@ -37,7 +37,7 @@ from runkit.limits import gt, le, lt
 from runkit.params import Param, check_nonnegative, check_positive, check_range
 
 from . import limits, model
-from .harmonics import harmonics
+from .harmonics import cycle_harmonics
 from .model import GAP, GD, GP, NEVENTS, NVAR, STRAIN, TAU
 
 #: Defaults for materials without G or K0 (see module docstring).
@@ -224,6 +224,12 @@ class _Piece:
     step: int
 
 
+def _joined(pieces) -> tuple:
+    """(t, y, step index) of the pieces' rows, in order."""
+    return (np.concatenate([p.t for p in pieces]), np.concatenate([p.y for p in pieces]),
+            np.concatenate([np.full(p.t.size, p.step) for p in pieces]))
+
+
 @dataclass
 class Progress:
     """A run between two steps: the rows so far (t, unknowns y, step index), the state at the
@@ -241,9 +247,8 @@ class Progress:
 
     @classmethod
     def of(cls, pieces, st: State, next_step: int, stats: "RunStats") -> "Progress":
-        return cls(np.concatenate([p.t for p in pieces]), np.concatenate([p.y for p in pieces]),
-                   np.concatenate([np.full(p.t.size, p.step) for p in pieces]), st, next_step,
-                   list(stats.events), stats.solves, stats.nfev, stats.njev)
+        return cls(*_joined(pieces), st, next_step, list(stats.events), stats.solves, stats.nfev,
+                   stats.njev)
 
     def pieces(self) -> list:
         return [_Piece(self.t[self.step == k], self.y[self.step == k], int(k))
@@ -422,10 +427,9 @@ class Rheometer:
             stress_max = step.start if step.control == "stress" else amp_strain * G_abs
             tau = max(abs(st.taubar), stress_max, 1e-6 * self.material.tau_star)
             g = max(amp_strain * step.omega, tau / self.eta_low)
-            # Under an imposed oscillating stress the rate gdot = (sigma(t) - taubar)/eta_f is
-            # the small difference of two large signals: the error taubar may have by its own
-            # test, rtol |taubar|, IS an error rtol |taubar|/eta_f in gdot (>> rtol |gdot|); a
-            # tighter test of the algebraic gdot cannot be met.
+            # under an imposed stress gdot = (sigma - taubar)/eta_f: taubar's own error, rtol
+            # |taubar| (oscillation) or atol_tau, IS an error /eta_f in gdot; no tighter test
+            # of gdot can be met (IDA would crawl at the fluid time eta_f/G)
             gd = (max(g, tau / self.eta_fluid * self.rtol / self.atol) if step.control == "stress"
                   else g)
             return np.array([tau, 1e-8, g, gd, min(1.0, amp_strain)])
@@ -434,11 +438,6 @@ class Rheometer:
         tau = max(abs(st.taubar), stress_max, self.eta_low * rate_max,
                   1e-6 * self.material.tau_star)
         g = max(rate_max, tau / self.eta_low)
-        # Under an imposed mixture stress the shear rate is slaved to the granular stress,
-        # gdot = (tau_imposed - taubar)/eta_f: an error atol_tau in taubar IS an error
-        # atol_tau/eta_f in gdot. A tighter gdot tolerance (eta_low ~1e3 eta_f near jamming)
-        # cannot be met by any step size on a curved (log) stress ramp: IDA crawls at the fluid
-        # time eta_f/G.
         gd = max(g, tau / self.eta_fluid) if step.control == "stress" else g
         return np.array([tau, 1e-8, g, gd, 1.0])
 
@@ -511,8 +510,7 @@ class Rheometer:
                 pieces.append(_Piece(sol.t[first:keep], y[first:keep], k))
             if end is not None:
                 raise EndedEarly([end])
-            st = State(float(sol.t[-1]), float(y[-1, TAU]), float(y[-1, GAP]),
-                       float(y[-1, STRAIN]), float(model.structure_of_gap(y[-1, GAP], self.P)))
+            st = self._state_at(sol.t[-1], y[-1])
             at_limit = False
             for t_ev, i_ev in zip(sol.t_events if sol.t_events is not None else (),
                                   sol.i_events if sol.i_events is not None else ()):
@@ -561,11 +559,8 @@ class Rheometer:
         if p is None or p.step != k:
             return None
         t_lim, skip = p.t[-1], int(p.t.size < 2)
-        if skip:             # the solve's only row: from its start, the last row before it
-            st0 = st_solve
-        else:
-            st0 = State(float(p.t[-2]), float(p.y[-2, TAU]), float(p.y[-2, GAP]),
-                        float(p.y[-2, STRAIN]))
+        # the solve's only row: from its start, else from the row before the last
+        st0 = st_solve if skip else self._state_at(p.t[-2], p.y[-2])
         fine = np.append(np.linspace(st0.t, t_lim, END_ROWS + 1)[:-1], grid[grid > t_lim][0])
         sol = self.integrate(fine, st0, C, scale, max_step=max_step)
         stats.count(sol)
@@ -577,8 +572,11 @@ class Rheometer:
             return None
         pieces[-1] = _Piece(np.concatenate([p.t[:-2], sol.t[skip:]]),
                             np.concatenate([p.y[:-2], y[skip:]]), k)
-        return State(float(sol.t[-1]), float(y[-1, TAU]), float(y[-1, GAP]),
-                     float(y[-1, STRAIN]), float(model.structure_of_gap(y[-1, GAP], self.P)))
+        return self._state_at(sol.t[-1], y[-1])
+
+    def _state_at(self, t, row) -> State:
+        return State(float(t), float(row[TAU]), float(row[GAP]), float(row[STRAIN]),
+                     float(model.structure_of_gap(row[GAP], self.P)))
 
     def _may_jam(self, st: State) -> bool:
         """Whether the gap can cross zero in this run: jammed now, or f can exceed f_jam.
@@ -608,12 +606,6 @@ class Rheometer:
             res_k, jac_k, ev_k = model.residual, model.jacobian, model.events
             atol = scale
 
-        def resfn(t, yy, yyp, res):
-            res_k(t, yy, yyp, res, P, C)
-
-        def jacfn(t, yy, yyp, res, cj, JJ):
-            jac_k(t, yy, yyp, cj, JJ, P, C)
-
         # with elastic_limit a third root, |taubar| - 0.1 G: the run ends on the limit itself
         limit = elastic_strain_limit_stress(self.G) if self.elastic_limit else None
 
@@ -632,9 +624,10 @@ class Rheometer:
                           + [1] * (n - 1))
         if max_step is not None:
             events["max_step"] = float(max_step)
-        solver = Solver(resfn, rtol=self.rtol, atol=self.atol * atol,
-                        algebraic_idx=None if ode else [GP, GD],
-                        jacfn=jacfn if self.jacobian else None, max_num_steps=200_000, **events)
+        solver = Solver(lambda t, yy, yyp, res: res_k(t, yy, yyp, res, P, C), rtol=self.rtol,
+                        atol=self.atol * atol, algebraic_idx=None if ode else [GP, GD],
+                        jacfn=(lambda t, yy, yyp, res, cj, JJ: jac_k(t, yy, yyp, cj, JJ, P, C))
+                        if self.jacobian else None, max_num_steps=200_000, **events)
         try:
             sol, _ = solver.solve(grid, y, yp)
         except IDAFailed as exc:         # the rows up to the failure are kept (_check_solution)
@@ -706,15 +699,10 @@ class Rheometer:
         return i, end.replace(time_s=float(sol.t[i - 1]) if i > 0 else st0.t)
 
     def _frame(self, pieces: list[_Piece], stats: RunStats, steps) -> pd.DataFrame:
-        t = np.concatenate([p.t for p in pieces])
-        y = np.concatenate([p.y for p in pieces])
-        k = np.concatenate([np.full(p.t.size, p.step) for p in pieces])
+        t, y, k = _joined(pieces)
         m, phi = self.material, self.phi
-        tau_g = y[:, TAU]                                  # signed (reversal, oscillation)
-        gap = y[:, GAP]
+        tau_g, gap, gp, g = y[:, TAU], y[:, GAP], y[:, GP], y[:, GD]    # signed
         f = np.clip(model.structure_of_gap(gap, self.P), 0.0, 1.0)
-        gp = y[:, GP]
-        g = y[:, GD]
         tau = tau_g + self.eta_fluid * g
         # tau/gdot: the viscosity of a shear or creep step; undefined (empty) at gdot = 0 and in
         # an oscillation (its |eta*| = |G*|/omega is in attrs["oscillations"])
@@ -761,35 +749,20 @@ class Rheometer:
         j = np.rint(u)
         on = np.abs(u - j) < 1e-6
 
-        def cycle(c):
-            sel = on & (j >= (c - 1) * n) & (j <= c * n)
-            idx = np.flatnonzero(sel)
-            _, first = np.unique(j[idx], return_index=True)
-            idx = idx[first]
-            return idx if idx.size == n + 1 else None
-
-        def c1(c):
-            idx = cycle(c)
-            if idx is None:
+        def c1(c):                       # the harmonics of cycle c's n + 1 samples, or None
+            idx = np.flatnonzero(on & (j >= (c - 1) * n) & (j <= c * n))
+            idx = idx[np.unique(j[idx], return_index=True)[1]]
+            if idx.size != n + 1:
                 return None
             stress = d["shear_stress_Pa"].to_numpy()[idx]
-            strain = d["strain"].to_numpy()[idx]
-            if step.control == "strain":
-                cs = harmonics(stress[:n])
-                cg = np.array([-1j * step.start, 0.0])
-                resp = cs
-            else:
-                drift = strain[n] - strain[0]
-                cg = harmonics(strain[:n] - drift * np.arange(n) / n)
-                cs = np.array([-1j * step.start, 0.0])
-                resp = cg
-            return cs, cg, resp, float(np.mean(stress[:n]))
+            return (*cycle_harmonics(step.control, step.start, stress[:n],
+                                     d["strain"].to_numpy()[idx]), float(np.mean(stress[:n])))
 
         last = c1(full)
         if last is None:
             return out
         cs, cg, resp, mean = last
-        Gs = complex(cs[0] / cg[0])
+        Gs = complex(cs / cg)
         change = np.nan
         if full >= 2:
             prev = c1(full - 1)
@@ -798,7 +771,7 @@ class Rheometer:
         out.update(storage_modulus_Pa=Gs.real, loss_modulus_Pa=Gs.imag,
                    complex_viscosity_Pa_s=abs(Gs) / step.omega,
                    I3_over_I1=float(abs(resp[1]) / abs(resp[0])),
-                   strain_amplitude=float(abs(cg[0])), stress_amplitude_Pa=float(abs(cs[0])),
+                   strain_amplitude=float(abs(cg)), stress_amplitude_Pa=float(abs(cs)),
                    mean_stress_Pa=mean, cycle_change=change)
         return out
 

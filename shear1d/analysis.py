@@ -40,29 +40,24 @@ def rigid_ratio(grid: Grid, v: np.ndarray, u_wall: float) -> np.ndarray:
 def front_position(grid: Grid, v: np.ndarray, u_wall: float,
                    threshold: float = FRONT_THRESHOLD) -> float:
     """Front position [m]: first threshold crossing of the rigid ratio from the moving wall."""
-    ratio = rigid_ratio(grid, v, u_wall)
-    below = np.flatnonzero(ratio < threshold)
-    if below.size == 0:
-        return float(grid.outer)
-    k = int(below[0])
-    if k == 0:
-        return float(grid.inner)
-    r0, r1, q0, q1 = grid.faces[k - 1], grid.faces[k], ratio[k - 1], ratio[k]
-    return float(r0 + (q0 - threshold) / (q0 - q1) * (r1 - r0))
+    return _first_below(grid, grid.faces, rigid_ratio(grid, v, u_wall), threshold)
 
 
 def structure_front(grid: Grid, f: np.ndarray, f_ref: float, fraction: float = 0.5) -> float:
     """First cell centre from the moving wall where f < fraction * f_ref (interpolated) [m]."""
-    f = np.asarray(f, dtype=float)
-    level = fraction * f_ref
-    below = np.flatnonzero(f < level)
-    c = grid.centres
+    return _first_below(grid, grid.centres, np.asarray(f, dtype=float), fraction * f_ref)
+
+
+def _first_below(grid: Grid, x, q, level: float) -> float:
+    """Where q(x) first falls below ``level`` from the moving wall, interpolated [m] (the
+    moving wall if q starts below, the outer wall if it never falls)."""
+    below = np.flatnonzero(q < level)
     if below.size == 0:
         return float(grid.outer)
     k = int(below[0])
     if k == 0:
         return float(grid.inner)
-    return float(c[k - 1] + (f[k - 1] - level) / (f[k - 1] - f[k]) * (c[k] - c[k - 1]))
+    return float(x[k - 1] + (q[k - 1] - level) / (q[k - 1] - q[k]) * (x[k] - x[k - 1]))
 
 
 def band_rigidity(grid: Grid, v: np.ndarray, u_wall: float, front: float) -> float:

@@ -143,12 +143,6 @@ def _parser() -> argparse.ArgumentParser:
     return ap
 
 
-def _modes(mode: str | None, default: tuple[str, ...]) -> tuple[str, ...]:
-    if mode is None:
-        return default
-    return MODES if mode == "both" else (mode,)
-
-
 def _sample(args):
     """The material (the user's steady fit on Table 4's moduli) and phi0 (from --phi or
     --mass-fraction, else the material's), with the conversion printed."""
@@ -188,15 +182,17 @@ def _in_out(out: str, run) -> None:
 
 def _annular(args) -> None:
     m, phi0 = _sample(args)
-    modes = _modes(args.mode, ("locked",) if args.method == "dae" else ("locked", "two-phase"))
+    modes = MODES if args.mode == "both" else (args.mode,)
+    if args.mode is None:                # the default: both modes, locked only with dae
+        modes = ("locked",) if args.method == "dae" else MODES
     if args.method == "dae" and args.mode is None:
         print("shear1d: --method dae runs the locked mode only (no --mode given: locked)")
-    _in_out(args.out, lambda: run_annular(args.out, tuple(args.u_inner), modes, n_cells=args.cells, method=args.method,
-                rtol=args.rtol, dt=args.dt, n_out=args.outputs, r_inner=args.r_inner,
-                r_outer=R_OUTER if args.r_outer is None else args.r_outer,
-                rotation=args.rotation, ramp_time=args.ramp_time, resume=args.resume,
-                checkpoint_every=args.checkpoint_every, progress=not args.quiet, material=m,
-                phi0=phi0))
+    _in_out(args.out, lambda: run_annular(
+        args.out, tuple(args.u_inner), modes, n_cells=args.cells, method=args.method,
+        rtol=args.rtol, dt=args.dt, n_out=args.outputs, r_inner=args.r_inner,
+        r_outer=R_OUTER if args.r_outer is None else args.r_outer, rotation=args.rotation,
+        ramp_time=args.ramp_time, resume=args.resume, checkpoint_every=args.checkpoint_every,
+        progress=not args.quiet, material=m, phi0=phi0))
 
 
 def _couette(args) -> None:

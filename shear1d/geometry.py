@@ -120,12 +120,9 @@ class Grid:
         dual cell at the moving wall (used when that wall is stress-driven), M[n] at the fixed wall.
         """
         c, f = self.centres, self.faces
-        if self.annular:
-            A = c ** 2
-            pts = np.concatenate([[f[0]], c, [f[-1]]])
-            M = (pts[1:] ** 3 - pts[:-1] ** 3) / 3.0
-            return A, M, f[0] ** 2
         pts = np.concatenate([[f[0]], c, [f[-1]]])
+        if self.annular:
+            return c ** 2, (pts[1:] ** 3 - pts[:-1] ** 3) / 3.0, f[0] ** 2
         return np.ones(self.n), np.diff(pts), 1.0
 
     def flux_metric(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -245,11 +245,10 @@ def check_state(problem: Couette, t: float, y: np.ndarray, diag: np.ndarray,
 def elastic_strains(problem: Couette, t: float, y: np.ndarray) -> tuple[float, float]:
     """The largest elastic strains (taubar/G, p/K) over the cells of a state (Eq. 11 invariants
     of the cell stresses; p/K of a compression, 0 in tension)."""
-    sig = problem.unpack(y, t)["sigma"]
-    rr, thth, zz, rth = (sig[:, STRESS_COMPONENTS.index(c)] for c in STRESS_COMPONENTS)
+    sig = problem.unpack(y, t)["sigma"]            # (n, 4): rr, thth, zz, rth
     full = np.zeros((sig.shape[0], 3, 3))
-    full[:, 0, 0], full[:, 1, 1], full[:, 2, 2] = rr, thth, zz
-    full[:, 0, 1] = full[:, 1, 0] = rth
+    full[:, [0, 1, 2], [0, 1, 2]] = sig[:, :3]
+    full[:, 0, 1] = full[:, 1, 0] = sig[:, 3]
     taubar, p = invariants(full)
     m = problem.material
     return float(np.max(taubar)) / m.G, max(float(np.max(p)), 0.0) / m.K
@@ -493,13 +492,12 @@ def prepare(problem: Couette, t_end: float | None = None, *, method: str = "ida"
                 bool(resume))
 
 
-def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", n_out: int = 200,
-          t_out=None, rtol: float = 1e-4, dt: float | None = None, check_stability: bool = True,
-          checkpoint=None, checkpoint_every: float = 60.0, resume: bool = False,
-          progress: bool = False, label: str = "", stop_hook=None, log=None,
-          elastic_limit: bool = False) -> Result:
-    """Integrate a Couette problem from rest (see the module docstring): :func:`prepare` then
-    :func:`integrate`.
+def solve(problem: Couette, t_end: float | None = None, *, progress: bool = False,
+          label: str = "", stop_hook=None, log=None, elastic_limit: bool = False,
+          **settings) -> Result:
+    """Integrate a Couette problem from rest (see the module docstring): :func:`prepare` (the
+    ``settings``: method, n_out, t_out, rtol, dt, check_stability, checkpoint,
+    checkpoint_every, resume) then :func:`integrate`.
 
     ``t_end`` [s] with ``n_out`` output intervals, or ``t_out`` (output times [s] increasing
     from 0). ``rtol`` (:data:`RTOL`): IDA's relative tolerance (absolute: rtol times the
@@ -525,11 +523,8 @@ def solve(problem: Couette, t_end: float | None = None, *, method: str = "ida", 
     KeyboardInterrupt
         Interrupted; the message says where the checkpoint is (or that nothing was saved).
     """
-    plan = prepare(problem, t_end, method=method, n_out=n_out, t_out=t_out, rtol=rtol, dt=dt,
-                   check_stability=check_stability, checkpoint=checkpoint,
-                   checkpoint_every=checkpoint_every, resume=resume)
-    return integrate(plan, progress=progress, label=label, stop_hook=stop_hook, log=log,
-                     elastic_limit=elastic_limit)
+    return integrate(prepare(problem, t_end, **settings), progress=progress, label=label,
+                     stop_hook=stop_hook, log=log, elastic_limit=elastic_limit)
 
 
 def integrate(plan: Plan, *, progress: bool = False, label: str = "", stop_hook=None, log=None,
@@ -581,8 +576,7 @@ def _ida(problem: Couette, outs: _Outputs, ck, rtol: float, dae=None):
             return y0, yp0
 
         atol, opts, name = _tolerances(problem, rtol), {}, "IDA"
-        outs.stats = lambda c: dict(nfev=int(c[0]), njev=int(c[1]), rtol=rtol, bandwidth=bw,
-                                    rate_step_end=problem.rate_step_at(rtol, outs.t_last))
+        more = lambda: dict(rate_step_end=problem.rate_step_at(rtol, outs.t_last))
     else:
         if ck is not None and ck["y"].shape != (dae.size,):
             raise ValueError("--resume: the checkpoint's DAE state does not match this grid")
@@ -590,8 +584,8 @@ def _ida(problem: Couette, outs: _Outputs, ck, rtol: float, dae=None):
             dae_mod.BANDWIDTH
         atol, opts, name = dae.tolerances(rtol), dict(algebraic_idx=dae.algebraic()), \
             "IDA (method dae)"
-        outs.stats = lambda c: dict(nfev=int(c[0]), njev=int(c[1]), rtol=rtol, bandwidth=bw,
-                                    k4=dae.k4, width=dae.width)
+        more = lambda: dict(k4=dae.k4, width=dae.width)
+    outs.stats = lambda c: dict(nfev=int(c[0]), njev=int(c[1]), rtol=rtol, bandwidth=bw, **more())
 
     def describe(t, y):
         st = problem.unpack(y if dae is None else dae.convert(t, y)[0], t)

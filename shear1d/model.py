@@ -204,14 +204,12 @@ class Couette:
     def layout(self) -> dict[str, np.ndarray]:
         """Index arrays into the unknown vector (:func:`interleaved`; per cell sigma (4,
         STRESS_COMPONENTS), f, [phi]; i_v -1 for a face with a prescribed velocity)."""
-        if "layout" in self._cache:
-            return self._cache["layout"]
-        first, i_v, size = interleaved(self.grid.n, self.block - 1, self.stress_driven)
-        i_S = first[:, None] + np.arange(4)
-        i_phi = first + 5 if self.two_phase else np.full(self.grid.n, -1, dtype=np.int64)
-        lay = dict(i_S=i_S, i_f=first + 4, i_phi=i_phi, i_v=i_v, size=np.int64(size))
-        self._cache["layout"] = lay
-        return lay
+        def make():
+            first, i_v, size = interleaved(self.grid.n, self.block - 1, self.stress_driven)
+            i_phi = first + 5 if self.two_phase else np.full(self.grid.n, -1, dtype=np.int64)
+            return dict(i_S=first[:, None] + np.arange(4), i_f=first + 4, i_phi=i_phi, i_v=i_v,
+                        size=np.int64(size))
+        return self._cached("layout", make)
 
     @property
     def size(self) -> int:
@@ -270,19 +268,16 @@ class Couette:
     # ------------------------------------------------------------------ coefficients
     def metrics(self) -> dict:
         """Grid metrics for the kernels (see :mod:`shear1d.geometry`)."""
-        if "metrics" not in self._cache:
+        def make():
             g = self.grid
-            cg, w = g.shear_metric()
-            A, M, A_wall = g.momentum_metric()
+            (cg, w), (A, M, A_wall) = g.shear_metric(), g.momentum_metric()
             a, V, hoop_c, hoop_f = g.flux_metric()
-            self._cache["metrics"] = dict(cg=cg, w=w, A=A, M=M, A_wall=float(A_wall), a=a, V=V,
-                                          hoop_c=hoop_c, hoop_f=hoop_f, dx=float(g.dx))
-        return self._cache["metrics"]
+            return dict(cg=cg, w=w, A=A, M=M, A_wall=float(A_wall), a=a, V=V, hoop_c=hoop_c,
+                        hoop_f=hoop_f, dx=float(g.dx))
+        return self._cached("metrics", make)
 
     def parameters(self) -> np.ndarray:
-        if "P" not in self._cache:
-            self._cache["P"] = kernel_parameters(self.material)
-        return self._cache["P"]
+        return self._cached("P", lambda: kernel_parameters(self.material))
 
     def coefficients(self, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(rho at faces [kg/m^3], fluid viscosity per cell [Pa s], Darcy mobility n^2/C at faces
@@ -359,16 +354,16 @@ class Couette:
             axis=1)
         return diag
 
+    def _cached(self, key: str, make):
+        if key not in self._cache:
+            self._cache[key] = make()
+        return self._cache[key]
+
     def _phi_fixed(self) -> np.ndarray:
-        if "phi_fixed" not in self._cache:
-            self._cache["phi_fixed"] = np.full(self.grid.n, self.phi0)
-        return self._cache["phi_fixed"]
+        return self._cached("phi_fixed", lambda: np.full(self.grid.n, self.phi0))
 
     def _scratch(self, name: str, shape) -> np.ndarray:
-        key = "scratch_" + name
-        if key not in self._cache:
-            self._cache[key] = np.empty(shape)
-        return self._cache[key]
+        return self._cached("scratch_" + name, lambda: np.empty(shape))
 
     # ------------------------------------------------------------------ scales
     def velocity_scale(self) -> float:

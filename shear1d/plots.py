@@ -68,11 +68,6 @@ def _what_happened(run) -> str:
     return "\n".join(lines)
 
 
-def velocity_profiles(path, runs, rotations=(0.0, 0.1, 0.2, 0.31)):
-    """Write :func:`velocity_profiles_figure` to ``path``."""
-    return _finish(velocity_profiles_figure(runs, rotations), path, layout=False)
-
-
 def velocity_profiles_figure(runs, rotations=(0.0, 0.1, 0.2, 0.31)):
     """Fig. 3a: v/u_i against r at the given bob rotations; a row per speed, a column per mode.
     Each panel's title says what its run shows (:func:`_what_happened`: jammed or not, the band
@@ -200,11 +195,6 @@ def front_positions_figure(runs):
     return fig
 
 
-def front_positions(path, runs):
-    """Write :func:`front_positions_figure` to ``path``."""
-    return _finish(front_positions_figure(runs), path)
-
-
 def _span(data, lo=None, hi=None) -> dict:
     """vmin/vmax covering the finite ``data``, widened to include ``lo``/``hi`` if given."""
     d = np.asarray(data, float)
@@ -255,11 +245,6 @@ def run_fields_figure(run):
     return fig
 
 
-def run_fields(path, run):
-    """Write :func:`run_fields_figure` to ``path``."""
-    return _finish(run_fields_figure(run), path)
-
-
 def mode_comparison(path, runs):
     """Locked mixture against two-phase: the fronts (runs with a jammed band) and the volume
     fraction at the end (two-phase runs; locked keeps phi = phi0, one line for all). Coinciding
@@ -307,7 +292,7 @@ def mode_comparison(path, runs):
     return _finish(fig, path)
 
 
-def couette_figure(res, idx):
+def couette_figure(res, idx=None):
     """Plane Couette: velocity profiles at the outputs ``idx`` (left) and, against time, the wall
     shear stress and the mean shear rate on two axes that both start at 0, with one legend for
     both (right). The data are those of couette_profiles.csv and couette_wall.csv."""
@@ -345,6 +330,14 @@ def couette_figure(res, idx):
     return fig
 
 
-def couette(path, res, idx=None):
-    """Write :func:`couette_figure` to ``path``."""
-    return _finish(couette_figure(res, idx), path)
+def _writer(make, layout: bool = True):
+    def write(path, *args):
+        return _finish(make(*args), path, layout)
+    write.__doc__ = f"Write :func:`{make.__name__}` (same arguments) to ``path``."
+    return write
+
+
+velocity_profiles = _writer(velocity_profiles_figure, layout=False)
+front_positions = _writer(front_positions_figure)
+run_fields = _writer(run_fields_figure)
+couette = _writer(couette_figure)

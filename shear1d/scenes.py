@@ -22,6 +22,7 @@ Python::
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import rheology
@@ -147,11 +148,13 @@ def _files(ck: Path) -> list[Path]:
     return [p for p in (ck, previous_checkpoint(ck)) if p.is_file()]
 
 
-def _checkpoints(out: Path, cks, resume: bool, missing: str) -> None:
-    """Before a run: with ``resume``, refuse it without any of the checkpoints ``cks``
+@contextlib.contextmanager
+def _checkpointed(out: Path, cks, resume: bool, missing: str):
+    """Around the runs of checkpoints ``cks``: before, with ``resume``, refuse them without any
     (``missing``: the message) and read each one there, so that a corrupt one is refused
     (:class:`runkit.io.CorruptCheckpoint`) before anything is printed; without, remove them
-    (stale checkpoints of an earlier run). Creates ``out``."""
+    (stale checkpoints of an earlier run); create ``out``. An interrupt names the checkpoints
+    kept (:func:`_interrupted`); after the runs the checkpoints are removed."""
     if resume:
         if not any(_files(ck) for ck in cks):
             raise ValueError(missing)
@@ -160,6 +163,12 @@ def _checkpoints(out: Path, cks, resume: bool, missing: str) -> None:
                 load_checkpoint(ck, log=lambda *a, **k: None)
     out.mkdir(parents=True, exist_ok=True)
     for p in ([] if resume else [p for ck in cks for p in _files(ck)]):
+        p.unlink()
+    try:
+        yield
+    except KeyboardInterrupt as exc:
+        raise _interrupted(exc, list(cks)) from None
+    for p in [p for ck in cks for p in _files(ck)]:
         p.unlink()
 
 
@@ -234,11 +243,11 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
                          + (" + --ramp-time/2" if ramp_time else ""))
     physical.check_memory("--cells x --outputs", f"{n_cells} x {n_out}",
                           memory_estimate(n_cells, n_out, runs=len(problems)))
-    _checkpoints(out, cks.values(), resume,
-                 f"--resume: no checkpoint of these runs in {out}/ (looked for "
-                 f"{', '.join(p.name for p in cks.values())}); run without --resume to start")
     runs, ends = [], []
-    try:
+    with _checkpointed(out, list(cks.values()), resume,
+                       f"--resume: no checkpoint of these runs in {out}/ (looked for "
+                       f"{', '.join(p.name for p in cks.values())}); run without --resume to "
+                       "start"):
         for u, mode, problem, t_end in problems:
             tag = run_tag(u, mode)
             plan = plans[cks[tag]]
@@ -256,10 +265,6 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
                 plots.front_positions(out / "front_position.png", runs)]
         if len(set(modes)) > 1:
             figs.append(plots.mode_comparison(out / "mode_comparison.png", runs))
-    except KeyboardInterrupt as exc:
-        raise _interrupted(exc, list(cks.values())) from None
-    for p in [p for ck in cks.values() for p in _files(ck)]:
-        p.unlink()
     log(f"shear1d: wrote {out}/ (" + ", ".join(p.name for p in figs) + " and per-run CSV/JSON)")
     if ends:
         raise EndedEarly(ends, partial=runs, written=[str(out)])
@@ -300,10 +305,9 @@ def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_o
     check_cell_steps(plan, t_end)
     physical.check_memory("--cells x --outputs", f"{problem.grid.n} x {n_out}",
                           memory_estimate(problem.grid.n, n_out))
-    _checkpoints(out, [ck], resume,
-                 f"--resume: no checkpoint at {ck}; run without --resume to start")
     ends = []
-    try:
+    with _checkpointed(out, [ck], resume,
+                       f"--resume: no checkpoint at {ck}; run without --resume to start"):
         res = _solve_to_end(plan, ends, "couette", progress=progress, label="couette",
                             stop_hook=stop_hook, log=log)
         prof, wall = couette_frames(res)
@@ -312,10 +316,6 @@ def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_o
         png = plots.couette(out / "couette.png", res, couette_profile_outputs(res))
         atomic_write_json(out / "couette.json", run_record(ends, t_end_s=float(res.t[-1]),
                                                            outputs=len(res.t)))
-    except KeyboardInterrupt as exc:
-        raise _interrupted(exc, [ck]) from None
-    for p in _files(ck):
-        p.unlink()
     log(f"shear1d: plane Couette, {problem.grid.n} cells, {res.method}, {res.wall_time:.2f} s; "
         f"wrote {out}/couette_profiles.csv, couette_wall.csv, {png.name}, couette.json")
     if ends:

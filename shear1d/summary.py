@@ -112,8 +112,11 @@ def summarize(result: Result) -> dict:
     solids = phi @ vol
     ev = {k: [float(x) for x in result.events.get(k, [])] for k in EVENTS}
     wall_t = ev["front_at_wall"][0] if ev["front_at_wall"] else None
-    stop_t = flow_stop_time(result)
-    again_t = flow_restart_time(result)
+    stop_t, again_t = flow_stop_time(result), flow_restart_time(result)
+
+    def rot_at(t):
+        return None if t is None else float(rotation_of(result, t))
+
     newt = {}
     for target in ROTATIONS[1:]:
         k = int(np.argmin(np.abs(rot - target)))
@@ -130,18 +133,15 @@ def summarize(result: Result) -> dict:
         rotation_end_rad=float(rot[-1]), solver=stats,
         front_speed_m_per_s=fit["speed"], front_speed_over_u_inner=fit["speed"] / u,
         front_fit_r2=fit["r2"], front_fit_intercept_m=fit["intercept"],
-        front_fit_rotation_rad=[float(rotation_of(result, fit["t_start"])),
-                                float(rotation_of(result, fit["t_end"]))],
+        front_fit_rotation_rad=[rot_at(fit["t_start"]), rot_at(fit["t_end"])],
         front_fit_gap_reached=fit["gap_reached"],
         front_crossed_gap=bool(fit["gap_reached"] >= analysis.WALL_FRACTION),
         structure_front_speed_m_per_s=sfit["speed"], structure_front_fit_r2=sfit["r2"],
         band_rigidity_mean=float(np.mean(rigid)) if rigid else nan,
         band_rigidity_min=float(np.min(rigid)) if rigid else nan,
         max_front_position_m=float(np.nanmax(front)) if band.any() else nan,
-        front_at_wall_rotation_rad=None if wall_t is None else float(rotation_of(result, wall_t)),
-        flow_stopped_rotation_rad=None if stop_t is None else float(rotation_of(result, stop_t)),
-        flow_restarted_rotation_rad=None if again_t is None else float(rotation_of(result,
-                                                                                   again_t)),
+        front_at_wall_rotation_rad=rot_at(wall_t), flow_stopped_rotation_rad=rot_at(stop_t),
+        flow_restarted_rotation_rad=rot_at(again_t),
         events_s=ev,
         newtonian_deviation_max_over_u=newt,
         f_max=float(f.max()), f_jam=fjam, phi_min=float(phi.min()), phi_max=float(phi.max()),
