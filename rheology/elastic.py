@@ -36,14 +36,26 @@ def past_elastic_limit(t, stress, modulus: float, *, stress_name: str = "taubar"
     """The first row where ``|stress|/modulus`` exceeds :data:`ELASTIC_STRAIN_LIMIT`, as the end
     of the run: ``(index, RunEnd)``, or None when every row is within the limit.
 
-    ``t``, ``stress`` (shape (n,)): the rows' times [s] and granular shear stress taubar or
-    pressure p [Pa]; ``modulus``: G or K [Pa]; ``stress_name``, ``modulus_name``: their names in
-    the message (``"taubar"``, ``"G"``; ``"p"``, ``"K"``); ``where``: what ran (``"startup at 1e9
-    1/s, phi = 0.5"``), put in front of the reason; ``advice``: what to change. The RunEnd (kind
-    ``"validity_limit"``) has ``time_s`` of the row before (None for the first row), ``value``
-    the row's strain and ``past_s`` its time; its reason is one line with the limit, the strain
-    and stress reached, the time the limit was crossed (linear interpolation), the modulus and
-    ``advice``.
+    Parameters
+    ----------
+    t, stress : array_like, shape (n,)
+        Times [s] of the rows; granular shear stress taubar or pressure p [Pa] at those times.
+    modulus : float
+        G or K [Pa].
+    stress_name, modulus_name : str
+        Names in the message (``"taubar"``, ``"G"``; ``"p"``, ``"K"``).
+    where : str
+        What ran (e.g. ``"startup at 1e9 1/s, phi = 0.5"``), put in front of the reason.
+    advice : str
+        What to change (e.g. ``"lower --rate or --t-end, or raise --G"``).
+
+    Returns
+    -------
+    (int, RunEnd) or None
+        The index of the first row past the limit and the end (kind ``"validity_limit"``):
+        ``time_s`` of the row before it (None for the first row), ``value`` its strain,
+        ``past_s`` its time; the reason is one line with the limit, the strain and stress
+        reached, the time the limit was crossed (linear interpolation), the modulus, ``advice``.
     """
     t = np.asarray(t, dtype=float).ravel()
     s = np.abs(np.asarray(stress, dtype=float).ravel())

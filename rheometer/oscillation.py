@@ -247,31 +247,47 @@ def oscillate(material, phi: float, frequency: float, amplitude: float, *,
     material : str or Material
     phi : float
         Volume fraction, 0 < phi < phi_j.
-    frequency, amplitude : float
-        Frequency [Hz] (omega = 2 pi frequency); strain amplitude gamma0 [-] (``control=
-        "strain"``) or mixture-stress amplitude sigma0 [Pa] (``control="stress"``), > 0.
+    frequency : float
+        Frequency [Hz] (omega = 2 pi frequency).
+    amplitude : float
+        Strain amplitude gamma0 [-] (``control="strain"``) or mixture-stress amplitude sigma0 [Pa]
+        (``control="stress"``), > 0.
     control : {"strain", "stress"}
     G, K0 : float, optional
         Granular shear modulus [Pa] and structure-rate scale [-] (material's, else 1e4 Pa, 1).
-    max_cycles, min_cycles, tol : int, int, float
-        Cycle limits (1 <= min_cycles <= max_cycles <= 10^5) and the tolerance on the
-        cycle-to-cycle change (module docstring).
-    samples, rtol : int, float
-        Samples per cycle (16 .. 8192; the harmonics are exact below samples/2) and IDA's
-        relative tolerance (1e-12 .. 1e-3).
+    max_cycles, min_cycles : int
+        Cycle limits (1 <= min_cycles <= max_cycles <= 10^5).
+    tol : float
+        Periodic-steady-state tolerance on the cycle-to-cycle change (module docstring).
+    samples : int
+        Samples per cycle (16 .. 8192; the harmonics are exact for signals band-limited below
+        samples/2).
+    rtol : float
+        IDA relative tolerance (1e-12 .. 1e-3).
     state : (taubar [Pa], gap [-], strain [-]) or None
         Initial state (default: rest, f = 0).
-    fixed_cycles, extrapolate : bool
-        Run exactly ``max_cycles`` cycles (a program step "for N cycles"; still reports the
-        last change); accelerate a slow approach by Newton steps on the cycle map (module
-        docstring: the reported cycle is always an integrated one).
+    fixed_cycles : bool
+        Run exactly ``max_cycles`` cycles (a program step "for N cycles"); still reports the
+        last change.
+    extrapolate : bool
+        Accelerate a slow approach to the periodic state by Newton steps on the cycle map
+        (module docstring); the reported cycle is always an integrated one, compared with the
+        integrated cycle before it.
     label : callable
         What a refusal calls a parameter, ``label(name)`` (the command line: its option).
 
-    Returns (point: dict of :data:`POINT_COLUMNS`, the last cycle's waveform: DataFrame of N
-    rows, the final state (taubar, gap, strain) for a continuing sweep). Raises ValueError for
-    bad input (naming the parameter and its range), RuntimeError where IDA failed or returned an
-    unphysical state (with time, state and solver counters).
+    Returns
+    -------
+    (dict, DataFrame, tuple)
+        The point (keys of :data:`POINT_COLUMNS`), the last cycle's waveform (N rows) and the
+        final state (taubar, gap, strain) for a continuing sweep.
+
+    Raises
+    ------
+    ValueError
+        Bad input (naming the parameter and its range).
+    RuntimeError
+        IDA failed or returned an unphysical state (with time, state and solver counters).
     """
     m, phi, G, K0, run = _checked(material, phi, [frequency], [amplitude], control, label,
                                   dict(G=G, K0=K0, max_cycles=max_cycles, min_cycles=min_cycles,
