@@ -51,8 +51,8 @@ The point kernel :func:`update_point` (numba, the laws of :mod:`rheology.laws` w
 the elastic trial, :func:`_correct` (step 2), step 3. :func:`update_block` runs the same update on
 a block of points whose trial stress the caller gives as a structure-of-arrays (rows xx, yy, zz,
 xy, xz, yz), in branch-free SIMD stages (closed-form cases, three Newton steps on (beta, gdot_p)
-with update_point's convergence test, 1/eta_B, the structure step); a point they do not finish
-goes through :func:`_correct`. :func:`update_points` loops blocks over (N, 3, 3) arrays in parallel
+with update_point's convergence test, two more and the test again on the points left unconverged,
+packed, 1/eta_B, the structure step); a point they do not finish goes through :func:`_correct`. :func:`update_points` loops blocks over (N, 3, 3) arrays in parallel
 (:func:`local_update`, the validated numpy front end, calls it); ``mpm2d``'s suspension kernel
 calls update_block, ``shear1d`` and ``rheometer`` call update_point.
 """
@@ -677,10 +677,11 @@ NWORK = 2 * _NW + 3
 #: Newton steps on (beta, gdot_p) that :func:`update_block` takes in step for a whole block,
 #: from _correct's start below jamming (after three, update_point's convergence test passes at
 #: 84-89% of the flowing points of the mpm2d benchmark's shears, the others going through
-#: _correct; a fourth for all would leave some converged points short of the test)
+#: block_retry; a fourth for all would leave some converged points short of the test)
 _LANE_NEWTON = 3
 #: Newton steps of :func:`block_retry` on the points the first test leaves unconverged with
-#: their iterate in the bracket (11-16% of the flowing points), packed
+#: their iterate in the bracket (11-16% of the flowing points), packed: after them the test
+#: passes at all of them in the benchmark's shears (before, _correct solved them)
 _RETRY_NEWTON = 2
 #: update_block's case code of a point it hands to :func:`_correct` (with its Newton iterate as
 #: the start of the dilatant solve: _HANDED_START; without: _HANDED); _RETRY: unconverged, its
