@@ -52,9 +52,10 @@ the elastic trial, :func:`_correct` (step 2), step 3. :func:`update_block` runs 
 a block of points whose trial stress the caller gives as a structure-of-arrays (rows xx, yy, zz,
 xy, xz, yz), in branch-free SIMD stages (closed-form cases, three Newton steps on (beta, gdot_p)
 with update_point's convergence test, two more and the test again on the points left unconverged,
-packed, 1/eta_B, the structure step); a point they do not finish goes through :func:`_correct`. :func:`update_points` loops blocks over (N, 3, 3) arrays in parallel
-(:func:`local_update`, the validated numpy front end, calls it); ``mpm2d``'s suspension kernel
-calls update_block, ``shear1d`` and ``rheometer`` call update_point.
+packed, 1/eta_B, the structure step); a point they do not finish goes through :func:`_correct`.
+:func:`update_points` loops blocks over (N, 3, 3) arrays in parallel (:func:`local_update`, the
+validated numpy front end, calls it); ``mpm2d``'s suspension kernel calls update_block,
+``shear1d`` and ``rheometer`` call update_point.
 """
 
 from __future__ import annotations
@@ -822,7 +823,8 @@ def block_retry(phi, f, dt, P, W):
     R = W[_NW:2 * _NW]
     for j in range(m):
         k = int(W[_RIDX, j])
-        R[_BETA, j], R[_G, j], R[_PTR, j], R[_TAU, j] = W[_BETA, k], W[_G, k], W[_PTR, k], W[_TAU, k]
+        R[_BETA, j], R[_G, j] = W[_BETA, k], W[_G, k]
+        R[_PTR, j], R[_TAU, j] = W[_PTR, k], W[_TAU, k]
         R[_GF, j], R[_PF, j], W[_RPHI, j], W[_RF, j] = W[_GF, k], W[_PF, k], phi[k], f[k]
         R[_CASE, j] = _HANDED_START
     ph, fr = W[_RPHI, :m], W[_RF, :m]
