@@ -155,9 +155,6 @@ def critical_pressure(gdot_p, phi, y, a, eta0, d, rho_s):
 
 
 # ------------------------------------------------------------------ fluid phase (Table 8)
-_LN10 = float(np.log(10.0))
-
-
 @register_jitable
 def beetstra_F(phi, Re):
     """Beetstra et al. (2007) normalised drag F(phi, Re) [-] (F -> 1 as phi, Re -> 0).
@@ -165,16 +162,12 @@ def beetstra_F(phi, Re):
     F = 10 phi/(1-phi)^2 + (1-phi)^2 (1 + 1.5 sqrt(phi)) + F_1(Re_s), with Re_s = (1 - phi) Re and
     F_1 = 0.413 Re_s/(24 (1-phi)^2) (1/(1-phi) + 3 phi (1-phi) + 8.4 Re_s^-0.343)
           / (1 + 10^(3 phi) Re_s^(-(1 + 4 phi)/2)).
-
-    The three powers as exp of multiples of one ln Re_s (the second pair as one exp), with
-    :mod:`rheology.vecmath`'s log and exp under numba (three pow calls cost several times more).
     """
     n = 1.0 - phi
     F0 = 10.0 * phi / (n * n) + n * n * (1.0 + 1.5 * np.sqrt(phi))
     Res = np.maximum(n * Re, 1e-12)
-    lr = vecmath.log(Res)
-    F1 = (0.413 * Res / (24.0 * n * n) * (1.0 / n + 3.0 * phi * n + 8.4 * vecmath.exp(-0.343 * lr))
-          / (1.0 + vecmath.exp(3.0 * _LN10 * phi - 0.5 * (1.0 + 4.0 * phi) * lr)))
+    F1 = (0.413 * Res / (24.0 * n * n) * (1.0 / n + 3.0 * phi * n + 8.4 * Res ** -0.343)
+          / (1.0 + 10.0 ** (3.0 * phi) * Res ** (-(1.0 + 4.0 * phi) / 2.0)))
     return F0 + F1
 
 
