@@ -58,8 +58,9 @@ from mpm2d.transfer import chunk_bounds
 from rheology import get_material
 from mpm2d.materials import trial_stress
 from rheology.local_update import (BLOCK, NOUT, NSTRESS, NWORK, SHEAR_FLOW, block_finish,
-                                   block_handed, block_inv_eta_B, block_newton, block_start,
-                                   block_test, kernel_parameters, update_points_serial)
+                                   block_handed, block_inv_eta_B, block_newton, block_retry,
+                                   block_start, block_test, kernel_parameters,
+                                   update_points_serial)
 from rheology.numba_cache import guard
 
 from .framework import BenchResult, benchmark, timed
@@ -211,7 +212,7 @@ def sheared_locked(cells: int) -> Simulation:
 @nb.njit(error_model="numpy")
 def _law_upto(stop, stress, L, Lw, phi, f0, g0, dt, P, S, W, fb, gb, cb):
     """The suspension kernel's law on blocks of BLOCK points up to stage ``stop`` (0: the trial
-    in mpm2d's layout, mpm2d.materials.trial_stress; 1-6: update_block's stages in turn), on copies
+    in mpm2d's layout, mpm2d.materials.trial_stress; 1-7: update_block's stages in turn), on copies
     of f and gdot (the inputs are not changed)."""
     N = phi.shape[0]
     G, K = P[16], P[17]
@@ -228,15 +229,17 @@ def _law_upto(stop, stress, L, Lw, phi, f0, g0, dt, P, S, W, fb, gb, cb):
         if stop >= 3:
             block_test(ph, f, dt, P, W)
         if stop >= 4:
-            block_inv_eta_B(ph, P, W)
+            block_retry(ph, f, dt, P, W)
         if stop >= 5:
-            block_handed(ph, f, g, dt, P, W)
+            block_inv_eta_B(ph, P, W)
         if stop >= 6:
+            block_handed(ph, f, g, dt, P, W)
+        if stop >= 7:
             block_finish(S, ph, f, g, case, dt, P, W)
 
 
 #: update_block's stages as the benchmark times them (after mpm2d's trial, stage 0)
-LAW_STAGES = ("trial", "start", "newton", "test", "inv_eta_B", "handed", "finish")
+LAW_STAGES = ("trial", "start", "newton", "test", "retry", "inv_eta_B", "handed", "finish")
 
 
 def law_alone(s, dt, reps: int) -> dict:
