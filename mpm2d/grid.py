@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import numba as nb
 import numpy as np
 
-from rheology.checks import check_positive
+from runkit.params import check_positive
 from rheology.numba_cache import guard
 
 PAD = 2

@@ -24,7 +24,7 @@ import numba as nb
 import numpy as np
 
 from rheology import laws, vecmath
-from rheology.checks import check_positive, check_range
+from runkit.params import check_positive, check_range
 from rheology.flow_rule import invariants
 from rheology.local_update import (BLOCK, FAILED, NOUT, NSTRESS, NWORK, jaumann_elastic,
                                    jaumann_elastic_plane, kernel_parameters, update_block)

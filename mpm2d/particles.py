@@ -15,7 +15,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from rheology.checks import check_range
+from runkit.params import check_range
 from rheology.numba_cache import guard
 
 from .kernels import PARALLEL_MIN_POINTS, dual

@@ -39,7 +39,7 @@ import time
 import numba as nb
 import numpy as np
 
-from rheology.checks import check_positive, check_range
+from runkit.params import check_positive, check_range
 
 from . import grid_update as gu
 from .kernels import PARALLEL_MIN_POINTS, dual

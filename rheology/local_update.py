@@ -66,7 +66,7 @@ import numba as nb
 import numpy as np
 
 from . import laws
-from .checks import check_range
+from runkit.params import check_range
 from .materials import KERNEL_FIELDS, Material, get_material
 from .numba_cache import guard
 from .roots import brent
