@@ -117,10 +117,14 @@ SPEED_MAX = le(1e4, "faster than the shear waves of any grain skeleton (steel ~3
 GRAVITY_MIN = ge(1e-3, "below the surface gravity of the smallest bodies with a grain bed "
                        "(Phobos 5.7e-3 m/s^2)")
 GRAVITY_MAX = le(1e3, "100 g, a geotechnical centrifuge")
+PHI_MIN = ge(1e-6, "a grain per 1e6 grain volumes, the dilute limit: below it the grains "
+                   "do not interact and the mixture is the liquid")
 FREQUENCY_MIN = ge(1.0 / TIME_MAX.value, "a period within the longest duration, 30 years")
 FREQUENCY_MAX = le(1e9, "a period of 1 ns, a thousand molecular relaxation times of the "
                         "liquid (~1 ps): above it the liquid is no longer Newtonian (omega "
                         "tau_liquid > 0.01); ultrasonic shear rheometry reaches ~1e8 Hz")
+STRAIN_MIN = ge(1e-9, "a displacement of a molecular size (~1 nm) across a 1 m gap; rheometers "
+                     "resolve strains down to ~1e-6")
 STRAIN_MAX = le(1e6, "about 1e4 turns of a cone-plate or narrow-gap Couette (a strain of ~60-80 "
                      "per turn): sheared longer, the sample itself changes (evaporation at the "
                      "rim, migration out of the gap, grain attrition), which the model leaves "
