@@ -117,8 +117,8 @@ SPEED_MAX = le(1e4, "faster than the shear waves of any grain skeleton (steel ~3
 GRAVITY_MIN = ge(1e-3, "below the surface gravity of the smallest bodies with a grain bed "
                        "(Phobos 5.7e-3 m/s^2)")
 GRAVITY_MAX = le(1e3, "100 g, a geotechnical centrifuge")
-PHI_MIN = ge(1e-6, "a grain per 1e6 grain volumes, the dilute limit: below it the grains "
-                   "do not interact and the mixture is the liquid")
+PHI_MIN = ge(1e-6, "one grain volume in 1e6: the grains' share of the viscosity (Einstein's "
+                   "5/2 phi) is below 1e-5, and the mixture is the liquid")
 FREQUENCY_MIN = ge(1.0 / TIME_MAX.value, "a period within the longest duration, 30 years")
 FREQUENCY_MAX = le(1e9, "a period of 1 ns, a thousand molecular relaxation times of the "
                         "liquid (~1 ps): above it the liquid is no longer Newtonian (omega "
