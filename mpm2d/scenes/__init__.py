@@ -54,9 +54,14 @@ def _scene_file(name: str):
     Raises ValueError (bad input: one line) for a missing file, one that cannot be imported,
     one without a declared ``setup`` or whose stem is another module's name."""
     path = Path(name).expanduser().resolve()
-    if path.suffix != ".py" or not path.is_file():
-        raise ValueError(f"scene file {name!r} does not exist (a scene is a built-in name, "
-                         f"{', '.join(SCENES)}, or a path to a .py file)")
+    what = (f"a scene is a built-in name, {', '.join(SCENES)}, or the path of a .py file "
+            "declaring setup(**params)")
+    if not path.exists():
+        raise ValueError(f"scene file {name!r} does not exist ({what})")
+    if not path.is_file():
+        raise ValueError(f"scene file {name!r} is a folder, not a scene file ({what})")
+    if path.suffix != ".py":
+        raise ValueError(f"scene file {name!r} is not a Python file (.py) ({what})")
     mod = sys.modules.get(path.stem)
     if mod is not None:
         if Path(getattr(mod, "__file__", "") or "").resolve() == path:
