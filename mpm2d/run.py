@@ -47,7 +47,7 @@ from rheology.run_end import EndedEarly, RunEnd, run_record
 from . import estimate, plots
 from .output import (command_line, previous_run_files, remove, temporaries, write_frame,
                      write_manifest, write_pvds)
-from .scenes.spec import run_refusal, spec_of
+from .scenes.spec import STEPS_WHY, run_refusal, spec_of
 from .simulation import Simulation
 
 
@@ -133,9 +133,14 @@ def check_step_count(scene, name: str) -> None:
     """Refuse (ValueError, one line) a run needing more than MAX_STEPS steps or fewer than the
     scene's ``min_steps`` at its first stable step (a resumed run: its parameters were taken)."""
     dt, steps, need = _first_step(scene)
+    t0 = scene.sim.t
     if steps > MAX_STEPS or not steps >= need:
-        raise ValueError(f"scene {name}: a step of {dt:.3g} s to t_end = {scene.t_end:.3g} s is "
-                         f"{steps:.3g} steps; valid: {need} to {MAX_STEPS:.0e} steps")
+        raise ValueError(f"scene {name}: an end time of {scene.t_end:.3g} s is {steps:.3g} of its "
+                         f"first stable steps ({dt:.3g} s); valid: an end time in "
+                         f"[{t0 + need * dt:.3g}, {t0 + MAX_STEPS * dt:.3g}] s at the other "
+                         f"values (at "
+                         f"least {need} step{'s' if need > 1 else ''}; at most {MAX_STEPS:.0e}, "
+                         f"{STEPS_WHY})")
 
 
 #: the run options, with the reasons of their limits (``mpm2d run --frames``,

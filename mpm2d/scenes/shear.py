@@ -32,6 +32,7 @@ import pandas as pd
 from rheology.materials import scene_material
 from rheology.local_update import NOUT, kernel_parameters, update_points
 from runkit.io import atomic_write_csv
+from runkit.limits import SPEED_MAX, le
 
 from .. import plots
 from ..bodies import box
@@ -46,15 +47,18 @@ from ..simulation import Simulation
 @spec.parameters_of(
     material=spec.scene_material_param("annular_shear"),
     phi=spec.phi_below_jamming(doc="solid volume fraction"),
-    rate=spec.positive(1e5, "1/s", "shear rate gdot"),
-    p0=spec.Param(0.0, 1e9, unit="Pa", doc="initial granular pressure"),
-    f0=spec.Param(0.0, 1.0, doc="initial structure f"),
-    height=spec.positive(1.0, "m", "box height"),
-    cells=spec.count(2, 10000, "cells over the height"),
-    ppc=spec.count(1, 8, "points per cell and direction"),
-    t_end=spec.positive(100.0, "s", "end time"),
-    dt=spec.Param(0.0, 1.0, lo_closed=False, optional=True, unit="s",
-                  doc="fixed step (none: 0.9 x the stable step)"),
+    rate=spec.rate("shear rate gdot", below=le(lambda p: SPEED_MAX.value / p["height"],
+                                               "the wall speed gdot H at most "
+                                               f"{SPEED_MAX.value:g} m/s: {SPEED_MAX.why}")),
+    p0=spec.stress("initial granular pressure (0: none)", zero=True),
+    f0=spec.fraction("initial structure f", "no structure", "fully formed structure"),
+    height=spec.length("box height"),
+    cells=spec.count(2, 10000, "cells over the height", spec.CELLS_WHY,
+                     "a homogeneous flow needs no finer grid (the step shrinks with the cell)"),
+    ppc=spec.ppc(),
+    t_end=spec.duration("end time"),
+    dt=spec.duration("fixed step (none: 0.9 x the stable step)", optional=True,
+                     below=le(lambda p: p["t_end"], "at most t_end: one step or more")),
     rules=spec.rules(),
     cfl=spec.cfl(),
     size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))

@@ -284,14 +284,83 @@ def positive(hi, unit="", doc="", lo=0.0):
     return Param(lo, hi, lo_closed=False, unit=unit, doc=doc)
 
 
-def count(lo, hi, doc=""):
-    """An integer in [lo, hi]."""
-    return Param(lo, hi, integer=True, doc=doc)
+def count(lo, hi, doc="", lo_why="", hi_why=""):
+    """An integer in [lo, hi], each end with its reason."""
+    return Param(lo, hi, integer=True, doc=doc, lo_why=lo_why, hi_why=hi_why)
 
 
-def physical(lo: Bound, hi: Bound, unit: str, doc: str = "") -> SchemaParam:
-    """A number between two physical limits of :mod:`runkit.limits`, with their reasons."""
-    return SchemaParam(lo, hi, unit=unit, doc=doc)
+#: the reasons of the resolution counts
+CELLS_WHY = "two cells: the smallest grid with a node between its ends"
+PPC_WHY = ("one point per cell and direction at least", "8 per direction (64 per cell): past "
+           "where more points change the quadrature of a cell")
+
+
+def ppc():
+    return count(1, 8, "points per cell and direction", *PPC_WHY)
+
+
+def _tighter(limit: Bound, derived: Bound | None, upper: bool) -> Bound:
+    """The physical ``limit``, or the ``derived`` bound (a function of the other parameters,
+    with its reason) where that is tighter."""
+    if derived is None:
+        return limit
+
+    def value(p):
+        pick = min if upper else max
+        return pick(limit.value, derived.at(p)[0])
+
+    def why(p):
+        return derived.at(p)[2] if value(p) != limit.value else limit.why
+
+    return Bound(value, derived.closed if derived.derived else limit.closed, why)
+
+
+def physical(lo: Bound, hi: Bound, unit: str, doc: str = "", *, above: Bound | None = None,
+             below: Bound | None = None, **kw) -> SchemaParam:
+    """A number between two physical limits of :mod:`runkit.limits`, with their reasons (or
+    tighter, a scene's own :class:`~runkit.limits.Bound` with its reason); ``above``,
+    ``below``: bounds that are functions of the other parameters, where tighter (its valid
+    range at the others). ``kw``: ``optional``, ``fill``, ``also``, ``role``, ``of`` of
+    :class:`runkit.params.Param`."""
+    return SchemaParam(_tighter(lo, above, False), _tighter(hi, below, True), unit=unit, doc=doc,
+                       **kw)
+
+
+def length(doc="", lo=limits.LENGTH_MIN, hi=limits.LENGTH_MAX, **kw):
+    return physical(lo, hi, "m", doc, **kw)
+
+
+def speed(doc="", lo=limits.SPEED_MIN, hi=limits.SPEED_MAX, **kw):
+    return physical(lo, hi, "m/s", doc, **kw)
+
+
+def duration(doc="", lo=limits.TIME_MIN, hi=limits.TIME_MAX, **kw):
+    return physical(lo, hi, "s", doc, **kw)
+
+
+def rate(doc="", lo=limits.RATE_MIN, hi=limits.RATE_MAX, **kw):
+    return physical(lo, hi, "1/s", doc, **kw)
+
+
+def stress(doc="", lo=limits.STRESS_MIN, hi=limits.STRESS_MAX, zero=False, **kw):
+    """A stress; ``zero``: 0 (none) valid too."""
+    return physical(lo, hi, "Pa", doc, also=(0.0,) if zero else (), **kw)
+
+
+def viscosity(doc="fluid viscosity"):
+    return physical(limits.VISCOSITY_MIN, limits.VISCOSITY_MAX, "Pa s", doc)
+
+
+def poisson(doc="Poisson ratio"):
+    """A Poisson ratio in (-1, 1/2): the moduli of an isotropic elastic solid positive."""
+    return SchemaParam(limits.gt(-1.0, "the shear modulus E/(2(1 + nu)) must be positive"),
+                       limits.lt(0.5, "the bulk modulus E/(3(1 - 2 nu)) must be finite (0.5: "
+                                      "incompressible)"), doc=doc)
+
+
+def fraction(doc, lo_why, hi_why, hi_closed=True):
+    """A dimensionless fraction in [0, 1]."""
+    return Param(0.0, 1.0, doc=doc, lo_why=lo_why, hi_why=hi_why, hi_closed=hi_closed)
 
 
 def modulus(doc=""):
@@ -322,7 +391,8 @@ def transfer():
 
 
 def flip_alpha():
-    return Param(0.0, 1.0, doc="FLIP fraction of the FLIP/PIC blend (transfer=flip)")
+    return fraction("FLIP fraction of the FLIP/PIC blend (transfer=flip)", "0: PIC",
+                    "1: FLIP (a blend of the two)")
 
 
 def gravity(doc="gravitational acceleration (downwards; the bed rests under it)"):
@@ -369,7 +439,7 @@ def materials_where(predicate: Callable, what: str) -> Callable[[], tuple]:
 
 def phi_below_jamming(material_key="material", fixed=None, doc="initial solid volume fraction",
                       optional=False, fill=None):
-    """A volume fraction in (0, phi_j) of the scene's material (``params[material_key]``, or the
+    """A volume fraction in [PHI_MIN, phi_j) of the scene's material (``params[material_key]``, or the
     ``fixed`` material: a name or a function of the parameters); ``optional``: ``none`` allowed
     (the scene picks its value, ``fill(params)``, checked the same). ``mpm2d run
     --mass-fraction`` sets it through Eq. (20) (its ``role``)."""
@@ -377,9 +447,9 @@ def phi_below_jamming(material_key="material", fixed=None, doc="initial solid vo
     def name(p):
         return fixed(p) if callable(fixed) else fixed if fixed else p[material_key]
 
-    return Param(0.0, lambda p: get_material(name(p)).phi_j, lo_closed=False, hi_closed=False,
-                 doc=doc, optional=optional, note=lambda p: f"phi_j of material {name(p)!r}",
-                 fill=fill, role="volume_fraction", of=name)
+    return SchemaParam(limits.PHI_MIN, Bound(lambda p: get_material(name(p)).phi_j, False,
+                                             lambda p: f"phi_j of material {name(p)!r}"),
+                       doc=doc, optional=optional, fill=fill, role="volume_fraction", of=name)
 
 
 def spec_of(setup: Callable) -> Schema:
