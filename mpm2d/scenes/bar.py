@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from runkit.io import atomic_write_csv
+from runkit.limits import ge, le
 
 from .. import analytic, plots
 from ..bodies import box
@@ -55,21 +56,22 @@ def _steps(p) -> tuple:
 
 
 @spec.parameters_of(
-    length=spec.positive(1e3, "m", "bar length L"),
-    cells=spec.count(2, 100000, "cells along L"),
-    ppc=spec.count(1, 8, "points per cell and direction"),
+    length=spec.length("bar length L"),
+    cells=spec.cells("cells along L"),
+    ppc=spec.ppc(),
     E=spec.modulus("Young's modulus"),
     rho=spec.density(),
-    v0=spec.Param(lambda p: 1e-9 * (p["E"] / p["rho"]) ** 0.5,
-                  lambda p: 0.01 * (p["E"] / p["rho"]) ** 0.5, unit="m/s",
-                  doc="mode-1 velocity amplitude",
-                  note="strain amplitude 1e-9 <= v0/c <= 0.01, c = sqrt(E/rho): a smaller motion "
-                       "is lost in the rounding of the positions (v0 = 1e-300 fitted omega at the "
-                       "edge of its window), a larger one is not linear"),
-    periods=spec.positive(1000.0, "", "run length in periods"),
+    v0=spec.speed("mode-1 velocity amplitude",
+                  above=ge(lambda p: 1e-9 * (p["E"] / p["rho"]) ** 0.5,
+                           "strain amplitude v0/c >= 1e-9, c = sqrt(E/rho): a smaller motion is "
+                           "lost in the rounding of the positions"),
+                  below=le(lambda p: 0.01 * (p["E"] / p["rho"]) ** 0.5,
+                           "strain amplitude v0/c <= 0.01, c = sqrt(E/rho): a larger one is not "
+                           "linear")),
+    periods=spec.runs_for("run length in periods", 1000.0, "1000 periods: the fit of amplitude "
+                          "and frequency needs a few; the scheme's phase error grows with each"),
     transfer=spec.transfer(), flip_alpha=spec.flip_alpha(), cfl=spec.cfl(),
-    dt=spec.Param(0.0, 1.0, lo_closed=False, optional=True, unit="s",
-                  doc="fixed step (none: adaptive)"),
+    dt=spec.duration("fixed step (none: adaptive)", optional=True),
     size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 8) * 7),
     steps=lambda p: _steps(p))
 def setup(length=1.0, cells=32, ppc=2, E=1.0e6, rho=1000.0, v0=1.0e-3, periods=2.0,

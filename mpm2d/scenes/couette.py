@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from runkit.io import atomic_write_csv
+from runkit.limits import le
 
 from .. import analytic, plots
 from ..bodies import box
@@ -40,16 +41,17 @@ PROFILE_T = (0.02, 0.05, 0.1, 0.2, 0.5)
 
 
 @spec.parameters_of(
-    gap=spec.positive(10.0, "m", "gap H"),
-    cells=spec.count(2, 100000, "cells across the gap"),
-    ppc=spec.count(1, 8, "points per cell and direction"),
-    eta=spec.positive(1e6, "Pa s", "viscosity"),
+    gap=spec.length("gap H"),
+    cells=spec.cells("cells across the gap"),
+    ppc=spec.ppc(),
+    eta=spec.viscosity("viscosity"),
     rho=spec.density(),
     kappa=spec.modulus("bulk modulus"),
-    U=spec.Param(0.0, lambda p: 0.1 * (p["kappa"] / p["rho"]) ** 0.5, lo_closed=False,
-                 unit="m/s", doc="velocity of the moving wall",
-                 note="U <= 0.1 c, c = sqrt(kappa/rho): nearly incompressible"),
-    t_end_T=spec.positive(100.0, "", "end time in units of H^2/nu"),
+    U=spec.speed("velocity of the moving wall",
+                 below=le(lambda p: 0.1 * (p["kappa"] / p["rho"]) ** 0.5,
+                          "U <= 0.1 c, c = sqrt(kappa/rho): nearly incompressible")),
+    t_end_T=spec.runs_for("end time in units of H^2/nu", 100.0, "100 H^2/nu: the flow is "
+                          "steady (to e^-1000) long before"),
     transfer=spec.transfer(), cfl=spec.cfl(),
     size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
 def setup(gap=0.01, cells=16, ppc=2, eta=0.1, rho=1000.0, kappa=1.0e4, U=0.01, t_end_T=0.5,

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from runkit.io import atomic_write_csv
+from runkit.limits import le
 
 from .. import analytic, plots
 from ..bodies import box
@@ -36,15 +37,17 @@ from ..simulation import Simulation
 
 
 @spec.parameters_of(
-    radius=spec.positive(1e3, "m", "cylinder radius R"),
-    cells=spec.count(2, 100000, "cells along R"),
-    ppc=spec.count(1, 8, "points per cell and direction"),
+    radius=spec.length("cylinder radius R"),
+    cells=spec.cells("cells along R"),
+    ppc=spec.ppc(),
     E=spec.modulus("Young's modulus"),
-    nu=spec.Param(-1.0, 0.5, lo_closed=False, hi_closed=False, doc="Poisson ratio"),
+    nu=spec.poisson(),
     rho=spec.density(),
-    v0=spec.Param(0.0, lambda p: 0.01 * (p["E"] / p["rho"]) ** 0.5, lo_closed=False, unit="m/s",
-                  doc="J1-mode velocity amplitude", note="small strain: v0 <= 0.01 sqrt(E/rho)"),
-    periods=spec.positive(1000.0, "", "run length in periods"),
+    v0=spec.speed("J1-mode velocity amplitude",
+                  below=le(lambda p: 0.01 * (p["E"] / p["rho"]) ** 0.5,
+                           "small strain: v0 <= 0.01 sqrt(E/rho)")),
+    periods=spec.runs_for("run length in periods", 1000.0, "1000 periods: the frequency needs "
+                          "a few; the scheme's phase error grows with each"),
     transfer=spec.transfer(), cfl=spec.cfl(),
     size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
 def setup(radius=1.0, cells=32, ppc=2, E=1.0e6, nu=0.25, rho=1000.0, v0=1.0e-3, periods=2.0,

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from runkit.io import atomic_write_csv
+from runkit.limits import le
 
 from .. import plots
 from ..bodies import RigidBody, box
@@ -33,14 +34,16 @@ from ..simulation import Simulation
 
 
 @spec.parameters_of(
-    length=spec.positive(1e3, "m", "bar length L"),
-    cells=spec.count(2, 100000, "cells along L"),
-    ppc=spec.count(1, 8, "points per cell and direction"),
+    length=spec.length("bar length L"),
+    cells=spec.cells("cells along L"),
+    ppc=spec.ppc(),
     E=spec.modulus("Young's modulus of the bar"),
     rho=spec.density("density of bar and piston"),
-    V=spec.Param(0.0, lambda p: 0.01 * (p["E"] / p["rho"]) ** 0.5, lo_closed=False, unit="m/s",
-                 doc="piston velocity", note="small strain: V <= 0.01 c, c = sqrt(E/rho)"),
-    t_end_fraction=spec.positive(1.0, "", "end time as a fraction of L/c (before the reflection)"),
+    V=spec.speed("piston velocity", below=le(lambda p: 0.01 * (p["E"] / p["rho"]) ** 0.5,
+                                             "small strain: V <= 0.01 c, c = sqrt(E/rho)")),
+    t_end_fraction=spec.runs_for("end time as a fraction of L/c (before the reflection)", 1.0,
+                                 "the wave reaches the far end at L/c: after it, the reflection "
+                                 "is not the impact stress rho c V"),
     cfl=spec.cfl(),
     size=lambda p: (2 * (p["cells"] + 4) * p["ppc"] ** 2, (p["cells"] + 15) * 7))
 def setup(length=1.0, cells=64, ppc=2, E=1.0e6, rho=1000.0, V=0.01, t_end_fraction=0.6, cfl=0.5):

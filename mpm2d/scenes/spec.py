@@ -291,12 +291,25 @@ def count(lo, hi, doc="", lo_why="", hi_why=""):
 
 #: the reasons of the resolution counts
 CELLS_WHY = "two cells: the smallest grid with a node between its ends"
+CELLS_MAX_WHY = ("at 1e5 cells the grid's error (~h^2) is below 1e-10, the rounding of the "
+                 "positions: no finer grid changes the result")
 PPC_WHY = ("one point per cell and direction at least", "8 per direction (64 per cell): past "
            "where more points change the quadrature of a cell")
 
 
 def ppc():
     return count(1, 8, "points per cell and direction", *PPC_WHY)
+
+
+def cells(doc, lo=2, hi=100000, lo_why=CELLS_WHY, hi_why=CELLS_MAX_WHY):
+    return count(lo, hi, doc, lo_why, hi_why)
+
+
+def runs_for(doc, hi, hi_why):
+    """A dimensionless run length (periods, a time in units of the scene's): positive, the
+    step count bounding it below."""
+    return Param(0.0, hi, lo_closed=False, doc=doc, lo_why="a run of positive length (its step "
+                 "count bounds it further)", hi_why=hi_why)
 
 
 def _tighter(limit: Bound, derived: Bound | None, upper: bool) -> Bound:
