@@ -28,8 +28,8 @@ import copy
 import numpy as np
 import pandas as pd
 
-from runkit import limits
 from runkit.io import atomic_write_csv
+from runkit.limits import ge, le
 
 from .. import plots
 from ..bodies import disk
@@ -43,20 +43,25 @@ from ..transfer import g2p
 
 
 @spec.parameters_of(
-    cells=spec.count(4, 4096, "cells per side of the unit square"),
-    ppc=spec.count(1, 8, "points per cell and direction"),
+    cells=spec.cells("cells per side of the unit square", 4, 4096,
+                     "4 cells: a disk of a quarter of the square spans at least one cell",
+                     "4096^2 cells: 1.7e7 nodes and 2e7 points, the memory of a workstation"),
+    ppc=spec.ppc(),
     E=spec.modulus("Young's modulus"),
-    nu=spec.Param(-1.0, 0.5, lo_closed=False, hi_closed=False, doc="Poisson ratio"),
+    nu=spec.poisson(),
     rho=spec.density(),
-    radius=spec.Param(lambda p: 1.0 / p["cells"], 0.25, unit="m",
-                      doc="disk radius (the disks start apart)", note="at least one cell"),
-    speed=spec.physical(limits.SPEED_MIN, limits.le(lambda p: 0.1 * (p["E"] / p["rho"]) ** 0.5,
-                                                    "v0 <= 0.1 c, c = sqrt(E/rho): an elastic "
-                                                    "impact"),
-                        "m/s", "speed v0 of each velocity component"),
-    offset=spec.Param(-0.2, 0.2, unit="m", doc="impact parameter (oblique collision)"),
+    radius=spec.length("disk radius (the disks start apart)",
+                       hi=le(0.25, "the disks, centred 0.25 m from the walls, inside the unit "
+                                   "square"),
+                       above=ge(lambda p: 1.0 / p["cells"], "at least one cell")),
+    speed=spec.speed("speed v0 of each velocity component",
+                     below=le(lambda p: 0.1 * (p["E"] / p["rho"]) ** 0.5,
+                              "v0 <= 0.1 c, c = sqrt(E/rho): an elastic impact")),
+    offset=spec.Param(-0.2, 0.2, unit="m", doc="impact parameter (oblique collision)",
+                      lo_why="the default radius: the disks at most graze",
+                      hi_why="the default radius: the disks at most graze"),
     walls=spec.Param(choices=("slip", "free"), doc="frictionless walls, or none"),
-    t_end=spec.positive(100.0, "s", "end time"),
+    t_end=spec.duration("end time"),
     transfer=spec.transfer(), flip_alpha=spec.flip_alpha(), cfl=spec.cfl(),
     size=lambda p: (2 * 3.1416 * p["radius"] ** 2 * (p["cells"] * p["ppc"]) ** 2,
                     (p["cells"] + 5) ** 2))
