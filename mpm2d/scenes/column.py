@@ -38,6 +38,7 @@ import pandas as pd
 from rheology import get_material
 from rheology.fluid import drag_coefficient
 from runkit.io import atomic_write_csv
+from runkit.limits import ge
 
 from .. import analytic, plots
 from ..bodies import box
@@ -59,24 +60,23 @@ def _first_step(p) -> float:
 
 
 @spec.parameters_of(
-    height=spec.Param(lambda p: p["cells"] * p["d"], 10.0, unit="m",
-                      doc="height of the suspension",
-                      note="at least cells x d: a cell of at least one grain diameter, the "
-                           "continuum limit of the model"),
-    width_cells=spec.count(2, 1000, "cells across (periodic)"),
-    cells=spec.count(2, 100000, "cells over the height"),
-    ppc=spec.count(1, 8, "points per cell and direction"),
+    height=spec.length("height of the suspension",
+                       above=ge(lambda p: p["cells"] * p["d"],
+                                "at least cells x d: a cell of at least one grain diameter, the "
+                                "continuum limit of the model")),
+    width_cells=spec.cells("cells across (periodic)", 2, 1000, hi_why="a 1-D settling: more "
+                           "cells across only repeat the column"),
+    cells=spec.cells("cells over the height"),
+    ppc=spec.ppc(),
     phi0=spec.phi_below_jamming(),
     material=spec.Param(choices=spec.materials_where(
         lambda m: m.rho_s and m.rho_f and m.rho_s > m.rho_f, "sets with grains denser than the fluid"),
         doc="rheology parameter set (grains must be denser than the fluid)"),
     d=spec.grain_size(),
-    eta0=spec.Param(1e-6, 1e3, unit="Pa s", doc="fluid viscosity",
-                    note="a liquid: water is 1e-3 Pa s; eta0 = 1e-300 made the drag's Reynolds "
-                         "number infinite"),
+    eta0=spec.viscosity(),
     K=spec.modulus("granular bulk modulus"), G=spec.modulus("granular shear modulus"),
     kappa=spec.modulus("fluid bulk modulus"),
-    t_end=spec.positive(100.0, "s", "end time"),
+    t_end=spec.duration("end time"),
     gravity=spec.gravity("gravitational acceleration (downwards)"),
     rules=spec.rules(),
     cfl=spec.cfl(),

@@ -33,7 +33,9 @@ import numpy as np
 import pandas as pd
 
 from rheology import laws
+from runkit import limits
 from runkit.io import atomic_write_csv
+from runkit.limits import ge
 
 from .. import analytic, plots
 from ..bodies import box
@@ -64,22 +66,26 @@ def constants(params: dict) -> dict:
 
 
 @spec.parameters_of(
-    height=spec.positive(100.0, "m", "layer height H"),
-    cells=spec.count(2, 100000, "cells over H"),
-    width_cells=spec.count(2, 1000, "cells across (periodic)"),
-    ppc=spec.count(1, 8, "points per cell and direction"),
+    height=spec.length("layer height H"),
+    cells=spec.cells("cells over H"),
+    width_cells=spec.cells("cells across (periodic)", 2, 1000, hi_why="a 1-D consolidation: "
+                           "more cells across only repeat the column"),
+    ppc=spec.ppc(),
     K=spec.modulus("skeleton bulk modulus"), G=spec.modulus("skeleton shear modulus"),
     rho_s=spec.density("grain density"), rho_f=spec.density("fluid density"),
-    phi=spec.Param(0.0, 1.0, lo_closed=False, hi_closed=False, doc="solid volume fraction"),
-    eta0=spec.positive(1e6, "Pa s", "fluid viscosity"),
+    phi=spec.physical(limits.PHI_MIN, limits.lt(1.0, "grains fill at most the whole volume"),
+                      "", "solid volume fraction"),
+    eta0=spec.viscosity(),
     d=spec.grain_size(),
     kappa=spec.modulus("fluid bulk modulus"),
-    load=spec.Param(lambda p: 1e-9 * (p["K"] + 4.0 * p["G"] / 3.0), 1e9, unit="Pa",
-                    doc="load q on the drained top",
-                    note="settlement strain q/(K + 4G/3) >= 1e-9: a smaller one is lost in the "
-                         "rounding of the positions (load = 1e-300 gave a settlement error of 1)"),
-    ramp=spec.positive(10.0, "", "load ramp T_r = cv t_r/H^2"),
-    t_end_T=spec.positive(100.0, "", "end time as T = cv t/H^2"),
+    load=spec.stress("load q on the drained top",
+                     above=ge(lambda p: 1e-9 * (p["K"] + 4.0 * p["G"] / 3.0),
+                              "settlement strain q/(K + 4G/3) >= 1e-9: a smaller one is lost "
+                              "in the rounding of the positions")),
+    ramp=spec.runs_for("load ramp T_r = cv t_r/H^2", 10.0, "a ramp of 10 consolidation times: "
+                       "the layer has consolidated long before it ends"),
+    t_end_T=spec.runs_for("end time as T = cv t/H^2", 100.0, "T = 100: consolidated to "
+                          "e^-250"),
     cfl=spec.cfl(), transfer=spec.transfer(),
     size=lambda p: (2 * p["width_cells"] * p["cells"] * p["ppc"] ** 2,
                     (p["width_cells"] + 5) * (p["cells"] + 9)))
