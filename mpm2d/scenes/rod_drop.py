@@ -29,6 +29,7 @@ import pandas as pd
 
 from rheology import get_material
 from runkit.io import atomic_write_csv
+from runkit.limits import ge, lt
 
 from .. import plots
 from ..bodies import RigidBody, box
@@ -42,22 +43,22 @@ from ..simulation import Simulation
 
 
 @spec.parameters_of(
-    radius=spec.Param(lambda p: 2e-3 / p["cells_per_mm"], 1.0, unit="m", doc="container radius",
-                      note="at least 2 cells"),
-    depth=spec.Param(lambda p: 1e-3 / p["cells_per_mm"], 1.0, unit="m", doc="bed depth",
-                     note="at least 1 cell"),
-    cells_per_mm=spec.positive(100.0, "1/mm", "1/h in 1/mm"),
-    rod_radius=spec.Param(lambda p: 0.5e-3 / p["cells_per_mm"], lambda p: p["radius"],
-                          hi_closed=False,
-                          unit="m", doc="rod radius", note="at least h/2, inside the container"),
-    rod_length=spec.Param(lambda p: 0.5e-3 / p["cells_per_mm"], 1.0, unit="m", doc="rod length",
-                          note="at least h/2"),
+    radius=spec.length("container radius",
+                       above=ge(lambda p: 2e-3 / p["cells_per_mm"], "at least 2 cells")),
+    depth=spec.length("bed depth", above=ge(lambda p: 1e-3 / p["cells_per_mm"],
+                                            "at least 1 cell")),
+    cells_per_mm=spec.resolution(),
+    rod_radius=spec.length("rod radius",
+                           above=ge(lambda p: 0.5e-3 / p["cells_per_mm"], "at least h/2"),
+                           below=lt(lambda p: p["radius"], "inside the container")),
+    rod_length=spec.length("rod length",
+                           above=ge(lambda p: 0.5e-3 / p["cells_per_mm"], "at least h/2")),
     rod_density=spec.density("rod density"),
-    v0=spec.Param(0.0, 100.0, unit="m/s", doc="impact speed (downwards)"),
+    v0=spec.speed("impact speed (downwards; 0: dropped from rest)", also=(0.0,)),
     phi0=spec.phi_below_jamming(fixed="rod_impact", doc="solid volume fraction of the bed"),
     K=spec.modulus("granular bulk modulus"), G=spec.modulus("granular shear modulus"),
     kappa=spec.modulus("fluid bulk modulus"),
-    t_end=spec.positive(10.0, "s", "end time"),
+    t_end=spec.duration("end time"),
     gravity=spec.gravity(), rules=spec.rules(), cfl=spec.cfl(),
     size=lambda p: (4 * (p["radius"] * p["depth"] + p["rod_radius"] * p["rod_length"])
                     * (p["cells_per_mm"] * 1e3) ** 2,

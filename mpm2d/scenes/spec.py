@@ -360,6 +360,17 @@ def stress(doc="", lo=limits.STRESS_MIN, hi=limits.STRESS_MAX, zero=False, **kw)
     return physical(lo, hi, "Pa", doc, also=(0.0,) if zero else (), **kw)
 
 
+#: the grid resolution 1/h [1/mm]: a cell within the physical lengths
+RESOLUTION_MIN = limits.ge(1e-3 / limits.LENGTH_MAX.value, "a cell of at most "
+                           f"{limits.LENGTH_MAX.value:g} m: {limits.LENGTH_MAX.why}")
+RESOLUTION_MAX = limits.le(1e-3 / limits.LENGTH_MIN.value, "a cell of at least "
+                           f"{limits.LENGTH_MIN.value:g} m: {limits.LENGTH_MIN.why}")
+
+
+def resolution(doc="1/h in 1/mm", lo=RESOLUTION_MIN, hi=RESOLUTION_MAX, **kw):
+    return physical(lo, hi, "1/mm", doc, **kw)
+
+
 def viscosity(doc="fluid viscosity"):
     return physical(limits.VISCOSITY_MIN, limits.VISCOSITY_MAX, "Pa s", doc)
 
