@@ -88,11 +88,11 @@ def _call(argv):
 
 
 @pytest.mark.parametrize("setting, words", [
-    ("omega=0", "omega = 0 is outside the valid range (0, 100] 1/s"),
+    ("omega=0", "omega = 0 is outside the valid range [1e-09, 100] 1/s"),
     ("omega=-1", "omega = -1 is outside"),
     ("omega=nan", "omega = nan: must be finite"),
     ("omega=fast", "omega = 'fast' is not a number"),
-    ("t_end=5", "t_end = 5 is outside the valid range (0, 1.04] s"),
+    ("t_end=5", "t_end = 5 is outside the valid range [1e-12, 1.04] s"),
     ("transfer=pic", "transfer = 'pic' is not one of apic, flip"),
     ("moduli_factor=0", "moduli_factor = 0 is outside"),
     ("phi0=0.6", "phi_j of material 'wheel'"),

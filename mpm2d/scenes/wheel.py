@@ -66,7 +66,9 @@ import pandas as pd
 from matplotlib.animation import PillowWriter
 
 from rheology import get_material
+from runkit import limits
 from runkit.io import atomic_write_csv, atomic_write_json
+from runkit.limits import ge, le
 
 from .. import plots
 from ..bodies import RigidBody, fill
@@ -87,6 +89,9 @@ OMEGAS = (10.0, 1.0)
 N_SPOKES = 4
 #: the wheel's start: its hub this far from the left edge [m]
 START_X = 0.25
+#: the reasons of the bed's modulus factors (moduli_factor, kappa_factor)
+FACTOR_WHY = ("a hundredth: the bed's moduli (~1e7 Pa) stay above a gel's", "a thousand times: "
+              "the step, which falls as the square root, 30 times shorter")
 #: vector length factor of Figs. 8-9: l_i = VECTOR_SCALE v_i sqrt(R/g)
 VECTOR_SCALE = 1.215
 #: the surface contour of Figs. 8-9 (grid volume fraction)
@@ -145,48 +150,60 @@ def _points(p) -> float:
 
 
 @spec.parameters_of(
-    omega=spec.Param(0.0, 100.0, lo_closed=False, optional=True, unit="1/s",
-                     doc="prescribed angular velocity (clockwise, driving to +x); none: both 10 "
-                         "and 1 1/s (the default run)"),
-    radius=spec.positive(10.0, "m", "wheel radius R (along each spoke's axis)"),
-    hub_radius=spec.Param(lambda p: p["h"], lambda p: p["radius"] - 2 * p["h"], unit="m",
-                          doc="rigid hub radius", note="one cell to the radius - 2 cells"),
-    spoke_width=spec.Param(lambda p: p["h"] / 2, lambda p: 2 * p["hub_radius"], unit="m",
-                           doc="spoke width", note="a point spacing (h/2) to the hub diameter"),
+    omega=spec.physical(limits.FREQUENCY_MIN, le(100.0, "ten times the paper's fastest wheel "
+                                                        "(10 1/s)"), "1/s",
+                        "prescribed angular velocity (clockwise, driving to +x); none: both 10 "
+                        "and 1 1/s (the default run)", optional=True),
+    radius=spec.length("wheel radius R (along each spoke's axis)"),
+    hub_radius=spec.length("rigid hub radius", above=ge(lambda p: p["h"], "one cell to the radius "
+                                                        "- 2 cells"),
+                           below=le(lambda p: p["radius"] - 2 * p["h"], "one cell to the radius "
+                                    "- 2 cells")),
+    spoke_width=spec.length("spoke width",
+                            above=ge(lambda p: p["h"] / 2, "a point spacing (h/2) to the hub "
+                                     "diameter"),
+                            below=le(lambda p: 2 * p["hub_radius"], "a point spacing (h/2) to "
+                                     "the hub diameter")),
     density=spec.density("wheel density"),
     spokes=spec.Param(choices=("rigid", "elastic"),
                       doc="rigid wheel (hub and spokes one rigid body) or elastic spokes bonded "
                           "to the rigid hub"),
     E=spec.modulus("elastic spokes: Young's modulus"),
-    nu=spec.Param(-1.0, 0.5, lo_closed=False, hi_closed=False,
-                  doc="elastic spokes: Poisson ratio"),
+    nu=spec.poisson("elastic spokes: Poisson ratio"),
     phi0=spec.phi_below_jamming(fixed="wheel", doc="bed solid volume fraction"),
-    width=spec.Param(lambda p: 4 * p["radius"], 100.0, unit="m", doc="domain width (periodic)",
-                     note="at least 4 radii"),
-    height=spec.Param(lambda p: p["bed_depth"] + 3 * p["radius"] + 2 * p["h"], 100.0, unit="m",
-                      doc="domain height", note="bed + 3 radii + 2 cells"),
-    bed_depth=spec.Param(lambda p: p["radius"], 100.0, unit="m", doc="bed depth",
-                         note="at least the wheel radius"),
-    h=spec.Param(lambda p: p["radius"] / 100.0, lambda p: p["radius"] / 4.0, unit="m",
-                 doc="cell size (2/150: the paper's 150 x 75 grid)", note="radius/100 to radius/4"),
-    t_end=spec.Param(0.0, lambda p: (p["width"] - START_X - p["radius"] - 3 * p["h"]) / (
-        (OMEGAS[0] if p["omega"] is None else p["omega"]) * p["radius"]), lo_closed=False,
-        unit="s", doc="end time",
-        note="omega R t_end <= width - 0.25 m - R - 3 h: the wheel must not reach the periodic "
-             "side"),
+    width=spec.length("domain width (periodic)", above=ge(lambda p: 4 * p["radius"],
+                                                          "at least 4 radii")),
+    height=spec.length("domain height",
+                       above=ge(lambda p: p["bed_depth"] + 3 * p["radius"] + 2 * p["h"],
+                                "bed + 3 radii + 2 cells")),
+    bed_depth=spec.length("bed depth", above=ge(lambda p: p["radius"],
+                                                "at least the wheel radius")),
+    h=spec.length("cell size (2/150: the paper's 150 x 75 grid)",
+                  above=ge(lambda p: p["radius"] / 100.0, "radius/100 to radius/4"),
+                  below=le(lambda p: p["radius"] / 4.0, "radius/100 to radius/4")),
+    t_end=spec.duration("end time", below=le(
+        lambda p: (p["width"] - START_X - p["radius"] - 3 * p["h"]) / (
+            (OMEGAS[0] if p["omega"] is None else p["omega"]) * p["radius"]),
+        "omega R t_end <= width - 0.25 m - R - 3 h: the wheel must not reach the periodic side")),
     start_angle=spec.Param(0.0, 45.0, unit="deg",
                            doc="the spokes' angle from the vertical at t = 0 (45: resting on two "
-                               "spoke tips; 0: on one spoke, pointing straight down)"),
+                               "spoke tips; 0: on one spoke, pointing straight down)",
+                           lo_why="0: on one spoke, pointing straight down",
+                           hi_why="45: on two spoke tips; the four spokes repeat every 90"),
     mu_w=spec.Param(0.0, 100.0, optional=True,
-                    doc="Coulomb coefficient between wheel and bed (none: no slip)"),
-    moduli_factor=spec.Param(0.01, 1000.0, doc="multiplies the bed's granular G and K (Fig. 14)"),
-    kappa_factor=spec.Param(0.01, 1000.0, doc="multiplies the pore fluid's bulk modulus kappa"),
+                    doc="Coulomb coefficient between wheel and bed (none: no slip)",
+                    lo_why="0: frictionless", hi_why="100: no slip in effect (the bed's own "
+                    "friction, mu ~0.3-1, slips first)"),
+    moduli_factor=spec.Param(0.01, 1000.0, doc="multiplies the bed's granular G and K (Fig. 14)",
+                             lo_why=FACTOR_WHY[0], hi_why=FACTOR_WHY[1]),
+    kappa_factor=spec.Param(0.01, 1000.0, doc="multiplies the pore fluid's bulk modulus kappa",
+                            lo_why=FACTOR_WHY[0], hi_why=FACTOR_WHY[1]),
     transfer=spec.Param(choices=("apic", "flip"), doc="particle-grid transfer (Fig. 14)"),
-    gravity=spec.Param(0.0, 1000.0, lo_closed=False, unit="m/s^2",
-                       doc="gravitational acceleration (downwards)"),
+    gravity=spec.gravity("gravitational acceleration (downwards)"),
     rules=spec.rules(),
     cfl=spec.cfl(),
-    frames=spec.Param(1, 200, integer=True, doc="snapshots per run (figures, animation)"),
+    frames=spec.count(1, 200, "snapshots per run (figures, animation)",
+                      "at least the final snapshot", "an animation of 8 s at 25 frames/s"),
     size=lambda p: (_points(p), (p["width"] / p["h"] + 5) * (p["height"] / p["h"] + 5)))
 def setup(omega=None, radius=0.15, hub_radius=0.05, spoke_width=0.0556, density=3000.0,
           spokes="rigid", E=1.0e7, nu=0.3, phi0=0.5075, width=2.0, height=1.0, bed_depth=0.5,
