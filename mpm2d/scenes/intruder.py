@@ -67,6 +67,7 @@ import pandas as pd
 
 from rheology import get_material
 from runkit.io import atomic_write_csv, atomic_write_json
+from runkit.limits import ge, le
 
 from .. import plots
 from ..bodies import RigidBody, fill
@@ -134,27 +135,35 @@ def _size(p) -> tuple:
     return points, (q["radius"] * c + 5) * (q["depth"] * c + _headroom_cells(q) + 5)
 
 
-def _geo(key, lo, hi, unit, doc, note=""):
-    return spec.Param(lo, hi, unit=unit, doc=doc + " (none: the layout's)", optional=True,
-                      note=note, fill=lambda p: resolved(p)[key])
+def _geo(key, doc, above=None, below=None, note=""):
+    """A length of the bed, none: the layout's; ``above``, ``below``: functions of the other
+    parameters bounding it (reason ``note``) where tighter than the physical lengths."""
+    return spec.length(doc + " (none: the layout's)", optional=True,
+                       fill=lambda p: resolved(p)[key],
+                       above=None if above is None else ge(above, note),
+                       below=None if below is None else le(below, note))
 
 
 @spec.parameters_of(
     layout=spec.Param(choices=tuple(LAYOUTS),
                       doc="default (our reading of the paper) or mpm_3d (the author's scene)"),
     phi0=spec.phi_below_jamming(fixed="intruder", doc="solid volume fraction of the bed"),
-    v0=spec.Param(0.0, 10.0, lo_closed=False, unit="m/s", doc="rod speed (downwards)"),
-    t_end=spec.Param(0.0, lambda p: 0.8 * resolved(p)["depth"] / p["v0"], lo_closed=False,
-                     unit="s", doc="end time", note="the rod travels at most 80% of the bed "
-                                                    "depth"),
-    radius=_geo("radius", lambda p: resolved(p)["rod_radius"] + 4e-3 / p["cells_per_mm"], 1.0, "m",
-                "bed (container) radius", note="at least the rod radius + 4 cells"),
-    depth=_geo("depth", lambda p: 4e-3 / p["cells_per_mm"], 1.0, "m", "bed depth",
+    v0=spec.speed("rod speed (downwards)", hi=le(10.0, "about 60 times the paper's 0.175 m/s")),
+    t_end=spec.duration("end time", below=le(lambda p: 0.8 * resolved(p)["depth"] / p["v0"],
+                                             "the rod travels at most 80% of the bed depth")),
+    radius=_geo("radius", "bed (container) radius",
+                lambda p: resolved(p)["rod_radius"] + 4e-3 / p["cells_per_mm"],
+                note="at least the rod radius + 4 cells"),
+    depth=_geo("depth", "bed depth", lambda p: 4e-3 / p["cells_per_mm"],
                note="at least 4 cells"),
-    cells_per_mm=spec.Param(0.1, 20.0, unit="1/mm", doc="1/h in 1/mm (1: the paper's 1 mm)"),
-    rod_radius=_geo("rod_radius", lambda p: 1e-3 / p["cells_per_mm"],
-                    lambda p: resolved(p)["radius"] - 4e-3 / p["cells_per_mm"], "m",
-                    "rod radius", note="at least one cell, at most the bed radius - 4 cells"),
+    cells_per_mm=spec.resolution(
+        "1/h in 1/mm (1: the paper's 1 mm)",
+        lo=ge(0.1, "a cell of at most 10 mm: the rod (a few mm) spans at least part of one"),
+        hi=le(20.0, "a cell of 50 um: 20 times finer than the paper's 1 mm grid, past any "
+                    "convergence study of the fronts")),
+    rod_radius=_geo("rod_radius", "rod radius", lambda p: 1e-3 / p["cells_per_mm"],
+                    lambda p: resolved(p)["radius"] - 4e-3 / p["cells_per_mm"],
+                    note="at least one cell, at most the bed radius - 4 cells"),
     rod_contact=spec.Param(choices=("noslip", "frictionless"),
                            doc="rod-suspension friction: no slip (mu_w = inf) or mu_w = 0"),
     contact=spec.Param(choices=("auto", "touch", "mass"),
@@ -163,9 +172,10 @@ def _geo(key, lo, hi, unit, doc, note=""):
     mode=spec.Param(choices=("auto", "locked mixture", "two-phase"),
                     doc="locked mixture (undrained) or two-phase (grains + fluid); auto: the "
                         "layout's"),
-    fit_margin=spec.Param(0.0, lambda p: 0.5 * min(resolved(p)["depth"], resolved(p)["radius"]),
-                          unit="m", doc="fronts fitted until within this distance of the floor "
-                                        "or wall", note="at most half the bed depth and radius"),
+    fit_margin=spec.length("fronts fitted until within this distance of the floor or wall (0: "
+                           "to the floor)", also=(0.0,), below=le(
+                               lambda p: 0.5 * min(resolved(p)["depth"], resolved(p)["radius"]),
+                               "at most half the bed depth and radius")),
     gravity=spec.gravity(), rules=spec.rules(), cfl=spec.cfl(),
     size=_size)
 def setup(layout="default", phi0=0.47, v0=0.175, t_end=0.02, radius=None, depth=None,

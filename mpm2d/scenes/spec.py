@@ -318,12 +318,17 @@ def _tighter(limit: Bound, derived: Bound | None, upper: bool) -> Bound:
     if derived is None:
         return limit
 
+    def at(p):                           # a text value (a refusal's range before the
+        try:                                 # conversion) bounds nothing: the limit
+            return derived.at(p)
+        except TypeError:
+            return limit.at()
+
     def value(p):
-        pick = min if upper else max
-        return pick(limit.value, derived.at(p)[0])
+        return (min if upper else max)(limit.value, at(p)[0])
 
     def why(p):
-        return derived.at(p)[2] if value(p) != limit.value else limit.why
+        return at(p)[2] if value(p) != limit.value else limit.why
 
     return Bound(value, derived.closed if derived.derived else limit.closed, why)
 
