@@ -70,6 +70,7 @@ import pandas as pd
 
 from rheology import get_material
 from runkit.io import atomic_write_csv, atomic_write_json
+from runkit.limits import ge, le
 
 from .. import plots
 from ..bodies import RigidBody, fill
@@ -138,49 +139,53 @@ def _nodes(p) -> float:
     return (q["radius"] * c + 5) * ((q["depth"] + HEADROOM) * c + 5)
 
 
-def _geo(key, lo, hi, unit, doc, note="", **kw):
-    return spec.Param(lo, hi, unit=unit, doc=doc + " (none: the size's value)", optional=True,
-                      note=note, **kw)
+def _geo(make, doc, **kw):
+    """A parameter of the size (none: its value), ``make`` one of the physical kinds of
+    :mod:`mpm2d.scenes.spec` (``spec.length``, ...)."""
+    return make(doc + " (none: the size's value)", optional=True, **kw)
 
 
 @spec.parameters_of(
     lambda p: (_points(p), _nodes(p)),
     size=spec.Param(choices=tuple(SIZES), doc="scene: default (Fig. 4 at 2 mm), fig4 (100 x 120 "
                     "at 1 mm, 7 mPa s), fig5 (150 x 225 at 1 mm, 1 mPa s)"),
-    v0=_geo("v0", 0.0, 5.0, "m/s", "impact speed (downwards)", lo_closed=False),
+    v0=_geo(spec.speed, "impact speed (downwards)",
+            hi=le(5.0, "five times the paper's 1 m/s (Figs. 4-5)")),
     phi0=spec.phi_below_jamming(fixed=lambda p: resolved(p)["material"], optional=True,
                                 fill=lambda p: resolved(p)["phi0"],
                                 doc="solid volume fraction of the bed (none: the size's value, "
                                     "0.47; fig5 0.50)"),
-    radius=_geo("radius", lambda p: p["rod_radius"] + 4e-3 / resolved(p)["cells_per_mm"], 1.0,
-                "m", "container (mixture) radius", note="at least the rod radius + 4 cells"),
-    depth=_geo("depth", lambda p: 8e-3 / resolved(p)["cells_per_mm"], 1.0, "m",
-               "mixture depth", note="at least 8 cells"),
-    cells_per_mm=_geo("cells_per_mm", CELLS_PER_MM_MIN, 4.0, "1/mm",
-                      "1/h in 1/mm (1: the paper's 1 mm)",
-                      lo_why=f"the {HEADROOM * 1e3:g} mm of grid above the bed must hold the "
-                             f"rod's represented {ROD_REPRESENTED * 1e3:g} mm and 2 cells above "
-                             "it, h <= 2.2 mm"),
-    t_end=_geo("t_end", 0.0, 1.0, "s", "end time after impact", lo_closed=False),
+    radius=_geo(spec.length, "container (mixture) radius", above=ge(
+        lambda p: p["rod_radius"] + 4e-3 / resolved(p)["cells_per_mm"],
+        "at least the rod radius + 4 cells")),
+    depth=_geo(spec.length, "mixture depth", above=ge(
+        lambda p: 8e-3 / resolved(p)["cells_per_mm"], "at least 8 cells")),
+    cells_per_mm=_geo(spec.resolution, "1/h in 1/mm (1: the paper's 1 mm)",
+                      lo=ge(CELLS_PER_MM_MIN,
+                            f"the {HEADROOM * 1e3:g} mm of grid above the bed must hold the "
+                            f"rod's represented {ROD_REPRESENTED * 1e3:g} mm and 2 cells above "
+                            "it, h <= 2.2 mm"),
+                      hi=le(4.0, "a cell of 0.25 mm, four times finer than the paper's 1 mm")),
+    t_end=_geo(spec.duration, "end time after impact"),
     material=spec.Param(choices=("auto", "rod_impact", "rod_impact_1cp"),
                         doc="Table 5 set: rod_impact (7 mPa s) or rod_impact_1cp (1 mPa s); "
                             "auto: the size's (fig5: 1 mPa s, else 7 mPa s)"),
-    rod_radius=spec.Param(lambda p: 2e-3 / resolved(p)["cells_per_mm"],
-                          lambda p: min(0.1, resolved(p)["radius"]
-                                        - 4e-3 / resolved(p)["cells_per_mm"]),
-                          unit="m", doc="rod radius",
-                          note="at least 2 cells, at most the container radius - 4 cells"),
-    rod_length=spec.Param(ROD_REPRESENTED, 2.0, unit="m", doc="rod length (sets its mass)",
-                          note="at least the represented 15 mm"),
+    rod_radius=spec.length("rod radius", above=ge(
+        lambda p: 2e-3 / resolved(p)["cells_per_mm"], "at least 2 cells, at most the container "
+        "radius - 4 cells and 0.1 m"), below=le(
+        lambda p: min(0.1, resolved(p)["radius"] - 4e-3 / resolved(p)["cells_per_mm"]),
+        "at least 2 cells, at most the container radius - 4 cells and 0.1 m")),
+    rod_length=spec.length("rod length (sets its mass)",
+                           lo=ge(ROD_REPRESENTED, "at least the represented 15 mm")),
     rod_density=spec.density("rod density (aluminium 2700)"),
     rod_contact=spec.Param(choices=("noslip", "frictionless"),
                            doc="rod-suspension contact: no slip (mu_w = inf) or mu_w = 0"),
     mode=spec.Param(choices=("locked mixture", "two-phase"),
                     doc="locked mixture (undrained, default) or two-phase (grains + fluid)"),
-    stencil=spec.Param(0.0, lambda p: 0.25 * resolved(p)["t_end"], lo_closed=False, unit="s",
-                       optional=True, doc="finite-difference stencil of v and a (none: the "
-                       "shear-wave round trip 2 max(depth, radius)/c_s)",
-                       note="at most a quarter of t_end"),
+    stencil=spec.duration("finite-difference stencil of v and a (none: the shear-wave round "
+                          "trip 2 max(depth, radius)/c_s)", optional=True,
+                          below=le(lambda p: 0.25 * resolved(p)["t_end"],
+                                   "at most a quarter of t_end")),
     gravity=spec.gravity(), rules=spec.rules(), cfl=spec.cfl())
 def setup(size="default", v0=None, phi0=None, radius=None, depth=None, cells_per_mm=None,
           t_end=None, material="auto", rod_radius=0.0095, rod_length=0.20, rod_density=2700.0,
