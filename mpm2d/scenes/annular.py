@@ -51,7 +51,9 @@ import numpy as np
 
 from rheology import f_jam
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
+from runkit import limits
 from runkit.io import atomic_write_csv, atomic_write_json
+from runkit.limits import STRAIN_MIN, ge, gt, le
 from rheology.materials import scene_material
 
 from .. import plots
@@ -185,26 +187,35 @@ def _first_step(p) -> float:
 @spec.parameters_of(
     material=spec.scene_material_param("annular_shear"),
     phi0=spec.phi_below_jamming(doc="initial solid volume fraction"),
-    u_inner=spec.Param(0.0, _u_inner_max, lo_closed=False, unit="m/s",
-                       doc="bob surface speed u_i",
-                       note="0.1 sqrt(G/rho): the small-elastic-strain limit, as shear1d's"),
-    r_inner=spec.positive(1.0, "m", "bob radius R_i"),
-    r_outer=spec.Param(lambda p: p["r_inner"], 10.0, lo_closed=False, unit="m",
-                       doc="cup radius R_o", note="R_o > R_i"),
-    cells=spec.count(4, 4096, "cells across the gap"),
-    rows=spec.count(2, 4096, "cells in z (periodic)"),
-    ppc=spec.count(1, 4, "points per cell and direction"),
-    rotation=spec.positive(100.0, "rad", "bob rotation to simulate"),
-    ramp_time=spec.Param(0.0, lambda p: p["rotation"] * p["r_inner"] / p["u_inner"], unit="s",
-                         doc="linear start-up of the bob speed",
-                         note="at most the rotation time R_i rotation/u_i, as shear1d's"),
-    p0=spec.Param(0.0, 1e6, unit="Pa", doc="initial isotropic granular pressure"),
+    u_inner=spec.speed("bob surface speed u_i", below=le(
+        _u_inner_max, "0.1 sqrt(G/rho): the small-elastic-strain limit, as shear1d's")),
+    r_inner=spec.length("bob radius R_i"),
+    r_outer=spec.length("cup radius R_o", above=gt(lambda p: p["r_inner"], "R_o > R_i")),
+    cells=spec.cells("cells across the gap", 4, 4096, "4 cells: a gap resolved by a few",
+                     "4096 cells: 1e3 times the paper's gap resolution"),
+    rows=spec.cells("cells in z (periodic)", 2, 4096, hi_why="4096 cells: a periodic column "
+                    "repeats; more rows only average"),
+    ppc=spec.count(1, 4, "points per cell and direction", spec.PPC_WHY[0],
+                   "4 per direction (16 per cell): past where more change the fronts"),
+    rotation=spec.physical(
+        gt(0.0, "a rotation"), le(100.0, "about 16 turns: the fronts settle within a few"),
+        "rad", "bob rotation to simulate", above=ge(
+            lambda p: STRAIN_MIN.value * (p["r_outer"] - p["r_inner"]) / p["r_inner"],
+            f"a strain R_i rotation/(R_o - R_i) of at least {STRAIN_MIN.value:g}: "
+            f"{STRAIN_MIN.why}")),
+    ramp_time=spec.duration("linear start-up of the bob speed (0: none)",
+                            lo=ge(0.0, "0: the bob starts at full speed"),
+                            below=le(lambda p: p["rotation"] * p["r_inner"] / p["u_inner"],
+                                     "at most the rotation time R_i rotation/u_i, as "
+                                     "shear1d's")),
+    p0=spec.stress("initial isotropic granular pressure (0: none)", zero=True),
     transfer=spec.transfer(),
     flip_alpha=spec.flip_alpha(),
-    kappa=spec.Param(0.0, 1e12, lo_closed=False, optional=True, unit="Pa",
-                     doc="fluid bulk modulus (none: the material's)"),
-    swirl_flip=spec.Param(0.0, 1.0, hi_closed=False,
-                          doc="FLIP fraction of the APIC swirl transfer (APIC-FLIP blend)"),
+    kappa=spec.physical(limits.MODULUS_MIN, limits.MODULUS_MAX, "Pa",
+                        "fluid bulk modulus (none: the material's)", optional=True),
+    swirl_flip=spec.fraction("FLIP fraction of the APIC swirl transfer (APIC-FLIP blend)",
+                             "0: APIC", "below 1: a pure FLIP swirl is not stable",
+                             hi_closed=False),
     rules=spec.rules(),
     cfl=spec.cfl(),
     size=lambda p: (p["cells"] * p["rows"] * p["ppc"] ** 2, (p["cells"] + 5) * (p["rows"] + 5)),

@@ -173,7 +173,8 @@ def _geo(key, doc, above=None, below=None, note=""):
                     doc="locked mixture (undrained) or two-phase (grains + fluid); auto: the "
                         "layout's"),
     fit_margin=spec.length("fronts fitted until within this distance of the floor or wall (0: "
-                           "to the floor)", also=(0.0,), below=le(
+                           "to the floor)", lo=ge(0.0, "0: fitted to the floor and wall"),
+                           below=le(
                                lambda p: 0.5 * min(resolved(p)["depth"], resolved(p)["radius"]),
                                "at most half the bed depth and radius")),
     gravity=spec.gravity(), rules=spec.rules(), cfl=spec.cfl(),
