@@ -142,9 +142,9 @@ def test_every_number_has_a_finite_range_and_the_default_inside(scene, key):
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["run", "column", "--set", "phi0=0.7"], "phi0 = 0.7 is outside the valid range (0, 0.535) "
+    (["run", "column", "--set", "phi0=0.7"], "phi0 = 0.7 is outside the valid range [1e-06, 0.535) "
                                              "(phi_j of material 'rod_impact')"),
-    (["run", "column", "--set", "t_end=-1"], "t_end = -1 is outside the valid range (0, 100] s"),
+    (["run", "column", "--set", "t_end=-1"], "t_end = -1 is outside the valid range [1e-12, 1e+09] s"),
     (["run", "column", "--set", "t_end=0"], "t_end = 0 is outside the valid range"),
     (["run", "column", "--set", "cells=0"], "cells = 0 is outside the valid range [2, 100000]"),
     (["run", "column", "--set", "ppc=0"], "ppc = 0 is outside the valid range [1, 8]"),
@@ -187,7 +187,7 @@ def test_show_prints_every_parameter_with_its_range():
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         main(["show", "column"])
-    assert "phi0 = 0.3  (initial solid volume fraction; valid: (0, 0.535) (phi_j of material " \
+    assert "phi0 = 0.3  (initial solid volume fraction; valid: [1e-06, 0.535) (phi_j of material " \
            "'rod_impact'))" in out.getvalue()
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
@@ -198,7 +198,7 @@ def test_show_prints_every_parameter_with_its_range():
 def test_python_api_validates_too():
     from mpm2d.scenes import bar, column
 
-    with pytest.raises(ValueError, match=r"phi0 = 0.6 is outside the valid range \(0, 0.535\)"):
+    with pytest.raises(ValueError, match=r"phi0 = 0.6 is outside the valid range \[1e-06, 0.535\)"):
         column.setup(phi0=0.6)
     with pytest.raises(ValueError, match="cells = True is not an integer"):
         bar.setup(cells=True)
@@ -230,7 +230,7 @@ def test_bad_value_of_a_derived_bound_states_the_derived_range(capsys, tmp_path)
     """phi0 = nan names phi_j of the scene's material as the bound, not the static (0, inf)."""
     assert main(["run", "column", "--set", "phi0=nan", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
-    assert "valid range (0, 0.535) (phi_j of material 'rod_impact')" in err and "inf)" not in err
+    assert "valid range [1e-06, 0.535) (phi_j of material 'rod_impact')" in err and "inf)" not in err
 
 
 @pytest.mark.parametrize("argv", [["run", "bar"], ["sweep", "bar", "--set", "cells=4,8"]])
@@ -257,8 +257,9 @@ def _ranges(text):
 
 @pytest.mark.parametrize("argv, words", [
     # radius = 1e-300 was refused as the default hub_radius with the range [0.0133, -0.0267]
-    (["run", "wheel", "--set", "radius=1e-300"],
-     "radius = 1e-300 is outside the valid range [0.0766667, 0.155455) m at the other "
+    # (1e-300 is now below the physical LENGTH_MIN: 0.01 m is inside it)
+    (["run", "wheel", "--set", "radius=0.01"],
+     "radius = 0.01 is outside the valid range [0.0766667, 0.155455) m at the other "
      "parameters' values (hub_radius = 0.05 must be within one cell to the radius - 2 cells)"),
     # E = 5 Pa (inside its physical range [1, 1e12] Pa) with the default v0: 1% strain,
     # v0 <= 0.01 sqrt(E/rho), so E >= 10 Pa
@@ -267,8 +268,8 @@ def _ranges(text):
     # the rod radius (one cell) and the bed radius (rod + 4 cells) bound it more
     (["run", "intruder", "--set", "cells_per_mm=0.1"], "cells_per_mm = 0.1 is outside the valid "
                                                        "range [0.314961, 20] 1/mm"),
-    # an own derived bound whose lower end is 0: not the smallest normal float
-    (["run", "intruder", "--set", "t_end=10"], "t_end = 10 is outside the valid range (0, 0.16] s"),
+    # an own derived bound with a physical lower end (TIME_MIN): not the smallest normal float
+    (["run", "intruder", "--set", "t_end=10"], "t_end = 10 is outside the valid range [1e-12, 0.16] s"),
 ])
 def test_cross_parameter_refusal_names_the_parameter_set(argv, words, tmp_path):
     """A value inside its own declared range that makes another parameter's derived range
@@ -360,11 +361,11 @@ def test_step_count_is_refused_before_the_set_up(tmp_path):
         run_scene(setup, out, {"omega": "1e-4", "t_end": "1e5"}, log=lambda m: None,
                   scene_name="wheel")
     text = str(exc.value)
-    assert text.startswith("t_end = 100000 is outside the valid range (0, ")
+    assert text.startswith("t_end = 100000 is outside the valid range [1e-12, ")
     assert "at the other parameters' values (a run takes at most 1e+08 steps" in text
     assert "cfl = 0.5, t_end = 100000 s, h = 0.0133333 m" in text
     dt_max = step_bound(real.spec, real.spec.validate({"omega": 1e-4}))[0]
-    hi = float(re.search(r"valid range \(0, (\S+)[\])] s", text).group(1))
+    hi = float(re.search(r"valid range \[1e-12, (\S+)[\])] s", text).group(1))
     assert hi == pytest.approx(MAX_STEPS * dt_max, rel=1e-5)
     assert not out.exists()
     # the CLI: one line, exit 2
