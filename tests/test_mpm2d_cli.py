@@ -426,3 +426,101 @@ def test_column_cells_finer_than_a_grain_are_refused(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "height = 2e-05 is outside the valid range [0.01, 10] m" in err[0]
     assert "grain diameter" in err[0] and not out.exists()
+
+
+# ---------------------------------------------------------------- physical limits (round 3)
+#: dimensional parameters whose tiny values are valid, with the reason
+NOT_PHYSICAL_AT_ZERO = {
+    ("disks", "offset"): "a signed displacement: 1e-300 m is a head-on collision",
+    ("annular", "ramp_time"): "0 (no ramp) is valid; 1e-300 s is a start at full speed",
+    ("intruder", "fit_margin"): "0 (fitted to the floor) is valid",
+    ("wheel", "start_angle"): "an angle from the vertical: 0 is valid",
+}
+DIMENSIONAL = [(scene, key) for scene, key in KEYS if get_spec(scene).params[key].numeric
+               and get_spec(scene).params[key].unit
+               and (scene, key) not in NOT_PHYSICAL_AT_ZERO]
+
+
+def _has_reason(line: str) -> bool:
+    """A refusal's text after its range holds a parenthesised reason."""
+    m = re.search(r"is outside the valid range \S+, \S+(.*)$", line)
+    return m is not None and re.search(r"\(\s*[^\s)]", m.group(1)) is not None
+
+
+@pytest.mark.parametrize("value", ["1e-300", "1e300"])
+@pytest.mark.parametrize("scene, key", DIMENSIONAL)
+def test_every_dimensional_parameter_has_its_physical_limits(scene, key, value, tmp_path):
+    """Every scene parameter with a unit has the physical limits of runkit.limits (or tighter,
+    from the other parameters) as its bounds: 1e-300 and 1e300 are refused before the set-up
+    with exit 2, one line naming the parameter, its range and the reason, nothing written
+    (shear rate=1e-300 ran to 5.75e+279 relative differences; impact and intruder v0=1e-300
+    ran for minutes; shear height=1e-300 broke the set-up)."""
+    out = tmp_path / "o"
+    rc, err = _call(["run", scene, "--set", f"{key}={value}", "--out", str(out), "--quiet"])
+    assert rc == 2 and len(err) == 1, err
+    assert re.search(rf"\b{key} = 1e[-+]?300 is outside the valid range", err[0]), err
+    assert _has_reason(err[0]), err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("scene, key", [k for k in KEYS if get_spec(k[0]).params[k[1]].numeric])
+def test_every_bound_has_a_reason(scene, key):
+    """Every bound of every numeric scene parameter states its reason (cells [2, 100000], nu
+    (-1, 0.5), impact v0 (0, 5] and shear p0 [0, 1e9] had none; disks radius's only explained
+    its lower end)."""
+    spec = get_spec(scene)
+    p = spec.params[key]
+    for b in (p.lo, p.hi):
+        assert b is not None, (scene, key)
+        assert b.at(dict(spec.defaults))[2], (scene, key, b)
+
+
+def test_a_step_count_bound_is_stated_in_seconds(tmp_path):
+    """disks t_end = 1e-300 was refused as '7.43e-299 steps; valid: 1 to 1e+08 steps': now
+    t_end is below TIME_MIN, and an end time above it but short of one stable step is refused
+    with the valid end times in seconds."""
+    out = tmp_path / "o"
+    rc, err = _call(["run", "disks", "--set", "t_end=1e-9", "--out", str(out), "--quiet"])
+    assert rc == 2 and len(err) == 1, err
+    m = re.search(r"valid: an end time in \[(\S+), (\S+)\] s at the other values", err[0])
+    assert m and float(m.group(1)) > 1e-9 and "steps;" not in err[0], err
+    assert not out.exists()
+
+
+def test_a_scene_path_that_is_not_a_py_file_says_so(tmp_path):
+    """'mpm2d run README.md' said the file does not exist: it exists and is not a .py file."""
+    readme = tmp_path / "README.md"
+    readme.write_text("a note\n")
+    for path, words in ((readme, "is not a Python file (.py)"), (tmp_path, "is a folder"),
+                        (tmp_path / "none.py", "does not exist")):
+        rc, err = _call(["run", str(path), "--out", str(tmp_path / "o"), "--quiet"])
+        assert rc == 2 and len(err) == 1 and words in err[0], err
+    assert not (tmp_path / "o").exists()
+
+
+def test_show_bar_states_v0_without_a_measurement_history(capsys):
+    """The v0 range of 'mpm2d show bar' carried '(v0 = 1e-300 fitted omega at the edge of its
+    window)'."""
+    assert main(["show", "bar"]) == 0
+    line = next(l for l in capsys.readouterr().out.splitlines() if l.strip().startswith("v0 ="))
+    assert "1e-300" not in line and "strain amplitude" in line
+
+
+def test_a_resumed_run_shows_its_progress_over_the_whole_run(monkeypatch):
+    """A resumed intruder said '15.5% t = 0.006337/0.02 s' (32% of the run), a resumed finished
+    disks '0.0% t = 3.003/3 s': the percentage counts from the run's start, the time left from
+    the pace since the resume."""
+    from mpm2d.run import RunProgress
+
+    clock = [0.0]
+    monkeypatch.setattr("runkit.run.time.perf_counter", lambda: clock[0])
+    buf = io.StringIO()
+    bar = RunProgress(0.0, 1.0, 2.0, 100, stream=buf, label="demo", every=30.0)
+    for k in range(1, 31):                   # 0.3 s of the run in 30 wall s after the resume
+        clock[0] = float(k)
+        bar.update(1.0 + 0.01 * k, 100 + k)
+    assert buf.getvalue().splitlines()[0] == ("demo:  65.0% t = 1.3/2 s, step 130, 1e+03 "
+                                              "ms/step, 0:30 elapsed, ~1:10 left")
+    done = io.StringIO()
+    RunProgress(0.0, 3.003, 3.0, 500, stream=done, label="disks").close(3.003, 500)
+    assert done.getvalue().startswith("disks: 100.0% t = 3.003/3 s")

@@ -190,7 +190,7 @@ def _first_step(p) -> float:
     u_inner=spec.speed("bob surface speed u_i", below=le(
         _u_inner_max, "0.1 sqrt(G/rho): the small-elastic-strain limit, as shear1d's")),
     r_inner=spec.length("bob radius R_i"),
-    r_outer=spec.length("cup radius R_o", above=gt(lambda p: p["r_inner"], "R_o > R_i")),
+    r_outer=spec.length("cup radius R_o", above=gt(lambda p: p["r_inner"], "the cup outside the bob, R_o > R_i")),
     cells=spec.cells("cells across the gap", 4, 4096, "4 cells: a gap resolved by a few",
                      "4096 cells: 1e3 times the paper's gap resolution"),
     rows=spec.cells("cells in z (periodic)", 2, 4096, hi_why="4096 cells: a periodic column "
