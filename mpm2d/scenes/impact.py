@@ -170,11 +170,12 @@ def _geo(make, doc, **kw):
     material=spec.Param(choices=("auto", "rod_impact", "rod_impact_1cp"),
                         doc="Table 5 set: rod_impact (7 mPa s) or rod_impact_1cp (1 mPa s); "
                             "auto: the size's (fig5: 1 mPa s, else 7 mPa s)"),
-    rod_radius=spec.length("rod radius", above=ge(
+    rod_radius=spec.length("rod radius", hi=le(0.1, "a rod as wide as the paper's containers "
+                                                    "(0.2-0.3 m)"), above=ge(
         lambda p: 2e-3 / resolved(p)["cells_per_mm"], "at least 2 cells, at most the container "
-        "radius - 4 cells and 0.1 m"), below=le(
-        lambda p: min(0.1, resolved(p)["radius"] - 4e-3 / resolved(p)["cells_per_mm"]),
-        "at least 2 cells, at most the container radius - 4 cells and 0.1 m")),
+        "radius - 4 cells"), below=le(
+        lambda p: resolved(p)["radius"] - 4e-3 / resolved(p)["cells_per_mm"],
+        "at least 2 cells, at most the container radius - 4 cells")),
     rod_length=spec.length("rod length (sets its mass)",
                            lo=ge(ROD_REPRESENTED, "at least the represented 15 mm")),
     rod_density=spec.density("rod density (aluminium 2700)"),
