@@ -36,7 +36,7 @@ from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
 from runkit.limits import ge, le
-from runkit.params import Number
+from runkit.params import Number, interval_text
 
 from .run import CHECKPOINT_EVERY, FRAMES, run_scene
 from .scenes import SCENES, get_setup, get_spec, is_scene_file
@@ -150,7 +150,7 @@ def _command(args) -> None:
         print(setup.__module__)
         print(sys.modules[setup.__module__].__doc__)
         print("parameters (default, valid values):")
-        for line in get_spec(args.scene).describe():
+        for line in _described(get_spec(args.scene)):
             print(line)
         return
     if args.cmd == "sweep":
@@ -181,6 +181,19 @@ def _command(args) -> None:
               vtk=False if args.no_vtk else True if args.vtk else None,
               frames=args.frames, checkpoint_every=args.checkpoint_every, scene_name=args.scene,
               quiet=args.quiet, yes=args.yes)
+
+
+def _described(spec) -> list[str]:
+    """``spec.describe()`` with each derived range as a refusal states it (the valid range at
+    the defaults, its ends rounded toward the valid side: ``0.316228)`` where the exact bound
+    0.3162277... is not a 6-digit number)."""
+    lines = spec.describe()
+    for i, (k, p) in enumerate(spec.params.items()):
+        rng = spec.valid_range(k, dict(spec.defaults)) if p.numeric and p.derived else None
+        if rng is not None:
+            text = interval_text(*rng, p.unit) + (", or none" if p.optional else "")
+            lines[i] = lines[i].replace(p.range_text(spec.defaults, typed=True), text, 1)
+    return lines
 
 
 def _mass_fraction(args, spec, params: dict) -> None:

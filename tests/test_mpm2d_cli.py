@@ -500,10 +500,13 @@ def test_a_scene_path_that_is_not_a_py_file_says_so(tmp_path):
 
 def test_show_bar_states_v0_without_a_measurement_history(capsys):
     """The v0 range of 'mpm2d show bar' carried '(v0 = 1e-300 fitted omega at the edge of its
-    window)'."""
+    window)' and closed with ']' where the refusal said ')': both state the same range."""
     assert main(["show", "bar"]) == 0
     line = next(l for l in capsys.readouterr().out.splitlines() if l.strip().startswith("v0 ="))
     assert "1e-300" not in line and "strain amplitude" in line
+    rc, err = _call(["run", "bar", "--set", "v0=1", "--out", "never", "--quiet"])
+    rng = re.search(r"valid range (\S+, \S+ m/s)", err[0]).group(1)
+    assert rc == 2 and f"valid: {rng}" in line, (line, err)
 
 
 def test_a_resumed_run_shows_its_progress_over_the_whole_run(monkeypatch):
