@@ -3,15 +3,19 @@
 Every scene declares each ``setup`` parameter with :func:`parameters_of`::
 
     @parameters_of(
-        cells=count(2, 4096, "cells along L"),
-        phi0=phi_below_jamming(),                # (0, phi_j of the material)
+        cells=cells("cells along L", 2, 4096),   # each bound with its reason
+        height=length("bed height"),             # [LENGTH_MIN, LENGTH_MAX] m
+        phi0=phi_below_jamming(),                # [PHI_MIN, phi_j of the material)
         material=Param(choices=suspension_materials),
         size=lambda p: (points, nodes),          # memory estimate before anything is built
     )
-    def setup(cells=32, phi0=0.3, material="rod_impact"): ...
+    def setup(cells=32, height=0.1, phi0=0.3, material="rod_impact"): ...
 
-:func:`Param` and the helpers below build :class:`runkit.params.Param` (bounds static, with
-their physical reasons from :mod:`runkit.limits`, or functions of the other parameters); the
+:func:`Param` and the helpers below build :class:`runkit.params.Param`: a parameter with a unit
+between the physical limits of :mod:`runkit.limits` with their reasons (:func:`physical` and its
+kinds :func:`length`, :func:`speed`, :func:`duration`, :func:`rate`, :func:`stress`, ...), or
+tighter where a bound of the scene's own (with its reason) or a function of the other
+parameters is; a dimensionless one with the reason of each end. The
 decorated ``setup`` checks its keyword arguments by its ``setup.spec``, a
 :class:`runkit.params.Schema` (type, finiteness, static range; the derived bounds; the step
 count; the memory estimate). A refusal is one ``ValueError`` line naming the parameter the user
