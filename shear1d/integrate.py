@@ -40,7 +40,7 @@ from rheology.flow_rule import invariants
 from rheology.run_end import EndedEarly, RunEnd
 from runkit.ida import IDAFailed, Solver
 from runkit.io import CorruptCheckpoint
-from runkit.limits import TIME_MAX, TIME_MIN, ge, gt, le
+from runkit.limits import TIME_MAX, TIME_MIN, ge, le
 from runkit.params import Param, check_range
 from runkit.run import Checkpoint, Progress, drive
 
@@ -61,17 +61,19 @@ RTOL = Param(ge(1e-12, "IDA reaches no tighter tolerance: each step's error is t
                        "rounding of its doubles (~1e-16) summed over 1e4-1e6 steps"),
              le(1e-2, "a looser tolerance leaves fewer than two meaningful digits, and its "
                       "delta = rtol x the flow time smears the start-up"))
-#: The explicit step [s] (at most the stability limit: :func:`check_time_step`).
-DT = Param(gt(0.0, "a time step advances the clock"), unit="s")
+#: The explicit step [s]: a duration (runkit.limits), at most the stability limit
+#: (:func:`check_time_step`).
+DT = Param(TIME_MIN, TIME_MAX, unit="s")
 #: The duration of a run [s] (runkit.limits).
 DURATION = Param(TIME_MIN, TIME_MAX, unit="s")
 #: Output intervals of a run.
 OUTPUTS = Param(ge(1, "the end of the run is its one output"),
                 le(100000, "more profiles than any figure or file resolves (1e5 rows per cell)"),
                 kind="integer")
-#: Wall-time seconds between checkpoints.
-CHECKPOINT_EVERY = Param(gt(0.0, "a checkpoint takes time to write: an interval of 0 would "
-                                 "write one at every output"), unit="s")
+#: Wall-time seconds between checkpoints: the durations of runkit.limits.
+CHECKPOINT_EVERY = Param(ge(TIME_MIN.value, "a checkpoint takes time to write: an interval of "
+                                            "1 ps, the shortest duration, already writes one at "
+                                            "every output"), TIME_MAX, unit="s")
 
 
 @dataclass
@@ -164,9 +166,13 @@ def check_time_step(problem: Couette, dt: float, name: str = "dt",
                  f"~rho dx^2/(2 eta_f): {lim['dt_viscous']:.3g} s")
         if math.isfinite(lim["dt_darcy"]):
             parts += f", Darcy consolidation dx^2/(2D): {lim['dt_darcy']:.3g} s"
-        raise ValueError(f"{name} = {dt:.6g} s is outside the explicit stability range (0, "
-                         f"{lim['dt']:.6g}] s of this grid ({parts}); use a smaller dt or "
-                         f"{instead}")
+        if lim["dt"] < TIME_MIN.value:
+            raise ValueError(f"{name} = {dt:.6g} s: the explicit stability limit of this grid, "
+                             f"{lim['dt']:.3g} s ({parts}), is below the shortest duration "
+                             f"{TIME_MIN.value:g} s ({TIME_MIN.why}); use {instead}")
+        raise ValueError(f"{name} = {dt:.6g} s is outside the explicit stability range "
+                         f"[{TIME_MIN.value:g}, {lim['dt']:.6g}] s of this grid ({parts}); use a "
+                         f"smaller dt or {instead}")
     return dt
 
 
