@@ -49,28 +49,16 @@ OPTIONS = {"n_cells": "--cells", "n_out": "--outputs", "rtol": "--rtol", "dt": "
            "wall_stress": "--stress"}
 
 
-class _Number(Number):
-    """The option of a library parameter ``param`` (its one declaration): its static bounds,
-    with their reasons and the values valid besides them (``also``), checked while parsing;
-    ``shown``: the range the refusal states where a bound depends on the run (checked once it
-    is known)."""
-
-    def __init__(self, flag: str, param: Param, shown: str = ""):
-        lo, hi = (None if b is None or b.derived else b for b in (param.lo, param.hi))
-        super().__init__(flag, lo, hi, integer=param.kind == "integer")
-        self.param, self.shown_range = param, shown
-
-    def contains(self, x: float) -> bool:
-        return x in self.param.also or super().contains(x)
-
-
 def _number(flag: str, param: Param, upper: str = "", shown: str = "") -> Number:
-    """The :class:`_Number` of ``param``; ``upper``: the text of its derived upper bound (its
-    static lower bound shown before it), or ``shown``: the whole range, without the unit."""
+    """A number read from the command line; its range, ``param``'s (its one declaration, with
+    the reasons), is stated here and checked by the library. ``upper``: the text of a derived
+    upper bound (the static lower bound shown before it); ``shown``: the whole range."""
     if upper:
         lo, lc, _, _, _, _ = param.bounds(static=True)
         shown = f"{'[' if lc else '('}{lo:g}, {upper}"
-    return _Number(flag, param, shown)
+    also = "".join(f", or {a:g}" for a in param.also)
+    return Number(flag, integer=param.kind == "integer",
+                  shown_range=(shown or param.range_text(static=True)) + also)
 
 
 def _parser() -> argparse.ArgumentParser:

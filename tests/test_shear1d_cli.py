@@ -103,8 +103,9 @@ def test_every_numeric_option_refuses_bad_values_with_one_line(tmp_path, capsys,
     assert not out.exists()
     if opt in ("--speed", "--stress", "--u-inner"):   # the run's material's bounds, stated
         assert "inf)" not in err[0].split("valid range")[-1], err[0]
-        assert ("(0, 0.1 G] Pa" if opt == "--stress" else "(0, 0.1 sqrt(G/rho)] m/s") in err[0] \
-            or "outside the valid range (0, " in err[0], err[0]
+        low = "[1e-12, " if opt == "--stress" else "[1e-18, "     # the physical lower bounds
+        assert low + ("0.1 G] Pa" if opt == "--stress" else "0.1 sqrt(G/rho)] m/s") in err[0] \
+            or "outside the valid range " + low in err[0], err[0]
 
 
 def test_the_options_have_physical_ranges():
@@ -119,7 +120,7 @@ def test_the_options_have_physical_ranges():
     assert u.hi is None and "0.1 sqrt(G/rho)" in u.shown_range
     assert CELLS.hi.value == 20000 and ranges[("annular", "--cells")].range_text == "[4, 20000]"
     assert ranges[("annular", "--outputs")].integer and ranges[("couette", "--cells")].integer
-    assert OUTPUTS.kind == "integer" and not CHECKPOINT_EVERY.lo.closed
+    assert OUTPUTS.kind == "integer" and CHECKPOINT_EVERY.lo.value == 1e-12   # TIME_MIN
     assert ranges[("annular", "--r-inner")].range_text == "[1e-06, 10] m"
     assert ranges[("couette", "--gap")].range_text == "[1e-06, 10] m"
     for p in (CELLS, LENGTH, OUTPUTS, CHECKPOINT_EVERY, RTOL, ROTATION):
@@ -137,24 +138,28 @@ def test_the_options_have_physical_ranges():
     (["annular", "--r-outer", "20"], "--r-outer = 20 is outside the valid range (0.0125, 10] m "
                                      "(a 10 m bed"),
     (["annular", "--rtol", "1"], "--rtol = 1 is outside the valid range [1e-12, 0.01] (a looser"),
-    (["annular", "--rotation", "1e9"], "--rotation = 1e+09 is outside the valid range (0, 100] "
+    (["annular", "--rotation", "1e9"], "--rotation = 1e+09 is outside the valid range [1e-09, 100] "
                                        "rad (16 turns"),
     (["couette", "--speed", "0.01", "--gap", "1e-9"],
      "--gap = 1e-09 is outside the valid range [1e-06, 10] m (the narrowest micro-gap"),
     (["annular", "--cells", "3"], "--cells = 3 is outside the valid range [4, 20000] (fewer"),
-    (["annular", "--phi", "0.7"], "--phi = 0.7 is outside the valid range (0, 0.535) (steady"),
+    (["annular", "--phi", "0.7"], "--phi = 0.7 is outside the valid range [1e-06, 0.535) (steady"),
     (["annular", "--outputs", "0"], "--outputs = 0 is outside the valid range [1, 100000] ("),
     (["annular", "--checkpoint-every", "0"], "--checkpoint-every = 0 is outside the valid range "
-                                             "(0, inf) s (a checkpoint"),
+                                             "[1e-12, 1e+09] s (a checkpoint"),
     (["annular", "--u-inner", "0.084", "--method", "explicit", "--dt", "1"],
      "--dt = 1 s is outside the explicit stability range"),
     (["couette", "--speed", "0.01", "--stress", "2"], "not allowed"),
     # the user's option and its range in its units, not the model's wall_speed / wall_stress
-    (["couette", "--speed", "2"], "--speed = 2 is outside the valid range (0, 1.53156] m/s"),
-    (["couette", "--speed=-0.01"], "--speed = -0.01 is outside the valid range (0, 1.53156] m/s"),
-    (["couette", "--speed", "-1e-2"], "--speed = -0.01 is outside the valid range (0, 1.53156]"),
-    (["couette", "--stress", "1e5"], "--stress = 100000 is outside the valid range (0, 38000] Pa"),
-    (["couette", "--stress", "0"], "--stress = 0 is outside the valid range (0, 38000] Pa"),
+    # (the lower ends: the physical SPEED_MIN and STRESS_MIN of runkit.limits, no longer 0)
+    (["couette", "--speed", "2"], "--speed = 2 is outside the valid range [1e-18, 1.53156] m/s"),
+    (["couette", "--speed=-0.01"], "--speed = -0.01 is outside the valid range [1e-18, 1.53156] "
+                                   "m/s"),
+    (["couette", "--speed", "-1e-2"], "--speed = -0.01 is outside the valid range [1e-18, "
+                                      "1.53156]"),
+    (["couette", "--stress", "1e5"], "--stress = 100000 is outside the valid range [1e-12, 38000] "
+                                     "Pa"),
+    (["couette", "--stress", "0"], "--stress = 0 is outside the valid range [1e-12, 38000] Pa"),
     (["couette", "--speed", "0.01", "--phi", "0.6"], "--phi"),  # above phi_j
     (["annular", "--mass-fraction", "0.6"], "--mass-fraction"),   # phi above phi_j by Eq. 20
     (["annular", "--phi", "0.5", "--mass-fraction", "0.5"], "not both"),
@@ -240,10 +245,10 @@ def test_drive_range_follows_the_material_and_names_the_option():
     assert 15 < top < 18                                      # 0.1 sqrt(G/rho)
     plane_couette(5.0, material=stiff, phi0=0.5, n_cells=8)   # above annular's 1.53 m/s: fine
     with pytest.raises(ValueError, match=rf"wall_speed = 20 is outside the valid range "
-                                         rf"\(0, {top:g}\] m/s \(0.1 c_s"):
+                                         rf"\[1e-18, {top:g}\] m/s \(0.1 c_s"):
         plane_couette(20.0, material=stiff, phi0=0.5, n_cells=8)
     with pytest.raises(ValueError, match=r"wall_stress = 4e\+06 is outside the valid range "
-                                         r"\(0, 3\.8e\+06\] Pa \(0.1 G"):
+                                         r"\[1e-12, 3\.8e\+06\] Pa \(0.1 G"):
         plane_couette(stress=4e6, material=stiff, phi0=0.5, n_cells=8)
     assert main(["couette", "--speed", "20", "--material", "rod_impact", "--phi", "0.5"]) == 2
 
@@ -257,7 +262,7 @@ def test_a_stiffer_material_allows_a_faster_bob(tmp_path, capsys):
     args = ["annular", "--u-inner", "5", "--cells", "8", "--out", str(tmp_path / "a")]
     assert main(args) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--u-inner = 5 is outside the valid range (0, 1.5" in err[0], err
+    assert len(err) == 1 and "--u-inner = 5 is outside the valid range [1e-18, 1.5" in err[0], err
     assert not (tmp_path / "a").exists()
     stiff = ["--material", "rod_impact", "--phi", "0.5", "--r-outer", "0.0401", "--rotation",
              "0.1"]
@@ -311,7 +316,7 @@ def test_default_cup_radius_is_named_as_the_default(tmp_path, capsys):
     (["annular", "--u-inner", "0.00084", "0.084", "--cells", "20", "--ramp-time", "0.05"],
      "--ramp-time = 0.05 s is outside the valid range [0, 0.04613] s"),
     (["annular", "--u-inner", "0.084", "--cells", "20", "--ramp-time", "1e10"],
-     "--ramp-time = 1e+10 is outside the valid range [0, 1e+09] s (30 years"),
+     "--ramp-time = 1e+10 is outside the valid range [1e-12, 1e+09] s, or 0 (30 years"),
 ])
 def test_fresh_user_refusals_exit_2_one_line_nothing_written(args, word, tmp_path, monkeypatch,
                                                               capsys):
