@@ -164,6 +164,12 @@ def _sample(args):
         raise ValueError("give --phi or --mass-fraction, not both")
     phis, note = mass_fraction_phi(args, m)
     if phis is not None:
+        try:
+            PHI0.check("phi", phis[0], {"material": m})
+        except OutOfRange as exc:
+            raise ValueError(f"--mass-fraction = {args.mass_fraction:g} gives phi = {phis[0]:.3g} "
+                             f"(Eq. 20), outside its valid range {exc.range_text} ({exc.why})"
+                             ) from None
         print(f"shear1d: {note}")
         return m, phis[0]
     return m, args.phi

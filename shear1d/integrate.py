@@ -484,6 +484,8 @@ def prepare(problem: Couette, t_end: float | None = None, *, method: str = "ida"
     if resume and checkpoint is None:
         raise ValueError("resume=True needs a checkpoint path")
     rtol, lim, dae = RTOL.check("rtol", rtol), None, None
+    if dt is not None:                   # refused even where the method does not use it
+        dt = DT.check("dt", dt)
     if method == "explicit":
         lim = stable_time_step(problem)
         if dt is None:

@@ -46,7 +46,8 @@ def test_banded_jacobian_holds_every_coupling(mode, stress):
                                               r"\(0.02, 10\] m \(the cup must lie beyond"),
     (lambda: Grid("annular", 0.0, 0.01, 10), r"r_inner = 0 is outside the valid range \[1e-06"),
     (lambda: Grid("plane", 0.0, 20.0, 10), r"gap = 20 is outside the valid range \[1e-06, 10\] m"),
-    (lambda: annular_shear_jamming(-0.1), r"wall_speed = -0.1 is outside the valid range \[1e-18, "),
+    (lambda: annular_shear_jamming(-0.1),
+     r"wall_speed = -0.1 is outside the valid range \[1e-18, "),
     (lambda: annular_shear_jamming(float("nan")), "wall_speed = nan: must be finite"),
     (lambda: annular_shear_jamming(0.08, rotation=200.0), r"rotation = 200 .* \[1e-09, 100\] rad"),
     (lambda: annular_shear_jamming(0.08, ramp_time=-1.0),
@@ -176,7 +177,8 @@ def test_annular_duration_outside_the_tiers_durations_is_refused(kw):
 
     with pytest.raises(ValueError, match=r"outside the valid durations \[1e-12, 1e\+09\] s"):
         annular_shear_jamming(n_cells=8, **kw)
-    with pytest.raises(ValueError, match=r"wall_speed = 1e-300 is outside the valid range \[1e-18, "):
+    with pytest.raises(ValueError, match=r"wall_speed = 1e-300 is outside the valid range "
+                                         r"\[1e-18, "):
         annular_shear_jamming(1e-300, n_cells=8)
     with pytest.raises(ValueError, match=r"rotation = 1e-300 is outside the valid range \[1e-09, "):
         annular_shear_jamming(0.084, rotation=1e-300, n_cells=8)
