@@ -527,3 +527,71 @@ def test_set_rules_reaches_the_law(tmp_path):
                                     "--out", str(tmp_path)])
         m, _ = _sample(args)
         assert m.rules == rules and m.kernel_array()[-1] == code
+
+
+# ------------------------------------------- every dimensional option at the physical limits
+#: the numeric options with a unit, and the physical lower bound (runkit.limits) each is held
+#: to (None: a bound derived from another option, the cup beyond the bob)
+def _lower_bounds():
+    from runkit import limits as L
+    from shear1d.integrate import CHECKPOINT_EVERY
+    from shear1d.scenes import ROTATION
+
+    return {"--u-inner": L.SPEED_MIN, "--speed": L.SPEED_MIN, "--stress": L.STRESS_MIN,
+            "--r-inner": L.LENGTH_MIN, "--r-outer": None, "--gap": L.LENGTH_MIN,
+            "--time": L.TIME_MIN, "--ramp-time": L.TIME_MIN, "--dt": L.TIME_MIN,
+            "--checkpoint-every": CHECKPOINT_EVERY.lo, "--rotation": ROTATION.lo,
+            "--phi": L.PHI_MIN, "--grain-density": L.DENSITY_MIN,
+            "--liquid-density": L.DENSITY_MIN, "--water-density": L.DENSITY_MIN}
+
+
+LOWER = _lower_bounds()
+#: the numeric options without a unit (counts, a tolerance, fractions of Eq. 20)
+DIMENSIONLESS = {"--cells", "--outputs", "--rtol", "--mass-fraction", "--swelling",
+                 "--pore-fraction"}
+DIMENSIONAL = [(cmd, opt) for cmd, opt, _ in OPTIONS if opt not in DIMENSIONLESS]
+EXTREMES = [(cmd, opt, v) for cmd, opt in DIMENSIONAL for v in ("1e-300", "1e300", "nan")]
+
+
+def test_every_numeric_option_is_classified():
+    """A new numeric option of any subcommand must be put in LOWER or DIMENSIONLESS."""
+    assert {o for _, o, _ in OPTIONS} == set(LOWER) | DIMENSIONLESS
+    assert {c for c, _ in DIMENSIONAL} == {"annular", "couette"}
+
+
+@pytest.mark.parametrize("cmd, opt, value", EXTREMES, ids=[f"{c}{o}={v}" for c, o, v in EXTREMES])
+def test_every_dimensional_option_at_the_extremes(cmd, opt, value, tmp_path, monkeypatch, capsys):
+    """1e-300, 1e300 and nan for every option with a unit: exit 2, one line naming it with its
+    valid range (no 0 or inf where the physics has a limit) and the reason, nothing written.
+    Before: --speed/--stress 1e-300 ran (couette_wall.csv with f_mean = -3.3e-321),
+    --u-inner 1e-300 stated subnormal rotation bounds, --dt 1e-300 a t_end <= 5e-291 s, and nan
+    a range (0, inf)."""
+    monkeypatch.chdir(tmp_path)
+    base = {"annular": ["annular", "--u-inner", "0.084", "--rotation", "0.01"],
+            "couette": ["couette", "--speed", "0.01", "--time", "0.01"]}[cmd]
+    if opt in ("--speed", "--stress"):
+        base = base[:1] + base[3:]
+    elif opt in base:
+        del base[base.index(opt):base.index(opt) + 2]
+    argv = base + ["--cells", "8", "--outputs", "2", "--quiet", "--out", "o", opt, value]
+    try:
+        code = main(argv)                 # refused at setup: main returns the status
+    except SystemExit as exc:             # refused by the parser
+        code = exc.code
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2, (argv, err)
+    assert len(err) == 1 and "Traceback" not in err[0], err
+    line = err[0]
+    assert f"{opt} = " in line and "valid range " in line, line
+    rng = line.split("valid range ")[1]
+    assert "inf" not in rng.split(" (")[0], line             # a real range, not (0, inf)
+    low = LOWER[opt]
+    if value == "nan":
+        assert "must be finite" in line, line
+    else:
+        assert rng.rstrip().endswith(")") and " (" in rng, line   # the reason stated
+        if value == "1e-300" and low is not None:
+            assert rng.startswith(f"[{low.value:g}, ") and low.why in line, line
+    if low is not None:
+        assert rng.startswith(f"[{low.value:g}, "), line
+    assert list(tmp_path.iterdir()) == []
