@@ -387,12 +387,13 @@ class Couette:
 
     # ------------------------------------------------------------------ scales
     def velocity_scale(self) -> float:
-        """Characteristic speed [m/s]: the wall speed, or stress-driven tau_w H/(eta0 eta_r)."""
+        """Characteristic speed [m/s]: the wall speed, or stress-driven tau_w H/(eta0 eta_r)
+        (positive: the drive is at least SPEED_MIN or STRESS_MIN)."""
         if not self.stress_driven:
-            return max(abs(self.drive_amplitude), 1e-12)
+            return abs(self.drive_amplitude)
         eta = self.material.eta0 * (1 + 2.5 * self.phi0 + float(granular_viscosity(
             self.phi0, 0.0, self.material)))
-        return max(self.drive_amplitude * self.grid.gap / eta, 1e-12)
+        return self.drive_amplitude * self.grid.gap / eta
 
     def flow_time(self) -> float:
         """Time for the moving wall to travel one gap at the velocity scale [s]."""

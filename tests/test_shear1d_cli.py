@@ -483,12 +483,15 @@ def test_csv_writes_no_negative_zero(tmp_path):
     text = (tmp_path / "z.csv").read_text()
     assert text.splitlines() == ["a,b,n,s", "0.0,0.0,0,-0.0", "1.5,0.0,-1,x", "-2.0,,2,y"], text
     assert math.copysign(1.0, df["a"][0]) == -1.0       # the caller's frame is not changed
-    out = tmp_path / "sp"
-    assert main(["couette", "--speed", "1e-300", "--cells", "8", "--time", "0.01", "--outputs",
+    out = tmp_path / "sp"                 # 1e-300 is refused now: the slowest physical speed
+    assert main(["couette", "--speed", "1e-18", "--cells", "8", "--time", "0.01", "--outputs",
                  "4", "--quiet", "--out", str(out)]) == 0
     for f in out.glob("*.csv"):
         x = pd.read_csv(f).select_dtypes("number").to_numpy(float)
         assert not np.any((x == 0) & np.signbit(x)), f.name
+    wall = pd.read_csv(out / "couette_wall.csv")  # 1e-300 gave f_mean = -3.3e-321
+    assert (wall["f_mean"] >= 0).all() and (wall["mean_shear_rate_per_s"].iloc[-1]
+                                            == pytest.approx(1e-16, rel=1e-6))
 
 
 @pytest.mark.parametrize("item, message", [
