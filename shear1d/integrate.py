@@ -428,6 +428,7 @@ def output_times(t_end: float, n_out: int = 200, t_out=None) -> np.ndarray:
         t_out = check_range("t_out", np.asarray(t_out, dtype=float), 0.0, None)
         if t_out.ndim != 1 or t_out.size < 2 or np.any(np.diff(t_out) <= 0) or t_out[0] != 0:
             raise ValueError("t_out must be an increasing 1-D array starting at 0 s")
+        DURATION.check("t_out[-1]", float(t_out[-1]))
         return t_out
     return np.linspace(0.0, DURATION.check("t_end", t_end), OUTPUTS.check("n_out", n_out) + 1)
 

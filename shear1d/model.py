@@ -34,7 +34,7 @@ from rheology.elastic import ELASTIC_STRAIN_LIMIT
 from rheology.materials import Material
 from runkit.limits import (GRAIN_MAX, GRAIN_MIN, LENGTH_MAX, PHI_MIN, SPEED_MAX, SPEED_MIN,
                            STRESS_MAX, STRESS_MIN, TIME_MAX, TIME_MIN, Bound)
-from runkit.params import OutOfRange, Param, check_positive, interval_text, shown
+from runkit.params import OutOfRange, Param, interval_text, shown
 
 from . import kernels
 from .geometry import CELL_MIN_GRAINS, R_INNER_MIN_GRAINS, Grid, min_gap
@@ -79,6 +79,9 @@ def _drive_bound(stress: bool, cap: Bound) -> Bound:
 #: (runkit.limits), at most :func:`drive_limit` of the material at phi0 (params: material, phi0).
 WALL_SPEED = Param(SPEED_MIN, _drive_bound(False, SPEED_MAX), unit="m/s")
 WALL_STRESS = Param(STRESS_MIN, _drive_bound(True, STRESS_MAX), unit="Pa")
+#: The floor of the granular pressure [Pa] (a stress) and the rate form's step [s] (a duration).
+CONTACT_PRESSURE = Param(STRESS_MIN, STRESS_MAX, unit="Pa")
+RATE_STEP = Param(TIME_MIN, TIME_MAX, unit="s")
 #: The volume fraction: at least the dilute limit (runkit.limits), below phi_j of the material
 #: (params: material).
 PHI0 = Param(PHI_MIN, Bound(lambda p: p["material"].phi_j, False,
@@ -176,9 +179,9 @@ class Couette:
         (WALL_STRESS if self.wall_speed is None else WALL_SPEED).check(
             name, self.drive_amplitude, {"material": m, "phi0": self.phi0})
         RAMP_TIME.check("ramp_time", self.ramp_time)
-        check_positive("contact_pressure", self.contact_pressure, note="Pa")
+        CONTACT_PRESSURE.check("contact_pressure", self.contact_pressure)
         if self.rate_step is not None:
-            check_positive("rate_step", self.rate_step, note="s")
+            RATE_STEP.check("rate_step", self.rate_step)
         self._check_grains()
 
     def _check_grains(self) -> None:
