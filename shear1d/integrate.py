@@ -155,21 +155,25 @@ def stable_time_step(problem: Couette) -> dict:
                 dt_darcy=dt_darcy, omega=omega, lam=lam)
 
 
-def check_time_step(problem: Couette, dt: float, name: str = "dt",
+def check_time_step(problem: Couette, dt: float | None, name: str = "dt",
                     instead: str = "method='ida'") -> float:
-    """Return dt if the explicit scheme is stable with it, else ValueError naming ``name``, the
-    limit and its parts, and ``instead``."""
-    DT.check(name, dt)
+    """Return dt if the explicit scheme is stable with it (None: the default, half the
+    stability limit, at least TIME_MIN), else ValueError naming ``name``, the limit and its
+    parts, and ``instead``; a limit below TIME_MIN leaves no step."""
+    if dt is not None:
+        DT.check(name, dt)
     lim = stable_time_step(problem)
+    parts = (f"elastic shear waves ~dx/c: {lim['dt_wave']:.3g} s, fluid viscosity "
+             f"~rho dx^2/(2 eta_f): {lim['dt_viscous']:.3g} s")
+    if math.isfinite(lim["dt_darcy"]):
+        parts += f", Darcy consolidation dx^2/(2D): {lim['dt_darcy']:.3g} s"
+    if lim["dt"] < TIME_MIN.value:
+        raise ValueError(f"{name}: the explicit stability limit of this grid, {lim['dt']:.3g} s "
+                         f"({parts}), is below the shortest duration {TIME_MIN.value:g} s "
+                         f"({TIME_MIN.why}); use {instead}")
+    if dt is None:
+        return max(0.5 * lim["dt"], TIME_MIN.value)
     if dt > lim["dt"]:
-        parts = (f"elastic shear waves ~dx/c: {lim['dt_wave']:.3g} s, fluid viscosity "
-                 f"~rho dx^2/(2 eta_f): {lim['dt_viscous']:.3g} s")
-        if math.isfinite(lim["dt_darcy"]):
-            parts += f", Darcy consolidation dx^2/(2D): {lim['dt_darcy']:.3g} s"
-        if lim["dt"] < TIME_MIN.value:
-            raise ValueError(f"{name} = {dt:.6g} s: the explicit stability limit of this grid, "
-                             f"{lim['dt']:.3g} s ({parts}), is below the shortest duration "
-                             f"{TIME_MIN.value:g} s ({TIME_MIN.why}); use {instead}")
         raise ValueError(f"{name} = {dt:.6g} s is outside the explicit stability range "
                          f"[{TIME_MIN.value:g}, {lim['dt']:.6g}] s of this grid ({parts}); use a "
                          f"smaller dt or {instead}")
@@ -489,10 +493,8 @@ def prepare(problem: Couette, t_end: float | None = None, *, method: str = "ida"
         dt = DT.check("dt", dt)
     if method == "explicit":
         lim = stable_time_step(problem)
-        if dt is None:
-            dt = 0.5 * lim["dt"]
-        elif check_stability:
-            check_time_step(problem, dt)
+        if dt is None or check_stability:
+            dt = check_time_step(problem, dt)
         else:
             DT.check("dt", dt)
     if method == "dae":                  # K4_REG, COMPACTION_WIDTH read at call time
