@@ -154,7 +154,8 @@ def check_ramp(ramp_time: float, rotation: float, r_inner: float, speeds) -> Non
     u = max(speeds)
     top = rotation * r_inner / u
     if ramp_time > top:
-        raise OutOfRange("ramp_time", f"{ramp_time:g} s", f"[0, {top:.4g}] s",
+        rng = f"[{TIME_MIN:g}, {top:.4g}] s, or 0" if top >= TIME_MIN else "0 (impulsive) only"
+        raise OutOfRange("ramp_time", f"{ramp_time:g} s", rng,
                          f"at most the rotation time --rotation x --r-inner / --u-inner = "
                          f"{rotation:g} x {r_inner:g} m / {u:g} m/s at full speed: a longer ramp "
                          "leaves the bob below full speed past half of --rotation, a slow "

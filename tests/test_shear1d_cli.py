@@ -312,9 +312,9 @@ def test_default_cup_radius_is_named_as_the_default(tmp_path, capsys):
      "--time = 1e-300 is outside the valid range [1e-12, 1e+09] s"),
     # fault 11: --ramp-time had no upper bound; now at most the rotation time at full speed
     (["annular", "--u-inner", "0.084", "--cells", "20", "--ramp-time", "1e9"],
-     "--ramp-time = 1e+09 s is outside the valid range [0, 0.04613] s"),
+     "--ramp-time = 1e+09 s is outside the valid range [1e-12, 0.04613] s, or 0"),
     (["annular", "--u-inner", "0.00084", "0.084", "--cells", "20", "--ramp-time", "0.05"],
-     "--ramp-time = 0.05 s is outside the valid range [0, 0.04613] s"),
+     "--ramp-time = 0.05 s is outside the valid range [1e-12, 0.04613] s, or 0"),
     (["annular", "--u-inner", "0.084", "--cells", "20", "--ramp-time", "1e10"],
      "--ramp-time = 1e+10 is outside the valid range [1e-12, 1e+09] s, or 0 (30 years"),
 ])
@@ -337,7 +337,7 @@ def test_ramp_time_bound_is_the_rotation_time_of_the_fastest_speed():
     top = 0.31 * 0.0125 / 0.084
     _check_ramp(top, 0.31, 0.0125, [0.00084, 0.084])        # at the bound: accepted
     _check_ramp(0.0, 0.31, 0.0125, [0.084])
-    with pytest.raises(ValueError, match=r"ramp_time = 0\.0462 s .*\[0, 0\.04613\] s"):
+    with pytest.raises(ValueError, match=r"ramp_time = 0\.0462 s .*\[1e-12, 0\.04613\] s, or 0"):
         _check_ramp(0.0462, 0.31, 0.0125, [0.00084, 0.084])
 
 
