@@ -29,11 +29,14 @@ from rheology.materials import scene_material, set_argument, set_overrides
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
-from runkit.params import Number, OutOfRange
+from runkit.limits import PHI_MIN, SPEED_MIN, STRESS_MIN
+from runkit.params import Number, OutOfRange, Param
 
 from .geometry import CELLS, LENGTH
+from .geometry import R_OUTER as CUP
 from .integrate import CHECKPOINT_EVERY, DT, DURATION, METHODS, OUTPUTS, RTOL
-from .model import ELASTIC_STRAIN_LIMIT, MODES, RAMP_TIME, max_wall_speed
+from .model import (ELASTIC_STRAIN_LIMIT, MODES, PHI0, RAMP_TIME, WALL_SPEED, WALL_STRESS,
+                    max_wall_speed)
 from .scenes import (R_INNER, R_OUTER, ROTATION, ROTATION_END, SPEEDS, plane_couette,
                      run_annular, run_couette)
 
@@ -46,11 +49,16 @@ OPTIONS = {"n_cells": "--cells", "n_out": "--outputs", "rtol": "--rtol", "dt": "
            "wall_stress": "--stress"}
 
 
-def _number(flag: str, param=None, shown: str = "") -> Number:
-    """A number read from the command line; its range (``param``'s, or ``shown``) is stated
-    here and checked by the library."""
-    return Number(flag, integer=param is not None and param.kind == "integer",
-                  shown_range=shown or param.range_text(static=True))
+def _number(flag: str, param: Param, upper: str = "", shown: str = "") -> Number:
+    """A number read from the command line; its range, ``param``'s (its one declaration, with
+    the reasons), is stated here and checked by the library. ``upper``: the text of a derived
+    upper bound (the static lower bound shown before it); ``shown``: the whole range."""
+    if upper:
+        lo, lc, _, _, _, _ = param.bounds(static=True)
+        shown = f"{'[' if lc else '('}{lo:g}, {upper}"
+    also = "".join(f", or {a:g}" for a in param.also)
+    return Number(flag, integer=param.kind == "integer",
+                  shown_range=(shown or param.range_text(static=True)) + also)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -75,16 +83,17 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--rtol", type=_number("--rtol", RTOL), default=1e-4,
                        help=f"IDA tolerance, {RTOL.range_text()} (default 1e-4)")
         p.add_argument("--dt", type=_number("--dt", DT), default=None,
-                       help="explicit step [s] (default: half the stability limit; larger than "
-                            "the limit is refused)")
+                       help=f"explicit step [s], {DT.range_text()} and at most the stability "
+                            "limit of the grid (default: half that limit)")
         p.add_argument("--outputs", type=_number("--outputs", OUTPUTS), default=outputs,
                        help=f"output intervals, {OUTPUTS.range_text()} (default {outputs})")
         p.add_argument("--resume", action="store_true", help="continue from the checkpoints in "
                        "--out (refused if there are none)")
         p.add_argument("--checkpoint-every", type=_number("--checkpoint-every",
                                                           CHECKPOINT_EVERY),
-                       default=60.0, help="wall-time seconds between checkpoints (default 60; "
-                       "one is also written at the end and on Ctrl-C/SIGTERM)")
+                       default=60.0, help="wall-time seconds between checkpoints, "
+                       f"{CHECKPOINT_EVERY.range_text()} (default 60; one is also written at "
+                       "the end and on Ctrl-C/SIGTERM)")
         p.add_argument("--quiet", action="store_true", help="no progress bar")
         p.add_argument("--material", default="annular_shear", metavar="NAME|FILE.json",
                        help="steady-flow parameters: a set name or a material file (e.g. "
@@ -93,30 +102,33 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--set", action="append", type=set_argument, metavar="NAME=VALUE",
                        help="a parameter of the material (repeatable), e.g. rules=mpm_3d (the "
                             "yield rules of the author's code) or K0=0.1")
-        p.add_argument("--phi", type=_number("--phi", shown="(0, phi_j of the material)"),
-                       default=None, help="volume fraction, below the material's phi_j "
-                                          "(default: Table 4's phi0 = 0.505)")
+        p.add_argument("--phi", type=_number("--phi", PHI0, "phi_j of the material)"),
+                       default=None, help=f"volume fraction, at least {PHI_MIN.value:g} (the "
+                                          "dilute limit), below the material's phi_j (default: "
+                                          "Table 4's phi0 = 0.505)")
         add_mass_fraction_options(p, nargs=None)
 
-    speed = "(0, 0.1 sqrt(G/rho)] m/s for the run's material and phi"
+    speed = "0.1 sqrt(G/rho)] m/s for the run's material and phi"
+    u_range = f"[{SPEED_MIN.value:g}, 0.1 sqrt(G/rho)]: [{SPEED_MIN.value:g}, {u_max:.6g}]"
     a = sub.add_parser("annular", help="Fig. 3: annular shear, dynamic shear-jamming fronts")
-    a.add_argument("--u-inner", type=_number("--u-inner", shown=speed), nargs="+",
+    a.add_argument("--u-inner", type=_number("--u-inner", WALL_SPEED, speed), nargs="+",
                    default=list(SPEEDS),
-                   help=f"bob surface speed(s) [m/s], in (0, 0.1 sqrt(G/rho)]: (0, {u_max:.6g}] "
-                        f"for annular_shear at phi {m.phi0:g} (the model is a small-elastic-strain "
-                        "law; default 0.00084 0.084)")
+                   help=f"bob surface speed(s) [m/s], in {u_range} for annular_shear at phi "
+                        f"{m.phi0:g} (the model is a small-elastic-strain law; default 0.00084 "
+                        "0.084)")
     a.add_argument("--out", default="annular_shear_jamming",
                    help="output folder (a non-empty path; created if absent)")
     a.add_argument("--r-inner", type=_number("--r-inner", LENGTH), default=R_INNER,
                    help=f"bob radius [m], {LENGTH.range_text()} (default {R_INNER})")
-    a.add_argument("--r-outer", type=_number("--r-outer", shown="(--r-inner, 10] m"),
+    a.add_argument("--r-outer", type=_number("--r-outer", CUP, shown="(--r-inner, 10] m"),
                    default=None, help=f"cup radius [m], beyond the bob radius, at most 10 "
                                       f"(default {R_OUTER})")
     a.add_argument("--rotation", type=_number("--rotation", ROTATION), default=ROTATION_END,
                    help=f"bob rotation to simulate [rad], {ROTATION.range_text()} (default "
                         f"{ROTATION_END})")
     a.add_argument("--ramp-time", type=_number("--ramp-time", RAMP_TIME), default=0.0,
-                   help="start-up ramp of the bob [s] (default 0: impulsive), at most the "
+                   help=f"start-up ramp of the bob [s], 0 (default: impulsive) or in "
+                        f"{RAMP_TIME.range_text()} and at most the "
                         "rotation time --rotation x --r-inner / --u-inner at full speed (the "
                         "fastest speed's; then the bob reaches full speed by half the rotation: "
                         "a longer ramp would end the run before or just after the bob is up to "
@@ -125,13 +137,14 @@ def _parser() -> argparse.ArgumentParser:
 
     c = sub.add_parser("couette", help="plane Couette start-up (speed- or stress-driven)")
     drive = c.add_mutually_exclusive_group(required=True)
-    drive.add_argument("--speed", type=_number("--speed", shown=speed),
-                       help=f"speed of the moving plate [m/s], in (0, 0.1 sqrt(G/rho)]: (0, "
-                            f"{u_max:.6g}] for annular_shear at phi {m.phi0:g}")
-    drive.add_argument("--stress", type=_number("--stress", shown="(0, 0.1 G] Pa for the run's "
-                                                                 "material"),
-                       help=f"shear stress on the moving plate [Pa], in (0, 0.1 G]: (0, "
-                            f"{ELASTIC_STRAIN_LIMIT * m.G:g}] for annular_shear")
+    drive.add_argument("--speed", type=_number("--speed", WALL_SPEED, speed),
+                       help=f"speed of the moving plate [m/s], in {u_range} for annular_shear "
+                            f"at phi {m.phi0:g}")
+    drive.add_argument("--stress", type=_number("--stress", WALL_STRESS,
+                                                "0.1 G] Pa for the run's material"),
+                       help=f"shear stress on the moving plate [Pa], in [{STRESS_MIN.value:g}, "
+                            f"0.1 G]: [{STRESS_MIN.value:g}, {ELASTIC_STRAIN_LIMIT * m.G:g}] for "
+                            "annular_shear")
     c.add_argument("--gap", type=_number("--gap", LENGTH), default=1e-2,
                    help=f"gap [m], {LENGTH.range_text()} (default 0.01)")
     c.add_argument("--time", type=_number("--time", DURATION), default=1.0,
@@ -151,6 +164,12 @@ def _sample(args):
         raise ValueError("give --phi or --mass-fraction, not both")
     phis, note = mass_fraction_phi(args, m)
     if phis is not None:
+        try:
+            PHI0.check("phi", phis[0], {"material": m})
+        except OutOfRange as exc:
+            raise ValueError(f"--mass-fraction = {args.mass_fraction:g} gives phi = {phis[0]:.3g} "
+                             f"(Eq. 20), outside its valid range {exc.range_text} ({exc.why})"
+                             ) from None
         print(f"shear1d: {note}")
         return m, phis[0]
     return m, args.phi

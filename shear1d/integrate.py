@@ -40,7 +40,7 @@ from rheology.flow_rule import invariants
 from rheology.run_end import EndedEarly, RunEnd
 from runkit.ida import IDAFailed, Solver
 from runkit.io import CorruptCheckpoint
-from runkit.limits import TIME_MAX, TIME_MIN, ge, gt, le
+from runkit.limits import TIME_MAX, TIME_MIN, ge, le
 from runkit.params import Param, check_range
 from runkit.run import Checkpoint, Progress, drive
 
@@ -61,17 +61,19 @@ RTOL = Param(ge(1e-12, "IDA reaches no tighter tolerance: each step's error is t
                        "rounding of its doubles (~1e-16) summed over 1e4-1e6 steps"),
              le(1e-2, "a looser tolerance leaves fewer than two meaningful digits, and its "
                       "delta = rtol x the flow time smears the start-up"))
-#: The explicit step [s] (at most the stability limit: :func:`check_time_step`).
-DT = Param(gt(0.0, "a time step advances the clock"), unit="s")
+#: The explicit step [s]: a duration (runkit.limits), at most the stability limit
+#: (:func:`check_time_step`).
+DT = Param(TIME_MIN, TIME_MAX, unit="s")
 #: The duration of a run [s] (runkit.limits).
 DURATION = Param(TIME_MIN, TIME_MAX, unit="s")
 #: Output intervals of a run.
 OUTPUTS = Param(ge(1, "the end of the run is its one output"),
                 le(100000, "more profiles than any figure or file resolves (1e5 rows per cell)"),
                 kind="integer")
-#: Wall-time seconds between checkpoints.
-CHECKPOINT_EVERY = Param(gt(0.0, "a checkpoint takes time to write: an interval of 0 would "
-                                 "write one at every output"), unit="s")
+#: Wall-time seconds between checkpoints: the durations of runkit.limits.
+CHECKPOINT_EVERY = Param(ge(TIME_MIN.value, "a checkpoint takes time to write: an interval of "
+                                            "1 ps, the shortest duration, already writes one at "
+                                            "every output"), TIME_MAX, unit="s")
 
 
 @dataclass
@@ -153,20 +155,28 @@ def stable_time_step(problem: Couette) -> dict:
                 dt_darcy=dt_darcy, omega=omega, lam=lam)
 
 
-def check_time_step(problem: Couette, dt: float, name: str = "dt",
+def check_time_step(problem: Couette, dt: float | None, name: str = "dt",
                     instead: str = "method='ida'") -> float:
-    """Return dt if the explicit scheme is stable with it, else ValueError naming ``name``, the
-    limit and its parts, and ``instead``."""
-    DT.check(name, dt)
+    """Return dt if the explicit scheme is stable with it (None: the default, half the
+    stability limit, at least TIME_MIN), else ValueError naming ``name``, the limit and its
+    parts, and ``instead``; a limit below TIME_MIN leaves no step."""
+    if dt is not None:
+        DT.check(name, dt)
     lim = stable_time_step(problem)
+    parts = (f"elastic shear waves ~dx/c: {lim['dt_wave']:.3g} s, fluid viscosity "
+             f"~rho dx^2/(2 eta_f): {lim['dt_viscous']:.3g} s")
+    if math.isfinite(lim["dt_darcy"]):
+        parts += f", Darcy consolidation dx^2/(2D): {lim['dt_darcy']:.3g} s"
+    if lim["dt"] < TIME_MIN.value:
+        raise ValueError(f"{name}: the explicit stability limit of this grid, {lim['dt']:.3g} s "
+                         f"({parts}), is below the shortest duration {TIME_MIN.value:g} s "
+                         f"({TIME_MIN.why}); use {instead}")
+    if dt is None:
+        return max(0.5 * lim["dt"], TIME_MIN.value)
     if dt > lim["dt"]:
-        parts = (f"elastic shear waves ~dx/c: {lim['dt_wave']:.3g} s, fluid viscosity "
-                 f"~rho dx^2/(2 eta_f): {lim['dt_viscous']:.3g} s")
-        if math.isfinite(lim["dt_darcy"]):
-            parts += f", Darcy consolidation dx^2/(2D): {lim['dt_darcy']:.3g} s"
-        raise ValueError(f"{name} = {dt:.6g} s is outside the explicit stability range (0, "
-                         f"{lim['dt']:.6g}] s of this grid ({parts}); use a smaller dt or "
-                         f"{instead}")
+        raise ValueError(f"{name} = {dt:.6g} s is outside the explicit stability range "
+                         f"[{TIME_MIN.value:g}, {lim['dt']:.6g}] s of this grid ({parts}); use a "
+                         f"smaller dt or {instead}")
     return dt
 
 
@@ -422,6 +432,7 @@ def output_times(t_end: float, n_out: int = 200, t_out=None) -> np.ndarray:
         t_out = check_range("t_out", np.asarray(t_out, dtype=float), 0.0, None)
         if t_out.ndim != 1 or t_out.size < 2 or np.any(np.diff(t_out) <= 0) or t_out[0] != 0:
             raise ValueError("t_out must be an increasing 1-D array starting at 0 s")
+        DURATION.check("t_out[-1]", float(t_out[-1]))
         return t_out
     return np.linspace(0.0, DURATION.check("t_end", t_end), OUTPUTS.check("n_out", n_out) + 1)
 
@@ -478,12 +489,12 @@ def prepare(problem: Couette, t_end: float | None = None, *, method: str = "ida"
     if resume and checkpoint is None:
         raise ValueError("resume=True needs a checkpoint path")
     rtol, lim, dae = RTOL.check("rtol", rtol), None, None
+    if dt is not None:                   # refused even where the method does not use it
+        dt = DT.check("dt", dt)
     if method == "explicit":
         lim = stable_time_step(problem)
-        if dt is None:
-            dt = 0.5 * lim["dt"]
-        elif check_stability:
-            check_time_step(problem, dt)
+        if dt is None or check_stability:
+            dt = check_time_step(problem, dt)
         else:
             DT.check("dt", dt)
     if method == "dae":                  # K4_REG, COMPACTION_WIDTH read at call time

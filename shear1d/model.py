@@ -32,16 +32,16 @@ import numpy as np
 from rheology import granular_viscosity, kernel_parameters
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
 from rheology.materials import Material
-from rheology.steady import below_jamming
-from runkit.limits import GRAIN_MAX, GRAIN_MIN, LENGTH_MAX, TIME_MAX, ge, gt, le
-from runkit.params import OutOfRange, Param, check_positive, interval_text, shown
+from runkit.limits import (GRAIN_MAX, GRAIN_MIN, LENGTH_MAX, PHI_MIN, SPEED_MAX, SPEED_MIN,
+                           STRESS_MAX, STRESS_MIN, TIME_MAX, TIME_MIN, Bound)
+from runkit.params import OutOfRange, Param, interval_text, shown
 
 from . import kernels
 from .geometry import CELL_MIN_GRAINS, R_INNER_MIN_GRAINS, Grid, min_gap
 
 MODES = ("locked", "two-phase")
-#: The start-up ramp of the drive [s].
-RAMP_TIME = Param(ge(0.0, "0 is an impulsive start"), TIME_MAX, unit="s")
+#: The start-up ramp of the drive [s]: a duration (runkit.limits), or 0, an impulsive start.
+RAMP_TIME = Param(TIME_MIN, TIME_MAX, unit="s", also=(0.0,))
 
 
 def max_wall_speed(material, phi0: float) -> float:
@@ -64,6 +64,29 @@ def drive_limit(material, phi0: float, stress: bool = False) -> tuple[float, str
     return top, "m/s", (f"0.1 c_s, c_s = sqrt(G/rho) = {top / ELASTIC_STRAIN_LIMIT:.4g} m/s for "
                         f"{material.name} at phi = {phi0:g}: a faster wall strains the "
                         "hypoelastic law past 10 % elastic strain")
+
+
+def _drive_bound(stress: bool, cap: Bound) -> Bound:
+    """The upper bound of the drive at ``{"material": m, "phi0": phi0}``: :func:`drive_limit`,
+    or the physical ``cap`` (runkit.limits) where that is lower."""
+    def at(p):
+        top, _, why = drive_limit(p["material"], p["phi0"], stress)
+        return (top, why) if top <= cap.value else (cap.value, cap.why)
+    return Bound(lambda p: at(p)[0], True, lambda p: at(p)[1])
+
+
+#: The moving wall's speed [m/s] and shear stress [Pa]: the physical speeds and stresses
+#: (runkit.limits), at most :func:`drive_limit` of the material at phi0 (params: material, phi0).
+WALL_SPEED = Param(SPEED_MIN, _drive_bound(False, SPEED_MAX), unit="m/s")
+WALL_STRESS = Param(STRESS_MIN, _drive_bound(True, STRESS_MAX), unit="Pa")
+#: The floor of the granular pressure [Pa] (a stress) and the rate form's step [s] (a duration).
+CONTACT_PRESSURE = Param(STRESS_MIN, STRESS_MAX, unit="Pa")
+RATE_STEP = Param(TIME_MIN, TIME_MAX, unit="s")
+#: The volume fraction: at least the dilute limit (runkit.limits), below phi_j of the material
+#: (params: material).
+PHI0 = Param(PHI_MIN, Bound(lambda p: p["material"].phi_j, False,
+                            lambda p: f"steady flow needs phi below phi_j = {p['material'].phi_j} "
+                                      f"of {p['material'].name}"))
 
 
 def interleaved(n: int, per_cell: int, stress_driven: bool):
@@ -102,12 +125,13 @@ class Couette:
         wall_stress is given.
     wall_stress : float, optional
         Mixture shear stress applied by the moving wall [Pa] (stress-controlled run). The
-        drive is in (0, :func:`drive_limit`].
+        drive is in :data:`WALL_SPEED` or :data:`WALL_STRESS`.
     ramp_time : float
         The drive rises linearly from 0 over this time [s]; 0 = impulsive start
         (:data:`RAMP_TIME`).
     phi0 : float, optional
-        Uniform initial volume fraction, 0 < phi0 < phi_j; default ``material.phi0``.
+        Uniform initial volume fraction (:data:`PHI0`: PHI_MIN <= phi0 < phi_j); default
+        ``material.phi0``.
     contact_pressure : float
         Floor of the granular pressure [Pa] (and its initial value): see
         :func:`shear1d.kernels.local_updates`; results do not depend on it while it is far below
@@ -150,15 +174,14 @@ class Couette:
         phi0 = m.phi0 if self.phi0 is None else self.phi0
         if phi0 is None:
             raise ValueError(f"phi0 is not set for material {m.name}: pass phi0=...")
-        object.__setattr__(self, "phi0", float(below_jamming(phi0, m, "phi0")))
-        top, unit, why = drive_limit(m, self.phi0, stress=self.wall_speed is None)
+        object.__setattr__(self, "phi0", PHI0.check("phi0", phi0, {"material": m}))
         name = "wall_stress" if self.wall_speed is None else "wall_speed"
-        Param(gt(0.0, "a drive of 0 shears nothing"), le(top, why), unit=unit).check(
-            name, self.drive_amplitude)
+        (WALL_STRESS if self.wall_speed is None else WALL_SPEED).check(
+            name, self.drive_amplitude, {"material": m, "phi0": self.phi0})
         RAMP_TIME.check("ramp_time", self.ramp_time)
-        check_positive("contact_pressure", self.contact_pressure, note="Pa")
+        CONTACT_PRESSURE.check("contact_pressure", self.contact_pressure)
         if self.rate_step is not None:
-            check_positive("rate_step", self.rate_step, note="s")
+            RATE_STEP.check("rate_step", self.rate_step)
         self._check_grains()
 
     def _check_grains(self) -> None:
@@ -367,12 +390,13 @@ class Couette:
 
     # ------------------------------------------------------------------ scales
     def velocity_scale(self) -> float:
-        """Characteristic speed [m/s]: the wall speed, or stress-driven tau_w H/(eta0 eta_r)."""
+        """Characteristic speed [m/s]: the wall speed, or stress-driven tau_w H/(eta0 eta_r)
+        (positive: the drive is at least SPEED_MIN or STRESS_MIN)."""
         if not self.stress_driven:
-            return max(abs(self.drive_amplitude), 1e-12)
+            return abs(self.drive_amplitude)
         eta = self.material.eta0 * (1 + 2.5 * self.phi0 + float(granular_viscosity(
             self.phi0, 0.0, self.material)))
-        return max(self.drive_amplitude * self.grid.gap / eta, 1e-12)
+        return self.drive_amplitude * self.grid.gap / eta
 
     def flow_time(self) -> float:
         """Time for the moving wall to travel one gap at the velocity scale [s]."""

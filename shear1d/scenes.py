@@ -30,17 +30,18 @@ from rheology.run_end import EndedEarly, run_record
 from runkit import limits as physical
 from runkit.io import (atomic_write_csv, atomic_write_json, check_output_dir, load_checkpoint,
                        previous_checkpoint)
-from runkit.limits import gt, le
+from runkit.limits import ge, le
 from runkit.params import OutOfRange, Param
 
 from . import plots
 from .geometry import Grid
 from .integrate import Plan, Result, integrate, memory_estimate, prepare
-from .model import Couette
+from .model import WALL_SPEED, Couette
 from .summary import (FRONT_EMPTY_OK, NULLABLE, SceneRun, couette_frames, couette_profile_outputs,
                       fields_frame, front_frame, jammed, profile_frames, run_tag, summarize)
 
 TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
+SPEED_MIN = physical.SPEED_MIN.value
 MAX_CELL_STEPS = physical.MAX_CELL_STEPS
 
 R_INNER = 12.5e-3
@@ -48,7 +49,8 @@ R_OUTER = 36e-3
 SPEEDS = (0.84e-3, 84e-3)
 ROTATION_END = 0.31
 #: The bob's rotation [rad].
-ROTATION = Param(gt(0.0, "the bob must turn"),
+ROTATION = Param(ge(physical.STRAIN_MIN.value, "the sample's strain is of order the bob's "
+                                               "rotation: " + physical.STRAIN_MIN.why),
                  le(100.0, "16 turns, far past the 0.31 rad in which the Fig. 3 front crosses "
                            "the gap (the run's strain and cost grow with it)"), unit="rad")
 
@@ -77,13 +79,28 @@ def annular_shear_jamming(u_inner: float = 0.084, *, n_cells: int = 200, mode: s
     arc = grid.inner / float(u_inner)           # s per rad of rotation
     t_end = float(rotation) * arc + 0.5 * float(ramp_time)
     if not TIME_MIN <= t_end <= TIME_MAX:
-        raise ValueError(
-            f"u_inner = {u_inner:g} m/s and rotation = {rotation:g} rad make a run of "
-            f"{t_end:.4g} s, outside the valid durations [{TIME_MIN:g}, {TIME_MAX:g}] s: at "
-            f"rotation = {rotation:g} rad, u_inner in [{rotation * grid.inner / TIME_MAX:.6g}, "
-            f"{rotation * grid.inner / TIME_MIN:.6g}] m/s; at u_inner = {u_inner:g} m/s, rotation "
-            f"in [{TIME_MIN / arc:.6g}, {TIME_MAX / arc:.6g}] rad")
+        raise ValueError(f"u_inner = {u_inner:g} m/s and rotation = {rotation:g} rad make a run of "
+                         f"{t_end:.4g} s, outside the valid durations [{TIME_MIN:g}, "
+                         f"{TIME_MAX:g}] s: " + _duration_ranges(problem, float(rotation), arc))
     return problem, t_end
+
+
+def _duration_ranges(problem: Couette, rotation: float, arc: float) -> str:
+    """The ranges of u_inner at ``rotation`` and of rotation at u_inner (``arc`` = r_inner /
+    u_inner, s per rad) in which t_end lies in [TIME_MIN, TIME_MAX], each within its own
+    physical range (WALL_SPEED at the problem's material and phi0, ROTATION)."""
+    _, _, _, u_hi, _, _ = WALL_SPEED.bounds({"material": problem.material, "phi0": problem.phi0})
+    r_lo, _, _, r_hi, _, _ = ROTATION.bounds()
+    r_i, u = problem.grid.inner, problem.wall_speed
+    ranges = []
+    for name, lo, hi, unit, at in (
+            ("u_inner", max(SPEED_MIN, rotation * r_i / TIME_MAX),
+             min(u_hi, rotation * r_i / TIME_MIN), "m/s", f"rotation = {rotation:g} rad"),
+            ("rotation", max(r_lo, TIME_MIN / arc), min(r_hi, TIME_MAX / arc), "rad",
+             f"u_inner = {u:g} m/s")):
+        ranges.append(f"at {at}, {name} in [{lo:.6g}, {hi:.6g}] {unit}" if lo <= hi else
+                      f"at {at}, no {name} is valid")
+    return "; ".join(ranges)
 
 
 def plane_couette(speed: float | None = None, *, stress: float | None = None, gap: float = 1e-2,
@@ -137,7 +154,8 @@ def check_ramp(ramp_time: float, rotation: float, r_inner: float, speeds) -> Non
     u = max(speeds)
     top = rotation * r_inner / u
     if ramp_time > top:
-        raise OutOfRange("ramp_time", f"{ramp_time:g} s", f"[0, {top:.4g}] s",
+        rng = f"[{TIME_MIN:g}, {top:.4g}] s, or 0" if top >= TIME_MIN else "0 (impulsive) only"
+        raise OutOfRange("ramp_time", f"{ramp_time:g} s", rng,
                          f"at most the rotation time --rotation x --r-inner / --u-inner = "
                          f"{rotation:g} x {r_inner:g} m / {u:g} m/s at full speed: a longer ramp "
                          "leaves the bob below full speed past half of --rotation, a slow "

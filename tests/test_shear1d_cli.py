@@ -103,8 +103,9 @@ def test_every_numeric_option_refuses_bad_values_with_one_line(tmp_path, capsys,
     assert not out.exists()
     if opt in ("--speed", "--stress", "--u-inner"):   # the run's material's bounds, stated
         assert "inf)" not in err[0].split("valid range")[-1], err[0]
-        assert ("(0, 0.1 G] Pa" if opt == "--stress" else "(0, 0.1 sqrt(G/rho)] m/s") in err[0] \
-            or "outside the valid range (0, " in err[0], err[0]
+        low = "[1e-12, " if opt == "--stress" else "[1e-18, "     # the physical lower bounds
+        assert low + ("0.1 G] Pa" if opt == "--stress" else "0.1 sqrt(G/rho)] m/s") in err[0] \
+            or "outside the valid range " + low in err[0], err[0]
 
 
 def test_the_options_have_physical_ranges():
@@ -119,7 +120,7 @@ def test_the_options_have_physical_ranges():
     assert u.hi is None and "0.1 sqrt(G/rho)" in u.shown_range
     assert CELLS.hi.value == 20000 and ranges[("annular", "--cells")].range_text == "[4, 20000]"
     assert ranges[("annular", "--outputs")].integer and ranges[("couette", "--cells")].integer
-    assert OUTPUTS.kind == "integer" and not CHECKPOINT_EVERY.lo.closed
+    assert OUTPUTS.kind == "integer" and CHECKPOINT_EVERY.lo.value == 1e-12   # TIME_MIN
     assert ranges[("annular", "--r-inner")].range_text == "[1e-06, 10] m"
     assert ranges[("couette", "--gap")].range_text == "[1e-06, 10] m"
     for p in (CELLS, LENGTH, OUTPUTS, CHECKPOINT_EVERY, RTOL, ROTATION):
@@ -137,24 +138,28 @@ def test_the_options_have_physical_ranges():
     (["annular", "--r-outer", "20"], "--r-outer = 20 is outside the valid range (0.0125, 10] m "
                                      "(a 10 m bed"),
     (["annular", "--rtol", "1"], "--rtol = 1 is outside the valid range [1e-12, 0.01] (a looser"),
-    (["annular", "--rotation", "1e9"], "--rotation = 1e+09 is outside the valid range (0, 100] "
+    (["annular", "--rotation", "1e9"], "--rotation = 1e+09 is outside the valid range [1e-09, 100] "
                                        "rad (16 turns"),
     (["couette", "--speed", "0.01", "--gap", "1e-9"],
      "--gap = 1e-09 is outside the valid range [1e-06, 10] m (the narrowest micro-gap"),
     (["annular", "--cells", "3"], "--cells = 3 is outside the valid range [4, 20000] (fewer"),
-    (["annular", "--phi", "0.7"], "--phi = 0.7 is outside the valid range (0, 0.535) (steady"),
+    (["annular", "--phi", "0.7"], "--phi = 0.7 is outside the valid range [1e-06, 0.535) (steady"),
     (["annular", "--outputs", "0"], "--outputs = 0 is outside the valid range [1, 100000] ("),
     (["annular", "--checkpoint-every", "0"], "--checkpoint-every = 0 is outside the valid range "
-                                             "(0, inf) s (a checkpoint"),
+                                             "[1e-12, 1e+09] s (a checkpoint"),
     (["annular", "--u-inner", "0.084", "--method", "explicit", "--dt", "1"],
      "--dt = 1 s is outside the explicit stability range"),
     (["couette", "--speed", "0.01", "--stress", "2"], "not allowed"),
     # the user's option and its range in its units, not the model's wall_speed / wall_stress
-    (["couette", "--speed", "2"], "--speed = 2 is outside the valid range (0, 1.53156] m/s"),
-    (["couette", "--speed=-0.01"], "--speed = -0.01 is outside the valid range (0, 1.53156] m/s"),
-    (["couette", "--speed", "-1e-2"], "--speed = -0.01 is outside the valid range (0, 1.53156]"),
-    (["couette", "--stress", "1e5"], "--stress = 100000 is outside the valid range (0, 38000] Pa"),
-    (["couette", "--stress", "0"], "--stress = 0 is outside the valid range (0, 38000] Pa"),
+    # (the lower ends: the physical SPEED_MIN and STRESS_MIN of runkit.limits, no longer 0)
+    (["couette", "--speed", "2"], "--speed = 2 is outside the valid range [1e-18, 1.53156] m/s"),
+    (["couette", "--speed=-0.01"], "--speed = -0.01 is outside the valid range [1e-18, 1.53156] "
+                                   "m/s"),
+    (["couette", "--speed", "-1e-2"], "--speed = -0.01 is outside the valid range [1e-18, "
+                                      "1.53156]"),
+    (["couette", "--stress", "1e5"], "--stress = 100000 is outside the valid range [1e-12, 38000] "
+                                     "Pa"),
+    (["couette", "--stress", "0"], "--stress = 0 is outside the valid range [1e-12, 38000] Pa"),
     (["couette", "--speed", "0.01", "--phi", "0.6"], "--phi"),  # above phi_j
     (["annular", "--mass-fraction", "0.6"], "--mass-fraction"),   # phi above phi_j by Eq. 20
     (["annular", "--phi", "0.5", "--mass-fraction", "0.5"], "not both"),
@@ -240,10 +245,10 @@ def test_drive_range_follows_the_material_and_names_the_option():
     assert 15 < top < 18                                      # 0.1 sqrt(G/rho)
     plane_couette(5.0, material=stiff, phi0=0.5, n_cells=8)   # above annular's 1.53 m/s: fine
     with pytest.raises(ValueError, match=rf"wall_speed = 20 is outside the valid range "
-                                         rf"\(0, {top:g}\] m/s \(0.1 c_s"):
+                                         rf"\[1e-18, {top:g}\] m/s \(0.1 c_s"):
         plane_couette(20.0, material=stiff, phi0=0.5, n_cells=8)
     with pytest.raises(ValueError, match=r"wall_stress = 4e\+06 is outside the valid range "
-                                         r"\(0, 3\.8e\+06\] Pa \(0.1 G"):
+                                         r"\[1e-12, 3\.8e\+06\] Pa \(0.1 G"):
         plane_couette(stress=4e6, material=stiff, phi0=0.5, n_cells=8)
     assert main(["couette", "--speed", "20", "--material", "rod_impact", "--phi", "0.5"]) == 2
 
@@ -257,7 +262,7 @@ def test_a_stiffer_material_allows_a_faster_bob(tmp_path, capsys):
     args = ["annular", "--u-inner", "5", "--cells", "8", "--out", str(tmp_path / "a")]
     assert main(args) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--u-inner = 5 is outside the valid range (0, 1.5" in err[0], err
+    assert len(err) == 1 and "--u-inner = 5 is outside the valid range [1e-18, 1.5" in err[0], err
     assert not (tmp_path / "a").exists()
     stiff = ["--material", "rod_impact", "--phi", "0.5", "--r-outer", "0.0401", "--rotation",
              "0.1"]
@@ -307,11 +312,11 @@ def test_default_cup_radius_is_named_as_the_default(tmp_path, capsys):
      "--time = 1e-300 is outside the valid range [1e-12, 1e+09] s"),
     # fault 11: --ramp-time had no upper bound; now at most the rotation time at full speed
     (["annular", "--u-inner", "0.084", "--cells", "20", "--ramp-time", "1e9"],
-     "--ramp-time = 1e+09 s is outside the valid range [0, 0.04613] s"),
+     "--ramp-time = 1e+09 s is outside the valid range [1e-12, 0.04613] s, or 0"),
     (["annular", "--u-inner", "0.00084", "0.084", "--cells", "20", "--ramp-time", "0.05"],
-     "--ramp-time = 0.05 s is outside the valid range [0, 0.04613] s"),
+     "--ramp-time = 0.05 s is outside the valid range [1e-12, 0.04613] s, or 0"),
     (["annular", "--u-inner", "0.084", "--cells", "20", "--ramp-time", "1e10"],
-     "--ramp-time = 1e+10 is outside the valid range [0, 1e+09] s (30 years"),
+     "--ramp-time = 1e+10 is outside the valid range [1e-12, 1e+09] s, or 0 (30 years"),
 ])
 def test_fresh_user_refusals_exit_2_one_line_nothing_written(args, word, tmp_path, monkeypatch,
                                                               capsys):
@@ -332,7 +337,7 @@ def test_ramp_time_bound_is_the_rotation_time_of_the_fastest_speed():
     top = 0.31 * 0.0125 / 0.084
     _check_ramp(top, 0.31, 0.0125, [0.00084, 0.084])        # at the bound: accepted
     _check_ramp(0.0, 0.31, 0.0125, [0.084])
-    with pytest.raises(ValueError, match=r"ramp_time = 0\.0462 s .*\[0, 0\.04613\] s"):
+    with pytest.raises(ValueError, match=r"ramp_time = 0\.0462 s .*\[1e-12, 0\.04613\] s, or 0"):
         _check_ramp(0.0462, 0.31, 0.0125, [0.00084, 0.084])
 
 
@@ -478,12 +483,15 @@ def test_csv_writes_no_negative_zero(tmp_path):
     text = (tmp_path / "z.csv").read_text()
     assert text.splitlines() == ["a,b,n,s", "0.0,0.0,0,-0.0", "1.5,0.0,-1,x", "-2.0,,2,y"], text
     assert math.copysign(1.0, df["a"][0]) == -1.0       # the caller's frame is not changed
-    out = tmp_path / "sp"
-    assert main(["couette", "--speed", "1e-300", "--cells", "8", "--time", "0.01", "--outputs",
+    out = tmp_path / "sp"                 # 1e-300 is refused now: the slowest physical speed
+    assert main(["couette", "--speed", "1e-18", "--cells", "8", "--time", "0.01", "--outputs",
                  "4", "--quiet", "--out", str(out)]) == 0
     for f in out.glob("*.csv"):
         x = pd.read_csv(f).select_dtypes("number").to_numpy(float)
         assert not np.any((x == 0) & np.signbit(x)), f.name
+    wall = pd.read_csv(out / "couette_wall.csv")  # 1e-300 gave f_mean = -3.3e-321
+    assert (wall["f_mean"] >= 0).all() and (wall["mean_shear_rate_per_s"].iloc[-1]
+                                            == pytest.approx(1e-16, rel=1e-6))
 
 
 @pytest.mark.parametrize("item, message", [
@@ -522,3 +530,71 @@ def test_set_rules_reaches_the_law(tmp_path):
                                     "--out", str(tmp_path)])
         m, _ = _sample(args)
         assert m.rules == rules and m.kernel_array()[-1] == code
+
+
+# ------------------------------------------- every dimensional option at the physical limits
+#: the numeric options with a unit, and the physical lower bound (runkit.limits) each is held
+#: to (None: a bound derived from another option, the cup beyond the bob)
+def _lower_bounds():
+    from runkit import limits as L
+    from shear1d.integrate import CHECKPOINT_EVERY
+    from shear1d.scenes import ROTATION
+
+    return {"--u-inner": L.SPEED_MIN, "--speed": L.SPEED_MIN, "--stress": L.STRESS_MIN,
+            "--r-inner": L.LENGTH_MIN, "--r-outer": None, "--gap": L.LENGTH_MIN,
+            "--time": L.TIME_MIN, "--ramp-time": L.TIME_MIN, "--dt": L.TIME_MIN,
+            "--checkpoint-every": CHECKPOINT_EVERY.lo, "--rotation": ROTATION.lo,
+            "--phi": L.PHI_MIN, "--grain-density": L.DENSITY_MIN,
+            "--liquid-density": L.DENSITY_MIN, "--water-density": L.DENSITY_MIN}
+
+
+LOWER = _lower_bounds()
+#: the numeric options without a unit (counts, a tolerance, fractions of Eq. 20)
+DIMENSIONLESS = {"--cells", "--outputs", "--rtol", "--mass-fraction", "--swelling",
+                 "--pore-fraction"}
+DIMENSIONAL = [(cmd, opt) for cmd, opt, _ in OPTIONS if opt not in DIMENSIONLESS]
+EXTREMES = [(cmd, opt, v) for cmd, opt in DIMENSIONAL for v in ("1e-300", "1e300", "nan")]
+
+
+def test_every_numeric_option_is_classified():
+    """A new numeric option of any subcommand must be put in LOWER or DIMENSIONLESS."""
+    assert {o for _, o, _ in OPTIONS} == set(LOWER) | DIMENSIONLESS
+    assert {c for c, _ in DIMENSIONAL} == {"annular", "couette"}
+
+
+@pytest.mark.parametrize("cmd, opt, value", EXTREMES, ids=[f"{c}{o}={v}" for c, o, v in EXTREMES])
+def test_every_dimensional_option_at_the_extremes(cmd, opt, value, tmp_path, monkeypatch, capsys):
+    """1e-300, 1e300 and nan for every option with a unit: exit 2, one line naming it with its
+    valid range (no 0 or inf where the physics has a limit) and the reason, nothing written.
+    Before: --speed/--stress 1e-300 ran (couette_wall.csv with f_mean = -3.3e-321),
+    --u-inner 1e-300 stated subnormal rotation bounds, --dt 1e-300 a t_end <= 5e-291 s, and nan
+    a range (0, inf)."""
+    monkeypatch.chdir(tmp_path)
+    base = {"annular": ["annular", "--u-inner", "0.084", "--rotation", "0.01"],
+            "couette": ["couette", "--speed", "0.01", "--time", "0.01"]}[cmd]
+    if opt in ("--speed", "--stress"):
+        base = base[:1] + base[3:]
+    elif opt in base:
+        del base[base.index(opt):base.index(opt) + 2]
+    argv = base + ["--cells", "8", "--outputs", "2", "--quiet", "--out", "o", opt, value]
+    try:
+        code = main(argv)                 # refused at setup: main returns the status
+    except SystemExit as exc:             # refused by the parser
+        code = exc.code
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2, (argv, err)
+    assert len(err) == 1 and "Traceback" not in err[0], err
+    line = err[0]
+    assert f"{opt} = " in line and "valid range " in line, line
+    rng = line.split("valid range ")[1]
+    assert "inf" not in rng.split(" (")[0], line             # a real range, not (0, inf)
+    low = LOWER[opt]
+    if value == "nan":
+        assert "must be finite" in line, line
+    else:
+        assert rng.rstrip().endswith(")") and " (" in rng, line   # the reason stated
+        if value == "1e-300" and low is not None:
+            assert rng.startswith(f"[{low.value:g}, ") and low.why in line, line
+    if low is not None:
+        assert rng.startswith(f"[{low.value:g}, "), line
+    assert list(tmp_path.iterdir()) == []

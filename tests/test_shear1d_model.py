@@ -46,10 +46,12 @@ def test_banded_jacobian_holds_every_coupling(mode, stress):
                                               r"\(0.02, 10\] m \(the cup must lie beyond"),
     (lambda: Grid("annular", 0.0, 0.01, 10), r"r_inner = 0 is outside the valid range \[1e-06"),
     (lambda: Grid("plane", 0.0, 20.0, 10), r"gap = 20 is outside the valid range \[1e-06, 10\] m"),
-    (lambda: annular_shear_jamming(-0.1), r"wall_speed = -0.1 is outside the valid range \(0, "),
+    (lambda: annular_shear_jamming(-0.1),
+     r"wall_speed = -0.1 is outside the valid range \[1e-18, "),
     (lambda: annular_shear_jamming(float("nan")), "wall_speed = nan: must be finite"),
-    (lambda: annular_shear_jamming(0.08, rotation=200.0), r"rotation = 200 .* \(0, 100\] rad"),
-    (lambda: annular_shear_jamming(0.08, ramp_time=-1.0), r"ramp_time = -1 .*\[0, 1e\+09\] s"),
+    (lambda: annular_shear_jamming(0.08, rotation=200.0), r"rotation = 200 .* \[1e-09, 100\] rad"),
+    (lambda: annular_shear_jamming(0.08, ramp_time=-1.0),
+     r"ramp_time = -1 .*\[1e-12, 1e\+09\] s, or 0"),
     (lambda: solve(plane_couette(0.01, n_cells=5), 1.0, rtol=1.0),
      r"rtol = 1 is outside the valid range \[1e-12, 0.01\] \(a looser tolerance"),
     (lambda: solve(plane_couette(0.01, n_cells=5), 1.0, n_out=0), r"n_out = 0 .*\[1, 100000\]"),
@@ -161,19 +163,29 @@ def test_summary_reports_newtonian_slow_case():
     assert s["f_max"] < 0.01 * s["f_jam"]
 
 
-@pytest.mark.parametrize("kw", [dict(u_inner=1e-300), dict(u_inner=0.084, rotation=1e-300)])
+@pytest.mark.parametrize("kw", [dict(u_inner=1e-15),
+                                dict(u_inner=1.0, rotation=1e-9, r_inner=1e-4, r_outer=1e-3)])
 def test_annular_duration_outside_the_tiers_durations_is_refused(kw):
     """u_inner = 1e-300 asked for a 3.9e297 s run (it failed in the law); rotation = 1e-300 ran
-    1.5e-301 s: t_end must lie in runkit.limits' [TIME_MIN, TIME_MAX], and the message
-    gives both parameters' ranges, which hold (a value at the edge is accepted)."""
+    1.5e-301 s. Both are now below their physical ranges (SPEED_MIN, STRAIN_MIN); within them,
+    t_end must still lie in runkit.limits' [TIME_MIN, TIME_MAX], and the message gives both
+    parameters' ranges, within their physical ranges, which hold (a value at the edge is
+    accepted)."""
     from runkit import limits
 
     TIME_MIN, TIME_MAX = limits.TIME_MIN.value, limits.TIME_MAX.value
 
     with pytest.raises(ValueError, match=r"outside the valid durations \[1e-12, 1e\+09\] s"):
         annular_shear_jamming(n_cells=8, **kw)
+    with pytest.raises(ValueError, match=r"wall_speed = 1e-300 is outside the valid range "
+                                         r"\[1e-18, "):
+        annular_shear_jamming(1e-300, n_cells=8)
+    with pytest.raises(ValueError, match=r"rotation = 1e-300 is outside the valid range \[1e-09, "):
+        annular_shear_jamming(0.084, rotation=1e-300, n_cells=8)
     ri = 12.5e-3                                          # shear1d's default bob radius [m]
     slowest = 0.31 * ri / TIME_MAX * 1.001                # the lower edge of u_inner's range
     assert annular_shear_jamming(slowest, n_cells=8)[1] <= TIME_MAX
-    least = TIME_MIN * 0.084 / ri * 1.001                 # the lower edge of rotation's range
-    assert annular_shear_jamming(0.084, rotation=least, n_cells=8)[1] >= TIME_MIN
+    ri, u = 1e-4, 1.0                                     # a small fast bob: t_end near TIME_MIN
+    least = TIME_MIN * u / ri * 1.001                     # the lower edge of rotation's range
+    assert annular_shear_jamming(u, rotation=least, n_cells=8, r_inner=ri,
+                                 r_outer=1e-3)[1] >= TIME_MIN
