@@ -158,27 +158,6 @@ CHECKPOINT_EVERY = Number("--checkpoint-every", gt(0.0, "a checkpoint interval i
 SETUP_NOTICE_S = 2.0
 
 
-class RunProgress(Progress):
-    """:class:`runkit.run.Progress` of a run begun at ``t_start`` [s] and (re)started at ``t0``:
-    the percentage over the whole run, a resumed one's too (the pace and the time left from the
-    steps since ``t0``)."""
-
-    def __init__(self, t_start: float, t0: float, t_end: float, step0: int, **kw):
-        super().__init__(t0, t_end, step0, **kw)
-        self.t_start = float(t_start)
-        if self.bar is not None:             # the bar over the whole run, filled up to t0
-            self.t0 = self.t_start
-            self.bar.total = max(self.t_end - self.t_start, 0.0)
-            self.bar.n = self.bar.initial = self.done = min(max(t0 - self.t_start, 0.0),
-                                                             self.bar.total)
-            self.bar.refresh()
-
-    def line(self, t: float, step: int) -> str:
-        text = super().line(t, step)         # its percentage of the part since t0: replaced
-        frac = min(max((t - self.t_start) / max(self.t_end - self.t_start, 1e-300), 0.0), 1.0)
-        return f"{self.label}: {100 * frac:5.1f}%" + text[len(self.label) + 2:].partition("%")[2]
-
-
 def _history_arrays(rows: list[dict]) -> dict[str, np.ndarray]:
     """The history as one typed array per column (integer columns stay integer)."""
     hist = pd.DataFrame(rows)
@@ -541,8 +520,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         stepping, figures = True, []
         with HeldWarnings() as held_run:
             try:
-                bar = RunProgress(float(run.rows[0]["time_s"]), sim.t, scene.t_end,
-                                  sim.step_count, label=spec.name) if progress else None
+                bar = Progress(sim.t, scene.t_end, sim.step_count, label=spec.name,
+                               t_start=float(run.rows[0]["time_s"])) if progress else None
                 try:
                     complete = drive(run, checkpoint=run, every=checkpoint_every, progress=bar,
                                      stop_after=stop_after_steps)

@@ -127,20 +127,24 @@ class Progress:
 
         intruder: 25.2% t = 0.005043/0.02 s, step 4428, 15 ms/step, 1:06 elapsed, ~3:16 left
 
-    The wall time per step counts from the start (or the resume); the time left extrapolates
-    the simulated time per wall second so far.
+    The percentage is of the whole run, from ``t_start`` (a resumed run's first time; default
+    ``t0``); the wall time per step and the time left count from ``t0``, the start or the
+    resume (the simulated time per wall second since then).
     """
 
-    def __init__(self, t0: float, t_end: float, step0: int = 0, *, stream=None,
-                 interval: float = 0.5, label: str = "", every: float = 30.0):
+    def __init__(self, t0: float, t_end: float, step0: int = 0, *, t_start: float | None = None,
+                 stream=None, interval: float = 0.5, label: str = "", every: float = 30.0):
         self.t0, self.t_end, self.step0 = float(t0), float(t_end), int(step0)
+        self.t_start = self.t0 if t_start is None else float(t_start)
         self.stream, self.label = stream or sys.stderr, label or "run"
         self.start = time.perf_counter()
-        self.t, self.step, self.done, self.every = self.t0, self.step0, 0.0, float(every)
+        self.done = min(max(self.t0 - self.t_start, 0.0), max(self.t_end - self.t_start, 0.0))
+        self.t, self.step, self.every = self.t0, self.step0, float(every)
         self.next_line = self.start + self.every
         self.bar = None
         if getattr(self.stream, "isatty", lambda: False)():
-            self.bar = tqdm(total=max(self.t_end - self.t0, 0.0), initial=0.0, file=self.stream,
+            self.bar = tqdm(total=max(self.t_end - self.t_start, 0.0), initial=self.done,
+                            file=self.stream,
                             desc=self.label, unit="s(sim)", dynamic_ncols=True,
                             mininterval=interval, leave=True,
                             bar_format="{desc}: {percentage:5.1f}%|{bar}| "
@@ -153,9 +157,10 @@ class Progress:
 
     def line(self, t: float, step: int) -> str:
         """The plain progress line at simulated time ``t`` [s], step ``step``."""
-        frac = min(max((t - self.t0) / max(self.t_end - self.t0, 1e-300), 0.0), 1.0)
+        frac = min(max((t - self.t_start) / max(self.t_end - self.t_start, 1e-300), 0.0), 1.0)
         wall = time.perf_counter() - self.start
-        left = wall * (1.0 - frac) / frac if frac > 0 else math.nan
+        pace = (t - self.t0) / wall if wall > 0 else 0.0      # simulated s per wall s since t0
+        left = max(self.t_end - t, 0.0) / pace if pace > 0 else math.nan
         tail = f", ~{_clock(left)} left" if frac < 1.0 and left == left else ""
         return (f"{self.label}: {100 * frac:5.1f}% {self._postfix(t, step)}, "
                 f"{_clock(wall)} elapsed{tail}")
@@ -169,7 +174,7 @@ class Progress:
                 self.next_line = now + self.every
                 print(self.line(self.t, self.step), file=self.stream, flush=True)
             return
-        target = min(max(self.t - self.t0, 0.0), self.bar.total)
+        target = min(max(self.t - self.t_start, 0.0), self.bar.total)
         if target > self.done:
             self.done = target
             self.bar.set_postfix_str(self._postfix(self.t, self.step), refresh=False)

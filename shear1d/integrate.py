@@ -557,7 +557,8 @@ def integrate(plan: Plan, *, progress: bool = False, label: str = "", stop_hook=
     if ck is not None and bool(ck["finished"]):
         return outs.read_back(ck)
     run = _Run(outs, times, to, stop_hook)
-    bar = Progress(run.t, run.t_end, run.steps, label=label or "shear1d") if progress else None
+    bar = Progress(run.t, run.t_end, run.steps, label=label or "shear1d",
+                   t_start=float(times[0])) if progress else None
     outs.wall0 = time.perf_counter()     # the integration's wall time, not the set-up's
     drive(run, checkpoint=outs.ck, every=plan.checkpoint_every, progress=bar)
     outs.save(outs.state(finished=True))

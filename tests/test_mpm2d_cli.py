@@ -513,17 +513,17 @@ def test_a_resumed_run_shows_its_progress_over_the_whole_run(monkeypatch):
     """A resumed intruder said '15.5% t = 0.006337/0.02 s' (32% of the run), a resumed finished
     disks '0.0% t = 3.003/3 s': the percentage counts from the run's start, the time left from
     the pace since the resume."""
-    from mpm2d.run import RunProgress
+    from runkit.run import Progress
 
     clock = [0.0]
     monkeypatch.setattr("runkit.run.time.perf_counter", lambda: clock[0])
     buf = io.StringIO()
-    bar = RunProgress(0.0, 1.0, 2.0, 100, stream=buf, label="demo", every=30.0)
+    bar = Progress(1.0, 2.0, 100, t_start=0.0, stream=buf, label="demo", every=30.0)
     for k in range(1, 31):                   # 0.3 s of the run in 30 wall s after the resume
         clock[0] = float(k)
         bar.update(1.0 + 0.01 * k, 100 + k)
     assert buf.getvalue().splitlines()[0] == ("demo:  65.0% t = 1.3/2 s, step 130, 1e+03 "
                                               "ms/step, 0:30 elapsed, ~1:10 left")
     done = io.StringIO()
-    RunProgress(0.0, 3.003, 3.0, 500, stream=done, label="disks").close(3.003, 500)
+    Progress(3.003, 3.0, 500, t_start=0.0, stream=done, label="disks").close(3.003, 500)
     assert done.getvalue().startswith("disks: 100.0% t = 3.003/3 s")
