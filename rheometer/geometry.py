@@ -44,7 +44,7 @@ from scipy.integrate import cumulative_simpson
 
 import rheology
 from runkit import limits as physical
-from runkit.limits import Bound, le
+from runkit.limits import Bound, ge, le
 from runkit.params import Param, Schema, check_positive
 
 GEOMETRIES = ("cone-plate", "parallel-plate", "couette")
@@ -67,6 +67,10 @@ _CUP = (f"the cup radius exceeds the bob radius by a gap of at least {_NARROWEST
 #: the whole range at the others (a static top alone would print (-inf, 10])
 CONE_ANGLE = Param(Bound(lambda p: math.degrees(math.atan(_NARROWEST / p["radius"])), True,
                          _RIM), le(lambda p: CONE_ANGLE_MAX, CONE_ANGLE_WHY), unit="deg")
+#: the cone angle's static range (the option's): its bottom at the largest radius, 10 m
+CONE_ANGLES = Param(ge(math.degrees(math.atan(_NARROWEST / physical.LENGTH_MAX.value)), (
+    f"{_RIM} (at the largest radius, {physical.LENGTH_MAX.value:g} m)")),
+    le(CONE_ANGLE_MAX, CONE_ANGLE_WHY), unit="deg")
 #: the dimensions of each geometry as :meth:`Geometry.make` takes them, with their defaults
 DIMENSIONS = {
     "cone-plate": ({"cone_angle_deg": CONE_ANGLE, "radius": LENGTH},
