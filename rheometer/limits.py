@@ -93,8 +93,14 @@ PEAK_RATE = Param(0.0, physical.RATE_MAX, unit="1/s")
 
 class Quantity(Option):
     """The argparse ``type=`` of an option of the quantity ``param``: its static range checked
-    while parsing; a refusal of a value that is no finite number states the range's reasons too
-    (``--rate = nan: must be finite; valid range [1e-09, 1e+09] 1/s, or 0 (WHY; WHY)``)."""
+    while parsing (a bound that depends on other options is checked with them); a refusal of a
+    value that is no finite number states the range (``shown``: in words, for a range that
+    depends on other options) with the reasons of its bounds (``--rate = nan: must be finite;
+    valid range [1e-09, 1e+09] 1/s, or 0 (WHY; WHY)``)."""
+
+    def __init__(self, name: str, param: Param, shown: str = ""):
+        super().__init__(name, param)
+        self.shown = shown
 
     def check(self, value):
         try:
@@ -102,6 +108,10 @@ class Quantity(Option):
         except OutOfRange:
             raise
         except ValueError as exc:
-            _, _, lo_why, _, _, hi_why = self.param.bounds(static=True)
-            why = "; ".join(dict.fromkeys(w for w in (lo_why, hi_why) if w))
-            raise (ValueError(f"{exc} ({why})") if why else exc) from None
+            whys = [b.why for b in (self.param.lo, self.param.hi)
+                    if b is not None and b.why and not callable(b.why)]
+            why = "; ".join(dict.fromkeys(whys))
+            text = str(exc)
+            if self.shown:
+                text = text.replace(self.param.range_text(static=True), self.shown)
+            raise ValueError(text + (f" ({why})" if why else "")) from None

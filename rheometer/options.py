@@ -50,7 +50,11 @@ def add_instrument_options(p) -> None:
                              "rate by the standard conversions)")
     g.add_argument("--geometry", choices=geo.GEOMETRIES, default=None,
                    help="cone-plate | parallel-plate | couette (default: none, sample values only)")
-    g.add_argument("--cone-angle", type=Quantity("--cone-angle", geo.CONE_ANGLES), default=None,
+    # a bound set by another dimension (cone angle, cup radius) is checked with it, in
+    # Geometry.make: here the range in words
+    g.add_argument("--cone-angle", type=Quantity(
+                       "--cone-angle", geo.CONE_ANGLE, f"[atan({geo.LENGTH_MIN:g} m / radius), "
+                       f"{geo.CONE_ANGLE_MAX:g}] deg"), default=None,
                    help=f"cone angle [deg] (cone-plate; {_d['cone_angle_deg']:g})")
     g.add_argument("--radius", type=Quantity("--radius", geo.LENGTH), default=None,
                    help=f"cone or plate radius [m] ({_d['cone_radius']:g} cone, "
@@ -59,7 +63,10 @@ def add_instrument_options(p) -> None:
                             ("bob_radius", "bob radius", "couette"),
                             ("cup_radius", "cup radius", "couette"),
                             ("bob_length", "immersed bob length", "couette")):
-        g.add_argument(_flag(key), type=Quantity(_flag(key), geo.LENGTH), default=None,
+        g.add_argument(_flag(key), type=Quantity(_flag(key), *(
+                           (geo.CUP_RADIUS, f"[bob radius + {geo.LENGTH_MIN:g}, "
+                                            f"{geo.LENGTH_MAX:g}] m")
+                           if key == "cup_radius" else (geo.LENGTH,))), default=None,
                        help=f"{what} [m] ({kind}; {_d[key]:g})")
     add_mass_fraction_options(p)
 
