@@ -25,6 +25,8 @@ Examples::
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import math
 import sys
 from pathlib import Path
@@ -483,7 +485,18 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
 
     def body():
-        out = _COMMANDS[args.cmd](args)
+        # what a command prints is held until it ends: a refusal (bad input, exit 2) prints
+        # only its one line; any other outcome prints it before its own line
+        held = io.StringIO()
+        try:
+            with contextlib.redirect_stdout(held):
+                out = _COMMANDS[args.cmd](args)
+        except ValueError:
+            raise
+        except BaseException:
+            sys.stdout.write(held.getvalue())
+            raise
+        sys.stdout.write(held.getvalue())
         msg, ended = out if isinstance(out, tuple) else (out, None)
         if msg:
             print(msg)
