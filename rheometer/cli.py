@@ -42,7 +42,7 @@ from runkit.command import OneLineParser
 from runkit.command import run as run_command
 from runkit import limits as physical
 from runkit.io import atomic_write_csv, atomic_write_json, check_input_file, check_output_path
-from runkit.limits import gt, le
+from runkit.limits import ge, le
 from runkit.params import Param
 
 from . import instrument_cli, limits, plots
@@ -138,7 +138,8 @@ def build_parser() -> argparse.ArgumentParser:
     common_options(p, 1, "program")
     transient_options(p)
     p.add_argument("--checkpoint-every", type=Quantity("--checkpoint-every", Param(
-                       gt(0.0, "an interval of computing time"), physical.TIME_MAX, unit="s")),
+                       ge(1e-9, "a nanosecond of computing, shorter than any step: a checkpoint after "
+                           "every step"), physical.TIME_MAX, unit="s")),
                    default=60.0, metavar="SECONDS",
                    help="write a checkpoint (the --out name with .checkpoint.npz) every SECONDS "
                         "of computing (60), and always on Ctrl-C / SIGTERM")
