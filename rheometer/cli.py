@@ -109,8 +109,8 @@ def build_parser() -> argparse.ArgumentParser:
                                                                 "more values")), default=200,
                    help="values, log-spaced (200)")
 
-    # the imposed value: its static range here (the run's Step's), the bounds that depend on
-    # the run by Rheometer.run (the liquid's rate limit) or by _check_relax_stress
+    # the imposed value is read here and checked once, by the run's Step (its static range)
+    # and Rheometer.run (the liquid's rate limit), or by _check_relax_stress
     transients = (
         ("startup", "start-up of shear at an imposed rate, from rest", 60.0,
          ("--rate", 0.5, "imposed shear rate [1/s] (0.5)", limits.RATE)),
@@ -122,7 +122,8 @@ def build_parser() -> argparse.ArgumentParser:
     for name, text, t_end, (flag, value, flag_help, quantity) in transients:
         p = sub.add_parser(name, help=text, epilog=_EPILOG)
         common_options(p, 1, name)
-        p.add_argument(flag, type=Quantity(flag, quantity), default=value, help=flag_help)
+        p.add_argument(flag, type=Quantity(flag, quantity, later=True), default=value,
+                       help=flag_help)
         transient_options(p, t_end)
 
     p = sub.add_parser("program", help="a test program from a text file (steps and ramps)",
@@ -138,8 +139,8 @@ def build_parser() -> argparse.ArgumentParser:
     common_options(p, 1, "program")
     transient_options(p)
     p.add_argument("--checkpoint-every", type=Quantity("--checkpoint-every", Param(
-                       ge(1e-9, "a nanosecond of computing, shorter than any step: a checkpoint after "
-                           "every step"), physical.TIME_MAX, unit="s")),
+                       ge(1e-9, "a nanosecond of computing, shorter than any step: a "
+                                 "checkpoint after every step"), physical.TIME_MAX, unit="s")),
                    default=60.0, metavar="SECONDS",
                    help="write a checkpoint (the --out name with .checkpoint.npz) every SECONDS "
                         "of computing (60), and always on Ctrl-C / SIGTERM")

@@ -143,33 +143,36 @@ def add_subcommands(sub) -> dict:
     common_options(p, 1, "oscillation")
     p.add_argument("--control", choices=("strain", "stress"), default="strain",
                    help="imposed strain (default) or imposed mixture shear stress")
-    # their static ranges here; checked with the others by rheometer.oscillation (named by
-    # their options: _LABELS)
-    p.add_argument("--strain-amplitude", type=Quantity("--strain-amplitude", limits.STRAIN),
+    # read here, checked once by rheometer.oscillation (named by their options: _LABELS)
+    p.add_argument("--strain-amplitude", type=Quantity("--strain-amplitude", limits.STRAIN,
+                                                       later=True),
                    nargs="+", default=None, metavar="A",
                    help="strain amplitude(s) [-] (several: an amplitude sweep; default 10 "
                         "values 1e-3..1)")
-    p.add_argument("--stress-amplitude", type=Quantity("--stress-amplitude", limits.POSITIVE_STRESS),
+    p.add_argument("--stress-amplitude", type=Quantity(
+                       "--stress-amplitude", limits.POSITIVE_STRESS, later=True),
                    nargs="+", default=None, metavar="S",
                    help="mixture-stress amplitude(s) [Pa] for --control stress (default 10 "
                         "values 0.01..10 tau*)")
-    p.add_argument("--frequency", type=Quantity("--frequency", limits.FREQUENCY),
+    p.add_argument("--frequency", type=Quantity("--frequency", limits.FREQUENCY, later=True),
                    nargs="+", default=[1.0], metavar="F",
                    help="frequency(ies) [Hz] (several: a frequency sweep; 1)")
-    p.add_argument("--cycles", type=Quantity("--cycles", limits.MAX_CYCLES),
+    p.add_argument("--cycles", type=Quantity("--cycles", limits.MAX_CYCLES, later=True),
                    default=osc.DEFAULT_MAX_CYCLES,
                    help=f"most cycles per point ({osc.DEFAULT_MAX_CYCLES}); a point not periodic "
                         f"by then is flagged converged = False")
-    p.add_argument("--tol", type=Quantity("--tol", limits.TOL), default=osc.DEFAULT_TOL,
+    p.add_argument("--tol", type=Quantity("--tol", limits.TOL, later=True),
+                   default=osc.DEFAULT_TOL,
                    help=f"periodic-state tolerance on the cycle-to-cycle change ("
                         f"{osc.DEFAULT_TOL:g})")
-    p.add_argument("--samples", type=Quantity("--samples", limits.SAMPLES),
+    p.add_argument("--samples", type=Quantity("--samples", limits.SAMPLES, later=True),
                    default=osc.DEFAULT_SAMPLES,
                    help=f"samples per cycle ({osc.DEFAULT_SAMPLES})")
     p.add_argument("--start", choices=("rest", "previous"), default="rest",
                    help="each point from rest (default), or from the previous point's state")
     skeleton_options(p)
-    p.add_argument("--rtol", type=Quantity("--rtol", limits.OSCILLATION_RTOL), default=osc.DEFAULT_RTOL,
+    p.add_argument("--rtol", type=Quantity("--rtol", limits.OSCILLATION_RTOL, later=True),
+                   default=osc.DEFAULT_RTOL,
                    help=f"IDA relative tolerance ({osc.DEFAULT_RTOL:g})")
     return {"oscillation": _cmd_oscillation}
 

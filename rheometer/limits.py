@@ -93,14 +93,15 @@ PEAK_RATE = Param(0.0, physical.RATE_MAX, unit="1/s")
 
 class Quantity(Option):
     """The argparse ``type=`` of an option of the quantity ``param``: its static range checked
-    while parsing (a bound that depends on other options is checked with them); a refusal of a
-    value that is no finite number states the range (``shown``: in words, for a range that
-    depends on other options) with the reasons of its bounds (``--rate = nan: must be finite;
-    valid range [1e-09, 1e+09] 1/s, or 0 (WHY; WHY)``)."""
+    while parsing, or with ``later`` only that it is a finite number (a library function checks
+    it, once, naming the option); a refusal of a value that is no finite number states the
+    range (``shown``: in words, for a range that depends on other options) with the reasons of
+    its bounds (``--rate = nan: must be finite; valid range [1e-09, 1e+09] 1/s, or 0 (WHY;
+    WHY)``)."""
 
-    def __init__(self, name: str, param: Param, shown: str = ""):
-        super().__init__(name, param)
-        self.shown = shown
+    def __init__(self, name: str, param: Param, shown: str = "", later: bool = False):
+        super().__init__(name, Param(unit=param.unit, kind=param.kind) if later else param)
+        self.quantity, self.shown = param, shown
 
     def check(self, value):
         try:
@@ -108,10 +109,11 @@ class Quantity(Option):
         except OutOfRange:
             raise
         except ValueError as exc:
-            whys = [b.why for b in (self.param.lo, self.param.hi)
-                    if b is not None and b.why and not callable(b.why)]
+            q = self.quantity
+            whys = [b.why for b in (q.lo, q.hi) if b is not None and b.why and not callable(b.why)]
             why = "; ".join(dict.fromkeys(whys))
-            text = str(exc)
-            if self.shown:
-                text = text.replace(self.param.range_text(static=True), self.shown)
+            rng = self.param.range_text(static=True) + "".join(
+                f", or {a:g}" for a in self.param.also)
+            text = str(exc).replace(rng, self.shown or q.range_text(static=True) + "".join(
+                f", or {a:g}" for a in q.also))
             raise ValueError(text + (f" ({why})" if why else "")) from None

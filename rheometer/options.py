@@ -29,9 +29,9 @@ from .limits import Quantity
 from .transient import check_phi
 
 DEFAULT_MATERIAL = "hermes2016"
-#: ``--phi`` of the fit commands: its static range (a measured fraction, checked by
-#: rheology.data); a measuring command's --phi is parsed in its static range [1e-6, 1) and
-#: checked once against phi_j of the material by :class:`Sample`
+#: ``--phi`` of the fit commands: its static range [1e-6, 1) (a measured fraction, checked by
+#: rheology.data); a measuring command's --phi is read as a number and checked once, in
+#: [1e-6, phi_j) of the material, by :class:`Sample` (:func:`check_phi`)
 PHI = Quantity("--phi", limits.PHI)
 
 
@@ -134,7 +134,7 @@ def once(option: str, values, note: str = "give each once") -> None:
 def _fractions(args, m) -> tuple[list, dict | None, str]:
     """(phi, phi -> mass fraction or None, note) of the options. ValueError (one line, exit 2)
     for --phi with --mass-fraction, a fraction given twice, or a fraction >= phi_j: the one
-    check of --phi against the material (its static range [1e-6, 1) is the option's type)."""
+    check of --phi (rheometer.transient.check_phi: in [PHI_MIN, phi_j) of the material)."""
     repeat = "its curves would repeat; give distinct "
     if getattr(args, "mass_fraction", None) is not None:
         if args.phi is not None:
@@ -230,7 +230,8 @@ def common_options(p, phi_count, out_default):
     phi_default = default_phis(phi_count)
     p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
                    help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
-    p.add_argument("--phi", type=Quantity("--phi", limits.PHI), nargs="+", default=None,
+    p.add_argument("--phi", type=Quantity("--phi", limits.PHI, later=True), nargs="+",
+                   default=None,
                    metavar="PHI",
                    help=("volume fraction(s) (default: "
                          + ("the material's reference fraction" if len(phi_default) == 1 else
