@@ -170,7 +170,7 @@ def test_flow_curve_rows_hold_the_rate_limit(tmp_path, monkeypatch, capsys):
     import pandas as pd
     monkeypatch.chdir(tmp_path)
     _refused(capsys, ["flow-curve", "--phi", "1e-10"], "--phi = 1e-10 is outside the valid "
-             "range [1e-06, 1) (one grain volume in 1e6")
+             "range [1e-06, 0.535) (one grain volume in 1e6")
     _refused(capsys, ["flow-curve", "--phi", "1e-6"], "--phi 1e-06",
              "faster than the largest shear rate 1e+09 1/s")
     assert os.listdir(tmp_path) == []
