@@ -103,6 +103,10 @@ class Quantity(Option):
         super().__init__(name, Param(unit=param.unit, kind=param.kind) if later else param)
         self.quantity, self.shown = param, shown
 
+    @property
+    def range_text(self) -> str:
+        return self.shown or self.quantity.range_text(static=True)
+
     def check(self, value):
         try:
             return super().check(value)
