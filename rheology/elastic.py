@@ -54,8 +54,9 @@ def past_elastic_limit(t, stress, modulus: float, *, stress_name: str = "taubar"
     (int, RunEnd) or None
         The index of the first row past the limit and the end (kind ``"validity_limit"``):
         ``time_s`` of the row before it (None for the first row), ``value`` its strain,
-        ``past_s`` its time; the reason is one line with the limit, the strain and stress
-        reached, the time the limit was crossed (linear interpolation), the modulus, ``advice``.
+        ``past_s`` its time; the reason is one line with the limit, the strain (to the digits
+        that tell it from the limit) and stress reached, the modulus, the time of the row the
+        run ends at and of the crossing between the two rows (linear interpolation), ``advice``.
     """
     t = np.asarray(t, dtype=float).ravel()
     s = np.abs(np.asarray(stress, dtype=float).ravel())
@@ -65,16 +66,22 @@ def past_elastic_limit(t, stress, modulus: float, *, stress_name: str = "taubar"
         return None
     i = int(over[0])
     head = f"{where}: " if where else ""
-    crossed = ""
-    if i > 0:                    # linear interpolation between the last row below and this one
+    # the strain at as many digits as tell it from the limit (0.1003, not 0.1)
+    value = next((f"{strain[i]:.{k}g}" for k in range(3, 10)
+                  if float(f"{strain[i]:.{k}g}") > ELASTIC_STRAIN_LIMIT), repr(float(strain[i])))
+    if i > 0:       # the run ends at the row before; the crossing by linear interpolation
         a, b = strain[i - 1], strain[i]
         tc = t[i - 1] + (t[i] - t[i - 1]) * (ELASTIC_STRAIN_LIMIT - a) / (b - a)
-        crossed = f", past the limit from t ~ {tc:.4g} s"
+        ends = (f"; the run ends at the row before, t = {t[i - 1]:.6g} s, the last within the "
+                f"limit (the strain passes it between these rows, from t ~ {tc:.4g} s by linear "
+                f"interpolation)")
+    else:
+        ends = "; the first row is past it: no row is kept"
     reason = (
-        f"{head}elastic strain {stress_name}/{modulus_name} = {strain[i]:.3g} at t = {t[i]:.6g} s "
-        f"({stress_name} = {s[i]:.4g} Pa, {modulus_name} = {float(modulus):.4g} Pa{crossed}) "
-        f"exceeds the small-elastic-strain limit {ELASTIC_STRAIN_LIMIT:g} of the hypoelastic law "
-        f"({stress_name} <= {elastic_strain_limit_stress(modulus):.4g} Pa)"
+        f"{head}elastic strain {stress_name}/{modulus_name} = {value} at t = {t[i]:.6g} s "
+        f"({stress_name} = {s[i]:.4g} Pa, {modulus_name} = {float(modulus):.4g} Pa) exceeds the "
+        f"small-elastic-strain limit {ELASTIC_STRAIN_LIMIT:g} of the hypoelastic law "
+        f"({stress_name} <= {elastic_strain_limit_stress(modulus):.4g} Pa){ends}"
         + (f"; {advice}" if advice else ""))
     return i, RunEnd("validity_limit", reason, float(t[i - 1]) if i > 0 else None,
                      f"elastic strain {stress_name}/{modulus_name}", float(strain[i]),

@@ -108,22 +108,57 @@ _AT_LEAST_ZERO = {
           "8); a negative K0 drives it away",
 }
 
-#: The model's range of every numeric field, checked once when a Material is made (a field of
-#: :data:`FIELD_LIMITS` also meets its physical limits where a command line or file sets it).
+#: The fields above 0, with the physical reason (Eqs. 1, 3, 4, 6; Table 8).
+_ABOVE_ZERO = {
+    "phi_j": "phi_j > 0: a jamming fraction is a volume fraction",
+    "phi_c": "phi_c > 0: a jamming fraction is a volume fraction",
+    "a0": "a0 > 0: the contact stress grows as (a phi/(phi_m - phi))^2 (Eq. 1); a = 0 removes "
+          "it",
+    "mu_c": "mu_c > 0: a contact friction; without it the grains carry no shear stress (Eq. 1)",
+    "tau_star": "tau* > 0: the repulsive stress scale of the frictional transition (Eq. 6)",
+    "eta0": "eta0 > 0: the viscosity of the suspending liquid",
+    "G": "G > 0: a shear modulus of the grain skeleton (Table 8)",
+    "K": "K > 0: a bulk modulus of the grain skeleton (Table 8)",
+    "rho_s": "rho_s > 0: a density", "rho_f": "rho_f > 0: a density",
+    "kappa": "kappa > 0: the bulk modulus of the liquid",
+    "phi0": "phi0 > 0: an initial volume fraction",
+}
+_DELTA_WHY = ("Delta in [0, 1]: phi* = phi_j + (phi_c - phi_j) Delta (Eq. 8) lies between phi_j "
+              "and phi_c")
+
+#: The model's range of every numeric field, each bound with its reason, checked once when a
+#: Material is made (a field of :data:`FIELD_LIMITS` also meets its physical limits where a
+#: command line or file sets it).
 FIELDS: dict[str, Param] = {
-    "phi_j": Param(_own(closed=False), Bound(1.0, False, lambda p: f"material {p['name']}")),
-    "phi_c": Param(_own(closed=False), _own("phi_c must be below phi_j = {phi_j}", "phi_j",
-                                            closed=False)),
-    "a0": Param(_own(closed=False)),
+    "phi_j": Param(_own(_ABOVE_ZERO["phi_j"], closed=False), Bound(1.0, False, lambda p: (
+        f"material {p['name']}; phi_j < 1: grains jam before they fill the whole volume"))),
+    "phi_c": Param(_own(_ABOVE_ZERO["phi_c"], closed=False),
+                   _own("phi_c must be below phi_j = {phi_j}", "phi_j", closed=False)),
+    "a0": Param(_own(_ABOVE_ZERO["a0"], closed=False)),
     "a_inf": Param(_own("a_inf >= a0 makes the stress-controlled steady state unique", "a0")),
-    **{k: Param(_own(closed=False))
+    **{k: Param(_own(_ABOVE_ZERO[k], closed=False))
        for k in ("mu_c", "tau_star", "eta0", "G", "K", "rho_s", "rho_f", "kappa")},
     "mu_2": Param(_own("mu_2 >= mu_c", "mu_c")),
     **{k: Param(_own(why)) for k, why in _AT_LEAST_ZERO.items()},
-    "Delta": Param(_own(), Bound(1.0, True, lambda p: f"material {p['name']}")),
+    "Delta": Param(_own(_DELTA_WHY), Bound(1.0, True, lambda p: f"material {p['name']}; "
+                                                               f"{_DELTA_WHY}")),
     "K4": Param(*[_own("only K4 = 0, the value of every scene of the paper, is implemented")] * 2),
-    "phi0": Param(_own(closed=False), _own("below phi_j = {phi_j}", "phi_j", closed=False)),
+    "phi0": Param(_own(_ABOVE_ZERO["phi0"], closed=False),
+                  _own("below phi_j = {phi_j}", "phi_j", closed=False)),
 }
+
+
+def _check_field(name: str, value, param: Param, values: dict) -> None:
+    """One field in its range at the other fields (as arrays are checked: subnormals pass);
+    ValueError with the reason of the bound it fails."""
+    lo, lo_closed, lo_why, hi, hi_closed, hi_why = param.bounds(values)
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = float("nan")
+    below = lo is not None and (x < lo or (x == lo and not lo_closed))
+    check_range(name, value, lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
+                note=(lo_why if below else hi_why) or lo_why or hi_why)
 
 
 @dataclass(frozen=True)
@@ -220,9 +255,7 @@ class Material:
         values = vars(self)
         for k, param in FIELDS.items():           # as arrays are checked: subnormals pass
             if values[k] is not None or k not in OPTIONAL_FIELDS:     # None: unset, allowed
-                lo, lo_closed, lo_why, hi, hi_closed, hi_why = param.bounds(values)
-                check_range(k, values[k], lo, hi, lo_closed=lo_closed, hi_closed=hi_closed,
-                            note=hi_why or lo_why)
+                _check_field(k, values[k], param, values)
         if self.d > 0 and self.rho_s is None:
             raise ValueError(f"rho_s must be set (> 0 kg/m^3) when d = {self.d:g} m > 0 ({n})")
 
@@ -548,9 +581,21 @@ def check_set_override(name: str, value, option: str = "--set"):
             raise ValueError(f"{option} {name} = {value!r} is not a number "
                              f"[{FIELD_UNITS[name]}]") from None
     if isinstance(value, bool) or not np.isfinite(value):
-        raise ValueError(f"{option} {name} = {text}: must be finite")
+        raise ValueError(f"{option} {name} = {text}: must be finite{_finite_note(name)}")
     check_field_limit(f"{option} {name}", name, float(value))
     return name, float(value)
+
+
+def _finite_note(name: str) -> str:
+    """The range and reasons a refusal of a non-finite ``--set NAME`` states."""
+    if name in FIELD_LIMITS:
+        lo, hi = FIELD_LIMITS[name]
+        why = "; ".join(dict.fromkeys(w for w in (lo.why, hi.why) if w))
+        return (f"; valid range {Param(lo, hi, unit=FIELD_UNITS[name]).range_text(static=True)}"
+                + (f" ({why})" if why else ""))
+    why = _ABOVE_ZERO.get(name) or _AT_LEAST_ZERO.get(name) or (
+        _DELTA_WHY if name == "Delta" else "")
+    return f" ({why})" if why else ""
 
 
 def set_argument(text: str):

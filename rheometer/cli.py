@@ -25,6 +25,8 @@ Examples::
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import math
 import sys
 from pathlib import Path
@@ -40,14 +42,14 @@ from runkit.command import OneLineParser
 from runkit.command import run as run_command
 from runkit import limits as physical
 from runkit.io import atomic_write_csv, atomic_write_json, check_input_file, check_output_path
-from runkit.limits import gt, le
-from runkit.params import Number, Option, Param
+from runkit.limits import ge, le
+from runkit.params import Param
 
 from . import instrument_cli, limits, plots
 from .checkpoint import ProgramCheckpoint
 from .fit_cli import add_subcommands
 from .instrument_cli import extra_outputs, finish_table, materials_note
-from .limits import RATE_MAX
+from .limits import RATE_MAX, Quantity
 from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP, simple_shear_point
 from .options import (common_options, material_with, plot_path, sample_material,
                       transient_options)
@@ -95,15 +97,15 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=_EPILOG)
     common_options(p, 3, "flow_curve")
     p.add_argument("--control", choices=("stress", "mixture-stress", "rate"), default="stress")
-    p.add_argument("--stress-range", type=Option("--stress-range", Param(
+    p.add_argument("--stress-range", type=Quantity("--stress-range", Param(
                        physical.STRESS_MIN, physical.STRESS_MAX, unit="Pa")),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="stress range [Pa] (granular or mixture per --control; 1e-3 1e4)")
-    p.add_argument("--rate-range", type=Option("--rate-range", Param(
+    p.add_argument("--rate-range", type=Quantity("--rate-range", Param(
                        physical.RATE_MIN, physical.RATE_MAX, unit="1/s")),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="shear-rate range [1/s] for --control rate (1e-4 1e3)")
-    p.add_argument("--points", type=Option("--points", limits.rows(2, "a curve joins two or "
+    p.add_argument("--points", type=Quantity("--points", limits.rows(2, "a curve joins two or "
                                                                 "more values")), default=200,
                    help="values, log-spaced (200)")
 
@@ -111,16 +113,17 @@ def build_parser() -> argparse.ArgumentParser:
     # and Rheometer.run (the liquid's rate limit), or by _check_relax_stress
     transients = (
         ("startup", "start-up of shear at an imposed rate, from rest", 60.0,
-         ("--rate", 0.5, "imposed shear rate [1/s] (0.5)", "1/s")),
+         ("--rate", 0.5, "imposed shear rate [1/s] (0.5)", limits.RATE)),
         ("creep", "creep at an imposed mixture shear stress, from rest", 60.0,
-         ("--stress", 10.0, "imposed MIXTURE shear stress [Pa], > 0 (10)", "Pa")),
+         ("--stress", 10.0, "imposed MIXTURE shear stress [Pa], > 0 (10)", limits.STRESS)),
         ("relax", "stress relaxation after cessation of steady shear (Fig. 15)", 50.0,
          ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
-                              "[Pa] (1000)", "Pa")))
-    for name, text, t_end, (flag, value, flag_help, unit) in transients:
+                              "[Pa] (1000)", limits.STRESS)))
+    for name, text, t_end, (flag, value, flag_help, quantity) in transients:
         p = sub.add_parser(name, help=text, epilog=_EPILOG)
         common_options(p, 1, name)
-        p.add_argument(flag, type=Option(flag, Param(unit=unit)), default=value, help=flag_help)
+        p.add_argument(flag, type=Quantity(flag, quantity, later=True), default=value,
+                       help=flag_help)
         transient_options(p, t_end)
 
     p = sub.add_parser("program", help="a test program from a text file (steps and ramps)",
@@ -135,8 +138,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", nargs="?", default=None, help="program file ('-' for stdin)")
     common_options(p, 1, "program")
     transient_options(p)
-    p.add_argument("--checkpoint-every", type=Option("--checkpoint-every", Param(
-                       gt(0.0, "an interval of computing time"), physical.TIME_MAX, unit="s")),
+    p.add_argument("--checkpoint-every", type=Quantity("--checkpoint-every", Param(
+                       ge(1e-9, "a nanosecond of computing, shorter than any step: a "
+                                 "checkpoint after every step"), physical.TIME_MAX, unit="s")),
                    default=60.0, metavar="SECONDS",
                    help="write a checkpoint (the --out name with .checkpoint.npz) every SECONDS "
                         "of computing (60), and always on Ctrl-C / SIGTERM")
@@ -149,30 +153,30 @@ def build_parser() -> argparse.ArgumentParser:
                               "pressure and lets phi evolve. Start from the steady state at "
                               "--stress0 or from rest under --pressure0.")
     common_options(p, 1, "material_point")
-    p.add_argument("--rate", type=Option("--rate", limits.RATE), default=0.5,
+    p.add_argument("--rate", type=Quantity("--rate", limits.RATE), default=0.5,
                    help="shear rate [1/s] (0.5)")
-    p.add_argument("--t-end", type=Option("--t-end", limits.DURATION), default=10.0,
+    p.add_argument("--t-end", type=Quantity("--t-end", limits.DURATION), default=10.0,
                    help="duration [s] (10)")
-    p.add_argument("--dt", type=Option("--dt", limits.DURATION),
+    p.add_argument("--dt", type=Quantity("--dt", limits.DURATION),
                    default=1e-3, help="largest time step [s] (1e-3; sub-stepped where the rate "
                                       "needs it)")
     p.add_argument("--control", choices=("volume", "pressure"), default="volume")
-    p.add_argument("--pressure", type=Option("--pressure", limits.POSITIVE_STRESS), default=None,
+    p.add_argument("--pressure", type=Quantity("--pressure", limits.POSITIVE_STRESS), default=None,
                    help="imposed granular pressure [Pa] (pressure control)")
-    p.add_argument("--stress0", type=Option("--stress0", limits.POSITIVE_STRESS), default=None,
+    p.add_argument("--stress0", type=Quantity("--stress0", limits.POSITIVE_STRESS), default=None,
                    help="start from the steady state at this granular shear stress [Pa]")
-    p.add_argument("--pressure0", type=Option("--pressure0", limits.STRESS),
+    p.add_argument("--pressure0", type=Quantity("--pressure0", limits.STRESS),
                    default=None, help="contact pressure at rest [Pa] (default 1e-3 tau*; 0: "
                                       "stress free)")
-    p.add_argument("--f0", type=Option("--f0", limits.STRUCTURE), default=None,
+    p.add_argument("--f0", type=Quantity("--f0", limits.STRUCTURE), default=None,
                    help="initial structure f")
-    p.add_argument("--G", type=Option("--G", limits.MODULUS), default=None,
+    p.add_argument("--G", type=Quantity("--G", limits.MODULUS), default=None,
                    help="shear modulus [Pa] (default 1e4)")
-    p.add_argument("--K", type=Option("--K", limits.MODULUS), default=None,
+    p.add_argument("--K", type=Quantity("--K", limits.MODULUS), default=None,
                    help="bulk modulus [Pa] (default 2.18 G)")
-    p.add_argument("--K0", type=Option("--K0", limits.K0), default=None,
+    p.add_argument("--K0", type=Quantity("--K0", limits.K0), default=None,
                    help="structure-rate scale (default 1)")
-    p.add_argument("--points", type=Option("--points", limits.rows(1, "the end state", le(
+    p.add_argument("--points", type=Quantity("--points", limits.rows(1, "the end state", le(
                        10 ** 7, "1e7 rows make a CSV of about 1 GB"))), default=400,
                    help="output rows (400)")
     _COMMANDS.update(add_subcommands(sub))
@@ -483,7 +487,18 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
 
     def body():
-        out = _COMMANDS[args.cmd](args)
+        # what a command prints is held until it ends: a refusal (bad input, exit 2) prints
+        # only its one line; any other outcome prints it before its own line
+        held = io.StringIO()
+        try:
+            with contextlib.redirect_stdout(held):
+                out = _COMMANDS[args.cmd](args)
+        except ValueError:
+            raise
+        except BaseException:
+            sys.stdout.write(held.getvalue())
+            raise
+        sys.stdout.write(held.getvalue())
         msg, ended = out if isinstance(out, tuple) else (out, None)
         if msg:
             print(msg)

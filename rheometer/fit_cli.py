@@ -48,15 +48,40 @@ from rheology.steady import gdot_dst
 from rheology.sample import BETA, LAMBDA, RHO_WATER
 from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_dir, check_output_path, strict_json)
-from runkit.limits import DENSITY_MAX, DENSITY_MIN, lt
-from runkit.params import Number, Option, Param
+from runkit import limits as physical
+from runkit.limits import DENSITY_MAX, DENSITY_MIN, ge, gt, le, lt
+from runkit.params import Param
 from runkit.run import HeldWarnings
 
 from . import limits, plots
+from .limits import Quantity
 from .options import PHI, about_set, once as _once
 from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
 
 DENSITY = Param(DENSITY_MIN, DENSITY_MAX, unit="kg/m^3")
+#: Eq. (20)'s swelling lambda (water taken up per grain mass) and pore space beta
+SWELLING = Param(ge(0.0, "swelling grains take up liquid, they never give up volume"),
+                 le(10.0, "ten times the grain's own mass of liquid, far more than any swelling "
+                          "grain takes up (cornstarch: ~0.3)"))
+PORE = Param(ge(0.0, "a fraction of the grain's volume"),
+             lt(1.0, "a grain is more than its pores"))
+#: a torque floor [mN m]: between the finest resolution and the largest torque of a rheometer
+TORQUE_FLOOR = Param(ge(1e-8, "the finest torque resolution of rotational rheometers (~0.05 nN m "
+                              "= 5e-8 mN m): a lower floor drops nothing the instrument read"),
+                     le(1e3, "1 N m, above the largest torque of rotational rheometers (~0.2-0.3 "
+                             "N m): every reading would be dropped"), unit="mN m")
+#: a cessation time on a curve's clock [s]: within the longest duration either side of 0
+TIME_OFFSET = Param(ge(-physical.TIME_MAX.value, physical.TIME_MAX.why), physical.TIME_MAX,
+                    unit="s")
+CONFIDENCE = Param(gt(0.5, "an interval that holds the value less often than not is no "
+                           "confidence interval"),
+                   lt(1.0, "a 100% interval is unbounded"))
+ETAB_TERMS = Param(ge(1, "Eq. (34) has one or two terms"), le(2, "Eq. (34) has one or two terms"),
+                   kind="integer")
+F_SCALE = Param(ge(1e-6, "a millionth of a decade: below the scatter of any measured viscosity "
+                         "(every point an outlier)"),
+                le(10.0, "ten decades, wider than any flow curve (no point an outlier)"),
+                unit="decades")
 #: What steady flow curves cannot determine (copied by --transient-from).
 TRANSIENT_FIELDS = ("G", "K", "K0", "rho_s", "rho_f", "d", "K3", "kappa", "phi0")
 
@@ -113,8 +138,8 @@ def _file_options(p, *, relaxation: bool = False):
                    help="names of the intervals, steps or actions to read (substring, "
                         "repeatable; default: every " + ("stress relaxation" if relaxation else
                                                          "flow-curve") + " block)")
-    p.add_argument("--torque-floor", type=Number("--torque-floor", 0.0, None, lo_closed=False,
-                                                 unit="mN m"), default=None, metavar="MNM",
+    p.add_argument("--torque-floor", type=Quantity("--torque-floor", TORQUE_FLOOR), default=None,
+                   metavar="MNM",
                    help="drop readings with |torque| below this [mN m] (instrument-flagged "
                         "ME- readings are always dropped)")
 
@@ -132,17 +157,16 @@ def _read_options(p):
             ("--rho-cs", "grain density [kg/m^3]", None, DENSITY),
             ("--rho-l", "suspending-liquid density [kg/m^3]", None, DENSITY),
             ("--rho-w", f"water density [kg/m^3] ({RHO_WATER:g})", RHO_WATER, DENSITY),
-            ("--swelling", f"lambda ({LAMBDA:g})", LAMBDA, Param(0.0, 10.0)),
-            ("--pore", f"beta ({BETA:g})", BETA, Param(0.0, lt(1.0)))):
-        p.add_argument(name, type=Option(name, kind), default=default,
+            ("--swelling", f"lambda ({LAMBDA:g})", LAMBDA, SWELLING),
+            ("--pore", f"beta ({BETA:g})", BETA, PORE)):
+        p.add_argument(name, type=Quantity(name, kind), default=default,
                        help=f"{text} of Eq. (20)")
 
 
 def _result_options(p, what: str):
     p.add_argument("--out", default=what, metavar="DIR", help=f"output folder (default {what}); "
                    "a previous fit's files there are replaced, other files refuse it")
-    p.add_argument("--confidence", type=Number("--confidence", 0.5, 1.0, lo_closed=False,
-                                               hi_closed=False), default=0.95,
+    p.add_argument("--confidence", type=Quantity("--confidence", CONFIDENCE), default=0.95,
                    help="confidence level of the intervals (0.95)")
     p.add_argument("--accept", action="store_true",
                    help="write material.json even when the result is unphysical (a parameter at "
@@ -192,9 +216,9 @@ def add_subcommands(sub) -> dict:
                                               "eta0=1.2 (the liquid's measured viscosity, Pa s)")
     p.add_argument("--free", nargs="+", default=None, metavar="NAME",
                    help="also fit parameters normally held: mu_c, Delta, varphi2, alpha2")
-    p.add_argument("--etaB-terms", type=Number("--etaB-terms", 1, 2, integer=True), default=None,
+    p.add_argument("--etaB-terms", type=Quantity("--etaB-terms", ETAB_TERMS), default=None,
                    help="terms of Eq. (34) (default: as many as --material has)")
-    p.add_argument("--f-scale", type=Number("--f-scale", 1e-6, 10.0, unit="decades"),
+    p.add_argument("--f-scale", type=Quantity("--f-scale", F_SCALE),
                    default=None, help="robust-loss scale in log10 viscosity, in [1e-6, 10] "
                                       "decades (default: 3 robust standard deviations of a first "
                                       "pass)")
@@ -219,17 +243,17 @@ def add_subcommands(sub) -> dict:
     p.add_argument("--phi", nargs="+", type=PHI, required=True, metavar="PHI",
                    help="volume fraction: one for every curve, or one per curve in order")
     p.add_argument("--stress0", nargs="+", required=True, metavar="TAU0",
-                   type=Option("--stress0", limits.POSITIVE_STRESS),
+                   type=Quantity("--stress0", limits.POSITIVE_STRESS),
                    help="steady granular shear stress before cessation [Pa] (the measured "
                         "stress less eta0 (1 + 5/2 phi) gdot, negligible when dense): one for "
                         "every curve, or one per curve in order")
-    p.add_argument("--K0", type=Option("--K0", limits.K0), default=None,
+    p.add_argument("--K0", type=Quantity("--K0", limits.K0), default=None,
                    help="hold K0 at this value (fit G only)")
-    p.add_argument("--time-offset", type=Number("--time-offset", -1e9, 1e9, unit="s"),
+    p.add_argument("--time-offset", type=Quantity("--time-offset", TIME_OFFSET),
                    default=None, metavar="SECONDS",
                    help="hold each curve's cessation time at this time on its clock (default: "
                         "fitted per curve)")
-    p.add_argument("--stress-floor", type=Option("--stress-floor", limits.POSITIVE_STRESS),
+    p.add_argument("--stress-floor", type=Quantity("--stress-floor", limits.POSITIVE_STRESS),
                    default=None, metavar="PA",
                    help="drop readings below this stress [Pa] (the instrument's noise)")
     return {"read": cmd_read, "fit": cmd_fit, "fit-relaxation": cmd_fit_relaxation}

@@ -67,6 +67,9 @@ _CUP = (f"the cup radius exceeds the bob radius by a gap of at least {_NARROWEST
 #: the whole range at the others (a static top alone would print (-inf, 10])
 CONE_ANGLE = Param(Bound(lambda p: math.degrees(math.atan(_NARROWEST / p["radius"])), True,
                          _RIM), le(lambda p: CONE_ANGLE_MAX, CONE_ANGLE_WHY), unit="deg")
+CUP_RADIUS = Param(Bound(lambda p: p["bob_radius"] + _NARROWEST, True, _CUP),
+                   le(lambda p: physical.LENGTH_MAX.value, physical.LENGTH_MAX.why), unit="m")
+LENGTH_MIN, LENGTH_MAX = physical.LENGTH_MIN.value, physical.LENGTH_MAX.value
 #: the dimensions of each geometry as :meth:`Geometry.make` takes them, with their defaults
 DIMENSIONS = {
     "cone-plate": ({"cone_angle_deg": CONE_ANGLE, "radius": LENGTH},
@@ -74,10 +77,7 @@ DIMENSIONS = {
                     "radius": DEFAULTS["cone_radius"]}),
     "parallel-plate": ({"radius": LENGTH, "gap": LENGTH},
                        {"radius": DEFAULTS["plate_radius"], "gap": DEFAULTS["gap"]}),
-    "couette": ({"bob_radius": LENGTH, "cup_radius": Param(
-        Bound(lambda p: p["bob_radius"] + _NARROWEST, True, _CUP),
-        le(lambda p: physical.LENGTH_MAX.value, physical.LENGTH_MAX.why), unit="m"),
-        "bob_length": LENGTH},
+    "couette": ({"bob_radius": LENGTH, "cup_radius": CUP_RADIUS, "bob_length": LENGTH},
         {k: DEFAULTS[k] for k in ("bob_radius", "cup_radius", "bob_length")})}
 _WORDS = {"cone_angle_deg": "cone angle", "bob_radius": "bob radius", "cup_radius": "cup radius",
           "bob_length": "bob length"}

@@ -23,11 +23,11 @@ from rheology.materials import RULE, default_fractions, has_dst
 from rheology.run_end import EndedEarly, run_record
 from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_path)
-from runkit.params import Option, Param
 
 from . import geometry as geo
-from . import plots
+from . import limits, plots
 from . import oscillation as osc
+from .limits import Quantity
 from .options import common_options, plot_path, sample_material, skeleton_options
 
 
@@ -144,31 +144,35 @@ def add_subcommands(sub) -> dict:
     p.add_argument("--control", choices=("strain", "stress"), default="strain",
                    help="imposed strain (default) or imposed mixture shear stress")
     # read here, checked once by rheometer.oscillation (named by their options: _LABELS)
-    p.add_argument("--strain-amplitude", type=Option("--strain-amplitude", Param()),
+    p.add_argument("--strain-amplitude", type=Quantity("--strain-amplitude", limits.STRAIN,
+                                                       later=True),
                    nargs="+", default=None, metavar="A",
                    help="strain amplitude(s) [-] (several: an amplitude sweep; default 10 "
                         "values 1e-3..1)")
-    p.add_argument("--stress-amplitude", type=Option("--stress-amplitude", Param(unit="Pa")),
+    p.add_argument("--stress-amplitude", type=Quantity(
+                       "--stress-amplitude", limits.POSITIVE_STRESS, later=True),
                    nargs="+", default=None, metavar="S",
                    help="mixture-stress amplitude(s) [Pa] for --control stress (default 10 "
                         "values 0.01..10 tau*)")
-    p.add_argument("--frequency", type=Option("--frequency", Param(unit="Hz")),
+    p.add_argument("--frequency", type=Quantity("--frequency", limits.FREQUENCY, later=True),
                    nargs="+", default=[1.0], metavar="F",
                    help="frequency(ies) [Hz] (several: a frequency sweep; 1)")
-    p.add_argument("--cycles", type=Option("--cycles", Param(kind="integer")),
+    p.add_argument("--cycles", type=Quantity("--cycles", limits.MAX_CYCLES, later=True),
                    default=osc.DEFAULT_MAX_CYCLES,
                    help=f"most cycles per point ({osc.DEFAULT_MAX_CYCLES}); a point not periodic "
                         f"by then is flagged converged = False")
-    p.add_argument("--tol", type=Option("--tol", Param()), default=osc.DEFAULT_TOL,
+    p.add_argument("--tol", type=Quantity("--tol", limits.TOL, later=True),
+                   default=osc.DEFAULT_TOL,
                    help=f"periodic-state tolerance on the cycle-to-cycle change ("
                         f"{osc.DEFAULT_TOL:g})")
-    p.add_argument("--samples", type=Option("--samples", Param(kind="integer")),
+    p.add_argument("--samples", type=Quantity("--samples", limits.SAMPLES, later=True),
                    default=osc.DEFAULT_SAMPLES,
                    help=f"samples per cycle ({osc.DEFAULT_SAMPLES})")
     p.add_argument("--start", choices=("rest", "previous"), default="rest",
                    help="each point from rest (default), or from the previous point's state")
     skeleton_options(p)
-    p.add_argument("--rtol", type=Option("--rtol", Param()), default=osc.DEFAULT_RTOL,
+    p.add_argument("--rtol", type=Quantity("--rtol", limits.OSCILLATION_RTOL, later=True),
+                   default=osc.DEFAULT_RTOL,
                    help=f"IDA relative tolerance ({osc.DEFAULT_RTOL:g})")
     return {"oscillation": _cmd_oscillation}
 

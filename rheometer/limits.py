@@ -7,16 +7,19 @@ ones (solver tolerances, output rows), each with the reason for its number.
   where it starts (IDA's t is one double): at least :func:`clock_floor` of its start time.
 - An imposed rate or stress is 0 (rest) or within the physical range; K0 <= 1e6 (the structure
   changes over a grain displacement of at least a molecular size); oscillation cycles <= 1e5.
+- A strain step or amplitude is within [1e-9, 1e6] (runkit.limits.STRAIN_MIN/MAX), a volume
+  fraction at least 1e-6 (PHI_MIN, the dilute limit) and below phi_j of the material.
 - One :class:`~runkit.params.Param` per quantity: the command line's options (their
-  :class:`~runkit.params.Option`), a program line and a :class:`~rheometer.transient.Step`
-  (checked once, by the Step or the :class:`Start`).
+  :class:`Quantity`: its static range while parsing, the reasons stated with any refusal), a
+  program line and a :class:`~rheometer.transient.Step` (checked once, by the Step or the
+  :class:`Start`).
 """
 
 import math
 
 from runkit import limits as physical
 from runkit.limits import CLOCK_RESOLUTION, CLOCK_WHY, clock_floor, ge, gt, le, lt  # noqa: F401
-from runkit.params import Param
+from runkit.params import Option, OutOfRange, Param
 
 TIME_MIN, TIME_MAX = physical.TIME_MIN.value, physical.TIME_MAX.value
 STRESS_MIN, STRESS_MAX = physical.STRESS_MIN.value, physical.STRESS_MAX.value
@@ -34,12 +37,16 @@ K0 = Param(ge(0.0, "K0 = 0: a structure that does not evolve"), le(K0_MAX, (
     "displacement of at least a molecular size (~1 nm), a strain of 1e-6 for 1 mm grains (the "
     "paper's K0: 0.06-1, Tables 5 and 7)")))
 DURATION = Param(physical.TIME_MIN, physical.TIME_MAX, unit="s")
-STRAIN = Param(gt(0.0, "a strain step or amplitude moves the sample"), physical.STRAIN_MAX)
+STRAIN = Param(physical.STRAIN_MIN, physical.STRAIN_MAX)
 AMPLITUDE = {"strain": STRAIN, "stress": POSITIVE_STRESS}
 FREQUENCY = Param(physical.FREQUENCY_MIN, physical.FREQUENCY_MAX, unit="Hz")
 CYCLES = Param(gt(0.0, "an oscillation runs for some cycles"), le(CYCLES_MAX, (
     "more than any oscillatory test (1e5 cycles at 1 Hz take 28 hours, over which a sample "
     "dries and ages)")))
+#: a volume fraction's static range (its top, phi_j of the material, is checked with the
+#: material: rheometer.transient.check_phi)
+PHI = Param(physical.PHI_MIN, lt(1.0, "a volume fraction: the grains fill less than the whole "
+                                      "volume (and less than phi_j of the material)"))
 #: the structure f: a fraction of the contacts (Eq. 5)
 STRUCTURE = Param(ge(0.0, "f is a fraction"), le(1.0, "f is a fraction"))
 
@@ -82,3 +89,35 @@ def check_peak_rate(frequency: float, amplitude: float) -> float:
 
 #: an oscillation's peak rate: any below the rate limit (a slow one is no steady shear)
 PEAK_RATE = Param(0.0, physical.RATE_MAX, unit="1/s")
+
+
+class Quantity(Option):
+    """The argparse ``type=`` of an option of the quantity ``param``: its static range checked
+    while parsing, or with ``later`` only that it is a finite number (a library function checks
+    it, once, naming the option); a refusal of a value that is no finite number states the
+    range (``shown``: in words, for a range that depends on other options) with the reasons of
+    its bounds (``--rate = nan: must be finite; valid range [1e-09, 1e+09] 1/s, or 0 (WHY;
+    WHY)``)."""
+
+    def __init__(self, name: str, param: Param, shown: str = "", later: bool = False):
+        super().__init__(name, Param(unit=param.unit, kind=param.kind) if later else param)
+        self.quantity, self.shown = param, shown
+
+    @property
+    def range_text(self) -> str:
+        return self.shown or self.quantity.range_text(static=True)
+
+    def check(self, value):
+        try:
+            return super().check(value)
+        except OutOfRange:
+            raise
+        except ValueError as exc:
+            q = self.quantity
+            whys = [b.why for b in (q.lo, q.hi) if b is not None and b.why and not callable(b.why)]
+            why = "; ".join(dict.fromkeys(whys))
+            rng = self.param.range_text(static=True) + "".join(
+                f", or {a:g}" for a in self.param.also)
+            text = str(exc).replace(rng, self.shown or q.range_text(static=True) + "".join(
+                f", or {a:g}" for a in q.also))
+            raise ValueError(text + (f" ({why})" if why else "")) from None

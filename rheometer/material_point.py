@@ -48,7 +48,8 @@ import numpy as np
 import pandas as pd
 
 import rheology
-from runkit.params import check_nonnegative, check_positive, check_range
+from runkit.limits import PHI_MIN, lt
+from runkit.params import Param, check_nonnegative, check_positive, check_range
 from rheology.elastic import past_elastic_limit
 from rheology.local_update import (CASE_NAMES, COMPACTION, ELASTIC, FAILED, NOUT, OUT_FIELDS,
                                    SHEAR_FLOW, update_point)
@@ -356,10 +357,10 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     m0 = rheology.get_material(material)
     if control not in ("volume", "pressure"):
         raise ValueError(f"control = {control!r} must be 'volume' or 'pressure'")
-    volume = control == "volume"         # phi is kept: below phi_j; else it evolves, in (0, 1)
-    phi = float(check_range("phi", phi, 0.0, m0.phi_j if volume else 1.0, lo_closed=False,
-                            hi_closed=False, note=f"volume-controlled shear needs phi below "
-                                                  f"phi_j = {m0.phi_j}" if volume else ""))
+    volume = control == "volume"     # phi is kept: below phi_j; else it evolves, below 1
+    phi = float(Param(PHI_MIN, lt(m0.phi_j if volume else 1.0, (
+        f"volume-controlled shear needs phi below phi_j = {m0.phi_j}" if volume else
+        "a volume fraction: the grains fill less than the whole volume"))).check("phi", phi))
     rate = float(check_nonnegative("rate [1/s]", rate))
     t_end = float(check_positive("t_end [s]", t_end))
     dt = float(check_range("dt [s]", dt, 0.0, t_end, lo_closed=False,

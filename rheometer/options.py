@@ -21,17 +21,18 @@ from rheology.materials import (FIELD_UNITS, Material, default_fraction, default
                                 set_argument, set_overrides)
 from rheology.sample import add_mass_fraction_options, mass_fraction_phi
 from runkit.io import check_output_path
-from runkit.params import Number, Option, OutOfRange, Param, valid_interval
+from runkit.params import Number, OutOfRange, valid_interval
 
 from . import geometry as geo
 from . import limits
+from .limits import Quantity
 from .transient import check_phi
 
 DEFAULT_MATERIAL = "hermes2016"
-#: ``--phi`` of the fit commands: its static range (a measured fraction, checked by
+#: ``--phi`` of the fit commands: its static range [1e-6, 1) (a measured fraction, checked by
 #: rheology.data); a measuring command's --phi is read as a number and checked once, in
-#: (0, phi_j) of the material, by :class:`Sample`
-PHI = Number("--phi", 0.0, 1.0, lo_closed=False, hi_closed=False)
+#: [1e-6, phi_j) of the material, by :class:`Sample` (:func:`check_phi`)
+PHI = Quantity("--phi", limits.PHI)
 
 
 # ------------------------------------------------------------------ the measuring geometry
@@ -49,16 +50,23 @@ def add_instrument_options(p) -> None:
                              "rate by the standard conversions)")
     g.add_argument("--geometry", choices=geo.GEOMETRIES, default=None,
                    help="cone-plate | parallel-plate | couette (default: none, sample values only)")
-    g.add_argument("--cone-angle", type=Option("--cone-angle", Param(unit="deg")), default=None,
+    # a bound set by another dimension (cone angle, cup radius) is checked with it, in
+    # Geometry.make: here the range in words
+    g.add_argument("--cone-angle", type=Quantity(
+                       "--cone-angle", geo.CONE_ANGLE, f"[atan({geo.LENGTH_MIN:g} m / radius), "
+                       f"{geo.CONE_ANGLE_MAX:g}] deg"), default=None,
                    help=f"cone angle [deg] (cone-plate; {_d['cone_angle_deg']:g})")
-    g.add_argument("--radius", type=Option("--radius", Param(unit="m")), default=None,
+    g.add_argument("--radius", type=Quantity("--radius", geo.LENGTH), default=None,
                    help=f"cone or plate radius [m] ({_d['cone_radius']:g} cone, "
                         f"{_d['plate_radius']:g} plate)")
     for key, what, kind in (("gap", "plate gap", "parallel-plate"),
                             ("bob_radius", "bob radius", "couette"),
                             ("cup_radius", "cup radius", "couette"),
                             ("bob_length", "immersed bob length", "couette")):
-        g.add_argument(_flag(key), type=Option(_flag(key), Param(unit="m")), default=None,
+        g.add_argument(_flag(key), type=Quantity(_flag(key), *(
+                           (geo.CUP_RADIUS, f"[bob radius + {geo.LENGTH_MIN:g}, "
+                                            f"{geo.LENGTH_MAX:g}] m")
+                           if key == "cup_radius" else (geo.LENGTH,))), default=None,
                        help=f"{what} [m] ({kind}; {_d[key]:g})")
     add_mass_fraction_options(p)
 
@@ -126,7 +134,7 @@ def once(option: str, values, note: str = "give each once") -> None:
 def _fractions(args, m) -> tuple[list, dict | None, str]:
     """(phi, phi -> mass fraction or None, note) of the options. ValueError (one line, exit 2)
     for --phi with --mass-fraction, a fraction given twice, or a fraction >= phi_j: the one
-    check of --phi against the material (its static range (0, 1) is the option's type)."""
+    check of --phi (rheometer.transient.check_phi: in [PHI_MIN, phi_j) of the material)."""
     repeat = "its curves would repeat; give distinct "
     if getattr(args, "mass_fraction", None) is not None:
         if args.phi is not None:
@@ -222,7 +230,8 @@ def common_options(p, phi_count, out_default):
     phi_default = default_phis(phi_count)
     p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
                    help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
-    p.add_argument("--phi", type=Option("--phi", Param()), nargs="+", default=None,
+    p.add_argument("--phi", type=Quantity("--phi", limits.PHI, later=True), nargs="+",
+                   default=None,
                    metavar="PHI",
                    help=("volume fraction(s) (default: "
                          + ("the material's reference fraction" if len(phi_default) == 1 else
@@ -244,20 +253,20 @@ def common_options(p, phi_count, out_default):
 
 def skeleton_options(p) -> None:
     """``--G`` and ``--K0`` (default: the material's, else 1e4 Pa and 1)."""
-    p.add_argument("--G", type=Option("--G", limits.MODULUS), default=None,
+    p.add_argument("--G", type=Quantity("--G", limits.MODULUS), default=None,
                    help="granular shear modulus [Pa]")
-    p.add_argument("--K0", type=Option("--K0", limits.K0), default=None,
+    p.add_argument("--K0", type=Quantity("--K0", limits.K0), default=None,
                    help="structure-rate scale K0 [-]")
 
 
 def transient_options(p, t_end=None):
     skeleton_options(p)
     if t_end is not None:
-        p.add_argument("--t-end", type=Option("--t-end", limits.DURATION), default=t_end,
+        p.add_argument("--t-end", type=Quantity("--t-end", limits.DURATION), default=t_end,
                        help=f"duration [s] (default {t_end:g})")
-    p.add_argument("--rtol", type=Option("--rtol", limits.RTOL), default=1e-7,
+    p.add_argument("--rtol", type=Quantity("--rtol", limits.RTOL), default=1e-7,
                    help="IDA relative tolerance (1e-7)")
-    p.add_argument("--points", type=Option("--points", limits.STEP_ROWS), default=300,
+    p.add_argument("--points", type=Quantity("--points", limits.STEP_ROWS), default=300,
                    help="output rows per step (300)")
 
 

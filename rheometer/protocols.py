@@ -21,7 +21,7 @@ from rheology.run_end import EndedEarly
 
 from .limits import POSITIVE_STRESS
 from .program import Program, Start, parse_program
-from .transient import Rheometer, State, Step
+from .transient import Rheometer, State, Step, check_phi
 
 #: Columns of a flow curve (``branch``, ``stable``, ``index`` added for rate or mixture-stress
 #: control, ``jammed`` for granular-stress control).
@@ -37,7 +37,7 @@ def flow_curve(material, phi, *, stress=None, rate=None, control: str = "stress"
     ----------
     material : str or Material
     phi : float or sequence of float
-        Volume fractions, each 0 < phi < phi_j (checked by :mod:`rheology.steady`).
+        Volume fractions, each in [1e-6, phi_j) (:func:`rheometer.transient.check_phi`).
     stress : array_like, optional
         Imposed stresses [Pa] (default 200 values log-spaced over 1e-3..1e4 Pa). Granular shear
         stress for ``control="stress"``, mixture shear stress for ``control="mixture-stress"``.
@@ -59,6 +59,7 @@ def flow_curve(material, phi, *, stress=None, rate=None, control: str = "stress"
     phis = np.atleast_1d(np.asarray(phi, dtype=float)).ravel()
     if phis.size == 0:
         raise ValueError("give at least one volume fraction phi")
+    phis = np.array([check_phi("phi", p, m) for p in phis])      # in [PHI_MIN, phi_j)
     if control not in CONTROLS:
         raise ValueError(f"control = {control!r} must be one of {', '.join(CONTROLS)}")
     if (rate is not None and control != "rate") or (stress is not None and control == "rate"):

@@ -33,7 +33,7 @@ from rheology.elastic import (ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress,
 from rheology.materials import Material
 from rheology.run_end import EndedEarly, RunEnd
 from runkit.ida import IDAFailed, Solver
-from runkit.limits import gt, le, lt
+from runkit.limits import PHI_MIN, le, lt
 from runkit.params import Param, check_nonnegative, check_positive, check_range
 
 from . import limits, model
@@ -59,10 +59,11 @@ COLUMNS = ("time_s", "step", "strain", "shear_rate_per_s", "shear_stress_Pa",
 
 
 def check_phi(name: str, phi, m: Material, where: str = "") -> float:
-    """The volume fraction ``phi`` in (0, phi_j) of ``m``: the one check of every entry point
-    (the command line's ``--phi`` too); ValueError naming ``name``."""
+    """The volume fraction ``phi`` in [PHI_MIN, phi_j) of ``m`` (runkit.limits.PHI_MIN = 1e-6,
+    the dilute limit): the one check of every entry point (the command line's ``--phi`` too);
+    ValueError naming ``name``."""
     why = f"{where}below phi_j = {m.phi_j:g} of {m.name}: no steady flow at or above it"
-    return float(Param(gt(0.0, "a suspension holds grains"), lt(m.phi_j, why)).check(name, phi))
+    return float(Param(PHI_MIN, lt(m.phi_j, why)).check(name, phi))
 
 
 def skeleton(m: Material, G=None, K0=None) -> tuple[float, float]:

@@ -54,7 +54,8 @@ def _run(argv, tmp_path, monkeypatch, capsys):
     (["rheometer", "startup", "--rate", "-1e-3"],
      "--rate = -0.001 is outside the valid range [1e-09, 1e+09] 1/s, or 0"),
     (["rheometer", "flow-curve", "--phi", "0.5", "-1e-2"],
-     "--phi = -0.01 is outside the valid range (0, 0.535) (a suspension holds grains)"),
+     # was (0, 0.535) (an arithmetic bottom 0): now the dilute limit PHI_MIN with its reason
+     "--phi = -0.01 is outside the valid range [1e-06, 0.535) (one grain volume in 1e6"),
     (["rheometer", "relax", "--phi", "-nan"], "--phi = -nan: must be finite"),
     (["shear1d", "couette", "--speed", "-1e-2"],
      "--speed = -0.01 is outside the valid range (0, 1.53156] m/s"),

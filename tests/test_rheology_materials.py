@@ -141,3 +141,38 @@ def test_a_negative_field_is_refused_with_its_physical_reason(field):
 def test_a_set_value_beyond_float_is_echoed_as_typed():
     with pytest.raises(ValueError, match=r"--set eta0 = 1e400: must be finite"):
         check_set_override(*split_set_item("eta0=1e400"))
+
+
+def _every_bound():
+    from rheology.materials import FIELDS
+    return [(k, side) for k, p in FIELDS.items() for side, b in (("lo", p.lo), ("hi", p.hi))
+            if b is not None]
+
+
+@pytest.mark.parametrize("field, side", _every_bound())
+def test_every_field_bound_states_its_reason(field, side):
+    """Before: --set mu_c=-1 -> '(0, inf)' with no reason (the reason named only the material).
+    Every bound of every field gives a reason beyond the material's name."""
+    from rheology.materials import FIELDS
+
+    m = r.get_material("hermes2016")
+    b = getattr(FIELDS[field], side)
+    why = b.at({**vars(m)})[2]
+    assert why.startswith("material hermes2016; ") and len(why) > len("material hermes2016; ") + 5
+
+
+@pytest.mark.parametrize("item, words", [
+    ("mu_c=-1", "(0, inf) (mu_c > 0: a contact friction"),
+    ("phi_c=-1", "(0, 0.535) (phi_c > 0: a jamming fraction is a volume fraction)"),
+    ("phi_j=2", "(0.436, 1) (phi_j < 1: grains jam before they fill the whole volume)"),
+    ("Delta=2", "[0, 1] (Delta in [0, 1]"),
+])
+def test_a_set_field_is_refused_with_the_reason_of_the_bound_it_fails(item, words, tmp_path,
+                                                                      monkeypatch, capsys):
+    from rheometer.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["flow-curve", "--set", item]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+    assert not any(tmp_path.iterdir())

@@ -164,10 +164,14 @@ def test_oscillation_period_within_the_longest_duration(tmp_path, monkeypatch, c
 
 
 def test_flow_curve_rows_hold_the_rate_limit(tmp_path, monkeypatch, capsys):
-    """Before: --phi 1e-10 wrote 200 rows at rates up to 1e25 1/s (exit 0)."""
+    """Before: --phi 1e-10 wrote 200 rows at rates up to 1e25 1/s (exit 0). Now 1e-10 is below
+    the dilute limit PHI_MIN = 1e-6 (a physical bound, refused as such); at 1e-6 every steady
+    state flows past the rate limit."""
     import pandas as pd
     monkeypatch.chdir(tmp_path)
-    _refused(capsys, ["flow-curve", "--phi", "1e-10"], "--phi 1e-10",
+    _refused(capsys, ["flow-curve", "--phi", "1e-10"], "--phi = 1e-10 is outside the valid "
+             "range [1e-06, 0.535) (one grain volume in 1e6")
+    _refused(capsys, ["flow-curve", "--phi", "1e-6"], "--phi 1e-06",
              "faster than the largest shear rate 1e+09 1/s")
     assert os.listdir(tmp_path) == []
     assert main(["flow-curve", "--phi", "1e-4", "--plot", "none", "--out", "fc.csv"]) == 0

@@ -134,7 +134,9 @@ def test_oscillation_lines_parse():
     ("oscillate at 1 MHZ with strain 0.01 for 10 cycles", r"line 1: frequency unit 'MHZ'"),
     ("oscillate at 0 Hz with strain 0.01 for 10 cycles", r"line 1: oscillation frequency"),
     ("oscillate at 1 Hz with strain 0 for 10 cycles",
-     r"line 1: strain amplitude = 0 is outside the valid range \(0, 1e\+06\]"),
+     # was (0, 1e+06] (an arithmetic bottom 0): now STRAIN_MIN with its reason
+     r"line 1: strain amplitude = 0 is outside the valid range \[1e-09, 1e\+06\] \(a "
+     r"displacement of a molecular size"),
     ("oscillate at 1 Hz with strain 0.01 for 0 cycles",
      r"line 1: cycles = 0 is outside the valid range \(0, 100000\]"),
     ("oscillate at 1 Hz with strain 0.01 for 1e9 cycles", r"line 1: cycles = 1e\+09 is outside"),
