@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from runkit.limits import DENSITY_MAX, DENSITY_MIN
-from runkit.params import Number, OutOfRange, check_range
+from runkit.limits import DENSITY_MAX, DENSITY_MIN, ge, gt, le, lt
+from runkit.params import Number, OutOfRange, Param, check_range
 
 from .materials import Material
 from .steady import phi_from_mass_fraction
@@ -92,26 +92,38 @@ def _phi_top(dens: Densities) -> float:
                                                / dens.water)
 
 
+#: the Eq. (20) inputs' physical ranges, with their reasons
+MASS_FRACTION = Param(gt(0.0, "a sample holds grains"), lt(1.0, "a suspension holds liquid"))
+DENSITY = Param(DENSITY_MIN, DENSITY_MAX, unit="kg/m^3")
+SWELLING = Param(ge(0.0, "swelling grains take up liquid, they never give up volume"),
+                 le(10.0, "ten times the grain's own mass of liquid, far more than any swelling "
+                          "grain takes up (cornstarch: ~0.3)"))
+PORE = Param(ge(0.0, "a fraction of the grain's volume"),
+             lt(1.0, "a grain is more than its pores"))
+
+
+def _option(name: str, p: Param) -> Number:
+    return Number(name, p.lo, p.hi, unit=p.unit)
+
+
 def add_mass_fraction_options(p, nargs="+") -> None:
     """``--mass-fraction`` (instead of a volume fraction) and the Eq. (20) inputs, on parser
     ``p``; ``nargs``: ``"+"`` for commands that take several fractions, ``None`` for one."""
     s = p.add_argument_group("sample by mass (Eq. 20 of the Supplement)")
-    s.add_argument("--mass-fraction", type=Number("--mass-fraction", 0.0, 1.0, lo_closed=False,
-                                                  hi_closed=False),
+    s.add_argument("--mass-fraction", type=_option("--mass-fraction", MASS_FRACTION),
                    nargs=nargs, default=None, metavar="W",
                    help="grain mass fraction(s) m_grain/(m_grain + m_liquid), converted to volume "
                         "fractions by Eq. 20 (instead of a volume fraction)")
-    dens = lambda name: Number(name, DENSITY_MIN, DENSITY_MAX, unit="kg/m^3")  # noqa
-    s.add_argument("--grain-density", type=dens("--grain-density"), default=None,
-                   help=f"grain density [kg/m^3] (material's rho_s, else {RHO_GRAIN:g})")
-    s.add_argument("--liquid-density", type=dens("--liquid-density"), default=None,
-                   help=f"liquid density [kg/m^3] (material's rho_f, else {RHO_LIQUID:g})")
-    s.add_argument("--water-density", type=dens("--water-density"), default=None,
-                   help=f"water density [kg/m^3] ({RHO_WATER:g})")
-    s.add_argument("--swelling", type=Number("--swelling", 0.0, 10.0), default=None,
+    for name, what in (("--grain-density", f"grain density [kg/m^3] (material's rho_s, else "
+                                           f"{RHO_GRAIN:g})"),
+                       ("--liquid-density", f"liquid density [kg/m^3] (material's rho_f, else "
+                                            f"{RHO_LIQUID:g})"),
+                       ("--water-density", f"water density [kg/m^3] ({RHO_WATER:g})")):
+        s.add_argument(name, type=_option(name, DENSITY), default=None, help=what)
+    s.add_argument("--swelling", type=_option("--swelling", SWELLING), default=None,
                    help=f"swelling parameter lambda of Eq. 20 ({LAMBDA:g})")
-    s.add_argument("--pore-fraction", type=Number("--pore-fraction", 0.0, 1.0, hi_closed=False),
-                   default=None, help=f"pore-space parameter beta of Eq. 20 ({BETA:g})")
+    s.add_argument("--pore-fraction", type=_option("--pore-fraction", PORE), default=None,
+                   help=f"pore-space parameter beta of Eq. 20 ({BETA:g})")
 
 
 def densities_of(args, m: Material) -> Densities:

@@ -45,7 +45,7 @@ from rheology.fit import (PARAMETER_EMPTY_OK, FlowData, fit_flow_curves, mixture
 from rheology.materials import (FIELD_UNITS, MATERIAL_FILE_FORMAT, check_set_override,
                                 material_to_dict, split_set_item)
 from rheology.steady import gdot_dst
-from rheology.sample import BETA, LAMBDA, RHO_WATER
+from rheology.sample import BETA, LAMBDA, PORE, RHO_WATER, SWELLING
 from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_dir, check_output_path, strict_json)
 from runkit import limits as physical
@@ -60,11 +60,6 @@ from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
 
 DENSITY = Param(DENSITY_MIN, DENSITY_MAX, unit="kg/m^3")
 #: Eq. (20)'s swelling lambda (water taken up per grain mass) and pore space beta
-SWELLING = Param(ge(0.0, "swelling grains take up liquid, they never give up volume"),
-                 le(10.0, "ten times the grain's own mass of liquid, far more than any swelling "
-                          "grain takes up (cornstarch: ~0.3)"))
-PORE = Param(ge(0.0, "a fraction of the grain's volume"),
-             lt(1.0, "a grain is more than its pores"))
 #: a torque floor [mN m]: between the finest resolution and the largest torque of a rheometer
 TORQUE_FLOOR = Param(ge(1e-8, "the finest torque resolution of rotational rheometers (~0.05 nN m "
                               "= 5e-8 mN m): a lower floor drops nothing the instrument read"),

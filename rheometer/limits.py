@@ -120,4 +120,4 @@ class Quantity(Option):
                 f", or {a:g}" for a in self.param.also)
             text = str(exc).replace(rng, self.shown or q.range_text(static=True) + "".join(
                 f", or {a:g}" for a in q.also))
-            raise ValueError(text + (f" ({why})" if why else "")) from None
+            raise ValueError(text + (f" ({why})" if why and why not in text else "")) from None

@@ -190,21 +190,24 @@ class Param:
         if self.kind == "text":
             return self.convert(value) if self.convert else value
         what = "an integer" if self.kind == "integer" else "a number"
+        whys = [b.why for b in (self.lo, self.hi)    # a value no finite number: the reasons too
+                if b is not None and b.why and not callable(b.why) and not b.derived]
+        told = rng + (f" ({'; '.join(dict.fromkeys(whys))})" if whys else "")
         if isinstance(value, bool):
-            raise ValueError(f"{name} = {value!r} is not {what}; valid range {rng}")
+            raise ValueError(f"{name} = {value!r} is not {what}; valid range {told}")
         try:
             x = float(value.strip() if isinstance(value, str) else value)
         except (TypeError, ValueError):
-            raise ValueError(f"{name} = {value!r} is not {what}; valid range {rng}") from None
+            raise ValueError(f"{name} = {value!r} is not {what}; valid range {told}") from None
         text = shown(value)
         if not math.isfinite(x):
-            raise ValueError(f"{name} = {text}: must be finite; valid range {rng}")
+            raise ValueError(f"{name} = {text}: must be finite; valid range {told}")
         if x != 0.0 and abs(x) < sys.float_info.min:
             raise ValueError(f"{name} = {text} is subnormal (nonzero but below "
                              f"{sys.float_info.min:.3g}, held with lost precision); valid range "
-                             f"{rng}")
+                             f"{told}")
         if self.kind == "integer" and x != int(x):
-            raise ValueError(f"{name} = {text} is not an integer; valid range {rng}")
+            raise ValueError(f"{name} = {text} is not an integer; valid range {told}")
         why = None if x in self.also else self._outside(x, params, static)
         if why is not None:
             raise OutOfRange(name, text, rng, why)

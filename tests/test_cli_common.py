@@ -58,9 +58,9 @@ def _run(argv, tmp_path, monkeypatch, capsys):
      "--phi = -0.01 is outside the valid range [1e-06, 0.535) (one grain volume in 1e6"),
     (["rheometer", "relax", "--phi", "-nan"], "--phi = -nan: must be finite"),
     (["shear1d", "couette", "--speed", "-1e-2"],
-     "--speed = -0.01 is outside the valid range (0, 1.53156] m/s"),
+     "--speed = -0.01 is outside the valid range [1e-18, 1.53156] m/s (a molecular size"),
     (["shear1d", "annular", "--u-inner", "-1E3"],
-     "--u-inner = -1000 is outside the valid range (0, 1.53156] m/s"),   # the material's
+     "--u-inner = -1000 is outside the valid range [1e-18, 1.53156] m/s"),   # the material's
     (["mpm2d", "run", "bar", "--frames", "-3"], "--frames = -3 is outside the valid range"),
     (["mpm2d", "run", "bar", "--frames", "-3e0"], "--frames = -3e0 is outside the valid range"),
 ])
