@@ -468,7 +468,7 @@ class Schema:
             lo, lc, _, hi, hc, _ = p.bounds(others)
             if lo is not None and hi is not None and (lo > hi or (lo == hi and not lc & hc)):
                 return exc
-            text = p.range_text(others)
+            text = p.range_text(others) + "".join(f", or {a:g}" for a in p.also)
         except Exception:                    # a bound that cannot be evaluated: the first
             return exc
         if isinstance(exc, OutOfRange):      # a static bound failed: its reason, the range
@@ -486,7 +486,8 @@ class Schema:
                 try:
                     x = self._value(k, values)
                     with np.errstate(all="ignore"):
-                        why = None if x is None else p._outside(float(x), values, False)
+                        why = (None if x is None or x in p.also
+                           else p._outside(float(x), values, False))
                 except (ValueError, ArithmeticError, TypeError):
                     why = "its bound cannot be evaluated there"
                 if why is not None:

@@ -37,7 +37,7 @@ class _P:
     (text), choice or bool; its bounds' closedness at the defaults."""
 
     def __init__(self, p, defaults):
-        self.param, self.optional, self.options = p, p.optional, p.options
+        self.param, self.optional, self.options, self.also = p, p.optional, p.options, p.also
         self.kind = {"integer": "number", "text": "material"}.get(p.kind, p.kind)
         self.integer = p.kind == "integer"
         b = p.bounds(defaults) if p.numeric else (None, True, "", None, True, "")
@@ -102,6 +102,8 @@ def _is_bad(scene, key, text) -> bool:
         return True
     if not math.isfinite(x) or (p.integer and x != int(x)):
         return True
+    if x in p.also:                                # a value valid besides the range (0: none)
+        return False
     if lo is not None and (x < lo or (x == lo and not p.lo_closed)):
         return True
     return hi is not None and (x > hi or (x == hi and not p.hi_closed))
@@ -432,7 +434,6 @@ def test_column_cells_finer_than_a_grain_are_refused(tmp_path, capsys):
 #: dimensional parameters whose tiny values are valid, with the reason
 NOT_PHYSICAL_AT_ZERO = {
     ("disks", "offset"): "a signed displacement: 1e-300 m is a head-on collision",
-    ("annular", "ramp_time"): "0 (no ramp) is valid; 1e-300 s is a start at full speed",
     ("intruder", "fit_margin"): "0 (fitted to the floor) is valid",
     ("wheel", "start_angle"): "an angle from the vertical: 0 is valid",
 }

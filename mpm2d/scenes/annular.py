@@ -203,8 +203,7 @@ def _first_step(p) -> float:
             lambda p: STRAIN_MIN.value * (p["r_outer"] - p["r_inner"]) / p["r_inner"],
             f"a strain R_i rotation/(R_o - R_i) of at least {STRAIN_MIN.value:g}: "
             f"{STRAIN_MIN.why}")),
-    ramp_time=spec.duration("linear start-up of the bob speed (0: none)",
-                            lo=ge(0.0, "0: the bob starts at full speed"),
+    ramp_time=spec.duration("linear start-up of the bob speed (0: none)", also=(0.0,),
                             below=le(lambda p: p["rotation"] * p["r_inner"] / p["u_inner"],
                                      "at most the rotation time R_i rotation/u_i, as "
                                      "shear1d's")),
