@@ -487,7 +487,7 @@ class Schema:
                     x = self._value(k, values)
                     with np.errstate(all="ignore"):
                         why = (None if x is None or x in p.also
-                           else p._outside(float(x), values, False))
+                               else p._outside(float(x), values, False))
                 except (ValueError, ArithmeticError, TypeError):
                     why = "its bound cannot be evaluated there"
                 if why is not None:
