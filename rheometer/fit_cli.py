@@ -57,6 +57,7 @@ from . import limits, plots
 from .limits import Quantity
 from .options import PHI, about_set, once as _once
 from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
+from .transient import check_phi
 
 DENSITY = Param(DENSITY_MIN, DENSITY_MAX, unit="kg/m^3")
 #: Eq. (20)'s swelling lambda (water taken up per grain mass) and pore space beta
@@ -433,19 +434,24 @@ def cmd_fit(args) -> str:
         if key in fixed:
             raise ValueError(f"--set {key} given twice; give each parameter once")
         fixed[key] = x
-    if fixed:                                # refused as the parameter set, with its range
-        try:
-            start.replace(**fixed)
-        except ValueError as exc:
-            raise about_set(start, fixed, exc, "--set", FIELD_UNITS) from None
+    try:                                     # refused as the parameter set, with its range
+        given = start.replace(**fixed)
+    except ValueError as exc:
+        raise about_set(start, fixed, exc, "--set", FIELD_UNITS) from None
     _once("--free", args.free)
     if "eta0" in (args.free or []):
         raise ValueError("--free eta0: eta0 is estimated from the curves by default; hold it "
                          "with --set eta0=VALUE instead")
     donor = rheology.get_material(args.transient_from) if args.transient_from else None
+    # every measured fraction below phi_j of the start (with --set): no steady flow at or above it
+    if args.phi is not None and not args.mass_fraction:
+        for p in args.phi:
+            check_phi("--phi", p, given)
     table = _read(args)
-    print(describe(table))
     data = FlowData.from_table(table)
+    for label, p in zip(data.labels, data.curve_phi()):        # a phi column, Eq. (20)
+        check_phi("phi", p, given, where=f"{label}: ")
+    print(describe(table))
     # numpy's warnings of the fit (a singular covariance at an extreme held value) are held: a
     # failed fit cites the first in its one line, a finished one lists them as notes
     with HeldWarnings() as held:

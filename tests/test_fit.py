@@ -519,3 +519,31 @@ def test_a_held_a_inf_keeps_its_value(extra):
     d = FlowData.from_table(synthetic_table(m, phis, points=15, seed=3))
     res = fit_flow_curves(d, m, fixed={"a_inf": 1.0, "eta0": m.eta0, **extra}, stages_only=True)
     assert res.parameter("a_inf").value == 1.0 and res.material.a_inf == 1.0
+
+
+@pytest.mark.parametrize("argv, words", [
+    # --phi 0.7 0.8 was fitted (phi bounded by 1 only), beyond hermes2016's phi_j = 0.535
+    ([*RC, "--phi", "0.7", "0.8"], "--phi = 0.7 is outside the valid range [1e-06, 0.535) "
+                                   "(below phi_j = 0.535 of hermes2016: no steady flow at or "
+                                   "above it)"),
+    ([*RC, "--phi", "0.40", "0.535"], "--phi = 0.535 is outside the valid range [1e-06, 0.535)"),
+    # a held phi_j is the bound
+    ([*RC, "--phi", "0.40", "0.46", "--set", "phi_j=0.45"],
+     "--phi = 0.46 is outside the valid range [1e-06, 0.45) (below phi_j = 0.45 of"),
+])
+def test_a_volume_fraction_at_or_above_jamming_is_refused(argv, words, tmp_path, capsys):
+    out = tmp_path / "fit"
+    line = _refused(["fit", *argv, "--out", str(out), "--no-plots", "--no-profile", "--set",
+                     "eta0=0.006"], capsys, out)
+    assert words in line, line
+
+
+def test_a_phi_column_at_or_above_jamming_is_refused(tmp_path, capsys):
+    """The fractions of a table's phi column get the same check, naming the curve."""
+    f = _table_file(tmp_path, r.get_material("hermes2016"), [0.40, 0.45, 0.50])
+    t = pd.read_csv(f)
+    t["phi"] = t["phi"].replace(0.50, 0.6)
+    t.to_csv(f, index=False)
+    out = tmp_path / "fit"
+    line = _refused(["fit", str(f), "--out", str(out), "--no-plots", "--no-profile"], capsys, out)
+    assert "phi = 0.6 is outside the valid range [1e-06, 0.535) (curves.csv" in line, line
