@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 
 import numba as nb
 import numpy as np
+from numba.extending import register_jitable
 from scipy import stats
 from scipy.optimize import least_squares
 
@@ -91,16 +92,23 @@ guard(__file__)
 
 
 # ============================================================================ the model at data
-@nb.njit(cache=True, error_model="numpy")
-def _structure_residual(u, tau, phi, fm, fhi, yhi, inv, ef, dphi, a0, a_inf, mu_c, mu2, b,
-                        tau_star, eta0, xi):
-    """y^2 [f (H + S) - H f_m] at f = u f_hi for imposed mixture stress tau (viscous limit)."""
+@register_jitable
+def _contact_terms(u, phi, fhi, yhi, ef, dphi, a0, a_inf, mu_c, mu2, b):
+    """(f, y, E, D) at f = u f_hi: the gap y = phi_m(f) - phi, E = 2 mu (a phi)^2 + 5/2 phi^2 y
+    and D = (1 + 5/2 phi) y^2 + E (taubar = tau E/D; numpy arrays or, in numba, scalars)."""
     f = u * fhi
     y = yhi + dphi * fhi * (1.0 - u)
     a = laws.dilatancy_a(f, a0, a_inf)
     mu = laws.critical_friction(phi, y, a, mu_c, mu2, b)
     E = 2.0 * mu * (a * phi) ** 2 + 2.5 * phi * phi * y
-    D = ef * y * y + E
+    return f, y, E, ef * y * y + E
+
+
+@nb.njit(cache=True, error_model="numpy")
+def _structure_residual(u, tau, phi, fm, fhi, yhi, inv, ef, dphi, a0, a_inf, mu_c, mu2, b,
+                        tau_star, eta0, xi):
+    """y^2 [f (H + S) - H f_m] at f = u f_hi for imposed mixture stress tau (viscous limit)."""
+    f, y, E, D = _contact_terms(u, phi, fhi, yhi, ef, dphi, a0, a_inf, mu_c, mu2, b)
     H = laws.hardening(tau * E / D, tau_star)
     y2 = y * y
     return f * ((H + 1.0) * y2 + eta0 * inv * E + xi * eta0 * D / tau) - H * fm * y2
@@ -168,19 +176,14 @@ def mixture_steady_state(tau, phi, m: Material) -> dict[str, np.ndarray]:
     inv = laws.inv_eta_B(phi, m.phi_j, m.varphi1, m.alpha1, m.varphi2, m.alpha2)
     ef = 1.0 + 2.5 * phi
 
-    u = _solve_structure(tau, phi, fm, fhi, yhi, inv, ef, dphi, float(m.a0), float(m.a_inf),
-                         float(m.mu_c), float(m.mu2), float(m.b), float(m.tau_star),
+    contact = (float(m.a0), float(m.a_inf), float(m.mu_c), float(m.mu2), float(m.b))
+    u = _solve_structure(tau, phi, fm, fhi, yhi, inv, ef, dphi, *contact, float(m.tau_star),
                          float(m.eta0), float(m.xi_eps))
     if not np.all(np.isfinite(u)):
         k = int(np.flatnonzero(~np.isfinite(u))[0])
         raise RuntimeError(f"mixture-stress steady solve failed at tau = {tau[k]:.6g} Pa, phi = "
                            f"{phi[k]:.6g} (no sign change of the structure residual)")
-    f = u * fhi
-    y = yhi + dphi * fhi * (1.0 - u)
-    a = laws.dilatancy_a(f, m.a0, m.a_inf)
-    mu = laws.critical_friction(phi, y, a, m.mu_c, m.mu2, m.b)
-    E = 2.0 * mu * (a * phi) ** 2 + 2.5 * phi * phi * y
-    D = ef * y * y + E
+    f, y, E, D = _contact_terms(u, phi, fhi, yhi, ef, dphi, *contact)
     ys = np.maximum(y, 1e-150)
     rel = ef + E / (ys * ys)
     out = {"f": f, "gap": y, "viscosity": m.eta0 * rel, "shear_rate": tau / (m.eta0 * rel),
@@ -286,7 +289,7 @@ def curve_features(data: FlowData, *, plateau_slope: float = 0.3, dst_slope: flo
         return x.copy() if x.size < 3 else np.convolve(x, np.ones(3) / 3, mode="valid")
 
     out = []
-    for c in range(data.n_curves):
+    for c, phi in enumerate(data.curve_phi()):
         s, v, r = data.sorted_curve(c)
         ls, lv = np.log(s), np.log(v)
         sm, ss = running_mean(lv), running_mean(ls)
@@ -301,7 +304,7 @@ def curve_features(data: FlowData, *, plateau_slope: float = 0.3, dst_slope: flo
                 "dst" if dst_slope < slope < 2.0 - dst_slope else   # the rate saturates (slope 1)
                 "jamming" if slope >= 2.0 - dst_slope else "neither")   # ... or falls
         g = float(np.exp(np.median(np.log(r[top])))) if kind == "dst" else float("nan")
-        out.append(CurveFeatures(float(data.phi[data.curve == c][0]), float(np.exp(sm[kmin])),
+        out.append(CurveFeatures(float(phi), float(np.exp(sm[kmin])),
                                  float(np.exp(sm[kmax])), slope, kind, g, float(np.exp(ss[kmin])),
                                  float(np.exp(ss[kmax])),
                                  (float(s[top].min()), float(s[top].max()))))

@@ -43,13 +43,13 @@ from rheology.data import (EMPTY_OK, READERS, describe, detect_format, drop_coun
 from rheology.fit import (PARAMETER_EMPTY_OK, FlowData, fit_flow_curves, mixture_steady_state,
                           parameter_table, plateau_viscosity)
 from rheology.materials import (FIELD_UNITS, MATERIAL_FILE_FORMAT, check_set_override,
-                                material_to_dict, split_set_item)
+                                material_to_dict, set_overrides, split_set_item)
 from rheology.steady import gdot_dst
-from rheology.sample import BETA, LAMBDA, PORE, RHO_WATER, SWELLING
+from rheology.sample import BETA, DENSITY, LAMBDA, PORE, RHO_WATER, SWELLING
 from runkit.io import (atomic_write_csv, atomic_write_json, check_finite,
                        check_output_dir, check_output_path, strict_json)
 from runkit import limits as physical
-from runkit.limits import DENSITY_MAX, DENSITY_MIN, ge, gt, le, lt
+from runkit.limits import ge, gt, le, lt
 from runkit.params import Param
 from runkit.run import HeldWarnings
 
@@ -59,8 +59,6 @@ from .options import PHI, about_set, once as _once
 from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
 from .transient import check_phi
 
-DENSITY = Param(DENSITY_MIN, DENSITY_MAX, unit="kg/m^3")
-#: Eq. (20)'s swelling lambda (water taken up per grain mass) and pore space beta
 #: a torque floor [mN m]: between the finest resolution and the largest torque of a rheometer
 TORQUE_FLOOR = Param(ge(1e-8, "the finest torque resolution of rotational rheometers (~0.05 nN m "
                               "= 5e-8 mN m): a lower floor drops nothing the instrument read"),
@@ -376,13 +374,13 @@ def _params_json(params) -> dict:
         "unidentifiable", "converged", "note")} for p in params}
 
 
-def _summary(params, skip_fixed=True) -> list[str]:
+def _summary(params) -> list[str]:
     def g(x):
         return "null" if not np.isfinite(x) else f"{x:.5g}"
 
     return [f"  {p.name:9s} = {p.value:<11.5g} [{g(p.lower)}, {g(p.upper)}] ({p.method}, "
             f"stage {p.stage}{', ' + p.status if p.status != 'fitted' else ''})"
-            for p in params if not (skip_fixed and p.status == "fixed")]
+            for p in params if p.status != "fixed"]
 
 
 def _write_results(out: Path, tables: dict, material, doc: dict, problems, accept: bool,
@@ -426,14 +424,12 @@ def cmd_fit(args) -> str:
     """``rheometer fit``: read, fit, write DIR/material.json, CSVs and figures."""
     out, name = _out_and_name(args)
     start = rheology.get_material(args.material)
-    fixed = {}
+    pairs = []
     for k, v in args.set or []:
         if v is None:
             raise ValueError(f"--set {k} = none: fit --set holds a parameter at a number")
-        key, x = check_set_override(k, v)         # not ``name``: the fitted material's
-        if key in fixed:
-            raise ValueError(f"--set {key} given twice; give each parameter once")
-        fixed[key] = x
+        pairs.append(check_set_override(k, v))    # not ``name``: the fitted material's
+    fixed = set_overrides(pairs)
     try:                                     # refused as the parameter set, with its range
         given = start.replace(**fixed)
     except ValueError as exc:

@@ -31,6 +31,7 @@ the data: a wrong taubar0, phi or steady material).
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -60,7 +61,6 @@ SCALE = {"G": "log", "K0": "log"}
 #: Residual sd [log10 stress] beyond which the fit does not describe the data (a factor 2 rms;
 #: a rheometer's noise is a few percent, 0.01-0.02).
 MISFIT_LOG10 = 0.3
-UNITS = {"G": "Pa", "K0": "-"}
 
 
 @dataclass
@@ -208,21 +208,18 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
         t0s = th[1 + fit_k0:] if fit_t0 else np.full(n_c, float(t0))
         return G, k0, t0s
 
-    cache: dict = {}
+    @functools.lru_cache(maxsize=64)
+    def run(key: bytes) -> list:        # per curve: (ln data - ln model, its slope, change of f)
+        G, k0, t0s = unpack(np.frombuffer(key))
+        out = []
+        for c, t_c in zip(curves, t0s):
+            runs[0] += 1
+            ln, sl, dfv = model_log_stress(m, c.phi, c.stress0, G, k0, c.time - t_c)
+            out.append((np.log(c.stress) - ln, sl, dfv))
+        return out
 
-    def evaluate(th):
-        key = tuple(np.round(th, 15))
-        if key not in cache:
-            G, k0, t0s = unpack(th)
-            out = []
-            for c, t_c in zip(curves, t0s):
-                runs[0] += 1
-                ln, sl, dfv = model_log_stress(m, c.phi, c.stress0, G, k0, c.time - t_c)
-                out.append((np.log(c.stress) - ln, sl, dfv))
-            if len(cache) > 64:
-                cache.clear()
-            cache[key] = out
-        return cache[key]
+    def evaluate(th):                   # least_squares asks fun and jac at the same theta
+        return run(np.asarray(th, float).tobytes())
 
     def fun(th):
         return np.concatenate([r for r, _, _ in evaluate(th)])
