@@ -821,11 +821,14 @@ def fit_flow_curves(data: FlowData, start: Material | str = "hermes2016", *,
                    fixed=fixed)
 
 
-def _central_jacobian(fun, theta, lo, hi, h=1e-6):
+def central_jacobian(fun, theta, lo, hi, h=1e-6, *, relative=True, columns=None):
+    """d fun/d theta by central differences within [lo, hi] over the first ``columns`` (default
+    all) parameters, step h (times max(1, |theta_k|) if ``relative``); shared by the steady and
+    the relaxation fits."""
     f0 = fun(theta)
-    J = np.empty((f0.size, theta.size))
-    for k in range(theta.size):
-        step = h * max(1.0, abs(theta[k]))
+    J = np.empty((f0.size, theta.size if columns is None else columns))
+    for k in range(J.shape[1]):
+        step = h * max(1.0, abs(theta[k])) if relative else h
         a, b = theta.copy(), theta.copy()
         a[k] = max(theta[k] - step, lo[k])
         b[k] = min(theta[k] + step, hi[k])
@@ -852,8 +855,8 @@ def _finish(data, m, base, P, free_list, outlier, stages, messages, n_eval, t0, 
     names_corr, corr, converged = [], np.zeros((0, 0)), True
     if P:
         theta = res.x
-        J = _central_jacobian(lambda th: resid(th, inl), theta, P.lo, P.hi)
-        L = _central_jacobian(P.psi, theta, P.lo - 1, P.hi + 1, h=1e-7)
+        J = central_jacobian(lambda th: resid(th, inl), theta, P.lo, P.hi)
+        L = central_jacobian(P.psi, theta, P.lo - 1, P.hi + 1, h=1e-7)
         psi, span = P.psi(theta), P.hi - P.lo
         dof = max(int(inl.sum()) - len(theta), 1)
         ssq = float(np.sum(res.fun ** 2))

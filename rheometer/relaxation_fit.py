@@ -42,7 +42,8 @@ from scipy.optimize import least_squares
 
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT
-from rheology.fit import CORR_FLAG, ParameterEstimate, interval_statistics, judged_estimate
+from rheology.fit import (CORR_FLAG, ParameterEstimate, central_jacobian, interval_statistics,
+                          judged_estimate)
 from rheology.materials import Material
 from runkit.params import check_range
 
@@ -224,16 +225,11 @@ def fit_relaxation(curves: list[RelaxationCurve], material, *, K0: float | None 
     def fun(th):
         return np.concatenate([r for r, _, _ in evaluate(th)])
 
-    def jac(th):
-        cols = []
-        for k in range(1 + fit_k0):                  # ln G, ln K0: central differences
-            h = 1e-4
-            a, b = th.copy(), th.copy()
-            a[k], b[k] = max(th[k] - h, lo[k]), min(th[k] + h, hi[k])
-            cols.append((fun(b) - fun(a)) / (b[k] - a[k]))
+    def jac(th):                                     # ln G, ln K0: central differences
+        J = central_jacobian(fun, th, lo, hi, 1e-4, relative=False, columns=1 + fit_k0)
         if fit_t0:                                   # t0: d(ln data - ln model)/dt0 = slope
-            cols += list(block_diag(*(e[1][:, None] for e in evaluate(th))).T)
-        return np.column_stack(cols)
+            J = np.hstack([J, block_diag(*(e[1][:, None] for e in evaluate(th)))])
+        return J
 
     # ------------------------------------------------------------ start
     G0 = []
