@@ -439,13 +439,15 @@ def cmd_fit(args) -> str:
         raise ValueError("--free eta0: eta0 is estimated from the curves by default; hold it "
                          "with --set eta0=VALUE instead")
     donor = rheology.get_material(args.transient_from) if args.transient_from else None
-    # every measured fraction below phi_j of the start (with --set): no steady flow at or above it
-    if args.phi is not None and not args.mass_fraction:
+    # a held phi_j (--set) bounds every measured fraction: no steady flow at or above it; a free
+    # phi_j is fitted above the data (the material's bound phi_j < 1 then bounds them)
+    held_phi_j = "phi_j" in fixed
+    if held_phi_j and args.phi is not None and not args.mass_fraction:
         for p in args.phi:
             check_phi("--phi", p, given)
     table = _read(args)
     data = FlowData.from_table(table)
-    for label, p in zip(data.labels, data.curve_phi()):        # a phi column, Eq. (20)
+    for label, p in zip(data.labels, data.curve_phi()) if held_phi_j else ():   # phi column, Eq. 20
         check_phi("phi", p, given, where=f"{label}: ")
     print(describe(table))
     # numpy's warnings of the fit (a singular covariance at an extreme held value) are held: a

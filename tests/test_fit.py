@@ -522,12 +522,12 @@ def test_a_held_a_inf_keeps_its_value(extra):
 
 
 @pytest.mark.parametrize("argv, words", [
-    # --phi 0.7 0.8 was fitted (phi bounded by 1 only), beyond hermes2016's phi_j = 0.535
-    ([*RC, "--phi", "0.7", "0.8"], "--phi = 0.7 is outside the valid range [1e-06, 0.535) "
-                                   "(below phi_j = 0.535 of hermes2016: no steady flow at or "
-                                   "above it)"),
-    ([*RC, "--phi", "0.40", "0.535"], "--phi = 0.535 is outside the valid range [1e-06, 0.535)"),
-    # a held phi_j is the bound
+    # a held phi_j is the bound (a free one is fitted above the data)
+    ([*RC, "--phi", "0.7", "0.8", "--set", "phi_j=0.535"],
+     "--phi = 0.7 is outside the valid range [1e-06, 0.535) (below phi_j = 0.535 of hermes2016: "
+     "no steady flow at or above it)"),
+    ([*RC, "--phi", "0.40", "0.535", "--set", "phi_j=0.535"],
+     "--phi = 0.535 is outside the valid range [1e-06, 0.535)"),
     ([*RC, "--phi", "0.40", "0.46", "--set", "phi_j=0.45"],
      "--phi = 0.46 is outside the valid range [1e-06, 0.45) (below phi_j = 0.45 of"),
 ])
@@ -539,11 +539,23 @@ def test_a_volume_fraction_at_or_above_jamming_is_refused(argv, words, tmp_path,
 
 
 def test_a_phi_column_at_or_above_jamming_is_refused(tmp_path, capsys):
-    """The fractions of a table's phi column get the same check, naming the curve."""
+    """The fractions of a table's phi column get the same check against a held phi_j, naming
+    the curve."""
     f = _table_file(tmp_path, r.get_material("hermes2016"), [0.40, 0.45, 0.50])
     t = pd.read_csv(f)
     t["phi"] = t["phi"].replace(0.50, 0.6)
     t.to_csv(f, index=False)
     out = tmp_path / "fit"
-    line = _refused(["fit", str(f), "--out", str(out), "--no-plots", "--no-profile"], capsys, out)
+    line = _refused(["fit", str(f), "--out", str(out), "--no-plots", "--no-profile", "--set",
+                     "phi_j=0.535"], capsys, out)
     assert "phi = 0.6 is outside the valid range [1e-06, 0.535) (curves.csv" in line, line
+
+
+def test_a_free_phi_j_is_fitted_above_the_data(tmp_path):
+    """With phi_j free, fractions above the start's phi_j (hermes2016: 0.535) are data, not an
+    error: the fit puts phi_j above them."""
+    out = tmp_path / "fit"
+    assert main(["fit", *RC, "--phi", "0.56", "0.58", "--out", str(out), "--no-plots",
+                 "--no-profile", "--set", "eta0=0.006"]) == 0
+    tab = pd.read_csv(out / "parameters.csv").set_index("parameter")
+    assert tab.loc["phi_j", "value"] > 0.58
