@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 import rheology as r
+from rheometer.cli import main
 from rheology.fit import (FlowData, fit_flow_curves, mixture_steady_state, recovery_errors,
                           synthetic_table)
 
