@@ -16,6 +16,7 @@ solver. Times at equal accuracy 1e-6 are interpolated log-log along each method'
 from __future__ import annotations
 
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +29,7 @@ from rheometer.protocols import flow_curve, initial_state, relax, startup
 from rheometer.transient import Rheometer, Step
 from runkit.plotting import plt
 
-from .framework import BenchResult, benchmark, interleaved, save_figure, write_csv
+from .framework import BenchResult, benchmark, interleaved, save_figure, time_stats, write_csv
 from .report import machine_description
 
 TARGET_ERR = 1e-6
@@ -130,29 +131,22 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
         prob = _Problem(**spec)
         ref = prob.solve(DEFAULT, 1e-12)
         cross = _error(prob, prob.solve("Radau", 1e-12), ref)
-        for mth in methods:                                  # warm up (numba, set-up)
-            for r in rtols:
-                prob.solve(mth, r)
-        times = {(m, r): [] for m in methods for r in rtols}
-        errs = {}
-        for _ in range(repeats):                             # interleaved repeats
-            for r in rtols:
-                for mth in methods:
-                    t0 = time.perf_counter()
-                    res = prob.solve(mth, r)
-                    times[(mth, r)].append(time.perf_counter() - t0)
-                    errs[(mth, r)] = _error(prob, res, ref)
+        jobs = {(mth, r): partial(prob.solve, mth, r) for r in rtols for mth in methods}
+        interleaved(jobs, 1)                                 # warm up (numba, set-up)
+        last = {}
+        times = interleaved(jobs, repeats, results=last)     # interleaved repeats
+        errs = {k: _error(prob, res, ref) for k, res in last.items()}
         at_target = {}
         for mth in methods:
             e = [errs[(mth, r)] for r in rtols]
-            w = [float(np.median(times[(mth, r)])) for r in rtols]
-            w_min = [float(np.min(times[(mth, r)])) for r in rtols]
+            stats = [time_stats(times[(mth, r)]) for r in rtols]
+            w = [st["median_s"] for st in stats]
             at_target[mth] = time_at(e, w)
             style = "-o" if mth.startswith("IDA") else "--s"
             ax.loglog(e, w, style, ms=4, label=mth)
-            for r, ei, wi, wm in zip(rtols, e, w, w_min):
-                rows.append(dict(problem=pname, method=mth, rtol=r, error=ei, median_s=wi,
-                                 min_s=wm))
+            for r, ei, st in zip(rtols, e, stats):
+                rows.append(dict(problem=pname, method=mth, rtol=r, error=ei,
+                                 median_s=st["median_s"], min_s=st["min_s"]))
         ax.axvline(TARGET_ERR, color="0.5", ls=":", lw=1)
         ax.set(xlabel="max error (taubar, gdot_p relative; f absolute) vs reference",
                ylabel=f"wall time per solve [s] (median of {repeats})")
@@ -203,8 +197,7 @@ def speed(out: Path, quick: bool) -> BenchResult:
     }
     interleaved(jobs, 1)                                      # warm up (numba cache, imports)
     samples = interleaved(jobs, repeats)
-    rows = [dict(job=k, median_s=float(np.median(v)), min_s=float(np.min(v)),
-                 max_s=float(np.max(v))) for k, v in samples.items()]
+    rows = [dict(job=k, **time_stats(v)) for k, v in samples.items()]
     med = {r["job"]: r["median_s"] for r in rows}
     fc = med["flow curve 200 x 10 (rheometer.flow_curve)"]
     targets = [("200 stresses x 10 phi stress-controlled flow curve < 0.2 s",

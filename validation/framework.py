@@ -178,14 +178,25 @@ def timed(fn, repeats: int, clock=time.perf_counter):
     return float(np.median(times)), times, result
 
 
-def interleaved(jobs: dict, repeats: int, clock=time.perf_counter) -> dict[str, list[float]]:
+def interleaved(jobs: dict, repeats: int, clock=time.perf_counter,
+                results: dict | None = None) -> dict[str, list[float]]:
     """Each ``name: fn`` of ``jobs`` called once per repeat, the jobs interleaved so that machine
-    load hits all alike: name -> every time [s]."""
+    load hits all alike: name -> every time [s]. ``results``, if given, receives name -> the
+    last call's result."""
     times = {k: [] for k in jobs}
     for _ in range(repeats):
         for k, fn in jobs.items():
-            times[k] += timed(fn, 1, clock)[1]
+            _, t, out = timed(fn, 1, clock)
+            times[k] += t
+            if results is not None:
+                results[k] = out
     return times
+
+
+def time_stats(times) -> dict[str, float]:
+    """``median_s``, ``min_s`` and ``max_s`` of repeated times [s] (a benchmark row's columns)."""
+    return {"median_s": float(np.median(times)), "min_s": float(np.min(times)),
+            "max_s": float(np.max(times))}
 
 
 def load_all() -> dict[str, Entry]:
