@@ -29,7 +29,7 @@ from rheometer.protocols import flow_curve, initial_state, relax, startup
 from rheometer.transient import Rheometer, Step
 from runkit.plotting import plt
 
-from .framework import BenchResult, benchmark, interleaved, save_figure, time_stats, write_csv
+from .framework import BenchResult, benchmark, interleaved, save_figure, write_csv
 from .report import machine_description
 
 TARGET_ERR = 1e-6
@@ -139,14 +139,12 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
         at_target = {}
         for mth in methods:
             e = [errs[(mth, r)] for r in rtols]
-            stats = [time_stats(times[(mth, r)]) for r in rtols]
-            w = [st["median_s"] for st in stats]
+            w = [float(np.median(times[(mth, r)])) for r in rtols]
             at_target[mth] = time_at(e, w)
             style = "-o" if mth.startswith("IDA") else "--s"
             ax.loglog(e, w, style, ms=4, label=mth)
-            for r, ei, st in zip(rtols, e, stats):
-                rows.append(dict(problem=pname, method=mth, rtol=r, error=ei,
-                                 median_s=st["median_s"], min_s=st["min_s"]))
+            rows += [dict(problem=pname, method=mth, rtol=r, error=ei, median_s=wi,
+                          min_s=float(np.min(times[(mth, r)]))) for r, ei, wi in zip(rtols, e, w)]
         ax.axvline(TARGET_ERR, color="0.5", ls=":", lw=1)
         ax.set(xlabel="max error (taubar, gdot_p relative; f absolute) vs reference",
                ylabel=f"wall time per solve [s] (median of {repeats})")
@@ -197,7 +195,8 @@ def speed(out: Path, quick: bool) -> BenchResult:
     }
     interleaved(jobs, 1)                                      # warm up (numba cache, imports)
     samples = interleaved(jobs, repeats)
-    rows = [dict(job=k, **time_stats(v)) for k, v in samples.items()]
+    rows = [dict(job=k, median_s=float(np.median(v)), min_s=float(np.min(v)),
+                 max_s=float(np.max(v))) for k, v in samples.items()]
     med = {r["job"]: r["median_s"] for r in rows}
     fc = med["flow curve 200 x 10 (rheometer.flow_curve)"]
     targets = [("200 stresses x 10 phi stress-controlled flow curve < 0.2 s",

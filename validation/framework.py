@@ -183,20 +183,12 @@ def interleaved(jobs: dict, repeats: int, clock=time.perf_counter,
     """Each ``name: fn`` of ``jobs`` called once per repeat, the jobs interleaved so that machine
     load hits all alike: name -> every time [s]. ``results``, if given, receives name -> the
     last call's result."""
-    times = {k: [] for k in jobs}
+    times, results = {k: [] for k in jobs}, {} if results is None else results
     for _ in range(repeats):
         for k, fn in jobs.items():
-            _, t, out = timed(fn, 1, clock)
+            _, t, results[k] = timed(fn, 1, clock)
             times[k] += t
-            if results is not None:
-                results[k] = out
     return times
-
-
-def time_stats(times) -> dict[str, float]:
-    """``median_s``, ``min_s`` and ``max_s`` of repeated times [s] (a benchmark row's columns)."""
-    return {"median_s": float(np.median(times)), "min_s": float(np.min(times)),
-            "max_s": float(np.max(times))}
 
 
 def load_all() -> dict[str, Entry]:

@@ -158,16 +158,6 @@ def _verdict(r: dict) -> str:
     return "PASS" if r["passed"] else ("ERROR" if r["error"] else "FAIL")
 
 
-def _html_table(head, rows) -> str:
-    """An HTML table: the header cells ``head`` (text, escaped) and ``rows``, each a list of
-    cells: a cell's HTML, or (its ``<td>`` attributes, its HTML)."""
-    def td(c):
-        attrs, inner = c if isinstance(c, tuple) else ("", c)
-        return f"<td{attrs}>{inner}</td>"
-    return ("<table><tr>" + "".join(f"<th>{_esc(h)}</th>" for h in head) + "</tr>"
-            + "".join("<tr>" + "".join(map(td, r)) + "</tr>" for r in rows) + "</table>")
-
-
 def _table(rows: list[dict], notes: dict) -> str:
     """A result's rows as an HTML table: a null is "-" with its reason as the cell's title and as
     a numbered footnote below the table."""
@@ -175,13 +165,16 @@ def _table(rows: list[dict], notes: dict) -> str:
     foot: dict[str, int] = {}
 
     def cell(row, k):
-        if k not in row or row[k] is not None:
-            return _esc(_fmt(row.get(k)))
+        if k not in row:
+            return "<td></td>"
+        if row[k] is not None:
+            return f"<td>{_esc(_fmt(row[k]))}</td>"
         why = row.get(k + NOTE) or notes.get(k) or "no reason given"
         n = foot.setdefault(why, len(foot) + 1)
-        return f" title='{_esc(why)}'", f"-<sup>{n}</sup>"
+        return f"<td title='{_esc(why)}'>-<sup>{n}</sup></td>"
 
-    return (_html_table(keys, [[cell(r, k) for k in keys] for r in rows])
+    body = "".join("<tr>" + "".join(cell(r, k) for k in keys) + "</tr>" for r in rows)
+    return ("<table><tr>" + "".join(f"<th>{_esc(k)}</th>" for k in keys) + f"</tr>{body}</table>"
             + "".join(f"<p style='font-size:85%'><sup>{n}</sup> {_esc(w)}</p>"
                       for w, n in foot.items()))
 
@@ -199,8 +192,10 @@ def _section(r: dict) -> str:
             f"<p><b>Criterion:</b> {_esc(r['criterion'])}<br>"
             f"<b>Measured:</b> {_esc(r['measured'])}</p>"),
         r.get("summary") and f"<p>{_esc(r['summary'])}</p>",
-        r.get("targets") and _html_table(("target", "measured", "met"), [
-            [_esc(t), _esc(m), "yes" if ok is True else "NO"] for t, m, ok in r["targets"]]),
+        r.get("targets") and (
+            "<table><tr><th>target</th><th>measured</th><th>met</th></tr>" + "".join(
+                f"<tr><td>{_esc(t)}</td><td>{_esc(m)}</td><td>{'yes' if ok is True else 'NO'}"
+                "</td></tr>" for t, m, ok in r["targets"]) + "</table>"),
         r.get("details") and f"<pre>{_esc(r['details'])}</pre>",
         r.get("rows") and _table(r["rows"], r.get("notes") or {}),
         *(f"<img src='{_esc(p)}' style='max-width:48%;margin:4px'>"
@@ -229,8 +224,9 @@ def _render(doc: dict) -> str:
         name = (f"<a href='#{_esc(r['name'])}'>{_esc(r['name'])}</a>" if v != "SKIPPED"
                 else _esc(r["name"]))
         secs = "-" if r["seconds"] is None else f"{r['seconds']:.1f}"
-        rows.append([r["tier"], r["kind"], name, _esc(crit), _esc(meas),
-                     (f" style='color:{colour[v]};font-weight:bold'", v), secs])
+        rows.append(f"<tr><td>{r['tier']}</td><td>{r['kind']}</td><td>{name}</td>"
+                    f"<td>{_esc(crit)}</td><td>{_esc(meas)}</td><td style='color:{colour[v]};"
+                    f"font-weight:bold'>{v}</td><td>{secs}</td></tr>")
     state = ""
     if not doc["complete"]:
         state = (f"<p style='color:#9a6700;font-weight:bold'>INCOMPLETE ({doc['status']}): "
@@ -258,8 +254,8 @@ def _render(doc: dict) -> str:
             + f".{note}{sizes}{kept_note} Run started "
             f"{doc['started']}, {doc['seconds']:.0f} s{'' if doc['complete'] else ' so far'}, on "
             f"{_esc(doc['machine'])}.</p>"
-            + _html_table(("tier", "kind", "name", "criterion / target", "measured", "verdict",
-                           "s"), rows)
+            f"<table><tr><th>tier</th><th>kind</th><th>name</th><th>criterion / target</th>"
+            f"<th>measured</th><th>verdict</th><th>s</th></tr>{''.join(rows)}</table>"
             + "\n<hr>\n".join(_section(r) for r in ran) + "</body></html>")
 
 
