@@ -16,6 +16,7 @@ solver. Times at equal accuracy 1e-6 are interpolated log-log along each method'
 from __future__ import annotations
 
 import time
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -130,29 +131,20 @@ def work_precision(out: Path, quick: bool) -> BenchResult:
         prob = _Problem(**spec)
         ref = prob.solve(DEFAULT, 1e-12)
         cross = _error(prob, prob.solve("Radau", 1e-12), ref)
-        for mth in methods:                                  # warm up (numba, set-up)
-            for r in rtols:
-                prob.solve(mth, r)
-        times = {(m, r): [] for m in methods for r in rtols}
-        errs = {}
-        for _ in range(repeats):                             # interleaved repeats
-            for r in rtols:
-                for mth in methods:
-                    t0 = time.perf_counter()
-                    res = prob.solve(mth, r)
-                    times[(mth, r)].append(time.perf_counter() - t0)
-                    errs[(mth, r)] = _error(prob, res, ref)
+        jobs = {(mth, r): partial(prob.solve, mth, r) for r in rtols for mth in methods}
+        interleaved(jobs, 1)                                 # warm up (numba, set-up)
+        last = {}
+        times = interleaved(jobs, repeats, results=last)     # interleaved repeats
+        errs = {k: _error(prob, res, ref) for k, res in last.items()}
         at_target = {}
         for mth in methods:
             e = [errs[(mth, r)] for r in rtols]
             w = [float(np.median(times[(mth, r)])) for r in rtols]
-            w_min = [float(np.min(times[(mth, r)])) for r in rtols]
             at_target[mth] = time_at(e, w)
             style = "-o" if mth.startswith("IDA") else "--s"
             ax.loglog(e, w, style, ms=4, label=mth)
-            for r, ei, wi, wm in zip(rtols, e, w, w_min):
-                rows.append(dict(problem=pname, method=mth, rtol=r, error=ei, median_s=wi,
-                                 min_s=wm))
+            rows += [dict(problem=pname, method=mth, rtol=r, error=ei, median_s=wi,
+                          min_s=float(np.min(times[(mth, r)]))) for r, ei, wi in zip(rtols, e, w)]
         ax.axvline(TARGET_ERR, color="0.5", ls=":", lw=1)
         ax.set(xlabel="max error (taubar, gdot_p relative; f absolute) vs reference",
                ylabel=f"wall time per solve [s] (median of {repeats})")

@@ -58,6 +58,8 @@ COMBINATIONS = (("table8", "default"), ("table8", "mpm_3d"), ("mpm_3d", "default
 #: 4 ms
 REDUCED = dict(phi0=0.47, v0=0.5, t_end=0.004)
 RATIO_RANGE = (1.5, 2.5)
+#: a case's fitted front factors and fit qualities (null where a front cannot be fitted)
+FITS = ("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal", "r2_transverse")
 #: Dask workers of each sweep (the machine has 2 cores)
 WORKERS = 2
 
@@ -86,7 +88,7 @@ def _case_row(folder: Path, rules: str, layout: str) -> dict:
     row = {"rules": rules, "layout": layout, "phi0": s["phi0"], "v0_m_per_s": s["v0_m_per_s"],
            "jammed": bool(s["jammed"]), "t_jam_ms": _opt(s["t_jam_s"] and 1e3 * s["t_jam_s"]),
            "max_f_over_f_jam": _opt(s["max_f_over_f_jam"])}
-    for k in ("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal", "r2_transverse"):
+    for k in FITS:
         row[k] = _opt(s[k])
     reasons = {"t_jam_ms": "the bed did not jam", "max_f_over_f_jam": "no record",
                "k_l_over_k_t": why if None in (row["k_l"], row["k_t"]) else "k_t = 0"}
@@ -188,8 +190,7 @@ def fig7_verdict(out: Path, walls: dict | None = None) -> Verdict:
         df = write_csv(out, "fronts_all.csv",
                        [{k: (np.nan if v is None else v) for k, v in r.items()
                          if not k.endswith("_note")} for r in rows],
-                       ("k_l", "k_t", "k_l_over_k_t", "r2_longitudinal", "r2_transverse",
-                        "t_jam_ms", "max_f_over_f_jam"))
+                       FITS + ("t_jam_ms", "max_f_over_f_jam"))
         figs.append(_scatter(df, out / "intruder_fig7_all.png"))
         jam = df[df["jammed"]]["k_l_over_k_t"].dropna()
         if len(jam):
@@ -251,13 +252,9 @@ def _compare(out: Path, variants: dict, tol: float, title: str, png: str):
     rows = []
     for name, params in variants.items():
         s = run_summary(get_setup("intruder"), out / name, **params)
-        rows.append({"variant": name, "k_l": _num(s["k_l"]), "k_t": _num(s["k_t"]),
-                     "k_l_over_k_t": _num(s["k_l_over_k_t"]),
-                     "r2_longitudinal": _num(s["r2_longitudinal"]),
-                     "r2_transverse": _num(s["r2_transverse"]), "steps": s["steps"],
+        rows.append({"variant": name, **{k: _num(s[k]) for k in FITS}, "steps": s["steps"],
                      "points": s["points"], "wall_s": s["wall_s"]})
-    df = write_csv(out, "comparison.csv", rows, ("k_l", "k_t", "k_l_over_k_t",
-                                                  "r2_longitudinal", "r2_transverse"))
+    df = write_csv(out, "comparison.csv", rows, FITS)
     a, b = df.iloc[0], df.iloc[1]
     dl = abs(b["k_l"] - a["k_l"]) / abs(a["k_l"])
     dt = abs(b["k_t"] - a["k_t"]) / abs(a["k_t"])

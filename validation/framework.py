@@ -178,13 +178,16 @@ def timed(fn, repeats: int, clock=time.perf_counter):
     return float(np.median(times)), times, result
 
 
-def interleaved(jobs: dict, repeats: int, clock=time.perf_counter) -> dict[str, list[float]]:
+def interleaved(jobs: dict, repeats: int, clock=time.perf_counter,
+                results: dict | None = None) -> dict[str, list[float]]:
     """Each ``name: fn`` of ``jobs`` called once per repeat, the jobs interleaved so that machine
-    load hits all alike: name -> every time [s]."""
-    times = {k: [] for k in jobs}
+    load hits all alike: name -> every time [s]. ``results``, if given, receives name -> the
+    last call's result."""
+    times, results = {k: [] for k in jobs}, {} if results is None else results
     for _ in range(repeats):
         for k, fn in jobs.items():
-            times[k] += timed(fn, 1, clock)[1]
+            _, t, results[k] = timed(fn, 1, clock)
+            times[k] += t
     return times
 
 
