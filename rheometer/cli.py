@@ -37,22 +37,22 @@ import pandas as pd
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress
 from rheology.materials import set_argument, set_overrides
-from rheology.run_end import EndedEarly, run_record
+from rheology.run_end import EndedEarly
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
 from runkit import limits as physical
-from runkit.io import atomic_write_csv, atomic_write_json, check_input_file, check_output_path
+from runkit.io import atomic_write_csv, check_input_file, check_output_path
 from runkit.limits import ge, le
 from runkit.params import Param
 
 from . import instrument_cli, limits, plots
 from .checkpoint import ProgramCheckpoint
 from .fit_cli import add_subcommands
-from .instrument_cli import extra_outputs, finish_table, materials_note
+from .instrument_cli import extra_outputs, finish_table, materials_note, write_record
 from .limits import RATE_MAX, Quantity
 from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP, simple_shear_point
-from .options import (common_options, material_with, plot_path, sample_material,
-                      transient_options)
+from .options import (common_options, material_with, number_options, plot_path,
+                      sample_material, transient_options)
 from .plots import mark_ends, normalise_units
 from .program import hysteresis_program, parse_program
 from .protocols import at_phi, combined, creep, flow_curve, relax, startup
@@ -97,12 +97,10 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=_EPILOG)
     common_options(p, 3, "flow_curve")
     p.add_argument("--control", choices=("stress", "mixture-stress", "rate"), default="stress")
-    p.add_argument("--stress-range", type=Quantity("--stress-range", Param(
-                       physical.STRESS_MIN, physical.STRESS_MAX, unit="Pa")),
+    p.add_argument("--stress-range", type=Quantity("--stress-range", limits.POSITIVE_STRESS),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="stress range [Pa] (granular or mixture per --control; 1e-3 1e4)")
-    p.add_argument("--rate-range", type=Quantity("--rate-range", Param(
-                       physical.RATE_MIN, physical.RATE_MAX, unit="1/s")),
+    p.add_argument("--rate-range", type=Quantity("--rate-range", limits.POSITIVE_RATE),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="shear-rate range [1/s] for --control rate (1e-4 1e3)")
     p.add_argument("--points", type=Quantity("--points", limits.rows(2, "a curve joins two or "
@@ -153,29 +151,21 @@ def build_parser() -> argparse.ArgumentParser:
                               "pressure and lets phi evolve. Start from the steady state at "
                               "--stress0 or from rest under --pressure0.")
     common_options(p, 1, "material_point")
-    p.add_argument("--rate", type=Quantity("--rate", limits.RATE), default=0.5,
-                   help="shear rate [1/s] (0.5)")
-    p.add_argument("--t-end", type=Quantity("--t-end", limits.DURATION), default=10.0,
-                   help="duration [s] (10)")
-    p.add_argument("--dt", type=Quantity("--dt", limits.DURATION),
-                   default=1e-3, help="largest time step [s] (1e-3; sub-stepped where the rate "
-                                      "needs it)")
+    number_options(p, ("--rate", limits.RATE, 0.5, "shear rate [1/s] (0.5)"),
+                   ("--t-end", limits.DURATION, 10.0, "duration [s] (10)"),
+                   ("--dt", limits.DURATION, 1e-3, "largest time step [s] (1e-3; sub-stepped "
+                                                   "where the rate needs it)"))
     p.add_argument("--control", choices=("volume", "pressure"), default="volume")
-    p.add_argument("--pressure", type=Quantity("--pressure", limits.POSITIVE_STRESS), default=None,
-                   help="imposed granular pressure [Pa] (pressure control)")
-    p.add_argument("--stress0", type=Quantity("--stress0", limits.POSITIVE_STRESS), default=None,
-                   help="start from the steady state at this granular shear stress [Pa]")
-    p.add_argument("--pressure0", type=Quantity("--pressure0", limits.STRESS),
-                   default=None, help="contact pressure at rest [Pa] (default 1e-3 tau*; 0: "
-                                      "stress free)")
-    p.add_argument("--f0", type=Quantity("--f0", limits.STRUCTURE), default=None,
-                   help="initial structure f")
-    p.add_argument("--G", type=Quantity("--G", limits.MODULUS), default=None,
-                   help="shear modulus [Pa] (default 1e4)")
-    p.add_argument("--K", type=Quantity("--K", limits.MODULUS), default=None,
-                   help="bulk modulus [Pa] (default 2.18 G)")
-    p.add_argument("--K0", type=Quantity("--K0", limits.K0), default=None,
-                   help="structure-rate scale (default 1)")
+    number_options(p, ("--pressure", limits.POSITIVE_STRESS, None,
+                       "imposed granular pressure [Pa] (pressure control)"),
+                   ("--stress0", limits.POSITIVE_STRESS, None,
+                    "start from the steady state at this granular shear stress [Pa]"),
+                   ("--pressure0", limits.STRESS, None,
+                    "contact pressure at rest [Pa] (default 1e-3 tau*; 0: stress free)"),
+                   ("--f0", limits.STRUCTURE, None, "initial structure f"),
+                   ("--G", limits.MODULUS, None, "shear modulus [Pa] (default 1e4)"),
+                   ("--K", limits.MODULUS, None, "bulk modulus [Pa] (default 2.18 G)"),
+                   ("--K0", limits.K0, None, "structure-rate scale (default 1)"))
     p.add_argument("--points", type=Quantity("--points", limits.rows(1, "the end state", le(
                        10 ** 7, "1e7 rows make a CSV of about 1 GB"))), default=400,
                    help="output rows (400)")
@@ -225,11 +215,8 @@ def _write(args, sample, df: pd.DataFrame, fig_maker, *, record: bool = False, m
         written.append(plots.save(fig, plot))
         msg += f" and {plot}"
     if record:
-        path = Path(args.out).with_suffix(".json")
-        atomic_write_json(path, run_record(ends, command=f"rheometer {args.cmd}",
-                                           csv=Path(args.out).name, rows=len(df)))
-        written.append(str(path))
-        msg += f" and {path}"
+        written.append(write_record(args, ends, len(df)))
+        msg += f" and {written[-1]}"
     ended = EndedEarly(ends, partial=df, written=written) if ends else None
     events = df.attrs.get("events") or []
     if events:

@@ -15,6 +15,7 @@ ones (solver tolerances, output rows), each with the reason for its number.
   :class:`Start`).
 """
 
+import dataclasses
 import math
 
 from runkit import limits as physical
@@ -31,6 +32,7 @@ FREQUENCY_MIN = physical.FREQUENCY_MIN.value
 RATE = Param(physical.RATE_MIN, physical.RATE_MAX, unit="1/s", also=(0.0,))
 STRESS = Param(physical.STRESS_MIN, physical.STRESS_MAX, unit="Pa", also=(0.0,))
 POSITIVE_STRESS = Param(physical.STRESS_MIN, physical.STRESS_MAX, unit="Pa")
+POSITIVE_RATE = Param(physical.RATE_MIN, physical.RATE_MAX, unit="1/s")
 MODULUS = Param(physical.MODULUS_MIN, physical.MODULUS_MAX, unit="Pa")
 K0 = Param(ge(0.0, "K0 = 0: a structure that does not evolve"), le(K0_MAX, (
     "f evolves over a plastic strain 1/K0 (Eq. 5); contacts form and break over a grain "
@@ -112,12 +114,21 @@ class Quantity(Option):
             return super().check(value)
         except OutOfRange:
             raise
-        except ValueError as exc:
-            q = self.quantity
-            whys = [b.why for b in (q.lo, q.hi) if b is not None and b.why and not callable(b.why)]
-            why = "; ".join(dict.fromkeys(whys))
-            rng = self.param.range_text(static=True) + "".join(
-                f", or {a:g}" for a in self.param.also)
-            text = str(exc).replace(rng, self.shown or q.range_text(static=True) + "".join(
-                f", or {a:g}" for a in q.also))
-            raise ValueError(text + (f" ({why})" if why and why not in text else "")) from None
+        except ValueError as refused:    # no finite number: Param.check's refusal of the
+            q = self.quantity            # quantity (its range, its bounds' reasons), our range
+            static = dataclasses.replace(q, lo=_static(q.lo, -math.inf),
+                                         hi=_static(q.hi, math.inf))
+            try:
+                static.check(self.name, value, static=True)
+            except ValueError as exc:
+                raise ValueError(str(exc).replace(static.range_text(static=True),
+                                                  self.range_text, 1)) from None
+            raise refused from None
+
+
+def _static(bound, edge: float):
+    """A derived bound as a static one at ``edge`` (+-inf) keeping its reason (a refusal of a
+    value that is no number states it); None where the reason is derived too."""
+    if bound is None or not bound.derived:
+        return bound
+    return None if callable(bound.why) else physical.Bound(edge, bound.closed, bound.why)
