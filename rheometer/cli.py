@@ -107,17 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
                                                                 "more values")), default=200,
                    help="values, log-spaced (200)")
 
-    # the imposed value is read here and checked once, by the run's Step (its static range)
-    # and Rheometer.run (the liquid's rate limit), or by _check_relax_stress
-    transients = (
-        ("startup", "start-up of shear at an imposed rate, from rest", 60.0,
-         ("--rate", 0.5, "imposed shear rate [1/s] (0.5)", limits.RATE)),
-        ("creep", "creep at an imposed mixture shear stress, from rest", 60.0,
-         ("--stress", 10.0, "imposed MIXTURE shear stress [Pa], > 0 (10)", limits.STRESS)),
-        ("relax", "stress relaxation after cessation of steady shear (Fig. 15)", 50.0,
-         ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
-                              "[Pa] (1000)", limits.STRESS)))
-    for name, text, t_end, (flag, value, flag_help, quantity) in transients:
+    for name, (text, t_end, (flag, value, flag_help, quantity), _, _) in _TRANSIENTS.items():
         p = sub.add_parser(name, help=text, epilog=_EPILOG)
         common_options(p, 1, name)
         p.add_argument(flag, type=Quantity(flag, quantity, later=True), default=value,
@@ -332,22 +322,36 @@ def _check_relax_stress(args, m) -> None:
         unit="Pa").check("--stress", args.stress)
 
 
-def _transient(args, kind: str) -> str:
+#: the transients: help, default --t-end, the imposed value's option (flag, default, help,
+#: quantity: read by the parser, checked once by the run's Step and Rheometer.run, the liquid's
+#: rate limit, or by _check_relax_stress), the protocol and the figure's words
+_TRANSIENTS = {
+    "startup": ("start-up of shear at an imposed rate, from rest", 60.0,
+                ("--rate", 0.5, "imposed shear rate [1/s] (0.5)", limits.RATE), startup,
+                "start-up at {:g} 1/s"),
+    "creep": ("creep at an imposed mixture shear stress, from rest", 60.0,
+              ("--stress", 10.0, "imposed MIXTURE shear stress [Pa], > 0 (10)", limits.STRESS),
+              creep, "creep at mixture stress {:g} Pa"),
+    "relax": ("stress relaxation after cessation of steady shear (Fig. 15)", 50.0,
+              ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
+                                   "[Pa] (1000)", limits.STRESS), relax,
+              "relaxation from steady granular stress {:g} Pa")}
+
+
+def _transient(args) -> str:
     plot_path(args)
     sample = sample_material(args)
     m = sample.material
+    _, _, (flag, *_), run, what = _TRANSIENTS[args.cmd]
     opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True)
-    flag = "--rate" if kind == "startup" else "--stress"
     value = getattr(args, flag[2:])
-    if kind == "relax":
+    if args.cmd == "relax":
         _check_relax_stress(args, m)
     else:
         opts["name"] = flag
-    run = {"startup": startup, "creep": creep, "relax": relax}[kind]
     df = _per_phi(sample, lambda ph: run(m, ph, value, args.t_end, **opts))
-    what = {"startup": f"start-up at {value:g} 1/s", "creep": f"creep at mixture stress "
-            f"{value:g} Pa", "relax": f"relaxation from steady granular stress {value:g} Pa"}[kind]
-    title = f"{m.name}: {what} (G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})"
+    title = (f"{m.name}: {what.format(value)} (G = {df.attrs['G_Pa']:g} Pa, K0 = "
+             f"{df.attrs['K0']:g})")
     frames = {f"phi = {ph:g}": d for ph, d in df.groupby("phi", sort=False)}
     return _write(args, sample, df, lambda: plots.transient_figure(frames, title, log_time=True),
                   record=True)
@@ -464,8 +468,7 @@ def _check_update_count(rate: float, t_end: float, dt: float) -> None:
 
 
 _COMMANDS = {"materials": _cmd_materials, "flow-curve": _cmd_flow_curve,
-             "startup": lambda a: _transient(a, "startup"),
-             "creep": lambda a: _transient(a, "creep"), "relax": lambda a: _transient(a, "relax"),
+             **dict.fromkeys(_TRANSIENTS, _transient),
              "program": _cmd_program, "material-point": _cmd_material_point}
 
 

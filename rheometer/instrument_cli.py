@@ -66,9 +66,7 @@ def _plate_columns(df: pd.DataFrame, m, g: geo.Geometry) -> pd.DataFrame:
     """Parallel-plate instrument columns of a flow curve: rows on the rising branch get the
     torque of the radial integral; rows past the fold (no steady state over the whole plate
     under rate control) are left empty."""
-    out = df.copy()
-    for c in geo.INSTRUMENT_COLUMNS:
-        out[c] = np.nan
+    out = df.assign(**dict.fromkeys(geo.INSTRUMENT_COLUMNS, np.nan))
     for ph, idx in out.groupby("phi").groups.items():
         pp = geo.parallel_plate_flow_curve(m, float(ph), g)
         tau_fold = pp["granular_shear_stress_Pa"].max()
@@ -80,13 +78,7 @@ def _plate_columns(df: pd.DataFrame, m, g: geo.Geometry) -> pd.DataFrame:
         r = rows.loc[on, "shear_rate_per_s"].to_numpy()
         M = np.exp(np.interp(np.log(r), np.log(pp["rim_shear_rate_per_s"]),
                              np.log(pp["torque_N_m"])))
-        W = g.rotation_speed(r)
-        s_a, g_a = g.apparent(M, W)
-        sel = on[on].index
-        out.loc[sel, "torque_N_m"] = M
-        out.loc[sel, "rotation_speed_rad_per_s"] = W
-        out.loc[sel, "apparent_shear_stress_Pa"] = s_a
-        out.loc[sel, "apparent_shear_rate_per_s"] = g_a
+        out.loc[on[on].index, list(geo.INSTRUMENT_COLUMNS)] = g.readings(r, M)
     out.attrs.update(df.attrs)
     return out
 

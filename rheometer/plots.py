@@ -230,7 +230,8 @@ def material_point_figure(df: pd.DataFrame, title: str):
             if "phi0" in df.columns else [("", df)])
     ax_phi = axs[2].twinx()
     _time_panels([*axs, ax_phi], runs, (
-        (("shear_stress_Pa", "-", 2, "sigma_xy"), ("granular_pressure_Pa", "--", 1.5, "pressure p")),
+        (("shear_stress_Pa", "-", 2, "sigma_xy"),
+         ("granular_pressure_Pa", "--", 1.5, "pressure p")),
         (("N1_Pa", "-", 1.5, "N1 = s_xx - s_yy"), ("N2_Pa", "--", 1.5, "N2 = s_yy - s_zz")),
         (("f", "-", 2, "f"),), (("phi", ":", 1.5, "phi (right axis)"),)))
     axs[0].set_ylabel("granular stress [Pa]")
@@ -438,19 +439,17 @@ def parallel_plate_figure(df: pd.DataFrame, true_curve: pd.DataFrame | None, tit
             t = true_curve[true_curve["phi"] == ph].sort_values("granular_shear_stress_Pa")
             ax1.loglog(_positive(t["shear_rate_per_s"]), t["shear_stress_Pa"], "-", color="0.6",
                        lw=1, label=f"phi = {ph:g}: whole steady curve")
-        ax1.loglog(d["rim_shear_rate_per_s"], d["shear_stress_Pa"], "-", color=c, lw=2.5,
+        x, step = d["rim_shear_rate_per_s"], max(1, len(d) // 40)
+        ax1.loglog(x, d["shear_stress_Pa"], "-", color=c, lw=2.5,
                    label=f"phi = {ph:g}: true (rim)")
-        ax1.loglog(d["rim_shear_rate_per_s"], d["apparent_shear_stress_Pa"], "--", color=c, lw=1.5,
+        ax1.loglog(x, d["apparent_shear_stress_Pa"], "--", color=c, lw=1.5,
                    label=f"phi = {ph:g}: apparent 2M/(pi R^3)")
-        step = max(1, len(d) // 40)
-        ax1.loglog(d["rim_shear_rate_per_s"].iloc[::step],
-                   _positive(d["corrected_shear_stress_Pa"].iloc[::step]), "o", color=c, ms=3.5,
-                   mfc="none", label=f"phi = {ph:g}: Weissenberg-Rabinowitsch")
-        x = d["rim_shear_rate_per_s"]
-        ax2.semilogx(x, d["apparent_shear_stress_Pa"] / d["shear_stress_Pa"] - 1, "--", color=c,
-                     lw=1.5, label=f"phi = {ph:g}: apparent/true - 1")
-        ax2.semilogx(x, d["corrected_shear_stress_Pa"] / d["shear_stress_Pa"] - 1, "-", color=c,
-                     lw=1, label=f"phi = {ph:g}: corrected/true - 1")
+        ax1.loglog(x.iloc[::step], _positive(d["corrected_shear_stress_Pa"].iloc[::step]), "o",
+                   color=c, ms=3.5, mfc="none", label=f"phi = {ph:g}: Weissenberg-Rabinowitsch")
+        for col, ls, lw, what in (("apparent_shear_stress_Pa", "--", 1.5, "apparent"),
+                                  ("corrected_shear_stress_Pa", "-", 1, "corrected")):
+            ax2.semilogx(x, d[col] / d["shear_stress_Pa"] - 1, ls, color=c, lw=lw,
+                         label=f"phi = {ph:g}: {what}/true - 1")
     ax1.set(xlabel="rim shear rate [1/s]", ylabel="shear stress [Pa]")
     ax1.set_title("parallel plate: true, apparent, corrected", fontsize=10)
     ax2.set(xlabel="rim shear rate [1/s]", ylabel="relative difference [-]")
