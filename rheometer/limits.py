@@ -102,7 +102,8 @@ class Quantity(Option):
     WHY)``)."""
 
     def __init__(self, name: str, param: Param, shown: str = "", later: bool = False):
-        super().__init__(name, Param(unit=param.unit, kind=param.kind) if later else param)
+        super().__init__(name, dataclasses.replace(param, lo=_parsed(param.lo, -math.inf, later),
+                                                   hi=_parsed(param.hi, math.inf, later)))
         self.quantity, self.shown = param, shown
 
     @property
@@ -114,21 +115,15 @@ class Quantity(Option):
             return super().check(value)
         except OutOfRange:
             raise
-        except ValueError as refused:    # no finite number: Param.check's refusal of the
-            q = self.quantity            # quantity (its range, its bounds' reasons), our range
-            static = dataclasses.replace(q, lo=_static(q.lo, -math.inf),
-                                         hi=_static(q.hi, math.inf))
-            try:
-                static.check(self.name, value, static=True)
-            except ValueError as exc:
-                raise ValueError(str(exc).replace(static.range_text(static=True),
-                                                  self.range_text, 1)) from None
-            raise refused from None
+        except ValueError as exc:        # Param.check's refusal (the bounds' reasons): our range
+            raise ValueError(str(exc).replace(self.param.range_text(static=True),
+                                              self.range_text, 1)) from None
 
 
-def _static(bound, edge: float):
-    """A derived bound as a static one at ``edge`` (+-inf) keeping its reason (a refusal of a
-    value that is no number states it); None where the reason is derived too."""
-    if bound is None or not bound.derived:
+def _parsed(bound, edge: float, later: bool):
+    """A bound as the parse checks it: a derived one (or any, ``later``) at ``edge`` (+-inf),
+    with its reason (stated with the refusal of a value that is no number), or None where the
+    reason is derived too."""
+    if bound is None or not (later or bound.derived):
         return bound
     return None if callable(bound.why) else physical.Bound(edge, bound.closed, bound.why)

@@ -416,19 +416,15 @@ class Rheometer:
                 Param(own.lo, liquid, unit="Pa", also=own.also).check(
                     step.value_name, max(abs(step.start), abs(step.end)))
         self._points = points
-        stats = RunStats()
-        pieces: list[_Piece] = []
-        first = 0
+        stats, pieces, first = RunStats(), [], 0
+        st = state or self.rest()
         if resume is not None:
             st, first = resume.state, int(resume.next_step)
             if not 0 < first <= len(steps):
                 raise ValueError(f"resume: next step {first + 1} is not a step of this "
                                  f"{len(steps)}-step test")
             pieces = resume.pieces()
-            stats.events = list(resume.events)
-            stats.solves, stats.nfev, stats.njev = resume.solves, resume.nfev, resume.njev
-        else:
-            st = state or self.rest()
+            stats = RunStats(resume.solves, resume.nfev, resume.njev, events=list(resume.events))
         if not (np.isfinite(st.gap) and np.isfinite(st.taubar) and np.isfinite(st.strain)):
             raise ValueError(f"initial state {st} must be finite")
         t0 = time.perf_counter()
