@@ -37,22 +37,22 @@ import pandas as pd
 import rheology
 from rheology.elastic import ELASTIC_STRAIN_LIMIT, elastic_strain_limit_stress
 from rheology.materials import set_argument, set_overrides
-from rheology.run_end import EndedEarly, run_record
+from rheology.run_end import EndedEarly
 from runkit.command import OneLineParser
 from runkit.command import run as run_command
 from runkit import limits as physical
-from runkit.io import atomic_write_csv, atomic_write_json, check_input_file, check_output_path
+from runkit.io import atomic_write_csv, check_input_file, check_output_path
 from runkit.limits import ge, le
 from runkit.params import Param
 
 from . import instrument_cli, limits, plots
 from .checkpoint import ProgramCheckpoint
 from .fit_cli import add_subcommands
-from .instrument_cli import extra_outputs, finish_table, materials_note
+from .instrument_cli import extra_outputs, finish_table, materials_note, write_record
 from .limits import RATE_MAX, Quantity
 from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP, simple_shear_point
-from .options import (common_options, material_with, plot_path, sample_material,
-                      transient_options)
+from .options import (common_options, material_with, number_options, plot_path,
+                      sample_material, transient_options)
 from .plots import mark_ends, normalise_units
 from .program import hysteresis_program, parse_program
 from .protocols import at_phi, combined, creep, flow_curve, relax, startup
@@ -97,29 +97,17 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=_EPILOG)
     common_options(p, 3, "flow_curve")
     p.add_argument("--control", choices=("stress", "mixture-stress", "rate"), default="stress")
-    p.add_argument("--stress-range", type=Quantity("--stress-range", Param(
-                       physical.STRESS_MIN, physical.STRESS_MAX, unit="Pa")),
+    p.add_argument("--stress-range", type=Quantity("--stress-range", limits.POSITIVE_STRESS),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="stress range [Pa] (granular or mixture per --control; 1e-3 1e4)")
-    p.add_argument("--rate-range", type=Quantity("--rate-range", Param(
-                       physical.RATE_MIN, physical.RATE_MAX, unit="1/s")),
+    p.add_argument("--rate-range", type=Quantity("--rate-range", limits.POSITIVE_RATE),
                    nargs=2, default=None, metavar=("LO", "HI"),
                    help="shear-rate range [1/s] for --control rate (1e-4 1e3)")
     p.add_argument("--points", type=Quantity("--points", limits.rows(2, "a curve joins two or "
                                                                 "more values")), default=200,
                    help="values, log-spaced (200)")
 
-    # the imposed value is read here and checked once, by the run's Step (its static range)
-    # and Rheometer.run (the liquid's rate limit), or by _check_relax_stress
-    transients = (
-        ("startup", "start-up of shear at an imposed rate, from rest", 60.0,
-         ("--rate", 0.5, "imposed shear rate [1/s] (0.5)", limits.RATE)),
-        ("creep", "creep at an imposed mixture shear stress, from rest", 60.0,
-         ("--stress", 10.0, "imposed MIXTURE shear stress [Pa], > 0 (10)", limits.STRESS)),
-        ("relax", "stress relaxation after cessation of steady shear (Fig. 15)", 50.0,
-         ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
-                              "[Pa] (1000)", limits.STRESS)))
-    for name, text, t_end, (flag, value, flag_help, quantity) in transients:
+    for name, (text, t_end, (flag, value, flag_help, quantity), _, _) in _TRANSIENTS.items():
         p = sub.add_parser(name, help=text, epilog=_EPILOG)
         common_options(p, 1, name)
         p.add_argument(flag, type=Quantity(flag, quantity, later=True), default=value,
@@ -153,29 +141,21 @@ def build_parser() -> argparse.ArgumentParser:
                               "pressure and lets phi evolve. Start from the steady state at "
                               "--stress0 or from rest under --pressure0.")
     common_options(p, 1, "material_point")
-    p.add_argument("--rate", type=Quantity("--rate", limits.RATE), default=0.5,
-                   help="shear rate [1/s] (0.5)")
-    p.add_argument("--t-end", type=Quantity("--t-end", limits.DURATION), default=10.0,
-                   help="duration [s] (10)")
-    p.add_argument("--dt", type=Quantity("--dt", limits.DURATION),
-                   default=1e-3, help="largest time step [s] (1e-3; sub-stepped where the rate "
-                                      "needs it)")
+    number_options(p, ("--rate", limits.RATE, 0.5, "shear rate [1/s] (0.5)"),
+                   ("--t-end", limits.DURATION, 10.0, "duration [s] (10)"),
+                   ("--dt", limits.DURATION, 1e-3, "largest time step [s] (1e-3; sub-stepped "
+                                                   "where the rate needs it)"))
     p.add_argument("--control", choices=("volume", "pressure"), default="volume")
-    p.add_argument("--pressure", type=Quantity("--pressure", limits.POSITIVE_STRESS), default=None,
-                   help="imposed granular pressure [Pa] (pressure control)")
-    p.add_argument("--stress0", type=Quantity("--stress0", limits.POSITIVE_STRESS), default=None,
-                   help="start from the steady state at this granular shear stress [Pa]")
-    p.add_argument("--pressure0", type=Quantity("--pressure0", limits.STRESS),
-                   default=None, help="contact pressure at rest [Pa] (default 1e-3 tau*; 0: "
-                                      "stress free)")
-    p.add_argument("--f0", type=Quantity("--f0", limits.STRUCTURE), default=None,
-                   help="initial structure f")
-    p.add_argument("--G", type=Quantity("--G", limits.MODULUS), default=None,
-                   help="shear modulus [Pa] (default 1e4)")
-    p.add_argument("--K", type=Quantity("--K", limits.MODULUS), default=None,
-                   help="bulk modulus [Pa] (default 2.18 G)")
-    p.add_argument("--K0", type=Quantity("--K0", limits.K0), default=None,
-                   help="structure-rate scale (default 1)")
+    number_options(p, ("--pressure", limits.POSITIVE_STRESS, None,
+                       "imposed granular pressure [Pa] (pressure control)"),
+                   ("--stress0", limits.POSITIVE_STRESS, None,
+                    "start from the steady state at this granular shear stress [Pa]"),
+                   ("--pressure0", limits.STRESS, None,
+                    "contact pressure at rest [Pa] (default 1e-3 tau*; 0: stress free)"),
+                   ("--f0", limits.STRUCTURE, None, "initial structure f"),
+                   ("--G", limits.MODULUS, None, "shear modulus [Pa] (default 1e4)"),
+                   ("--K", limits.MODULUS, None, "bulk modulus [Pa] (default 2.18 G)"),
+                   ("--K0", limits.K0, None, "structure-rate scale (default 1)"))
     p.add_argument("--points", type=Quantity("--points", limits.rows(1, "the end state", le(
                        10 ** 7, "1e7 rows make a CSV of about 1 GB"))), default=400,
                    help="output rows (400)")
@@ -225,11 +205,8 @@ def _write(args, sample, df: pd.DataFrame, fig_maker, *, record: bool = False, m
         written.append(plots.save(fig, plot))
         msg += f" and {plot}"
     if record:
-        path = Path(args.out).with_suffix(".json")
-        atomic_write_json(path, run_record(ends, command=f"rheometer {args.cmd}",
-                                           csv=Path(args.out).name, rows=len(df)))
-        written.append(str(path))
-        msg += f" and {path}"
+        written.append(write_record(args, ends, len(df)))
+        msg += f" and {written[-1]}"
     ended = EndedEarly(ends, partial=df, written=written) if ends else None
     events = df.attrs.get("events") or []
     if events:
@@ -345,22 +322,36 @@ def _check_relax_stress(args, m) -> None:
         unit="Pa").check("--stress", args.stress)
 
 
-def _transient(args, kind: str) -> str:
+#: the transients: help, default --t-end, the imposed value's option (flag, default, help,
+#: quantity: read by the parser, checked once by the run's Step and Rheometer.run, the liquid's
+#: rate limit, or by _check_relax_stress), the protocol and the figure's words
+_TRANSIENTS = {
+    "startup": ("start-up of shear at an imposed rate, from rest", 60.0,
+                ("--rate", 0.5, "imposed shear rate [1/s] (0.5)", limits.RATE), startup,
+                "start-up at {:g} 1/s"),
+    "creep": ("creep at an imposed mixture shear stress, from rest", 60.0,
+              ("--stress", 10.0, "imposed MIXTURE shear stress [Pa], > 0 (10)", limits.STRESS),
+              creep, "creep at mixture stress {:g} Pa"),
+    "relax": ("stress relaxation after cessation of steady shear (Fig. 15)", 50.0,
+              ("--stress", 1000.0, "GRANULAR shear stress of the steady state before cessation "
+                                   "[Pa] (1000)", limits.STRESS), relax,
+              "relaxation from steady granular stress {:g} Pa")}
+
+
+def _transient(args) -> str:
     plot_path(args)
     sample = sample_material(args)
     m = sample.material
+    _, _, (flag, *_), run, what = _TRANSIENTS[args.cmd]
     opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True)
-    flag = "--rate" if kind == "startup" else "--stress"
     value = getattr(args, flag[2:])
-    if kind == "relax":
+    if args.cmd == "relax":
         _check_relax_stress(args, m)
     else:
         opts["name"] = flag
-    run = {"startup": startup, "creep": creep, "relax": relax}[kind]
     df = _per_phi(sample, lambda ph: run(m, ph, value, args.t_end, **opts))
-    what = {"startup": f"start-up at {value:g} 1/s", "creep": f"creep at mixture stress "
-            f"{value:g} Pa", "relax": f"relaxation from steady granular stress {value:g} Pa"}[kind]
-    title = f"{m.name}: {what} (G = {df.attrs['G_Pa']:g} Pa, K0 = {df.attrs['K0']:g})"
+    title = (f"{m.name}: {what.format(value)} (G = {df.attrs['G_Pa']:g} Pa, K0 = "
+             f"{df.attrs['K0']:g})")
     frames = {f"phi = {ph:g}": d for ph, d in df.groupby("phi", sort=False)}
     return _write(args, sample, df, lambda: plots.transient_figure(frames, title, log_time=True),
                   record=True)
@@ -477,8 +468,7 @@ def _check_update_count(rate: float, t_end: float, dt: float) -> None:
 
 
 _COMMANDS = {"materials": _cmd_materials, "flow-curve": _cmd_flow_curve,
-             "startup": lambda a: _transient(a, "startup"),
-             "creep": lambda a: _transient(a, "creep"), "relax": lambda a: _transient(a, "relax"),
+             **dict.fromkeys(_TRANSIENTS, _transient),
              "program": _cmd_program, "material-point": _cmd_material_point}
 
 

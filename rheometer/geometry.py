@@ -164,6 +164,13 @@ class Geometry:
         """Rotation speed [rad/s] for the (rim or bob) shear rate ``rate`` [1/s]."""
         return np.asarray(rate, dtype=float) / self.rate_factor()
 
+    def readings(self, rate, torque) -> np.ndarray:
+        """The :data:`INSTRUMENT_COLUMNS` (torque [N m], rotation speed [rad/s], the displayed
+        stress [Pa] and rate [1/s]) of ``torque`` at the (rim or bob) shear rate ``rate``
+        [1/s]; shape (n, 4)."""
+        W = self.rotation_speed(rate)
+        return np.column_stack([torque, W, *self.apparent(torque, W)])
+
     def apparent(self, torque, speed) -> tuple[np.ndarray, np.ndarray]:
         """(stress [Pa], rate [1/s]) the instrument displays for ``torque`` [N m] and ``speed``
         [rad/s] by the standard conversions."""
@@ -177,11 +184,8 @@ def instrument_columns(df: pd.DataFrame, geometry: Geometry, *, stress="shear_st
     waveforms, flow curves in cone-plate or couette): torque and speed from the sample's stress
     and rate, then the displayed values from torque and speed. Returns a new DataFrame."""
     out = df.copy()
-    M = geometry.torque(out[stress].to_numpy())
-    W = geometry.rotation_speed(out[rate].to_numpy())
-    s_a, g_a = geometry.apparent(M, W)
-    out["torque_N_m"], out["rotation_speed_rad_per_s"] = M, W
-    out["apparent_shear_stress_Pa"], out["apparent_shear_rate_per_s"] = s_a, g_a
+    out[list(INSTRUMENT_COLUMNS)] = geometry.readings(out[rate].to_numpy(),
+                                                      geometry.torque(out[stress].to_numpy()))
     out.attrs.update(df.attrs)
     out.attrs["geometry"] = geometry.describe()
     return out

@@ -28,7 +28,8 @@ from . import geometry as geo
 from . import limits, plots
 from . import oscillation as osc
 from .limits import Quantity
-from .options import common_options, plot_path, sample_material, skeleton_options
+from .options import (common_options, number_options, plot_path, sample_material,
+                      skeleton_options)
 
 
 def _phi_column(df: pd.DataFrame) -> str | None:
@@ -65,9 +66,7 @@ def _plate_columns(df: pd.DataFrame, m, g: geo.Geometry) -> pd.DataFrame:
     """Parallel-plate instrument columns of a flow curve: rows on the rising branch get the
     torque of the radial integral; rows past the fold (no steady state over the whole plate
     under rate control) are left empty."""
-    out = df.copy()
-    for c in geo.INSTRUMENT_COLUMNS:
-        out[c] = np.nan
+    out = df.assign(**dict.fromkeys(geo.INSTRUMENT_COLUMNS, np.nan))
     for ph, idx in out.groupby("phi").groups.items():
         pp = geo.parallel_plate_flow_curve(m, float(ph), g)
         tau_fold = pp["granular_shear_stress_Pa"].max()
@@ -79,13 +78,7 @@ def _plate_columns(df: pd.DataFrame, m, g: geo.Geometry) -> pd.DataFrame:
         r = rows.loc[on, "shear_rate_per_s"].to_numpy()
         M = np.exp(np.interp(np.log(r), np.log(pp["rim_shear_rate_per_s"]),
                              np.log(pp["torque_N_m"])))
-        W = g.rotation_speed(r)
-        s_a, g_a = g.apparent(M, W)
-        sel = on[on].index
-        out.loc[sel, "torque_N_m"] = M
-        out.loc[sel, "rotation_speed_rad_per_s"] = W
-        out.loc[sel, "apparent_shear_stress_Pa"] = s_a
-        out.loc[sel, "apparent_shear_rate_per_s"] = g_a
+        out.loc[on[on].index, list(geo.INSTRUMENT_COLUMNS)] = g.readings(r, M)
     out.attrs.update(df.attrs)
     return out
 
@@ -113,6 +106,15 @@ def extra_outputs(args, sample, df: pd.DataFrame, plot=None) -> str:
                 plots.save(plots.parallel_plate_figure(pp, df, f"{m.name}: {g.describe()}"), png)
                 msg += f" and {png}"
     return msg
+
+
+def write_record(args, ends, rows: int, **extra) -> str:
+    """Write the run record ``<out>.json`` of a command (:func:`rheology.run_end.run_record`:
+    its status and ``ends``, the CSV and its ``rows``, ``extra`` counts); returns its path."""
+    path = Path(args.out).with_suffix(".json")
+    atomic_write_json(path, run_record(ends, command=f"rheometer {args.cmd}",
+                                       csv=Path(args.out).name, rows=rows, **extra))
+    return str(path)
 
 
 def materials_note() -> str:
@@ -157,23 +159,18 @@ def add_subcommands(sub) -> dict:
     p.add_argument("--frequency", type=Quantity("--frequency", limits.FREQUENCY, later=True),
                    nargs="+", default=[1.0], metavar="F",
                    help="frequency(ies) [Hz] (several: a frequency sweep; 1)")
-    p.add_argument("--cycles", type=Quantity("--cycles", limits.MAX_CYCLES, later=True),
-                   default=osc.DEFAULT_MAX_CYCLES,
-                   help=f"most cycles per point ({osc.DEFAULT_MAX_CYCLES}); a point not periodic "
-                        f"by then is flagged converged = False")
-    p.add_argument("--tol", type=Quantity("--tol", limits.TOL, later=True),
-                   default=osc.DEFAULT_TOL,
-                   help=f"periodic-state tolerance on the cycle-to-cycle change ("
-                        f"{osc.DEFAULT_TOL:g})")
-    p.add_argument("--samples", type=Quantity("--samples", limits.SAMPLES, later=True),
-                   default=osc.DEFAULT_SAMPLES,
-                   help=f"samples per cycle ({osc.DEFAULT_SAMPLES})")
+    number_options(p, ("--cycles", limits.MAX_CYCLES, osc.DEFAULT_MAX_CYCLES,
+                       f"most cycles per point ({osc.DEFAULT_MAX_CYCLES}); a point not periodic "
+                       f"by then is flagged converged = False"),
+                   ("--tol", limits.TOL, osc.DEFAULT_TOL, f"periodic-state tolerance on the "
+                    f"cycle-to-cycle change ({osc.DEFAULT_TOL:g})"),
+                   ("--samples", limits.SAMPLES, osc.DEFAULT_SAMPLES,
+                    f"samples per cycle ({osc.DEFAULT_SAMPLES})"), later=True)
     p.add_argument("--start", choices=("rest", "previous"), default="rest",
                    help="each point from rest (default), or from the previous point's state")
     skeleton_options(p)
-    p.add_argument("--rtol", type=Quantity("--rtol", limits.OSCILLATION_RTOL, later=True),
-                   default=osc.DEFAULT_RTOL,
-                   help=f"IDA relative tolerance ({osc.DEFAULT_RTOL:g})")
+    number_options(p, ("--rtol", limits.OSCILLATION_RTOL, osc.DEFAULT_RTOL,
+                       f"IDA relative tolerance ({osc.DEFAULT_RTOL:g})"), later=True)
     return {"oscillation": _cmd_oscillation}
 
 
@@ -188,7 +185,6 @@ def _cmd_oscillation(args) -> str:
     base = Path(args.out)
     waves_csv = base.with_name(base.stem + "_waveforms.csv")
     liss_png = base.with_name(base.stem + "_lissajous.png")
-    record = base.with_suffix(".json")
     check_output_path("--out", str(waves_csv), ["csv"])
     sample = sample_material(args)
     m = sample.material
@@ -243,12 +239,9 @@ def _cmd_oscillation(args) -> str:
                                           points=points, dst_stress=dst), liss_png)
         msg += f", {plot} and {liss_png}"
         written += [plot, str(liss_png)]
-    atomic_write_json(record, run_record(ends, command="rheometer oscillation",
-                                         csv=Path(args.out).name, rows=len(table),
-                                         failed_points=int(failed.sum()),
-                                         past_elastic_limit_points=len(past)))
-    written.append(str(record))
-    msg += f" and {record}"
+    written.append(write_record(args, ends, len(table), failed_points=int(failed.sum()),
+                                past_elastic_limit_points=len(past)))
+    msg += f" and {written[-1]}"
     ran = points[~failed]
     cyc = ran["cycles"].astype(int)
     msg += (f"\nperiodic steady state: cycle-to-cycle change < {args.tol:g} of |first "

@@ -15,6 +15,7 @@ ones (solver tolerances, output rows), each with the reason for its number.
   :class:`Start`).
 """
 
+import dataclasses
 import math
 
 from runkit import limits as physical
@@ -31,6 +32,7 @@ FREQUENCY_MIN = physical.FREQUENCY_MIN.value
 RATE = Param(physical.RATE_MIN, physical.RATE_MAX, unit="1/s", also=(0.0,))
 STRESS = Param(physical.STRESS_MIN, physical.STRESS_MAX, unit="Pa", also=(0.0,))
 POSITIVE_STRESS = Param(physical.STRESS_MIN, physical.STRESS_MAX, unit="Pa")
+POSITIVE_RATE = Param(physical.RATE_MIN, physical.RATE_MAX, unit="1/s")
 MODULUS = Param(physical.MODULUS_MIN, physical.MODULUS_MAX, unit="Pa")
 K0 = Param(ge(0.0, "K0 = 0: a structure that does not evolve"), le(K0_MAX, (
     "f evolves over a plastic strain 1/K0 (Eq. 5); contacts form and break over a grain "
@@ -100,7 +102,8 @@ class Quantity(Option):
     WHY)``)."""
 
     def __init__(self, name: str, param: Param, shown: str = "", later: bool = False):
-        super().__init__(name, Param(unit=param.unit, kind=param.kind) if later else param)
+        super().__init__(name, dataclasses.replace(param, lo=_parsed(param.lo, -math.inf, later),
+                                                   hi=_parsed(param.hi, math.inf, later)))
         self.quantity, self.shown = param, shown
 
     @property
@@ -112,12 +115,15 @@ class Quantity(Option):
             return super().check(value)
         except OutOfRange:
             raise
-        except ValueError as exc:
-            q = self.quantity
-            whys = [b.why for b in (q.lo, q.hi) if b is not None and b.why and not callable(b.why)]
-            why = "; ".join(dict.fromkeys(whys))
-            rng = self.param.range_text(static=True) + "".join(
-                f", or {a:g}" for a in self.param.also)
-            text = str(exc).replace(rng, self.shown or q.range_text(static=True) + "".join(
-                f", or {a:g}" for a in q.also))
-            raise ValueError(text + (f" ({why})" if why and why not in text else "")) from None
+        except ValueError as exc:        # Param.check's refusal (the bounds' reasons): our range
+            raise ValueError(str(exc).replace(self.param.range_text(static=True),
+                                              self.range_text, 1)) from None
+
+
+def _parsed(bound, edge: float, later: bool):
+    """A bound as the parse checks it: a derived one (or any, ``later``) at ``edge`` (+-inf),
+    with its reason (stated with the refusal of a value that is no number), or None where the
+    reason is derived too."""
+    if bound is None or not (later or bound.derived):
+        return bound
+    return None if callable(bound.why) else physical.Bound(edge, bound.closed, bound.why)

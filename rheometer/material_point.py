@@ -282,13 +282,14 @@ def initial_point(m: Material, phi: float, *, stress0=None, f0=None, pressure0=N
     rest under isotropic contact pressure ``pressure0`` >= 0 [Pa] (default 1e-3 tau*; 0: stress
     free) with f0 (0)."""
     sig = np.zeros((3, 3))
+    f = None if f0 is None else float(check_range("f0", f0, 0.0, 1.0))
     if stress0 is not None:
         st = rheology.steady_state_stress(float(check_positive("stress0 [Pa]", stress0)), phi, m)
-        f = float(st.f) if f0 is None else float(check_range("f0", f0, 0.0, 1.0))
+        f = float(st.f) if f is None else f
         p = float(st.pressure)
         sig[0, 1] = sig[1, 0] = float(stress0)
     else:
-        f = 0.0 if f0 is None else float(check_range("f0", f0, 0.0, 1.0))
+        f = 0.0 if f is None else f
         p = float(check_nonnegative("pressure0 [Pa]", pressure0 if pressure0 is not None
                                     else 1e-3 * m.tau_star))
     sig[0, 0] = sig[1, 1] = sig[2, 2] = -p

@@ -251,23 +251,27 @@ def common_options(p, phi_count, out_default):
     add_instrument_options(p)      # --geometry and dimensions, --mass-fraction
 
 
+def number_options(p, *options, later: bool = False) -> None:
+    """Options of numbers, ``(flag, quantity, default, help)`` each: ``type=`` the
+    :class:`~rheometer.limits.Quantity` of the flag (``later``: read here, checked once by the
+    library function, named as the option)."""
+    for flag, quantity, default, text in options:
+        p.add_argument(flag, type=Quantity(flag, quantity, later=later), default=default,
+                       help=text)
+
+
 def skeleton_options(p) -> None:
     """``--G`` and ``--K0`` (default: the material's, else 1e4 Pa and 1)."""
-    p.add_argument("--G", type=Quantity("--G", limits.MODULUS), default=None,
-                   help="granular shear modulus [Pa]")
-    p.add_argument("--K0", type=Quantity("--K0", limits.K0), default=None,
-                   help="structure-rate scale K0 [-]")
+    number_options(p, ("--G", limits.MODULUS, None, "granular shear modulus [Pa]"),
+                   ("--K0", limits.K0, None, "structure-rate scale K0 [-]"))
 
 
 def transient_options(p, t_end=None):
     skeleton_options(p)
     if t_end is not None:
-        p.add_argument("--t-end", type=Quantity("--t-end", limits.DURATION), default=t_end,
-                       help=f"duration [s] (default {t_end:g})")
-    p.add_argument("--rtol", type=Quantity("--rtol", limits.RTOL), default=1e-7,
-                   help="IDA relative tolerance (1e-7)")
-    p.add_argument("--points", type=Quantity("--points", limits.STEP_ROWS), default=300,
-                   help="output rows per step (300)")
+        number_options(p, ("--t-end", limits.DURATION, t_end, f"duration [s] (default {t_end:g})"))
+    number_options(p, ("--rtol", limits.RTOL, 1e-7, "IDA relative tolerance (1e-7)"),
+                   ("--points", limits.STEP_ROWS, 300, "output rows per step (300)"))
 
 
 def plot_path(args):

@@ -57,8 +57,6 @@ final state of the previous point (as an instrument runs a sweep).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
-
 import numpy as np
 import pandas as pd
 
@@ -75,11 +73,12 @@ from runkit.params import Param, check_positive
 from . import limits, model
 from .harmonics import cycle_harmonics, elastic_viscous, harmonics  # noqa: F401
 from .limits import check_peak_rate
-from .transient import check_phi, skeleton
-
+from .transient import Maxwell, check_phi, drive, skeleton
 
 #: Drive modes.
 STRAIN, STRESS = 0, 1
+
+
 #: Defaults.
 DEFAULT_SAMPLES = 128
 DEFAULT_TOL = 1e-5
@@ -111,33 +110,6 @@ WAVE_COLUMNS = ("point", "phi", "frequency_Hz", "strain_amplitude", "stress_ampl
 
 
 # ------------------------------------------------------------------ the linear limit
-@dataclass(frozen=True)
-class Maxwell:
-    """Linearised model at rest: Maxwell element (G, eta_g) in parallel with the fluid eta_F.
-
-    Attributes
-    ----------
-    G : granular shear modulus [Pa]
-    eta_g : granular low-stress viscosity (Eq. 24, granular part) [Pa s]
-    eta_F : fluid-phase viscosity eta0 (1 + 5/2 phi) [Pa s]
-    relaxation_time : eta_g/G [s]
-    """
-
-    G: float
-    eta_g: float
-    eta_F: float
-
-    @property
-    def relaxation_time(self) -> float:
-        return self.eta_g / self.G
-
-    def modulus(self, omega) -> np.ndarray:
-        """G*(omega) = G i omega lambda/(1 + i omega lambda) + i omega eta_F [Pa] (complex)."""
-        w = np.asarray(omega, dtype=float)
-        iwl = 1j * w * self.relaxation_time
-        return self.G * iwl / (1.0 + iwl) + 1j * w * self.eta_F
-
-
 def _moduli(material, phi, G, K0):
     m = rheology.get_material(material)
     return (m, check_phi("phi", phi, m), *skeleton(m, G, K0))
@@ -174,17 +146,6 @@ def dst_onset_stress(material, phi: float) -> float:
                           bounds=(np.log(taus[i - 1]), np.log(taus[i + 1])), method="bounded",
                           options=dict(xatol=1e-10))
     return float(rheology.steady_state_stress(np.exp(res.x), phi, m).shear_stress)
-
-
-# ------------------------------------------------------------------ the drive
-def drive(mode: int, amplitude: float, omega: float, t0: float = 0.0) -> np.ndarray:
-    """Control vector (:func:`rheometer.model.control`) of the oscillatory drive from ``t0`` [s]:
-    strain ``amplitude sin(omega (t - t0))`` imposed as the rate ``amplitude omega cos(...)``
-    (mode STRAIN), or mixture stress ``amplitude sin(omega (t - t0))`` [Pa] (mode STRESS).
-    The model's residual (signed stress) is then integrated in its eliminated form."""
-    if mode == STRAIN:
-        return model.control(model.RATE, model.COSINE, amplitude * omega, omega, t0, 0.0)
-    return model.control(model.STRESS, model.SINE, amplitude, omega, t0, 0.0)
 
 
 # ------------------------------------------------------------------ one point
@@ -337,7 +298,7 @@ def _point(m, phi, G, K0, freq, amp, control, *, max_cycles, min_cycles, tol, sa
     period = 1.0 / freq
     Glin = complex(lin.modulus(omega))
     mode = STRAIN if control == "strain" else STRESS
-    O = drive(mode, amp, omega)
+    O = drive(control, amp, omega)
     tau_scale = abs(Glin) * amp if mode == STRAIN else amp
     strain_scale = amp if mode == STRAIN else amp / abs(Glin)
     atol = 1e-3 * rtol * np.array([max(tau_scale, 1e-12 * m.tau_star), _GAP_SCALE, strain_scale])

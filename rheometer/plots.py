@@ -125,30 +125,37 @@ def _f_axis(ax, values) -> None:
     ax.set_ylabel("structure f [-]" + note, fontsize=9)
 
 
+def _time_panels(axs, runs, panels, log_time: bool = False) -> None:
+    """Columns against time, one colour per run (``runs``: (label, DataFrame)); ``panels``: per
+    panel the (column, line style, width, what) drawn there, labelled ``label what``."""
+    for c, (label, df) in zip(_colors(len(runs)), runs):
+        t = df["time_s"].to_numpy()
+        if log_time:
+            t = np.where(t > 0, t, np.nan)
+        for ax, lines in zip(axs, panels):
+            for col, ls, lw, what in lines:
+                ax.plot(t, df[col], ls, color=c, lw=lw,
+                        label=" ".join(w for w in (label, what) if w))
+
+
 def transient_figure(frames: dict, title: str, log_time: bool = False):
     """Mixture (solid) and granular (dashed) shear stress, shear rate and plastic rate, and the
     structure f against time; one colour per entry of ``frames`` (label -> DataFrame). The f axis
     starts at 0 (a 0.1% change stays a 0.1% change) and states the relative change."""
     fig, axs = plt.subplots(1, 3, figsize=(13, 3.9))
-    f_all = []
-    for c, (label, df) in zip(_colors(len(frames)), frames.items()):
-        t = df["time_s"].to_numpy()
-        if log_time:
-            t = np.where(t > 0, t, np.nan)
-        axs[0].plot(t, df["shear_stress_Pa"], "-", color=c, lw=2, label=label + " mixture")
-        axs[0].plot(t, df["granular_shear_stress_Pa"], "--", color=c, lw=1,
-                    label=label + " granular")
-        axs[1].plot(t, df["shear_rate_per_s"], "-", color=c, lw=2, label=label + " shear rate")
-        axs[1].plot(t, df["plastic_shear_rate_per_s"], "--", color=c, lw=1,
-                    label=label + " plastic rate")
-        axs[2].plot(t, df["f"], "-", color=c, lw=2, label=label)
-        f_all.append(df["f"].to_numpy()[np.isfinite(t)])
+    _time_panels(axs, list(frames.items()), (
+        (("shear_stress_Pa", "-", 2, "mixture"), ("granular_shear_stress_Pa", "--", 1, "granular")),
+        (("shear_rate_per_s", "-", 2, "shear rate"),
+         ("plastic_shear_rate_per_s", "--", 1, "plastic rate")),
+        (("f", "-", 2, ""),)), log_time)
     for ax, col in ((axs[0], "shear_stress_Pa"), (axs[1], "shear_rate_per_s")):
         v = np.concatenate([d[col].to_numpy()[d["time_s"].to_numpy() > 0] for d in frames.values()])
         if v.size and np.all(v > 0) and v.max() > 100 * v.min():
             ax.set_yscale("log")
     axs[0].set_ylabel("shear stress [Pa]")
     axs[1].set_ylabel("shear rate [1/s]")
+    f_all = [d["f"].to_numpy()[d["time_s"].to_numpy() > 0 if log_time else slice(None)]
+             for d in frames.values()]
     _f_axis(axs[2], np.concatenate(f_all) if f_all else [])
     for ax in axs if log_time else ():
         ax.set_xscale("log")
@@ -222,15 +229,11 @@ def material_point_figure(df: pd.DataFrame, title: str):
     runs = ([(f"phi0 = {p:g}", d) for p, d in df.groupby("phi0", sort=False)]
             if "phi0" in df.columns else [("", df)])
     ax_phi = axs[2].twinx()
-    for c, (lab, d) in zip(_colors(len(runs)), runs):
-        t = d["time_s"]
-        pre = lab + " " if lab else ""
-        axs[0].plot(t, d["shear_stress_Pa"], "-", lw=2, color=c, label=pre + "sigma_xy")
-        axs[0].plot(t, d["granular_pressure_Pa"], "--", lw=1.5, color=c, label=pre + "pressure p")
-        axs[1].plot(t, d["N1_Pa"], "-", lw=1.5, color=c, label=pre + "N1 = s_xx - s_yy")
-        axs[1].plot(t, d["N2_Pa"], "--", lw=1.5, color=c, label=pre + "N2 = s_yy - s_zz")
-        axs[2].plot(t, d["f"], "-", lw=2, color=c, label=pre + "f")
-        ax_phi.plot(t, d["phi"], ":", lw=1.5, color=c, label=pre + "phi (right axis)")
+    _time_panels([*axs, ax_phi], runs, (
+        (("shear_stress_Pa", "-", 2, "sigma_xy"),
+         ("granular_pressure_Pa", "--", 1.5, "pressure p")),
+        (("N1_Pa", "-", 1.5, "N1 = s_xx - s_yy"), ("N2_Pa", "--", 1.5, "N2 = s_yy - s_zz")),
+        (("f", "-", 2, "f"),), (("phi", ":", 1.5, "phi (right axis)"),)))
     axs[0].set_ylabel("granular stress [Pa]")
     axs[1].set_ylabel("normal-stress differences [Pa]")
     _f_axis(axs[2], df["f"])
@@ -436,19 +439,17 @@ def parallel_plate_figure(df: pd.DataFrame, true_curve: pd.DataFrame | None, tit
             t = true_curve[true_curve["phi"] == ph].sort_values("granular_shear_stress_Pa")
             ax1.loglog(_positive(t["shear_rate_per_s"]), t["shear_stress_Pa"], "-", color="0.6",
                        lw=1, label=f"phi = {ph:g}: whole steady curve")
-        ax1.loglog(d["rim_shear_rate_per_s"], d["shear_stress_Pa"], "-", color=c, lw=2.5,
+        x, step = d["rim_shear_rate_per_s"], max(1, len(d) // 40)
+        ax1.loglog(x, d["shear_stress_Pa"], "-", color=c, lw=2.5,
                    label=f"phi = {ph:g}: true (rim)")
-        ax1.loglog(d["rim_shear_rate_per_s"], d["apparent_shear_stress_Pa"], "--", color=c, lw=1.5,
+        ax1.loglog(x, d["apparent_shear_stress_Pa"], "--", color=c, lw=1.5,
                    label=f"phi = {ph:g}: apparent 2M/(pi R^3)")
-        step = max(1, len(d) // 40)
-        ax1.loglog(d["rim_shear_rate_per_s"].iloc[::step],
-                   _positive(d["corrected_shear_stress_Pa"].iloc[::step]), "o", color=c, ms=3.5,
-                   mfc="none", label=f"phi = {ph:g}: Weissenberg-Rabinowitsch")
-        x = d["rim_shear_rate_per_s"]
-        ax2.semilogx(x, d["apparent_shear_stress_Pa"] / d["shear_stress_Pa"] - 1, "--", color=c,
-                     lw=1.5, label=f"phi = {ph:g}: apparent/true - 1")
-        ax2.semilogx(x, d["corrected_shear_stress_Pa"] / d["shear_stress_Pa"] - 1, "-", color=c,
-                     lw=1, label=f"phi = {ph:g}: corrected/true - 1")
+        ax1.loglog(x.iloc[::step], _positive(d["corrected_shear_stress_Pa"].iloc[::step]), "o",
+                   color=c, ms=3.5, mfc="none", label=f"phi = {ph:g}: Weissenberg-Rabinowitsch")
+        for col, ls, lw, what in (("apparent_shear_stress_Pa", "--", 1.5, "apparent"),
+                                  ("corrected_shear_stress_Pa", "-", 1, "corrected")):
+            ax2.semilogx(x, d[col] / d["shear_stress_Pa"] - 1, ls, color=c, lw=lw,
+                         label=f"phi = {ph:g}: {what}/true - 1")
     ax1.set(xlabel="rim shear rate [1/s]", ylabel="shear stress [Pa]")
     ax1.set_title("parallel plate: true, apparent, corrected", fontsize=10)
     ax2.set(xlabel="rim shear rate [1/s]", ylabel="relative difference [-]")

@@ -76,6 +76,45 @@ def skeleton(m: Material, G=None, K0=None) -> tuple[float, float]:
 
 
 @dataclass(frozen=True)
+class Maxwell:
+    """Linearised model at rest: Maxwell element (G, eta_g) in parallel with the fluid eta_F.
+
+    Attributes
+    ----------
+    G : granular shear modulus [Pa]
+    eta_g : granular low-stress viscosity (Eq. 24, granular part) [Pa s]
+    eta_F : fluid-phase viscosity eta0 (1 + 5/2 phi) [Pa s]
+    relaxation_time : eta_g/G [s]
+    """
+
+    G: float
+    eta_g: float
+    eta_F: float
+
+    @property
+    def relaxation_time(self) -> float:
+        return self.eta_g / self.G
+
+    def modulus(self, omega) -> np.ndarray:
+        """G*(omega) = G i omega lambda/(1 + i omega lambda) + i omega eta_F [Pa] (complex)."""
+        w = np.asarray(omega, dtype=float)
+        iwl = 1j * w * self.relaxation_time
+        return self.G * iwl / (1.0 + iwl) + 1j * w * self.eta_F
+
+
+def drive(control: str, amplitude: float, omega: float, t0: float = 0.0, duration: float = 0.0,
+          strain_target: float = np.inf) -> np.ndarray:
+    """Control vector (:func:`rheometer.model.control`) of an oscillation from ``t0`` [s]: strain
+    ``amplitude sin(omega (t - t0))`` imposed as the rate ``amplitude omega cos(...)``
+    (``control="strain"``), or mixture stress ``amplitude sin(omega (t - t0))`` [Pa]
+    (``"stress"``); the model's residual (signed stress) integrates either."""
+    if control == "strain":
+        return model.control(model.RATE, model.COSINE, amplitude * omega, omega, t0, duration,
+                             strain_target)
+    return model.control(model.STRESS, model.SINE, amplitude, omega, t0, duration, strain_target)
+
+
+@dataclass(frozen=True)
 class Step:
     """One step of a test.
 
@@ -377,19 +416,15 @@ class Rheometer:
                 Param(own.lo, liquid, unit="Pa", also=own.also).check(
                     step.value_name, max(abs(step.start), abs(step.end)))
         self._points = points
-        stats = RunStats()
-        pieces: list[_Piece] = []
-        first = 0
+        stats, pieces, first = RunStats(), [], 0
+        st = state or self.rest()
         if resume is not None:
             st, first = resume.state, int(resume.next_step)
             if not 0 < first <= len(steps):
                 raise ValueError(f"resume: next step {first + 1} is not a step of this "
                                  f"{len(steps)}-step test")
             pieces = resume.pieces()
-            stats.events = list(resume.events)
-            stats.solves, stats.nfev, stats.njev = resume.solves, resume.nfev, resume.njev
-        else:
-            st = state or self.rest()
+            stats = RunStats(resume.solves, resume.nfev, resume.njev, events=list(resume.events))
         if not (np.isfinite(st.gap) and np.isfinite(st.taubar) and np.isfinite(st.strain)):
             raise ValueError(f"initial state {st} must be finite")
         t0 = time.perf_counter()
@@ -410,12 +445,9 @@ class Rheometer:
         return self._frame(pieces, stats, steps)
 
     def linear_modulus(self, omega: float) -> complex:
-        """Small-amplitude complex modulus G*(omega) [Pa] at rest: the Maxwell element (G,
-        eta_g = eta_low) in parallel with the fluid eta_F (derived in
-        :mod:`rheometer.oscillation`, whose :func:`~rheometer.oscillation.linear_modulus` is the
-        same formula); used here for the tolerance scales of an oscillation step."""
-        iwl = 1j * omega * self.eta_low / self.G
-        return complex(self.G * iwl / (1.0 + iwl) + 1j * omega * self.eta_fluid)
+        """Small-amplitude complex modulus G*(omega) [Pa] at rest (:class:`Maxwell`, derived in
+        :mod:`rheometer.oscillation`); the tolerance scales of an oscillation step."""
+        return complex(Maxwell(self.G, self.eta_low, self.eta_fluid).modulus(omega))
 
     def scales(self, step: Step, st: State) -> np.ndarray:
         """Scale of each DAE unknown for the absolute tolerances: stress [Pa], gap (tiny, so that
@@ -472,11 +504,7 @@ class Rheometer:
         """The control vector (:func:`rheometer.model.control`) of ``step`` started at ``st``."""
         target = st.strain + step.strain if step.strain is not None else np.inf
         if step.oscillation:
-            if step.control == "strain":       # strain A sin(w (t - t_s)): rate A w cos(...)
-                return model.control(model.RATE, model.COSINE, step.start * step.omega,
-                                     step.omega, st.t, step.duration, target)
-            return model.control(model.STRESS, model.SINE, step.start, step.omega, st.t,
-                                 step.duration, target)
+            return drive(step.control, step.start, step.omega, st.t, step.duration, target)
         mode = model.RATE if step.control == "rate" else model.STRESS
         kind = {"const": model.CONST, "linear": model.LINEAR, "log": model.LOG}[step.ramp]
         return model.control(mode, kind, step.start, step.end, st.t, step.duration or 0.0, target)
