@@ -155,14 +155,12 @@ def stable_time_step(problem: Couette) -> dict:
                 dt_darcy=dt_darcy, omega=omega, lam=lam)
 
 
-def check_time_step(problem: Couette, dt: float | None, name: str = "dt",
+def check_time_step(problem: Couette, dt: float | None, lim: dict, name: str = "dt",
                     instead: str = "method='ida'") -> float:
-    """Return dt if the explicit scheme is stable with it (None: the default, half the
-    stability limit, at least TIME_MIN), else ValueError naming ``name``, the limit and its
-    parts, and ``instead``; a limit below TIME_MIN leaves no step."""
-    if dt is not None:
-        DT.check(name, dt)
-    lim = stable_time_step(problem)
+    """Return dt (checked against :data:`DT` already) if the explicit scheme is stable with it
+    (None: the default, half the stability limit ``lim`` of :func:`stable_time_step`, at least
+    TIME_MIN), else ValueError naming ``name``, the limit and its parts, and ``instead``; a
+    limit below TIME_MIN leaves no step."""
     parts = (f"elastic shear waves ~dx/c: {lim['dt_wave']:.3g} s, fluid viscosity "
              f"~rho dx^2/(2 eta_f): {lim['dt_viscous']:.3g} s")
     if math.isfinite(lim["dt_darcy"]):
@@ -494,9 +492,7 @@ def prepare(problem: Couette, t_end: float | None = None, *, method: str = "ida"
     if method == "explicit":
         lim = stable_time_step(problem)
         if dt is None or check_stability:
-            dt = check_time_step(problem, dt)
-        else:
-            DT.check("dt", dt)
+            dt = check_time_step(problem, dt, lim)
     if method == "dae":                  # K4_REG, COMPACTION_WIDTH read at call time
         dae = dae_mod.FullLawDAE(problem, dae_mod.K4_REG, dae_mod.COMPACTION_WIDTH)
     return Plan(problem, method, times, rtol, dt, lim, dae, checkpoint, checkpoint_every,
