@@ -137,11 +137,10 @@ def stable_time_step(problem: Couette) -> dict:
     """
     m, g, mt = problem.material, problem.grid, problem.metrics()
     cg, w, A, M = mt["cg"], mt["w"], mt["A"], mt["M"]
-    rows = [(A[k - 1] * cg[k - 1] * (w[k - 1] + w[k]) + A[k] * cg[k] * (w[k] + w[k + 1])) / M[k]
-            for k in range(1, g.n)]     # interior faces: |coefficients| of v_{k-1}, v_k, v_{k+1}
-    if problem.stress_driven:
-        rows.append(A[0] * cg[0] * (w[0] + w[1]) / M[0])
-    op = max(rows) / min(m.rho_s, m.rho_f)             # omega^2 = G op, lambda = eta op
+    # interior faces k = 1 .. n-1: |coefficients| of v_{k-1}, v_k, v_{k+1}; the driven wall's
+    rows = (A[:-1] * cg[:-1] * (w[:-2] + w[1:-1]) + A[1:] * cg[1:] * (w[1:-1] + w[2:])) / M[1:-1]
+    wall = A[0] * cg[0] * (w[0] + w[1]) / M[0] if problem.stress_driven else 0.0
+    op = max(float(rows.max()), wall) / min(m.rho_s, m.rho_f)   # omega^2 = G op, lambda = eta op
     omega = math.sqrt(m.G * op)
     phi_hi = min(problem.phi0 + 0.05, 0.99)
     lam = m.eta0 * (1.0 + 2.5 * phi_hi) * op
