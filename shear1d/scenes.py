@@ -166,21 +166,6 @@ def _files(ck: Path) -> list[Path]:
     return [p for p in (ck, previous_checkpoint(ck)) if p.is_file()]
 
 
-def _plans(runs, duration: str, resume: bool, n_out: int, **settings) -> list[Plan]:
-    """The :func:`shear1d.integrate.prepare` of each run ``(problem, t_end, checkpoint)``
-    (resumed where its checkpoint exists), each refused past MAX_CELL_STEPS
-    (:func:`check_cell_steps`, ``duration``), then the memory of all of them checked."""
-    plans = []
-    for problem, t_end, ck in runs:
-        plans.append(prepare(problem, t_end, n_out=n_out, checkpoint=ck,
-                             resume=resume and bool(_files(ck)), **settings))
-        check_cell_steps(plans[-1], t_end, duration)
-    n = runs[0][0].grid.n
-    physical.check_memory("--cells x --outputs", f"{n} x {n_out}",
-                          memory_estimate(n, n_out, runs=len(runs)))
-    return plans
-
-
 
 @contextlib.contextmanager
 def _checkpointed(out: Path, cks, resume: bool, missing: str):
@@ -266,10 +251,16 @@ def run_annular(out, speeds=SPEEDS, modes=("locked",), *, n_cells: int = 200,
                          "mode) once")
     check_ramp(ramp_time, rotation, r_inner, speeds)
     cks = {run_tag(u, mode): out / f"{run_tag(u, mode)}.checkpoint.npz" for u, mode, *_ in problems}
-    plans = dict(zip(cks.values(), _plans(
-        [(problem, t_end, cks[run_tag(u, mode)]) for u, mode, problem, t_end in problems],
-        "--rotation x --r-inner / --u-inner" + (" + --ramp-time/2" if ramp_time else ""), resume,
-        n_out, method=method, rtol=rtol, dt=dt, checkpoint_every=checkpoint_every)))
+    plans = {}
+    for u, mode, problem, t_end in problems:
+        ck = cks[run_tag(u, mode)]
+        plans[ck] = prepare(problem, t_end, method=method, n_out=n_out, rtol=rtol, dt=dt,
+                            checkpoint=ck, checkpoint_every=checkpoint_every,
+                            resume=resume and bool(_files(ck)))
+        check_cell_steps(plans[ck], t_end, "--rotation x --r-inner / --u-inner"
+                         + (" + --ramp-time/2" if ramp_time else ""))
+    physical.check_memory("--cells x --outputs", f"{n_cells} x {n_out}",
+                          memory_estimate(n_cells, n_out, runs=len(problems)))
     runs, ends = [], []
     with _checkpointed(out, list(cks.values()), resume,
                        f"--resume: no checkpoint of these runs in {out}/ (looked for "
@@ -327,8 +318,11 @@ def run_couette(out, problem: Couette, t_end: float, *, method: str = "ida", n_o
     raises :class:`rheology.run_end.EndedEarly` (``partial``: the Result)."""
     out = check_output_dir("--out", out)
     ck = out / "couette.checkpoint.npz"
-    plan, = _plans([(problem, t_end, ck)], "--time", resume, n_out, method=method, rtol=rtol,
-                   dt=dt, checkpoint_every=checkpoint_every)
+    plan = prepare(problem, t_end, method=method, n_out=n_out, rtol=rtol, dt=dt, checkpoint=ck,
+                   checkpoint_every=checkpoint_every, resume=resume)
+    check_cell_steps(plan, t_end)
+    physical.check_memory("--cells x --outputs", f"{problem.grid.n} x {n_out}",
+                          memory_estimate(problem.grid.n, n_out))
     ends = []
     with _checkpointed(out, [ck], resume,
                        f"--resume: no checkpoint at {ck}; run without --resume to start"):
