@@ -104,10 +104,9 @@ def summarize(result: Result) -> dict:
     sfit = analysis.front_fit(result.t, sfront, g)
     rot = rotation_of(result, result.t)
     window = (result.t >= fit["t_start"]) & (result.t <= fit["t_end"]) & band
-    rigid = [analysis.band_rigidity(g, v[k], u, front[k]) for k in np.flatnonzero(window)]
-    rigid = [x for x in rigid if np.isfinite(x)]
-    vol = g.cell_volumes()
-    solids = phi @ vol
+    rigid = fr["band_rigidity"].to_numpy()[window]
+    rigid = rigid[np.isfinite(rigid)]
+    solids = phi @ g.cell_volumes()
     ev = {k: [float(x) for x in result.events.get(k, [])] for k in EVENTS}
     wall_t = ev["front_at_wall"][0] if ev["front_at_wall"] else None
     stop_t, again_t = flow_stop_time(result), flow_restart_time(result)
@@ -134,14 +133,15 @@ def summarize(result: Result) -> dict:
         front_fit_gap_reached=fit["gap_reached"],
         front_crossed_gap=bool(fit["gap_reached"] >= analysis.WALL_FRACTION),
         structure_front_speed_m_per_s=sfit["speed"], structure_front_fit_r2=sfit["r2"],
-        band_rigidity_mean=float(np.mean(rigid)) if rigid else nan,
-        band_rigidity_min=float(np.min(rigid)) if rigid else nan,
+        band_rigidity_mean=float(np.mean(rigid)) if rigid.size else nan,
+        band_rigidity_min=float(np.min(rigid)) if rigid.size else nan,
         max_front_position_m=float(np.nanmax(front)) if band.any() else nan,
         front_at_wall_rotation_rad=rot_at(wall_t), flow_stopped_rotation_rad=rot_at(stop_t),
         flow_restarted_rotation_rad=rot_at(again_t),
         events_s=ev,
         newtonian_deviation_max_over_u=newt,
-        f_max=float(f.max()), f_jam=float(rheology.f_jam(pb.phi0, m)), phi_min=float(phi.min()), phi_max=float(phi.max()),
+        f_max=float(f.max()), f_jam=float(rheology.f_jam(pb.phi0, m)), phi_min=float(phi.min()),
+        phi_max=float(phi.max()),
         solid_volume_drift=float(np.max(np.abs(solids - solids[0])) / solids[0]),
         bob_shear_stress_max_Pa=float(fr["bob_shear_stress_Pa"].max()),
         granular_pressure_max_Pa=float(result.field("pressure").max()),
