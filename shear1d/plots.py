@@ -208,10 +208,8 @@ def _span(data, lo=None, hi=None) -> dict:
     """vmin/vmax covering the finite ``data``, widened to include ``lo``/``hi`` if given."""
     d = np.asarray(data, float)
     d = d[np.isfinite(d)]
-    if not d.size:
-        return {}
-    return dict(vmin=min(float(d.min()), lo) if lo is not None else float(d.min()),
-                vmax=max(float(d.max()), hi) if hi is not None else float(d.max()))
+    return dict(vmin=min(float(d.min()), np.inf if lo is None else lo),
+                vmax=max(float(d.max()), -np.inf if hi is None else hi)) if d.size else {}
 
 
 def run_fields_figure(run):
