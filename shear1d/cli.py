@@ -201,10 +201,9 @@ def _in_out(out: str, run) -> None:
 
 def _annular(args) -> None:
     m, phi0 = _sample(args)
-    modes = MODES if args.mode == "both" else (args.mode,)
-    if args.mode is None:                # the default: both modes, locked only with dae
-        modes = ("locked",) if args.method == "dae" else MODES
-    if args.method == "dae" and args.mode is None:
+    modes = MODES if args.mode in ("both", None) else (args.mode,)
+    if args.method == "dae" and args.mode is None:   # the default: both modes, locked with dae
+        modes = ("locked",)
         print("shear1d: --method dae runs the locked mode only (no --mode given: locked)")
     _in_out(args.out, lambda: run_annular(
         args.out, tuple(args.u_inner), modes, n_cells=args.cells, method=args.method,

@@ -322,8 +322,7 @@ class FullLawDAE:
         rtol), X_SCALE (x, an inertial number) and the velocity scale (v)."""
         pb = self.pb
         atol = np.empty(self.size)
-        for c in range(4):
-            atol[self.i_c + c] = rtol * pb.stress_scale()
+        atol[self.i_c[:, None] + np.arange(4)] = rtol * pb.stress_scale()
         atol[self.i_gap] = rtol * (self.P[_PHIJ] - self.P[_PHIC])
         atol[self.i_x] = X_SCALE * rtol
         atol[self.i_v[self.i_v >= 0]] = rtol * pb.velocity_scale()

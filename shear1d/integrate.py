@@ -137,11 +137,10 @@ def stable_time_step(problem: Couette) -> dict:
     """
     m, g, mt = problem.material, problem.grid, problem.metrics()
     cg, w, A, M = mt["cg"], mt["w"], mt["A"], mt["M"]
-    rows = [(A[k - 1] * cg[k - 1] * (w[k - 1] + w[k]) + A[k] * cg[k] * (w[k] + w[k + 1])) / M[k]
-            for k in range(1, g.n)]     # interior faces: |coefficients| of v_{k-1}, v_k, v_{k+1}
-    if problem.stress_driven:
-        rows.append(A[0] * cg[0] * (w[0] + w[1]) / M[0])
-    op = max(rows) / min(m.rho_s, m.rho_f)             # omega^2 = G op, lambda = eta op
+    # interior faces k = 1 .. n-1: |coefficients| of v_{k-1}, v_k, v_{k+1}; the driven wall's
+    rows = (A[:-1] * cg[:-1] * (w[:-2] + w[1:-1]) + A[1:] * cg[1:] * (w[1:-1] + w[2:])) / M[1:-1]
+    wall = A[0] * cg[0] * (w[0] + w[1]) / M[0] if problem.stress_driven else 0.0
+    op = max(float(rows.max()), wall) / min(m.rho_s, m.rho_f)   # omega^2 = G op, lambda = eta op
     omega = math.sqrt(m.G * op)
     phi_hi = min(problem.phi0 + 0.05, 0.99)
     lam = m.eta0 * (1.0 + 2.5 * phi_hi) * op
@@ -155,14 +154,12 @@ def stable_time_step(problem: Couette) -> dict:
                 dt_darcy=dt_darcy, omega=omega, lam=lam)
 
 
-def check_time_step(problem: Couette, dt: float | None, name: str = "dt",
+def check_time_step(problem: Couette, dt: float | None, lim: dict, name: str = "dt",
                     instead: str = "method='ida'") -> float:
-    """Return dt if the explicit scheme is stable with it (None: the default, half the
-    stability limit, at least TIME_MIN), else ValueError naming ``name``, the limit and its
-    parts, and ``instead``; a limit below TIME_MIN leaves no step."""
-    if dt is not None:
-        DT.check(name, dt)
-    lim = stable_time_step(problem)
+    """Return dt (checked against :data:`DT` already) if the explicit scheme is stable with it
+    (None: the default, half the stability limit ``lim`` of :func:`stable_time_step`, at least
+    TIME_MIN), else ValueError naming ``name``, the limit and its parts, and ``instead``; a
+    limit below TIME_MIN leaves no step."""
     parts = (f"elastic shear waves ~dx/c: {lim['dt_wave']:.3g} s, fluid viscosity "
              f"~rho dx^2/(2 eta_f): {lim['dt_viscous']:.3g} s")
     if math.isfinite(lim["dt_darcy"]):
@@ -285,8 +282,12 @@ def fingerprint(problem: Couette, method: str, times: np.ndarray, setting: float
 
 class _Outputs:
     """The outputs of a run (time, Couette-layout state, diagnostics, counters, the solver's
-    state a resume restarts from), checked as they come, and their checkpoint (``save``: what
-    :func:`runkit.run.drive` calls). ``stats(counters)`` gives the result's stats."""
+    state a resume restarts from), checked as they come, and their checkpoint (``save``), as
+    :func:`runkit.run.drive` advances them: ``advance`` steps to the next output time by
+    ``to(t_target) -> (t, state, diag, counters, extra, end)`` (set by the method), checks and
+    records the output (with ``to.sample``: samples the events there) and calls
+    ``stop_hook(t)`` (after every output but the last). ``stats(counters)`` gives the result's
+    stats."""
 
     def __init__(self, problem, method, times, setting, checkpoint, events, elastic_limit,
                  f_tol):
@@ -296,15 +297,34 @@ class _Outputs:
             checkpoint, fingerprint(problem, method, times, setting))
         self.rows: list[tuple] = []
         self.wall0, self.wall_before = time.perf_counter(), 0.0
-        self.stats = dict
+        self.stats, self.times, self.t_end = dict, times, float(times[-1])
+        self.to, self.stop_hook, self.k = None, None, 0     # k: the next output's index
 
     def add(self, t, y, diag, counters, extra=None):
         """One output, appended as one tuple (an interrupt never leaves the lists unequal)."""
         self.rows.append((float(t), y, diag, np.asarray(counters, dtype=float), extra))
 
     @property
-    def t_last(self) -> float:
+    def t(self) -> float:
+        """The time of the last output [s]."""
         return self.rows[-1][0]
+
+    @property
+    def steps(self) -> int:
+        return len(self.rows) - 1
+
+    def advance(self) -> None:
+        t, y, diag, counters, extra, end = self.to(float(self.times[self.k]))
+        if end is None:
+            end = self.end_at(t, y, diag)
+        if end is not None:              # the outputs so far are the run (rheology.run_end)
+            raise self.ended(end, counters)
+        if getattr(self.to, "sample", False):
+            self.events.sample(t, y)
+        self.add(t, y, diag, counters, extra)
+        self.k += 1
+        if self.stop_hook is not None and self.k < len(self.times):
+            self.stop_hook(t)
 
     def wall(self) -> float:
         return self.wall_before + time.perf_counter() - self.wall0
@@ -364,7 +384,7 @@ class _Outputs:
                   "the material)")
         strains = [elastic_strains(self.pb, *self.rows[-1][:2]), elastic_strains(self.pb, t, y)]
         for k, (mod, s_name, m_name) in enumerate(((m.G, "taubar", "G"), (m.K, "p", "K"))):
-            past = past_elastic_limit([self.t_last, t], [e[k] * mod for e in strains], mod,
+            past = past_elastic_limit([self.t, t], [e[k] * mod for e in strains], mod,
                                       stress_name=s_name, modulus_name=m_name, where=where,
                                       advice=advice)
             if past is not None:
@@ -375,7 +395,7 @@ class _Outputs:
         """Save the checkpoint as finished with ``end`` (a run with outputs past t = 0 only: one
         that ends at its start has nothing to resume) and return the EndedEarly of the outputs
         so far (``end`` at the time of the last one)."""
-        end = end.replace(time_s=self.t_last)
+        end = end.replace(time_s=self.t)
         if len(self.rows) > 1:
             self.save(self.state(finished=True, end=end))
         result = self.result(counters)
@@ -390,38 +410,6 @@ class _Outputs:
             return result
         result.end = RunEnd(**rec)
         raise EndedEarly([result.end], partial=result)
-
-
-class _Run:
-    """A run as :func:`runkit.run.drive` advances it: ``advance`` steps to the next output time
-    by ``to(t_target) -> (t, state, diag, counters, extra, end)``, checks and records the output
-    (with ``to.sample``: samples the events there) and calls ``stop_hook(t)`` (after every output
-    but the last)."""
-
-    def __init__(self, outs: _Outputs, times: np.ndarray, to, stop_hook):
-        self.outs, self.times, self.to, self.stop_hook = outs, times, to, stop_hook
-        self.t, self.t_end = outs.t_last, float(times[-1])
-        self.k = int(np.searchsorted(times, self.t, side="right"))
-
-    @property
-    def steps(self) -> int:
-        return len(self.outs.rows) - 1
-
-    def advance(self) -> None:
-        t, y, diag, counters, extra, end = self.to(float(self.times[self.k]))
-        if end is None:
-            end = self.outs.end_at(t, y, diag)
-        if end is not None:              # the outputs so far are the run (rheology.run_end)
-            raise self.outs.ended(end, counters)
-        if getattr(self.to, "sample", False):
-            self.outs.events.sample(t, y)
-        self.outs.add(t, y, diag, counters, extra)
-        self.t, self.k = t, self.k + 1
-        if self.stop_hook is not None and self.k < len(self.times):
-            self.stop_hook(t)
-
-    def state(self) -> dict:
-        return self.outs.state()
 
 
 # ----------------------------------------------------------------------------- driver
@@ -494,9 +482,7 @@ def prepare(problem: Couette, t_end: float | None = None, *, method: str = "ida"
     if method == "explicit":
         lim = stable_time_step(problem)
         if dt is None or check_stability:
-            dt = check_time_step(problem, dt)
-        else:
-            DT.check("dt", dt)
+            dt = check_time_step(problem, dt, lim)
     if method == "dae":                  # K4_REG, COMPACTION_WIDTH read at call time
         dae = dae_mod.FullLawDAE(problem, dae_mod.K4_REG, dae_mod.COMPACTION_WIDTH)
     return Plan(problem, method, times, rtol, dt, lim, dae, checkpoint, checkpoint_every,
@@ -556,11 +542,12 @@ def integrate(plan: Plan, *, progress: bool = False, label: str = "", stop_hook=
         to = _ida(problem, outs, ck, plan.rtol, dae)
     if ck is not None and bool(ck["finished"]):
         return outs.read_back(ck)
-    run = _Run(outs, times, to, stop_hook)
-    bar = Progress(run.t, run.t_end, run.steps, label=label or "shear1d",
+    outs.to, outs.stop_hook = to, stop_hook
+    outs.k = int(np.searchsorted(times, outs.t, side="right"))
+    bar = Progress(outs.t, outs.t_end, outs.steps, label=label or "shear1d",
                    t_start=float(times[0])) if progress else None
     outs.wall0 = time.perf_counter()     # the integration's wall time, not the set-up's
-    drive(run, checkpoint=outs.ck, every=plan.checkpoint_every, progress=bar)
+    drive(outs, checkpoint=outs.ck, every=plan.checkpoint_every, progress=bar)
     outs.save(outs.state(finished=True))
     return outs.result()
 
@@ -569,7 +556,7 @@ def _ida(problem: Couette, outs: _Outputs, ck, rtol: float, dae=None):
     """Methods ``"ida"`` (the rate form ``y' - rhs(y) = 0``, the problem's own layout) and
     ``"dae"`` (``dae``: :class:`shear1d.dae.FullLawDAE`, its state converted to the Couette
     layout at every output) on :class:`runkit.ida.Solver`, started at rest or from the
-    checkpoint ``ck``'s last output (y, y', counters). Returns the ``to`` of :class:`_Run`."""
+    checkpoint ``ck``'s last output (y, y', counters). Returns the ``to`` of :class:`_Outputs`."""
     if dae is None:
         work = np.empty(problem.size)
         bw = problem.bandwidth()
@@ -588,7 +575,7 @@ def _ida(problem: Couette, outs: _Outputs, ck, rtol: float, dae=None):
             return y0, yp0
 
         atol, opts, name = _tolerances(problem, rtol), {}, "IDA"
-        more = lambda: dict(rate_step_end=problem.rate_step_at(rtol, outs.t_last))
+        more = lambda: dict(rate_step_end=problem.rate_step_at(rtol, outs.t))
     else:
         if ck is not None and ck["y"].shape != (dae.size,):
             raise ValueError("--resume: the checkpoint's DAE state does not match this grid")
@@ -617,7 +604,7 @@ def _ida(problem: Couette, outs: _Outputs, ck, rtol: float, dae=None):
         opts.update(events=ev.ida_events, names=EVENTS, direction=ev.directions)
     solver = Solver(residual, rtol=rtol, atol=atol, band=bw, max_num_steps=500000,
                     max_order=MAX_ORDER, describe=describe, solver=name, **opts)
-    solver.start(outs.t_last, y0, yp0)
+    solver.start(outs.t, y0, yp0)
 
     def to(t_target):
         try:
@@ -651,7 +638,7 @@ def _tolerances(problem: Couette, rtol: float) -> np.ndarray:
 
 def _explicit(problem: Couette, outs: _Outputs, ck, dt: float, lim: dict):
     """Method ``"explicit"``: :func:`shear1d.kernels.explicit_steps` between outputs, from rest
-    or the checkpoint ``ck``'s last output. Returns the ``to`` of :class:`_Run`."""
+    or the checkpoint ``ck``'s last output. Returns the ``to`` of :class:`_Outputs`."""
     outs.stats = lambda c: dict(steps=int(c[0]), dt=dt, dt_stable=float(lim["dt"]))
     if ck is None:
         y0 = problem.initial_state()
@@ -666,7 +653,7 @@ def _explicit(problem: Couette, outs: _Outputs, ck, dt: float, lim: dict):
                                  "dx"))
 
     def to(t1):
-        t0, steps = outs.t_last, outs.rows[-1][3][0]
+        t0, steps = outs.t, outs.rows[-1][3][0]
         nsub = max(1, int(math.ceil((t1 - t0) / dt * (1 - 1e-12))))
         h = (t1 - t0) / nsub
         did, bad = kernels.explicit_steps(

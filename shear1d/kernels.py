@@ -279,10 +279,8 @@ def explicit_steps(nsteps, t0, dt, amp, ramp, stress_driven, v, S, f, phi, cg, w
         bad = local_updates(S, f, phi, gdot, drr, dtt, dt, P, p_floor, S_out, f_out, diag)
         if bad >= 0:
             return step, bad
-        for j in range(n):
-            for c in range(4):
-                S[j, c] = S_out[j, c]
-            f[j] = f_out[j]
+        S[:, :] = S_out
+        f[:] = f_out
         shear_momentum(S, eta_f, gdot, A, M, rho_face, i_v, A_wall, tau_w, tau, vdot)
         finite = True
         for k in range(n + 1):

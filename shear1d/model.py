@@ -94,16 +94,11 @@ def interleaved(n: int, per_cell: int, stress_driven: bool):
     ``per_cell`` unknowns and v_{j+1} (not after the last cell: the fixed wall). Returns (index
     of each cell's first unknown (n,), index of each face's velocity (n + 1,; -1: prescribed),
     size)."""
-    first = np.empty(n, dtype=np.int64)
+    first = int(stress_driven) + (per_cell + 1) * np.arange(n, dtype=np.int64)
     i_v = np.full(n + 1, -1, dtype=np.int64)
-    pos = int(stress_driven)
-    if stress_driven:
-        i_v[0] = 0
-    for j in range(n):
-        first[j], pos = pos, pos + per_cell
-        if j < n - 1:
-            i_v[j + 1], pos = pos, pos + 1
-    return first, i_v, pos
+    i_v[0] = 0 if stress_driven else -1
+    i_v[1:n] = first[:-1] + per_cell
+    return first, i_v, int(stress_driven) + n * (per_cell + 1) - 1
 
 
 #: Stress components stored per cell, in this order.

@@ -35,6 +35,13 @@ def _end_rotation(run):
     return float(rotation_of(run.result, end.time_s)), f"ended: {end.label}"
 
 
+def _mark_end(ax, run, named: bool = True, **kwargs) -> None:
+    """Mark where a run that ended early ended (its label before the end's if ``named``)."""
+    ended = _end_rotation(run)
+    if ended:
+        mark_end(ax, ended[0], f"{_label(run)}: {ended[1]}" if named else ended[1], **kwargs)
+
+
 def _what_happened(run) -> str:
     """What the run shows, in lines: jammed or not, where the band reached the outer wall, when
     the flow stopped and started again, and how Newtonian the last profile is."""
@@ -114,16 +121,22 @@ def velocity_profiles_figure(runs, rotations=(0.0, 0.1, 0.2, 0.31)):
 
 def _coincide(x, y, x_ref, y_ref, tol) -> bool:
     """Whether the curve (x, y) lies within ``tol`` of (x_ref, y_ref) where both are defined."""
-    ok = np.isfinite(y)
-    ok_ref = np.isfinite(y_ref)
+    ok, ok_ref = np.isfinite(y), np.isfinite(y_ref)
     if ok.sum() < 2 or ok_ref.sum() < 2:
         return False
     xr, yr = np.asarray(x_ref)[ok_ref], np.asarray(y_ref)[ok_ref]
-    inside = (np.asarray(x)[ok] >= xr.min()) & (np.asarray(x)[ok] <= xr.max())
-    if inside.sum() < 2:
-        return False
-    return bool(np.max(np.abs(np.interp(np.asarray(x)[ok][inside], xr, yr)
-                              - np.asarray(y)[ok][inside])) < tol)
+    x, y = np.asarray(x)[ok], np.asarray(y)[ok]
+    inside = (x >= xr.min()) & (x <= xr.max())
+    return bool(inside.sum() >= 2 and np.max(np.abs(np.interp(x[inside], xr, yr)
+                                                    - y[inside])) < tol)
+
+
+def _coinciding(drawn: list, run, x, y, tol):
+    """(the label of the earlier curve of ``drawn`` that (x, y) coincides with, or None; the
+    line style: thin and dashed on top of it, else full); (x, y) is added to ``drawn``."""
+    same = next((lab for x0, y0, lab in drawn if _coincide(x, y, x0, y0, tol)), None)
+    drawn.append((x, y, _label(run)))
+    return same, dict(lw=1.0, dashes=(4, 3)) if same else dict(lw=2.2)
 
 
 #: two curves closer than this (in the plotted units) are said to coincide in their legend entry
@@ -148,13 +161,11 @@ def front_positions_figure(runs):
         rot = fr["rotation_rad"].to_numpy()[band]
         y = (fr["front_m"].to_numpy()[band] - g.inner) / g.gap
         ys = (fr["structure_front_m"].to_numpy()[band] - g.inner) / g.gap
-        same = next((lab for x0, y0, lab in drawn if _coincide(rot, y, x0, y0, COINCIDE)), None)
+        same, thin = _coinciding(drawn, run, rot, y, COINCIDE)
         note = f" (coincides with {same} within {COINCIDE:.1%} of the gap)" if same else ""
-        thin = dict(lw=1.0, dashes=(4, 3)) if same else dict(lw=2.2)
         ax.plot(rot, y, color=c, label=f"{_label(run)}: front v/(omega r) = 1/2{note}", **thin)
         ax.plot(rot, ys, ":" if same else "--", color=c, lw=1.0 if same else 1.4,
                 label=f"{_label(run)}: structure front f = f_jam/2{note}")
-        drawn.append((rot, y, _label(run)))
         fit = s["front_speed_m_per_s"]
         if fit is not None and np.isfinite(fit):
             lo, hi = s["front_fit_rotation_rad"]
@@ -170,9 +181,7 @@ def front_positions_figure(runs):
                           ("flow_stopped_rotation_rad", "flow stopped")):
             if s[key] is not None:
                 events.setdefault(what, []).append((s[key], run))
-        ended = _end_rotation(run)
-        if ended:
-            mark_end(ax, ended[0], f"{_label(run)}: {ended[1]}")
+        _mark_end(ax, run)
     for (what, marks), ls in zip(events.items(), (":", "-.")):
         for x, run in marks:
             ax.axvline(x, color="0.3", ls=ls, lw=0.9)
@@ -199,10 +208,8 @@ def _span(data, lo=None, hi=None) -> dict:
     """vmin/vmax covering the finite ``data``, widened to include ``lo``/``hi`` if given."""
     d = np.asarray(data, float)
     d = d[np.isfinite(d)]
-    if not d.size:
-        return {}
-    return dict(vmin=min(float(d.min()), lo) if lo is not None else float(d.min()),
-                vmax=max(float(d.max()), hi) if hi is not None else float(d.max()))
+    return dict(vmin=min(float(d.min()), np.inf if lo is None else lo),
+                vmax=max(float(d.max()), -np.inf if hi is None else hi)) if d.size else {}
 
 
 def run_fields_figure(run):
@@ -234,9 +241,7 @@ def run_fields_figure(run):
         fig.colorbar(im, ax=ax)
         ax.set_title(title, fontsize=10)
         ax.set_xlabel("r [mm]")
-        ended = _end_rotation(run)
-        if ended:
-            mark_end(ax, ended[0], ended[1], vertical=False)
+        _mark_end(ax, run, named=False, vertical=False)
     axes[0].set_ylabel("bob rotation [rad]")
     what = ("white: front v/(omega r) = 1/2, drawn while a jammed band grows" if band.any()
             else "no jammed band formed: no front drawn")
@@ -260,18 +265,13 @@ def mode_comparison(path, runs):
         if not np.isfinite(y).any():
             no_band.append(_label(run))
         else:
-            same = next((lab for x0, y0, lab in drawn
-                         if _coincide(rot, y, x0, y0, COINCIDE * g.gap * 1e3)), None)
-            note = f" (coincides with {same})" if same else ""
-            style = dict(lw=1.0, dashes=(4, 3)) if same else dict(lw=2.2)
-            axes[0].plot(rot, y, color=c, label=_label(run) + note, **style)
-            drawn.append((rot, y, _label(run)))
+            same, style = _coinciding(drawn, run, rot, y, COINCIDE * g.gap * 1e3)
+            axes[0].plot(rot, y, color=c, label=_label(run) + (f" (coincides with {same})"
+                                                               if same else ""), **style)
         if run.summary["mode"] != "locked":
             axes[1].plot(g.centres * 1e3, res.field("phi")[-1] - res.problem.phi0, color=c,
                          lw=1.5, label=_label(run))
-        ended = _end_rotation(run)
-        if ended:
-            mark_end(axes[0], ended[0], f"{_label(run)}: {ended[1]}")
+        _mark_end(axes[0], run)
     if any(r.summary["mode"] == "locked" for r in runs):
         g = runs[0].result.problem.grid
         axes[1].plot([g.inner * 1e3, g.outer * 1e3], [0.0, 0.0], ":", color="0.4", lw=1.0,

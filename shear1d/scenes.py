@@ -29,7 +29,7 @@ import rheology
 from rheology.run_end import EndedEarly, run_record
 from runkit import limits as physical
 from runkit.io import (atomic_write_csv, atomic_write_json, check_output_dir, load_checkpoint,
-                       previous_checkpoint)
+                       previous_checkpoint, remove_checkpoint)
 from runkit.limits import ge, le
 from runkit.params import OutOfRange, Param
 
@@ -166,6 +166,7 @@ def _files(ck: Path) -> list[Path]:
     return [p for p in (ck, previous_checkpoint(ck)) if p.is_file()]
 
 
+
 @contextlib.contextmanager
 def _checkpointed(out: Path, cks, resume: bool, missing: str):
     """Around the runs of checkpoints ``cks``: before, with ``resume``, refuse them without any
@@ -173,21 +174,20 @@ def _checkpointed(out: Path, cks, resume: bool, missing: str):
     (:class:`runkit.io.CorruptCheckpoint`) before anything is printed; without, remove them
     (stale checkpoints of an earlier run); create ``out``. An interrupt names the checkpoints
     kept (:func:`_interrupted`); after the runs the checkpoints are removed."""
-    if resume:
-        if not any(_files(ck) for ck in cks):
-            raise ValueError(missing)
-        for ck in cks:
-            if _files(ck):
-                load_checkpoint(ck, log=lambda *a, **k: None)
+    kept = [ck for ck in cks if _files(ck)]
+    if resume and not kept:
+        raise ValueError(missing)
+    for ck in kept if resume else ():
+        load_checkpoint(ck, log=lambda *a, **k: None)
     out.mkdir(parents=True, exist_ok=True)
-    for p in ([] if resume else [p for ck in cks for p in _files(ck)]):
-        p.unlink()
+    for ck in () if resume else cks:
+        remove_checkpoint(ck)
     try:
         yield
     except KeyboardInterrupt as exc:
         raise _interrupted(exc, list(cks)) from None
-    for p in [p for ck in cks for p in _files(ck)]:
-        p.unlink()
+    for ck in cks:
+        remove_checkpoint(ck)
 
 
 def _solve_to_end(plan: Plan, ends: list, tag: str, **options) -> Result:

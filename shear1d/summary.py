@@ -43,10 +43,9 @@ def rotation_of(result: Result, t) -> np.ndarray:
 
 def flow_stop_time(result: Result) -> float | None:
     """Time [s] the flow stopped after the band reached the outer wall (None if it did not)."""
-    ev = result.events
-    wall_t = ev.get("front_at_wall", [])[:1]
-    wall = wall_t[0] if wall_t else None
-    return next((x for x in ev.get("flow_stopped", []) if wall is None or x >= wall), None)
+    wall = next(iter(result.events.get("front_at_wall", [])), None)
+    return next((x for x in result.events.get("flow_stopped", []) if wall is None or x >= wall),
+                None)
 
 
 def flow_restart_time(result: Result) -> float | None:
@@ -97,19 +96,17 @@ def summarize(result: Result) -> dict:
     pb, g = result.problem, result.problem.grid
     m, u = pb.material, pb.drive_amplitude
     v, f, phi = result.field("v"), result.field("f"), result.field("phi")
-    band = band_present(result)
-    front = np.where(band, result.front(), np.nan)
-    fjam = float(rheology.f_jam(pb.phi0, m))
-    sfront = np.array([analysis.structure_front(g, ff, fjam) for ff in f])
-    sfront = np.where(band, sfront, np.nan)
+    fr = front_frame(result)
+    front = fr["front_m"].to_numpy()
+    band = np.isfinite(front)           # the front where a jammed band exists (band_present)
+    sfront = np.where(band, fr["structure_front_m"].to_numpy(), np.nan)
     fit = analysis.front_fit(result.t, front, g)
     sfit = analysis.front_fit(result.t, sfront, g)
     rot = rotation_of(result, result.t)
     window = (result.t >= fit["t_start"]) & (result.t <= fit["t_end"]) & band
-    rigid = [analysis.band_rigidity(g, v[k], u, front[k]) for k in np.flatnonzero(window)]
-    rigid = [x for x in rigid if np.isfinite(x)]
-    vol = g.cell_volumes()
-    solids = phi @ vol
+    rigid = fr["band_rigidity"].to_numpy()[window]
+    rigid = rigid[np.isfinite(rigid)]
+    solids = phi @ g.cell_volumes()
     ev = {k: [float(x) for x in result.events.get(k, [])] for k in EVENTS}
     wall_t = ev["front_at_wall"][0] if ev["front_at_wall"] else None
     stop_t, again_t = flow_stop_time(result), flow_restart_time(result)
@@ -123,7 +120,6 @@ def summarize(result: Result) -> dict:
         if abs(rot[k] - target) < 1e-3 + 0.5 * np.max(np.diff(rot), initial=0.0):
             vn = annular_steady(g.faces, g.inner, g.outer, u)
             newt[f"{target:g}"] = float(np.max(np.abs(v[k] - vn)) / u)
-    tau = np.abs(result.field("shear_stress"))
     nan = float("nan")
     stats = {k: (float(x) if isinstance(x, (float, np.floating)) else int(x))
              for k, x in result.stats.items()}
@@ -137,16 +133,17 @@ def summarize(result: Result) -> dict:
         front_fit_gap_reached=fit["gap_reached"],
         front_crossed_gap=bool(fit["gap_reached"] >= analysis.WALL_FRACTION),
         structure_front_speed_m_per_s=sfit["speed"], structure_front_fit_r2=sfit["r2"],
-        band_rigidity_mean=float(np.mean(rigid)) if rigid else nan,
-        band_rigidity_min=float(np.min(rigid)) if rigid else nan,
+        band_rigidity_mean=float(np.mean(rigid)) if rigid.size else nan,
+        band_rigidity_min=float(np.min(rigid)) if rigid.size else nan,
         max_front_position_m=float(np.nanmax(front)) if band.any() else nan,
         front_at_wall_rotation_rad=rot_at(wall_t), flow_stopped_rotation_rad=rot_at(stop_t),
         flow_restarted_rotation_rad=rot_at(again_t),
         events_s=ev,
         newtonian_deviation_max_over_u=newt,
-        f_max=float(f.max()), f_jam=fjam, phi_min=float(phi.min()), phi_max=float(phi.max()),
+        f_max=float(f.max()), f_jam=float(rheology.f_jam(pb.phi0, m)), phi_min=float(phi.min()),
+        phi_max=float(phi.max()),
         solid_volume_drift=float(np.max(np.abs(solids - solids[0])) / solids[0]),
-        bob_shear_stress_max_Pa=float(np.max(tau[:, 0] * (g.centres[0] / g.inner) ** 2)),
+        bob_shear_stress_max_Pa=float(fr["bob_shear_stress_Pa"].max()),
         granular_pressure_max_Pa=float(result.field("pressure").max()),
         **run_record([result.end] if result.end else []),
     )
