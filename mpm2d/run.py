@@ -38,7 +38,7 @@ import numba
 import numpy as np
 import pandas as pd
 
-from runkit.io import (atomic_write_csv, check_output_dir, load_checkpoint, previous_checkpoint,
+from runkit.io import (atomic_write_csv, check_output_dir, previous_checkpoint, read_checkpoint,
                        save_checkpoint)
 from runkit.limits import MAX_STEPS, ge, gt, le
 from runkit.params import Number
@@ -251,16 +251,8 @@ def _resumed(out: Path, spec, name: str, given: dict, options: dict, log):
     """The checkpoint of ``out`` and where it was read from, with the run's stored parameters and
     options; ValueError where the resume does not match it (scene, parameters, --frames, --vtk,
     --threads)."""
-    ckpt = out / "checkpoint.npz"
-    if not ckpt.exists() and not previous_checkpoint(ckpt).exists():
-        raise ValueError(f"--resume: no checkpoint at {ckpt}; run without --resume to start")
-    used = [ckpt if ckpt.is_file() else previous_checkpoint(ckpt)]
-
-    def fallback(msg):                       # load_checkpoint fell back to the kept one
-        used[0] = previous_checkpoint(ckpt)
-        log(msg)
-
-    saved = load_checkpoint(ckpt, required=("run.params", "t", "step"), log=fallback)
+    saved, used = read_checkpoint(out / "checkpoint.npz", required=("run.params", "t", "step"),
+                                  log=log)
     if "chunks" in saved:
         chunks, threads = int(saved["chunks"]), numba.get_num_threads()
         if chunks != threads:
@@ -304,7 +296,7 @@ def _resumed(out: Path, spec, name: str, given: dict, options: dict, log):
             raise ValueError(f"--resume: {flag} differs from the interrupted run's (it "
                              f"{'wrote' if v else 'did not write'} VTK); resume without {flag}")
         options[k] = v if options.get(k) is None else options[k]
-    return saved, used[0], stored
+    return saved, used, stored
 
 
 def _set_up(setup, params: dict, given: dict, name: str, resuming: str, show: bool):
