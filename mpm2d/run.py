@@ -337,6 +337,8 @@ def _set_up(setup, params: dict, given: dict, name: str, resuming: str, show: bo
                          f"from the extremes of their ranges ('mpm2d show {name}')") from None
     finally:
         announce.cancel()
+        if announce.is_alive():              # a notice being written is whole before it goes
+            announce.join()
         if shown.is_set():                   # the status line goes: what follows stands alone
             sys.stderr.write("\r\x1b[K")
             sys.stderr.flush()
