@@ -15,7 +15,7 @@ improved frictional heating in the material point method", Comp. Part. Mech. 5):
   each the separating axis of its square and the nearest body point's square, pointing from
   the body into the material. Bardenhagen et al.'s normal from the nodal mass gradient
   g_i = sum_p m_p grad N_i(x_p) is the fallback where nothing touches (it follows the body's
-  nearest face, sideways at a corner: docs/measurements.md);
+  nearest face, sideways at a corner);
 - contact is active at a node only if (i) both fields have mass there, (ii) the fields TOUCH, and
   (iii) they approach along n ((v_mat - v_body).n < 0). Touching: some material point whose
   B-spline support covers the node has its square (side s = sqrt(in-plane area)) touching or
@@ -38,10 +38,10 @@ improved frictional heating in the material point method", Comp. Part. Mech. 5):
 Rigid bodies: the impulses and the body's new velocity q = (V_x, V_y, omega) are found together,
 implicitly, from M q = M (q^n + dt g) - sum_k J_k^T lambda_k with lambda_k = m_k P_k (J_k q - v_k*)
 (P = 1 stick, n n^T frictionless, (n + s mu t) n^T sliding), by an active-set iteration (active
-nodes, stick/slip states and tension release re-checked after each 3 x 3 solve). This keeps the
-property of the former momentum projection: implicit in the body mass (a light body on a heavy
-bed needs no added-mass step limit) and exactly momentum-conserving. Nodes of fields a body is
-``bonded_to`` (the spokes of a wheel on its hub) are always in stick (the former projection).
+nodes, stick/slip states and tension release re-checked after each 3 x 3 solve): implicit in the
+body mass (a light body on a heavy bed needs no added-mass step limit) and exactly
+momentum-conserving. Nodes of fields a body is ``bonded_to`` (the spokes of a wheel on its hub)
+are always in stick.
 
 Deformable body against material: the closed-form two-field correction of Bardenhagen et al. at
 each contact node (centre-of-mass velocity, normal part removed when approaching, tangential part
@@ -50,7 +50,11 @@ limited by mu_w times the normal impulse).
 Limits: touching is judged between real points (mirror images across walls are not scanned;
 periodic sides use minimum images); a point's square uses its current area, so anisotropic
 stretching is not seen; a curved body's point faces are axis-aligned, so its frictionless normal
-forces are only nearly central and its no-slip rolling resists (docs/measurements.md).
+forces are only nearly central and its no-slip rolling resists.
+
+Parameters: mu_w [-] the wall friction coefficient, in [0, inf] (per body); ``contact`` "touch"
+(criterion (ii), default) or "mass" (rigid bodies); ``bonded_to`` the fields held in stick;
+``Simulation(contact_sets=...)`` the particle sets that are deformable bodies.
 """
 
 from __future__ import annotations

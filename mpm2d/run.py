@@ -28,6 +28,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import sys
 import threading
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,7 +38,7 @@ import numba
 import numpy as np
 import pandas as pd
 
-from runkit.io import (atomic_write_csv, check_output_dir, load_checkpoint, previous_checkpoint,
+from runkit.io import (atomic_write_csv, check_output_dir, previous_checkpoint, read_checkpoint,
                        save_checkpoint)
 from runkit.limits import MAX_STEPS, ge, gt, le
 from runkit.params import Number
@@ -153,8 +154,9 @@ CHECKPOINT_EVERY = Number("--checkpoint-every", gt(0.0, "a checkpoint interval i
                           le(1e6, "12 days, longer than the longest run (1e8 steps, about a day "
                                   "on one core)"), unit="s")
 
-#: a set-up taking longer than this [wall s] is announced ('setting up scene X...'); a fast one
-#: is not, so that a refusal after it is the only output
+#: a set-up taking longer than this [wall s] is announced ('setting up scene X...', a status
+#: line on a terminal's stderr, erased when the set-up ends); a fast one is not. A refusal after
+#: the set-up (the step count) is then the only output, on every stream
 SETUP_NOTICE_S = 2.0
 
 
@@ -249,16 +251,8 @@ def _resumed(out: Path, spec, name: str, given: dict, options: dict, log):
     """The checkpoint of ``out`` and where it was read from, with the run's stored parameters and
     options; ValueError where the resume does not match it (scene, parameters, --frames, --vtk,
     --threads)."""
-    ckpt = out / "checkpoint.npz"
-    if not ckpt.exists() and not previous_checkpoint(ckpt).exists():
-        raise ValueError(f"--resume: no checkpoint at {ckpt}; run without --resume to start")
-    used = [ckpt if ckpt.is_file() else previous_checkpoint(ckpt)]
-
-    def fallback(msg):                       # load_checkpoint fell back to the kept one
-        used[0] = previous_checkpoint(ckpt)
-        log(msg)
-
-    saved = load_checkpoint(ckpt, required=("run.params", "t", "step"), log=fallback)
+    saved, used = read_checkpoint(out / "checkpoint.npz", required=("run.params", "t", "step"),
+                                  log=log)
     if "chunks" in saved:
         chunks, threads = int(saved["chunks"]), numba.get_num_threads()
         if chunks != threads:
@@ -302,17 +296,27 @@ def _resumed(out: Path, spec, name: str, given: dict, options: dict, log):
             raise ValueError(f"--resume: {flag} differs from the interrupted run's (it "
                              f"{'wrote' if v else 'did not write'} VTK); resume without {flag}")
         options[k] = v if options.get(k) is None else options[k]
-    return saved, used[0], stored
+    return saved, used, stored
 
 
-def _set_up(setup, params: dict, given: dict, name: str, resuming: str, log):
+def _set_up(setup, params: dict, given: dict, name: str, resuming: str, show: bool):
     """The scene of ``setup(**params)`` (its warnings held: shown after a set-up that works, cited
-    by a refusal of one that breaks down). Announced when slow (a bed's relaxation); Ctrl-C or
-    SIGTERM stops it at once, nothing written."""
-    announce = threading.Timer(SETUP_NOTICE_S, log, args=(f"setting up scene {name}" + (
-        " (then the checkpoint is loaded)" if resuming else "") + "...",))
+    by a refusal of one that breaks down). Announced when slow (a bed's relaxation) and ``show``
+    (not quiet), as a status line on a terminal's stderr that is erased when the set-up ends;
+    Ctrl-C or SIGTERM stops it at once, nothing written."""
+    notice = f"setting up scene {name}" + (
+        " (then the checkpoint is loaded)" if resuming else "") + "..."
+    shown = threading.Event()
+
+    def tell():
+        sys.stderr.write(notice)
+        sys.stderr.flush()
+        shown.set()
+
+    announce = threading.Timer(SETUP_NOTICE_S, tell)
     announce.daemon = True
-    if threading.current_thread() is threading.main_thread():
+    if (show and sys.stderr.isatty()
+            and threading.current_thread() is threading.main_thread()):
         announce.start()
     try:
         with HeldWarnings() as held:
@@ -333,6 +337,11 @@ def _set_up(setup, params: dict, given: dict, name: str, resuming: str, log):
                          f"from the extremes of their ranges ('mpm2d show {name}')") from None
     finally:
         announce.cancel()
+        if announce.is_alive():              # a notice being written is whole before it goes
+            announce.join()
+        if shown.is_set():                   # the status line goes: what follows stands alone
+            sys.stderr.write("\r\x1b[K")
+            sys.stderr.flush()
     return scene, held
 
 
@@ -488,7 +497,8 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
     # a fresh run removes only what a previous run of ours wrote; a folder of the user's is
     # refused here, before the set-up and before anything is written
     previous = previous_run_files(out) if saved is None else []
-    scene, held = _set_up(setup, params, given, name, str(ckpt_path) if saved else "", log)
+    scene, held = _set_up(setup, params, given, name, str(ckpt_path) if saved else "",
+                          progress)
     options["vtk"] = vtk = scene.vtk if options["vtk"] is None else bool(options["vtk"])
     check_step_count(scene, name)
     if saved is None:

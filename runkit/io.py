@@ -322,7 +322,14 @@ def _read_npz(path: Path, required: Iterable[str]) -> dict[str, np.ndarray]:
 
 
 def load_checkpoint(path, *, required: Iterable[str] = (), log=None) -> dict[str, np.ndarray]:
-    """Read a checkpoint written by :func:`save_checkpoint` into a dict of arrays.
+    """The arrays of :func:`read_checkpoint` (without the file they were read from)."""
+    return read_checkpoint(path, required=required, log=log)[0]
+
+
+def read_checkpoint(path, *, required: Iterable[str] = (),
+                    log=None) -> tuple[dict[str, np.ndarray], Path]:
+    """Read a checkpoint written by :func:`save_checkpoint` into a dict of arrays, with the file
+    it was read from (``path`` or its :func:`previous_checkpoint`).
 
     If ``path`` is unreadable and the previous checkpoint is readable, that one is returned and
     ``log`` (a callable) is told so.
@@ -336,14 +343,14 @@ def load_checkpoint(path, *, required: Iterable[str] = (), log=None) -> dict[str
     """
     path = Path(path)
     required = tuple(required)
+    prev = previous_checkpoint(path)
     if not path.is_file():
-        if previous_checkpoint(path).is_file():     # stopped between the rotation and the move
-            return _read_npz(previous_checkpoint(path), required)
+        if prev.is_file():                           # stopped between the rotation and the move
+            return _read_npz(prev, required), prev
         raise ValueError(f"--resume: no checkpoint at {path}; run without --resume to start")
     try:
-        return _read_npz(path, required)
+        return _read_npz(path, required), path
     except CorruptCheckpoint as exc:
-        prev = previous_checkpoint(path)
         if not prev.is_file():
             raise CorruptCheckpoint(f"{exc}; no previous checkpoint is kept: start again without "
                                     "--resume") from None
@@ -353,4 +360,4 @@ def load_checkpoint(path, *, required: Iterable[str] = (), log=None) -> dict[str
             raise CorruptCheckpoint(f"{exc}; the previous one too ({exc2})") from None
         if log is not None:
             log(f"{exc}; resuming from the previous checkpoint {prev}")
-        return data
+        return data, prev

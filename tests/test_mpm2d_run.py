@@ -648,3 +648,56 @@ def test_sigterm_during_the_set_up_of_a_library_run_stops_it_not_the_process(tmp
                   vtk=False, log=lambda msg: None)
     assert not (tmp_path / "t").exists()
     assert signal.getsignal(signal.SIGTERM) is before       # the window restored it
+
+
+class _Terminal:
+    """A stderr that says it is a terminal and keeps what was written to it."""
+
+    def __init__(self):
+        self.text = ""
+
+    def isatty(self):
+        return True
+
+    def write(self, s):
+        self.text += s
+
+    def flush(self):
+        pass
+
+
+@pytest.mark.parametrize("via_cli", [False, True])
+def test_a_refusal_after_a_slow_set_up_is_the_only_output(tmp_path, capsys, monkeypatch,
+                                                          via_cli):
+    """intruder's step-count refusal came after 'setting up scene intruder...' on stdout (its
+    set-up is slower than SETUP_NOTICE_S): a refusal is one line on stderr, exit status 2,
+    nothing written. The notice is a status line on a terminal's stderr, erased when the set-up
+    ends, so whatever the scene, nothing of it is left before the refusal."""
+    import mpm2d.cli
+    import mpm2d.run
+
+    def setup(**p):
+        sc = bar.setup(**p)
+        time.sleep(0.3)                               # slower than the notice's delay below
+        sc.t_end = 1e6                                # too many steps: refused after set-up
+        return sc
+
+    setup.spec = bar.setup.spec
+    monkeypatch.setattr(mpm2d.run, "SETUP_NOTICE_S", 0.05)
+    term = _Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    out = tmp_path / "o"
+    if via_cli:
+        monkeypatch.setattr(mpm2d.cli, "get_setup", lambda name: setup)
+        rc = main(["run", "bar", "--set", "cells=8", "--out", str(out)])
+        assert rc == 2
+    else:
+        with pytest.raises(ValueError, match="too many|first stable steps"):
+            run_scene(setup, out, params=dict(cells=8), vtk=False)
+    so = capsys.readouterr().out
+    assert so == "" and "setting up" not in so
+    notice, _, rest = term.text.partition("\r\x1b[K")
+    assert notice == "setting up scene bar..."       # shown while it ran, then erased
+    assert "setting up" not in rest
+    assert rest.count("\n") == (1 if via_cli else 0)
+    assert not out.exists()
