@@ -269,7 +269,7 @@ def _is_header(row) -> bool:
             and (len(names) >= 3 or any(n in _KNOWN for n in names)))
 
 
-def trios_blocks(text: str, delim: str = "\t") -> list[Block]:
+def trios_blocks(text: str, columns=None, delim: str = "\t") -> list[Block]:
     """The procedure steps of a TRIOS export (``[step]`` blocks, or in a CSV a row holding only
     the step's name followed by column names and units); the header's ``key value`` rows are
     each block's ``meta`` (a value and its unit in two cells are joined)."""
@@ -401,24 +401,24 @@ def table_blocks(text: str, columns: dict[str, str] | None = None) -> list[Block
 # ------------------------------------------------------------------ the formats
 _TRIOS_KEYS = ("filename", "instrument serial number", "instrument name", "instrument type",
                "geometry name", "stress constant", "proceduresegments")
-_DETECT = {                       # format -> patterns that must all match the decoded text
-    "trios": (r"(?im)^\s*\[step\]\s*$", "\t"),
-    "trios-csv": (r"(?im)^\ufeff?\"?(" + "|".join(_TRIOS_KEYS) + r")\"?\s*,",
-                  r"(?im)(^|,)\"?(shear rate|step time)\"?(,|$)"),
-    "rspace": (r"(?i)shear (stress|rate|viscosity)\s*\(",
-               r"(?i)action name|shear viscosity|s-¹|s⁻¹|rspace|kinexus"),
-}
+
+
+def _matches(*patterns: str, head: int | None = None):
+    """A detector: every pattern found in the decoded text (its first ``head`` characters)."""
+    return lambda text: all(re.search(p, text[:head]) for p in patterns)
+
 
 #: format -> (detector on the decoded text, block parser(text, columns), the layout as named in
 #: a refusal), tried in order (the layouts: the module's docstring).
 READERS: dict[str, tuple] = {
-    "rheocompass": (lambda text: "Interval data:" in text, rheocompass_blocks,
-                    "RheoCompass text export"),
-    "trios": (lambda text: all(re.search(p, text) for p in _DETECT["trios"]),
-              lambda text, columns=None: trios_blocks(text), "TRIOS 'Export to LIMS' text"),
-    "trios-csv": (lambda text: all(re.search(p, text) for p in _DETECT["trios-csv"]),
-                  lambda text, columns=None: trios_blocks(text, ","), "TRIOS CSV export"),
-    "rspace": (lambda text: all(re.search(p, text[:20000]) for p in _DETECT["rspace"]),
+    "rheocompass": (_matches("Interval data:"), rheocompass_blocks, "RheoCompass text export"),
+    "trios": (_matches(r"(?im)^\s*\[step\]\s*$", "\t"), trios_blocks,
+              "TRIOS 'Export to LIMS' text"),
+    "trios-csv": (_matches(r"(?im)^\ufeff?\"?(" + "|".join(_TRIOS_KEYS) + r")\"?\s*,",
+                           r"(?im)(^|,)\"?(shear rate|step time)\"?(,|$)"),
+                  lambda text, columns=None: trios_blocks(text, delim=","), "TRIOS CSV export"),
+    "rspace": (_matches(r"(?i)shear (stress|rate|viscosity)\s*\(",
+                        r"(?i)action name|shear viscosity|s-¹|s⁻¹|rspace|kinexus", head=20000),
                rspace_blocks, "rSpace CSV export"),
     "csv": (_is_table, table_blocks, "plain table (a header row, then rows of numbers)"),
 }

@@ -102,28 +102,23 @@ PORE = Param(ge(0.0, "a fraction of the grain's volume"),
              lt(1.0, "a grain is more than its pores"))
 
 
-def _option(name: str, p: Param) -> Number:
-    return Number(name, p.lo, p.hi, unit=p.unit)
-
-
 def add_mass_fraction_options(p, nargs="+") -> None:
     """``--mass-fraction`` (instead of a volume fraction) and the Eq. (20) inputs, on parser
     ``p``; ``nargs``: ``"+"`` for commands that take several fractions, ``None`` for one."""
     s = p.add_argument_group("sample by mass (Eq. 20 of the Supplement)")
-    s.add_argument("--mass-fraction", type=_option("--mass-fraction", MASS_FRACTION),
-                   nargs=nargs, default=None, metavar="W",
-                   help="grain mass fraction(s) m_grain/(m_grain + m_liquid), converted to volume "
-                        "fractions by Eq. 20 (instead of a volume fraction)")
-    for name, what in (("--grain-density", f"grain density [kg/m^3] (material's rho_s, else "
-                                           f"{RHO_GRAIN:g})"),
-                       ("--liquid-density", f"liquid density [kg/m^3] (material's rho_f, else "
-                                            f"{RHO_LIQUID:g})"),
-                       ("--water-density", f"water density [kg/m^3] ({RHO_WATER:g})")):
-        s.add_argument(name, type=_option(name, DENSITY), default=None, help=what)
-    s.add_argument("--swelling", type=_option("--swelling", SWELLING), default=None,
-                   help=f"swelling parameter lambda of Eq. 20 ({LAMBDA:g})")
-    s.add_argument("--pore-fraction", type=_option("--pore-fraction", PORE), default=None,
-                   help=f"pore-space parameter beta of Eq. 20 ({BETA:g})")
+    for name, param, what, more in (
+            ("--mass-fraction", MASS_FRACTION, "grain mass fraction(s) m_grain/(m_grain + "
+             "m_liquid), converted to volume fractions by Eq. 20 (instead of a volume fraction)",
+             dict(nargs=nargs, metavar="W")),
+            ("--grain-density", DENSITY, f"grain density [kg/m^3] (material's rho_s, else "
+                                         f"{RHO_GRAIN:g})", {}),
+            ("--liquid-density", DENSITY, f"liquid density [kg/m^3] (material's rho_f, else "
+                                          f"{RHO_LIQUID:g})", {}),
+            ("--water-density", DENSITY, f"water density [kg/m^3] ({RHO_WATER:g})", {}),
+            ("--swelling", SWELLING, f"swelling parameter lambda of Eq. 20 ({LAMBDA:g})", {}),
+            ("--pore-fraction", PORE, f"pore-space parameter beta of Eq. 20 ({BETA:g})", {})):
+        s.add_argument(name, type=Number(name, param.lo, param.hi, unit=param.unit),
+                       default=None, help=what, **more)
 
 
 def densities_of(args, m: Material) -> Densities:

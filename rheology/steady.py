@@ -24,6 +24,7 @@ from scipy.optimize import elementwise, minimize_scalar
 from . import laws
 from runkit.params import check_nonnegative, check_positive, check_range
 from .materials import Material, get_material
+from .structure import eta_B
 
 _TOL = dict(xatol=1e-300, xrtol=4e-16, fatol=0.0, frtol=0.0)
 #: Largest granular shear stress of a steady state, in units of tau* (H <= 1e150).
@@ -48,10 +49,7 @@ def granular_viscosity(phi, f, m: Material | str) -> np.ndarray:
     """
     m = get_material(m)
     phi, y, a = _gap(phi, f, m)
-    mu = laws.critical_friction(phi, np.maximum(y, 0.0), a, m.mu_c, m.mu2, m.b)
-    with np.errstate(divide="ignore"):
-        ys = np.where(y > 0, y, 1.0)
-        return np.where(y > 0, 2 * mu * (a * phi / ys) ** 2 + 2.5 * phi ** 2 / ys, np.inf)
+    return np.where(y > 0, _eta_g(phi, y, a, m), np.inf)
 
 
 def relative_viscosity(phi, f, m: Material | str) -> np.ndarray:
@@ -244,29 +242,26 @@ def _steady(taubar, phi, m: Material) -> SteadyFlow:
         # like-signed terms). f, y and f - f_m then keep full relative precision everywhere, at
         # low stress and 1e-12 from jamming alike.
         lower = steady_residual(fhalf, y0 - fhalf * dphi, fhalf - fms, t, ph, h, ks, m) > 0
+        # per half: the unknown x's (f, y, f - f_m), the residual's sign, the bracket's width
+        halves = ((lower, lambda x, fh, yh, fm_, p_: (x, m.phi_j - p_ - x * dphi, x - fm_), 1.0,
+                   fhalf),
+                  (~lower, lambda x, fh, yh, fm_, p_: (fh - x, yh + x * dphi, (fh - fm_) - x),
+                   -1.0, fhi - fhalf))
         fs, ys = np.empty_like(t), np.empty_like(t)
-        for sel in (lower, ~lower):
+        for sel, parts, sign, width in halves:
             if not np.any(sel):
                 continue
             args = tuple(x[sel] for x in (fhi, yhi, fms, t, ph, h, ks))
-            if sel is lower:
-                fun = lambda x, fhi_, yhi_, fm_, t_, p_, *rest: steady_residual(
-                    x, m.phi_j - p_ - x * dphi, x - fm_, t_, p_, *rest, m)
-                bracket = (np.zeros_like(args[0]), fhalf[sel])
-            else:
-                fun = lambda x, fhi_, yhi_, fm_, t_, p_, *rest: -steady_residual(
-                    fhi_ - x, yhi_ + x * dphi, (fhi_ - fm_) - x, t_, p_, *rest, m)
-                bracket = (np.zeros_like(args[0]), fhi[sel] - fhalf[sel])
-            res = elementwise.find_root(fun, bracket, args=args, tolerances=_TOL)
+            fun = lambda x, fh, yh, fm_, t_, p_, *rest, parts=parts, sign=sign: sign * (
+                steady_residual(*parts(x, fh, yh, fm_, p_), t_, p_, *rest, m))
+            res = elementwise.find_root(fun, (np.zeros_like(args[0]), width[sel]), args=args,
+                                        tolerances=_TOL)
             if not np.all(res.success):
                 bad = np.flatnonzero(~res.success)[0]
                 raise RuntimeError(f"steady stress-controlled solve failed at taubar = "
                                    f"{args[3][bad]:.6g} Pa, phi = {args[4][bad]:.6g} "
                                    f"(status {res.status[bad]})")
-            if sel is lower:
-                fs[sel], ys[sel] = res.x, y0[sel] - res.x * dphi
-            else:
-                fs[sel], ys[sel] = fhi[sel] - res.x, yhi[sel] + res.x * dphi
+            fs[sel], ys[sel], _ = parts(res.x, *args[:3], args[4])
         f.ravel()[idx], y.ravel()[idx] = fs, ys
     out = _state(taubar, phi, f, y, jammed, m)
     _check_representable(out, m)
@@ -319,17 +314,13 @@ def _branches(control: str, target, phi, m: Material, points_per_decade: int, hi
         check_range("taubar_max_factor", hi_factor, 1.0, 1e-3 * TAUBAR_MAX_FACTOR)
         lo = 0.5 * eta_lo * target                       # gdot(taubar) <= taubar/eta_lo
         hi = np.maximum(hi_factor * m.tau_star, 1e3 * lo)
-        value = lambda st: st.shear_rate
-        check_range(control, target, 0.0, float(np.min(top / (0.5 * eta_lo * 1e3))),
-                    lo_closed=False, note=f"steady states are searched up to taubar = "
-                                          f"{TAUBAR_MAX_FACTOR:.0e} tau* of {m.name}")
+        value, most = (lambda st: st.shear_rate), float(np.min(top / (0.5 * eta_lo * 1e3)))
     else:
         lo = 0.5 * target / (1.0 + eta_f / eta_lo)       # tau <= taubar (1 + eta_f/eta_lo)
         hi = target                                       # tau > taubar
-        value = lambda st: st.shear_stress
-        check_range(control, target, 0.0, top, lo_closed=False,
-                    note=f"steady states are searched up to taubar = {TAUBAR_MAX_FACTOR:.0e} "
-                         f"tau* of {m.name}")
+        value, most = (lambda st: st.shear_stress), top
+    check_range(control, target, 0.0, most, lo_closed=False, note=f"steady states are searched "
+                f"up to taubar = {TAUBAR_MAX_FACTOR:.0e} tau* of {m.name}")
     decades = (np.log10(hi) - np.log10(lo)).max()          # hi/lo may overflow (1e-300 .. 1)
     n = int(max(64, points_per_decade * decades))
     taus, st = _trace(phi, lo, hi, n, m)
@@ -435,11 +426,9 @@ def gdot_dst(phi, m: Material | str) -> np.ndarray:
                       note=f"DST exists only for phi_c <= phi <= phi* in {m.name}")
     fm = laws.f_max(phi, m.phi_c, m.phi_j, m.Delta)
     a = laws.dilatancy_a(fm, m.a0, m.a_inf)
-    inv = laws.inv_eta_B(phi, m.phi_j, m.varphi1, m.alpha1, m.varphi2, m.alpha2)
     with np.errstate(divide="ignore"):
-        etaB = np.where(inv > 0, 1.0 / np.where(inv > 0, inv, 1.0), np.inf)
-        return (m.tau_star / m.eta0) * (2.0 * m.mu_c * (etaB / m.eta0 * a * phi / (m.phi_j - phi))
-                                        ** 2) ** (-1.0 / 3.0)
+        return (m.tau_star / m.eta0) * (2.0 * m.mu_c * (eta_B(phi, m) / m.eta0 * a * phi
+                                                        / (m.phi_j - phi)) ** 2) ** (-1.0 / 3.0)
 
 
 def phi_from_mass_fraction(phi_w, rho_cs: float, rho_l: float, rho_w: float = 1000.0,

@@ -29,6 +29,8 @@ twice the throughput of a multiply and an add, and half the latency of each step
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from llvmlite import ir
 from numba import types
@@ -84,14 +86,19 @@ _TWO52_BITS = 0x4330000000000000           # 2^52: its bits | k read k + 2^52 fo
 _MIN_NORMAL = 2.2250738585072014e-308
 _TWO54 = 18014398509481984.0
 _INV_LN2 = 1.4426950408889634
-# R(z) = sum_k 2 z^k / (2k + 1), k = 1..11
-_L1, _L2, _L3, _L4 = 2.0 / 3.0, 2.0 / 5.0, 2.0 / 7.0, 2.0 / 9.0
-_L5, _L6, _L7, _L8 = 2.0 / 11.0, 2.0 / 13.0, 2.0 / 15.0, 2.0 / 17.0
-_L9, _L10, _L11 = 2.0 / 19.0, 2.0 / 21.0, 2.0 / 23.0
-# 1/k!, k = 2..13
-_E2, _E3, _E4, _E5 = 1.0 / 2.0, 1.0 / 6.0, 1.0 / 24.0, 1.0 / 120.0
-_E6, _E7, _E8, _E9 = 1.0 / 720.0, 1.0 / 5040.0, 1.0 / 40320.0, 1.0 / 362880.0
-_E10, _E11, _E12, _E13 = 1.0 / 3628800.0, 1.0 / 39916800.0, 1.0 / 479001600.0, 1.0 / 6227020800.0
+#: R(z)/z = sum_k 2 z^(k-1) / (2k + 1), k = 11..1, and e^r = sum_k r^k/k!, k = 13..0: the
+#: polynomials' coefficients, highest power first (for :func:`_horner`)
+_LOG_R = tuple(2.0 / (2 * k + 1) for k in range(11, 0, -1))
+_EXP_P = tuple(1.0 / math.factorial(k) for k in range(13, -1, -1))
+
+
+@register_jitable(inline="always")
+def _horner(x, coeffs):
+    """sum_k coeffs[k] x^(n - k) by Horner's rule, one fused multiply-add a step."""
+    p = coeffs[0]
+    for c in coeffs[1:]:
+        p = _fma(p, x, c)
+    return p
 
 
 @register_jitable(inline="always")
@@ -108,16 +115,7 @@ def _log_jit(x):
     f = m - 1.0
     s = f / (2.0 + f)
     z = s * s
-    R = _fma(z, _L11, _L10)
-    R = _fma(R, z, _L9)
-    R = _fma(R, z, _L8)
-    R = _fma(R, z, _L7)
-    R = _fma(R, z, _L6)
-    R = _fma(R, z, _L5)
-    R = _fma(R, z, _L4)
-    R = _fma(R, z, _L3)
-    R = _fma(R, z, _L2)
-    R = _fma(R, z, _L1) * z
+    R = _horner(z, _LOG_R) * z
     r = e * _LN2_HI + (e * _LN2_LO + (f - s * (f - R)))
     r = -np.inf if x == 0.0 else r
     r = x if x == np.inf else r
@@ -130,19 +128,7 @@ def _exp_jit(y):
     t = yc * _INV_LN2 + _SHIFT
     nf = t - _SHIFT                                        # round(y / ln 2), as a float
     r = (yc - nf * _LN2_HI) - nf * _LN2_LO
-    p = _fma(r, _E13, _E12)
-    p = _fma(p, r, _E11)
-    p = _fma(p, r, _E10)
-    p = _fma(p, r, _E9)
-    p = _fma(p, r, _E8)
-    p = _fma(p, r, _E7)
-    p = _fma(p, r, _E6)
-    p = _fma(p, r, _E5)
-    p = _fma(p, r, _E4)
-    p = _fma(p, r, _E3)
-    p = _fma(p, r, _E2)
-    p = _fma(p, r, 1.0)
-    p = _fma(p, r, 1.0)
+    p = _horner(r, _EXP_P)
     # 2^n = 2^n1 2^n2, n1 = floor(n/2): each factor a normal number, so subnormal results and
     # overflow come out right; the integers from the shift trick (float and int64 adds only)
     n1f = np.floor(0.5 * nf)
