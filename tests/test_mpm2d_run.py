@@ -5,6 +5,7 @@ collections without repeated timesteps."""
 
 from __future__ import annotations
 
+import inspect
 import json
 import re
 import os
@@ -338,6 +339,22 @@ def test_a_grain_size_below_its_physical_limit_is_refused_with_the_reason(tmp_pa
     err = [l for l in capsys.readouterr().err.strip().splitlines() if l]
     assert len(err) == 1 and "d = 1e-300 is outside the valid range [1e-08, 0.01] m" in err[0]
     assert "liquid molecules" in err[0]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("ramp", ["1e-300", "0.01"])
+def test_a_load_ramp_shorter_than_the_undrained_transits_is_refused(tmp_path, capsys, ramp):
+    """terzaghi's ramp = 1e-300 ran (a load applied at once launches the undrained Biot wave the
+    quasi-static theory omits): the ramp is at least 10 transit times H/c_u, in its own units
+    (cv t_r/H^2), the bound computed from the other parameters."""
+    out = tmp_path / "o"
+    assert main(["run", "terzaghi", "--set", f"ramp={ramp}", "--out", str(out), "--quiet"]) == 2
+    err = [l for l in capsys.readouterr().err.strip().splitlines() if l]
+    defaults = {k: v.default for k, v in inspect.signature(terzaghi.setup.raw).parameters.items()}
+    k = terzaghi.constants(defaults)
+    lo = 10 * k["transit_s"] / k["t_c_s"]                     # 0.0485 at the defaults
+    assert len(err) == 1 and f"ramp = {ramp} is outside the valid range [{lo:.6g}, 10]" in err[0]
+    assert "10 undrained transit times H/c_u" in err[0]
     assert not out.exists()
 
 

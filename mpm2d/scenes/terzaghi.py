@@ -51,6 +51,11 @@ from ..simulation import Drag, Simulation
 PROFILE_T = (0.1, 0.2, 0.4, 0.8)
 
 
+#: the shortest load ramp, in undrained transit times H/c_u (the waves it launches stay below
+#: ~1% of the undrained pressure p0)
+RAMP_TRANSITS = 10.0
+
+
 def constants(params: dict) -> dict:
     """cv, B, p0, E_oed, the drag coefficient and the time scales of a parameter set."""
     phi, n = params["phi"], 1.0 - params["phi"]
@@ -82,8 +87,13 @@ def constants(params: dict) -> dict:
                      above=ge(lambda p: 1e-9 * (p["K"] + 4.0 * p["G"] / 3.0),
                               "settlement strain q/(K + 4G/3) >= 1e-9: a smaller one is lost "
                               "in the rounding of the positions")),
-    ramp=spec.runs_for("load ramp T_r = cv t_r/H^2", 10.0, "a ramp of 10 consolidation times: "
-                       "the layer has consolidated long before it ends"),
+    ramp=spec.physical(
+        limits.gt(0.0, "a load applied at once launches the undrained Biot wave"),
+        limits.le(10.0, "a ramp of 10 consolidation times: the layer has consolidated long "
+                  "before it ends"), "", "load ramp T_r = cv t_r/H^2",
+        above=ge(lambda p: RAMP_TRANSITS * constants(p)["transit_s"] / constants(p)["t_c_s"],
+                 f"{RAMP_TRANSITS:g} undrained transit times H/c_u: a faster ramp launches "
+                 "the Biot waves the quasi-static theory omits (above ~1% of p0)")),
     t_end_T=spec.runs_for("end time as T = cv t/H^2", 100.0, "T = 100: consolidated to "
                           "e^-250"),
     cfl=spec.cfl(), transfer=spec.transfer(),
