@@ -17,7 +17,7 @@ Examples::
         --out relax.csv
     rheometer startup --rate 0.5 --t-end 60
     rheometer creep --stress 10 --t-end 60
-    rheometer program steps.txt         # e.g. lines 'shear at 10 1/s for 60 s', 'rest for 100 s'
+    rheometer program steps.txt         # e.g. lines 'shear at 0.5 1/s for 60 s', 'rest for 100 s'
     rheometer material-point --rate 1 --dt 1e-3 --control pressure --pressure 2
     rheometer materials
 """
@@ -61,7 +61,8 @@ from .transient import skeleton
 _EPILOG = ("Stress words: 'granular shear stress' (taubar) is the stress carried by the particle "
            "skeleton; 'mixture shear stress' = granular + eta0 (1 + 5/2 phi) gdot is what a "
            "rheometer measures. G [Pa] and K0 default to the material's values, else G = 1e4 Pa "
-           "(Fig. 15: relaxation times of tens of seconds) and K0 = 1 (Tables 5, 7).")
+           "and K0 = 1 (Tables 5, 7; Fig. 15: from 1 kPa at phi = 0.52, t(1/e) = 0.7 s, and "
+           "t(1/e) G = 7.3e3 Pa s).")
 
 
 class _Parser(OneLineParser):
@@ -115,7 +116,7 @@ def build_parser() -> argparse.ArgumentParser:
         transient_options(p, t_end)
 
     p = sub.add_parser("program", help="a test program from a text file (steps and ramps)",
-                       epilog="Lines: 'shear at 10 1/s for 60 s', 'shear at 1 1/s until strain 5', "
+                       epilog="Lines: 'shear at 0.5 1/s for 60 s', 'shear at 1 1/s until strain 5', "
                               "'stress 5 Pa for 60 s', 'stress 5 Pa until strain 10', "
                               "'rest for 100 s', 'ramp rate from 0.1 to 100 1/s over 60 s [log|"
                               "linear]', 'ramp stress from 1 to 100 Pa over 60 s', 'start from "

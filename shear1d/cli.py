@@ -201,6 +201,8 @@ def _in_out(out: str, run) -> None:
 
 def _annular(args) -> None:
     m, phi0 = _sample(args)
+    if args.mode is not None and args.mode not in MODES + ("both",):
+        raise ValueError(f"--mode = {args.mode!r} is not one of {', '.join(MODES)}, both")
     modes = MODES if args.mode in ("both", None) else (args.mode,)
     if args.method == "dae" and args.mode is None:   # the default: both modes, locked with dae
         modes = ("locked",)

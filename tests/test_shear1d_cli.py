@@ -598,3 +598,18 @@ def test_every_dimensional_option_at_the_extremes(cmd, opt, value, tmp_path, mon
     if low is not None:
         assert rng.startswith(f"[{low.value:g}, "), line
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("cmd, words", [
+    # annular runs both modes by default: its refusal of an unknown --mode lists "both" too
+    ("annular", "--mode = 'xx' is not one of locked, two-phase, both"),
+    ("couette", "--mode = 'xx' is not one of locked, two-phase"),
+])
+def test_an_unknown_mode_is_refused_with_the_command_s_choices(tmp_path, capsys, cmd, words):
+    out = tmp_path / "out"
+    args = ["annular", "--u-inner", "0.084"] if cmd == "annular" else ["couette", "--speed",
+                                                                       "0.01"]
+    assert main(args + ["--mode", "xx", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0], err
+    assert not out.exists()

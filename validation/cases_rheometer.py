@@ -7,8 +7,9 @@ first-order convergence to the IDA solution of the same tensor law, and its step
 
 Scene choices the paper does not state: Fig. 15's initial stress is not given; we relax from the
 steady state at taubar0 = 1 kPa (within the measured range, below the ~10 kPa of slip and
-breakdown), where G = 1e3-1e4 Pa gives relaxation times of seconds to tens of seconds, as the paper
-says. Transient moduli default to G = 1e4 Pa, K0 = 1 (the steady fits give none).
+breakdown). There t(1/e) G = 7.3e3 Pa s at K0 = 1, so G = 1e3-1e4 Pa gives t(1/e) = 7-0.7 s;
+the paper's "tens of seconds" at G ~ 10 kPa needs a softer skeleton or a start nearer the DST
+limit. Transient moduli default to G = 1e4 Pa, K0 = 1 (the steady fits give none).
 """
 
 from __future__ import annotations
