@@ -11,6 +11,10 @@ from rheology.run_end import mark_end
 from runkit.io import atomic_savefig
 from runkit.plotting import plt
 
+#: a log axis of a transient ends this far below its largest value: a relaxed stress or rate
+#: lower than that is below the integrator's tolerance (rtol 1e-7 by default), its noise
+LOG_FLOOR = 1e-9
+
 
 def save(fig, path) -> str:
     """Write ``fig`` to ``path`` atomically and close it; returns the path as text."""
@@ -152,6 +156,7 @@ def transient_figure(frames: dict, title: str, log_time: bool = False):
         v = np.concatenate([d[col].to_numpy()[d["time_s"].to_numpy() > 0] for d in frames.values()])
         if v.size and np.all(v > 0) and v.max() > 100 * v.min():
             ax.set_yscale("log")
+            ax.set_ylim(bottom=max(float(v.min()), LOG_FLOOR * float(v.max())))
     axs[0].set_ylabel("shear stress [Pa]")
     axs[1].set_ylabel("shear rate [1/s]")
     f_all = [d["f"].to_numpy()[d["time_s"].to_numpy() > 0 if log_time else slice(None)]

@@ -147,3 +147,18 @@ def test_normalised_material_figures_carry_normalised_units():
     assert ax.get_xlabel() == "shear rate [gdot0]" and ax.get_ylabel() == "viscosity [eta0]"
     assert ax.get_title() == "stress [eta0 gdot0] over time [1/gdot0]"
     plt.close(fig)
+
+
+def test_relax_log_stress_axis_stops_below_the_tolerance():
+    """A relaxation from 10 Pa decays to ~1e-30 Pa over 50 s: the log stress axis went down
+    there, drawing the integrator's noise (a staircase, an upturn); it now ends LOG_FLOOR
+    (1e-9) below the largest stress."""
+    df = relax(HERMES, 0.52, 10.0, 50.0, points=200)
+    stress = df["shear_stress_Pa"][df["time_s"] > 0]
+    assert stress.min() < plots.LOG_FLOOR * stress.max()      # the decay reaches the noise
+    fig = plots.transient_figure({"phi = 0.52": df}, "relax", log_time=True)
+    ax = fig.axes[0]
+    assert ax.get_yscale() == "log"
+    lo, hi = ax.get_ylim()
+    assert lo == pytest.approx(plots.LOG_FLOOR * stress.max()) and hi >= stress.max()
+    plt.close(fig)
