@@ -57,6 +57,7 @@ final state of the previous point (as an instrument runs a sweep).
 from __future__ import annotations
 
 import time
+
 import numpy as np
 import pandas as pd
 
@@ -77,8 +78,6 @@ from .transient import Maxwell, check_phi, drive, skeleton
 
 #: Drive modes.
 STRAIN, STRESS = 0, 1
-
-
 #: Defaults.
 DEFAULT_SAMPLES = 128
 DEFAULT_TOL = 1e-5

@@ -201,8 +201,8 @@ def _in_out(out: str, run) -> None:
 
 def _annular(args) -> None:
     m, phi0 = _sample(args)
-    if args.mode is not None and args.mode not in MODES + ("both",):
-        raise ValueError(f"--mode = {args.mode!r} is not one of {', '.join(MODES)}, both")
+    if args.mode is not None:            # "both" is the command's, the modes the library's
+        args.mode = Param(kind="choice", choices=MODES + ("both",)).check("--mode", args.mode)
     modes = MODES if args.mode in ("both", None) else (args.mode,)
     if args.method == "dae" and args.mode is None:   # the default: both modes, locked with dae
         modes = ("locked",)

@@ -166,7 +166,6 @@ def _files(ck: Path) -> list[Path]:
     return [p for p in (ck, previous_checkpoint(ck)) if p.is_file()]
 
 
-
 @contextlib.contextmanager
 def _checkpointed(out: Path, cks, resume: bool, missing: str):
     """Around the runs of checkpoints ``cks``: before, with ``resume``, refuse them without any
