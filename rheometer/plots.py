@@ -216,6 +216,7 @@ def program_figure(df: pd.DataFrame, title: str):
                 unit += f" (linear below {thresh:.2g})"
             else:
                 ax.set_yscale("log")
+                ax.set_ylim(bottom=max(float(pos.min()), LOG_FLOOR * float(pos.max())))
         ax.set_ylabel(unit)
     axs[3].plot(t, df["f"], "-", lw=2, color="C2")
     _f_axis(axs[3], df["f"])

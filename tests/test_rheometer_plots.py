@@ -162,3 +162,16 @@ def test_relax_log_stress_axis_stops_below_the_tolerance():
     lo, hi = ax.get_ylim()
     assert lo == pytest.approx(plots.LOG_FLOOR * stress.max()) and hi >= stress.max()
     plt.close(fig)
+
+
+def test_program_log_stress_axis_stops_below_the_tolerance():
+    """The program figure's log stress axis has the same floor as the transients' (a rest after
+    shear relaxes the stress to ~1e-50 Pa, the integrator's noise)."""
+    df = run_program(HERMES, 0.5, "shear at 0.5 1/s for 10 s\nrest for 50 s", points=100)
+    stress = df["shear_stress_Pa"].to_numpy()
+    assert stress.min() > 0 and stress.min() < plots.LOG_FLOOR * stress.max()
+    fig = plots.program_figure(df, "program")
+    ax = fig.axes[1]
+    assert ax.get_yscale() == "log"
+    assert ax.get_ylim()[0] == pytest.approx(plots.LOG_FLOOR * stress.max())
+    plt.close(fig)
