@@ -38,7 +38,7 @@ Layout of a run folder ``DIR`` (every file written atomically through :mod:`runk
                                ``checkpoint.prev.npz`` is the one before (the fallback)
     DIR/*.png, DIR/*.csv       the scene's figures and result tables
 
-A fresh run removes only the files a previous run of ours wrote (:func:`previous_run_files`:
+A fresh run removes only the files a previous run of ours wrote (:meth:`RunFolder.listed`:
 those its manifest lists, its checkpoints and the snapshots written after its last manifest);
 a non-empty folder without our manifest is refused, nothing in it touched.
 
@@ -55,8 +55,8 @@ from pathlib import Path
 import meshio
 import numpy as np
 
-from runkit.io import atomic_savez, atomic_write_json, atomic_write_text, atomic_write_with
-from runkit.run import TEMPORARY
+from runkit.io import atomic_savez, atomic_write_text, atomic_write_with
+from runkit.run import Folder
 
 from .grid import M, PAD
 
@@ -289,14 +289,9 @@ def write_pvds(out: Path, frames: list[dict]) -> None:
         write_pvd(out / "vtk" / f"{n}.pvd", entries)
 
 
-def write_manifest(out: Path, manifest: dict) -> Path:
-    """``out/manifest.json`` as strict JSON (a non-finite value is an error)."""
-    return atomic_write_json(out / "manifest.json", manifest)
-
-
-__all__ = ["snapshot_arrays", "write_frame", "write_pvds", "write_manifest", "write_vtu",
-           "read_vtu", "write_grid_vtu", "grid_fields", "project_to_nodes", "load_frames",
-           "vtu_name", "case_summaries"]
+__all__ = ["snapshot_arrays", "write_frame", "write_pvds", "write_vtu", "read_vtu",
+           "write_grid_vtu", "grid_fields", "project_to_nodes", "load_frames", "vtu_name",
+           "case_summaries", "RunFolder"]
 
 
 # ---------------------------------------------------------------- the run folder
@@ -304,101 +299,42 @@ _FRAME = re.compile(r"frame_\d{5}\.npz$")
 _VTU = re.compile(r"(.+)_\d{5}\.vtu")
 
 
-def _our_manifest(out: Path) -> dict | None:
-    """The manifest of a previous run of ours in ``out`` (scene, params, frames), else None."""
-    man = out / "manifest.json"
-    if not man.is_file():
-        return None
-    try:
-        m = json.loads(man.read_text())
-    except (ValueError, OSError, UnicodeDecodeError):
-        return None
-    if not (isinstance(m, dict) and isinstance(m.get("scene"), str)
-            and isinstance(m.get("params"), dict) and isinstance(m.get("frames"), list)):
-        return None
-    return m
+class RunFolder(Folder):
+    """The folder of an mpm2d run (the layout above, :class:`runkit.run.Folder`'s policy): a
+    manifest of ours has ``scene``, ``params`` and ``frames``; a completed run keeps its
+    checkpoint (``--resume`` of a report's sub-runs)."""
 
+    subdirs = ("frames", "vtk")
+    keeps_checkpoint = True
 
-def _inside(out: Path, rel) -> Path | None:
-    """``out/rel`` when ``rel`` is a plain relative path inside ``out`` (top level, frames/ or
-    vtk/), else None (a manifest is never trusted to name a file elsewhere)."""
-    if not isinstance(rel, str) or not rel or "\\" in rel:
-        return None
-    parts = Path(rel).parts
-    if Path(rel).is_absolute() or ".." in parts or len(parts) > 2 or \
-            (len(parts) == 2 and parts[0] not in ("frames", "vtk")):
-        return None
-    return out / rel
+    def __init__(self, path):
+        super().__init__(path, "mpm2d")
 
+    def ours(self, manifest: dict) -> bool:
+        return (isinstance(manifest.get("scene"), str) and isinstance(manifest.get("params"), dict)
+                and isinstance(manifest.get("frames"), list))
 
-def _is_empty(out: Path) -> bool:
-    """No entry besides empty frames/ and vtk/ folders and temporaries of our atomic writes."""
-    for f in out.iterdir():
-        if f.is_dir() and f.name in ("frames", "vtk") and not any(f.iterdir()):
-            continue
-        if f.is_file() and TEMPORARY.match(f.name):
-            continue
-        return False
-    return True
-
-
-def previous_run_files(out: Path) -> list[Path]:
-    """The files a previous run of ours wrote into ``out``, which a fresh run removes: those its
-    manifest lists (snapshots, their VTK files and .pvd series, figures and result tables), its
-    checkpoints, history and manifest, and the snapshots written after its last manifest
-    (``frames/frame_NNNNN.npz``, ``vtk/SET_NNNNN.vtu`` of its sets). Nothing else is touched.
-
-    Raises
-    ------
-    ValueError
-        ``out`` is a non-empty folder without the manifest of a run of ours (a folder of the
-        user's: nothing in it is removed or overwritten), before anything is written.
-    """
-    if not out.is_dir() or _is_empty(out):
-        return []
-    m = _our_manifest(out)
-    if m is None:
-        raise ValueError(f"--out = {str(out)!r} is a non-empty folder that holds no mpm2d run "
-                         "(no manifest.json of ours): give a new or empty folder, nothing of "
-                         "yours is overwritten")
-    files, names = [], set()
-    for f in m["frames"]:
-        if not isinstance(f, dict):
-            continue
-        files.append(_inside(out, f.get("npz")))
-        for n, v in (f.get("vtu") or {}).items():
-            files.append(_inside(out, v))
-            names.add(str(n))
-    if (out / "frames").is_dir():
-        files += [f for f in (out / "frames").iterdir() if _FRAME.match(f.name)]
-    if (out / "vtk").is_dir():
-        files += [f for f in (out / "vtk").iterdir()
-                  if (v := _VTU.fullmatch(f.name)) is not None and v.group(1) in names]
-        files += [out / "vtk" / f"{n}.pvd" for n in names if "/" not in n]
-    files += [out / n for n in ("checkpoint.npz", "checkpoint.prev.npz", "history.csv",
-                                "manifest.json")]
-    files += [_inside(out, f) for f in m.get("figures", []) or []]
-    files += [_inside(out, f) for f in m.get("results", []) or []]
-    seen, keep = set(), []
-    for f in files:
-        if f is not None and f not in seen and f.is_file():
-            seen.add(f)
-            keep.append(f)
-    return keep
-
-
-def temporaries(out: Path) -> list[Path]:
-    """The temporary files of atomic writes a killed run (SIGKILL, power loss) left."""
-    return [f for d in (out, out / "frames", out / "vtk") if d.is_dir() for f in d.iterdir()
-            if f.is_file() and TEMPORARY.match(f.name)]
-
-
-def remove(out: Path, files: list[Path]) -> list[str]:
-    """Delete ``files`` and return their names relative to ``out``."""
-    gone = [f for f in files if f.is_file()]
-    for f in gone:
-        f.unlink()
-    return [str(f.relative_to(out)) for f in gone]
+    def listed(self, manifest: dict) -> list:
+        """The files a previous run of ours wrote, which a fresh run removes: those its manifest
+        lists (snapshots, their VTK files and .pvd series, figures and result tables), its
+        checkpoints, history and manifest, and the snapshots written after its last manifest
+        (``frames/frame_NNNNN.npz``, ``vtk/SET_NNNNN.vtu`` of its sets). Nothing else is
+        touched."""
+        files, names = [], set()
+        for f in manifest["frames"]:
+            if isinstance(f, dict):
+                files += [f.get("npz"), *(f.get("vtu") or {}).values()]
+                names.update(str(n) for n in f.get("vtu") or {})
+        frames, vtk = self.path / "frames", self.path / "vtk"
+        if frames.is_dir():
+            files += [f"frames/{f.name}" for f in frames.iterdir() if _FRAME.match(f.name)]
+        if vtk.is_dir():
+            files += [f"vtk/{f.name}" for f in vtk.iterdir()
+                      if (v := _VTU.fullmatch(f.name)) is not None and v.group(1) in names]
+            files += [f"vtk/{n}.pvd" for n in names if "/" not in n]
+        return files + ["checkpoint.npz", "checkpoint.prev.npz", "history.csv",
+                        "manifest.json", *(manifest.get("figures", []) or []),
+                        *(manifest.get("results", []) or [])]
 
 
 def command_line(name: str, params: dict, defaults: dict, frames, vtk: bool,

@@ -17,7 +17,7 @@ other values where the scene states its run from its parameters
 step); a set-up that breaks down; a resume of another scene, with other parameters or output
 options. ``resume=True`` continues from ``DIR/checkpoint.npz`` (or its kept predecessor)
 bit-for-bit: every file equals an uninterrupted run's. A fresh run removes only the files a
-previous run of ours wrote (:func:`mpm2d.output.previous_run_files`). A run whose step fails
+previous run of ours wrote (:class:`mpm2d.output.RunFolder`). A run whose step fails
 ends there (:mod:`rheology.run_end`): history up to the last row, ``history.png``, manifest
 ``status: ended_early`` with ``ends``, :class:`~rheology.run_end.EndedEarly` (exit status 3); a
 report that fails marks it ``failed`` and raises RuntimeError.
@@ -28,8 +28,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import sys
-import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -38,16 +36,15 @@ import numba
 import numpy as np
 import pandas as pd
 
-from runkit.io import (atomic_write_csv, check_output_dir, previous_checkpoint, read_checkpoint,
-                       save_checkpoint)
+from runkit.io import atomic_write_csv, previous_checkpoint, read_checkpoint, save_checkpoint
 from runkit.limits import MAX_STEPS, ge, gt, le
 from runkit.params import Number
-from runkit.run import HeldWarnings, Interrupts, Progress, drive
+from runkit.run import (TEMPORARY, HeldWarnings, Interrupts, Notice, Progress, drive, table_arrays,
+                        table_rows)
 from rheology.run_end import EndedEarly, RunEnd, run_record
 
 from . import estimate, plots
-from .output import (command_line, previous_run_files, remove, temporaries, write_frame,
-                     write_manifest, write_pvds)
+from .output import RunFolder, command_line, write_frame, write_pvds
 from .scenes.spec import STEPS_WHY, run_refusal, spec_of
 from .simulation import Simulation
 
@@ -158,23 +155,6 @@ CHECKPOINT_EVERY = Number("--checkpoint-every", gt(0.0, "a checkpoint interval i
 #: line on a terminal's stderr, erased when the set-up ends); a fast one is not. A refusal after
 #: the set-up (the step count) is then the only output, on every stream
 SETUP_NOTICE_S = 2.0
-
-
-def _history_arrays(rows: list[dict]) -> dict[str, np.ndarray]:
-    """The history as one typed array per column (integer columns stay integer)."""
-    hist = pd.DataFrame(rows)
-    out = {"run.history_columns": np.array(list(hist.columns))}
-    for i, c in enumerate(hist.columns):
-        out[f"run.history.{i}"] = hist[c].to_numpy()
-    return out
-
-
-def _history_rows(saved: dict) -> list[dict]:
-    cols = [str(c) for c in saved["run.history_columns"]]
-    if "run.history.0" not in saved:                 # a checkpoint of an older version
-        return [dict(zip(cols, r)) for r in saved["run.history"]]
-    arrays = [saved[f"run.history.{i}"] for i in range(len(cols))]
-    return [{c: a[k].item() for c, a in zip(cols, arrays)} for k in range(len(arrays[0]))]
 
 
 def run_scene(setup: Callable, out, params: dict | None = None, *, resume: bool = False,
@@ -306,20 +286,8 @@ def _set_up(setup, params: dict, given: dict, name: str, resuming: str, show: bo
     Ctrl-C or SIGTERM stops it at once, nothing written."""
     notice = f"setting up scene {name}" + (
         " (then the checkpoint is loaded)" if resuming else "") + "..."
-    shown = threading.Event()
-
-    def tell():
-        sys.stderr.write(notice)
-        sys.stderr.flush()
-        shown.set()
-
-    announce = threading.Timer(SETUP_NOTICE_S, tell)
-    announce.daemon = True
-    if (show and sys.stderr.isatty()
-            and threading.current_thread() is threading.main_thread()):
-        announce.start()
     try:
-        with HeldWarnings() as held:
+        with Notice(notice, SETUP_NOTICE_S, show), HeldWarnings() as held:
             scene = getattr(setup, "raw", setup)(**params)     # params are checked already
     except KeyboardInterrupt:
         raise KeyboardInterrupt("during the scene's set-up, nothing written"
@@ -335,13 +303,6 @@ def _set_up(setup, params: dict, given: dict, name: str, resuming: str, show: bo
         raise ValueError(f"scene {name}: with {given_text} the set-up breaks down "
                          f"({type(exc).__name__}: {exc}{held.after()}); valid: values away "
                          f"from the extremes of their ranges ('mpm2d show {name}')") from None
-    finally:
-        announce.cancel()
-        if announce.is_alive():              # a notice being written is whole before it goes
-            announce.join()
-        if shown.is_set():                   # the status line goes: what follows stands alone
-            sys.stderr.write("\r\x1b[K")
-            sys.stderr.flush()
     return scene, held
 
 
@@ -350,11 +311,12 @@ class _Run:
     advances, and the checkpoint it saves): history rows, snapshots, the checkpoint with the
     history and the manifest."""
 
-    def __init__(self, out, scene, name, params, defaults, options, saved):
+    def __init__(self, folder, scene, name, params, defaults, options, saved):
         sim = scene.sim
-        self.out, self.scene, self.sim, self.name = out, scene, sim, name
+        self.folder, self.out = folder, folder.path
+        self.scene, self.sim, self.name = scene, sim, name
         self.params, self.options = params, options
-        self.manifest = manifest = {
+        self.manifest = manifest = folder.manifest = {
             "scene": name, "command": command_line(name, params, defaults, options["frames"],
                                                    options["vtk"], scene.vtk),
             "params": params, "mode": sim.mode, "transfer": sim.transfer,
@@ -364,14 +326,16 @@ class _Run:
                      "boundaries": sim.grid.boundaries},
             "t_end_s": scene.t_end, "notes": scene.notes, "frames": [], "status": "running",
             "ends": []}
-        self.path = out / "checkpoint.npz"
+        self.path = self.out / "checkpoint.npz"
         self.t_end, self.rows = scene.t_end, []
         nframes = scene.frames if options["frames"] is None else int(options["frames"])
         self.rec_dt = scene.t_end / max(scene.history_rows, 1)
         self.frame_dt = scene.t_end / max(nframes, 1)
         if saved is not None:
             self.sim.load_state({k: v for k, v in saved.items() if not k.startswith("run.")})
-            self.rows = _history_rows(saved)
+            self.rows = (table_rows(saved, "run.history") if "run.history.0" in saved else
+                         [dict(zip([str(c) for c in saved["run.history_columns"]], r))
+                          for r in saved["run.history"]])     # a checkpoint of an older version
             manifest["frames"] = json.loads(str(saved["run.frames"]))
             self.next_rec, self.next_frame = (float(x) for x in saved["run.next_times"])
         else:
@@ -430,12 +394,12 @@ class _Run:
         state["run.scene"] = np.array(self.name)
         state["run.params"] = np.array(json.dumps(self.params))
         state["run.options"] = np.array(json.dumps(self.options))
-        state.update(_history_arrays(self.rows))
+        state.update(table_arrays(self.rows, "run.history"))
         state["run.frames"] = np.array(json.dumps(self.manifest["frames"]))
         state["run.next_times"] = np.array([self.next_rec, self.next_frame])
         save_checkpoint(self.path, **state)
         self.write_history()
-        write_manifest(self.out, self.manifest)
+        self.folder.write_manifest()
 
     def finish(self) -> list:
         """The last snapshot, the .pvd series, history and manifest, then the scene's report
@@ -447,7 +411,7 @@ class _Run:
         if self.options["vtk"]:
             write_pvds(out, m["frames"])
         self.write_history()                 # the report may read it
-        write_manifest(out, m)               # the report reads the frames from it
+        self.folder.write_manifest()         # the report reads the frames from it
         if self.scene.report is None:
             return []
         self.save()
@@ -467,7 +431,7 @@ class _Run:
                 self.write_history()
                 plots.ended_history(pd.DataFrame(self.rows), end, out / "history.png", self.name)
                 m.update(run_record([end]), figures=["history.png"])
-            write_manifest(out, m)
+            self.folder.write_manifest()
         except (RuntimeError, ValueError, OSError):
             end = None
         if end is not None:
@@ -478,8 +442,8 @@ class _Run:
 def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_every, log,
                stop_after_steps, scene_name, yes=True) -> dict:
     """:func:`run_scene` with its log and progress settled."""
-    out = check_output_dir("--out", out)
-    ckpt_path = out / "checkpoint.npz"
+    folder = RunFolder(out)
+    out, ckpt_path = folder.path, folder.path / "checkpoint.npz"
     spec = spec_of(setup)
     name = scene_name or spec.name
     given = coerce(dict(params or {}), setup)
@@ -494,9 +458,9 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         if refusal is not None:
             raise refusal
         estimate.check_before_setup(setup, spec, params, name, yes, log)
-    # a fresh run removes only what a previous run of ours wrote; a folder of the user's is
-    # refused here, before the set-up and before anything is written
-    previous = previous_run_files(out) if saved is None else []
+        # a fresh run removes only what a previous run of ours wrote; a folder of the user's
+        # is refused here, before the set-up and before anything is written
+        folder.check()
     scene, held = _set_up(setup, params, given, name, str(ckpt_path) if saved else "",
                           progress)
     options["vtk"] = vtk = scene.vtk if options["vtk"] is None else bool(options["vtk"])
@@ -508,14 +472,15 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         log(f"note: {out} holds the checkpoint of an earlier run; this run starts afresh and "
             "replaces it (--resume continues it instead)")
     with Interrupts() as stop:         # from here on, a signal stops between steps
-        out.mkdir(parents=True, exist_ok=True)
-        for f in remove(out, temporaries(out)):
+        removed = folder.prepare(resume=saved is not None)
+        earlier = [f for f in removed if not TEMPORARY.match(Path(f).name)]
+        for f in (f for f in removed if f not in earlier):
             log(f"removed {f}, a temporary file of an interrupted write")
-        if saved is None and remove(out, previous):
-            log(f"removed the earlier run's {len(previous)} files in {out} (snapshots, VTK, "
+        if earlier:
+            log(f"removed the earlier run's {len(earlier)} files in {out} (snapshots, VTK, "
                 "checkpoints, history, manifest, figures); its result tables are replaced "
                 "when this run ends")
-        run = _Run(out, scene, name, params, spec.defaults, options, saved)
+        run = _Run(folder, scene, name, params, spec.defaults, options, saved)
         sim, manifest = scene.sim, run.manifest
         if saved is not None:
             log(f"resumed from {used} at t = {sim.t:.6g} s, step {sim.step_count}")
@@ -524,7 +489,7 @@ def _run_scene(setup, out, params, resume, progress, vtk, frames, checkpoint_eve
         if not run.rows:
             run.rows.append(history_row(sim, scene))
         if saved is None:                    # the folder is marked as a run of ours before its
-            write_manifest(out, manifest)    # first file (a run killed now can be replaced)
+            folder.write_manifest()          # first file (a run killed now can be replaced)
         if not manifest["frames"]:
             run.frame()
         stepping, figures = True, []

@@ -18,11 +18,12 @@ a terminal and a plain line every ``every`` seconds otherwise (a log file).
 
 :class:`Folder` is the output-folder policy: a fresh run removes only the files a previous run
 of ours listed in its ``manifest.json`` (and the temporaries of an interrupted atomic write); a
-non-empty folder without our manifest is refused before anything is written. The manifest's
-``status`` is ``running``, ``complete``, ``stopped``, ``ended_early`` or ``failed`` (with the
-message). A completed run keeps no checkpoint (:meth:`Folder.write_manifest` with ``complete``,
-:func:`retire_checkpoints` for the runs under a folder); an interrupted, stopped or failed one
-keeps its own for ``--resume``.
+fresh run in a non-empty folder without our manifest is refused before anything is written.
+The manifest's ``status`` is ``running``, ``complete``, ``stopped``, ``ended_early`` or
+``failed`` (with the message). A completed run keeps no checkpoint (:meth:`Folder.write_manifest`
+with ``complete``, :func:`retire_checkpoints` for the runs under a folder); an interrupted,
+stopped or failed one keeps its own for ``--resume``. :func:`table_arrays` keeps a run's table
+(its history) in a checkpoint; :class:`Notice` announces a slow set-up on a terminal.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ from pathlib import Path
 from typing import Protocol
 
 import numpy as np
+import pandas as pd
 from tqdm import tqdm
 
 from .io import (atomic_write_json, check_output_dir, load_checkpoint, previous_checkpoint,
@@ -223,6 +225,56 @@ class Checkpoint:
         remove_checkpoint(self.path)
 
 
+def table_arrays(rows: list[dict], name: str) -> dict[str, np.ndarray]:
+    """A table (rows of ``{column: value}``, e.g. a run's history) as checkpoint arrays:
+    ``NAME_columns`` and one typed array per column, ``NAME.0``, ``NAME.1``... (integer columns
+    stay integer; :func:`table_rows` reads them back)."""
+    table = pd.DataFrame(rows)
+    out = {f"{name}_columns": np.array(list(table.columns))}
+    for i, c in enumerate(table.columns):
+        out[f"{name}.{i}"] = table[c].to_numpy()
+    return out
+
+
+def table_rows(saved: dict, name: str) -> list[dict]:
+    """The rows :func:`table_arrays` put in the checkpoint arrays ``saved`` (Python values)."""
+    cols = [str(c) for c in saved[f"{name}_columns"]]
+    arrays = [saved[f"{name}.{i}"] for i in range(len(cols))]
+    return [{c: a[k].item() for c, a in zip(cols, arrays)} for k in range(len(arrays[0]))]
+
+
+class Notice:
+    """``text`` as a status line on a terminal's stderr once what it wraps has run ``delay``
+    wall seconds (a slow set-up: a fast one says nothing), erased when it ends, so what follows
+    (a refusal) stands alone; nothing unless ``show``, on a terminal, in the main thread."""
+
+    def __init__(self, text: str, delay: float, show: bool = True):
+        self.text, self.shown = text, threading.Event()
+        self.timer = threading.Timer(delay, self._tell)
+        self.timer.daemon = True
+        self.show = (show and sys.stderr.isatty()
+                     and threading.current_thread() is threading.main_thread())
+
+    def _tell(self) -> None:
+        sys.stderr.write(self.text)
+        sys.stderr.flush()
+        self.shown.set()
+
+    def __enter__(self):
+        if self.show:
+            self.timer.start()
+        return self
+
+    def __exit__(self, *exc):
+        self.timer.cancel()
+        if self.timer.is_alive():            # a notice being written is whole before it goes
+            self.timer.join()
+        if self.shown.is_set():              # the status line goes: what follows stands alone
+            sys.stderr.write("\r\x1b[K")
+            sys.stderr.flush()
+        return False
+
+
 class Stepper(Protocol):
     """What :func:`drive` advances: the simulated time ``t`` [s] to ``t_end``, the ``steps``
     done, ``advance()`` one step or segment, ``state()`` what a checkpoint holds."""
@@ -286,12 +338,32 @@ def drive(stepper: Stepper, *, checkpoint: Checkpoint | None = None, every: floa
 
 
 class Folder:
-    """The output folder of a run (see the module docstring); ``owner`` marks its manifest."""
+    """The output folder of a run (see the module docstring); ``owner`` marks its manifest.
+
+    A tier whose manifest has fields of its own subclasses it: :meth:`ours` recognises its
+    manifest, :meth:`listed` names the files a previous run wrote, :attr:`subdirs` are the
+    folders it writes into, :attr:`keeps_checkpoint` keeps a completed run's checkpoint; a run
+    may replace ``manifest`` by its own fields before its first :meth:`write_manifest`.
+    """
+
+    #: the sub-folders a run writes into (a manifest naming a file elsewhere is not trusted;
+    #: another entry is the user's); None: any, at any depth
+    subdirs: tuple[str, ...] | None = None
+    #: a completed run keeps its checkpoint (else :meth:`write_manifest` removes it)
+    keeps_checkpoint = False
 
     def __init__(self, path, owner: str, option: str = "--out"):
         self.path = check_output_dir(option, path)
         self.owner, self.option = owner, option
         self.manifest = {"owner": owner, "status": "running", "files": []}
+
+    def ours(self, manifest: dict) -> bool:
+        """Whether ``manifest`` (a dict) is of a run of ours."""
+        return manifest.get("owner") == self.owner and isinstance(manifest.get("files"), list)
+
+    def listed(self, manifest: dict) -> list:
+        """The names (relative to the folder) of the files the run of ``manifest`` wrote."""
+        return manifest["files"] + ["manifest.json"]
 
     def previous(self) -> dict | None:
         """The manifest of a previous run of ours here, else None."""
@@ -299,35 +371,54 @@ class Folder:
             m = json.loads((self.path / "manifest.json").read_text())
         except (OSError, ValueError, UnicodeDecodeError):
             return None
-        ok = isinstance(m, dict) and m.get("owner") == self.owner and isinstance(
-            m.get("files"), list)
-        return m if ok else None
+        return m if isinstance(m, dict) and self.ours(m) else None
 
     def _inside(self, rel) -> Path | None:
-        """``path/rel`` for a plain relative path inside the folder (a manifest is never
-        trusted to name a file elsewhere)."""
+        """``path/rel`` for a plain relative path inside the folder, at its top or in its
+        :attr:`subdirs` (a manifest is never trusted to name a file elsewhere)."""
         if not isinstance(rel, str) or not rel or "\\" in rel or Path(rel).is_absolute() \
                 or ".." in Path(rel).parts:
             return None
+        parts = Path(rel).parts
+        if self.subdirs is not None and (len(parts) > 2 or (len(parts) == 2
+                                                           and parts[0] not in self.subdirs)):
+            return None
         return self.path / rel
 
-    def prepare(self, resume: bool = False) -> list[str]:
-        """Check the folder before anything is written (ValueError for a non-empty folder that
-        holds no run of ours); create it; remove the temporaries of interrupted writes and, for
-        a fresh run, the files of the previous run of ours. Returns the removed names."""
-        entries = [f for f in self.path.rglob("*") if f.is_file()] if self.path.is_dir() else []
-        mine = [f for f in entries if not TEMPORARY.match(f.name)]
+    def _entries(self) -> list[Path]:
+        """The files where a run of ours writes (the top and :attr:`subdirs`, or at any depth)
+        and every other entry (a folder of the user's)."""
+        if not self.path.is_dir():
+            return []
+        if self.subdirs is None:
+            return [f for f in self.path.rglob("*") if f.is_file()]
+        return [f for e in self.path.iterdir()
+                for f in (e.iterdir() if e.is_dir() and e.name in self.subdirs else [e])]
+
+    def check(self, resume: bool = False) -> list[Path]:
+        """The files :meth:`prepare` removes: the temporaries of interrupted writes and, for a
+        fresh run, the files of the previous run of ours. ValueError, before anything is
+        written, for a fresh run in a non-empty folder that holds no run of ours."""
+        entries = self._entries()
+        gone = [f for f in entries if f.is_file() and TEMPORARY.match(f.name)]
         previous = self.previous()
-        if mine and previous is None:
-            raise ValueError(f"{self.option} = {str(self.path)!r} is a non-empty folder that "
-                             f"holds no {self.owner} run (no manifest.json of ours): give a new "
-                             "or empty folder, nothing of yours is overwritten")
-        gone = [f for f in entries if TEMPORARY.match(f.name)]
-        if previous is not None and not resume:
-            listed = {self._inside(r) for r in previous["files"] + ["manifest.json"]}
-            gone += [f for f in mine if f in listed]
-        if resume and previous is not None:
-            self.manifest = {**previous, "status": "running"}
+        if resume:
+            if previous is not None:
+                self.manifest = {**previous, "status": "running"}
+            return gone
+        if previous is None:
+            if len(gone) < len(entries):
+                raise ValueError(f"{self.option} = {str(self.path)!r} is a non-empty folder "
+                                 f"that holds no {self.owner} run (no manifest.json of ours): "
+                                 "give a new or empty folder, nothing of yours is overwritten")
+            return gone
+        listed = (self._inside(r) for r in self.listed(previous))
+        return gone + [f for f in dict.fromkeys(listed) if f is not None and f.is_file()]
+
+    def prepare(self, resume: bool = False) -> list[str]:
+        """:meth:`check` the folder, create it and remove the files :meth:`check` names (the
+        temporaries first). Returns the removed names."""
+        gone = self.check(resume)
         self.path.mkdir(parents=True, exist_ok=True)
         for f in gone:
             f.unlink()
@@ -342,10 +433,11 @@ class Folder:
 
     def write_manifest(self, status: str | None = None, **fields) -> Path:
         """``manifest.json`` (strict JSON) with ``status`` and ``fields``; at ``complete``, the
-        folder's :data:`CHECKPOINT` is removed (after the manifest)."""
+        folder's :data:`CHECKPOINT` is removed (after the manifest) unless
+        :attr:`keeps_checkpoint`."""
         self.manifest.update(fields, **({"status": status} if status else {}))
         path = atomic_write_json(self.path / "manifest.json", self.manifest)
-        if self.manifest["status"] == "complete":
+        if self.manifest["status"] == "complete" and not self.keeps_checkpoint:
             remove_checkpoint(self.path / CHECKPOINT)
         return path
 

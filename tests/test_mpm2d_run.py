@@ -292,19 +292,20 @@ def test_signal_while_the_last_files_are_written_completes_the_run(tmp_path, mon
     """A SIGTERM that arrives after the last step, while the report, manifest and final
     checkpoint are written (it used to reach the command as 'interrupted', exit 130, though every
     file was complete): the run finishes, says so, and its files equal an undisturbed run's."""
-    import mpm2d.run as runmod
+    from mpm2d.output import RunFolder
 
     params = dict(cells=8, t_end_T=0.05)
     _run(terzaghi.setup, tmp_path / "full", params=params, vtk=False)
-    real, sent = runmod.write_manifest, []
+    real, sent = RunFolder.write_manifest, []
 
-    def manifest_then_signal(out, manifest):
-        real(out, manifest)
-        if manifest.get("status") == "complete" and not sent:
+    def manifest_then_signal(folder, *args, **kwargs):
+        path = real(folder, *args, **kwargs)
+        if folder.manifest.get("status") == "complete" and not sent:
             sent.append(1)
             os.kill(os.getpid(), signal.SIGTERM)
+        return path
 
-    monkeypatch.setattr(runmod, "write_manifest", manifest_then_signal)
+    monkeypatch.setattr(RunFolder, "write_manifest", manifest_then_signal)
     lines = []
     res = run_scene(terzaghi.setup, tmp_path / "late", params, progress=False, vtk=False,
                     log=lines.append)
