@@ -15,7 +15,7 @@ import pytest
 
 from runkit.command import ENDED_EARLY, FAILED, INTERRUPTED, USAGE, OneLineParser, run
 from runkit.run import (CHECKPOINT, Checkpoint, Folder, HeldWarnings, Progress, drive,
-                         retire_checkpoints)
+                         retire_checkpoints, table_arrays, table_rows)
 
 OMEGA = 2.0 * np.pi                       # [rad/s]
 
@@ -233,3 +233,52 @@ def test_sigterm_is_an_interrupt_and_negative_numbers_are_values(capsys):
         p.parse_args(["--nope"])
     assert e.value.code == USAGE
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_a_table_in_a_checkpoint_comes_back_with_its_types(tmp_path):
+    """table_arrays/table_rows: a run's history saved column by column (an integer column stays
+    integer) reads back as the same rows of Python values."""
+    rows = [{"time_s": 0.0, "step": 0, "total_J": 1.5}, {"time_s": 0.25, "step": 7, "total_J": 2.0}]
+    arrays = table_arrays(rows, "run.history")
+    assert arrays["run.history.1"].dtype.kind == "i"
+    ck = Checkpoint(tmp_path / CHECKPOINT, FP)
+    ck.save(arrays)
+    back = table_rows(ck.load(), "run.history")
+    assert back == rows and all(type(r["step"]) is int for r in back)
+
+
+class _Snapshots(Folder):
+    """A tier's folder: its manifest marked by 'scene', its files under frames/ only."""
+
+    subdirs = ("frames",)
+    keeps_checkpoint = True
+
+    def ours(self, manifest):
+        return isinstance(manifest.get("scene"), str)
+
+    def listed(self, manifest):
+        return [*manifest["written"], "manifest.json", "../outside.txt", "elsewhere/x.npz"]
+
+
+def test_a_folder_with_fields_of_its_own(tmp_path):
+    """Folder's hooks: ours() recognises the tier's manifest, listed() names what it wrote (a
+    name outside the folder or its subdirs is never trusted), a folder outside subdirs is the
+    user's, keeps_checkpoint keeps a completed run's checkpoint."""
+    (tmp_path / "outside.txt").write_text("keep")
+    out = tmp_path / "run"
+    (out / "elsewhere").mkdir(parents=True)
+    with pytest.raises(ValueError, match="holds no snapshots run"):
+        _Snapshots(out, "snapshots").check()                 # an empty folder of the user's
+    (out / "elsewhere").rmdir()
+    f = _Snapshots(out, "snapshots")
+    assert f.prepare() == []
+    f.manifest = {"scene": "s", "written": ["frames/a.npz"], "status": "running"}
+    (out / "frames").mkdir()
+    for name in ("frames/a.npz", CHECKPOINT):
+        (out / name).write_text("x")
+    f.write_manifest("complete")
+    assert (out / CHECKPOINT).is_file()
+    (out / "elsewhere").mkdir()
+    (out / "elsewhere" / "x.npz").write_text("the user's")
+    assert sorted(_Snapshots(out, "snapshots").prepare()) == ["frames/a.npz", "manifest.json"]
+    assert (out / "elsewhere" / "x.npz").is_file() and (tmp_path / "outside.txt").is_file()
