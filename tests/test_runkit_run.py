@@ -238,7 +238,8 @@ def test_sigterm_is_an_interrupt_and_negative_numbers_are_values(capsys):
 def test_a_table_in_a_checkpoint_comes_back_with_its_types(tmp_path):
     """table_arrays/table_rows: a run's history saved column by column (an integer column stays
     integer) reads back as the same rows of Python values."""
-    rows = [{"time_s": 0.0, "step": 0, "total_J": 1.5}, {"time_s": 0.25, "step": 7, "total_J": 2.0}]
+    rows = [{"time_s": 0.0, "step": 0, "total_J": 1.5},
+            {"time_s": 0.25, "step": 7, "total_J": 2.0}]
     arrays = table_arrays(rows, "run.history")
     assert arrays["run.history.1"].dtype.kind == "i"
     ck = Checkpoint(tmp_path / CHECKPOINT, FP)
