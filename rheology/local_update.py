@@ -125,6 +125,10 @@ def _beta_of_rate(g, phi, phim, a, p_tr, Kdt, eta0, rd2, K3, lo, hi):
             break
         dF = -2.0 * Ag * a * a * x / K3 - 2.0 * w * pb / K3 - w * w * Kdt * g
         nb = beta - F / dF
+        if abs(nb - beta) <= 1e-15 * beta:     # converged (as in _tension_state)
+            if lo < nb < hi:
+                beta = nb
+            break
         beta = nb if lo < nb < hi else 0.5 * (lo + hi)
     return beta
 
@@ -423,13 +427,13 @@ def _tension_state(h, g_min, phi, phim, a, Kdt, eta0, rd2, K3):
         if F == 0.0 or hi - lo <= 4e-16 * hi:
             break
         xn = x - F / (2.0 * A2 * x + 2.0 * w * lin + w * w * kg)
-        if lo < xn < hi:
-            if abs(xn - x) <= 1e-15 * x:
+        # converged: tested before the bracket, since a converged step can land on the end
+        # the iterate itself has just become (bisecting from there would take ~40 more steps)
+        if abs(xn - x) <= 1e-15 * x:
+            if lo < xn < hi:
                 x = xn
-                break
-            x = xn
-        else:
-            x = 0.5 * (lo + hi)
+            break
+        x = xn if lo < xn < hi else 0.5 * (lo + hi)
     w = phim - x
     return x, Ag * (a * x) ** 2 / (w * w), g
 
