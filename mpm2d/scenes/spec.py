@@ -43,6 +43,8 @@ from runkit.params import Schema, shown
 from rheology import get_material, material_names
 from rheology.materials import RULES, scene_material
 
+from ..simulation import Simulation
+
 #: memory estimate: bytes per material point (kinematic arrays ~40 float64, material state,
 #: the output copies of a snapshot and the permutation copies of a sort) and per grid node (per
 #: phase: the node fields, one private copy per thread, velocities; two phases at most)
@@ -75,10 +77,38 @@ def Param(lo=None, hi=None, *, integer=False, lo_closed=True, hi_closed=True, un
                        fill=fill, role=role, of=of)
 
 
-def wave_step(cfl: float, h: float, modulus: float, density: float) -> float:
-    """The elastic wave limit of the explicit step, ``cfl h / sqrt(S V/m)`` [s]
-    (:meth:`mpm2d.simulation.Simulation.stable_dt`; V/m = 1/density of the points)."""
-    return cfl * h / math.sqrt(modulus / density)
+#: the safety factor of the viscous limit of the scenes' steps (Simulation's default)
+CFL_VISC = inspect.signature(Simulation).parameters["cfl_visc"].default
+
+
+def first_step(cfl: float, h: float, phases, speed: float = 0.0,
+               cfl_visc: float = CFL_VISC) -> float:
+    """The set-up's first stable step from the parameters alone [s]: the limits of
+    :meth:`mpm2d.simulation.Simulation.stable_dt` at t = 0, the smallest of the elastic wave
+    ``cfl h / sqrt(max S V/m)``, the advection ``cfl h / |v|max`` and the viscous diffusion
+    ``cfl_visc h^2 / max(eta V/m)`` limits.
+
+    Parameters
+    ----------
+    cfl : float
+        Safety factor of the wave and advection limits.
+    h : float
+        Cell size [m].
+    phases : iterable of (material, density)
+        Each point set's material (:mod:`mpm2d.materials`: its ``wave_modulus()`` S [Pa] and
+        ``viscosity_bound()`` eta [Pa s]) and the smallest m/V of its points [kg/m^3] (V/m
+        at its largest: a fluid compressed by the weight only raises m/V).
+    speed : float
+        The largest initial speed of a point or a rigid body's point [m/s].
+    cfl_visc : float
+        Safety factor of the viscous limit.
+    """
+    phases = list(phases)
+    c2 = max(mat.wave_modulus() / rho for mat, rho in phases)
+    nu = max(mat.viscosity_bound() / rho for mat, rho in phases)
+    return min(cfl * h / math.sqrt(c2) if c2 > 0 else math.inf,
+               cfl * h / speed if speed > 0 else math.inf,
+               cfl_visc * h * h / nu if nu > 0 else math.inf)
 
 
 def _is_real(value) -> bool:
