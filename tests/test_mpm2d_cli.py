@@ -235,6 +235,25 @@ def test_bad_value_of_a_derived_bound_states_the_derived_range(capsys, tmp_path)
     assert "valid range [1e-06, 0.535) (phi_j of material 'rod_impact')" in err and "inf)" not in err
 
 
+@pytest.mark.parametrize("scene, key, finite, rng", [
+    ("terzaghi", "ramp", "0.01", "[0.0484909, 10]"),
+    ("bar", "v0", "1e-9", "[3.16228e-08, 0.316228"),
+])
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "abc"])
+def test_a_non_number_states_the_derived_range_of_a_finite_refusal(scene, key, finite, rng, value,
+                                                                   tmp_path):
+    """terzaghi ramp = nan printed the static 'valid range [0, 10]' where ramp = 0.01 printed
+    the derived [0.0484909, 10]: the derived bound's formula (the scene's time scales) read the
+    refused text itself. A value that is no finite number states the derived range too."""
+    out = tmp_path / "x"
+    rc, err = _call(["run", scene, "--set", f"{key}={finite}", "--out", str(out), "--quiet"])
+    assert rc == 2 and len(err) == 1 and f"valid range {rng}" in err[0], err
+    rc, err = _call(["run", scene, "--set", f"{key}={value}", "--out", str(out), "--quiet"])
+    assert rc == 2 and len(err) == 1, err
+    assert err[0].startswith(f"mpm2d run: error: {key} = ") and f"valid range {rng}" in err[0], err
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("argv", [["run", "bar"], ["sweep", "bar", "--set", "cells=4,8"]])
 def test_empty_out_is_refused(argv, tmp_path, monkeypatch, capsys):
     """--out '' ran the scene into its default folder (mpm2d) or the current one (shear1d):

@@ -170,8 +170,9 @@ def step_bound(schema, params: dict) -> tuple | None:
 
 def steps_unmet(schema, params: dict) -> str | None:
     """The step-count constraint: None where the run takes at most MAX_STEPS steps at the
-    largest step its parameters allow (or they give none), else the reason."""
-    bound = step_bound(schema, params)
+    largest step its parameters allow (or they give none, or the scene states its run with
+    ``steps``: :func:`run_refusal` says it, at its first stable step), else the reason."""
+    bound = None if schema.steps is not None else step_bound(schema, params)
     if bound is None:
         return None
     dt, t_end, knobs = bound
@@ -352,17 +353,11 @@ def _tighter(limit: Bound, derived: Bound | None, upper: bool) -> Bound:
     if derived is None:
         return limit
 
-    def at(p):                           # a text value (a refusal's range before the
-        try:                                 # conversion) bounds nothing: the limit
-            return derived.at(p)
-        except TypeError:
-            return limit.at()
-
     def value(p):
-        return (min if upper else max)(limit.value, at(p)[0])
+        return (min if upper else max)(limit.value, derived.at(p)[0])
 
     def why(p):
-        return at(p)[2] if value(p) != limit.value else limit.why
+        return derived.at(p)[2] if value(p) != limit.value else limit.why
 
     return Bound(value, derived.closed if derived.derived else limit.closed, why)
 
