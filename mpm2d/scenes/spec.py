@@ -240,6 +240,8 @@ def run_refusal(schema, params: dict, given: dict) -> ValueError | None:
         stable = []                          # a fixed step: start at the stable one
         if k == "dt" and schema.steps is not None:
             stable = [schema.steps({**params, k: None})[0]]
+        if p.fill is not None:               # an optional one: also at the value none takes
+            stable.append(p.fill({**params, k: None}))
         rng = schema.valid_range(k, params, lambda at: _run_why(schema, at) is None, stable)
         if rng is None:
             continue
