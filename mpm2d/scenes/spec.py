@@ -21,10 +21,14 @@ decorated ``setup`` checks its keyword arguments by its ``setup.spec``, a
 count; the memory estimate). A refusal is one ``ValueError`` line naming the parameter the user
 set, its value and its valid range at the other values.
 
-The step count is a constraint of the schema: the explicit step is at most ``cfl h / c`` with
+The step count: a scene states its run with ``steps`` (its first stable step from its
+parameters, :func:`first_step`: the limits of
+:meth:`mpm2d.simulation.Simulation.stable_dt` at t = 0; its end time; its fewest steps), and a
+run outside [fewest, :data:`runkit.limits.MAX_STEPS`] steps is refused before the set-up, said
+about the parameter the user set with its bound in its units (:func:`run_refusal`). A scene
+without ``steps`` has the schema's constraint: the explicit step is at most ``cfl h / c`` with
 ``c >= sqrt(G min(1, moduli_factor) / max(rho_s, rho_f))`` of the scene's suspension (or the
-fixed ``dt``), so ``t_end / dt_max`` steps at least (:func:`step_bound`), at most
-:data:`runkit.limits.MAX_STEPS`.
+fixed ``dt``), so ``t_end / dt_max`` steps at least (:func:`step_bound`), at most MAX_STEPS.
 """
 
 from __future__ import annotations
