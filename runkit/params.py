@@ -458,12 +458,16 @@ class Schema:
 
     def _derived_range(self, key, exc, values) -> ValueError:
         """A value refused alone (NaN, text, ...) whose bounds are derived: its valid range as
-        the other values make it (phi_j of the material), not the static (0, inf)."""
+        the other values make it (phi_j of the material), not the static (0, inf). The bounds
+        are evaluated with the others converted and ``key`` at its default (a bound of ``key``
+        is a function of the others; a formula that also reads ``key``, as a scene's time
+        scales do, never sees the refused text)."""
         p = self.params[key]
         if not p.derived:
             return exc
         try:
-            others = {k: v if k == key else self.params[k].check(k, v, static=True)
+            others = {k: self.params[k].check(k, self.defaults.get(k) if k == key else v,
+                                              static=True)
                       for k, v in values.items()}
             lo, lc, _, hi, hc, _ = p.bounds(others)
             if lo is not None and hi is not None and (lo > hi or (lo == hi and not lc & hc)):

@@ -235,6 +235,25 @@ def test_bad_value_of_a_derived_bound_states_the_derived_range(capsys, tmp_path)
     assert "valid range [1e-06, 0.535) (phi_j of material 'rod_impact')" in err and "inf)" not in err
 
 
+@pytest.mark.parametrize("scene, key, finite, rng", [
+    ("terzaghi", "ramp", "0.01", "[0.0484909, 10]"),
+    ("bar", "v0", "1e-9", "[3.16228e-08, 0.316228"),
+])
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "abc"])
+def test_a_non_number_states_the_derived_range_of_a_finite_refusal(scene, key, finite, rng, value,
+                                                                   tmp_path):
+    """terzaghi ramp = nan printed the static 'valid range [0, 10]' where ramp = 0.01 printed
+    the derived [0.0484909, 10]: the derived bound's formula (the scene's time scales) read the
+    refused text itself. A value that is no finite number states the derived range too."""
+    out = tmp_path / "x"
+    rc, err = _call(["run", scene, "--set", f"{key}={finite}", "--out", str(out), "--quiet"])
+    assert rc == 2 and len(err) == 1 and f"valid range {rng}" in err[0], err
+    rc, err = _call(["run", scene, "--set", f"{key}={value}", "--out", str(out), "--quiet"])
+    assert rc == 2 and len(err) == 1, err
+    assert err[0].startswith(f"mpm2d run: error: {key} = ") and f"valid range {rng}" in err[0], err
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("argv", [["run", "bar"], ["sweep", "bar", "--set", "cells=4,8"]])
 def test_empty_out_is_refused(argv, tmp_path, monkeypatch, capsys):
     """--out '' ran the scene into its default folder (mpm2d) or the current one (shear1d):
@@ -341,12 +360,11 @@ def test_run_quiet_prints_nothing(tmp_path, capsys):
 def test_step_count_is_refused_before_the_set_up(tmp_path):
     """intruder --set cfl=1e-300 was refused only after its 12-17 s set-up. cfl's range is now
     the stated limit [0.01, 1] (stability; no accuracy below), and a run needing more than
-    MAX_STEPS steps is refused by the scene's schema before the set-up: the parameters bound
-    the step (cfl h / c, c >= sqrt(G/rho) of its material), the refusal names the given value
-    out of its valid range at the others with the reason, exit 2, nothing written."""
+    MAX_STEPS steps is refused before the set-up: the scene states its first stable step from
+    its parameters (``steps``), the refusal names the given value with its bound at the
+    others, exit 2, nothing written."""
     from mpm2d.run import MAX_STEPS, run_scene
     from mpm2d.scenes import get_setup
-    from mpm2d.scenes.spec import step_bound
 
     real = get_setup("wheel")
 
@@ -363,12 +381,11 @@ def test_step_count_is_refused_before_the_set_up(tmp_path):
         run_scene(setup, out, {"omega": "1e-4", "t_end": "1e5"}, log=lambda m: None,
                   scene_name="wheel")
     text = str(exc.value)
-    assert text.startswith("t_end = 100000 is outside the valid range [1e-12, ")
-    assert "at the other parameters' values (a run takes at most 1e+08 steps" in text
-    assert "cfl = 0.5, t_end = 100000 s, h = 0.0133333 m" in text
-    dt_max = step_bound(real.spec, real.spec.validate({"omega": 1e-4}))[0]
-    hi = float(re.search(r"valid range \[1e-12, (\S+)[\])] s", text).group(1))
-    assert hi == pytest.approx(MAX_STEPS * dt_max, rel=1e-5)
+    assert text.startswith("scene wheel: t_end = 100000 makes the run too long (a step of ")
+    assert "more than 1e+08); valid: t_end <= " in text
+    dt = real.spec.steps({**real.spec.defaults, "omega": 1e-4})[0]
+    hi = float(re.search(r"valid: t_end <= (\S+) s at the other values", text).group(1))
+    assert hi == pytest.approx(MAX_STEPS * dt, rel=1e-2) and hi <= MAX_STEPS * dt
     assert not out.exists()
     # the CLI: one line, exit 2
     rc, err = _call(["run", "wheel", "--set", "cfl=1e-300", "--out", str(out), "--quiet"])
@@ -476,15 +493,57 @@ def test_every_bound_has_a_reason(scene, key):
         assert b.at(dict(spec.defaults))[2], (scene, key, b)
 
 
-def test_a_step_count_bound_is_stated_in_seconds(tmp_path):
-    """disks t_end = 1e-300 was refused as '7.43e-299 steps; valid: 1 to 1e+08 steps': now
-    t_end is below TIME_MIN, and an end time above it but short of one stable step is refused
-    with the valid end times in seconds."""
+#: every scene's run length: (scene, its parameter, a too-short run, a too-long run: --set
+#: values, None where none is possible: piston's run ends before the reflection, at most
+#: t_end_fraction cells/cfl <= 1e7 steps)
+RUN_LENGTHS = [
+    ("bar", "periods", ["periods=1e-6"], ["periods=1000", "cells=100000"]),
+    ("disks", "t_end", ["t_end=1e-9"], ["t_end=1e9"]),
+    ("cylinder", "periods", ["periods=1e-6"], ["periods=1000", "cells=100000"]),
+    ("couette", "t_end_T", ["t_end_T=1e-9"], ["t_end_T=100", "cells=5000"]),
+    ("shear", "t_end", ["t_end=1e-9"], ["t_end=1e9"]),
+    ("terzaghi", "t_end_T", ["t_end_T=1e-9"], ["t_end_T=100", "cells=100000"]),
+    ("column", "t_end", ["t_end=1e-9"], ["t_end=1e9"]),
+    ("piston", "t_end_fraction", ["t_end_fraction=1e-9"], None),
+    ("rod_drop", "t_end", ["t_end=1e-9"], ["t_end=1e9"]),
+    ("wheel", "t_end", ["omega=1", "t_end=1e-9"], ["omega=1e-4", "t_end=1e5"]),
+    ("intruder", "t_end", ["t_end=1e-9"], ["v0=1e-6", "t_end=1000"]),
+    ("impact", "t_end", ["t_end=1e-9"], ["t_end=1e9"]),
+    ("annular", "rotation", ["rotation=1e-8"], ["rotation=100", "cells=4096"]),
+]
+
+
+def test_every_scene_with_a_run_length_is_in_the_table():
+    assert {s for s, *_ in RUN_LENGTHS} == set(SCENES)
+
+
+@pytest.mark.parametrize("scene, key, sets", [
+    (scene, key, (short, "short")) for scene, key, short, _ in RUN_LENGTHS] + [
+    (scene, key, (long, "long")) for scene, key, _, long in RUN_LENGTHS if long is not None],
+    ids=lambda x: x[1] if isinstance(x, tuple) else str(x))
+def test_a_step_count_bound_is_stated_in_the_parameters_units(scene, key, sets, tmp_path):
+    """disks t_end = 1e-300 was refused as '7.43e-299 steps; valid: 1 to 1e+08 steps'; then
+    cylinder periods = 1e-6 (and couette, terzaghi t_end_T, piston t_end_fraction, ...) was
+    refused after the set-up as 'an end time of 4.73e-08 s is ... valid: an end time in
+    [0.000451, 4.51e+04] s', not the parameter the user set. Every scene states its first
+    stable step from its parameters (``steps``): a run too short or too long is refused before
+    the set-up, exit 2, one line naming the parameter with its bound in its units at the other
+    values, nothing written."""
+    sets, which = sets
     out = tmp_path / "o"
-    rc, err = _call(["run", "disks", "--set", "t_end=1e-9", "--out", str(out), "--quiet"])
+    argv = ["run", scene] + [a for kv in sets for a in ("--set", kv)]
+    rc, err = _call(argv + ["--out", str(out), "--quiet"])
     assert rc == 2 and len(err) == 1, err
-    m = re.search(r"valid: an end time in \[(\S+), (\S+)\] s at the other values", err[0])
-    assert m and float(m.group(1)) > 1e-9 and "steps;" not in err[0], err
+    value = dict(kv.split("=") for kv in sets)[key]
+    unit = get_spec(scene).params[key].unit
+    m = re.search(rf"scene {scene}: (?:.*; )?{key} = (\S+) makes the run too {which} \(.*\); "
+                  rf"valid: {key} ([<>]=) (\S+){' ' + re.escape(unit) if unit else ''} at the "
+                  "other values", err[0])
+    assert m and float(m.group(1)) == float(value), err
+    assert m.group(2) == (">=" if which == "short" else "<="), err
+    bound = float(m.group(3))
+    assert (bound > float(value)) if which == "short" else (bound < float(value)), err
+    assert "an end time of" not in err[0] and "steps;" not in err[0], err
     assert not out.exists()
 
 

@@ -126,6 +126,27 @@ def test_options_are_built_and_refuse_in_one_line(capsys):
     assert "[5.85e-05, 10] m" in help_["r_inner"]
 
 
+@pytest.mark.parametrize("value", ["nan", "inf", "abc", float("nan")])
+def test_a_non_number_gets_its_derived_range_from_formulas_that_read_it(value):
+    """A derived bound whose formula reads the refused parameter too (a scene's time scales:
+    ``ramp_s = ramp t_c``) raised TypeError on the text 'abc' (and gave NaN on 'nan'): the
+    refusal of a value that is no finite number fell back to the static range. The bounds are
+    evaluated with the others' values, the refused one at its default."""
+    def scales(p):
+        return {"t_c": p["height"] ** 2, "ramp_s": p["ramp"] * p["height"] ** 2}
+
+    schema = Schema({"height": Param(0.1, 10.0),
+                     "ramp": Param(L.ge(lambda p: 0.2 / scales(p)["t_c"], "ten transits"),
+                                   10.0)},
+                    {"height": 1.0, "ramp": 0.5})
+    with pytest.raises(ValueError) as finite:
+        schema.check({"ramp": 0.01, "height": 2.0})
+    assert "valid range [0.05, 10] (ten transits)" in str(finite.value)
+    with pytest.raises(ValueError) as exc:
+        schema.check({"ramp": value, "height": 2.0})
+    assert "valid range [0.05, 10] (ten transits)" in str(exc.value), exc.value
+
+
 def test_the_array_check_is_the_same_check():
     arr = check_range("phi", [0.1, 0.2], 0.0, 0.6, lo_closed=False, hi_closed=False)
     assert arr.dtype == float and arr.shape == (2,)

@@ -65,6 +65,7 @@ from ..particles import ParticleSet
 from . import spec
 from ..run import Scene
 from ..simulation import Simulation
+from .beds import bed_phases
 
 R_INNER = 12.5e-3
 R_OUTER = 36e-3
@@ -176,12 +177,12 @@ def _t_end(p) -> float:
 
 def _first_step(p) -> float:
     """The first step [s]: the wave limit of the locked mixture, K + 4G/3 + kappa/(1 - phi_j)
-    on the mixture's density."""
-    m = scene_material("annular_shear", p["material"])
-    kappa = m.kappa if p["kappa"] is None else p["kappa"]
-    rho = p["phi0"] * m.rho_s + (1.0 - p["phi0"]) * m.rho_f
-    return spec.wave_step(p["cfl"], (p["r_outer"] - p["r_inner"]) / p["cells"],
-                          m.K + 4.0 * m.G / 3.0 + kappa / (1.0 - m.phi_j), rho)
+    on the mixture's density, or its viscous limit (it starts at rest), whichever is smaller."""
+    m = scene_material("annular_shear", p["material"], rules=p["rules"])
+    if p["kappa"] is not None:
+        m = dataclasses.replace(m, kappa=float(p["kappa"]))
+    return spec.first_step(p["cfl"], (p["r_outer"] - p["r_inner"]) / p["cells"],
+                           bed_phases(m, p["phi0"], "locked mixture"))
 
 
 @spec.parameters_of(

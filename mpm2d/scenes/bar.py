@@ -46,10 +46,12 @@ MIN_SAMPLES = 3
 
 def _steps(p) -> tuple:
     """(first step [s], end time [s], fewest steps) from the parameters: the wave limit with
-    c = sqrt(E/rho) (nu = 0), or the fixed dt below it (one above it is the set-up's refusal,
-    the stability limit); ``periods`` periods 2 pi/omega of mode 1."""
+    c = sqrt(E/rho) (nu = 0; or the advection of v0, where smaller), or the fixed dt below it
+    (one above it is the set-up's refusal, the stability limit); ``periods`` periods
+    2 pi/omega of mode 1."""
     c = math.sqrt(p["E"] / p["rho"])
-    dt = spec.wave_step(p["cfl"], p["length"] / p["cells"], p["E"], p["rho"])
+    dt = spec.first_step(p["cfl"], p["length"] / p["cells"],
+                         [(LinearElastic(p["rho"], E=p["E"], nu=0.0), p["rho"])], p["v0"])
     dt = dt if p["dt"] is None else min(dt, p["dt"])
     return dt, p["periods"] * 2 * np.pi / analytic.bar_mode1(0.0, p["v0"], p["length"], c)[1], \
         MIN_SAMPLES

@@ -40,3 +40,13 @@ def suspension_bed(m, x, area, phi0: float, mode: str, axisymmetric: bool = Fals
                 dict(drag=Drag.from_material(m)))
     return ([ParticleSet("bed", Suspension(m, locked=True), x, area, phi=phi0, f=0.0,
                          axisymmetric=axisymmetric)], {})
+
+
+def bed_phases(m, phi0: float, mode: str) -> list:
+    """The (material, m/V [kg/m^3]) of each point set :func:`suspension_bed` makes, for
+    :func:`mpm2d.scenes.spec.first_step`: the locked mixture on phi0 rho_s + (1 - phi0) rho_f,
+    or the grains on phi0 rho_s and the fluid on (1 - phi0) rho_f."""
+    if mode == "two-phase":
+        return [(Suspension(m), phi0 * m.rho_s),
+                (NewtonianFluid.from_material(m), (1.0 - phi0) * m.rho_f)]
+    return [(Suspension(m, locked=True), phi0 * m.rho_s + (1.0 - phi0) * m.rho_f)]

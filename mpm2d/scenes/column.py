@@ -49,14 +49,16 @@ from ..particles import ParticleSet
 from . import spec
 from ..run import Scene
 from ..simulation import Drag, Simulation
+from .beds import bed_phases
 
 
 def _first_step(p) -> float:
     """The first step [s]: the wave limit of the grains (K + 4G/3 on phi0 rho_s) or the pore
-    fluid (kappa on (1 - phi0) rho_f), whichever is smaller."""
-    m, h, phi = get_material(p["material"]), p["height"] / p["cells"], p["phi0"]
-    return min(spec.wave_step(p["cfl"], h, p["K"] + 4.0 * p["G"] / 3.0, phi * m.rho_s),
-               spec.wave_step(p["cfl"], h, p["kappa"], (1.0 - phi) * m.rho_f))
+    fluid (kappa on (1 - phi0) rho_f), or the fluid's viscous limit, whichever is smallest."""
+    m = get_material(p["material"], d=p["d"], eta0=p["eta0"], K=p["K"], G=p["G"],
+                     kappa=p["kappa"], rules=p["rules"])
+    return spec.first_step(p["cfl"], p["height"] / p["cells"],
+                           bed_phases(m, p["phi0"], "two-phase"))
 
 
 @spec.parameters_of(

@@ -40,6 +40,15 @@ from ..simulation import Simulation
 PROFILE_T = (0.02, 0.05, 0.1, 0.2, 0.5)
 
 
+def _steps(p) -> tuple:
+    """(first step [s], end time [s], fewest steps) from the parameters: the acoustic
+    (kappa on rho) or viscous (eta/rho) limit, whichever is smaller (the fluid starts at rest);
+    ``t_end_T`` times H^2/nu."""
+    fluid = NewtonianFluid(p["eta"], p["rho"], p["kappa"], einstein=False)
+    return (spec.first_step(p["cfl"], p["gap"] / p["cells"], [(fluid, p["rho"])]),
+            p["t_end_T"] * p["gap"] ** 2 * p["rho"] / p["eta"], 1)
+
+
 @spec.parameters_of(
     gap=spec.length("gap H"),
     cells=spec.cells("cells across the gap"),
@@ -53,7 +62,8 @@ PROFILE_T = (0.02, 0.05, 0.1, 0.2, 0.5)
     t_end_T=spec.runs_for("end time in units of H^2/nu", 100.0, "100 H^2/nu: the flow is "
                           "steady (to e^-1000) long before"),
     transfer=spec.transfer(), cfl=spec.cfl(),
-    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
+    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7),
+    steps=lambda p: _steps(p))
 def setup(gap=0.01, cells=16, ppc=2, eta=0.1, rho=1000.0, kappa=1.0e4, U=0.01, t_end_T=0.5,
           transfer="apic", cfl=0.5):
     params = dict(locals())                   # every parameter, as checked

@@ -36,6 +36,16 @@ from ..run import Scene
 from ..simulation import Simulation
 
 
+def _steps(p) -> tuple:
+    """(first step [s], end time [s], fewest steps) from the parameters: the wave limit of
+    K + 4G/3 on rho (or the advection of v0, where larger); ``periods`` periods 2 pi/omega of
+    the J1 mode."""
+    mat = LinearElastic(p["rho"], E=p["E"], nu=p["nu"])
+    _, omega = analytic.cylinder_mode1(p["radius"], np.sqrt(mat.wave_modulus() / p["rho"]))
+    return (spec.first_step(p["cfl"], p["radius"] / p["cells"], [(mat, p["rho"])], p["v0"]),
+            p["periods"] * 2 * np.pi / omega, 1)
+
+
 @spec.parameters_of(
     radius=spec.length("cylinder radius R"),
     cells=spec.cells("cells along R"),
@@ -49,7 +59,8 @@ from ..simulation import Simulation
     periods=spec.runs_for("run length in periods", 1000.0, "1000 periods: the frequency needs "
                           "a few; the scheme's phase error grows with each"),
     transfer=spec.transfer(), cfl=spec.cfl(),
-    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
+    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7),
+    steps=lambda p: _steps(p))
 def setup(radius=1.0, cells=32, ppc=2, E=1.0e6, nu=0.25, rho=1000.0, v0=1.0e-3, periods=2.0,
           transfer="apic", cfl=0.5):
     params = dict(locals())                   # every parameter, as checked

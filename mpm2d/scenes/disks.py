@@ -64,7 +64,10 @@ from ..transfer import g2p
     t_end=spec.duration("end time"),
     transfer=spec.transfer(), flip_alpha=spec.flip_alpha(), cfl=spec.cfl(),
     size=lambda p: (2 * 3.1416 * p["radius"] ** 2 * (p["cells"] * p["ppc"]) ** 2,
-                    (p["cells"] + 5) ** 2))
+                    (p["cells"] + 5) ** 2),
+    steps=lambda p: (spec.first_step(p["cfl"], 1.0 / p["cells"],
+                                     [(LinearElastic(p["rho"], E=p["E"], nu=p["nu"]), p["rho"])],
+                                     np.sqrt(2.0) * p["speed"]), p["t_end"], 1))
 def setup(cells=32, ppc=2, E=1000.0, nu=0.3, rho=1000.0, radius=0.2, speed=0.1, offset=0.0,
           walls="slip", t_end=3.0, transfer="apic", flip_alpha=0.99, cfl=0.5):
     params = dict(locals())                   # every parameter, as checked

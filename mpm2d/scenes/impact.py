@@ -79,7 +79,7 @@ from ..geostatic import geostatic
 from ..grid import Grid
 from ..output import case_summaries
 from . import spec
-from .beds import suspension_bed
+from .beds import bed_phases, suspension_bed
 from ..run import Scene
 from ..simulation import Simulation
 
@@ -139,6 +139,15 @@ def _nodes(p) -> float:
     return (q["radius"] * c + 5) * ((q["depth"] + HEADROOM) * c + 5)
 
 
+def _steps(p) -> tuple:
+    """(first step [s], end time [s], fewest steps) from the parameters (none: the size's):
+    the wave limit of the bed in its mode, its viscous limit or the advection of the rod at
+    v0, whichever is smallest."""
+    q = resolved(p)
+    phases = bed_phases(get_material(q["material"], rules=q["rules"]), q["phi0"], q["mode"])
+    return spec.first_step(q["cfl"], _h(q), phases, q["v0"]), q["t_end"], 1
+
+
 def _geo(make, doc, **kw):
     """A parameter of the size (none: its value), ``make`` one of the physical kinds of
     :mod:`mpm2d.scenes.spec` (``spec.length``, ...)."""
@@ -166,7 +175,7 @@ def _geo(make, doc, **kw):
                             f"rod's represented {ROD_REPRESENTED * 1e3:g} mm and 2 cells above "
                             "it, h <= 2.2 mm"),
                       hi=le(4.0, "a cell of 0.25 mm, four times finer than the paper's 1 mm")),
-    t_end=_geo(spec.duration, "end time after impact"),
+    t_end=_geo(spec.duration, "end time after impact", fill=lambda p: resolved(p)["t_end"]),
     material=spec.Param(choices=("auto", "rod_impact", "rod_impact_1cp"),
                         doc="Table 5 set: rod_impact (7 mPa s) or rod_impact_1cp (1 mPa s); "
                             "auto: the size's (fig5: 1 mPa s, else 7 mPa s)"),
@@ -187,7 +196,7 @@ def _geo(make, doc, **kw):
                           "trip 2 max(depth, radius)/c_s)", optional=True,
                           below=le(lambda p: 0.25 * resolved(p)["t_end"],
                                    "at most a quarter of t_end")),
-    gravity=spec.gravity(), rules=spec.rules(), cfl=spec.cfl())
+    gravity=spec.gravity(), rules=spec.rules(), cfl=spec.cfl(), steps=lambda p: _steps(p))
 def setup(size="default", v0=None, phi0=None, radius=None, depth=None, cells_per_mm=None,
           t_end=None, material="auto", rod_radius=0.0095, rod_length=0.20, rod_density=2700.0,
           rod_contact="noslip", mode="locked mixture", stencil=None, gravity=9.81, rules="table8",

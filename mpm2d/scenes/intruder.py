@@ -76,7 +76,7 @@ from ..geostatic import geostatic
 from ..grid import Grid
 from ..output import case_summaries, load_frames
 from . import spec
-from .beds import suspension_bed
+from .beds import bed_phases, suspension_bed
 from ..run import Scene
 from ..simulation import Simulation
 
@@ -135,6 +135,15 @@ def _size(p) -> tuple:
     return points, (q["radius"] * c + 5) * (q["depth"] * c + _headroom_cells(q) + 5)
 
 
+def _steps(p) -> tuple:
+    """(first step [s], end time [s], fewest steps) from the parameters: the wave limit of the
+    bed in the layout's mode, its viscous limit or the advection of the rod at v0, whichever is
+    smallest."""
+    q = resolved(p)
+    phases = bed_phases(get_material("intruder", rules=q["rules"]), q["phi0"], q["mode"])
+    return spec.first_step(q["cfl"], 1e-3 / q["cells_per_mm"], phases, q["v0"]), q["t_end"], 1
+
+
 def _geo(key, doc, above=None, below=None, note=""):
     """A length of the bed, none: the layout's; ``above``, ``below``: functions of the other
     parameters bounding it (reason ``note``) where tighter than the physical lengths."""
@@ -178,7 +187,7 @@ def _geo(key, doc, above=None, below=None, note=""):
                                lambda p: 0.5 * min(resolved(p)["depth"], resolved(p)["radius"]),
                                "at most half the bed depth and radius")),
     gravity=spec.gravity(), rules=spec.rules(), cfl=spec.cfl(),
-    size=_size)
+    size=_size, steps=lambda p: _steps(p))
 def setup(layout="default", phi0=0.47, v0=0.175, t_end=0.02, radius=None, depth=None,
           cells_per_mm=1.0, rod_radius=None, rod_contact="noslip", contact="auto", mode="auto",
           fit_margin=5e-3, gravity=9.81, rules="table8", cfl=0.5):

@@ -33,6 +33,15 @@ from ..run import Scene
 from ..simulation import Simulation
 
 
+def _steps(p) -> tuple:
+    """(first step [s], end time [s], fewest steps) from the parameters: the wave limit of the
+    bar (E on rho, nu = 0) or the advection of the piston at V; ``t_end_fraction`` times
+    L/c, c = sqrt(E/rho)."""
+    bar = LinearElastic(p["rho"], E=p["E"], nu=0.0)
+    return (spec.first_step(p["cfl"], p["length"] / p["cells"], [(bar, p["rho"])], p["V"]),
+            p["t_end_fraction"] * p["length"] / np.sqrt(p["E"] / p["rho"]), 1)
+
+
 @spec.parameters_of(
     length=spec.length("bar length L"),
     cells=spec.cells("cells along L"),
@@ -45,7 +54,8 @@ from ..simulation import Simulation
                                  "the wave reaches the far end at L/c: after it, the reflection "
                                  "is not the impact stress rho c V"),
     cfl=spec.cfl(),
-    size=lambda p: (2 * (p["cells"] + 4) * p["ppc"] ** 2, (p["cells"] + 15) * 7))
+    size=lambda p: (2 * (p["cells"] + 4) * p["ppc"] ** 2, (p["cells"] + 15) * 7),
+    steps=lambda p: _steps(p))
 def setup(length=1.0, cells=64, ppc=2, E=1.0e6, rho=1000.0, V=0.01, t_end_fraction=0.6, cfl=0.5):
     params = dict(locals())                   # every parameter, as checked
     h = length / cells

@@ -40,6 +40,16 @@ from ..particles import ParticleSet
 from . import spec
 from ..run import Scene
 from ..simulation import Simulation
+from .beds import bed_phases
+
+
+def _steps(p) -> tuple:
+    """(first step [s], end time [s], fewest steps) from the parameters: the wave limit of the
+    locked mixture (the scene's K, G, kappa), its viscous limit or the advection of the rod at
+    v0, whichever is smallest."""
+    m = get_material("rod_impact", K=p["K"], G=p["G"], kappa=p["kappa"], rules=p["rules"])
+    return (spec.first_step(p["cfl"], 1e-3 / p["cells_per_mm"],
+                            bed_phases(m, p["phi0"], "locked mixture"), p["v0"]), p["t_end"], 1)
 
 
 @spec.parameters_of(
@@ -63,7 +73,8 @@ from ..simulation import Simulation
     size=lambda p: (4 * (p["radius"] * p["depth"] + p["rod_radius"] * p["rod_length"])
                     * (p["cells_per_mm"] * 1e3) ** 2,
                     (p["radius"] * p["cells_per_mm"] * 1e3 + 5)
-                    * ((p["depth"] + p["rod_length"]) * p["cells_per_mm"] * 1e3 + 11)))
+                    * ((p["depth"] + p["rod_length"]) * p["cells_per_mm"] * 1e3 + 11)),
+    steps=lambda p: _steps(p))
 def setup(radius=0.03, depth=0.03, cells_per_mm=1.0, rod_radius=0.005, rod_length=0.02,
           rod_density=2700.0, v0=1.0, phi0=0.47, K=8.3e5, G=3.8e5, kappa=8.3e5, t_end=0.02,
           gravity=9.81, rules="table8", cfl=0.5):

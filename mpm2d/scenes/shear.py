@@ -44,6 +44,18 @@ from ..run import Scene
 from ..simulation import Simulation
 
 
+def _steps(p) -> tuple:
+    """(first step [s], end time [s], fewest steps) from the parameters: 0.9 x the stable step
+    of the locked mixture (its wave, the advection of the top points at gdot y, its viscous
+    limit), or the fixed dt below it (one above it is refused by the first step)."""
+    m = scene_material("annular_shear", p["material"], rules=p["rules"])
+    h = p["height"] / p["cells"]
+    stable = spec.first_step(p["cfl"], h, [(Suspension(m, locked=True), p["phi"] * m.rho_s
+                                            + (1.0 - p["phi"]) * m.rho_f)],
+                             p["rate"] * (p["height"] - 0.5 * h / p["ppc"]))
+    return 0.9 * stable if p["dt"] is None else min(stable, p["dt"]), p["t_end"], 1
+
+
 @spec.parameters_of(
     material=spec.scene_material_param("annular_shear"),
     phi=spec.phi_below_jamming(doc="solid volume fraction"),
@@ -61,7 +73,8 @@ from ..simulation import Simulation
                      below=le(lambda p: p["t_end"], "at most t_end: one step or more")),
     rules=spec.rules(),
     cfl=spec.cfl(),
-    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7))
+    size=lambda p: (2 * p["cells"] * p["ppc"] ** 2, (p["cells"] + 5) * 7),
+    steps=lambda p: _steps(p))
 def setup(material="annular_shear", phi=0.40, rate=50.0, p0=1.0, f0=0.0, height=0.004, cells=4,
           ppc=2, t_end=0.5, dt=None, rules="table8", cfl=0.5):
     params = dict(locals())                   # every parameter, as checked

@@ -21,10 +21,14 @@ decorated ``setup`` checks its keyword arguments by its ``setup.spec``, a
 count; the memory estimate). A refusal is one ``ValueError`` line naming the parameter the user
 set, its value and its valid range at the other values.
 
-The step count is a constraint of the schema: the explicit step is at most ``cfl h / c`` with
+The step count: a scene states its run with ``steps`` (its first stable step from its
+parameters, :func:`first_step`: the limits of
+:meth:`mpm2d.simulation.Simulation.stable_dt` at t = 0; its end time; its fewest steps), and a
+run outside [fewest, :data:`runkit.limits.MAX_STEPS`] steps is refused before the set-up, said
+about the parameter the user set with its bound in its units (:func:`run_refusal`). A scene
+without ``steps`` has the schema's constraint: the explicit step is at most ``cfl h / c`` with
 ``c >= sqrt(G min(1, moduli_factor) / max(rho_s, rho_f))`` of the scene's suspension (or the
-fixed ``dt``), so ``t_end / dt_max`` steps at least (:func:`step_bound`), at most
-:data:`runkit.limits.MAX_STEPS`.
+fixed ``dt``), so ``t_end / dt_max`` steps at least (:func:`step_bound`), at most MAX_STEPS.
 """
 
 from __future__ import annotations
@@ -42,6 +46,8 @@ from runkit.params import Param as SchemaParam
 from runkit.params import Schema, shown
 from rheology import get_material, material_names
 from rheology.materials import RULES, scene_material
+
+from ..simulation import Simulation
 
 #: memory estimate: bytes per material point (kinematic arrays ~40 float64, material state,
 #: the output copies of a snapshot and the permutation copies of a sort) and per grid node (per
@@ -75,10 +81,38 @@ def Param(lo=None, hi=None, *, integer=False, lo_closed=True, hi_closed=True, un
                        fill=fill, role=role, of=of)
 
 
-def wave_step(cfl: float, h: float, modulus: float, density: float) -> float:
-    """The elastic wave limit of the explicit step, ``cfl h / sqrt(S V/m)`` [s]
-    (:meth:`mpm2d.simulation.Simulation.stable_dt`; V/m = 1/density of the points)."""
-    return cfl * h / math.sqrt(modulus / density)
+#: the safety factor of the viscous limit of the scenes' steps (Simulation's default)
+CFL_VISC = inspect.signature(Simulation).parameters["cfl_visc"].default
+
+
+def first_step(cfl: float, h: float, phases, speed: float = 0.0,
+               cfl_visc: float = CFL_VISC) -> float:
+    """The set-up's first stable step from the parameters alone [s]: the limits of
+    :meth:`mpm2d.simulation.Simulation.stable_dt` at t = 0, the smallest of the elastic wave
+    ``cfl h / sqrt(max S V/m)``, the advection ``cfl h / |v|max`` and the viscous diffusion
+    ``cfl_visc h^2 / max(eta V/m)`` limits.
+
+    Parameters
+    ----------
+    cfl : float
+        Safety factor of the wave and advection limits.
+    h : float
+        Cell size [m].
+    phases : iterable of (material, density)
+        Each point set's material (:mod:`mpm2d.materials`: its ``wave_modulus()`` S [Pa] and
+        ``viscosity_bound()`` eta [Pa s]) and the smallest m/V of its points [kg/m^3] (V/m
+        at its largest: a fluid compressed by the weight only raises m/V).
+    speed : float
+        The largest initial speed of a point or a rigid body's point [m/s].
+    cfl_visc : float
+        Safety factor of the viscous limit.
+    """
+    phases = list(phases)
+    c2 = max(mat.wave_modulus() / rho for mat, rho in phases)
+    nu = max(mat.viscosity_bound() / rho for mat, rho in phases)
+    return min(cfl * h / math.sqrt(c2) if c2 > 0 else math.inf,
+               cfl * h / speed if speed > 0 else math.inf,
+               cfl_visc * h * h / nu if nu > 0 else math.inf)
 
 
 def _is_real(value) -> bool:
@@ -140,8 +174,9 @@ def step_bound(schema, params: dict) -> tuple | None:
 
 def steps_unmet(schema, params: dict) -> str | None:
     """The step-count constraint: None where the run takes at most MAX_STEPS steps at the
-    largest step its parameters allow (or they give none), else the reason."""
-    bound = step_bound(schema, params)
+    largest step its parameters allow (or they give none, or the scene states its run with
+    ``steps``: :func:`run_refusal` says it, at its first stable step), else the reason."""
+    bound = None if schema.steps is not None else step_bound(schema, params)
     if bound is None:
         return None
     dt, t_end, knobs = bound
@@ -209,6 +244,8 @@ def run_refusal(schema, params: dict, given: dict) -> ValueError | None:
         stable = []                          # a fixed step: start at the stable one
         if k == "dt" and schema.steps is not None:
             stable = [schema.steps({**params, k: None})[0]]
+        if p.fill is not None:               # an optional one: also at the value none takes
+            stable.append(p.fill({**params, k: None}))
         rng = schema.valid_range(k, params, lambda at: _run_why(schema, at) is None, stable)
         if rng is None:
             continue
@@ -322,17 +359,11 @@ def _tighter(limit: Bound, derived: Bound | None, upper: bool) -> Bound:
     if derived is None:
         return limit
 
-    def at(p):                           # a text value (a refusal's range before the
-        try:                                 # conversion) bounds nothing: the limit
-            return derived.at(p)
-        except TypeError:
-            return limit.at()
-
     def value(p):
-        return (min if upper else max)(limit.value, at(p)[0])
+        return (min if upper else max)(limit.value, derived.at(p)[0])
 
     def why(p):
-        return at(p)[2] if value(p) != limit.value else limit.why
+        return derived.at(p)[2] if value(p) != limit.value else limit.why
 
     return Bound(value, derived.closed if derived.derived else limit.closed, why)
 

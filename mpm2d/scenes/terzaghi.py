@@ -70,6 +70,16 @@ def constants(params: dict) -> dict:
             "transit_s": params["height"] / c_u, "drag_time_s": n * params["rho_f"] / C}
 
 
+def _steps(p) -> tuple:
+    """(first step [s], end time [s], fewest steps) from the parameters: the wave limit of the
+    skeleton (K + 4G/3 on phi rho_s) or the pore fluid (kappa on n rho_f), or the fluid's
+    viscous limit, whichever is smallest (at rest, unloaded); ``t_end_T`` times H^2/cv."""
+    phases = [(LinearElastic(p["rho_s"], p["K"], p["G"]), p["phi"] * p["rho_s"]),
+              (NewtonianFluid(p["eta0"], p["rho_f"], p["kappa"]), (1.0 - p["phi"]) * p["rho_f"])]
+    return (spec.first_step(p["cfl"], p["height"] / p["cells"], phases),
+            p["t_end_T"] * constants(p)["t_c_s"], 1)
+
+
 @spec.parameters_of(
     height=spec.length("layer height H"),
     cells=spec.cells("cells over H"),
@@ -98,7 +108,8 @@ def constants(params: dict) -> dict:
                           "e^-250"),
     cfl=spec.cfl(), transfer=spec.transfer(),
     size=lambda p: (2 * p["width_cells"] * p["cells"] * p["ppc"] ** 2,
-                    (p["width_cells"] + 5) * (p["cells"] + 9)))
+                    (p["width_cells"] + 5) * (p["cells"] + 9)),
+    steps=lambda p: _steps(p))
 def setup(height=1.0, cells=32, width_cells=2, ppc=2, K=5.0e5, G=3.75e5, rho_s=2650.0,
           rho_f=1000.0, phi=0.5, eta0=1.0e-3, d=3.3e-4, kappa=1.0e6, load=1.0e3, ramp=0.1,
           t_end_T=0.8, cfl=0.5, transfer="apic"):

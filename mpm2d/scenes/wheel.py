@@ -82,6 +82,7 @@ from . import spec
 from .. import run as runner
 from ..run import Scene
 from ..simulation import Simulation
+from .beds import bed_phases
 
 #: the default run's omegas [1/s]: the main run first (DIR), then the others (DIR/omega_<w>)
 OMEGAS = (10.0, 1.0)
@@ -149,6 +150,20 @@ def _points(p) -> float:
     return 4 * (p["width"] * p["bed_depth"] + wheel) / p["h"] ** 2
 
 
+def _steps(p) -> tuple:
+    """(first step [s], end time [s], fewest steps) from the parameters: the wave limit of the
+    locked bed (and of elastic spokes), its viscous limit or the advection of the spoke tips
+    at omega hypot(R, spoke_width/2) (omega none: the first run's, 10 1/s), whichever is
+    smallest."""
+    phases = bed_phases(bed_material(p["moduli_factor"], p["kappa_factor"], p["rules"]),
+                        p["phi0"], "locked mixture")
+    if p["spokes"] == "elastic":
+        phases.append((LinearElastic(p["density"], E=p["E"], nu=p["nu"]), p["density"]))
+    w = OMEGAS[0] if p["omega"] is None else p["omega"]
+    return (spec.first_step(p["cfl"], p["h"], phases,
+                            w * math.hypot(p["radius"], 0.5 * p["spoke_width"])), p["t_end"], 1)
+
+
 @spec.parameters_of(
     omega=spec.physical(limits.FREQUENCY_MIN, le(100.0, "ten times the paper's fastest wheel "
                                                         "(10 1/s)"), "1/s",
@@ -204,7 +219,8 @@ def _points(p) -> float:
     cfl=spec.cfl(),
     frames=spec.count(1, 200, "snapshots per run (figures, animation)",
                       "at least the final snapshot", "an animation of 8 s at 25 frames/s"),
-    size=lambda p: (_points(p), (p["width"] / p["h"] + 5) * (p["height"] / p["h"] + 5)))
+    size=lambda p: (_points(p), (p["width"] / p["h"] + 5) * (p["height"] / p["h"] + 5)),
+    steps=lambda p: _steps(p))
 def setup(omega=None, radius=0.15, hub_radius=0.05, spoke_width=0.0556, density=3000.0,
           spokes="rigid", E=1.0e7, nu=0.3, phi0=0.5075, width=2.0, height=1.0, bed_depth=0.5,
           h=2.0 / 150.0, t_end=1.0, start_angle=45.0, mu_w=None, moduli_factor=1.0,
