@@ -33,6 +33,8 @@ DEFAULT_MATERIAL = "hermes2016"
 #: rheology.data); a measuring command's --phi is read as a number and checked once, in
 #: [1e-6, phi_j) of the material, by :class:`Sample` (:func:`check_phi`)
 PHI = Quantity("--phi", limits.PHI)
+#: where phi_j comes from in a --phi refusal when the user set it (not the named material's)
+SET_PHI_J = "(--set phi_j)"
 
 
 # ------------------------------------------------------------------ the measuring geometry
@@ -147,7 +149,8 @@ def _fractions(args, m) -> tuple[list, dict | None, str]:
         count = getattr(args, "_phi_count", 1)
         return (default_fractions(m) if count > 1 else [default_fraction(m)]), None, ""
     once("--phi", args.phi, repeat + "fractions")
-    return [check_phi("--phi", p, m) for p in args.phi], None, ""
+    source = SET_PHI_J if "phi_j" in set_overrides(args.set) else ""
+    return [check_phi("--phi", p, m, source=source) for p in args.phi], None, ""
 
 
 def material_with(name, overrides: dict, option: str = "--set"):

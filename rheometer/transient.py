@@ -58,11 +58,13 @@ COLUMNS = ("time_s", "step", "strain", "shear_rate_per_s", "shear_stress_Pa",
            "viscosity_Pa_s", "jamming_gap")
 
 
-def check_phi(name: str, phi, m: Material, where: str = "") -> float:
+def check_phi(name: str, phi, m: Material, where: str = "", source: str = "") -> float:
     """The volume fraction ``phi`` in [PHI_MIN, phi_j) of ``m`` (runkit.limits.PHI_MIN = 1e-6,
     the dilute limit): the one check of every entry point (the command line's ``--phi`` too);
-    ValueError naming ``name``."""
-    why = f"{where}below phi_j = {m.phi_j:g} of {m.name}: no steady flow at or above it"
+    ValueError naming ``name``, and where phi_j came from: ``source`` (e.g. ``"(--set
+    phi_j)"``), default ``"of <material name>"``."""
+    why = (f"{where}below phi_j = {m.phi_j:g} {source or 'of ' + m.name}: no steady flow at or "
+           "above it")
     return float(Param(PHI_MIN, lt(m.phi_j, why)).check(name, phi))
 
 
