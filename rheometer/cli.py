@@ -51,7 +51,7 @@ from .instrument_cli import extra_outputs, finish_table, materials_note, write_r
 from .limits import RATE_MAX, Quantity
 from .material_point import POINTS, simple_shear_point
 from .options import (common_options, material_with, number_options, plot_path,
-                      sample_material, transient_options)
+                      sample_material, transient_label, transient_options)
 from .plots import mark_ends, normalise_units
 from .program import hysteresis_program, parse_program
 from .protocols import at_phi, combined, creep, flow_curve, relax, startup
@@ -141,7 +141,8 @@ def build_parser() -> argparse.ArgumentParser:
                               "pressure and lets phi evolve. Start from the steady state at "
                               "--stress0 or from rest under --pressure0.")
     common_options(p, 1, "material_point")
-    # read here, checked once by rheometer.material_point (named by their options: _POINT_LABELS)
+    # --rate, --t-end, --dt, --f0, --points: read here, checked once by rheometer.material_point
+    # (named by their options: _POINT_LABELS)
     number_options(p, ("--rate", limits.RATE, 0.5, "shear rate [1/s] (0.5)"),
                    ("--t-end", limits.DURATION, 10.0, "duration [s] (10)"),
                    ("--dt", limits.DURATION, 1e-3, "largest time step [s] (1e-3; sub-stepped "
@@ -152,9 +153,9 @@ def build_parser() -> argparse.ArgumentParser:
                    ("--stress0", limits.POSITIVE_STRESS, None,
                     "start from the steady state at this granular shear stress [Pa]"),
                    ("--pressure0", limits.STRESS, None,
-                    "contact pressure at rest [Pa] (default 1e-3 tau*; 0: stress free)"),
-                   ("--f0", limits.STRUCTURE, None, "initial structure f"),
-                   ("--G", limits.MODULUS, None, "shear modulus [Pa] (default 1e4)"),
+                    "contact pressure at rest [Pa] (default 1e-3 tau*; 0: stress free)"))
+    number_options(p, ("--f0", limits.STRUCTURE, None, "initial structure f"), later=True)
+    number_options(p, ("--G", limits.MODULUS, None, "shear modulus [Pa] (default 1e4)"),
                    ("--K", limits.MODULUS, None, "bulk modulus [Pa] (default 2.18 G)"),
                    ("--K0", limits.K0, None, "structure-rate scale (default 1)"))
     p.add_argument("--points", type=Quantity("--points", POINTS, later=True), default=400,
@@ -343,7 +344,8 @@ def _transient(args) -> str:
     sample = sample_material(args)
     m = sample.material
     _, _, (flag, *_), run, what = _TRANSIENTS[args.cmd]
-    opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True)
+    opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True,
+                label=transient_label)
     value = getattr(args, flag[2:])
     if args.cmd == "relax":
         _check_relax_stress(args, m)
@@ -388,7 +390,7 @@ def _cmd_program(args) -> str:
     program = parse_program(text)
     ck = ProgramCheckpoint(Path(args.out).with_suffix(".checkpoint.npz"), m, list(sample.phi),
                            text, dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points,
-                                      elastic_limit=True),
+                                      elastic_limit=True, label=transient_label),
                            every=args.checkpoint_every)
     used = ck.path
     if args.resume:
@@ -433,7 +435,8 @@ def _cmd_material_point(args) -> str:
 
 
 #: the options of rheometer.material_point's parameters
-_POINT_LABELS = {"rate": "--rate", "t_end": "--t-end", "dt": "--dt", "points": "--points"}
+_POINT_LABELS = {"rate": "--rate", "t_end": "--t-end", "dt": "--dt", "points": "--points",
+                 "f0": "--f0"}
 
 
 _COMMANDS = {"materials": _cmd_materials, "flow-curve": _cmd_flow_curve,

@@ -52,7 +52,7 @@ import math
 import rheology
 from runkit import limits as physical
 from runkit.limits import PHI_MIN, le, lt
-from runkit.params import Param, check_nonnegative, check_positive, check_range
+from runkit.params import Param, check_nonnegative, check_positive
 from rheology.elastic import past_elastic_limit
 from rheology.local_update import (CASE_NAMES, COMPACTION, ELASTIC, FAILED, NOUT, OUT_FIELDS,
                                    SHEAR_FLOW, update_point)
@@ -281,12 +281,12 @@ def point_parameters(m: Material, G=None, K=None, K0=None) -> tuple[Material, np
     return m, rheology.kernel_parameters(m)
 
 
-def initial_point(m: Material, phi: float, *, stress0=None, f0=None, pressure0=None):
+def initial_point(m: Material, phi: float, *, stress0=None, f0=None, pressure0=None, label=str):
     """Initial (stress 3x3, f): the steady state at granular shear stress ``stress0`` [Pa], or
     rest under isotropic contact pressure ``pressure0`` >= 0 [Pa] (default 1e-3 tau*; 0: stress
-    free) with f0 (0)."""
+    free) with f0 (0) in [0, 1] (:data:`rheometer.limits.STRUCTURE`, named ``label("f0")``)."""
     sig = np.zeros((3, 3))
-    f = None if f0 is None else float(check_range("f0", f0, 0.0, 1.0))
+    f = None if f0 is None else float(limits.STRUCTURE.check(label("f0"), f0))
     if stress0 is not None:
         st = rheology.steady_state_stress(float(check_positive("stress0 [Pa]", stress0)), phi, m)
         f = float(st.f) if f is None else f
@@ -380,7 +380,8 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
         if pressure0 is None and stress0 is None:
             pressure0 = pressure
     m, P = point_parameters(m0, G, K, K0)
-    sig0, f_init = initial_point(m, phi, stress0=stress0, f0=f0, pressure0=pressure0)
+    sig0, f_init = initial_point(m, phi, stress0=stress0, f0=f0, pressure0=pressure0,
+                                 label=label)
     nsteps = int(round(t_end / dt))
     every = max(1, nsteps // int(POINTS.check(label("points"), points)))
     n_min, x_max, x_el = substeps(rate, t_end, dt)

@@ -269,12 +269,26 @@ def skeleton_options(p) -> None:
                    ("--K0", limits.K0, None, "structure-rate scale K0 [-]"))
 
 
+#: what a transient's refusal (rheometer.protocols, Rheometer, Step) calls the parameters of
+#: :func:`transient_options`: their options
+TRANSIENT_LABELS = {"t_end": "--t-end", "rtol": "--rtol", "points": "--points"}
+
+
+def transient_label(name: str) -> str:
+    """The option of a transient's parameter (:data:`TRANSIENT_LABELS`), else the name."""
+    return TRANSIENT_LABELS.get(name, name)
+
+
 def transient_options(p, t_end=None):
+    """--G, --K0, (with ``t_end``, its default) --t-end, --rtol, --points: the last three read
+    here, checked once by the run (:class:`~rheometer.transient.Rheometer`, its
+    :class:`~rheometer.transient.Step`), named by :func:`transient_label`."""
     skeleton_options(p)
     if t_end is not None:
-        number_options(p, ("--t-end", limits.DURATION, t_end, f"duration [s] (default {t_end:g})"))
+        number_options(p, ("--t-end", limits.DURATION, t_end, f"duration [s] (default {t_end:g})"),
+                       later=True)
     number_options(p, ("--rtol", limits.RTOL, 1e-7, "IDA relative tolerance (1e-7)"),
-                   ("--points", limits.STEP_ROWS, 300, "output rows per step (300)"))
+                   ("--points", limits.STEP_ROWS, 300, "output rows per step (300)"), later=True)
 
 
 def plot_path(args):

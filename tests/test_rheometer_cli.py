@@ -567,3 +567,30 @@ def test_material_point_end_time_and_reason_agree(tmp_path, monkeypatch, capsys)
     assert "taubar/G = 0.1003 at t = 10 s" in err
     assert "the run ends at the row before, t = 0 s, the last within the limit" in err
     assert "between these rows, from t ~ 9.966 s" in err
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["startup", "--t-end", "0"], "--t-end = 0 is outside the valid range [1e-12, 1e+09] s (1 ps"),
+    (["creep", "--t-end", "1e300"], "--t-end = 1e+300 is outside the valid range [1e-12, 1e+09] "
+                                    "s (30 years"),
+    (["relax", "--rtol", "1"], "--rtol = 1 is outside the valid range [1e-13, 0.01] (looser"),
+    (["startup", "--points", "2"], "--points = 2 is outside the valid range [3, 1e+06] (a "
+                                   "step's start"),
+    (["program", "--rtol", "1e-20"], "--rtol = 1e-20 is outside the valid range [1e-13, 0.01]"),
+    (["material-point", "--f0", "2"], "--f0 = 2 is outside the valid range [0, 1] (f is a "
+                                      "fraction)"),
+])
+def test_transient_options_are_checked_once_by_the_run(argv, words, tmp_path, monkeypatch,
+                                                       capsys):
+    """--t-end, --rtol, --points of the transients (and --f0 of material-point) were checked
+    by the parser and again by Step / Rheometer (initial_point) with the same bounds; now the
+    parser reads a finite number (the value passes it) and the run checks its range once,
+    named as the option (no argparse frame), before anything is written."""
+    from rheometer.cli import build_parser
+
+    build_parser().parse_args(argv)                        # read, not range-checked, here
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0] and "argument " not in err[0], err
+    assert list(tmp_path.iterdir()) == []
