@@ -295,7 +295,9 @@ def test_a_strain_oscillation_past_the_rate_limit_is_refused(tmp_path, capsys):
         oscillation_sweep("hermes2016", 0.5, frequency=[1.0, 1e9], amplitude=1.0)
     assert check_peak_rate(1e8, 1.0) == pytest.approx(6.28319e8)
     out = tmp_path / "osc.csv"
-    assert cli_main(["oscillation", "--frequency", "1e9", "--phi", "0.5", "--out", str(out)]) == 2
+    # (the default sweep ends at 0.1: 6.28e8 1/s at 1e9 Hz; amplitude 1 is past the limit)
+    assert cli_main(["oscillation", "--frequency", "1e9", "--strain-amplitude", "1", "--phi",
+                     "0.5", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "peak shear rate" in err[0] and not list(tmp_path.iterdir())
     prog = tmp_path / "prog.txt"
