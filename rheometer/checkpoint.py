@@ -34,13 +34,14 @@ _REQUIRED = ("done_phi", "done_rows", "done_columns", "t", "y", "step", "state",
 
 def fingerprint(material, phis, text: str, options: dict) -> dict:
     """Everything that determines a program's output (:class:`runkit.run.Checkpoint` names the
-    first difference at a resume): the material's fields and the program text by their hashes."""
+    first difference at a resume): the material's fields and the program text by their hashes;
+    of the options not ``label`` (a callable: it names refusals, no part of the output)."""
     fields = {f.name: getattr(material, f.name) for f in dataclasses.fields(material)
               if f.name != "notes"}
     return {"material": hashlib.sha256(repr(sorted(fields.items())).encode()).hexdigest(),
             "--phi": [float(p) for p in phis],
             "program": hashlib.sha256(text.encode()).hexdigest(),
-            "options": repr(sorted(options.items()))}
+            "options": repr(sorted((k, v) for k, v in options.items() if not callable(v)))}
 
 
 class ProgramCheckpoint:

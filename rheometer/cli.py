@@ -27,7 +27,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import io
-import math
 import sys
 from pathlib import Path
 
@@ -50,9 +49,9 @@ from .checkpoint import ProgramCheckpoint
 from .fit_cli import add_subcommands
 from .instrument_cli import extra_outputs, finish_table, materials_note, write_record
 from .limits import RATE_MAX, Quantity
-from .material_point import MAX_SUBSTEPS, STRAIN_PER_SUBSTEP, simple_shear_point
+from .material_point import POINTS, simple_shear_point
 from .options import (common_options, material_with, number_options, plot_path,
-                      sample_material, transient_options)
+                      sample_material, transient_label, transient_options)
 from .plots import mark_ends, normalise_units
 from .program import hysteresis_program, parse_program
 from .protocols import at_phi, combined, creep, flow_curve, relax, startup
@@ -142,23 +141,24 @@ def build_parser() -> argparse.ArgumentParser:
                               "pressure and lets phi evolve. Start from the steady state at "
                               "--stress0 or from rest under --pressure0.")
     common_options(p, 1, "material_point")
+    # --rate, --t-end, --dt, --f0, --points: read here, checked once by rheometer.material_point
+    # (named by their options: _POINT_LABELS)
     number_options(p, ("--rate", limits.RATE, 0.5, "shear rate [1/s] (0.5)"),
                    ("--t-end", limits.DURATION, 10.0, "duration [s] (10)"),
                    ("--dt", limits.DURATION, 1e-3, "largest time step [s] (1e-3; sub-stepped "
-                                                   "where the rate needs it)"))
+                                                   "where the rate needs it)"), later=True)
     p.add_argument("--control", choices=("volume", "pressure"), default="volume")
     number_options(p, ("--pressure", limits.POSITIVE_STRESS, None,
                        "imposed granular pressure [Pa] (pressure control)"),
                    ("--stress0", limits.POSITIVE_STRESS, None,
                     "start from the steady state at this granular shear stress [Pa]"),
                    ("--pressure0", limits.STRESS, None,
-                    "contact pressure at rest [Pa] (default 1e-3 tau*; 0: stress free)"),
-                   ("--f0", limits.STRUCTURE, None, "initial structure f"),
-                   ("--G", limits.MODULUS, None, "shear modulus [Pa] (default 1e4)"),
+                    "contact pressure at rest [Pa] (default 1e-3 tau*; 0: stress free)"))
+    number_options(p, ("--f0", limits.STRUCTURE, None, "initial structure f"), later=True)
+    number_options(p, ("--G", limits.MODULUS, None, "shear modulus [Pa] (default 1e4)"),
                    ("--K", limits.MODULUS, None, "bulk modulus [Pa] (default 2.18 G)"),
                    ("--K0", limits.K0, None, "structure-rate scale (default 1)"))
-    p.add_argument("--points", type=Quantity("--points", limits.rows(1, "the end state", le(
-                       10 ** 7, "1e7 rows make a CSV of about 1 GB"))), default=400,
+    p.add_argument("--points", type=Quantity("--points", POINTS, later=True), default=400,
                    help="output rows (400)")
     _COMMANDS.update(add_subcommands(sub))
     _COMMANDS.update(instrument_cli.add_subcommands(sub))
@@ -344,7 +344,8 @@ def _transient(args) -> str:
     sample = sample_material(args)
     m = sample.material
     _, _, (flag, *_), run, what = _TRANSIENTS[args.cmd]
-    opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True)
+    opts = dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points, elastic_limit=True,
+                label=transient_label)
     value = getattr(args, flag[2:])
     if args.cmd == "relax":
         _check_relax_stress(args, m)
@@ -389,7 +390,7 @@ def _cmd_program(args) -> str:
     program = parse_program(text)
     ck = ProgramCheckpoint(Path(args.out).with_suffix(".checkpoint.npz"), m, list(sample.phi),
                            text, dict(G=args.G, K0=args.K0, rtol=args.rtol, points=args.points,
-                                      elastic_limit=True),
+                                      elastic_limit=True, label=transient_label),
                            every=args.checkpoint_every)
     used = ck.path
     if args.resume:
@@ -420,52 +421,22 @@ def _cmd_material_point(args) -> str:
     if args.stress0 is not None and args.pressure0 is not None:
         raise ValueError("give --stress0 (start from the steady state at that stress) or "
                          "--pressure0 (start from rest under that pressure), not both")
-    _check_update_count(args.rate, args.t_end, args.dt)
     sample = sample_material(args)
     m = sample.material
     df = _per_phi(sample, lambda ph: simple_shear_point(
         m, ph, args.rate, args.t_end, args.dt, control=args.control, pressure=args.pressure,
         f0=args.f0, stress0=args.stress0, pressure0=args.pressure0, G=args.G, K=args.K,
-        K0=args.K0, points=args.points, elastic_limit=True))
+        K0=args.K0, points=args.points, elastic_limit=True,
+        label=lambda k: _POINT_LABELS.get(k, k)))
     title = (f"{m.name}: material point, {args.control} control, rate {args.rate:g} 1/s, "
              f"dt = {args.dt:g} s, phi0 = {', '.join(f'{p:g}' for p in sample.phi)}")
     # every run, by its initial phi (phi itself evolves under pressure control)
     return _write(args, sample, df, lambda: plots.material_point_figure(df, title), record=True)
 
 
-def _check_update_count(rate: float, t_end: float, dt: float) -> None:
-    """Refuse, before the run and naming the options that set it, a material point whose local
-    update count (rheometer.material_point.substeps: max(1, ceil(dt rate / x)) updates per step
-    of --dt, round(--t-end / --dt) steps, x = STRAIN_PER_SUBSTEP) passes MAX_SUBSTEPS, or a --dt
-    longer than --t-end. Two limits: the steps, set by --t-end / --dt (a longer --dt or a
-    shorter --t-end helps), and the strain per update, set by --rate x --t-end (no --dt helps:
-    a lower --rate or a shorter --t-end). ValueError with the valid values of each option."""
-    x = STRAIN_PER_SUBSTEP
-    Param(physical.TIME_MIN, le(t_end, f"the step must not exceed the run, --t-end = {t_end:g} "
-                                      "s"), unit="s").check("--dt", dt)
-    steps = t_end / dt
-    per_step = max(1.0, math.ceil(dt * rate / x)) if rate > 0 else 1.0
-    count = per_step * round(steps)
-    if count <= MAX_SUBSTEPS:
-        return
-    strain = rate * t_end
-    if strain / x > MAX_SUBSTEPS:     # the strain alone needs too many updates: --dt cannot help
-        raise ValueError(
-            f"--t-end = {t_end:g} s at --rate = {rate:g} 1/s is a shear strain of {strain:.3g}: "
-            f"{strain / x:.3g} local updates at least whatever --dt (strain per update <= {x:g}, "
-            f"the explicit Jaumann spin's bound), more than the limit {MAX_SUBSTEPS:.0e}; valid: "
-            f"--t-end <= {MAX_SUBSTEPS * x / rate:.3g} s at this --rate, or --rate <= "
-            f"{MAX_SUBSTEPS * x / t_end:.3g} 1/s at this --t-end")
-    dt_min = t_end / MAX_SUBSTEPS
-    t_max = MAX_SUBSTEPS * dt / per_step
-    valid = (f"--dt >= {dt_min:.3g} s at this --t-end, or --t-end <= {t_max:.3g} s at this "
-             f"--dt" if dt < dt_min else     # else: the rounding up of the updates per step
-             f"--t-end <= {t_max:.3g} s at this --dt and --rate, or a lower --rate")
-    raise ValueError(
-        f"--dt = {dt:g} s gives {count:.3g} local updates to --t-end = {t_end:g} s "
-        f"({steps:.3g} steps" + (f" of {per_step:.0f} updates at --rate = {rate:g} 1/s"
-                                  if per_step > 1 else "") +
-        f"), more than the limit {MAX_SUBSTEPS:.0e}; valid: {valid}")
+#: the options of rheometer.material_point's parameters
+_POINT_LABELS = {"rate": "--rate", "t_end": "--t-end", "dt": "--dt", "points": "--points",
+                 "f0": "--f0"}
 
 
 _COMMANDS = {"materials": _cmd_materials, "flow-curve": _cmd_flow_curve,

@@ -55,7 +55,7 @@ from runkit.run import HeldWarnings
 
 from . import limits, plots
 from .limits import Quantity
-from .options import PHI, about_set, once as _once
+from .options import PHI, SET_PHI_J, about_set, once as _once
 from .relaxation_fit import SCALE, RelaxationCurve, fit_relaxation
 from .transient import check_phi
 
@@ -444,11 +444,11 @@ def cmd_fit(args) -> str:
     held_phi_j = "phi_j" in fixed
     if held_phi_j and args.phi is not None and not args.mass_fraction:
         for p in args.phi:
-            check_phi("--phi", p, given)
+            check_phi("--phi", p, given, source=SET_PHI_J)
     table = _read(args)
     data = FlowData.from_table(table)
     for label, p in zip(data.labels, data.curve_phi()) if held_phi_j else ():   # phi column, Eq. 20
-        check_phi("phi", p, given, where=f"{label}: ")
+        check_phi("phi", p, given, where=f"{label}: ", source=SET_PHI_J)
     print(describe(table))
     # numpy's warnings of the fit (a singular covariance at an extreme held value) are held: a
     # failed fit cites the first in its one line, a finished one lists them as notes

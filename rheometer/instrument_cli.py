@@ -130,6 +130,14 @@ def materials_note() -> str:
 
 
 # ------------------------------------------------------------------ rheometer oscillation
+#: The default strain amplitudes, 10 log-spaced over 1e-3..0.1: on the default material
+#: (hermes2016, phi = 0.50, G = 1e4 Pa) at 1 Hz every point stays below the small-elastic-strain
+#: limit 0.1 (taubar/G <= 1.5e-4; I3/I1 up to 2e-3). From about 0.18 the sample shear-jams in
+#: each cycle and answers elastically (taubar/G 0.14 at 0.18, 0.99 at 1): the hypoelastic law
+#: outside its range, flagged and drawn hollow; given explicitly, such amplitudes still run.
+STRAIN_AMPLITUDES = (1e-3, 0.1, 10)
+
+
 def add_subcommands(sub) -> dict:
     """Add ``oscillation`` to the ``rheometer`` subparsers; return its command function."""
     p = sub.add_parser(
@@ -141,7 +149,9 @@ def add_subcommands(sub) -> dict:
                     "point G', G'' of the first harmonic, |eta*|, I3/I1 and the linearised "
                     "model's G*; the last cycle of every point in <out>_waveforms.csv "
                     "(Lissajous-Bowditch curves, <out>_lissajous.png). Default: an amplitude "
-                    "sweep 1e-3..1 at 1 Hz.")
+                    f"sweep {_sweep_text()} at 1 Hz, within the small-elastic-strain limit "
+                    f"{ELASTIC_STRAIN_LIMIT:g} at the default material (larger amplitudes "
+                    "shear-jam it past the limit: flagged, drawn hollow).")
     common_options(p, 1, "oscillation")
     p.add_argument("--control", choices=("strain", "stress"), default="strain",
                    help="imposed strain (default) or imposed mixture shear stress")
@@ -149,8 +159,8 @@ def add_subcommands(sub) -> dict:
     p.add_argument("--strain-amplitude", type=Quantity("--strain-amplitude", limits.STRAIN,
                                                        later=True),
                    nargs="+", default=None, metavar="A",
-                   help="strain amplitude(s) [-] (several: an amplitude sweep; default 10 "
-                        "values 1e-3..1)")
+                   help="strain amplitude(s) [-] (several: an amplitude sweep; default "
+                        f"{STRAIN_AMPLITUDES[2]} values {_sweep_text()})")
     p.add_argument("--stress-amplitude", type=Quantity(
                        "--stress-amplitude", limits.POSITIVE_STRESS, later=True),
                    nargs="+", default=None, metavar="S",
@@ -174,6 +184,11 @@ def add_subcommands(sub) -> dict:
     return {"oscillation": _cmd_oscillation}
 
 
+def _sweep_text() -> str:
+    lo, hi, _ = STRAIN_AMPLITUDES
+    return f"{lo:g}..{hi:g}"
+
+
 #: the options of rheometer.oscillation's parameters
 _LABELS = {"frequency": "--frequency", "strain amplitude": "--strain-amplitude",
            "stress amplitude": "--stress-amplitude", "max_cycles": "--cycles", "tol": "--tol",
@@ -191,7 +206,8 @@ def _cmd_oscillation(args) -> str:
     if args.control == "strain":
         if args.stress_amplitude is not None:
             raise ValueError("--stress-amplitude needs --control stress")
-        amps = args.strain_amplitude or list(np.logspace(-3, 0, 10))
+        lo, hi, n = STRAIN_AMPLITUDES
+        amps = args.strain_amplitude or list(np.geomspace(lo, hi, n))
     else:
         if args.strain_amplitude is not None:
             raise ValueError("--strain-amplitude needs --control strain (the default)")

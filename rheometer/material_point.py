@@ -47,9 +47,12 @@ import numba as nb
 import numpy as np
 import pandas as pd
 
+import math
+
 import rheology
-from runkit.limits import PHI_MIN, lt
-from runkit.params import Param, check_nonnegative, check_positive, check_range
+from runkit import limits as physical
+from runkit.limits import PHI_MIN, le, lt
+from runkit.params import Param, check_nonnegative, check_positive
 from rheology.elastic import past_elastic_limit
 from rheology.local_update import (CASE_NAMES, COMPACTION, ELASTIC, FAILED, NOUT, OUT_FIELDS,
                                    SHEAR_FLOW, update_point)
@@ -57,6 +60,7 @@ from rheology.materials import Material
 from rheology.numba_cache import guard
 from rheology.run_end import EndedEarly, RunEnd
 
+from . import limits
 from .transient import skeleton
 
 guard(__file__)                          # drop cached kernels if rheology's laws changed
@@ -277,12 +281,12 @@ def point_parameters(m: Material, G=None, K=None, K0=None) -> tuple[Material, np
     return m, rheology.kernel_parameters(m)
 
 
-def initial_point(m: Material, phi: float, *, stress0=None, f0=None, pressure0=None):
+def initial_point(m: Material, phi: float, *, stress0=None, f0=None, pressure0=None, label=str):
     """Initial (stress 3x3, f): the steady state at granular shear stress ``stress0`` [Pa], or
     rest under isotropic contact pressure ``pressure0`` >= 0 [Pa] (default 1e-3 tau*; 0: stress
-    free) with f0 (0)."""
+    free) with f0 (0) in [0, 1] (:data:`rheometer.limits.STRUCTURE`, named ``label("f0")``)."""
     sig = np.zeros((3, 3))
-    f = None if f0 is None else float(check_range("f0", f0, 0.0, 1.0))
+    f = None if f0 is None else float(limits.STRUCTURE.check(label("f0"), f0))
     if stress0 is not None:
         st = rheology.steady_state_stress(float(check_positive("stress0 [Pa]", stress0)), phi, m)
         f = float(st.f) if f is None else f
@@ -301,7 +305,8 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
                        f0: float | None = None, stress0: float | None = None,
                        pressure0: float | None = None, G: float | None = None,
                        K: float | None = None, K0: float | None = None,
-                       points: int = 400, elastic_limit: bool = False) -> pd.DataFrame:
+                       points: int = 400, elastic_limit: bool = False,
+                       label=str) -> pd.DataFrame:
     """Drive one material point of the Table 8 law through homogeneous simple shear.
 
     Parameters
@@ -310,11 +315,13 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     phi : float
         (Initial) volume fraction, 0 < phi < 1.
     rate : float
-        Imposed shear rate gdot = L_xy [1/s], >= 0.
+        Imposed shear rate gdot = L_xy [1/s]: 0 or in [1e-9, 1e9] (:data:`rheometer.limits.RATE`).
     t_end, dt : float
-        Duration and largest time step [s] (output and accuracy); each step is split into
+        Duration and largest time step [s] (output and accuracy), each in [1e-12, 1e9] s
+        (:data:`rheometer.limits.DURATION`), dt <= t_end; each step is split into
         sub-steps where the rate needs it (module docstring): at most 0.01 strain per local
-        update, less for an unyielded point, fewer where G h gdot_p/taubar > 1e6.
+        update, less for an unyielded point, fewer where G h gdot_p/taubar > 1e6. Checked once,
+        with the update count, by :func:`check_drive`.
     control : {"volume", "pressure"}
         Fixed phi (L_yy = 0), or imposed granular pressure ``pressure`` [Pa] (L_yy solved).
     stress0 : float, optional
@@ -328,11 +335,14 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     G, K, K0 : float, optional
         Moduli [Pa] and structure rate; default the material's, else 1e4 Pa, (8.3/3.8) G, 1.
     points : int
-        Approximate number of output rows.
+        Approximate number of output rows, in [1, 1e7] (:data:`POINTS`).
     elastic_limit : bool
         End the run where its elastic strain taubar/G or p/K passes
         :data:`rheology.elastic.ELASTIC_STRAIN_LIMIT` (0.1): the command line always sets it; the
         default False lets tests follow the Jaumann algebra to large strains.
+    label : callable
+        What a refusal calls a parameter, ``label(name)`` of ``rate, t_end, dt, points, f0`` (the
+        command line: its option; default the name itself).
 
     Returns
     -------
@@ -345,8 +355,8 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     Raises
     ------
     ValueError
-        Bad input (including a time step so large that the run would have fewer than one step,
-        or a strain gdot t_end needing more than 2e7 local updates, with the longest t_end).
+        Bad input (including a time step longer than the run, or a run needing more than 2e7
+        local updates, with the valid values: :func:`check_drive`).
     rheology.run_end.EndedEarly (a RuntimeError)
         The local update or the pressure solve failed even with 1e9 sub-steps per step, or the
         state became non-finite (with the step, time and state), or (``elastic_limit``) the
@@ -362,10 +372,7 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     phi = float(Param(PHI_MIN, lt(m0.phi_j if volume else 1.0, (
         f"volume-controlled shear needs phi below phi_j = {m0.phi_j}" if volume else
         "a volume fraction: the grains fill less than the whole volume"))).check("phi", phi))
-    rate = float(check_nonnegative("rate [1/s]", rate))
-    t_end = float(check_positive("t_end [s]", t_end))
-    dt = float(check_range("dt [s]", dt, 0.0, t_end, lo_closed=False,
-                           note="the time step must not exceed t_end"))
+    rate, t_end, dt = check_drive(rate, t_end, dt, label)
     if control == "pressure":
         if pressure is None:
             raise ValueError("pressure control needs the imposed granular pressure [Pa]")
@@ -373,10 +380,11 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
         if pressure0 is None and stress0 is None:
             pressure0 = pressure
     m, P = point_parameters(m0, G, K, K0)
-    sig0, f_init = initial_point(m, phi, stress0=stress0, f0=f0, pressure0=pressure0)
+    sig0, f_init = initial_point(m, phi, stress0=stress0, f0=f0, pressure0=pressure0,
+                                 label=label)
     nsteps = int(round(t_end / dt))
-    every = max(1, nsteps // int(check_range("points", points, 1, 10 ** 7)))
-    n_min, x_max, x_el = substeps(rate, t_end, dt, control, phi)
+    every = max(1, nsteps // int(POINTS.check(label("points"), points)))
+    n_min, x_max, x_el = substeps(rate, t_end, dt)
     def march(sig, phi, f, steps, every, rec, stats):
         return _run(sig, phi, f, rate, dt, steps, every, 0 if volume else 1, pressure or 0.0,
                     m.K, m.G, P, rec, n_min, x_el, MAX_SUBSTEPS, stats)
@@ -452,27 +460,67 @@ def simple_shear_point(material, phi: float, rate: float, t_end: float, dt: floa
     return df
 
 
-def substeps(rate: float, t_end: float, dt: float, control: str = "volume",
-             phi: float = float("nan")) -> tuple[int, float, float]:
-    """(least sub-steps per step of dt, largest strain of a sub-step, largest strain of an
-    unyielded sub-step) at shear rate ``rate`` over ``t_end`` (see :func:`simple_shear_point`).
+#: Output rows of a material point: at least the end state, at most 1e7.
+POINTS = limits.rows(1, "the end state", le(10 ** 7, "1e7 rows make a CSV of about 1 GB"))
 
-    Raises ValueError if the run would need more than :data:`MAX_SUBSTEPS` local updates even
-    while flowing."""
+
+def substeps(rate: float, t_end: float, dt: float) -> tuple[int, float, float]:
+    """(least sub-steps per step of dt, largest strain of a sub-step, largest strain of an
+    unyielded sub-step) at shear rate ``rate`` over ``t_end`` (see :func:`simple_shear_point`;
+    the inputs checked by :func:`check_drive`)."""
     strain = rate * t_end
     x_max = STRAIN_PER_SUBSTEP
     x_el = min(x_max, 2.0 * SPIN_GROWTH / strain) if strain > 0 else np.inf
     n_min = max(1, int(np.ceil(dt * rate / x_max))) if rate > 0 else 1
-    nsteps = int(round(t_end / dt))
-    if n_min * nsteps > MAX_SUBSTEPS:
-        longest = MAX_SUBSTEPS * x_max
-        raise ValueError(
-            f"t_end = {t_end:g} s at rate = {rate:g} 1/s is a shear strain of {strain:.3g}: the "
-            f"material point needs {n_min * nsteps:.3g} local updates (strain per update <= "
-            f"{x_max:g}, the explicit Jaumann spin's bound), more than the limit "
-            f"{MAX_SUBSTEPS:.0e}; valid: strain up to {longest:.3g}, i.e. t_end <= "
-            f"{longest / rate:.3g} s at this rate ({control} control, phi = {phi:g})")
     return n_min, x_max, x_el
+
+
+def check_drive(rate, t_end, dt, label=str) -> tuple[float, float, float]:
+    """(rate [1/s], t_end [s], dt [s]) of a material point, checked once (the one check of
+    :func:`simple_shear_point` and of the command line, whose options ``label(name)`` names).
+
+    - ``rate`` in :data:`rheometer.limits.RATE` (0 or [1e-9, 1e9] 1/s), ``t_end`` and ``dt`` in
+      :data:`rheometer.limits.DURATION` ([1e-12, 1e9] s), ``dt <= t_end`` (at least one step);
+    - the local updates, max(1, ceil(dt rate / x)) per step (x = :data:`STRAIN_PER_SUBSTEP`,
+      :func:`substeps`) times round(t_end / dt) steps, at most :data:`MAX_SUBSTEPS`. Two
+      limits, each refusal naming what helps: the steps, set by t_end / dt (a longer dt or a
+      shorter t_end), and the strain per update, set by rate x t_end (no dt helps: a lower rate
+      or a shorter t_end).
+
+    Raises
+    ------
+    ValueError
+        One line naming ``label(name)``, with the valid values at the others'.
+    """
+    rate = float(limits.RATE.check(label("rate"), rate))
+    t_end = float(limits.DURATION.check(label("t_end"), t_end))
+    dt = float(limits.DURATION.check(label("dt"), dt))
+    Param(physical.TIME_MIN, le(t_end, f"the step must not exceed the run, {label('t_end')} = "
+                                       f"{t_end:g} s"), unit="s").check(label("dt"), dt)
+    x = STRAIN_PER_SUBSTEP
+    steps = t_end / dt
+    per_step = max(1.0, math.ceil(dt * rate / x)) if rate > 0 else 1.0
+    count = per_step * round(steps)
+    if count <= MAX_SUBSTEPS:
+        return rate, t_end, dt
+    R, T, D = label("rate"), label("t_end"), label("dt")
+    strain = rate * t_end
+    if strain / x > MAX_SUBSTEPS:     # the strain alone needs too many updates: dt cannot help
+        raise ValueError(
+            f"{T} = {t_end:g} s at {R} = {rate:g} 1/s is a shear strain of {strain:.3g}: "
+            f"{strain / x:.3g} local updates at least whatever {D} (strain per update <= {x:g}, "
+            f"the explicit Jaumann spin's bound), more than the limit {MAX_SUBSTEPS:.0e}; valid: "
+            f"{T} <= {MAX_SUBSTEPS * x / rate:.3g} s at this {R}, or {R} <= "
+            f"{MAX_SUBSTEPS * x / t_end:.3g} 1/s at this {T}")
+    dt_min = t_end / MAX_SUBSTEPS
+    t_max = MAX_SUBSTEPS * dt / per_step
+    valid = (f"{D} >= {dt_min:.3g} s at this {T}, or {T} <= {t_max:.3g} s at this {D}"
+             if dt < dt_min else     # else: the rounding up of the updates per step
+             f"{T} <= {t_max:.3g} s at this {D} and {R}, or a lower {R}")
+    raise ValueError(
+        f"{D} = {dt:g} s gives {count:.3g} local updates to {T} = {t_end:g} s ({steps:.3g} steps"
+        + (f" of {per_step:.0f} updates at {R} = {rate:g} 1/s" if per_step > 1 else "")
+        + f"), more than the limit {MAX_SUBSTEPS:.0e}; valid: {valid}")
 
 
 def _initial_row(sig0, phi, f, m: Material, stress0):

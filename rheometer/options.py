@@ -33,6 +33,8 @@ DEFAULT_MATERIAL = "hermes2016"
 #: rheology.data); a measuring command's --phi is read as a number and checked once, in
 #: [1e-6, phi_j) of the material, by :class:`Sample` (:func:`check_phi`)
 PHI = Quantity("--phi", limits.PHI)
+#: where phi_j comes from in a --phi refusal when the user set it (not the named material's)
+SET_PHI_J = "(--set phi_j)"
 
 
 # ------------------------------------------------------------------ the measuring geometry
@@ -147,7 +149,8 @@ def _fractions(args, m) -> tuple[list, dict | None, str]:
         count = getattr(args, "_phi_count", 1)
         return (default_fractions(m) if count > 1 else [default_fraction(m)]), None, ""
     once("--phi", args.phi, repeat + "fractions")
-    return [check_phi("--phi", p, m) for p in args.phi], None, ""
+    source = SET_PHI_J if "phi_j" in set_overrides(args.set) else ""
+    return [check_phi("--phi", p, m, source=source) for p in args.phi], None, ""
 
 
 def material_with(name, overrides: dict, option: str = "--set"):
@@ -266,12 +269,26 @@ def skeleton_options(p) -> None:
                    ("--K0", limits.K0, None, "structure-rate scale K0 [-]"))
 
 
+#: what a transient's refusal (rheometer.protocols, Rheometer, Step) calls the parameters of
+#: :func:`transient_options`: their options
+TRANSIENT_LABELS = {"t_end": "--t-end", "rtol": "--rtol", "points": "--points"}
+
+
+def transient_label(name: str) -> str:
+    """The option of a transient's parameter (:data:`TRANSIENT_LABELS`), else the name."""
+    return TRANSIENT_LABELS.get(name, name)
+
+
 def transient_options(p, t_end=None):
+    """--G, --K0, (with ``t_end``, its default) --t-end, --rtol, --points: the last three read
+    here, checked once by the run (:class:`~rheometer.transient.Rheometer`, its
+    :class:`~rheometer.transient.Step`), named by :func:`transient_label`."""
     skeleton_options(p)
     if t_end is not None:
-        number_options(p, ("--t-end", limits.DURATION, t_end, f"duration [s] (default {t_end:g})"))
+        number_options(p, ("--t-end", limits.DURATION, t_end, f"duration [s] (default {t_end:g})"),
+                       later=True)
     number_options(p, ("--rtol", limits.RTOL, 1e-7, "IDA relative tolerance (1e-7)"),
-                   ("--points", limits.STEP_ROWS, 300, "output rows per step (300)"))
+                   ("--points", limits.STEP_ROWS, 300, "output rows per step (300)"), later=True)
 
 
 def plot_path(args):

@@ -89,38 +89,42 @@ def flow_curve(material, phi, *, stress=None, rate=None, control: str = "stress"
 
 # ------------------------------------------------------------------ transients
 def startup(material, phi: float, rate: float, t_end: float, *, G=None, K0=None, f0: float = 0.0,
-            points: int = 300, name: str = "", **options) -> pd.DataFrame:
+            points: int = 300, name: str = "", label=str, **options) -> pd.DataFrame:
     """Start-up of steady shear: rate ``rate`` [1/s] imposed from rest (structure ``f0``) for
     ``t_end`` [s]. ``options`` go to :class:`Rheometer` (rtol, atol, form, jacobian). Every
     transient's inputs are checked once, by :class:`Rheometer` and :class:`Step` (``name``: what
-    a refusal calls the rate, e.g. the command line's option)."""
-    r = Rheometer(material, phi, G=G, K0=K0, **options)
+    a refusal calls the rate, e.g. the command line's option; ``label(name)``: what it calls
+    ``t_end``, ``rtol``, ``points``)."""
+    r = Rheometer(material, phi, G=G, K0=K0, label=label, **options)
     return r.run([Step("rate", float(rate), duration=float(t_end),
-                       label=f"shear at {rate:g} 1/s", name=name)], r.rest(f0), points=points)
+                       label=f"shear at {rate:g} 1/s", name=name,
+                       duration_name=label("t_end"))], r.rest(f0), points=points)
 
 
 def creep(material, phi: float, stress: float, t_end: float, *, G=None, K0=None, f0: float = 0.0,
-          points: int = 300, name: str = "", **options) -> pd.DataFrame:
+          points: int = 300, name: str = "", label=str, **options) -> pd.DataFrame:
     """Creep: mixture shear stress ``stress`` [Pa] imposed from rest for ``t_end`` [s]; the
     fluid carries it at once (gdot(0) = stress/(eta0 (1 + 5/2 phi))), the skeleton loads up.
-    ``stress`` > 0 (at zero the sample never leaves rest); ``name`` as for :func:`startup`."""
-    r = Rheometer(material, phi, G=G, K0=K0, **options)
+    ``stress`` > 0 (at zero the sample never leaves rest); ``name``, ``label`` as for
+    :func:`startup`."""
+    r = Rheometer(material, phi, G=G, K0=K0, label=label, **options)
     return r.run([Step("stress", float(stress), duration=float(t_end),
-                       label=f"stress {stress:g} Pa", name=name, quantity=POSITIVE_STRESS)],
-                 r.rest(f0), points=points)
+                       label=f"stress {stress:g} Pa", name=name, quantity=POSITIVE_STRESS,
+                       duration_name=label("t_end"))], r.rest(f0), points=points)
 
 
 def relax(material, phi: float, stress: float, t_end: float, *, G=None, K0=None,
-          points: int = 300, **options) -> pd.DataFrame:
+          points: int = 300, label=str, **options) -> pd.DataFrame:
     """Stress relaxation after cessation of steady shear (Eqs. 35-37, Fig. 15).
 
     Starts from the steady state at granular shear stress ``stress`` [Pa] (its f from Eq. 13),
     stops the flow (gdot = 0) and follows taubar(t), f(t) for ``t_end`` [s]. With gdot = 0 the
-    mixture stress equals the granular one (column ``shear_stress_Pa``).
+    mixture stress equals the granular one (column ``shear_stress_Pa``). ``label`` as for
+    :func:`startup`.
     """
-    r = Rheometer(material, phi, G=G, K0=K0, **options)
-    return r.run([Step("rate", 0.0, duration=float(t_end), label="rest")], r.steady(stress),
-                 points=points)
+    r = Rheometer(material, phi, G=G, K0=K0, label=label, **options)
+    return r.run([Step("rate", 0.0, duration=float(t_end), label="rest",
+                       duration_name=label("t_end"))], r.steady(stress), points=points)
 
 
 def at_phi(run, phi: float, ends: list) -> pd.DataFrame | None:

@@ -58,11 +58,13 @@ COLUMNS = ("time_s", "step", "strain", "shear_rate_per_s", "shear_stress_Pa",
            "viscosity_Pa_s", "jamming_gap")
 
 
-def check_phi(name: str, phi, m: Material, where: str = "") -> float:
+def check_phi(name: str, phi, m: Material, where: str = "", source: str = "") -> float:
     """The volume fraction ``phi`` in [PHI_MIN, phi_j) of ``m`` (runkit.limits.PHI_MIN = 1e-6,
     the dilute limit): the one check of every entry point (the command line's ``--phi`` too);
-    ValueError naming ``name``."""
-    why = f"{where}below phi_j = {m.phi_j:g} of {m.name}: no steady flow at or above it"
+    ValueError naming ``name``, and where phi_j came from: ``source`` (e.g. ``"(--set
+    phi_j)"``), default ``"of <material name>"``."""
+    why = (f"{where}below phi_j = {m.phi_j:g} {source or 'of ' + m.name}: no steady flow at or "
+           "above it")
     return float(Param(PHI_MIN, lt(m.phi_j, why)).check(name, phi))
 
 
@@ -143,6 +145,9 @@ class Step:
     name : str
         What a refusal calls the imposed value: the option or program line it came from
         (default ``"imposed <control>"``).
+    duration_name : str
+        What a refusal calls the duration (default ``"duration"``; the command line's
+        ``--t-end``).
     quantity : runkit.params.Param or None
         Its valid values (default :data:`rheometer.limits.RATE` or ``STRESS``); the one static
         check, the liquid's rate limit is :meth:`Rheometer.run`'s (it needs eta_F).
@@ -159,6 +164,7 @@ class Step:
     frequency: float | None = None
     name: str = ""
     quantity: Param | None = None
+    duration_name: str = ""
 
     def __post_init__(self) -> None:
         if self.control not in ("rate", "stress", "strain"):
@@ -189,7 +195,7 @@ class Step:
         if self.duration is None and self.strain is None:
             raise ValueError("a step needs a duration ('for T s') or a strain ('until strain X')")
         if self.duration is not None:
-            limits.DURATION.check("duration", self.duration)
+            limits.DURATION.check(self.duration_name or "duration", self.duration)
         if self.strain is not None:
             limits.STRAIN.check("step strain", self.strain)
         limits.DURATION.check("max_time", self.max_time)
@@ -343,16 +349,21 @@ class Rheometer:
         beyond which the hypoelastic law is used outside its range. The command line always
         sets it; the default False lets tests and validation follow the law's algebra to large
         strains.
+    label : callable
+        What a refusal calls ``rtol`` and :meth:`run`'s ``points``, ``label(name)`` (the command
+        line: its option; default the name itself).
     """
 
     def __init__(self, material, phi: float, *, G: float | None = None, K0: float | None = None,
                  rtol: float = 1e-7, atol: float | None = None, form: str = "dae",
-                 jacobian: bool = True, max_restarts: int = 50, elastic_limit: bool = False):
+                 jacobian: bool = True, max_restarts: int = 50, elastic_limit: bool = False,
+                 label=str):
         self.material: Material = rheology.get_material(material)
         m = self.material
         self.phi = check_phi("phi", phi, m)
         self.G, self.K0 = skeleton(m, G, K0)
-        self.rtol = float(limits.RTOL.check("rtol", rtol))
+        self.label = label
+        self.rtol = float(limits.RTOL.check(label("rtol"), rtol))
         self.atol = float(check_positive("atol", atol)) if atol is not None else 1e-3 * self.rtol
         if form not in ("dae", "ode"):
             raise ValueError(f"form = {form!r} must be 'dae' or 'ode'")
@@ -405,7 +416,7 @@ class Rheometer:
         steps = list(steps)
         if not steps:
             raise ValueError("a test needs at least one step")
-        points = int(limits.STEP_ROWS.check("points", points))
+        points = int(limits.STEP_ROWS.check(self.label("points"), points))
         liquid = le(limits.RATE_MAX * self.eta_fluid, (
             f"the liquid alone takes an imposed stress at once, at the rate stress/eta_F (eta_F "
             f"= eta0 (1 + 5/2 phi) = {self.eta_fluid:.4g} Pa s): up to the largest shear rate "

@@ -523,14 +523,16 @@ def test_a_held_a_inf_keeps_its_value(extra):
 
 
 @pytest.mark.parametrize("argv, words", [
-    # a held phi_j is the bound (a free one is fitted above the data)
+    # a held phi_j is the bound (a free one is fitted above the data), credited to the --set
+    # that holds it (was "phi_j = 0.535 of hermes2016")
     ([*RC, "--phi", "0.7", "0.8", "--set", "phi_j=0.535"],
-     "--phi = 0.7 is outside the valid range [1e-06, 0.535) (below phi_j = 0.535 of hermes2016: "
-     "no steady flow at or above it)"),
+     "--phi = 0.7 is outside the valid range [1e-06, 0.535) (below phi_j = 0.535 (--set "
+     "phi_j): no steady flow at or above it)"),
     ([*RC, "--phi", "0.40", "0.535", "--set", "phi_j=0.535"],
      "--phi = 0.535 is outside the valid range [1e-06, 0.535)"),
     ([*RC, "--phi", "0.40", "0.46", "--set", "phi_j=0.45"],
-     "--phi = 0.46 is outside the valid range [1e-06, 0.45) (below phi_j = 0.45 of"),
+     "--phi = 0.46 is outside the valid range [1e-06, 0.45) (below phi_j = 0.45 (--set "
+     "phi_j)"),
 ])
 def test_a_volume_fraction_at_or_above_jamming_is_refused(argv, words, tmp_path, capsys):
     out = tmp_path / "fit"
@@ -550,6 +552,25 @@ def test_a_phi_column_at_or_above_jamming_is_refused(tmp_path, capsys):
     line = _refused(["fit", str(f), "--out", str(out), "--no-plots", "--no-profile", "--set",
                      "phi_j=0.535"], capsys, out)
     assert "phi = 0.6 is outside the valid range [1e-06, 0.535) (curves.csv" in line, line
+    assert "below phi_j = 0.535 (--set phi_j): no steady flow" in line, line
+
+
+@pytest.mark.skipif(len(FILES) != 5, reason="shared fixtures not present")
+def test_a_held_phi_j_refusal_credits_the_set(tmp_path, capsys):
+    """`fit FILE --set phi_j=0.55 --phi 0.56` said "phi_j = 0.55 of hermes2016" although the
+    user set phi_j; a measuring command's --phi against a --set phi_j too."""
+    out = tmp_path / "fit"
+    line = _refused(["fit", str(FILES[0]), "--set", "phi_j=0.55", "--phi", "0.56", "--out",
+                     str(out)], capsys, out)
+    assert line.endswith("--phi = 0.56 is outside the valid range [1e-06, 0.55) (below phi_j = "
+                         "0.55 (--set phi_j): no steady flow at or above it)"), line
+    assert "hermes2016" not in line
+    line = _refused(["startup", "--set", "phi_j=0.55", "--phi", "0.56", "--out",
+                     str(tmp_path / "s.csv")], capsys, tmp_path / "s.csv")
+    assert "(below phi_j = 0.55 (--set phi_j): no steady flow" in line, line
+    line = _refused(["startup", "--phi", "0.6", "--out", str(tmp_path / "s.csv")], capsys,
+                    tmp_path / "s.csv")
+    assert "(below phi_j = 0.535 of hermes2016: no steady flow" in line, line   # not set
 
 
 def test_a_free_phi_j_is_fitted_above_the_data(tmp_path):

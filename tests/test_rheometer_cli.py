@@ -1,6 +1,7 @@
 """The ``rheometer`` command line end to end: CSV columns and numbers, figures, bad input."""
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -379,16 +380,52 @@ def test_material_point_update_count_names_its_options(argv, first, valid, tmp_p
 
 
 def test_material_point_suggested_dt_passes_the_check():
-    """The smallest --dt the refusal states is accepted, a slightly smaller one refused."""
-    from rheometer.cli import _check_update_count
-    from rheometer.material_point import MAX_SUBSTEPS, substeps
+    """The smallest --dt the refusal states is accepted, a slightly smaller one refused (by the
+    one check of the command line and the Python API, rheometer.material_point.check_drive)."""
+    from rheometer.cli import _POINT_LABELS
+    from rheometer.material_point import MAX_SUBSTEPS, check_drive
 
     for t_end in (10.0, 3.7, 1e3):
         dt = t_end / MAX_SUBSTEPS
-        _check_update_count(0.5, t_end, dt)
-        substeps(0.5, t_end, dt)                       # the solver's own count agrees
+        assert check_drive(0.5, t_end, dt, _POINT_LABELS.get) == (0.5, t_end, dt)
         with pytest.raises(ValueError, match="--dt = "):
-            _check_update_count(0.5, t_end, dt / 1.01)
+            check_drive(0.5, t_end, dt / 1.01, _POINT_LABELS.get)
+        with pytest.raises(ValueError, match="^dt = "):       # the API: its parameter's name
+            check_drive(0.5, t_end, dt / 1.01)
+
+
+def test_material_point_options_are_checked_once(tmp_path, monkeypatch, capsys):
+    """--rate, --t-end, --dt, --points are read by the parser (a finite number) and checked once,
+    by simple_shear_point's check_drive, named as the options; the Python API refuses the same
+    values naming its parameters."""
+    import rheometer.material_point as mp
+    from rheometer import simple_shear_point
+
+    calls = []
+    real = mp.check_drive
+    monkeypatch.setattr(mp, "check_drive", lambda *a: calls.append(a) or real(*a))
+    monkeypatch.chdir(tmp_path)
+    for argv, words in ((["--rate", "-1"], "--rate = -1 is outside the valid range [1e-09, "
+                                           "1e+09] 1/s, or 0"),
+                        (["--t-end", "0"], "--t-end = 0 is outside the valid range [1e-12, "
+                                           "1e+09] s"),
+                        (["--dt", "1e300"], "--dt = 1e+300 is outside the valid range [1e-12, "
+                                            "1e+09] s (30 years"),
+                        (["--points", "0"], "--points = 0 is outside the valid range [1, 1e+07]")):
+        calls.clear()
+        assert main(["material-point", *argv]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0], err
+        assert len(calls) <= 1                           # one check (--points: after it)
+        assert list(tmp_path.iterdir()) == []
+    for kwargs, words in ((dict(rate=1e12), "rate = 1e+12 is outside"),
+                          (dict(t_end=-1.0), "t_end = -1 is outside"),
+                          (dict(dt=float("nan")), "dt = nan: must be finite"),
+                          (dict(points=0), "points = 0 is outside")):
+        args = dict(rate=1.0, t_end=1.0, dt=1e-2) | kwargs
+        with pytest.raises(ValueError, match="^" + re.escape(words)):
+            simple_shear_point(HERMES, 0.5, args.pop("rate"), args.pop("t_end"), args.pop("dt"),
+                               **args)
 
 
 def test_resume_names_the_checkpoint_actually_read(tmp_path, monkeypatch, capsys):
@@ -530,3 +567,30 @@ def test_material_point_end_time_and_reason_agree(tmp_path, monkeypatch, capsys)
     assert "taubar/G = 0.1003 at t = 10 s" in err
     assert "the run ends at the row before, t = 0 s, the last within the limit" in err
     assert "between these rows, from t ~ 9.966 s" in err
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["startup", "--t-end", "0"], "--t-end = 0 is outside the valid range [1e-12, 1e+09] s (1 ps"),
+    (["creep", "--t-end", "1e300"], "--t-end = 1e+300 is outside the valid range [1e-12, 1e+09] "
+                                    "s (30 years"),
+    (["relax", "--rtol", "1"], "--rtol = 1 is outside the valid range [1e-13, 0.01] (looser"),
+    (["startup", "--points", "2"], "--points = 2 is outside the valid range [3, 1e+06] (a "
+                                   "step's start"),
+    (["program", "--rtol", "1e-20"], "--rtol = 1e-20 is outside the valid range [1e-13, 0.01]"),
+    (["material-point", "--f0", "2"], "--f0 = 2 is outside the valid range [0, 1] (f is a "
+                                      "fraction)"),
+])
+def test_transient_options_are_checked_once_by_the_run(argv, words, tmp_path, monkeypatch,
+                                                       capsys):
+    """--t-end, --rtol, --points of the transients (and --f0 of material-point) were checked
+    by the parser and again by Step / Rheometer (initial_point) with the same bounds; now the
+    parser reads a finite number (the value passes it) and the run checks its range once,
+    named as the option (no argparse frame), before anything is written."""
+    from rheometer.cli import build_parser
+
+    build_parser().parse_args(argv)                        # read, not range-checked, here
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0] and "argument " not in err[0], err
+    assert list(tmp_path.iterdir()) == []

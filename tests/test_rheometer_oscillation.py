@@ -295,7 +295,9 @@ def test_a_strain_oscillation_past_the_rate_limit_is_refused(tmp_path, capsys):
         oscillation_sweep("hermes2016", 0.5, frequency=[1.0, 1e9], amplitude=1.0)
     assert check_peak_rate(1e8, 1.0) == pytest.approx(6.28319e8)
     out = tmp_path / "osc.csv"
-    assert cli_main(["oscillation", "--frequency", "1e9", "--phi", "0.5", "--out", str(out)]) == 2
+    # (the default sweep ends at 0.1: 6.28e8 1/s at 1e9 Hz; amplitude 1 is past the limit)
+    assert cli_main(["oscillation", "--frequency", "1e9", "--strain-amplitude", "1", "--phi",
+                     "0.5", "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "peak shear rate" in err[0] and not list(tmp_path.iterdir())
     prog = tmp_path / "prog.txt"
@@ -303,3 +305,29 @@ def test_a_strain_oscillation_past_the_rate_limit_is_refused(tmp_path, capsys):
     assert cli_main(["program", str(prog), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "program line 2: peak shear rate" in err[0] and not out.exists()
+
+
+def test_the_help_default_sweep_stays_within_the_small_strain_limit(tmp_path, monkeypatch,
+                                                                    capsys):
+    """`rheometer oscillation` (the help's default: an amplitude sweep to 1 at 1 Hz) drove the
+    default material to taubar/G = 0.99 (3 of 10 points past the limit 0.1, warned); the default
+    sweep is now 1e-3..0.1, every point within the limit (run here on few cycles and samples)."""
+    import pandas as pd
+
+    from rheology.elastic import ELASTIC_STRAIN_LIMIT
+    from rheometer.cli import main
+    from rheometer.instrument_cli import STRAIN_AMPLITUDES
+
+    lo, hi, n = STRAIN_AMPLITUDES
+    with pytest.raises(SystemExit):
+        main(["oscillation", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert f"Default: an amplitude sweep {lo:g}..{hi:g} at 1 Hz" in text
+    assert f"default {n} values {lo:g}..{hi:g}" in text
+    monkeypatch.chdir(tmp_path)
+    assert main(["oscillation", "--cycles", "3", "--samples", "16", "--plot", "none"]) == 0
+    out = capsys.readouterr().out
+    pts = pd.read_csv("oscillation.csv")
+    assert pts["strain_amplitude"].to_numpy() == pytest.approx(np.geomspace(lo, hi, n))
+    assert (pts["max_elastic_strain"] <= ELASTIC_STRAIN_LIMIT).all(), pts["max_elastic_strain"]
+    assert "past 0.1" not in out
