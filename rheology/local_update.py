@@ -294,7 +294,7 @@ def _newton_2d(beta, g, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
 
 @_jit
 def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, tau_tr, Gdt, Kdt,
-                   eta0, rd2, K3, mu1, mu2, b, newton):
+                   eta0, rd2, K3, mu1, mu2, b, newton, g_warm=-1.0):
     """Dilatant shear flow (f_1 = 0, xi_2 = 0): returns (beta, gdot_p, p, I_m, evaluations).
 
     1. Safeguarded Newton in beta from ``beta_start`` (the warm start; skipped when it is outside
@@ -307,6 +307,7 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, ta
        gdot(beta) is too steep to resolve), again with gdot as the bracketed variable.
     ``r_lo`` = R(beta_lo), or NaN if not evaluated yet. evaluations: residual evaluations made
     here (a Newton iterate, R with its slope, counts one); < 0 means every stage failed.
+    At p* <= 0: :func:`_dilatant_tension`, from ``g_warm`` (the previous gdot_p) if positive.
     """
     beta_max = K3 * phi
     beta_top = beta_lo + (beta_max - beta_lo) * (1.0 - 1e-15)
@@ -317,7 +318,7 @@ def _dilatant_flow(beta_lo, r_lo, beta_guess, beta_start, phi, phim, a, p_tr, ta
     hi_known = False
     if p_tr <= 0.0:
         return _dilatant_tension(phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2,
-                                 b, floor)
+                                 b, floor, g_warm if newton else -1.0)
     if newton and beta_lo < beta_start < beta_top:
         x = beta_start
         for _ in range(_NEWTON_MAX):
@@ -439,7 +440,59 @@ def _tension_state(h, g_min, phi, phim, a, Kdt, eta0, rd2, K3):
 
 
 @_jit
-def _dilatant_tension(phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b, floor):
+def _tension_newton(h, g_min, h_max, phi, phim, a, p_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b):
+    """Newton on the pair (x, h) of :func:`_dilatant_tension` from h (a warm start): the
+    I_m relation F1 = A_g (a x)^2 - (phi_m - x)^2 K dt K3 (phi h - x gdot_p) = 0 of
+    :func:`_tension_state` and F2 = G dt (h_max - h) - (mu_p + beta) p = 0 together, with
+    p = A_g (a x)^2/(phi_m - x)^2 and beta = (p - p*)/(K dt gdot_p), so that no step solves
+    for x alone (each of Brent's evaluations does). (mu_p + beta) p = mu_1 p + (mu_2 - mu_1) U p
+    + V + beta p, U = w/(w + b a x), V = 5/2 phi eta0 gdot_p x/w (w = phi_m - x). Returns
+    (h, iterations) once a step is below 1e-14 h (Brent's bracket exit), or h = -1 if an
+    iterate leaves (0, phi_m) x (0, h_max) or does not settle (the caller then solves by the
+    bracket)."""
+    kK = Kdt * K3
+    x = _tension_state(h, g_min, phi, phim, a, Kdt, eta0, rd2, K3)[0]
+    c = 2.5 * phi * eta0
+    for it in range(1, _NEWTON_MAX + 1):
+        g = g_min + h
+        A = rd2 * g * g + 2.0 * eta0 * g
+        Ah = 2.0 * rd2 * g + 2.0 * eta0
+        w = phim - x
+        lin = phi * h - x * g
+        F1 = A * a * a * x * x - w * w * kK * lin
+        F1x = 2.0 * A * a * a * x + 2.0 * w * kK * lin + w * w * kK * g
+        F1h = Ah * a * a * x * x - w * w * kK * (phi - x)
+        p = A * a * a * x * x / (w * w)
+        px = 2.0 * A * a * a * x * phim / (w * w * w)
+        ph = Ah * a * a * x * x / (w * w)
+        beta = (p - p_tr) / (Kdt * g)
+        bx = px / (Kdt * g)
+        bh = ph / (Kdt * g) - beta / g
+        q = w + b * a * x
+        U = w / q
+        Ux = -b * a * phim / (q * q)
+        V = c * g * x / w
+        M = mu1 + (mu2 - mu1) * U + beta
+        T = M * p + V
+        Tx = M * px + ((mu2 - mu1) * Ux + bx) * p + c * g * phim / (w * w)
+        Th = M * ph + bh * p + c * x / w
+        F2 = Gdt * (h_max - h) - T
+        F2x, F2h = -Tx, -Gdt - Th
+        idet = 1.0 / (F1x * F2h - F1h * F2x)
+        dx = (F1h * F2 - F1 * F2h) * idet
+        dh = (F2x * F1 - F2 * F1x) * idet
+        xn, hn = x + dx, h + dh
+        if not (0.0 < xn < phim and 0.0 < hn < h_max):
+            return -1.0, it
+        x, h = xn, hn
+        if abs(dh) <= 1e-14 * h:
+            return h, it
+    return -1.0, _NEWTON_MAX
+
+
+@_jit
+def _dilatant_tension(phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b, floor,
+                      g_warm=-1.0):
     """The dilatant solve at p* <= 0, p* + (K/G) tau* K3 phi > 0: returns what
     :func:`_dilatant_flow` returns.
 
@@ -451,9 +504,23 @@ def _dilatant_tension(phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, 
     :func:`_residual`). Every quantity is formed without cancellation, so the solve is resolved
     up to the separation boundary, where the solution tends to the separated one
     (taubar <= G dt h_max, p <= taubar/mu_1).
+
+    ``g_warm`` > g_min (the point's previous gdot_p): :func:`_tension_newton` from it first,
+    accepted by Brent's exits (|R| at the roundoff floor, or a step below 1e-14 h) and the
+    same final test; otherwise, or if it fails, the bracket.
     """
     g_min = -p_tr / (Kdt * K3 * phi)
     h_max = (p_tr + Kdt * tau_tr / Gdt * K3 * phi) / (Kdt * K3 * phi)   # > 0: not separated
+    if 0.0 < g_warm - g_min < h_max:
+        h, it = _tension_newton(g_warm - g_min, g_min, h_max, phi, phim, a, p_tr, Gdt, Kdt,
+                                eta0, rd2, K3, mu1, mu2, b)
+        if h > 0.0:
+            x, p, g = _tension_state(h, g_min, phi, phim, a, Kdt, eta0, rd2, K3)
+            # R of _residual's mode 2 at this state (without solving for x again)
+            r = Gdt * (h_max - h) - (laws.friction(eta0 * g / p, (phim - x) / (a * x), phi, a, mu1,
+                                                   mu2, b) + (p - p_tr) / (Kdt * g)) * p
+            if p > 0.0 and abs(r) <= 1e-10 * (Gdt * (h_max - h) + mu1 * p) + 10.0 * floor:
+                return (p - p_tr) / (Kdt * g), g, p, (phim - x) / (a * x), it + 1
     r1 = _residual(h_max, 2, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b,
                    g_min, h_max)
     if not r1 < 0.0:
@@ -626,7 +693,8 @@ def _correct(p_tr, tau_tr, phi, f, dt, P, g_prev, newton, beta_start, g_start):
             bs = _newton_2d(b0, g0, beta_lo, beta_top, phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0,
                             rd2, K3, mu1, mu2, b)
     beta, g, p, Im, iters = _dilatant_flow(beta_lo, r_lo, beta_guess, bs, phi, phim, a, p_tr,
-                                           tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b, newton)
+                                           tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, mu2, b, newton,
+                                           g_prev if 0.0 < g_prev < np.inf else -1.0)
     return FAILED if iters < 0 else SHEAR_FLOW, g, p, Im, beta, xi1, xi2, iters
 
 

@@ -609,3 +609,39 @@ def test_rules_in_a_material_file(tmp_path):
     del doc["material"]["rules"]                             # files written before the field
     (tmp_path / "old.json").write_text(json.dumps(doc))
     assert r.get_material(str(tmp_path / "old.json")).rules == "table8"
+
+
+def test_a_bed_at_rest_in_slight_tension_solves_warm_to_the_brackets_answer():
+    """Points of a bed at rest under its free surface (an MPM bed's state: trial pressure
+    p* <= 0 a vanishing tension, tau* small, not separated): the dilatant tension solve warm
+    from a previous rate close by (the Newton on (x, h)) gives the bracket's answer (Brent on
+    h) to the solver tolerance, cold and warm, on the yield surface."""
+    m = r.get_material("rod_impact")
+    P = kernel_parameters(m)
+    rng = np.random.default_rng(7)
+    n, dt, phi = 400, 2e-6, np.full(400, 0.47)
+    p_t = -10.0 ** rng.uniform(-12, -3, n)                        # p* < 0 [Pa]
+    # tau* above the separation bound |p*| G/(K K3 phi), by 1.001 to 1e3
+    tau = -p_t * m.G / (m.K * m.K3 * phi) * 10.0 ** rng.uniform(0.0005, 3, n)
+    sig = np.zeros((n, 3, 3))
+    sig[:, 0, 0] = sig[:, 1, 1] = sig[:, 2, 2] = -p_t
+    sig[:, 0, 1] = sig[:, 1, 0] = tau
+    L = np.zeros((n, 3, 3))
+    f = np.zeros(n)
+    runs = {}
+    for k, kw in (("bracket", dict(newton=False)), ("cold", {}), ("warm", None)):
+        if kw is None:                                # a previous rate within 1e-4 of this one
+            kw = dict(g_prev=runs["cold"][1][:, 1] * (1.0 + 1e-4 * rng.uniform(-1, 1, n)))
+        so, o = np.empty_like(sig), np.empty((n, NOUT))
+        update_points_serial(sig, L, phi, f.copy(), dt, P, so, o, **kw)
+        runs[k] = (so, o)
+    ref_s, ref_o = runs["bracket"]
+    assert np.all(ref_o[:, 12] == SHEAR_FLOW) and np.all(ref_o[:, 11] > 0)
+    scale = np.abs(sig).max(axis=(1, 2))
+    for k in ("cold", "warm"):
+        so, o = runs[k]
+        np.testing.assert_array_equal(o[:, 12], ref_o[:, 12])
+        assert np.all(np.abs(so - ref_s).max(axis=(1, 2)) <= 1e-9 * scale)
+        np.testing.assert_allclose(o[:, 1], ref_o[:, 1], rtol=1e-12)
+        f1 = r.yield_functions(so, o[:, 1], phi, f, m, o[:, 3])[0]
+        assert np.all(np.abs(f1) <= 1e-9 * scale)
