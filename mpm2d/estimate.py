@@ -4,7 +4,8 @@ Point-steps are the number of material points times the number of steps, the mea
 work (each step visits every point a fixed number of times). Before a scene's set-up (which can
 take minutes at a fine resolution: a bed's geostatic relaxation), the parameters bound them from
 below: the points of the scene's declared size and at least ``t_end / dt_max`` steps, with dt_max
-the largest stable step the parameters allow (:func:`mpm2d.scenes.spec.step_bound`).
+the scene's first stable step from its parameters, or the largest the parameters allow
+(:func:`mpm2d.scenes.spec.run_steps`).
 A run of more than :data:`CONFIRM_POINT_STEPS` point-steps is refused unless confirmed (``mpm2d
 run ... --yes``), with its estimate: the wall time then comes from a short timed probe of the
 same scene at a coarse resolution (a few steps, seconds per point-step), since the scene
@@ -24,7 +25,7 @@ import warnings
 
 import numpy as np
 
-from .scenes.spec import estimate_bytes, step_bound
+from .scenes.spec import estimate_bytes, run_steps
 
 #: runs of more point-steps need confirmation (``--yes``): about an hour or more of two cores
 #: at the ~3e6 point-steps per second of the suspension scenes
@@ -115,7 +116,7 @@ def check_before_setup(setup, spec, params: dict, name: str, yes: bool, log) -> 
     """Refuse (ValueError, one line, exit 2) a run of more than :data:`CONFIRM_POINT_STEPS`
     point-steps at the lower bound the parameters give, unless ``yes``; with ``yes`` log the
     estimate. Scenes without a declared size or step bound are not checked here."""
-    bound = step_bound(spec, params)
+    bound = run_steps(spec, params)
     if bound is None or spec.extent is None:
         return
     points = float(spec.extent(params)[0])

@@ -271,11 +271,20 @@ class Material:
         return self.phi_j + (self.phi_c - self.phi_j) * self.Delta
 
     def replace(self, **overrides) -> "Material":
-        """Return a validated copy with fields overridden (unknown names raise ValueError)."""
+        """Return a validated copy with fields overridden (unknown names raise ValueError).
+
+        The set's own initial fraction phi0 follows a phi_j overridden at or below it (the
+        default-fraction rule, :func:`default_fraction`, as :func:`scene_material` does for a
+        user's material); a phi0 given with the overrides is checked as given."""
         names = {f.name for f in dataclasses.fields(self)}
         unknown = sorted(set(overrides) - names)
         if unknown:
             raise ValueError(f"unknown material parameter(s) {unknown}; valid: {sorted(names)}")
+        phi_j = overrides.get("phi_j")
+        if "phi0" not in overrides and self.phi0 is not None and isinstance(phi_j, (int, float)) \
+                and not self.phi0 < phi_j:
+            m = dataclasses.replace(self, **overrides, phi0=None)
+            return dataclasses.replace(m, phi0=default_fraction(m))
         return dataclasses.replace(self, **overrides)
 
     def require(self, *names: str) -> None:
@@ -667,12 +676,16 @@ def scene_material(scene_set: str | Material, material: str | Material | None = 
 #: Default volume fractions, one rule (:data:`RULE`) for every command of every tier: phi_c + s
 #: (phi_j - phi_c), inside the DST window phi_c <= phi < phi_j for a set with DST (finite eta_B,
 #: Eq. 9; Hermes 2016: 0.48, 0.50, 0.52), below phi_c, where it flows at every stress, for a set
-#: without (Singh (a) shear-jams above phi_c); rounded to 0.005 and kept inside (0, phi_j).
+#: without (Singh (a) shear-jams above phi_c); rounded to 0.005 (finer where that would merge
+#: two) and kept inside (0, phi_j).
 DST_POSITIONS = (0.45, 0.65, 0.85)
 NO_DST_POSITIONS = (-1.5, -0.75, -0.25)
+#: the roundings tried in turn: the first that keeps the three fractions distinct (a narrow
+#: phi_c-phi_j window, e.g. a phi_j set close to phi_c, merges them at 0.005)
+ROUNDING = (0.005, 0.001, 0.0001)
 RULE = ("default phi: sets with DST (finite eta_B) phi_c + (0.45, 0.65, 0.85)(phi_j - phi_c), "
         "sets without DST (Singh (a)) phi_c + (-1.5, -0.75, -0.25)(phi_j - phi_c), rounded to "
-        "0.005; one-phi commands take the middle one")
+        "0.005 (finer where that would merge two); one-phi commands take the middle one")
 
 
 def has_dst(material) -> bool:
@@ -684,12 +697,14 @@ def has_dst(material) -> bool:
 def default_fractions(material) -> list[float]:
     """The three default volume fractions of ``material`` (name or Material), ascending."""
     m = material if isinstance(material, Material) else get_material(material)
-    s = DST_POSITIONS if has_dst(m) else NO_DST_POSITIONS
-    out = []
-    for x in s:
-        phi = round((m.phi_c + x * (m.phi_j - m.phi_c)) / 0.005) * 0.005
-        out.append(float(round(min(max(phi, 0.005), m.phi_j - 0.005), 6)))
-    return out
+    exact = [m.phi_c + x * (m.phi_j - m.phi_c)
+             for x in (DST_POSITIONS if has_dst(m) else NO_DST_POSITIONS)]
+    for step in ROUNDING:
+        out = [float(round(min(max(round(phi / step) * step, step), m.phi_j - step), 6))
+               for phi in exact]
+        if len(set(out)) == len(out):
+            return out
+    return exact
 
 
 def default_fraction(material) -> float:

@@ -161,3 +161,25 @@ def test_cli_instrument_bad_input(tmp_path, monkeypatch, capsys, argv, words):
     err = capsys.readouterr().err
     assert words in err and len(err.strip().splitlines()) == 1
     assert not list(tmp_path.iterdir())                 # nothing written
+
+
+@pytest.mark.parametrize("phi_j", [0.45, 0.44, 0.438, 0.5])
+def test_default_fractions_stay_distinct_in_a_narrow_dst_window(phi_j):
+    """A phi_j set close to phi_c: rounding to 0.005 would merge the fractions (phi_j = 0.45 gave
+    0.44, 0.445, 0.445: one curve twice); a finer rounding keeps three distinct fractions in
+    the DST window phi_c <= phi < phi_j."""
+    m = rheology.get_material("hermes2016", phi_j=phi_j)
+    phis = mat.default_fractions(m)
+    assert phis == sorted(phis) and len(set(phis)) == 3, phis
+    assert all(m.phi_c <= p < m.phi_j for p in phis), phis
+
+
+def test_a_sets_own_phi0_follows_a_phi_j_set_below_it():
+    """annular_shear's phi0 = 0.505 with --set phi_j = 0.45: the set's own initial fraction
+    follows the default-fraction rule (was: a refusal naming phi0 = 0.505, a value the user
+    never gave); a phi0 given with it is checked as given."""
+    m = rheology.get_material("annular_shear", phi_j=0.45)
+    assert m.phi0 == mat.default_fraction(m) < 0.45
+    assert rheology.get_material("annular_shear", phi_j=0.52).phi0 == 0.505     # still below
+    with pytest.raises(ValueError, match="phi0"):
+        rheology.get_material("annular_shear", phi_j=0.45, phi0=0.46)

@@ -172,6 +172,20 @@ def step_bound(schema, params: dict) -> tuple | None:
             f"{name!r} is at least {c:.3g} m/s)")
 
 
+def run_steps(schema, params: dict) -> tuple | None:
+    """(first step [s], t_end [s], fewest steps) before the set-up: the scene's ``steps``
+    (its first stable step) where it declares them, else :func:`step_bound` (an upper bound of
+    the step, so the steps are a lower bound; its third entry is the text naming the
+    parameters); None where neither can be evaluated."""
+    if schema.steps is None:
+        return step_bound(schema, params)
+    try:
+        with np.errstate(all="ignore"):
+            return schema.steps(params)
+    except (ValueError, ArithmeticError, TypeError):
+        return None
+
+
 def steps_unmet(schema, params: dict) -> str | None:
     """The step-count constraint: None where the run takes at most MAX_STEPS steps at the
     largest step its parameters allow (or they give none, or the scene states its run with
