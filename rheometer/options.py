@@ -228,12 +228,17 @@ def default_phis(count: int) -> list[float]:
             else [default_fraction(DEFAULT_MATERIAL)])
 
 
+#: --phi's range as a refusal before the material is known states it (nan, text): its upper
+#: bound is phi_j of the material the later check (check_phi) knows
+PHI_SHOWN = f"[{limits.PHI.lo.value:g}, phi_j of the material)"
+
+
 def common_options(p, phi_count, out_default):
     """Options of every measuring command; ``phi_count`` (1 or 3) default fractions."""
     phi_default = default_phis(phi_count)
     p.add_argument("--material", default=DEFAULT_MATERIAL, metavar="NAME",
                    help=f"parameter set (default {DEFAULT_MATERIAL}; see 'rheometer materials')")
-    p.add_argument("--phi", type=Quantity("--phi", limits.PHI, later=True), nargs="+",
+    p.add_argument("--phi", type=Quantity("--phi", limits.PHI, PHI_SHOWN, later=True), nargs="+",
                    default=None,
                    metavar="PHI",
                    help=("volume fraction(s) (default: "

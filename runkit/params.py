@@ -61,9 +61,12 @@ def _as_bound(b) -> Bound | None:
 
 
 def interval_text(lo, lo_closed, hi, hi_closed, unit="") -> str:
-    """``"[lo, hi) unit"`` (None: unbounded)."""
-    left = "(-inf" if lo is None else ("[" if lo_closed else "(") + f"{lo:g}"
-    right = "inf)" if hi is None else f"{hi:g}" + ("]" if hi_closed else ")")
+    """``"[lo, hi) unit"`` (None: unbounded). A closed end whose printed value (6 digits) lies
+    past it is shown open: the number printed is itself refused (0.1 sqrt(10) as 0.316228)."""
+    left = "(-inf" if lo is None else (
+        "[" if lo_closed and float(f"{lo:g}") >= lo else "(") + f"{lo:g}"
+    right = "inf)" if hi is None else f"{hi:g}" + (
+        "]" if hi_closed and float(f"{hi:g}") <= hi else ")")
     return f"{left}, {right}" + (f" {unit}" if unit else "")
 
 
