@@ -506,8 +506,8 @@ def _dilatant_tension(phi, phim, a, p_tr, tau_tr, Gdt, Kdt, eta0, rd2, K3, mu1, 
     (taubar <= G dt h_max, p <= taubar/mu_1).
 
     ``g_warm`` > g_min (the point's previous gdot_p): :func:`_tension_newton` from it first,
-    accepted by Brent's exits (|R| at the roundoff floor, or a step below 1e-14 h) and the
-    same final test; otherwise, or if it fails, the bracket.
+    stopped where Brent's bracket would be (a step below 1e-14 h) and accepted by the same
+    final test as Brent's result; otherwise, or if it fails, the bracket.
     """
     g_min = -p_tr / (Kdt * K3 * phi)
     h_max = (p_tr + Kdt * tau_tr / Gdt * K3 * phi) / (Kdt * K3 * phi)   # > 0: not separated
